@@ -1,0 +1,44 @@
+// Internals shared by the steppers: viewing any state as a flat array of real unknowns, and sizing buffers.
+// std::complex<double> is layout-compatible with double[2] ([complex.numbers]), so complex modes become pairs.
+#pragma once
+
+#include <cstddef>
+#include <span>
+#include <vector>
+
+#include "../concepts.hpp"
+
+namespace eci::detail {
+
+/// The real unknowns of a state: n doubles for a real state, 2n (re, im interleaved) for a complex one.
+template <state S>
+std::span<double> reals(S& x) {
+    using value = std::ranges::range_value_t<S>;
+    constexpr std::size_t per = sizeof(value) / sizeof(double);
+    return {reinterpret_cast<double*>(std::ranges::data(x)), std::ranges::size(x) * per};
+}
+
+template <state S>
+std::span<const double> reals(const S& x) {
+    using value = std::ranges::range_value_t<S>;
+    constexpr std::size_t per = sizeof(value) / sizeof(double);
+    return {reinterpret_cast<const double*>(std::ranges::data(x)), std::ranges::size(x) * per};
+}
+
+/// Make `buffer` the same size as `like` (a no-op for fixed-size states such as std::array).
+template <state S>
+void resize_like(S& buffer, const S& like) {
+    if constexpr (requires { buffer.resize(std::ranges::size(like)); }) {
+        if (std::ranges::size(buffer) != std::ranges::size(like)) buffer.resize(std::ranges::size(like));
+    }
+}
+
+/// Index of the first real unknown for which `bad(i)` holds; called only after a step has failed.
+template <class Pred>
+std::size_t first_index(std::size_t n, Pred bad) {
+    for (std::size_t i = 0; i < n; ++i)
+        if (bad(i)) return i;
+    return 0;
+}
+
+}  // namespace eci::detail

@@ -1,0 +1,9 @@
+// The umbrella header: everything a user of eci needs, from one include.
+#pragma once
+
+#include "concepts.hpp"
+#include "integrate.hpp"
+#include "steppers/conservative_euler.hpp"
+#include "steppers/conservative_rk.hpp"
+#include "steppers/explicit_rk.hpp"
+#include "tableaus.hpp"

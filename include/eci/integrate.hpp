@@ -1,0 +1,134 @@
+// Drivers: fixed steps to a step count or an end time, an observer every k steps, run statistics, and the
+// step reduction that turns a failed step (negative radicand, non-invertible transform) into two half steps.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+
+#include "concepts.hpp"
+
+namespace eci {
+
+/// What a run did.
+struct run_stats {
+    std::uint64_t steps = 0;            ///< steps of the requested size (the output grid)
+    std::uint64_t step_reductions = 0;  ///< failed steps that were retried as two half steps
+    std::uint64_t rhs_evals = 0;        ///< right-hand-side evaluations, failed attempts included
+    solver_stats solver{};              ///< iterative solves (Newton inverses, implicit fallbacks), if any
+};
+
+/// Options of the fixed-step drivers.
+struct run_options {
+    std::uint64_t every = 1;  ///< call the observer every `every` steps (and always at the start and the end)
+    int max_halvings = 40;    ///< a step may be halved this often (dt * 2^-40) before the run stops
+};
+
+/// A step could not be completed even at the smallest allowed size.
+class step_size_underflow : public std::runtime_error {
+   public:
+    step_size_underflow(double t, std::size_t component, double dt)
+        : std::runtime_error(message(t, component, dt)), time(t), component(component), dt(dt) {}
+    double time;
+    std::size_t component;
+    double dt;
+
+   private:
+    static std::string message(double t, std::size_t component, double dt) {
+        std::ostringstream os;
+        os.precision(17);
+        os << "step failed at t = " << t << " in component " << component << " even after halving the step to "
+           << dt << " (negative radicand, non-invertible transform or non-finite state)";
+        return os.str();
+    }
+};
+
+namespace detail {
+
+template <class St, class F, class S>
+void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, int halvings_left, run_stats& stats) {
+    const step_result r = stepper.step(f, x, t, dt);
+    if (r) return;
+    if (halvings_left == 0) throw step_size_underflow(t, r.component, dt);
+    ++stats.step_reductions;
+    advance_with_reduction(stepper, f, x, t, 0.5 * dt, halvings_left - 1, stats);
+    advance_with_reduction(stepper, f, x, t + 0.5 * dt, 0.5 * dt, halvings_left - 1, stats);
+}
+
+template <class St>
+void collect_solver_stats(const St& stepper, run_stats& stats) {
+    if constexpr (requires { stepper.solver_statistics(); }) stats.solver = stepper.solver_statistics();
+}
+
+}  // namespace detail
+
+/// Observer that does nothing.
+struct no_observer {
+    template <class S>
+    void operator()(const S&, double, std::uint64_t) const {}
+};
+
+/// Take `n` steps of size dt from (x, t0). The observer sees (x, t, step index) at step 0, every
+/// `opt.every` steps and at step n. Times are t0 + i dt, never accumulated, so they stay on the grid.
+template <state S, system<S> F, stepper<F, S> St, class Observer = no_observer>
+run_stats integrate_n_steps(St& stepper, F&& f, S& x, double t0, double dt, std::uint64_t n, Observer&& observe = {},
+                            run_options opt = {}) {
+    if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument("time step must be a positive finite number");
+    if (opt.every == 0) throw std::invalid_argument("observer interval must be at least 1");
+    run_stats stats;
+    auto counted = [&](const S& a, S& b, double t) {
+        ++stats.rhs_evals;
+        f(a, b, t);
+    };
+    observe(std::as_const(x), t0, std::uint64_t{0});
+    for (std::uint64_t i = 1; i <= n; ++i) {
+        detail::advance_with_reduction(stepper, counted, x, t0 + double(i - 1) * dt, dt, opt.max_halvings, stats);
+        ++stats.steps;
+        if (i % opt.every == 0 || i == n) observe(std::as_const(x), t0 + double(i) * dt, i);
+    }
+    detail::collect_solver_stats(stepper, stats);
+    return stats;
+}
+
+/// The number of steps of size dt that reach t_end from t0; a last step that would overshoot by more than
+/// round-off is shortened (see integrate_to).
+inline std::uint64_t steps_to_reach(double t0, double t_end, double dt) {
+    const double q = (t_end - t0) / dt;
+    return static_cast<std::uint64_t>(std::ceil(q - 1e-9 * std::max(1.0, q)));
+}
+
+/// Step from t0 to t_end with steps of dt; the last step is shortened to land on t_end exactly.
+template <state S, system<S> F, stepper<F, S> St, class Observer = no_observer>
+run_stats integrate_to(St& stepper, F&& f, S& x, double t0, double t_end, double dt, Observer&& observe = {},
+                       run_options opt = {}) {
+    if (!(t_end >= t0) || !std::isfinite(t_end)) throw std::invalid_argument("end time must be finite and >= start");
+    if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument("time step must be a positive finite number");
+    const std::uint64_t n = steps_to_reach(t0, t_end, dt);
+    if (n == 0) {
+        observe(std::as_const(x), t0, std::uint64_t{0});
+        return {};
+    }
+    const double last = t_end - (t0 + double(n - 1) * dt);
+    if (std::abs(last - dt) <= 1e-12 * dt) return integrate_n_steps(stepper, f, x, t0, dt, n, observe, opt);
+    // The grid holds n - 1 full steps, then one shorter step to t_end.
+    run_stats stats;
+    auto observe_full = [&](const S& s, double t, std::uint64_t i) {
+        if (i % opt.every == 0 || i == 0) observe(s, t, i);
+    };
+    stats = integrate_n_steps(stepper, f, x, t0, dt, n - 1, observe_full, opt);
+    run_stats tail = integrate_n_steps(stepper, f, x, t0 + double(n - 1) * dt, last, 1, no_observer{}, opt);
+    stats.steps += tail.steps;
+    stats.step_reductions += tail.step_reductions;
+    stats.rhs_evals += tail.rhs_evals;
+    detail::collect_solver_stats(stepper, stats);
+    observe(std::as_const(x), t_end, n);
+    return stats;
+}
+
+}  // namespace eci

@@ -1,0 +1,154 @@
+// The n-wave generalization (paper §III.C): modes coupled by triads (k, p, q), each triad obeying eqs. (2)-(3),
+// so that energy and enstrophy are conserved; real or complex amplitudes; a seeded random generator of any size.
+#pragma once
+
+#include <algorithm>
+#include <complex>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "../concepts.hpp"
+#include "invariant.hpp"
+
+namespace eci {
+
+/// One triad: dpsi_k/dt += M_k psi_p psi_q and cyclically (for complex modes, the conjugate of the product).
+struct triad {
+    std::uint32_t k, p, q;
+    double Mk, Mp, Mq;
+};
+
+/// A truncated spectral model of n real (T = double) or complex (T = std::complex<double>) modes.
+template <scalar T>
+struct n_wave {
+    using state_type = std::vector<T>;
+    static constexpr bool is_complex = std::same_as<T, std::complex<double>>;
+
+    std::vector<double> wavenumber;  ///< |k| of each mode, the enstrophy weight's square root
+    std::vector<triad> triads;
+
+    std::size_t size() const { return wavenumber.size(); }
+
+    /// Throws std::invalid_argument for an out-of-range index or a triad violating eq. (2) or (3).
+    void validate() const {
+        const std::size_t n = size();
+        for (double k : wavenumber) detail::require_finite(k, "wavenumber");
+        for (std::size_t i = 0; i < triads.size(); ++i) {
+            const triad& t = triads[i];
+            const std::string name = "triad " + std::to_string(i);
+            if (t.k >= n || t.p >= n || t.q >= n) throw std::invalid_argument(name + " refers to a missing mode");
+            if (t.k == t.p || t.p == t.q || t.q == t.k) throw std::invalid_argument(name + " repeats a mode");
+            for (double m : {t.Mk, t.Mp, t.Mq}) detail::require_finite(m, name + " coefficient");
+            detail::require_cancellation(t.Mk + t.Mp + t.Mq, std::abs(t.Mk) + std::abs(t.Mp) + std::abs(t.Mq),
+                                         name + ": M_k + M_p + M_q (eq. 2)");
+            const double k2 = sq(wavenumber[t.k]), p2 = sq(wavenumber[t.p]), q2 = sq(wavenumber[t.q]);
+            detail::require_cancellation(k2 * t.Mk + p2 * t.Mp + q2 * t.Mq,
+                                         std::abs(k2 * t.Mk) + std::abs(p2 * t.Mp) + std::abs(q2 * t.Mq),
+                                         name + ": k^2 M_k + p^2 M_p + q^2 M_q (eq. 3)");
+        }
+    }
+
+    void operator()(const state_type& x, state_type& dxdt, double /*t*/) const {
+        std::fill(dxdt.begin(), dxdt.end(), T{});
+        for (const triad& t : triads) {
+            if constexpr (is_complex) {
+                // conj(a b), written out so that no library call handles infinities per element
+                auto cprod = [](const T& a, const T& b) {
+                    return T(a.real() * b.real() - a.imag() * b.imag(), -(a.real() * b.imag() + a.imag() * b.real()));
+                };
+                dxdt[t.k] += t.Mk * cprod(x[t.p], x[t.q]);
+                dxdt[t.p] += t.Mp * cprod(x[t.q], x[t.k]);
+                dxdt[t.q] += t.Mq * cprod(x[t.k], x[t.p]);
+            } else {
+                dxdt[t.k] += t.Mk * x[t.p] * x[t.q];
+                dxdt[t.p] += t.Mp * x[t.q] * x[t.k];
+                dxdt[t.q] += t.Mq * x[t.k] * x[t.p];
+            }
+        }
+    }
+
+    /// E = 1/2 sum |psi_k|^2, eqs. (4), (33).
+    double energy(const state_type& x) const {
+        double e = 0.0;
+        for (const T& v : x) e += std::norm(v);
+        return 0.5 * e;
+    }
+    /// Z = 1/2 sum k^2 |psi_k|^2, eqs. (5), (34).
+    double enstrophy(const state_type& x) const {
+        double z = 0.0;
+        for (std::size_t i = 0; i < x.size(); ++i) z += sq(wavenumber[i]) * std::norm(x[i]);
+        return 0.5 * z;
+    }
+
+    static constexpr auto invariants() {
+        return std::array<named_invariant<n_wave>, 2>{
+            {{"energy", &n_wave::energy}, {"enstrophy", &n_wave::enstrophy}}};
+    }
+
+    /// A random system of `modes` modes, each in about `triads_per_mode` triads; triads_per_mode == 1 gives
+    /// independent triads (modes 3i, 3i+1, 3i+2; `modes` must then be a multiple of 3). Wavenumbers are drawn
+    /// from [1, 10], and each triad's coefficients are proportional to (p^2 - q^2, q^2 - k^2, k^2 - p^2),
+    /// which satisfies eqs. (2) and (3).
+    static n_wave random(std::size_t modes, std::size_t triads_per_mode, std::uint64_t seed) {
+        if (modes < 3) throw std::invalid_argument("an n-wave system needs at least 3 modes");
+        if (modes > (std::size_t{1} << 32)) throw std::invalid_argument("too many modes for 32-bit triad indices");
+        if (triads_per_mode == 0) throw std::invalid_argument("triads per mode must be at least 1");
+        if (triads_per_mode == 1 && modes % 3 != 0)
+            throw std::invalid_argument("independent triads need a number of modes divisible by 3");
+        splitmix rng{seed};
+        n_wave w;
+        w.wavenumber.resize(modes);
+        for (double& k : w.wavenumber) k = 1.0 + 9.0 * rng.uniform();
+        const std::size_t count = triads_per_mode == 1 ? modes / 3 : modes * triads_per_mode / 3;
+        w.triads.reserve(count);
+        for (std::size_t i = 0; i < count; ++i) {
+            std::uint32_t k, p, q;
+            if (triads_per_mode == 1) {
+                k = std::uint32_t(3 * i), p = k + 1, q = k + 2;
+            } else {
+                k = rng.below(modes);
+                do p = rng.below(modes); while (p == k);
+                do q = rng.below(modes); while (q == k || q == p);
+            }
+            const double k2 = sq(w.wavenumber[k]), p2 = sq(w.wavenumber[p]), q2 = sq(w.wavenumber[q]);
+            const double mk = p2 - q2, mp = q2 - k2, mq = k2 - p2;
+            const double scale = (rng.uniform() < 0.5 ? -1.0 : 1.0) /
+                                 std::max({std::abs(mk), std::abs(mp), std::abs(mq), 1e-300});
+            w.triads.push_back({k, p, q, scale * mk, scale * mp, scale * mq});
+        }
+        return w;
+    }
+
+    /// A random initial state, every real unknown uniform in [-1, 1].
+    state_type random_state(std::uint64_t seed) const {
+        splitmix rng{seed};
+        state_type x(size());
+        for (T& v : x) {
+            if constexpr (is_complex)
+                v = T(2.0 * rng.uniform() - 1.0, 2.0 * rng.uniform() - 1.0);
+            else
+                v = 2.0 * rng.uniform() - 1.0;
+        }
+        return x;
+    }
+
+   private:
+    static double sq(double v) { return v * v; }
+
+    // A small, portable generator (SplitMix64) so a seed means the same system on every platform.
+    struct splitmix {
+        std::uint64_t s;
+        std::uint64_t next() {
+            std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+            z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+            z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+            return z ^ (z >> 31);
+        }
+        double uniform() { return double(next() >> 11) * 0x1.0p-53; }
+        std::uint32_t below(std::size_t n) { return std::uint32_t(next() % n); }
+    };
+};
+
+}  // namespace eci

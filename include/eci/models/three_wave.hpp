@@ -1,0 +1,55 @@
+// The three-wave model, eq. (1): three real modes of the truncated Euler equations, with energy (4) and
+// enstrophy (5). The coupling coefficients must satisfy eqs. (2) and (3), which make both invariants exact.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <stdexcept>
+
+#include "invariant.hpp"
+
+namespace eci {
+
+/// dpsi_K/dt = M_K psi_P psi_Q and cyclically, eq. (1).
+struct three_wave {
+    using state_type = std::array<double, 3>;
+
+    double K = std::sqrt(3.0);  ///< wavenumber magnitudes
+    double P = 3.0;
+    double Q = std::sqrt(6.0);
+    std::array<double, 3> M{1.0, 1.0, -2.0};  ///< coupling coefficients M_K, M_P, M_Q
+
+    static constexpr std::array<const char*, 3> component_names{"psi_K", "psi_P", "psi_Q"};
+
+    /// Throws std::invalid_argument if eq. (2) or (3) fails beyond round-off or a parameter is not finite.
+    void validate() const {
+        for (double v : {K, P, Q, M[0], M[1], M[2]}) detail::require_finite(v, "three-wave parameter");
+        detail::require_cancellation(M[0] + M[1] + M[2], std::abs(M[0]) + std::abs(M[1]) + std::abs(M[2]),
+                                     "M_K + M_P + M_Q (eq. 2)");
+        const double k2 = K * K, p2 = P * P, q2 = Q * Q;
+        detail::require_cancellation(k2 * M[0] + p2 * M[1] + q2 * M[2],
+                                     std::abs(k2 * M[0]) + std::abs(p2 * M[1]) + std::abs(q2 * M[2]),
+                                     "K^2 M_K + P^2 M_P + Q^2 M_Q (eq. 3)");
+    }
+
+    void operator()(const state_type& x, state_type& dxdt, double /*t*/) const {
+        dxdt[0] = M[0] * x[1] * x[2];
+        dxdt[1] = M[1] * x[2] * x[0];
+        dxdt[2] = M[2] * x[0] * x[1];
+    }
+
+    /// E, eq. (4).
+    double energy(const state_type& x) const { return 0.5 * (x[0] * x[0] + x[1] * x[1] + x[2] * x[2]); }
+    /// Z, eq. (5).
+    double enstrophy(const state_type& x) const {
+        return 0.5 * (K * K * x[0] * x[0] + P * P * x[1] * x[1] + Q * Q * x[2] * x[2]);
+    }
+
+    /// The invariants by name, in CSV column order.
+    static constexpr auto invariants() {
+        return std::array<named_invariant<three_wave>, 2>{
+            {{"energy", &three_wave::energy}, {"enstrophy", &three_wave::enstrophy}}};
+    }
+};
+
+}  // namespace eci

@@ -1,0 +1,104 @@
+// The conservative Runge-Kutta engine (errata item 9): any explicit tableau applied to the augmented system
+// dpsi/dt = S, d(psi^2)/dt = 2 psi S; psi(t+tau) = sign * sqrt(psi^2(t+tau)). Every invariant sum_k w_k psi_k^2
+// with sum_k w_k psi_k S_k = 0 is then conserved to round-off, all at once, and the method keeps its order.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <span>
+#include <utility>
+
+#include "explicit_rk.hpp"
+
+namespace eci {
+
+/// Whose sign the new amplitude takes: the conventional update's (errata 9), or the last stage value's, which
+/// for Heun's tableau is the predictor psi~ of eq. (30b).
+enum class sign_rule { of_update, of_last_stage };
+
+/// The conservative version of the explicit tableau T. A negative radicand fails the step (x is unchanged).
+template <const auto& T, state S, sign_rule Sign = sign_rule::of_update>
+class conservative_rk {
+    static constexpr std::size_t s = T.stages;
+    // Heun with the predictor's sign is C-PC, eq. (30). Its radicand factorises,
+    // psi^2 + tau (psi S + psi~ S~) = psi~ (psi + tau S~) since psi~ = psi + tau S,
+    // so it needs neither the accumulator nor k_0 at the end: no buffer beyond those of PC.
+    static constexpr bool is_c_pc = s == 2 && T.a[1][0] == 1.0 && T.b[0] == 0.5 && T.b[1] == 0.5 &&
+                                    Sign == sign_rule::of_last_stage;
+
+   public:
+    static constexpr int order = T.order;
+
+    template <system<S> F>
+    step_result step(F& f, S& x, double t, double dt) {
+        st_.prepare(x);
+        if constexpr (!is_c_pc) detail::resize_like(acc_, x);
+        st_.run_stages(f, x, t, dt, [&](std::size_t i, std::span<const double> y, std::span<const double> k) {
+            if constexpr (!is_c_pc) accumulate_square_rate(i, y, k);
+        });
+        const auto xr = detail::reals(std::as_const(x));
+        const std::size_t n = xr.size();
+        double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
+        S& out = is_c_pc ? st_.stage : acc_;
+        double* o = detail::reals(out).data();
+        if constexpr (is_c_pc) {
+            const double* k1 = detail::reals(std::as_const(st_.k[1])).data();
+            for (std::size_t i = 0; i < n; ++i) {
+                const double rad = o[i] * (xr[i] + dt * k1[i]);  // eq. (30b), factorised; o holds psi~
+                bad += rad >= 0.0 ? 0.0 : 1.0;
+                o[i] = std::copysign(std::sqrt(rad), o[i]);
+            }
+        } else {
+            std::array<const double*, s> kp{};
+            for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
+            const double* last = s > 1 ? detail::reals(std::as_const(st_.stage)).data() : xr.data();
+            finish_general(o, xr.data(), last, kp, dt, n, bad, std::make_index_sequence<s>{});
+        }
+        if (bad != 0.0)
+            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
+        using std::swap;
+        swap(x, out);
+        return step_result::success();
+    }
+
+    /// How many state-sized buffers this stepper holds.
+    static constexpr std::size_t buffer_count() { return s + (s > 1 ? 1 : 0) + (is_c_pc ? 0 : 1); }
+
+   private:
+    // acc = sum_i 2 b_i Y_i k_i, the augmented component's stage sum (the rate of psi^2).
+    void accumulate_square_rate(std::size_t i, std::span<const double> y, std::span<const double> k) {
+        const double w = 2.0 * T.b[i];
+        double* a = detail::reals(acc_).data();
+        const std::size_t n = y.size();
+        if (i == 0) {
+            for (std::size_t j = 0; j < n; ++j) a[j] = w * y[j] * k[j];
+        } else if (w != 0.0) {
+            for (std::size_t j = 0; j < n; ++j) a[j] += w * y[j] * k[j];
+        }
+    }
+
+    template <std::size_t... J>
+    static void finish_general(double* o, const double* x, const double* last, const std::array<const double*, s>& k,
+                               double dt, std::size_t n, double& bad, std::index_sequence<J...>) {
+        const std::array<double, s> w{(dt * T.b[J])...};
+        for (std::size_t i = 0; i < n; ++i) {
+            double conv = x[i];
+            ((T.b[J] != 0.0 ? (conv += w[J] * k[J][i], 0) : 0), ...);
+            const double rad = x[i] * x[i] + dt * o[i];
+            bad += rad >= 0.0 ? 0.0 : 1.0;
+            o[i] = std::copysign(std::sqrt(rad), Sign == sign_rule::of_update ? conv : last[i]);
+        }
+    }
+
+    detail::stage_storage<T, S> st_;
+    S acc_{};
+};
+
+/// C-PC, eq. (30): Heun's tableau, the new amplitude takes the predictor's sign.
+template <state S> using c_pc = conservative_rk<tableaus::heun, S, sign_rule::of_last_stage>;
+/// Conservative midpoint rule (second order).
+template <state S> using c_rk2 = conservative_rk<tableaus::midpoint, S>;
+/// Conservative classical Runge-Kutta (fourth order).
+template <state S> using c_rk4 = conservative_rk<tableaus::rk4, S>;
+
+}  // namespace eci

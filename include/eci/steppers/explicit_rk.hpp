@@ -1,0 +1,106 @@
+// The conventional explicit Runge-Kutta engine: one loop structure that runs any Butcher tableau.
+// Euler (eq. 7), the predictor-corrector (Heun, eq. 18), the midpoint rule and RK4 are its instances.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <utility>
+
+#include "../concepts.hpp"
+#include "../detail/state_ops.hpp"
+#include "../tableaus.hpp"
+
+namespace eci {
+
+namespace detail {
+
+/// out = x + dt * sum_j a[j] k_j over the stages J; zero coefficients are dropped at compile time.
+template <auto a, std::size_t... J>
+void combine_stages(double* out, const double* x, const std::array<const double*, sizeof...(J)>& k, double dt,
+                    std::size_t n, std::index_sequence<J...>) {
+    const std::array<double, sizeof...(J)> w{(dt * a[J])...};
+    for (std::size_t i = 0; i < n; ++i) {
+        double acc = x[i];
+        ((a[J] != 0.0 ? (acc += w[J] * k[J][i], 0) : 0), ...);
+        out[i] = acc;
+    }
+}
+
+/// The stage buffers of an explicit tableau, and the computation of every stage's derivative.
+/// After `run_stages`, k[i] holds f(Y_i) and `stage` holds the last stage value Y_{s-1} (Y_0 = x itself).
+/// `on_stage(i, Y_i, k_i)` is called after each stage (the conservative engine accumulates there).
+template <const auto& T, state S>
+struct stage_storage {
+    static constexpr std::size_t s = std::remove_cvref_t<decltype(T)>::stages;
+    std::array<S, s> k{};
+    S stage{};
+
+    void prepare(const S& x) {
+        for (auto& ki : k) resize_like(ki, x);
+        if constexpr (s > 1) resize_like(stage, x);
+    }
+
+    template <class F, class OnStage>
+    void run_stages(F& f, const S& x, double t, double dt, OnStage&& on_stage) {
+        [&]<std::size_t... I>(std::index_sequence<I...>) {
+            (run_stage<I>(f, x, t, dt, on_stage), ...);
+        }(std::make_index_sequence<s>{});
+    }
+
+   private:
+    template <std::size_t I, class F, class OnStage>
+    void run_stage(F& f, const S& x, double t, double dt, OnStage& on_stage) {
+        if constexpr (I == 0) {
+            f(x, k[0], t);
+            on_stage(I, reals(x), reals(std::as_const(k[0])));
+        } else {
+            std::array<const double*, I> kp{};
+            for (std::size_t j = 0; j < I; ++j) kp[j] = reals(std::as_const(k[j])).data();
+            const auto xr = reals(x);
+            combine_stages<row<I>>(reals(stage).data(), xr.data(), kp, dt, xr.size(), std::make_index_sequence<I>{});
+            f(std::as_const(stage), k[I], t + T.c[I] * dt);
+            on_stage(I, reals(std::as_const(stage)), reals(std::as_const(k[I])));
+        }
+    }
+
+    // Row I of a, truncated to its I explicit entries, as constexpr data usable as a template argument.
+    template <std::size_t I>
+    static constexpr std::array<double, I> row = [] {
+        std::array<double, I> r{};
+        for (std::size_t j = 0; j < I; ++j) r[j] = T.a[I][j];
+        return r;
+    }();
+};
+
+}  // namespace detail
+
+/// A conventional explicit Runge-Kutta stepper for any tableau T (see tableaus.hpp).
+template <const auto& T, state S>
+class explicit_rk {
+   public:
+    static constexpr int order = T.order;
+
+    template <system<S> F>
+    step_result step(F& f, S& x, double t, double dt) {
+        st_.prepare(x);
+        st_.run_stages(f, x, t, dt, [](std::size_t, auto, auto) {});
+        std::array<const double*, T.stages> kp{};
+        for (std::size_t j = 0; j < T.stages; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
+        auto xr = detail::reals(x);
+        detail::combine_stages<T.b>(xr.data(), xr.data(), kp, dt, xr.size(), std::make_index_sequence<T.stages>{});
+        return step_result::success();
+    }
+
+    /// How many state-sized buffers this stepper holds (stage derivatives and one stage value).
+    static constexpr std::size_t buffer_count() { return T.stages + (T.stages > 1 ? 1 : 0); }
+
+   private:
+    detail::stage_storage<T, S> st_;
+};
+
+template <state S> using euler = explicit_rk<tableaus::euler, S>;
+template <state S> using pc = explicit_rk<tableaus::heun, S>;
+template <state S> using rk2 = explicit_rk<tableaus::midpoint, S>;
+template <state S> using rk4 = explicit_rk<tableaus::rk4, S>;
+
+}  // namespace eci
