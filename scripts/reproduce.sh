@@ -1,0 +1,8 @@
+#!/usr/bin/env bash
+# The main job: build eci and reproduce the paper's experiments (all nine figures and their key numbers).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bash scripts/setup.sh
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_TESTS=OFF >/dev/null
+cmake --build build -j2 --target eci_cli
+./build/eci figures --out figures "$@"
