@@ -1,0 +1,255 @@
+// `eci figures`: runs the nine figure producers, writes their CSV files and gnuplot scripts, draws PNG and SVG
+// with gnuplot (the program named by $ECI_GNUPLOT, default `gnuplot`) and prints the table of key numbers.
+#include "figures.hpp"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
+#include <fcntl.h>
+#include <fstream>
+#include <functional>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <system_error>
+#include <vector>
+
+#include "figures_common.hpp"
+
+namespace eci::cli {
+namespace detail {
+
+void csv_table::add(std::vector<double> row) {
+    if (row.size() != columns.size()) throw std::logic_error("csv_table: row size does not match the columns");
+    rows.push_back(std::move(row));
+}
+
+void csv_table::write(const std::filesystem::path& file) const {
+    std::ofstream out(file);
+    if (!out) throw std::runtime_error("cannot write " + file.string());
+    for (std::size_t i = 0; i < columns.size(); ++i) out << (i ? "," : "") << columns[i];
+    out << '\n';
+    char buffer[32];
+    for (const auto& row : rows) {
+        for (std::size_t i = 0; i < row.size(); ++i) {
+            // %.17g round-trips every double, so the tests read back exactly what was computed.
+            std::snprintf(buffer, sizeof buffer, "%.17g", row[i]);
+            out << (i ? "," : "") << buffer;
+        }
+        out << '\n';
+    }
+    if (!out) throw std::runtime_error("cannot write " + file.string());
+}
+
+std::string fill(std::string text, const std::vector<std::pair<std::string, std::string>>& values) {
+    for (const auto& [name, value] : values) {
+        const std::string marker = "@" + name + "@";
+        for (std::size_t at = text.find(marker); at != std::string::npos; at = text.find(marker, at + value.size()))
+            text.replace(at, marker.size(), value);
+    }
+    return text;
+}
+
+std::string format_number(double v, int digits) {
+    char buffer[64];
+    std::snprintf(buffer, sizeof buffer, "%.*g", digits, v);
+    return buffer;
+}
+
+std::string gnuplot_script(int n, const std::string& what, const std::string& body, int width, int height) {
+    const std::string name = "fig" + std::to_string(n);
+    return fill(R"gp(# Figure @N@ of Shadwick, Bowman & Morrison, "Exactly conservative integrators": @WHAT@.
+# Written by `eci figures`; re-plot with `gnuplot @NAME@.gp` from any directory (the data are in @NAME@*.csv).
+script = ARG0; cut = strlen(script)
+while (cut > 0 && script[cut:cut] ne "/") { cut = cut - 1 }
+if (cut > 0) { cd script[1:cut] }
+do for [format in "png svg"] {
+  if (format eq "png") {
+    set terminal pngcairo size @W@,@H@ enhanced font "Sans,12" linewidth 1
+  } else {
+    set terminal svg size @W@,@H@ enhanced font "Sans,12" linewidth 1 background "white"
+  }
+  set output "@NAME@.".format
+  reset
+@BODY@
+  set output
+}
+)gp",
+                {{"N", std::to_string(n)},
+                 {"WHAT", what},
+                 {"NAME", name},
+                 {"W", std::to_string(width)},
+                 {"H", std::to_string(height)},
+                 {"BODY", body}});
+}
+
+}  // namespace detail
+
+namespace {
+
+using detail::figure_result;
+
+/// The plotting program: $ECI_GNUPLOT if set and not empty, else `gnuplot` from PATH.
+std::string plotting_program() {
+    const char* env = std::getenv("ECI_GNUPLOT");
+    return env && *env ? env : "gnuplot";
+}
+
+/// Runs `program arg` (PATH lookup, no shell), stdout to /dev/null if `quiet`; returns the exit status, or 127
+/// if the program could not be started.
+int run_program(const std::string& program, const std::string& arg, bool quiet) {
+    std::cout.flush();
+    const pid_t pid = fork();
+    if (pid < 0) return 127;
+    if (pid == 0) {
+        if (quiet) {
+            const int null = open("/dev/null", O_WRONLY);
+            if (null >= 0) {
+                dup2(null, STDOUT_FILENO);
+                dup2(null, STDERR_FILENO);
+            }
+        }
+        const char* argv[] = {program.c_str(), arg.c_str(), nullptr};
+        execvp(argv[0], const_cast<char* const*>(argv));
+        _exit(127);
+    }
+    int status = 0;
+    if (waitpid(pid, &status, 0) < 0) return 127;
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
+/// The figure producers, by number.
+const std::vector<std::function<figure_result()>>& producers() {
+    static const std::vector<std::function<figure_result()>> all{
+        detail::make_figure_1, detail::make_figure_2, detail::make_figure_3,
+        detail::make_figure_4, detail::make_figure_5, detail::make_figure_6,
+        detail::make_figure_7, detail::make_figure_8, detail::make_figure_9};
+    return all;
+}
+
+std::string quoted(const std::string& s) {
+    std::string q = "\"";
+    for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+    return q + "\"";
+}
+
+void write_summary(const std::filesystem::path& file, const std::vector<figure_result>& results) {
+    std::ofstream out(file);
+    if (!out) throw std::runtime_error("cannot write " + file.string());
+    out << "figure,key,value,description,paper\n";
+    char buffer[32];
+    for (const auto& r : results)
+        for (const auto& k : r.numbers) {
+            std::snprintf(buffer, sizeof buffer, "%.17g", k.value);
+            out << r.number << ',' << k.key << ',' << buffer << ',' << quoted(k.description) << ','
+                << quoted(k.paper) << '\n';
+        }
+    if (!out) throw std::runtime_error("cannot write " + file.string());
+}
+
+void print_summary(const std::vector<figure_result>& results) {
+    std::cout << "\nKey numbers (eci measures | paper says):\n";
+    std::cout << "fig  " << std::left << std::setw(58) << "quantity" << std::setw(14) << "eci" << "paper\n";
+    for (const auto& r : results)
+        for (const auto& k : r.numbers) {
+            std::cout << std::left << std::setw(5) << r.number << std::setw(58) << k.description << std::setw(14)
+                      << detail::format_number(k.value, 4) << k.paper << '\n';
+        }
+}
+
+}  // namespace
+
+int run_figures(const figures_options& options) {
+    if (options.only && (*options.only < 1 || *options.only > 9)) {
+        std::cerr << "eci figures: --only must be a figure number from 1 to 9, got " << *options.only << '\n';
+        return 2;
+    }
+    const std::filesystem::path& dir = options.out;
+    std::error_code ec;
+    if (dir.empty()) {
+        std::cerr << "eci figures: --out must not be empty\n";
+        return 2;
+    }
+    if (std::filesystem::exists(dir, ec) && !std::filesystem::is_directory(dir, ec)) {
+        std::cerr << "eci figures: --out " << dir.string() << " exists and is not a directory\n";
+        return 2;
+    }
+    std::filesystem::create_directories(dir, ec);
+    if (ec) {
+        std::cerr << "eci figures: cannot create directory " << dir.string() << ": " << ec.message() << '\n';
+        return 2;
+    }
+
+    const std::string gnuplot = plotting_program();
+    const bool have_gnuplot = run_program(gnuplot, "--version", true) == 0;
+
+    const auto start = std::chrono::steady_clock::now();
+    std::vector<figure_result> results;
+    std::vector<int> missing;
+    try {
+        for (int n = 1; n <= 9; ++n) {
+            if (options.only && *options.only != n) continue;
+            figure_result r = producers()[n - 1]();
+            if (!r.available) {
+                if (options.only) {
+                    std::cerr << "eci figures: figure " << n << " is not available: " << r.unavailable_reason << '\n';
+                    return 2;
+                }
+                std::cout << "fig" << n << ": NOT AVAILABLE: " << r.unavailable_reason << '\n';
+                missing.push_back(n);
+                continue;
+            }
+            for (const auto& [name, table] : r.csvs) table.write(dir / name);
+            const std::filesystem::path script = dir / ("fig" + std::to_string(n) + ".gp");
+            {
+                std::ofstream out(script);
+                out << r.script;
+                if (!out) throw std::runtime_error("cannot write " + script.string());
+            }
+            std::string files;
+            for (const auto& [name, table] : r.csvs) files += " " + name;
+            if (have_gnuplot) {
+                const int status = run_program(gnuplot, script.string(), false);
+                if (status != 0) {
+                    std::cerr << "eci figures: " << gnuplot << " failed on " << script.string() << " (exit status "
+                              << status << ")\n";
+                    return 2;
+                }
+                std::cout << "fig" << n << ": " << (dir / ("fig" + std::to_string(n))).string() << ".png .svg,"
+                          << files << ", fig" << n << ".gp\n";
+            } else {
+                std::cout << "fig" << n << ":" << files << ", fig" << n << ".gp (no picture, see below)\n";
+            }
+            results.push_back(std::move(r));
+        }
+        write_summary(dir / "summary.csv", results);
+    } catch (const std::exception& e) {
+        std::cerr << "eci figures: " << e.what() << '\n';
+        return 2;
+    }
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+    print_summary(results);
+    std::cout << "\nwrote " << (dir / "summary.csv").string() << " in " << std::fixed << std::setprecision(1)
+              << seconds << " s\n";
+    std::cout.unsetf(std::ios::fixed);
+    if (!missing.empty()) {
+        std::cout << "not available in this build:";
+        for (int n : missing) std::cout << " fig" << n;
+        std::cout << '\n';
+    }
+    if (!have_gnuplot) {
+        std::cerr << "eci figures: warning: the plotting program '" << gnuplot
+                  << "' was not found, so no PNG/SVG pictures were drawn; the CSV data and gnuplot scripts are in "
+                  << dir.string() << ". To draw them: apt-get install gnuplot-nox, then run gnuplot "
+                  << (dir / "figN.gp").string() << " for each figure N (or set ECI_GNUPLOT to the gnuplot program).\n";
+    }
+    return 0;
+}
+
+}  // namespace eci::cli
