@@ -65,6 +65,7 @@ std::string gnuplot_script(int n, const std::string& what, const std::string& bo
     const std::string name = "fig" + std::to_string(n);
     return fill(R"gp(# Figure @N@ of Shadwick, Bowman & Morrison, "Exactly conservative integrators": @WHAT@.
 # Written by `eci figures`; re-plot with `gnuplot @NAME@.gp` from any directory (the data are in @NAME@*.csv).
+set encoding utf8
 script = ARG0; cut = strlen(script)
 while (cut > 0 && script[cut:cut] ne "/") { cut = cut - 1 }
 if (cut > 0) { cd script[1:cut] }
