@@ -1,0 +1,52 @@
+// Pieces every benchmark program shares: the right-hand side handle both libraries call, the Boost.Odeint
+// steppers built the way a user would build them, and a right-hand-side counter.
+#pragma once
+
+#include <cstdint>
+
+#include <boost/numeric/odeint.hpp>
+
+namespace eci::bench {
+
+/// A cheap handle on a model, passed by value (odeint copies systems) and called identically by both libraries.
+template <class Model>
+struct rhs {
+    const Model* model;
+    template <class S>
+    void operator()(const S& x, S& dxdt, double t) const {
+        (*model)(x, dxdt, t);
+    }
+};
+
+/// The same handle, counting its calls.
+template <class Model>
+struct counted_rhs {
+    const Model* model;
+    std::uint64_t* count;
+    template <class S>
+    void operator()(const S& x, S& dxdt, double t) const {
+        ++*count;
+        (*model)(x, dxdt, t);
+    }
+};
+
+namespace odeint = boost::numeric::odeint;
+
+/// odeint's classical fourth-order Runge-Kutta method on state type S.
+template <class S>
+using odeint_rk4 = odeint::runge_kutta4<S>;
+
+/// Heun's method (the paper's predictor-corrector) built with odeint's generic explicit Runge-Kutta engine.
+template <class S>
+using odeint_heun = odeint::explicit_generic_rk<2, 2, S, double>;
+
+template <class S>
+odeint_heun<S> make_odeint_heun() {
+    const boost::array<double, 1> a1{{1.0}};
+    const typename odeint_heun<S>::coef_a_type a(a1);
+    const typename odeint_heun<S>::coef_b_type b{{0.5, 0.5}};
+    const typename odeint_heun<S>::coef_c_type c{{0.0, 1.0}};
+    return odeint_heun<S>(a, b, c);
+}
+
+}  // namespace eci::bench

@@ -1,0 +1,67 @@
+// Peak resident memory of one stepper on a large n-wave system (independent triads), measured in its own process
+// so that run.sh can compare C-PC with PC: `eci_bench_memory_driver <stepper> <modes> <steps>`.
+#include <sys/resource.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include <eci/eci.hpp>
+#include <eci/models/n_wave.hpp>
+#include <eci/steppers/compensated_c_pc.hpp>
+
+#include "bench_common.hpp"
+
+namespace {
+
+using state = std::vector<double>;
+using model = eci::n_wave<double>;
+
+long peak_rss_kib() {
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    return u.ru_maxrss;  // KiB on Linux
+}
+
+template <class Stepper>
+int run(const model& m, state& x, unsigned long steps) {
+    Stepper stepper;
+    eci::bench::rhs<model> f{&m};
+    eci::run_stats stats;
+    for (unsigned long i = 0; i < steps; ++i) eci::detail::advance_with_reduction(stepper, f, x, i * 1e-5, 1e-5, 40, stats);
+    std::printf("%zu", Stepper::buffer_count());
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc != 4) {
+        std::fprintf(stderr, "usage: eci_bench_memory_driver <none|euler|pc|c_pc|c_pc_compensated|rk4|c_rk4> <modes> <steps>\n");
+        return 2;
+    }
+    const std::string name = argv[1];
+    const unsigned long modes = std::strtoul(argv[2], nullptr, 10), steps = std::strtoul(argv[3], nullptr, 10);
+    if (modes < 3 || modes % 3 != 0) {
+        std::fprintf(stderr, "eci_bench_memory_driver: modes must be a positive multiple of 3\n");
+        return 2;
+    }
+    const model m = model::random(modes, 1, 1);
+    state x = m.random_state(2);
+    std::printf("%s buffers=", name.c_str());
+    if (name == "none") std::printf("0");
+    else if (name == "euler") run<eci::euler<state>>(m, x, steps);
+    else if (name == "pc") run<eci::pc<state>>(m, x, steps);
+    else if (name == "c_pc") run<eci::c_pc<state>>(m, x, steps);
+    else if (name == "c_pc_compensated") run<eci::compensated_c_pc<state>>(m, x, steps);
+    else if (name == "rk4") run<eci::rk4<state>>(m, x, steps);
+    else if (name == "c_rk4") run<eci::c_rk4<state>>(m, x, steps);
+    else {
+        std::fprintf(stderr, "\neci_bench_memory_driver: unknown stepper %s\n", name.c_str());
+        return 2;
+    }
+    double check = 0.0;  // keeps the state alive and the run honest
+    for (double v : x) check += v * v;
+    std::printf(" peak_rss_kib=%ld energy=%.17g\n", peak_rss_kib(), 0.5 * check);
+    return 0;
+}

@@ -1,0 +1,73 @@
+#!/usr/bin/env bash
+# Builds the benchmarks in Release, runs them all and prints one table of side-by-side ratios with their targets.
+# Usage: bench/run.sh [--quick | --smoke] [--json FILE] [--out DIR] [--build-dir DIR]
+#   --quick  smaller large systems and fewer repetitions (under two minutes)
+#   --smoke  every program for a token run (CI: keeps them compiling and running, under a minute); numbers meaningless
+set -euo pipefail
+
+repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
+mode=full
+json=""
+out=""
+build="$repo/build-bench-release"
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --quick) mode=quick ;;
+    --smoke) mode=smoke ;;
+    --json) [[ $# -ge 2 ]] || { echo "run.sh: --json needs a file name" >&2; exit 2; }; json=$(realpath -m "$2"); shift ;;
+    --out) [[ $# -ge 2 ]] || { echo "run.sh: --out needs a directory" >&2; exit 2; }; out=$(realpath -m "$2"); shift ;;
+    --build-dir) [[ $# -ge 2 ]] || { echo "run.sh: --build-dir needs a directory" >&2; exit 2; }; build=$(realpath -m "$2"); shift ;;
+    -h|--help) sed -n '2,6p' "$0"; exit 0 ;;
+    *) echo "run.sh: unknown argument $1" >&2; exit 2 ;;
+  esac
+  shift
+done
+out=${out:-$build/results-$mode}
+mkdir -p "$out"
+
+# Sizes and repetitions per mode. The large n-wave systems are 3e6 real modes (memory bound) in a full run.
+case $mode in
+  full)  big=3000000; reps=9; min_time=0.1;  mem_n=10000000; mem_reps=3; drift_steps=10000000; drift_members=8; wp_quick=0 ;;
+  quick) big=300000;  reps=3; min_time=0.05; mem_n=10000000; mem_reps=1; drift_steps=1000000;  drift_members=4; wp_quick=1 ;;
+  smoke) big=3003;    reps=1; min_time=1e-6; mem_n=30000;    mem_reps=1; drift_steps=1000;     drift_members=1; wp_quick=1 ;;
+esac
+
+echo "== building ($build, Release, same flags for eci and Boost.Odeint)" >&2
+cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DECI_BUILD_TESTS=OFF \
+      -DECI_BUILD_APPS=OFF -DECI_BUILD_EXAMPLES=OFF > "$out/cmake.log"
+cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
+      >> "$out/cmake.log"
+bin="$build/bench"
+
+echo "== per-step cost ($reps interleaved repetitions, large systems N=$big)" >&2
+"$bin/eci_bench_step" --eci_big=$big --eci_min_time=$min_time --benchmark_repetitions=$reps \
+    --benchmark_enable_random_interleaving=true --benchmark_report_aggregates_only=true \
+    --benchmark_out="$out/step.json" --benchmark_out_format=json > "$out/step.txt" 2>&1
+
+echo "== peak memory, N=$mem_n, each stepper in its own process" >&2
+: > "$out/memory.txt"
+for ((r = 0; r < mem_reps; ++r)); do
+  for s in none pc c_pc c_pc_compensated rk4 c_rk4; do
+    "$bin/eci_bench_memory_driver" $s $mem_n 3 >> "$out/memory.txt"
+  done
+done
+
+echo "== long-run drift, $drift_steps steps x $drift_members initial conditions" >&2
+"$bin/eci_bench_drift" $drift_steps $drift_members "$out/drift.csv" > "$out/drift.txt"
+
+echo "== work-precision" >&2
+"$bin/eci_bench_work_precision" $wp_quick "$out/work_precision.csv" > "$out/work_precision.txt"
+
+if command -v gnuplot > /dev/null; then
+  for model in $(tail -n +2 "$out/work_precision.csv" | cut -d, -f1 | sort -u); do
+    gnuplot -e "csv='$out/work_precision.csv'; model='$model'; out='$out/wp_$model'" "$repo/bench/plot_work_precision.gp"
+  done
+  gnuplot -e "csv='$out/drift.csv'; out='$out/drift'" "$repo/bench/plot_drift.gp"
+else
+  echo "run.sh: gnuplot not found, figures skipped" >&2
+fi
+
+echo "== results in $out" >&2
+python3 "$repo/bench/report.py" --steps "$out/step.json" --memory "$out/memory.txt" --drift "$out/drift.txt" \
+    --big $big --mem-n $mem_n --drift-steps $drift_steps ${json:+--json "$json"} | tee "$out/table.txt"
+grep -h "^wp " "$out/work_precision.txt" | grep -v "lvk=" > "$out/work_precision_summary.txt" || true

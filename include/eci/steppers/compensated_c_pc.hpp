@@ -1,0 +1,104 @@
+// C-PC, eq. (30), with psi_k^2 carried to twice working precision: an opt-in variant for very long runs, whose
+// invariants do not random-walk by one rounding of psi^2 per step (sqrt(steps) eps) but only by that of the increments.
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <utility>
+
+#include "../concepts.hpp"
+#include "../detail/state_ops.hpp"
+
+namespace eci {
+
+namespace detail {
+
+/// a * b = p + e exactly (error-free product); with hardware FMA when the target has it, else Dekker's split.
+inline void two_product(double a, double b, double& p, double& e) {
+    p = a * b;
+#if defined(__FMA__) || defined(__FP_FAST_FMA)
+    e = std::fma(a, b, -p);
+#else
+    constexpr double split = 134217729.0;  // 2^27 + 1 (Veltkamp)
+    const double ca = split * a, cb = split * b;
+    const double ah = ca - (ca - a), al = a - ah;
+    const double bh = cb - (cb - b), bl = b - bh;
+    e = ((ah * bh - p) + ah * bl + al * bh) + al * bl;
+#endif
+}
+
+/// a + b = s + e exactly (Knuth's two-sum, no assumption on magnitudes).
+inline void two_sum(double a, double b, double& s, double& e) {
+    s = a + b;
+    const double bb = s - a;
+    e = (a - (s - bb)) + (b - bb);
+}
+
+}  // namespace detail
+
+/// C-PC, eq. (30), with the same results as eci::c_pc up to round-off, whose new squared amplitude
+/// xi_k = psi_k^2 + tau (psi_k S_k + psi~_k S~_k) is formed in double-double arithmetic. The stepper keeps the
+/// residual r_k = xi_k - psi_k^2 (below an ulp of psi_k^2) from step to step, so xi_k = psi_k^2 + r_k is carried
+/// with compensated summation and only the rounding of the small increments tau (psi S + psi~ S~) remains.
+/// A state changed between steps inherits the old residual, a perturbation under one ulp; `reset()` drops it.
+template <state S>
+class compensated_c_pc {
+   public:
+    static constexpr int order = 2;
+
+    template <system<S> F>
+    step_result step(F& f, S& x, double t, double dt) {
+        for (S* b : {&k0_, &k1_, &pred_, &res_}) detail::resize_like(*b, x);
+        f(x, k0_, t);
+        const auto xr = detail::reals(std::as_const(x));
+        const std::size_t n = xr.size();
+        if (res_n_ != n) {  // a new (or resized) problem starts with xi = psi^2 exactly
+            double* r = detail::reals(res_).data();
+            for (std::size_t i = 0; i < n; ++i) r[i] = 0.0;
+            res_n_ = n;
+        }
+        double* p = detail::reals(pred_).data();
+        double* k0 = detail::reals(k0_).data();
+        for (std::size_t i = 0; i < n; ++i) p[i] = xr[i] + dt * k0[i];  // eq. (30a)
+        f(std::as_const(pred_), k1_, t + dt);
+        const double* k1 = detail::reals(std::as_const(k1_)).data();
+        const double* r = detail::reals(std::as_const(res_)).data();
+        double bad = 0.0;  // counted as a double so the loop vectorizes; any non-zero value fails the step
+        for (std::size_t i = 0; i < n; ++i) {
+            const double psi = xr[i];
+            double sq, sq_err;
+            detail::two_product(psi, psi, sq, sq_err);
+            const double inc = dt * (psi * k0[i] + p[i] * k1[i]);  // eq. (30b), the increment of psi^2
+            double hi, lo;
+            detail::two_sum(sq, inc, hi, lo);
+            lo += sq_err + r[i];
+            const double xi = hi + lo;  // renormalise (|lo| is below an ulp of hi)
+            lo -= xi - hi;
+            bad += xi >= 0.0 ? 0.0 : 1.0;
+            const double root = std::sqrt(xi);
+            double root_sq, root_err;
+            detail::two_product(root, root, root_sq, root_err);
+            // xi - root^2 is exact (Sterbenz), so the new residual carries everything the square root dropped.
+            k0[i] = ((xi - root_sq) - root_err) + lo;  // k0[i] is read above and no longer needed
+            p[i] = std::copysign(root, p[i]);          // the predictor's sign, eq. (30b)
+        }
+        if (bad != 0.0)
+            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(p[i] == p[i]); }));
+        using std::swap;
+        swap(x, pred_);
+        swap(res_, k0_);
+        return step_result::success();
+    }
+
+    /// Forget the carried residuals: the next step treats psi^2 as exact.
+    void reset() { res_n_ = 0; }
+
+    /// How many state-sized buffers this stepper holds: those of C-PC and the residual.
+    static constexpr std::size_t buffer_count() { return 4; }
+
+   private:
+    S k0_{}, k1_{}, pred_{}, res_{};
+    std::size_t res_n_ = 0;
+};
+
+}  // namespace eci
