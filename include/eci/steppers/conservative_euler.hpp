@@ -65,13 +65,19 @@ class conservative_euler {
         for (std::size_t i = 0; i < n; ++i) y[i] = xr[i] + dt * k[i];
         constexpr double eps = std::numeric_limits<double>::epsilon();
         double previous = std::numeric_limits<double>::infinity();
+        std::size_t worst = 0;  // the unknown that moved most in the last iteration: the one that failed
         for (int it = 1; it <= max_iterations; ++it) {
             for (std::size_t i = 0; i < n; ++i) m[i] = 0.5 * (xr[i] + y[i]);
             f(std::as_const(mid_), k_, t + 0.5 * dt);
             double change = 0.0, scale = 0.0;
             for (std::size_t i = 0; i < n; ++i) {
                 const double next = xr[i] + dt * k[i];
-                change = std::max(change, std::abs(next - y[i]));
+                const double d = std::abs(next - y[i]);
+                // Unlike std::max, this keeps a NaN, so that a non-finite iterate never passes as converged.
+                if (!(d <= change) && change == change) {
+                    change = d;
+                    worst = i;
+                }
                 scale = std::max(scale, std::abs(next));
                 y[i] = next;
             }
@@ -88,7 +94,7 @@ class conservative_euler {
             previous = change;
         }
         solver_.record(max_iterations);
-        return step_result::failure(0);
+        return step_result::failure(worst);
     }
 
     S k_{}, y_{}, mid_{};
