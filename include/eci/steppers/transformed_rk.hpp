@@ -1,0 +1,181 @@
+// Conservative Runge-Kutta through an invariant-linearizing transform xi = T(x) (paper §III.D, §IV, §V):
+// conventional stages in x, the tableau's weights applied to dxi/dt, and the inverse of T on the branch of a hint.
+#pragma once
+
+#include <array>
+#include <cmath>
+#include <concepts>
+#include <cstddef>
+#include <utility>
+
+#include "../concepts.hpp"
+#include "../detail/state_ops.hpp"
+#include "../tableaus.hpp"
+#include "conservative_rk.hpp"
+
+namespace eci {
+
+/// A transform in which a system's invariants are sums of xi components. `to_xi(x, xi)` computes xi = T(x);
+/// `xi_rate(x, dxdt, rate)` computes dxi/dt at x (dxdt = f(x) is given, so no extra right-hand side is needed);
+/// `from_xi(xi, hint, x, stats)` inverts T on the branch of `hint`, recording any iterative solve in `stats`, and
+/// reports a non-invertible xi as a failure (the driver then reduces the step, as for a negative radicand).
+template <class Tr>
+concept invariant_transform =
+    state<typename Tr::state_type> && state<typename Tr::xi_type> &&
+    requires(const Tr& tr, const typename Tr::state_type& x, typename Tr::state_type& x_out,
+             const typename Tr::xi_type& xi, typename Tr::xi_type& xi_out, solver_stats& stats) {
+        tr.to_xi(x, xi_out);
+        tr.xi_rate(x, x, xi_out);
+        { tr.from_xi(xi, x, x_out, stats) } -> std::same_as<step_result>;
+    };
+
+/// The transform of §III.D, xi_k = psi_k^2 for every real unknown: with it transformed_rk over Heun's tableau
+/// is C-PC, eq. (30). conservative_rk.hpp keeps a fused loop for this case (c_pc), which is faster on n-wave
+/// systems; this instance exists to show that the two are one mechanism (tests/unit/test_transformed_pc.cpp).
+template <state S>
+struct square_transform {
+    using state_type = S;
+    using xi_type = S;  ///< the square of each real unknown, in the same layout
+
+    /// xi_k = psi_k^2.
+    void to_xi(const S& x, S& xi) const {
+        detail::resize_like(xi, x);
+        const auto a = detail::reals(x);
+        const auto o = detail::reals(xi);
+        for (std::size_t i = 0; i < a.size(); ++i) o[i] = a[i] * a[i];
+    }
+    /// d(psi_k^2)/dt = 2 psi_k S_k.
+    void xi_rate(const S& x, const S& dxdt, S& rate) const {
+        detail::resize_like(rate, x);
+        const auto a = detail::reals(x);
+        const auto k = detail::reals(dxdt);
+        const auto o = detail::reals(rate);
+        for (std::size_t i = 0; i < a.size(); ++i) o[i] = 2.0 * a[i] * k[i];
+    }
+    /// psi_k = sgn(hint_k) sqrt(xi_k), eq. (30b); a negative xi_k is the paper's negative radicand.
+    step_result from_xi(const S& xi, const S& hint, S& x, solver_stats&) const {
+        detail::resize_like(x, hint);
+        const auto q = detail::reals(xi);
+        const auto h = detail::reals(hint);
+        const auto o = detail::reals(x);
+        double bad = 0.0;
+        for (std::size_t i = 0; i < q.size(); ++i) {
+            bad += q[i] >= 0.0 ? 0.0 : 1.0;
+            o[i] = std::copysign(std::sqrt(q[i]), h[i]);
+        }
+        if (bad != 0.0) return step_result::failure(detail::first_index(q.size(), [&](std::size_t i) {
+            return !(q[i] >= 0.0);
+        }));
+        return step_result::success();
+    }
+};
+
+/// Any explicit tableau T made conservative through the transform Tr: the stages Y_i and k_i = f(Y_i) are
+/// conventional, xi(t+dt) = xi + dt sum_i b_i dxi/dt(Y_i), and x(t+dt) is T's inverse on the branch of the
+/// conventional update (Sign = of_update) or of the last stage value (of_last_stage; for Heun that is the
+/// predictor x~, which gives the paper's C-PC, eqs. (30), (42), (49)-(54)).
+/// xi is carried from step to step, so the invariants (sums of xi components) change only by the rounding of
+/// the additions, never by inversion error. It is recomputed from x whenever x is not the state this stepper
+/// produced last (a new run); call reset() after changing the model's parameters but not the state.
+template <const auto& T, invariant_transform Tr, sign_rule Sign = sign_rule::of_update>
+class transformed_rk {
+    static constexpr std::size_t s = T.stages;
+
+   public:
+    using state_type = typename Tr::state_type;
+    using xi_type = typename Tr::xi_type;
+    static constexpr int order = T.order;
+
+    /// The stepper for the transform `tr` (which must describe the same system as the f passed to step).
+    explicit transformed_rk(Tr tr = {}) : tr_(std::move(tr)) {}
+
+    template <system<state_type> F>
+    step_result step(F& f, state_type& x, double t, double dt) {
+        if (!have_xi_ || !(x == last_x_)) {
+            tr_.to_xi(x, xi_);
+            have_xi_ = true;
+        }
+        const auto xr = detail::reals(std::as_const(x));
+        const std::size_t n = xr.size();
+        for (auto& ki : k_) detail::resize_like(ki, x);
+        detail::resize_like(stage_, x);
+        detail::resize_like(xi_new_, xi_);
+        detail::resize_like(rate_, xi_);
+        detail::resize_like(rate_sum_, xi_);
+        const auto acc = detail::reals(rate_sum_);
+        for (double& a : acc) a = 0.0;
+        for (std::size_t i = 0; i < s; ++i) {
+            // Stage i: Y_i = x + dt sum_j a_ij k_j (Y_0 = x), k_i = f(Y_i), and the rate of xi at Y_i.
+            const state_type* y = &x;
+            if (i > 0) {
+                const auto st = detail::reals(stage_);
+                for (std::size_t m = 0; m < n; ++m) {
+                    double v = xr[m];
+                    for (std::size_t j = 0; j < i; ++j)
+                        if (T.a[i][j] != 0.0) v += dt * T.a[i][j] * detail::reals(std::as_const(k_[j]))[m];
+                    st[m] = v;
+                }
+                y = &stage_;
+            }
+            f(*y, k_[i], t + T.c[i] * dt);
+            if (T.b[i] == 0.0) continue;
+            tr_.xi_rate(*y, std::as_const(k_[i]), rate_);
+            const auto r = detail::reals(std::as_const(rate_));
+            for (std::size_t m = 0; m < acc.size(); ++m) acc[m] += T.b[i] * r[m];
+        }
+        // Trapezoid (or the tableau's quadrature) in xi: eq. (42c,d), eqs. (51)-(52).
+        const auto xo = detail::reals(std::as_const(xi_));
+        const auto xn = detail::reals(xi_new_);
+        for (std::size_t m = 0; m < xn.size(); ++m) xn[m] = xo[m] + dt * acc[m];
+        const state_type* hint = &stage_;
+        if constexpr (Sign == sign_rule::of_update) {
+            detail::resize_like(update_, x);
+            const auto u = detail::reals(update_);
+            for (std::size_t m = 0; m < n; ++m) {
+                double v = xr[m];
+                for (std::size_t j = 0; j < s; ++j)
+                    if (T.b[j] != 0.0) v += dt * T.b[j] * detail::reals(std::as_const(k_[j]))[m];
+                u[m] = v;
+            }
+            hint = &update_;
+        } else if constexpr (s == 1) {
+            hint = &x;
+        }
+        const step_result r = tr_.from_xi(std::as_const(xi_new_), *hint, x_new_, stats_);
+        if (!r) return r;
+        using std::swap;
+        swap(x, x_new_);
+        swap(xi_, xi_new_);
+        last_x_ = x;
+        return r;
+    }
+
+    /// Iterative inverses (Newton) run so far: count, total and maximum iterations.
+    const solver_stats& solver_statistics() const { return stats_; }
+    /// The carried xi, T(x) of the last state this stepper produced (or was started from).
+    const xi_type& xi() const { return xi_; }
+    /// Forget the carried xi: the next step recomputes it from its x.
+    void reset() { have_xi_ = false; }
+    /// The transform in use.
+    const Tr& transform() const { return tr_; }
+
+   private:
+    Tr tr_;
+    std::array<state_type, s> k_{};
+    state_type stage_{}, update_{}, x_new_{}, last_x_{};
+    xi_type xi_{}, xi_new_{}, rate_{}, rate_sum_{};
+    bool have_xi_ = false;
+    solver_stats stats_{};
+};
+
+/// C-PC through a transform: Heun's tableau, inverse on the branch of the predictor x~ (paper §IV, §V).
+template <invariant_transform Tr>
+using transformed_pc = transformed_rk<tableaus::heun, Tr, sign_rule::of_last_stage>;
+/// Conservative midpoint rule through a transform (second order).
+template <invariant_transform Tr>
+using transformed_rk2 = transformed_rk<tableaus::midpoint, Tr, sign_rule::of_update>;
+/// Conservative classical Runge-Kutta through a transform (fourth order).
+template <invariant_transform Tr>
+using transformed_rk4 = transformed_rk<tableaus::rk4, Tr, sign_rule::of_update>;
+
+}  // namespace eci
