@@ -115,7 +115,11 @@ run_stats integrate_to(St& stepper, F&& f, S& x, double t0, double t_end, double
         return {};
     }
     const double last = t_end - (t0 + double(n - 1) * dt);
-    if (std::abs(last - dt) <= 1e-12 * dt) return integrate_n_steps(stepper, f, x, t0, dt, n, observe, opt);
+    if (std::abs(last - dt) <= 1e-12 * dt) {
+        // t0 + n dt may miss t_end by round-off (3 * 0.1 != 0.3): the last observation reports t_end itself.
+        auto observe_end = [&](const S& s, double t, std::uint64_t i) { observe(s, i == n ? t_end : t, i); };
+        return integrate_n_steps(stepper, f, x, t0, dt, n, observe_end, opt);
+    }
     // The grid holds n - 1 full steps, then one shorter step to t_end.
     run_stats stats;
     auto observe_full = [&](const S& s, double t, std::uint64_t i) {

@@ -1,0 +1,222 @@
+// Unit tests of the drivers (integrate.hpp): landing on t_end, the observer's cadence and times, step reduction
+// and its statistics, step_size_underflow with time and component, and argument checks.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <eci/eci.hpp>
+
+#include "numeric/support.hpp"
+
+namespace {
+
+using namespace eci::test;
+using state = std::array<double, 1>;
+
+// x' = 1 with Euler: x is the time actually stepped, and the system records when it was called.
+struct clock_system {
+    std::vector<double>* calls;
+    void operator()(const state&, state& d, double t) const {
+        calls->push_back(t);
+        d[0] = 1.0;
+    }
+};
+
+struct observation {
+    double t;
+    std::uint64_t i;
+};
+
+TEST(IntegrateTo, LandsExactlyOnTheEndTimeWithAShortenedLastStep) {
+    std::vector<double> calls;
+    std::vector<observation> seen;
+    state x{0.0};
+    eci::euler<state> st;
+    const auto stats = eci::integrate_to(st, clock_system{&calls}, x, 0.0, 1.0, 0.3,
+                                         [&](const state&, double t, std::uint64_t i) { seen.push_back({t, i}); });
+    EXPECT_EQ(stats.steps, 4u);
+    EXPECT_EQ(calls, (std::vector<double>{0.0, 0.3, 0.6, 0.3 * 3.0}));  // step starts t0 + i dt, not accumulated
+    EXPECT_NEAR(x[0] - 0.9, 0.1, 4 * eps) << "the last step is 0.1 long";
+    ASSERT_FALSE(seen.empty());
+    EXPECT_EQ(seen.back().t, 1.0);
+    EXPECT_EQ(seen.back().i, 4u);
+}
+
+TEST(IntegrateTo, EndTimeThatIsAMultipleOfDtUpToRoundOffTakesNoExtraStep) {
+    // 0.3 / 0.1 = 2.9999999999999996 and 3 * 0.1 = 0.30000000000000004: three steps, no sliver of a fourth,
+    // and the observer still reports the requested end time itself.
+    std::vector<double> calls;
+    std::vector<observation> seen;
+    state x{0.0};
+    eci::euler<state> st;
+    const auto stats = eci::integrate_to(st, clock_system{&calls}, x, 0.0, 0.3, 0.1,
+                                         [&](const state&, double t, std::uint64_t i) { seen.push_back({t, i}); });
+    EXPECT_EQ(stats.steps, 3u);
+    EXPECT_EQ(calls.size(), 3u);
+    ASSERT_EQ(seen.size(), 4u);
+    EXPECT_EQ(seen.back().t, 0.3);
+    EXPECT_EQ(seen.back().i, 3u);
+}
+
+TEST(IntegrateTo, EndTimeEqualToStartObservesOnce) {
+    std::vector<double> calls;
+    std::vector<observation> seen;
+    state x{2.0};
+    eci::rk4<state> st;
+    const auto stats = eci::integrate_to(st, clock_system{&calls}, x, 1.5, 1.5, 0.1,
+                                         [&](const state&, double t, std::uint64_t i) { seen.push_back({t, i}); });
+    EXPECT_EQ(stats.steps, 0u);
+    EXPECT_TRUE(calls.empty());
+    ASSERT_EQ(seen.size(), 1u);
+    EXPECT_EQ(seen[0].t, 1.5);
+    EXPECT_EQ(x[0], 2.0);
+}
+
+TEST(Observer, SeesTheStartEveryKStepsAndTheEnd) {
+    std::vector<double> calls;
+    std::vector<observation> seen;
+    state x{0.0};
+    eci::pc<state> st;
+    eci::integrate_n_steps(st, clock_system{&calls}, x, 2.0, 0.25, 10,
+                           [&](const state&, double t, std::uint64_t i) { seen.push_back({t, i}); }, {.every = 3});
+    const std::vector<std::uint64_t> expected{0, 3, 6, 9, 10};
+    ASSERT_EQ(seen.size(), expected.size());
+    for (std::size_t j = 0; j < seen.size(); ++j) {
+        EXPECT_EQ(seen[j].i, expected[j]);
+        EXPECT_EQ(seen[j].t, 2.0 + double(expected[j]) * 0.25);
+    }
+}
+
+TEST(Observer, CadenceHoldsWithAShortenedLastStep) {
+    std::vector<double> calls;
+    std::vector<observation> seen;
+    state x{0.0};
+    eci::rk2<state> st;
+    eci::integrate_to(st, clock_system{&calls}, x, 0.0, 1.05, 0.1,
+                      [&](const state&, double t, std::uint64_t i) { seen.push_back({t, i}); }, {.every = 4});
+    const std::vector<std::uint64_t> expected{0, 4, 8, 11};
+    ASSERT_EQ(seen.size(), expected.size());
+    for (std::size_t j = 0; j < seen.size(); ++j) EXPECT_EQ(seen[j].i, expected[j]);
+    EXPECT_EQ(seen[1].t, 0.4);
+    EXPECT_EQ(seen.back().t, 1.05);
+}
+
+// A stepper that fails every attempt longer than `limit` and counts its attempts: with dt = 1 and limit 0.3,
+// each step is tried at 1 (fails), twice at 0.5 (fail), four times at 0.25: 3 reductions and 7 attempts.
+struct failing_above {
+    static constexpr int order = 1;
+    double limit;
+    int attempts = 0;
+    template <class F>
+    eci::step_result step(F& f, state& x, double t, double dt) {
+        ++attempts;
+        state d{};
+        f(x, d, t);
+        if (dt > limit) return eci::step_result::failure(0);
+        x[0] += dt * d[0];
+        return eci::step_result::success();
+    }
+};
+
+TEST(RunStats, CountsStepsReductionsAndEvaluations) {
+    std::vector<double> calls;
+    failing_above st{0.3};
+    state x{0.0};
+    const auto stats = eci::integrate_n_steps(st, clock_system{&calls}, x, 0.0, 1.0, 5);
+    EXPECT_EQ(stats.steps, 5u);
+    EXPECT_EQ(stats.step_reductions, 15u);
+    EXPECT_EQ(stats.rhs_evals, 35u) << "failed attempts count too";
+    EXPECT_EQ(st.attempts, 35);
+    EXPECT_NEAR(x[0], 5.0, 64 * eps) << "the reduced steps still cover the whole interval";
+    // The attempts of the first step: 1 at t = 0, 0.5 at 0, 0.25 at 0 and 0.25, 0.5 at 0.5, 0.25 at 0.5 and 0.75.
+    EXPECT_EQ(std::vector<double>(calls.begin(), calls.begin() + 7),
+              (std::vector<double>{0.0, 0.0, 0.0, 0.25, 0.5, 0.5, 0.75}));
+    EXPECT_EQ(calls[7], 1.0);
+}
+
+TEST(RunStats, CountsEvaluationsOfRealSteppersAndImplicitSolves) {
+    std::vector<double> calls;
+    state x{0.0};
+    eci::c_rk4<state> rk;
+    EXPECT_EQ(eci::integrate_n_steps(rk, clock_system{&calls}, x, 0.0, 0.1, 7).rhs_evals, 28u);
+    // C-Euler: one evaluation per explicit step, plus one per fixed-point iteration of each implicit step; a
+    // rotation starting with a zero component needs implicit steps at every crossing.
+    const auto rotation = [](const std::vector<double>& v, std::vector<double>& d, double) {
+        d[0] = v[1];
+        d[1] = -v[0];
+    };
+    std::vector<double> y{1.0, 0.0};
+    eci::c_euler<std::vector<double>> ce;
+    const auto s = eci::integrate_n_steps(ce, rotation, y, 0.0, 0.01, 1000);
+    EXPECT_GT(s.solver.solves, 2u);
+    EXPECT_EQ(s.rhs_evals, s.steps + s.step_reductions + s.solver.iterations);
+    EXPECT_LE(s.solver.max_iterations, ce.max_iterations);
+}
+
+// x2' = -sgn(x2) (sign of 0 taken as -1) switched on at t = 1: from x2 = 0 every conservative method then asks
+// for psi_2^2 < 0 at any step size, so the driver halves down to dt 2^-max_halvings and gives up at t = 1 exactly.
+// (Before t = 1, x2 = 0 with rate 0 is a valid state, and a stage at t = 1 alone only makes a zero radicand.)
+struct sliding_after_one {
+    void operator()(const std::vector<double>& x, std::vector<double>& d, double t) const {
+        d[0] = x[1], d[1] = -x[0];
+        d[2] = t < 1.0 ? 0.0 : x[2] <= 0.0 ? 1.0 : -1.0;
+    }
+};
+
+template <class Method>
+void expect_underflow() {
+    std::vector<double> x{0.8, -0.6, 0.0};
+    typename Method::template stepper<std::vector<double>> st;
+    try {
+        eci::integrate_n_steps(st, sliding_after_one{}, x, 0.0, 0.25, 8, eci::no_observer{}, {.max_halvings = 12});
+        ADD_FAILURE() << Method::name << ": expected step_size_underflow";
+    } catch (const eci::step_size_underflow& e) {
+        EXPECT_EQ(e.time, 1.0) << Method::name;
+        EXPECT_EQ(e.component, 2u) << Method::name;
+        EXPECT_EQ(e.dt, 0.25 * std::ldexp(1.0, -12)) << Method::name;
+        const std::string what = e.what();
+        EXPECT_NE(what.find("t = 1 "), std::string::npos) << what;
+        EXPECT_NE(what.find("component 2"), std::string::npos) << what;
+    }
+}
+
+TEST(StepSizeUnderflow, ThrownWithTimeAndComponentAfterMaxHalvings) {
+    expect_underflow<c_euler_m>();
+    expect_underflow<c_pc_m>();
+    expect_underflow<c_rk2_m>();
+    expect_underflow<c_rk4_m>();
+}
+
+TEST(StepSizeUnderflow, DefaultAllowsFortyHalvings) {
+    std::vector<double> x{0.8, -0.6, 0.0};
+    eci::c_pc<std::vector<double>> st;
+    try {
+        eci::integrate_n_steps(st, sliding_after_one{}, x, 0.0, 0.25, 8);
+        ADD_FAILURE() << "expected step_size_underflow";
+    } catch (const eci::step_size_underflow& e) {
+        EXPECT_EQ(e.dt, 0.25 * std::ldexp(1.0, -40));
+    }
+}
+
+TEST(Integrate, RejectsBadArguments) {
+    std::vector<double> calls;
+    state x{0.0};
+    eci::euler<state> st;
+    const clock_system f{&calls};
+    const double nan = std::numeric_limits<double>::quiet_NaN(), inf = std::numeric_limits<double>::infinity();
+    for (double dt : {0.0, -0.1, nan, inf}) {
+        EXPECT_THROW(eci::integrate_n_steps(st, f, x, 0.0, dt, 3), std::invalid_argument) << dt;
+        EXPECT_THROW(eci::integrate_to(st, f, x, 0.0, 1.0, dt), std::invalid_argument) << dt;
+    }
+    EXPECT_THROW(eci::integrate_to(st, f, x, 1.0, 0.5, 0.1), std::invalid_argument);
+    EXPECT_THROW(eci::integrate_to(st, f, x, 0.0, nan, 0.1), std::invalid_argument);
+    EXPECT_THROW(eci::integrate_n_steps(st, f, x, 0.0, 0.1, 3, eci::no_observer{}, {.every = 0}), std::invalid_argument);
+    EXPECT_TRUE(calls.empty());
+    EXPECT_EQ(x[0], 0.0);
+}
+
+}  // namespace
