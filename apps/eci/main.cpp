@@ -1,0 +1,173 @@
+// The `eci` command: parses `eci run MODEL ...`, `eci list` and `eci figures ...` with CLI11 and turns every
+// error into one line "eci: error: ..." on stderr with a documented exit status.
+#include <charconv>
+#include <cstdio>
+#include <exception>
+#include <string>
+#include <string_view>
+
+#include <CLI/CLI.hpp>
+#include <eci/registry.hpp>
+
+#include "figures.hpp"
+#include "models.hpp"
+#include "output.hpp"
+
+namespace {
+
+using namespace eci::cli;
+
+constexpr const char* exit_status_help =
+    "Exit status: 0 success; 1 a run that could not finish (a step failed even at dt * 2^-40) or a "
+    "feature not built; 2 bad input (unknown model or method, bad number, invalid coefficients, unwritable "
+    "output, ...); 130 interrupted. On any failure no output file is created or replaced.";
+
+void print_error(std::string_view message) {
+    std::string line(message);
+    for (char& c : line)
+        if (c == '\n' || c == '\r') c = ' ';
+    std::fprintf(stderr, "eci: error: %s\n", line.c_str());
+}
+
+std::string model_names(const std::vector<std::unique_ptr<model_command>>& models) {
+    std::string s;
+    for (const auto& m : models) s += (s.empty() ? "" : ", ") + m->info().name;
+    return s;
+}
+
+std::string shortest(double v) {
+    char buffer[32];
+    const auto r = std::to_chars(buffer, buffer + sizeof buffer, v);
+    return std::string(buffer, r.ptr);
+}
+
+void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
+    std::printf("Methods (eci run MODEL --method NAME):\n");
+    for (const eci::method_info& m : eci::methods)
+        std::printf("  %-9s order %d  %-12s  %.*s\n", std::string(m.name).c_str(), m.order,
+                    m.conservative ? "conservative" : "conventional", static_cast<int>(m.description.size()),
+                    m.description.data());
+    std::printf("\nModels (eci run MODEL --help for options):\n");
+    for (const auto& model : models) {
+        const model_info& i = model->info();
+        std::printf("  %-15s %s\n", i.name.c_str(), i.description.c_str());
+        std::string methods;
+        for (const std::string& n : i.methods) methods += (methods.empty() ? "" : " ") + n;
+        std::printf("  %-15s methods: %s (default %s); default dt %s, t-end %s\n", "", methods.c_str(),
+                    i.default_method.c_str(), shortest(i.default_dt).c_str(), shortest(i.default_t_end).c_str());
+    }
+}
+
+int run_cli(int argc, char** argv) {
+    const auto models = registered_models();
+
+    CLI::App app{"eci: explicit, exactly conservative ODE integrators (Shadwick, Bowman & Morrison)", "eci"};
+    app.require_subcommand(1);
+    app.set_version_flag("--version", "eci 0.1.0");
+    app.footer(exit_status_help);
+
+    CLI::App* run = app.add_subcommand("run", "integrate a model: eci run MODEL [options]; "
+                                              "eci run MODEL --help lists them");
+    run->require_subcommand(0, 1);
+    run->footer(std::string("Models: ") + model_names(models) + ".\n" + exit_status_help);
+
+    // One set of run options, bound on every model's subcommand; only one of them is ever parsed.
+    run_settings settings;
+    double dt = 0.0, t_end = 0.0;
+    std::uint64_t steps = 0;
+    for (const auto& model : models) {
+        const model_info& i = model->info();
+        CLI::App* sub = run->add_subcommand(i.name, i.description);
+        sub->add_option("--method", settings.method, "integrator, one of `eci list` (default " + i.default_method + ")");
+        sub->add_option("--dt", dt, "time step (default " + shortest(i.default_dt) + ")");
+        sub->add_option("--t-end", t_end, "end time, starting at t = 0 (default " + shortest(i.default_t_end) + ")");
+        sub->add_option("--steps", steps, "number of steps instead of --t-end")->check(whole_number(0));
+        sub->add_option("--every", settings.every, "write a CSV row every K steps; the first and last always "
+                                                   "(default 1)")
+            ->check(whole_number(1));
+        sub->add_option("--output", settings.output,
+                        "CSV file: t, the state, the invariants, at full precision. Without --output no CSV is "
+                        "written; '-' writes it to standard output");
+        sub->add_option("--summary-json", settings.summary_json,
+                        "also write the run summary as JSON to this file ('-': standard output)");
+        model->add_options(*sub);
+        sub->footer("The summary (steps, step reductions, rhs evaluations, wall time, each invariant's drift "
+                    "measured at every step) goes to stderr; a progress bar too when stderr is a terminal and "
+                    "the run takes over a second.\n" +
+                    std::string(exit_status_help));
+    }
+
+    CLI::App* list = app.add_subcommand("list", "list the methods (with their order) and the models");
+
+    CLI::App* figures = app.add_subcommand("figures", "reproduce the paper's figures (PNG, SVG and CSV)");
+    figures_options figure_options;
+    figures->add_option("--out", figure_options.out, "output directory (default figures)");
+    int only = 0;
+    figures->add_option("--only", only, "make only figure N (1-9)")->check(CLI::Range(1, 9));
+
+    // CLI11 would say only that a subcommand is required, or call an unknown model an unexpected argument.
+    if (argc == 1) throw bad_input("missing command (commands: run, list, figures; see eci --help)");
+    const auto named = [&](CLI::App* c) { return c->get_name() == argv[1]; };
+    if (argv[1][0] != '-' && app.get_subcommands(named).empty())
+        throw bad_input("unknown command '" + std::string(argv[1]) + "' (commands: run, list, figures)");
+    if (argc > 2 && std::string_view(argv[1]) == "run" && argv[2][0] != '-') {
+        bool known = false;
+        for (const auto& m : models) known = known || m->info().name == argv[2];
+        if (!known)
+            throw bad_input("unknown model '" + std::string(argv[2]) + "' (models: " + model_names(models) + ")");
+    }
+
+    try {
+        app.parse(argc, argv);
+    } catch (const CLI::ParseError& e) {
+        if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+        throw bad_input(e.what());
+    }
+
+    if (list->parsed()) {
+        print_list(models);
+        return 0;
+    }
+    if (figures->parsed()) {
+        if (figures->count("--only")) figure_options.only = only;
+#ifdef ECI_HAVE_FIGURES
+        return run_figures(figure_options);
+#else
+        print_error("figures are not built in this version");
+        return 1;
+#endif
+    }
+    for (const auto& model : models) {
+        CLI::App* sub = run->get_subcommand(model->info().name);
+        if (!sub->parsed()) continue;
+        if (sub->count("--dt")) settings.dt = dt;
+        if (sub->count("--t-end")) settings.t_end = t_end;
+        if (sub->count("--steps")) settings.steps = steps;
+        install_interrupt_handler();
+        return model->run(settings);
+    }
+    throw bad_input("eci run needs a MODEL (models: " + model_names(models) + ")");
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        return run_cli(argc, argv);
+    } catch (const bad_input& e) {
+        print_error(e.what());
+        return 2;
+    } catch (const std::invalid_argument& e) {
+        print_error(e.what());
+        return 2;
+    } catch (const run_failure& e) {
+        print_error(e.what());
+        return 1;
+    } catch (const interrupted& e) {
+        print_error(e.what());
+        return 130;
+    } catch (const std::exception& e) {
+        print_error(e.what());
+        return 1;
+    }
+}

@@ -1,0 +1,151 @@
+// The model-independent half of `eci run`: checking the method and time settings, and the summary it prints
+// (stderr) and writes (JSON).
+#include "run.hpp"
+
+#include <charconv>
+#include <filesystem>
+#include <limits>
+
+namespace eci::cli {
+
+namespace {
+
+std::string joined(const std::vector<std::string>& names) {
+    std::string s;
+    for (const std::string& n : names) s += (s.empty() ? "" : ", ") + n;
+    return s;
+}
+
+std::string number(double v) {
+    char buffer[32];
+    return std::string(format_double(v, buffer));
+}
+
+// The shortest text that reads back as v: what a person typed (0.2, not 0.20000000000000001).
+std::string shortest(double v) {
+    char buffer[32];
+    const auto r = std::to_chars(buffer, buffer + sizeof buffer, v);
+    return std::string(buffer, r.ptr);
+}
+
+}  // namespace
+
+std::vector<std::string> indexed_columns(std::string_view prefix, std::size_t size, bool complex) {
+    std::vector<std::string> c;
+    c.reserve(complex ? 2 * size : size);
+    for (std::size_t i = 0; i < size; ++i) {
+        const std::string name = std::string(prefix) + std::to_string(i);
+        if (complex) {
+            c.push_back("re_" + name);
+            c.push_back("im_" + name);
+        } else {
+            c.push_back(name);
+        }
+    }
+    return c;
+}
+
+method_info resolve_method(const model_info& model, const run_settings& settings) {
+    const std::string name = settings.method.empty() ? model.default_method : settings.method;
+    const auto m = find_method(name);
+    if (!m) {
+        std::vector<std::string> all;
+        for (const method_info& i : eci::methods) all.emplace_back(i.name);
+        throw bad_input("unknown method '" + name + "' (methods: " + joined(all) + ")");
+    }
+    if (std::find(model.methods.begin(), model.methods.end(), name) == model.methods.end())
+        throw bad_input("method '" + name + "' is not available for model " + model.name +
+                        " (available: " + joined(model.methods) + ")");
+    return *m;
+}
+
+run_span resolve_span(const model_info& model, const run_settings& settings) {
+    run_span span{};
+    span.dt = settings.dt.value_or(model.default_dt);
+    if (!(span.dt > 0.0) || !std::isfinite(span.dt))
+        throw bad_input("--dt must be a positive finite number, not " + number(span.dt));
+    if (settings.every == 0) throw bad_input("--every must be at least 1");
+    if (settings.t_end && settings.steps) throw bad_input("--t-end and --steps cannot be used together");
+    if (settings.steps) {
+        span.fixed_steps = true;
+        span.steps = *settings.steps;
+        span.t_end = double(span.steps) * span.dt;
+        return span;
+    }
+    span.t_end = settings.t_end.value_or(model.default_t_end);
+    if (!(span.t_end >= 0.0) || !std::isfinite(span.t_end))
+        throw bad_input("--t-end must be a finite number >= 0, not " + number(span.t_end));
+    // Beyond 2^53 steps the time grid t0 + i dt is no longer exact (and the run would never end anyway).
+    if (span.t_end / span.dt > 0x1p53)
+        throw bad_input("--t-end / --dt is " + number(span.t_end / span.dt) + " steps, too many");
+    span.steps = steps_to_reach(0.0, span.t_end, span.dt);
+    return span;
+}
+
+void check_distinct_outputs(const run_settings& settings) {
+    if (settings.output.empty() || settings.summary_json.empty()) return;
+    if (settings.output == "-" && settings.summary_json == "-")
+        throw bad_input("--output and --summary-json cannot both be standard output");
+    namespace fs = std::filesystem;
+    std::error_code ec;
+    const fs::path a = fs::weakly_canonical(settings.output, ec), b = fs::weakly_canonical(settings.summary_json, ec);
+    if (settings.output != "-" && settings.summary_json != "-" && a == b)
+        throw bad_input("--output and --summary-json name the same file '" + settings.output + "'");
+}
+
+void print_summary(std::FILE* f, const run_summary& s) {
+    std::fprintf(f, "eci run %s: method %s (order %d, %s), dt %s, t 0 to %s\n", s.model.c_str(), s.method.c_str(),
+                 s.order, s.conservative ? "conservative" : "conventional", shortest(s.dt).c_str(),
+                 shortest(s.t_end).c_str());
+    std::fprintf(f, "  steps %llu, step reductions %llu, rhs evals %llu, wall time %.3g s\n",
+                 static_cast<unsigned long long>(s.stats.steps),
+                 static_cast<unsigned long long>(s.stats.step_reductions),
+                 static_cast<unsigned long long>(s.stats.rhs_evals), s.wall_seconds);
+    std::fprintf(f, "  %-12s %-24s %-24s %-13s %s\n", "invariant", "initial", "final", "max abs drift",
+                 "max rel drift");
+    for (const invariant_record& r : s.invariants)
+        std::fprintf(f, "  %-12s %-24s %-24s %-13.3e %.3e\n", r.name.c_str(), number(r.initial).c_str(),
+                     number(r.final).c_str(), r.max_abs_drift, r.max_rel_drift());
+    if (s.stats.solver.solves > 0)
+        std::fprintf(f, "  iterative solves %llu, iterations mean %.3g, max %d\n",
+                     static_cast<unsigned long long>(s.stats.solver.solves), s.stats.solver.mean_iterations(),
+                     s.stats.solver.max_iterations);
+}
+
+void write_summary_json(std::FILE* f, const run_summary& s) {
+    auto key = [&](const char* k) { std::fprintf(f, "  \"%s\": ", k); };
+    std::fputs("{\n", f);
+    key("model"), write_json_string(f, s.model), std::fputs(",\n", f);
+    key("method"), write_json_string(f, s.method), std::fputs(",\n", f);
+    key("order"), std::fprintf(f, "%d,\n", s.order);
+    key("conservative"), std::fputs(s.conservative ? "true,\n" : "false,\n", f);
+    key("dt"), write_json_number(f, s.dt), std::fputs(",\n", f);
+    key("t_end"), write_json_number(f, s.t_end), std::fputs(",\n", f);
+    key("steps"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.steps));
+    key("step_reductions"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.step_reductions));
+    key("rhs_evals"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.rhs_evals));
+    key("wall_seconds"), write_json_number(f, s.wall_seconds), std::fputs(",\n", f);
+    if (s.stats.solver.solves > 0) {
+        key("solver");
+        std::fprintf(f, "{\"solves\": %llu, \"iterations\": %llu, \"iterations_mean\": ",
+                     static_cast<unsigned long long>(s.stats.solver.solves),
+                     static_cast<unsigned long long>(s.stats.solver.iterations));
+        write_json_number(f, s.stats.solver.mean_iterations());
+        std::fprintf(f, ", \"iterations_max\": %d},\n", s.stats.solver.max_iterations);
+    }
+    key("invariants");
+    std::fputs("{", f);
+    for (std::size_t i = 0; i < s.invariants.size(); ++i) {
+        const invariant_record& r = s.invariants[i];
+        std::fputs(i ? ",\n    " : "\n    ", f);
+        write_json_string(f, r.name);
+        std::fputs(": {\"initial\": ", f), write_json_number(f, r.initial);
+        std::fputs(", \"final\": ", f), write_json_number(f, r.final);
+        std::fputs(", \"max_abs_drift\": ", f), write_json_number(f, r.max_abs_drift);
+        std::fputs(", \"max_rel_drift\": ", f), write_json_number(f, r.max_rel_drift());
+        std::fputs("}", f);
+    }
+    std::fputs("\n  }\n}\n", f);
+}
+
+}  // namespace eci::cli

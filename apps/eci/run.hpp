@@ -1,0 +1,222 @@
+// The one run loop every model adapter calls: checks the settings, picks the stepper through the registry,
+// integrates with the library's drivers while tracking every invariant at every step, and writes CSV and summary.
+#pragma once
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <cstdio>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include <eci/integrate.hpp>
+#include <eci/registry.hpp>
+
+#include "models.hpp"
+#include "output.hpp"
+
+namespace eci::cli {
+
+/// One invariant's record over a run.
+struct invariant_record {
+    std::string name;
+    double initial = 0.0;
+    double final = 0.0;
+    double max_abs_drift = 0.0;  ///< max over every step of |I(t) - I(0)|
+    /// max_abs_drift / |I(0)|; infinite when I(0) = 0 and the invariant moved, NaN (JSON null) if it went NaN
+    double max_rel_drift() const {
+        if (max_abs_drift == 0.0) return 0.0;
+        return max_abs_drift / std::abs(initial);
+    }
+};
+
+/// What a run reports at its end.
+struct run_summary {
+    std::string model, method;
+    int order = 0;
+    bool conservative = false;
+    double dt = 0.0, t_end = 0.0;
+    run_stats stats{};
+    double wall_seconds = 0.0;
+    std::vector<invariant_record> invariants;
+};
+
+/// The CSV column names of the real unknowns of a state of `size` modes: `prefix`0... for a real state,
+/// re_`prefix`0, im_`prefix`0, ... for a complex one (the order in which step_result counts components).
+std::vector<std::string> indexed_columns(std::string_view prefix, std::size_t size, bool complex);
+
+/// The full name of the method `settings` asks for (or the model's default), checked against the registry and
+/// the model's list; throws bad_input.
+method_info resolve_method(const model_info& model, const run_settings& settings);
+
+/// The step count and end time `settings` ask for (or the model's defaults); throws bad_input.
+struct run_span {
+    double dt;
+    std::uint64_t steps;
+    double t_end;
+    bool fixed_steps;  ///< --steps given: n steps of dt; otherwise integrate_to(t_end)
+};
+/// Checks dt, t_end/steps and every; throws bad_input.
+run_span resolve_span(const model_info& model, const run_settings& settings);
+
+/// Prints the human-readable summary (stderr).
+void print_summary(std::FILE* f, const run_summary& s);
+
+/// Writes the JSON summary.
+void write_summary_json(std::FILE* f, const run_summary& s);
+
+/// Throws bad_input if two outputs would go to the same place.
+void check_distinct_outputs(const run_settings& settings);
+
+/// Every registered method that runs on any state of type S (what a model without steppers of its own offers).
+template <class S>
+std::vector<std::string> registry_methods_for() {
+    const auto names = eci::method_names_for<S>();
+    return {names.begin(), names.end()};
+}
+
+/// Dispatches a method name through the registry; a model with steppers of its own passes its own dispatcher.
+template <class S>
+struct registry_dispatch {
+    template <class Fn>
+    bool operator()(std::string_view name, Fn&& fn) const {
+        return eci::with_method<S>(name, std::forward<Fn>(fn));
+    }
+};
+
+namespace detail {
+
+template <class S, class Fn>
+void for_each_real(const S& x, Fn&& fn) {
+    for (const auto& v : x) {
+        if constexpr (std::is_same_v<std::remove_cvref_t<decltype(v)>, std::complex<double>>) {
+            fn(v.real());
+            fn(v.imag());
+        } else {
+            fn(static_cast<double>(v));
+        }
+    }
+}
+
+}  // namespace detail
+
+/// Runs `model` from x (at t = 0) with the settings; `columns` names the real unknowns (CSV header and error
+/// messages); `dispatch(name, fn)` calls fn with the stepper named `name`. Returns the exit status (0); throws
+/// bad_input, run_failure or interrupted, in which case no output file is left behind.
+template <class Model, class Dispatch = registry_dispatch<typename Model::state_type>>
+int run_model(const model_info& info, const Model& model, typename Model::state_type x,
+              const std::vector<std::string>& columns, const run_settings& settings, Dispatch dispatch = {}) {
+    using S = typename Model::state_type;
+    const method_info method = resolve_method(info, settings);
+    const run_span span = resolve_span(info, settings);
+    try {
+        model.validate();
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(std::string("invalid ") + info.name + " model: " + e.what());
+    }
+    {
+        std::size_t i = 0;
+        detail::for_each_real(x, [&](double v) {
+            if (!std::isfinite(v)) throw bad_input("initial condition " + columns.at(i) + " is not finite");
+            ++i;
+        });
+    }
+    check_distinct_outputs(settings);
+
+    // Open both outputs before running: an unwritable path is bad input, reported before any work.
+    output_file csv = settings.output.empty() ? output_file() : output_file(settings.output, "CSV output");
+    output_file json =
+        settings.summary_json.empty() ? output_file() : output_file(settings.summary_json, "summary JSON");
+
+    constexpr auto invariants = Model::invariants();
+    run_summary summary;
+    summary.model = info.name;
+    summary.method = std::string(method.name);
+    summary.order = method.order;
+    summary.conservative = method.conservative;
+    summary.dt = span.dt;
+    summary.t_end = span.t_end;
+    for (const auto& inv : invariants) summary.invariants.push_back({inv.name});
+
+    std::FILE* out = csv.get();
+    if (out) {
+        std::fputs("t", out);
+        for (const std::string& c : columns) std::fprintf(out, ",%s", c.c_str());
+        for (const auto& inv : invariants) std::fprintf(out, ",%s", inv.name);
+        std::fputc('\n', out);
+    }
+
+    progress_bar progress(span.steps);
+    const std::uint64_t every = settings.every;
+    const std::uint64_t last = span.steps;
+    // Every step is observed (the drivers run with every = 1) so the drift is the true maximum; CSV rows are
+    // thinned here, keeping the first and the last.
+    auto observe = [&](const S& state, double t, std::uint64_t i) {
+        std::array<double, invariants.size()> values{};
+        for (std::size_t j = 0; j < invariants.size(); ++j) {
+            const double v = (model.*invariants[j].value)(state);
+            values[j] = v;
+            invariant_record& r = summary.invariants[j];
+            if (i == 0) r.initial = v;
+            r.final = v;
+            const double d = std::abs(v - r.initial);
+            if (d > r.max_abs_drift || std::isnan(d)) r.max_abs_drift = d;
+        }
+        if (out && (i % every == 0 || i == last)) {
+            char buffer[32];
+            std::string_view s = format_double(t, buffer);
+            std::fwrite(s.data(), 1, s.size(), out);
+            detail::for_each_real(state, [&](double v) {
+                std::fputc(',', out);
+                const std::string_view f = format_double(v, buffer);
+                std::fwrite(f.data(), 1, f.size(), out);
+            });
+            for (double v : values) {
+                std::fputc(',', out);
+                const std::string_view f = format_double(v, buffer);
+                std::fwrite(f.data(), 1, f.size(), out);
+            }
+            std::fputc('\n', out);
+        }
+        progress.update(i, t);
+        if (interrupt_requested()) {
+            char buffer[32];
+            throw interrupted("interrupted at t = " + std::string(format_double(t, buffer)));
+        }
+    };
+
+    const auto start = std::chrono::steady_clock::now();
+    bool found = false;
+    try {
+        found = dispatch(method.name, [&](auto stepper) {
+            const run_options opt{1, run_options{}.max_halvings};
+            summary.stats = span.fixed_steps
+                                ? integrate_n_steps(stepper, model, x, 0.0, span.dt, span.steps, observe, opt)
+                                : integrate_to(stepper, model, x, 0.0, span.t_end, span.dt, observe, opt);
+        });
+    } catch (const step_size_underflow& e) {
+        progress.finish();
+        char t[32], h[32];
+        const std::string column = e.component < columns.size() ? columns[e.component] : "?";
+        throw run_failure("step failed at t = " + std::string(format_double(e.time, t)) + " in component " +
+                          column + " even with the step halved " + std::to_string(run_options{}.max_halvings) +
+                          " times (dt = " + std::string(format_double(e.dt, h)) +
+                          "): negative radicand, non-invertible transform or non-finite state");
+    }
+    progress.finish();
+    if (!found) throw bad_input("method '" + summary.method + "' has no stepper for model " + info.name);
+    summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+
+    csv.commit();
+    print_summary(stderr, summary);
+    if (std::FILE* j = json.get()) write_summary_json(j, summary);
+    json.commit();
+    return 0;
+}
+
+}  // namespace eci::cli
