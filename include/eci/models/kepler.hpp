@@ -10,6 +10,7 @@
 #include <string>
 
 #include "../concepts.hpp"
+#include "../detail/format.hpp"
 #include "invariant.hpp"
 
 namespace eci {
@@ -30,8 +31,8 @@ struct kepler {
         detail::require_finite(m, "Kepler m");
         detail::require_finite(K, "Kepler K");
         detail::require_finite(ell, "Kepler ell");
-        if (!(m > 0.0)) throw std::invalid_argument("Kepler m must be positive, got " + std::to_string(m));
-        if (!(K > 0.0)) throw std::invalid_argument("Kepler K must be positive, got " + std::to_string(K));
+        if (!(m > 0.0)) throw std::invalid_argument("Kepler m must be positive, got " + detail::shortest_text(m));
+        if (!(K > 0.0)) throw std::invalid_argument("Kepler K must be positive, got " + detail::shortest_text(K));
         if (ell == 0.0)
             throw std::invalid_argument("Kepler ell must be nonzero (ell = 0 is a radial fall, which the polar "
                                         "formulation cannot integrate)");
@@ -41,10 +42,10 @@ struct kepler {
         detail::require_finite(s[0], "Kepler r");
         detail::require_finite(s[1], "Kepler v_r");
         detail::require_finite(s[2], "Kepler theta");
-        if (!(s[0] > 0.0)) throw std::invalid_argument("Kepler r must be positive, got " + std::to_string(s[0]));
+        if (!(s[0] > 0.0)) throw std::invalid_argument("Kepler r must be positive, got " + detail::shortest_text(s[0]));
         const double h = hamiltonian(s);
         if (!(h < 0.0))
-            throw std::invalid_argument("Kepler orbit is unbound (H = " + std::to_string(h) +
+            throw std::invalid_argument("Kepler orbit is unbound (H = " + detail::shortest_text(h) +
                                         " >= 0); only bound orbits are supported");
     }
 
@@ -63,7 +64,7 @@ struct kepler {
     std::array<double, 2> runge_lenz(const state_type& s) const {
         const double a = ell * ell / (m * s[0]) - K, b = -ell * s[1];
         const double c = std::cos(s[2]), sn = std::sin(s[2]);
-        return {a * c - b * sn, a * sn + b * c};
+        return {a * c - b * sn + 0.0, a * sn + b * c + 0.0};  // + 0.0: no "-0" in the output
     }
     /// x component of the Runge-Lenz vector (47).
     double runge_lenz_x(const state_type& s) const { return runge_lenz(s)[0]; }

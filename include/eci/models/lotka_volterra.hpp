@@ -10,6 +10,7 @@
 #include <string>
 
 #include "../concepts.hpp"
+#include "../detail/format.hpp"
 #include "invariant.hpp"
 
 namespace eci {
@@ -82,16 +83,17 @@ struct lotka_volterra {
     /// Throws std::invalid_argument unless mu is positive and finite.
     void validate() const {
         detail::require_finite(mu, "Lotka-Volterra mu");
-        if (!(mu > 0.0)) throw std::invalid_argument("Lotka-Volterra mu must be positive, got " + std::to_string(mu));
+        if (!(mu > 0.0))
+            throw std::invalid_argument("Lotka-Volterra mu must be positive, got " + detail::shortest_text(mu));
     }
     /// Throws std::invalid_argument unless x and y are positive and finite (H, eq. (37), needs log x, log y).
     void validate_state(const state_type& s) const {
         detail::require_finite(s[0], "Lotka-Volterra x");
         detail::require_finite(s[1], "Lotka-Volterra y");
         if (!(s[0] > 0.0))
-            throw std::invalid_argument("Lotka-Volterra x must be positive, got " + std::to_string(s[0]));
+            throw std::invalid_argument("Lotka-Volterra x must be positive, got " + detail::shortest_text(s[0]));
         if (!(s[1] > 0.0))
-            throw std::invalid_argument("Lotka-Volterra y must be positive, got " + std::to_string(s[1]));
+            throw std::invalid_argument("Lotka-Volterra y must be positive, got " + detail::shortest_text(s[1]));
     }
 
     void operator()(const state_type& s, state_type& dsdt, double /*t*/) const {
