@@ -27,8 +27,8 @@ mkdir -p "$out"
 
 # Sizes and repetitions per mode. The large n-wave systems are 3e6 real modes (memory bound) in a full run.
 case $mode in
-  full)  big=3000000; reps=9; min_time=0.1;  mem_n=10000000; mem_reps=3; drift_steps=10000000; drift_members=8; wp_quick=0 ;;
-  quick) big=300000;  reps=3; min_time=0.05; mem_n=10000000; mem_reps=1; drift_steps=1000000;  drift_members=4; wp_quick=1 ;;
+  full)  big=3000000; reps=9; min_time=0.1;  mem_n=9999999; mem_reps=3; drift_steps=10000000; drift_members=8; wp_quick=0 ;;
+  quick) big=300000;  reps=3; min_time=0.05; mem_n=9999999; mem_reps=1; drift_steps=1000000;  drift_members=4; wp_quick=1 ;;
   smoke) big=3003;    reps=1; min_time=1e-6; mem_n=30000;    mem_reps=1; drift_steps=1000;     drift_members=1; wp_quick=1 ;;
 esac
 

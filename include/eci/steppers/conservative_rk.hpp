@@ -33,9 +33,7 @@ class conservative_rk {
     step_result step(F& f, S& x, double t, double dt) {
         st_.prepare(x);
         if constexpr (!is_c_pc) detail::resize_like(acc_, x);
-        st_.run_stages(f, x, t, dt, [&](std::size_t i, std::span<const double> y, std::span<const double> k) {
-            if constexpr (!is_c_pc) accumulate_square_rate(i, y, k);
-        });
+        st_.run_stages(f, x, t, dt, [](std::size_t, auto, auto) {});
         const auto xr = detail::reals(std::as_const(x));
         const std::size_t n = xr.size();
         double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
@@ -51,8 +49,7 @@ class conservative_rk {
         } else {
             std::array<const double*, s> kp{};
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
-            const double* last = s > 1 ? detail::reals(std::as_const(st_.stage)).data() : xr.data();
-            finish_general(o, xr.data(), last, kp, dt, n, bad, std::make_index_sequence<s>{});
+            finish_general(o, xr.data(), kp, dt, n, bad, std::make_index_sequence<s>{});
         }
         if (bad != 0.0)
             return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
@@ -61,32 +58,38 @@ class conservative_rk {
         return step_result::success();
     }
 
-    /// How many state-sized buffers this stepper holds.
+    /// How many state-sized buffers this stepper holds: the conventional method's and, except for C-PC, an
+    /// output buffer (a failed step must leave x untouched).
     static constexpr std::size_t buffer_count() { return s + (s > 1 ? 1 : 0) + (is_c_pc ? 0 : 1); }
 
    private:
-    // acc = sum_i 2 b_i Y_i k_i, the augmented component's stage sum (the rate of psi^2).
-    void accumulate_square_rate(std::size_t i, std::span<const double> y, std::span<const double> k) {
-        const double w = 2.0 * T.b[i];
-        double* a = detail::reals(acc_).data();
-        const std::size_t n = y.size();
-        if (i == 0) {
-            for (std::size_t j = 0; j < n; ++j) a[j] = w * y[j] * k[j];
-        } else if (w != 0.0) {
-            for (std::size_t j = 0; j < n; ++j) a[j] += w * y[j] * k[j];
-        }
+    // Stage value Y_J = x + dt sum_m a[J][m] k_m at one unknown, recomputed exactly as stage_storage formed it
+    // (same operations in the same order, so the same bits): the stages need not be kept for the end.
+    template <std::size_t J>
+    static double stage_value(double x, const std::array<const double*, s>& k, std::size_t i, double dt) {
+        double acc = x;
+        [&]<std::size_t... M>(std::index_sequence<M...>) {
+            ((T.a[J][M] != 0.0 ? (acc += (dt * T.a[J][M]) * k[M][i], 0) : 0), ...);
+        }(std::make_index_sequence<J>{});
+        return acc;
     }
 
+    // One pass over x and the k_j: the conventional update (for the sign), the rate of psi^2,
+    // sum_j 2 b_j Y_j k_j, from recomputed stages (no per-stage pass, no stored stages), and the new amplitude.
     template <std::size_t... J>
-    static void finish_general(double* o, const double* x, const double* last, const std::array<const double*, s>& k,
-                               double dt, std::size_t n, double& bad, std::index_sequence<J...>) {
+    static void finish_general(double* o, const double* x, const std::array<const double*, s>& k, double dt,
+                               std::size_t n, double& bad, std::index_sequence<J...>) {
         const std::array<double, s> w{(dt * T.b[J])...};
         for (std::size_t i = 0; i < n; ++i) {
             double conv = x[i];
             ((T.b[J] != 0.0 ? (conv += w[J] * k[J][i], 0) : 0), ...);
-            const double rad = x[i] * x[i] + dt * o[i];
+            double rate = 2.0 * T.b[0] * x[i] * k[0][i];  // Y_0 = x
+            ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * stage_value<J>(x[i], k, i, dt) * k[J][i], 0) : 0),
+             ...);
+            const double rad = x[i] * x[i] + dt * rate;
             bad += rad >= 0.0 ? 0.0 : 1.0;
-            o[i] = std::copysign(std::sqrt(rad), Sign == sign_rule::of_update ? conv : last[i]);
+            const double sign = Sign == sign_rule::of_update ? conv : stage_value<s - 1>(x[i], k, i, dt);
+            o[i] = std::copysign(std::sqrt(rad), sign);
         }
     }
 
