@@ -64,7 +64,7 @@ std::string format_number(double v, int digits) {
 std::string gnuplot_script(int n, const std::string& what, const std::string& body, int width, int height) {
     const std::string name = "fig" + std::to_string(n);
     return fill(R"gp(# Figure @N@ of Shadwick, Bowman & Morrison, "Exactly conservative integrators": @WHAT@.
-# Written by `eci figures`; re-plot with `gnuplot @NAME@.gp` from any directory (the data are in @NAME@*.csv).
+# Written by `eci figures`; re-plot with `gnuplot @NAME@.gp` from any directory (it reads the CSV files beside it).
 set encoding utf8
 script = ARG0; cut = strlen(script)
 while (cut > 0 && script[cut:cut] ne "/") { cut = cut - 1 }
@@ -248,7 +248,8 @@ int run_figures(const figures_options& options) {
         std::cerr << "eci figures: warning: the plotting program '" << gnuplot
                   << "' was not found, so no PNG/SVG pictures were drawn; the CSV data and gnuplot scripts are in "
                   << dir.string() << ". To draw them: apt-get install gnuplot-nox, then run gnuplot "
-                  << (dir / "figN.gp").string() << " for each figure N (or set ECI_GNUPLOT to the gnuplot program).\n";
+                  << (dir / "figN.gp").string()
+                  << " for each figure N (or set ECI_GNUPLOT to the gnuplot program).\n";
     }
     return 0;
 }

@@ -56,15 +56,19 @@ std::vector<std::string> mode_columns(const std::string& method) {
 
 void append(std::vector<std::string>& a, const std::vector<std::string>& b) { a.insert(a.end(), b.begin(), b.end()); }
 
-/// Largest |E(t) - E(0)| / E(0) along a trajectory, for an invariant given as a member function.
-double max_relative_drift(const three_wave& model, const trajectory& tr, double (three_wave::*inv)(const state&) const) {
+/// An invariant of the model, as a member function (energy, enstrophy).
+using invariant_fn = double (three_wave::*)(const state&) const;
+
+/// Largest |I(t) - I(0)| / I(0) along a trajectory.
+double max_relative_drift(const three_wave& model, const trajectory& tr, invariant_fn inv) {
     const double v0 = (model.*inv)(tr.x.front());
     double worst = 0.0;
     for (const auto& s : tr.x) worst = std::max(worst, std::abs((model.*inv)(s) - v0) / v0);
     return worst;
 }
 
-double relative_change_at_end(const three_wave& model, const trajectory& tr, double (three_wave::*inv)(const state&) const) {
+/// (I(end) - I(0)) / I(0) for an invariant I.
+double relative_change_at_end(const three_wave& model, const trajectory& tr, invariant_fn inv) {
     const double v0 = (model.*inv)(tr.x.front());
     return ((model.*inv)(tr.x.back()) - v0) / v0;
 }
@@ -169,9 +173,12 @@ figure_result make_figure_1() {
                           {"BSTYLE", "lines"}}));
     r.numbers = {
         {"euler_energy_gain_rel", "Euler: E(t_end)/E(0) - 1 (dt 0.02, t_end 10)", gain, "growth shown, no number"},
-        {"c_euler_max_drift_E_rel", "C-Euler: max |E(t)-E(0)|/E(0)", max_relative_drift(c.model, c.conservative, &three_wave::energy), "0 (exact)"},
-        {"c_euler_max_drift_Z_rel", "C-Euler: max |Z(t)-Z(0)|/Z(0)", max_relative_drift(c.model, c.conservative, &three_wave::enstrophy), "0 (exact)"},
-        {"c_euler_implicit_steps", "C-Euler: implicit midpoint steps near psi_k = 0", double(c.conservative.stats.solver.solves), "-"},
+        {"c_euler_max_drift_E_rel", "C-Euler: max |E(t)-E(0)|/E(0)",
+         max_relative_drift(c.model, c.conservative, &three_wave::energy), "0 (exact)"},
+        {"c_euler_max_drift_Z_rel", "C-Euler: max |Z(t)-Z(0)|/Z(0)",
+         max_relative_drift(c.model, c.conservative, &three_wave::enstrophy), "0 (exact)"},
+        {"c_euler_implicit_steps", "C-Euler: implicit midpoint steps near psi_k = 0",
+         double(c.conservative.stats.solver.solves), "-"},
         {"euler_max_abs_error", "Euler: max |psi_k - exact|", max_abs_error(c.conventional, c.exact), "-"},
         {"c_euler_max_abs_error", "C-Euler: max |psi_k - exact|", max_abs_error(c.conservative, c.exact), "-"},
     };
@@ -199,27 +206,15 @@ figure_result make_figure_2() {
     const double steps = double(c.conservative.stats.steps);
     r.numbers = {
         {"c_pc_steps", "C-PC: steps of 0.2 to t = 10", steps, "-"},
-        {"c_pc_step_reductions", "C-PC: step halvings (negative radicand) at dt 0.2", double(c.conservative.stats.step_reductions),
+        {"c_pc_step_reductions", "C-PC: step halvings (negative radicand) at dt 0.2",
+         double(c.conservative.stats.step_reductions),
          "~10% of steps"},
     };
     return r;
 }
 
-figure_result make_figure_3() {
-    const auto c = compare<pc<state>, c_pc<state>>(dt_pc);
-    figure_result r;
-    r.number = 3;
-    csv_table table;
-    table.columns = {"t"};
-    append(table.columns, mode_columns("pc_err"));
-    append(table.columns, mode_columns("c_pc_err"));
-    for (std::size_t i = 0; i < c.exact.size(); ++i) {
-        const state &u = c.conventional.x[i], &v = c.conservative.x[i], &e = c.exact[i];
-        table.add({c.conventional.t[i], u[0] - e[0], u[1] - e[1], u[2] - e[2], v[0] - e[0], v[1] - e[1], v[2] - e[2]});
-    }
-    r.csvs.emplace_back("fig3.csv", std::move(table));
-    const double pc_err = max_abs_error(c.conventional, c.exact), c_pc_err = max_abs_error(c.conservative, c.exact);
-    r.script = gnuplot_script(3, "errors of Fig. 2's PC and C-PC solutions against the exact one", fill(R"gp(
+// Figure 3's plot commands.
+const char* const fig3_body = R"gp(
 set datafile separator comma
 set key outside right top vertical box opaque
 set grid lc rgb "#dddddd"
@@ -237,16 +232,53 @@ do for [k = 1:3] {
        "fig3.csv" using "t":(column("c_pc_err_".mode)) with linespoints lw 2 dt 1 lc rgb "#1f5fbf" pt 7 ps 0.6 title "C-PC"
 }
 unset multiplot
-)gp",
-                                                    {{"TEND", format_number(t_end)},
-                                                     {"PCERR", format_number(pc_err)},
-                                                     {"CPCERR", format_number(c_pc_err)}}));
+)gp";
+
+figure_result make_figure_3() {
+    const auto c = compare<pc<state>, c_pc<state>>(dt_pc);
+    figure_result r;
+    r.number = 3;
+    csv_table table;
+    table.columns = {"t"};
+    append(table.columns, mode_columns("pc_err"));
+    append(table.columns, mode_columns("c_pc_err"));
+    for (std::size_t i = 0; i < c.exact.size(); ++i) {
+        const state &u = c.conventional.x[i], &v = c.conservative.x[i], &e = c.exact[i];
+        table.add({c.conventional.t[i], u[0] - e[0], u[1] - e[1], u[2] - e[2], v[0] - e[0], v[1] - e[1],
+                   v[2] - e[2]});
+    }
+    r.csvs.emplace_back("fig3.csv", std::move(table));
+    const double pc_err = max_abs_error(c.conventional, c.exact), c_pc_err = max_abs_error(c.conservative, c.exact);
+    const std::vector<std::pair<std::string, std::string>> values{
+        {"TEND", format_number(t_end)},
+        {"PCERR", format_number(pc_err)},
+        {"CPCERR", format_number(c_pc_err)},
+    };
+    r.script = gnuplot_script(3, "errors of Fig. 2's PC and C-PC solutions against the exact one",
+                              fill(fig3_body, values));
     r.numbers = {
         {"pc_max_abs_error", "PC: max |psi_k - exact| for t <= 10 (dt 0.2)", pc_err, "C-PC more accurate"},
         {"c_pc_max_abs_error", "C-PC: max |psi_k - exact| for t <= 10 (dt 0.2)", c_pc_err, "C-PC more accurate"},
     };
     return r;
 }
+
+// Figure 4's plot commands.
+const char* const fig4_body = R"gp(
+set datafile separator comma
+set key top left box opaque
+set grid lc rgb "#dddddd"
+set xrange [0:@TEND@]
+set xlabel "t"
+set multiplot layout 2,1 title "Fig. 4: change of the invariants, {/Symbol t} = 0.2 (E(0) = @E0@, Z(0) = @Z0@)" font ",14"
+set ylabel "{/Symbol D}E = E(t) - E(0)"
+plot "fig4.csv" using "t":"pc_dE" with linespoints lw 2 dt 2 lc rgb "#d62728" pt 8 ps 0.9 title "PC (gains @GAINE@% by t = @TEND@)", \
+     "fig4.csv" using "t":"c_pc_dE" with linespoints lw 2 dt 1 lc rgb "#1f5fbf" pt 7 ps 0.6 title "C-PC (max |{/Symbol D}E|/E(0) = @DRIFTE@)"
+set ylabel "{/Symbol D}Z = Z(t) - Z(0)"
+plot "fig4.csv" using "t":"pc_dZ" with linespoints lw 2 dt 2 lc rgb "#d62728" pt 8 ps 0.9 title "PC (gains @GAINZ@% by t = @TEND@)", \
+     "fig4.csv" using "t":"c_pc_dZ" with linespoints lw 2 dt 1 lc rgb "#1f5fbf" pt 7 ps 0.6 title "C-PC (max |{/Symbol D}Z|/Z(0) = @DRIFTZ@)"
+unset multiplot
+)gp";
 
 figure_result make_figure_4() {
     const auto c = compare<pc<state>, c_pc<state>>(dt_pc);
@@ -265,29 +297,17 @@ figure_result make_figure_4() {
     const double gain_z = relative_change_at_end(c.model, c.conventional, &three_wave::enstrophy);
     const double drift_e = max_relative_drift(c.model, c.conservative, &three_wave::energy);
     const double drift_z = max_relative_drift(c.model, c.conservative, &three_wave::enstrophy);
-    r.script = gnuplot_script(4, "energy and enstrophy change of PC and C-PC, dt = 0.2", fill(R"gp(
-set datafile separator comma
-set key top left box opaque
-set grid lc rgb "#dddddd"
-set xrange [0:@TEND@]
-set xlabel "t"
-set multiplot layout 2,1 title "Fig. 4: change of the invariants, {/Symbol t} = 0.2 (E(0) = @E0@, Z(0) = @Z0@)" font ",14"
-set ylabel "{/Symbol D}E = E(t) - E(0)"
-plot "fig4.csv" using "t":"pc_dE" with linespoints lw 2 dt 2 lc rgb "#d62728" pt 8 ps 0.9 title "PC (gains @GAINE@% by t = @TEND@)", \
-     "fig4.csv" using "t":"c_pc_dE" with linespoints lw 2 dt 1 lc rgb "#1f5fbf" pt 7 ps 0.6 title "C-PC (max |{/Symbol D}E|/E(0) = @DRIFTE@)"
-set ylabel "{/Symbol D}Z = Z(t) - Z(0)"
-plot "fig4.csv" using "t":"pc_dZ" with linespoints lw 2 dt 2 lc rgb "#d62728" pt 8 ps 0.9 title "PC (gains @GAINZ@% by t = @TEND@)", \
-     "fig4.csv" using "t":"c_pc_dZ" with linespoints lw 2 dt 1 lc rgb "#1f5fbf" pt 7 ps 0.6 title "C-PC (max |{/Symbol D}Z|/Z(0) = @DRIFTZ@)"
-unset multiplot
-)gp",
-                                                                                        {{"TEND", format_number(t_end)},
-                                                                                         {"E0", format_number(e0)},
-                                                                                         {"Z0", format_number(z0)},
-                                                                                         {"GAINE", format_number(100 * gain_e)},
-                                                                                         {"GAINZ", format_number(100 * gain_z)},
-                                                                                         {"DRIFTE", format_number(drift_e, 2)},
-                                                                                         {"DRIFTZ", format_number(drift_z, 2)}}),
-                              1000, 700);
+    const std::vector<std::pair<std::string, std::string>> values{
+        {"TEND", format_number(t_end)},
+        {"E0", format_number(e0)},
+        {"Z0", format_number(z0)},
+        {"GAINE", format_number(100 * gain_e)},
+        {"GAINZ", format_number(100 * gain_z)},
+        {"DRIFTE", format_number(drift_e, 2)},
+        {"DRIFTZ", format_number(drift_z, 2)},
+    };
+    r.script = gnuplot_script(4, "energy and enstrophy change of PC and C-PC, dt = 0.2",
+                              fill(fig4_body, values), 1000, 700);
     r.numbers = {
         {"pc_energy_gain_rel", "PC: E(10)/E(0) - 1 (dt 0.2)", gain_e, "always increasing"},
         {"pc_enstrophy_gain_rel", "PC: Z(10)/Z(0) - 1 (dt 0.2)", gain_z, "always increasing"},
@@ -326,6 +346,26 @@ double single_step_error(const three_wave& model, const three_wave_exact& exact,
 
 }  // namespace
 
+// Figure 5's plot commands.
+const char* const fig5_body = R"gp(
+set datafile separator comma
+set logscale xy
+set xrange [7e-4:0.15]
+set format x "10^{%T}"
+set format y "10^{%T}"
+set grid lc rgb "#dddddd"
+set key top left box opaque
+set xlabel "time step {/Symbol t}"
+set ylabel "single-step error |{/Symbol y}_K({/Symbol t}) - {/Symbol y}_K^{exact}({/Symbol t})|"
+set title "Fig. 5: single-step error of mode K, {/Symbol y}(0) = (1.5^{1/2}, 1, 1.5^{1/2}), least-squares fit A{/Symbol t}^n" font ",14"
+pc_A = @PCA@; pc_n = @PCN@; c_pc_A = @CPCA@; c_pc_n = @CPCN@
+# The two fits nearly coincide: C-PC's is drawn wide and pale underneath, PC's dashed on top.
+plot c_pc_A * x**c_pc_n with lines lw 6 dt 1 lc rgb "#8fb3e8" title sprintf("C-PC fit: A = %.3g, n = %.3f", c_pc_A, c_pc_n), \
+     pc_A * x**pc_n with lines lw 2 dt 2 lc rgb "#d62728" title sprintf("PC fit: A = %.3g, n = %.3f", pc_A, pc_n), \
+     "fig5.csv" using "tau":"c_pc_error_K" with points pt 7 ps 1.2 lc rgb "#1f5fbf" title "C-PC", \
+     "fig5.csv" using "tau":"pc_error_K" with points pt 8 ps 1.8 lw 2 lc rgb "#d62728" title "PC"
+)gp";
+
 figure_result make_figure_5() {
     const three_wave model;
     const three_wave_exact exact(model, psi0_fig_5);
@@ -354,29 +394,14 @@ figure_result make_figure_5() {
     figure_result r;
     r.number = 5;
     r.csvs.emplace_back("fig5.csv", std::move(table));
-    r.script = gnuplot_script(5, "single-step error of mode K against tau, PC and C-PC, with fitted A tau^n", fill(R"gp(
-set datafile separator comma
-set logscale xy
-set xrange [7e-4:0.15]
-set format x "10^{%T}"
-set format y "10^{%T}"
-set grid lc rgb "#dddddd"
-set key top left box opaque
-set xlabel "time step {/Symbol t}"
-set ylabel "single-step error |{/Symbol y}_K({/Symbol t}) - {/Symbol y}_K^{exact}({/Symbol t})|"
-set title "Fig. 5: single-step error of mode K, {/Symbol y}(0) = (1.5^{1/2}, 1, 1.5^{1/2}), least-squares fit A{/Symbol t}^n" font ",14"
-pc_A = @PCA@; pc_n = @PCN@; c_pc_A = @CPCA@; c_pc_n = @CPCN@
-# The two fits nearly coincide: C-PC's is drawn wide and pale underneath, PC's dashed on top.
-plot c_pc_A * x**c_pc_n with lines lw 6 dt 1 lc rgb "#8fb3e8" title sprintf("C-PC fit: A = %.3g, n = %.3f", c_pc_A, c_pc_n), \
-     pc_A * x**pc_n with lines lw 2 dt 2 lc rgb "#d62728" title sprintf("PC fit: A = %.3g, n = %.3f", pc_A, pc_n), \
-     "fig5.csv" using "tau":"c_pc_error_K" with points pt 7 ps 1.2 lc rgb "#1f5fbf" title "C-PC", \
-     "fig5.csv" using "tau":"pc_error_K" with points pt 8 ps 1.8 lw 2 lc rgb "#d62728" title "PC"
-)gp",
-                                                                                                                        {{"PCA", format_number(pc_a, 17)},
-                                                                                                                         {"PCN", format_number(pc_n, 17)},
-                                                                                                                         {"CPCA", format_number(c_pc_a, 17)},
-                                                                                                                         {"CPCN", format_number(c_pc_n, 17)}}),
-                              900, 700);
+    const std::vector<std::pair<std::string, std::string>> values{
+        {"PCA", format_number(pc_a, 17)},
+        {"PCN", format_number(pc_n, 17)},
+        {"CPCA", format_number(c_pc_a, 17)},
+        {"CPCN", format_number(c_pc_n, 17)},
+    };
+    r.script = gnuplot_script(5, "single-step error of mode K against tau, PC and C-PC, with fitted A tau^n",
+                              fill(fig5_body, values), 900, 700);
     r.numbers = {
         {"pc_fit_A", "PC single-step error fit: A", pc_a, "shown on plot"},
         {"pc_fit_n", "PC single-step error fit: n (expect 3)", pc_n, "second order (n = 3)"},
@@ -386,6 +411,34 @@ plot c_pc_A * x**c_pc_n with lines lw 6 dt 1 lc rgb "#8fb3e8" title sprintf("C-P
     };
     return r;
 }
+
+// Figure 6's plot commands.
+const char* const fig6_body = R"gp(
+set datafile separator comma
+set grid lc rgb "#dddddd"
+set multiplot layout 1,2 title "Fig. 6: three-wave orbit, {/Symbol t} = 0.2, t in [0, @TEND@]: PC gains @GAINP@% energy in one period (t = @PERIOD@)\nand @GAINE@% by t = @TEND@, so its orbit spirals off the exact one; C-PC stays on it" font ",14"
+set key at screen 0.5, screen 0.12 center center horizontal box opaque
+set xlabel "{/Symbol y}_K" offset 0,-0.5
+set ylabel "{/Symbol y}_P" offset 0,-0.5
+set zlabel "{/Symbol y}_Q" rotate parallel
+set view 62, 38, 1.0, 1.0
+set xyplane relative 0.05
+set xtics 0.1
+set title "in ({/Symbol y}_K, {/Symbol y}_P, {/Symbol y}_Q) space"
+splot "fig6_exact.csv" using "exact_K":"exact_P":"exact_Q" with lines lw 6 lc rgb "#b0b0b0" title "exact orbit", \
+      "fig6.csv" using "pc_K":"pc_P":"pc_Q" with linespoints lw 1.5 dt 2 lc rgb "#d62728" pt 8 ps 0.9 title "PC", \
+      "fig6.csv" using "c_pc_K":"c_pc_P":"c_pc_Q" with points pt 7 ps 0.9 lc rgb "#1f5fbf" title "C-PC"
+unset key
+set title "projection on the ({/Symbol y}_P, {/Symbol y}_Q) plane"
+set xlabel "{/Symbol y}_P" offset 0,0
+set ylabel "{/Symbol y}_Q" offset 0,0
+set xtics autofreq
+set size ratio -1
+plot "fig6_exact.csv" using "exact_P":"exact_Q" with lines lw 6 lc rgb "#b0b0b0" title "exact orbit", \
+     "fig6.csv" using "pc_P":"pc_Q" with linespoints lw 1.5 dt 2 lc rgb "#d62728" pt 8 ps 0.9 title "PC", \
+     "fig6.csv" using "c_pc_P":"c_pc_Q" with points pt 7 ps 0.9 lc rgb "#1f5fbf" title "C-PC"
+unset multiplot
+)gp";
 
 figure_result make_figure_6() {
     const auto c = compare<pc<state>, c_pc<state>>(dt_pc);
@@ -412,40 +465,18 @@ figure_result make_figure_6() {
         (1 - w) * c.model.energy(c.conventional.x[i]) + w * c.model.energy(c.conventional.x[i + 1]);
     const double gain_period = e_period / e0 - 1.0;
     const double gain_end = relative_change_at_end(c.model, c.conventional, &three_wave::energy);
-    r.script = gnuplot_script(6, "three-wave orbit in (psi_K, psi_P, psi_Q), PC against C-PC, dt = 0.2", fill(R"gp(
-set datafile separator comma
-set grid lc rgb "#dddddd"
-set multiplot layout 1,2 title "Fig. 6: three-wave orbit, {/Symbol t} = 0.2, t in [0, @TEND@]: PC gains @GAINP@% energy in one period (t = @PERIOD@)\nand @GAINE@% by t = @TEND@, so its orbit spirals off the exact one; C-PC stays on it" font ",14"
-set key at screen 0.5, screen 0.12 center center horizontal box opaque
-set xlabel "{/Symbol y}_K" offset 0,-0.5
-set ylabel "{/Symbol y}_P" offset 0,-0.5
-set zlabel "{/Symbol y}_Q" rotate parallel
-set view 62, 38, 1.0, 1.0
-set xyplane relative 0.05
-set xtics 0.1
-set title "in ({/Symbol y}_K, {/Symbol y}_P, {/Symbol y}_Q) space"
-splot "fig6_exact.csv" using "exact_K":"exact_P":"exact_Q" with lines lw 6 lc rgb "#b0b0b0" title "exact orbit", \
-      "fig6.csv" using "pc_K":"pc_P":"pc_Q" with linespoints lw 1.5 dt 2 lc rgb "#d62728" pt 8 ps 0.9 title "PC", \
-      "fig6.csv" using "c_pc_K":"c_pc_P":"c_pc_Q" with points pt 7 ps 0.9 lc rgb "#1f5fbf" title "C-PC"
-unset key
-set title "projection on the ({/Symbol y}_P, {/Symbol y}_Q) plane"
-set xlabel "{/Symbol y}_P" offset 0,0
-set ylabel "{/Symbol y}_Q" offset 0,0
-set xtics autofreq
-set size ratio -1
-plot "fig6_exact.csv" using "exact_P":"exact_Q" with lines lw 6 lc rgb "#b0b0b0" title "exact orbit", \
-     "fig6.csv" using "pc_P":"pc_Q" with linespoints lw 1.5 dt 2 lc rgb "#d62728" pt 8 ps 0.9 title "PC", \
-     "fig6.csv" using "c_pc_P":"c_pc_Q" with points pt 7 ps 0.9 lc rgb "#1f5fbf" title "C-PC"
-unset multiplot
-)gp",
-                                                                                                              {{"TEND", format_number(t_end)},
-                                                                                                               {"PERIOD", format_number(period)},
-                                                                                                               {"GAINP", format_number(100 * gain_period)},
-                                                                                                               {"GAINE", format_number(100 * gain_end)}}),
-                              1400, 760);
+    const std::vector<std::pair<std::string, std::string>> values{
+        {"TEND", format_number(t_end)},
+        {"PERIOD", format_number(period)},
+        {"GAINP", format_number(100 * gain_period)},
+        {"GAINE", format_number(100 * gain_end)},
+    };
+    r.script = gnuplot_script(6, "three-wave orbit in (psi_K, psi_P, psi_Q), PC against C-PC, dt = 0.2",
+                              fill(fig6_body, values), 1400, 760);
     r.numbers = {
         {"three_wave_period", "exact period of the three-wave orbit", period, "-"},
-        {"pc_energy_gain_rel_one_period", "PC: E/E(0) - 1 after one period (dt 0.2)", gain_period, "0.04 (\"4% energy gain\")"},
+        {"pc_energy_gain_rel_one_period", "PC: E/E(0) - 1 after one period (dt 0.2)", gain_period,
+         "0.04 (\"4% energy gain\")"},
         {"pc_energy_gain_rel_end", "PC: E/E(0) - 1 at t = 10 (dt 0.2)", gain_end, "-"},
     };
     return r;
