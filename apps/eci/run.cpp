@@ -88,7 +88,9 @@ void check_distinct_outputs(const run_settings& settings) {
         throw bad_input("--output and --summary-json cannot both be standard output");
     namespace fs = std::filesystem;
     std::error_code ec;
-    const fs::path a = fs::weakly_canonical(settings.output, ec), b = fs::weakly_canonical(settings.summary_json, ec);
+    // absolute first: weakly_canonical leaves a relative path with no existing prefix ("out") relative.
+    const fs::path a = fs::weakly_canonical(fs::absolute(settings.output, ec), ec);
+    const fs::path b = fs::weakly_canonical(fs::absolute(settings.summary_json, ec), ec);
     if (settings.output != "-" && settings.summary_json != "-" && a == b)
         throw bad_input("--output and --summary-json name the same file '" + settings.output + "'");
 }

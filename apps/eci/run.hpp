@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <complex>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include <eci/integrate.hpp>
+#include <eci/models/invariant.hpp>
 #include <eci/registry.hpp>
 
 #include "models.hpp"
@@ -126,6 +128,13 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             ++i;
         });
     }
+    if constexpr (requires { model.validate_state(x); }) {  // a domain, e.g. Lotka-Volterra's x, y > 0
+        try {
+            model.validate_state(x);
+        } catch (const std::invalid_argument& e) {
+            throw bad_input(std::string("invalid initial condition: ") + e.what());
+        }
+    }
     check_distinct_outputs(settings);
 
     // Open both outputs before running: an unwritable path is bad input, reported before any work.
@@ -134,6 +143,13 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         settings.summary_json.empty() ? output_file() : output_file(settings.summary_json, "summary JSON");
 
     constexpr auto invariants = Model::invariants();
+    // Columns computed from the state (Kepler's Cartesian position), written between the state and the invariants.
+    constexpr auto derived = [] {
+        if constexpr (requires { Model::derived_columns(); })
+            return Model::derived_columns();
+        else
+            return std::array<named_invariant<Model>, 0>{};
+    }();
     run_summary summary;
     summary.model = info.name;
     summary.method = std::string(method.name);
@@ -147,6 +163,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     if (out) {
         std::fputs("t", out);
         for (const std::string& c : columns) std::fprintf(out, ",%s", c.c_str());
+        for (const auto& d : derived) std::fprintf(out, ",%s", d.name);
         for (const auto& inv : invariants) std::fprintf(out, ",%s", inv.name);
         std::fputc('\n', out);
     }
@@ -176,6 +193,11 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
                 const std::string_view f = format_double(v, buffer);
                 std::fwrite(f.data(), 1, f.size(), out);
             });
+            for (const auto& d : derived) {
+                std::fputc(',', out);
+                const std::string_view f = format_double((model.*d.value)(state), buffer);
+                std::fwrite(f.data(), 1, f.size(), out);
+            }
             for (double v : values) {
                 std::fputc(',', out);
                 const std::string_view f = format_double(v, buffer);

@@ -71,6 +71,12 @@ struct c_rk4 {
     template <state S> using stepper = eci::c_rk4<S>;
 };
 
+/// Kahan's linearly implicit method; eci::kahan<Model> needs the model's Jacobian, so models dispatch it.
+struct kahan {
+    static constexpr method_info info{"kahan", 2, false,
+                                      "Kahan's linearly implicit method (quadratic fields; needs the model's Jacobian)"};
+};
+
 }  // namespace method_entries
 
 namespace detail {
@@ -120,7 +126,8 @@ struct method_list {
 /// append it here; `eci list` and every loop over `methods` pick it up.
 using registered_methods =
     detail::method_list<method_entries::euler, method_entries::pc, method_entries::rk2, method_entries::rk4,
-                        method_entries::c_euler, method_entries::c_pc, method_entries::c_rk2, method_entries::c_rk4>;
+                        method_entries::c_euler, method_entries::c_pc, method_entries::c_rk2, method_entries::c_rk4,
+                        method_entries::kahan>;
 
 /// Every registered method, in list order.
 inline constexpr auto methods = registered_methods::infos;
