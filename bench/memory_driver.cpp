@@ -28,7 +28,8 @@ int run(const model& m, state& x, unsigned long steps) {
     Stepper stepper;
     eci::bench::rhs<model> f{&m};
     eci::run_stats stats;
-    for (unsigned long i = 0; i < steps; ++i) eci::detail::advance_with_reduction(stepper, f, x, i * 1e-5, 1e-5, 40, stats);
+    for (unsigned long i = 0; i < steps; ++i)
+        eci::detail::advance_with_reduction(stepper, f, x, double(i) * 1e-5, 1e-5, 40, stats);
     std::printf("%zu", Stepper::buffer_count());
     return 0;
 }
@@ -37,7 +38,8 @@ int run(const model& m, state& x, unsigned long steps) {
 
 int main(int argc, char** argv) {
     if (argc != 4) {
-        std::fprintf(stderr, "usage: eci_bench_memory_driver <none|euler|pc|c_pc|c_pc_compensated|rk4|c_rk4> <modes> <steps>\n");
+        std::fprintf(stderr, "usage: eci_bench_memory_driver <none|euler|pc|c_pc|c_pc_compensated|rk4|c_rk4> "
+                             "<modes> <steps>\n");
         return 2;
     }
     const std::string name = argv[1];
