@@ -79,9 +79,11 @@ class cli : public ::testing::Test {
         fs::remove_all(root_, ec);
     }
 
-    run_result eci(const std::vector<std::string>& args) const {
+    /// Runs eci with args in work/; `wrapper` (a command prefix such as timeout) runs it, if given.
+    run_result eci(const std::vector<std::string>& args, const std::string& wrapper = "") const {
         std::string cmd = "cd ";
-        cmd.append(shell_quote(work_.string())).append(" && ").append(shell_quote(ECI_CLI_PATH));
+        cmd.append(shell_quote(work_.string())).append(" && ").append(wrapper).append(" ");
+        cmd.append(shell_quote(ECI_CLI_PATH));
         for (const std::string& a : args) cmd.append(" ").append(shell_quote(a));
         const fs::path out = root_ / "capture" / "out", err = root_ / "capture" / "err";
         cmd.append(" </dev/null >").append(shell_quote(out.string())).append(" 2>").append(shell_quote(err.string()));
@@ -231,6 +233,9 @@ struct bad_case {
     std::vector<std::string> args;
 };
 
+// Test names show the label, not the bytes of the struct.
+void PrintTo(const bad_case& c, std::ostream* os) { *os << c.label; }
+
 // Every case also asks for out.csv and out.json, so each must fail before (or without) leaving them.
 const std::vector<bad_case> bad_cases = {
     {"unknown_model", {"run", "bogus"}},
@@ -339,6 +344,18 @@ TEST_F(cli, step_size_underflow_names_time_and_csv_column_and_leaves_nothing) {
     expect_one_error_line(r, 1);
     EXPECT_NE(r.err.find("at t = 0 "), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("component psi_Q"), std::string::npos) << r.err;
+    EXPECT_EQ(read_file(work("out.csv")), "precious csv\n");
+    EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
+}
+
+TEST_F(cli, interrupt_removes_partial_output_and_exits_130) {
+    std::ofstream(work("out.csv")) << "precious csv\n";
+    // A run of ~10^7 steps of 300 modes (minutes), stopped by SIGINT after half a second.
+    const run_result r = eci({"run", "n-wave", "--modes", "300", "--t-end", "100000", "--output", "out.csv",
+                              "--summary-json", "out.json"},
+                             "timeout -s INT --preserve-status 0.5");
+    expect_one_error_line(r, 130);
+    EXPECT_NE(r.err.find("interrupted at t = "), std::string::npos) << r.err;
     EXPECT_EQ(read_file(work("out.csv")), "precious csv\n");
     EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
 }
