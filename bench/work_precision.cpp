@@ -110,7 +110,7 @@ void sweep_fixed(const wp_problem<Model>& p, const std::string& method, int min_
         auto run = [&](typename Model::state_type& x) {
             Stepper stepper = make();
             try {
-                return eci::integrate_to(stepper, rhs<Model>{&p.model}, x, 0.0, p.t_end, dt).rhs_evals;
+                return eci::integrate_to(stepper, p.model, x, 0.0, p.t_end, dt).rhs_evals;
             } catch (const eci::step_size_underflow&) {
                 for (auto& v : x) v = std::numeric_limits<double>::quiet_NaN();
                 return std::uint64_t{0};
