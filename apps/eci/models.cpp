@@ -17,12 +17,16 @@ namespace eci::cli {
 std::unique_ptr<model_command> make_three_wave_command();
 std::unique_ptr<model_command> make_n_wave_command();
 std::unique_ptr<model_command> make_n_wave_complex_command();
+std::unique_ptr<model_command> make_lotka_volterra_command();
+std::unique_ptr<model_command> make_kepler_command();
 
 std::vector<std::unique_ptr<model_command>> registered_models() {
     std::vector<std::unique_ptr<model_command>> models;
     models.push_back(make_three_wave_command());
     models.push_back(make_n_wave_command());
     models.push_back(make_n_wave_complex_command());
+    models.push_back(make_lotka_volterra_command());
+    models.push_back(make_kepler_command());
     return models;
 }
 

@@ -1,0 +1,164 @@
+// `eci run lotka-volterra` and `eci run kepler` end to end: exact CSV headers, Newton statistics in the JSON
+// summary, the paper's runs through the binary, and bad input refused with one line and exit status 2.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct result {
+    int status = -1;
+    std::string out, err;
+};
+
+std::string slurp(const fs::path& file) {
+    std::ifstream in(file);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+// A scratch directory per test, removed afterwards.
+class CliLvKepler : public ::testing::Test {
+   protected:
+    void SetUp() override {
+        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
+        dir_ = fs::temp_directory_path() / ("eci_cli_lv_kepler_" + std::string(info->name()));
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    // Runs `eci args` (through the shell) capturing stdout and stderr.
+    result eci(const std::string& args) const {
+        const fs::path err = dir_ / "stderr";
+        // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on a chain of operator+ here.
+        std::string command = "'";
+        command.append(ECI_CLI_PATH).append("' ").append(args).append(" 2>'").append(err.string()).append("'");
+        result r;
+        FILE* pipe = popen(command.c_str(), "r");
+        if (!pipe) return r;
+        std::array<char, 4096> buffer{};
+        std::size_t n = 0;
+        while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) r.out.append(buffer.data(), n);
+        const int status = pclose(pipe);
+        r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+        r.err = slurp(err);
+        return r;
+    }
+
+    // The value after "key": in a JSON text (numbers only), or NaN.
+    static double json_number(const std::string& json, const std::string& key, std::size_t from = 0) {
+        const std::size_t at = json.find("\"" + key + "\":", from);
+        if (at == std::string::npos) return std::numeric_limits<double>::quiet_NaN();
+        return std::stod(json.substr(at + key.size() + 3));
+    }
+
+    fs::path dir_;
+};
+
+std::string first_line(const std::string& text) { return text.substr(0, text.find('\n')); }
+
+}  // namespace
+
+TEST_F(CliLvKepler, CsvHeadersAreExactlyTheDocumentedOnes) {
+    for (const char* method : {"c-pc", "pc", "kahan", "rk4", "c-rk4"}) {
+        const result r = eci(std::string("run lotka-volterra --steps 10 --output - --method ") + method);
+        ASSERT_EQ(r.status, 0) << method << ": " << r.err;
+        EXPECT_EQ(first_line(r.out), "t,x,y,hamiltonian") << method;
+    }
+    for (const char* method : {"c-pc", "pc", "rk4", "c-rk4"}) {
+        const result r = eci(std::string("run kepler --steps 10 --output - --method ") + method);
+        ASSERT_EQ(r.status, 0) << method << ": " << r.err;
+        EXPECT_EQ(first_line(r.out), "t,r,v_r,theta,x,y,hamiltonian,runge_lenz_x,runge_lenz_y") << method;
+    }
+    // The first Kepler row is the paper's start: r = 1, v_r = theta = 0, so x = 1, y = 0, H = -1, A = (-0.5, 0).
+    const result r = eci("run kepler --steps 1 --output -");
+    const std::string row = r.out.substr(r.out.find('\n') + 1);
+    EXPECT_EQ(first_line(row), "0,1,0,0,1,0,-1,-0.5,0");
+}
+
+// The JSON summary carries the Newton statistics of the transformed C-PC; the paper says 3 or 4 iterations
+// for Kepler's angle.
+TEST_F(CliLvKepler, SummaryJsonReportsNewtonIterations) {
+    const result kepler = eci("run kepler --summary-json -");  // defaults: the paper's 1000 steps of 0.105
+    ASSERT_EQ(kepler.status, 0) << kepler.err;
+    EXPECT_EQ(json_number(kepler.out, "steps"), 1000.0);
+    EXPECT_GE(json_number(kepler.out, "solves"), 1000.0);
+    EXPECT_GE(json_number(kepler.out, "iterations_mean"), 2.0);
+    EXPECT_LE(json_number(kepler.out, "iterations_mean"), 4.0);
+    EXPECT_LE(json_number(kepler.out, "iterations_max"), 6.0);
+    // H and both components of A to round-off: 4 eps * 5 (the largest term at r_min = 0.5) * sqrt(1000).
+    const double tol = 4.0 * std::numeric_limits<double>::epsilon() * 5.0 * std::sqrt(1000.0);
+    for (const char* inv : {"\"hamiltonian\"", "\"runge_lenz_x\"", "\"runge_lenz_y\""}) {
+        const std::size_t at = kepler.out.find(inv);
+        ASSERT_NE(at, std::string::npos) << inv;
+        EXPECT_LE(json_number(kepler.out, "max_abs_drift", at), tol) << inv;
+    }
+
+    const result lv = eci("run lotka-volterra --steps 20000 --summary-json -");
+    ASSERT_EQ(lv.status, 0) << lv.err;
+    EXPECT_GE(json_number(lv.out, "solves"), 40000.0);  // two inverses (x and y) per step
+    EXPECT_LE(json_number(lv.out, "iterations_mean"), 5.0);
+    EXPECT_LE(json_number(lv.out, "iterations_max"), 12.0);
+
+    // Conventional methods make no iterative solves: no solver entry.
+    const result pc = eci("run kepler --method pc --summary-json -");
+    ASSERT_EQ(pc.status, 0) << pc.err;
+    EXPECT_EQ(pc.out.find("\"solver\""), std::string::npos);
+}
+
+// Fig. 8 through the binary: PC with 1313 steps of 0.08 gains 13.7% of |H|.
+TEST_F(CliLvKepler, KeplerPaperPcRunGainsEnergy) {
+    const result r = eci("run kepler --method pc --dt 0.08 --steps 1313 --summary-json -");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::size_t at = r.out.find("\"hamiltonian\"");
+    ASSERT_NE(at, std::string::npos);
+    EXPECT_NEAR(json_number(r.out, "final", at), -0.8632, 1e-3);
+}
+
+// Bad input: one line on stderr naming the problem, exit status 2, no CSV file left behind.
+TEST_F(CliLvKepler, BadInputExitsTwoWithOneLine) {
+    const std::pair<const char*, const char*> cases[] = {
+        {"lotka-volterra --x 0", "x must be positive"},
+        {"lotka-volterra --x -1", "x must be positive"},
+        {"lotka-volterra --y 0", "y must be positive"},
+        {"lotka-volterra --y -0.5", "y must be positive"},
+        {"lotka-volterra --mu 0", "mu must be positive"},
+        {"lotka-volterra --mu -1.5", "mu must be positive"},
+        {"lotka-volterra --x nan", "x is not finite"},
+        {"lotka-volterra --y inf", "y is not finite"},
+        {"lotka-volterra --mu nan", "mu must be finite"},
+        {"kepler --r 0", "r must be positive"},
+        {"kepler --r -1", "r must be positive"},
+        {"kepler --m 0", "m must be positive"},
+        {"kepler --m -1", "m must be positive"},
+        {"kepler --K 0", "K must be positive"},
+        {"kepler --K -1.5", "K must be positive"},
+        {"kepler --ell 0", "radial fall"},
+        {"kepler --v-r 3", "unbound"},
+        {"kepler --r nan", "r is not finite"},
+        {"kepler --theta inf", "theta is not finite"},
+        {"kepler --method kahan", "not available"},
+    };
+    for (const auto& [args, message] : cases) {
+        const fs::path csv = dir_ / "out.csv";
+        const result r = eci(std::string("run ") + args + " --steps 5 --output '" + csv.string() + "'");
+        EXPECT_EQ(r.status, 2) << args;
+        EXPECT_NE(r.err.find(message), std::string::npos) << args << ": " << r.err;
+        EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << args << ": more than one line: " << r.err;
+        EXPECT_TRUE(r.out.empty()) << args;
+        EXPECT_FALSE(fs::exists(csv)) << args;
+    }
+}
