@@ -6,4 +6,6 @@
 #include "steppers/conservative_euler.hpp"
 #include "steppers/conservative_rk.hpp"
 #include "steppers/explicit_rk.hpp"
+#include "steppers/kahan.hpp"
+#include "steppers/transformed_rk.hpp"
 #include "tableaus.hpp"
