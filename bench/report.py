@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 # Turns the raw outputs of one bench/run.sh run into the table of ratios (name, ratio, target, met), printed
-# and optionally written as JSON. Ratios use Google Benchmark's median CPU time per step over interleaved repetitions.
+# and optionally written as JSON. Ratios use Google Benchmark's median CPU time per step over interleaved repetitions,
+# or, for the large realistic system, the median ratio of back-to-back paired steps.
 import argparse
 import json
 import re
@@ -9,19 +10,24 @@ import sys
 
 
 def load_steps(path):
-    """{(problem, method): median cpu time} from Google Benchmark's JSON (aggregates only)."""
+    """{(problem, method): median cpu time} and {(problem, a, b): median paired ratio} from Google Benchmark's
+    JSON. Paired runs (run_name problem/pair:a:b) carry their ratio as a counter."""
     with open(path) as f:
         data = json.load(f)
-    med, runs = {}, {}
+    med, runs, pairs = {}, {}, {}
     for b in data["benchmarks"]:
         key = tuple(b["run_name"].split("/")[:2])
+        if key[1].startswith("pair:"):
+            _, a, bb = key[1].split(":")
+            pairs[(key[0], a, bb)] = b["ratio"]
+            continue
         if b.get("run_type") == "aggregate" and b.get("aggregate_name") == "median":
             med[key] = b["cpu_time"]
         elif b.get("run_type") == "iteration":  # a single repetition has no aggregates
             runs.setdefault(key, []).append(b["cpu_time"])
     for key, times in runs.items():
         med.setdefault(key, statistics.median(times))
-    return med
+    return med, pairs
 
 
 def problem_label(p):
@@ -34,14 +40,15 @@ def problem_label(p):
     return f"n-wave N={short if float(short) == n else n} {kind}"
 
 
-def step_rows(med, big):
+def step_rows(med, pairs, big):
     rows = []
-    problems = sorted({p for p, _ in med}, key=lambda p: (p != "three_wave", len(p), p))
+    problems = {p for p, _ in med} | {p for p, _, _ in pairs}
+    problems = sorted(problems, key=lambda p: (p != "three_wave", len(p), p))
     for p in problems:
         realistic = p.endswith("_t20")
         is_big = p.startswith(f"nwave_{big}_")
         cpc_target = 1.05 if realistic else (1.10 if is_big else None)
-        pairs = [
+        comparisons = [
             ("C-PC / PC", "c_pc", "pc", cpc_target),
             ("C-RK4 / RK4", "c_rk4", "rk4", 1.05 if realistic else None),
             ("C-Euler / Euler", "c_euler", "euler", None),
@@ -49,16 +56,18 @@ def step_rows(med, big):
             ("eci PC / odeint Heun", "pc", "odeint_heun", 1.02),
             ("C-PC compensated / C-PC", "c_pc_compensated", "c_pc", None),
         ]
-        for label, a, b, target in pairs:
+        for label, a, b, target in comparisons:
             if (p, a) in med and (p, b) in med:
                 rows.append((f"{problem_label(p)}: {label}", med[(p, a)] / med[(p, b)], target))
+            elif (p, a, b) in pairs:
+                rows.append((f"{problem_label(p)}: {label} (paired)", pairs[(p, a, b)], target))
     return rows
 
 
 def memory_rows(path, n):
     """Lines 'name buffers=B peak_rss_kib=K energy=E', possibly repeated; medians per name."""
     rss, buffers = {}, {}
-    n = float(n)
+    n = f"{float(n):.0e}".replace("e+0", "e")
     with open(path) as f:
         for line in f:
             fields = line.split()
@@ -71,12 +80,12 @@ def memory_rows(path, n):
     rows = []
     if "pc" in med and "c_pc" in med:
         rows.append(("buffers: C-PC / PC", buffers["c_pc"] / buffers["pc"], 1.0))
-        rows.append((f"peak RSS N={n:.0e}: C-PC / PC", med["c_pc"] / med["pc"], 1.02))
+        rows.append((f"peak RSS N={n}: C-PC / PC", med["c_pc"] / med["pc"], 1.02))
     if "rk4" in med and "c_rk4" in med:
         rows.append(("buffers: C-RK4 / RK4", buffers["c_rk4"] / buffers["rk4"], None))
-        rows.append((f"peak RSS N={n:.0e}: C-RK4 / RK4", med["c_rk4"] / med["rk4"], None))
+        rows.append((f"peak RSS N={n}: C-RK4 / RK4", med["c_rk4"] / med["rk4"], None))
     if "pc" in med and "c_pc_compensated" in med:
-        rows.append((f"peak RSS N={n:.0e}: C-PC compensated / PC", med["c_pc_compensated"] / med["pc"], None))
+        rows.append((f"peak RSS N={n}: C-PC compensated / PC", med["c_pc_compensated"] / med["pc"], None))
     return rows, buffers, med
 
 
@@ -109,7 +118,7 @@ def main():
     ap.add_argument("--json")
     args = ap.parse_args()
 
-    rows = step_rows(load_steps(args.steps), args.big)
+    rows = step_rows(*load_steps(args.steps), args.big)
     mem, buffers, rss = memory_rows(args.memory, args.mem_n)
     rows += mem
     rows += drift_rows(args.drift, args.drift_steps)
@@ -128,7 +137,7 @@ def main():
         print(f"{r['name']:<{width}}  {ratio:>10}  {target:>8}  {met}")
     print()
     print("state-sized buffers: " + ", ".join(f"{k}={v}" for k, v in sorted(buffers.items()) if k != "none"))
-    print(f"peak RSS at N={args.mem_n:.0e} [MiB]: " + ", ".join(f"{k}={v / 1024:.0f}" for k, v in sorted(rss.items())))
+    print(f"peak RSS at N={args.mem_n} [MiB]: " + ", ".join(f"{k}={v / 1024:.0f}" for k, v in sorted(rss.items())))
     if args.json:
         with open(args.json, "w") as f:
             json.dump(table, f, indent=1)

@@ -1,9 +1,12 @@
 // Per-step cost of every eci stepper and of Boost.Odeint's RK4 and Heun on identical work: the three-wave model
 // and random n-wave systems (in cache and memory bound, cheap and realistic right-hand sides). run.sh turns the
 // medians into ratios. Own flags: --eci_big=N (modes of the large systems), --eci_min_time=S (per repetition),
-// --eci_big_realistic_reps=R (repetitions of the large system with 20 triads per mode, seconds per step).
+// --eci_big_realistic_pairs=P (paired steps timed on the large system with 20 triads per mode, see run_pair).
 #include <benchmark/benchmark.h>
 
+#include <time.h>
+
+#include <algorithm>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
@@ -72,21 +75,94 @@ template <class Model, class Stepper, class Make>
     }
 }
 
-// `reps` > 0 overrides --benchmark_repetitions (the large realistic system takes seconds per step); `all` = false
-// leaves out the informational C-Euler and compensated C-PC there.
+// A stepper of either library with its own copy of the state, stepping on demand (for the paired runs).
+template <class Model, class Stepper>
+struct eci_runner {
+    const problem<Model>* pb;
+    Stepper stepper{};
+    typename Model::state_type x = pb->x0;
+    eci::run_stats stats{};
+    double t = 0.0;
+    [[gnu::flatten]] void step() {
+        rhs<Model> f{&pb->model};
+        eci::detail::advance_with_reduction(stepper, f, x, t, dt, 40, stats);
+        t += dt;
+    }
+};
+template <class Model, class Stepper, auto Make>
+struct odeint_runner {
+    const problem<Model>* pb;
+    Stepper stepper = Make();
+    typename Model::state_type x = pb->x0;
+    double t = 0.0;
+    [[gnu::flatten]] void step() {
+        stepper.do_step(rhs<Model>{&pb->model}, x, t, dt);
+        t += dt;
+    }
+};
+
+double thread_cpu_seconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+// Where one step takes seconds and is all right-hand side (the large realistic system), separate repetitions
+// are too few to median away the machine's load: each iteration here times one step of A and one of B back to
+// back (ABBA order), and the counter `ratio` is the median of the per-pair ratios A / B.
+template <class A, class B, class Model>
+void run_pair(benchmark::State& bs, const problem<Model>* pb) {
+    A a{pb};
+    B b{pb};
+    a.step();  // untimed: sizes the buffers
+    b.step();
+    std::vector<double> ratios;
+    for (auto _ : bs) {
+        const bool a_first = ratios.size() % 2 == 0;
+        double ta = 0, tb = 0;
+        for (int k = 0; k < 2; ++k) {
+            const bool run_a = (k == 0) == a_first;
+            const double t0 = thread_cpu_seconds();
+            run_a ? a.step() : b.step();
+            (run_a ? ta : tb) = thread_cpu_seconds() - t0;
+        }
+        ratios.push_back(ta / tb);
+        benchmark::DoNotOptimize(a.x.data());
+        benchmark::DoNotOptimize(b.x.data());
+    }
+    std::sort(ratios.begin(), ratios.end());
+    const std::size_t n = ratios.size();
+    bs.counters["ratio"] = n % 2 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
+    bs.counters["ratio_min"] = ratios.front();
+    bs.counters["ratio_max"] = ratios.back();
+}
+
 template <class Model>
-void register_problem(const std::string& name, const problem<Model>* pb, double min_time, int reps = 0,
-                      bool all = true) {
+void register_pairs(const std::string& name, const problem<Model>* pb, int pairs) {
+    using S = typename Model::state_type;
+    auto add = [&](const std::string& label, auto fn) {
+        benchmark::RegisterBenchmark((name + "/pair:" + label).c_str(), fn, pb)->Iterations(pairs)->Repetitions(1);
+    };
+    using e_pc = eci_runner<Model, eci::pc<S>>;
+    using e_rk4 = eci_runner<Model, eci::rk4<S>>;
+    add("c_pc:pc", run_pair<eci_runner<Model, eci::c_pc<S>>, e_pc, Model>);
+    add("c_rk4:rk4", run_pair<eci_runner<Model, eci::c_rk4<S>>, e_rk4, Model>);
+    add("pc:odeint_heun", run_pair<e_pc, odeint_runner<Model, odeint_heun<S>, make_odeint_heun<S>>, Model>);
+    add("rk4:odeint_rk4",
+        run_pair<e_rk4, odeint_runner<Model, odeint_rk4<S>, [] { return odeint_rk4<S>(); }>, Model>);
+}
+
+template <class Model>
+void register_problem(const std::string& name, const problem<Model>* pb, double min_time) {
     using S = typename Model::state_type;
     auto add = [&](const std::string& method, auto fn) {
-        auto* b = benchmark::RegisterBenchmark((name + "/" + method).c_str(), fn, pb)->MinTime(min_time);
-        if (reps > 0) b->Repetitions(reps);
+        benchmark::RegisterBenchmark((name + "/" + method).c_str(), fn, pb)->MinTime(min_time);
     };
     add("euler", run_eci<Model, eci::euler<S>>);
-    if (all) add("c_euler", run_eci<Model, eci::c_euler<S>>);
+    add("c_euler", run_eci<Model, eci::c_euler<S>>);
     add("pc", run_eci<Model, eci::pc<S>>);
     add("c_pc", run_eci<Model, eci::c_pc<S>>);
-    if (all) add("c_pc_compensated", run_eci<Model, eci::compensated_c_pc<S>>);
+    add("c_pc_compensated", run_eci<Model, eci::compensated_c_pc<S>>);
     add("rk4", run_eci<Model, eci::rk4<S>>);
     add("c_rk4", run_eci<Model, eci::c_rk4<S>>);
     add("odeint_rk4", [](benchmark::State& bs, const problem<Model>* p) {
@@ -110,12 +186,12 @@ int main(int argc, char** argv) {
     benchmark::Initialize(&argc, argv);
     std::size_t big = 3000000;
     double min_time = 0.2;
-    int big_realistic_reps = 0;
+    int big_realistic_pairs = 5;
     for (int i = 1; i < argc; ++i) {
         if (std::strncmp(argv[i], "--eci_big=", 10) == 0) {
             big = std::strtoull(argv[i] + 10, nullptr, 10);
-        } else if (std::strncmp(argv[i], "--eci_big_realistic_reps=", 25) == 0) {
-            big_realistic_reps = std::atoi(argv[i] + 25);
+        } else if (std::strncmp(argv[i], "--eci_big_realistic_pairs=", 26) == 0) {
+            big_realistic_pairs = std::atoi(argv[i] + 26);
         } else if (std::strncmp(argv[i], "--eci_min_time=", 15) == 0) {
             min_time = std::strtod(argv[i] + 15, nullptr);
         } else {
@@ -123,8 +199,9 @@ int main(int argc, char** argv) {
             return 2;
         }
     }
-    if (big < 3 || big % 3 != 0 || !(min_time > 0.0)) {
-        std::fprintf(stderr, "eci_bench_step: --eci_big must be a multiple of 3, --eci_min_time positive\n");
+    if (big < 3 || big % 3 != 0 || !(min_time > 0.0) || big_realistic_pairs < 1) {
+        std::fprintf(stderr, "eci_bench_step: --eci_big must be a multiple of 3, --eci_min_time and "
+                             "--eci_big_realistic_pairs positive\n");
         return 2;
     }
     problem<eci::three_wave> three{eci::three_wave{}, {1.0, 0.5, -0.25}};
@@ -133,10 +210,12 @@ int main(int argc, char** argv) {
     for (std::size_t modes : {std::size_t{3000}, big}) {
         if (modes == 3000 && big == 3000) continue;
         for (std::size_t per_mode : {std::size_t{1}, std::size_t{20}}) {
-            const bool slow = modes == big && per_mode == 20;
+            const std::string name = "nwave_" + std::to_string(modes) + "_t" + std::to_string(per_mode);
             keep.push_back(make_n_wave(modes, per_mode));
-            register_problem("nwave_" + std::to_string(modes) + "_t" + std::to_string(per_mode), keep.back().get(),
-                             min_time, slow ? big_realistic_reps : 0, !slow);
+            if (modes == big && per_mode == 20)
+                register_pairs(name, keep.back().get(), big_realistic_pairs);
+            else
+                register_problem(name, keep.back().get(), min_time);
         }
     }
     benchmark::RunSpecifiedBenchmarks();
