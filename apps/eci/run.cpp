@@ -63,21 +63,23 @@ run_span resolve_span(const model_info& model, const run_settings& settings) {
     run_span span{};
     span.dt = settings.dt.value_or(model.default_dt);
     if (!(span.dt > 0.0) || !std::isfinite(span.dt))
-        throw bad_input("--dt must be a positive finite number, not " + number(span.dt));
+        throw bad_input("--dt must be a positive finite number, not " + shortest(span.dt));
     if (settings.every == 0) throw bad_input("--every must be at least 1");
     if (settings.t_end && settings.steps) throw bad_input("--t-end and --steps cannot be used together");
+    // Beyond 2^53 steps the time grid t0 + i dt is no longer exact (and the run would never end anyway).
     if (settings.steps) {
         span.fixed_steps = true;
         span.steps = *settings.steps;
+        if (span.steps > (std::uint64_t{1} << 53))
+            throw bad_input("--steps " + std::to_string(span.steps) + " is too many (at most 2^53)");
         span.t_end = double(span.steps) * span.dt;
         return span;
     }
     span.t_end = settings.t_end.value_or(model.default_t_end);
     if (!(span.t_end >= 0.0) || !std::isfinite(span.t_end))
-        throw bad_input("--t-end must be a finite number >= 0, not " + number(span.t_end));
-    // Beyond 2^53 steps the time grid t0 + i dt is no longer exact (and the run would never end anyway).
+        throw bad_input("--t-end must be a finite number >= 0, not " + shortest(span.t_end));
     if (span.t_end / span.dt > 0x1p53)
-        throw bad_input("--t-end / --dt is " + number(span.t_end / span.dt) + " steps, too many");
+        throw bad_input("--t-end / --dt is " + shortest(span.t_end / span.dt) + " steps, too many");
     span.steps = steps_to_reach(0.0, span.t_end, span.dt);
     return span;
 }
