@@ -107,9 +107,13 @@ void print_summary(std::FILE* f, const run_summary& s) {
                  static_cast<unsigned long long>(s.stats.rhs_evals), s.wall_seconds);
     std::fprintf(f, "  %-12s %-24s %-24s %-13s %s\n", "invariant", "initial", "final", "max abs drift",
                  "max rel drift");
-    for (const invariant_record& r : s.invariants)
-        std::fprintf(f, "  %-12s %-24s %-24s %-13.3e %.3e\n", r.name.c_str(), number(r.initial).c_str(),
-                     number(r.final).c_str(), r.max_abs_drift, r.max_rel_drift());
+    for (const invariant_record& r : s.invariants) {
+        // A relative drift from I(0) = 0 means nothing (JSON: null); say so rather than print inf.
+        char rel[32] = "n/a";
+        if (r.initial != 0.0 || r.max_abs_drift == 0.0) std::snprintf(rel, sizeof rel, "%.3e", r.max_rel_drift());
+        std::fprintf(f, "  %-12s %-24s %-24s %-13.3e %s\n", r.name.c_str(), number(r.initial).c_str(),
+                     number(r.final).c_str(), r.max_abs_drift, rel);
+    }
     if (s.stats.solver.solves > 0)
         std::fprintf(f, "  iterative solves %llu, iterations mean %.3g, max %d\n",
                      static_cast<unsigned long long>(s.stats.solver.solves), s.stats.solver.mean_iterations(),
