@@ -34,6 +34,49 @@ inline void two_sum(double a, double b, double& s, double& e) {
     e = (a - (s - bb)) + (b - bb);
 }
 
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__) && !defined(__AVX2__) && \
+    !defined(__FMA__) && !defined(__SANITIZE_ADDRESS__)
+#define ECI_DETAIL_COMPENSATED_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define ECI_DETAIL_COMPENSATED_CLONES
+#endif
+
+/// The finishing pass of compensated C-PC over n real unknowns: p holds psi~ and becomes the new psi; k0 holds
+/// S(psi) and becomes the new residual. Returns the number of negative radicands (a double keeps it vectorizable).
+inline double compensated_c_pc_finish_inline(double* p, double* k0, const double* x, const double* k1,
+                                             const double* r, double dt, std::size_t n) {
+    double bad = 0.0;
+    for (std::size_t i = 0; i < n; ++i) {
+        const double psi = x[i];
+        double sq, sq_err;
+        two_product(psi, psi, sq, sq_err);
+        const double inc = dt * (psi * k0[i] + p[i] * k1[i]);  // eq. (30b), the increment of psi^2
+        double hi, lo;
+        two_sum(sq, inc, hi, lo);
+        lo += sq_err + r[i];
+        const double xi = hi + lo;  // renormalise (|lo| is below an ulp of hi)
+        lo -= xi - hi;
+        bad += xi >= 0.0 ? 0.0 : 1.0;
+        const double root = std::sqrt(xi);
+        double root_sq, root_err;
+        two_product(root, root, root_sq, root_err);
+        // xi - root^2 is exact (Sterbenz), so the new residual carries everything the square root dropped.
+        k0[i] = ((xi - root_sq) - root_err) + lo;  // k0[i] is read above and no longer needed
+        p[i] = std::copysign(root, p[i]);          // the predictor's sign, eq. (30b)
+    }
+    return bad;
+}
+
+/// The same, dispatched at load time: like C-PC's, it is also compiled for AVX2 on x86-64 Linux GCC (twice the
+/// lanes for its double-double arithmetic); AVX2 brings no FMA, so both versions round identically.
+ECI_DETAIL_COMPENSATED_CLONES inline double compensated_c_pc_finish(double* p, double* k0, const double* x,
+                                                                    const double* k1, const double* r, double dt,
+                                                                    std::size_t n) {
+    return compensated_c_pc_finish_inline(p, k0, x, k1, r, dt, n);
+}
+
+#undef ECI_DETAIL_COMPENSATED_CLONES
+
 }  // namespace detail
 
 /// C-PC, eq. (30), with the same results as eci::c_pc up to round-off, whose new squared amplitude
@@ -63,25 +106,9 @@ class compensated_c_pc {
         f(std::as_const(pred_), k1_, t + dt);
         const double* k1 = detail::reals(std::as_const(k1_)).data();
         const double* r = detail::reals(std::as_const(res_)).data();
-        double bad = 0.0;  // counted as a double so the loop vectorizes; any non-zero value fails the step
-        for (std::size_t i = 0; i < n; ++i) {
-            const double psi = xr[i];
-            double sq, sq_err;
-            detail::two_product(psi, psi, sq, sq_err);
-            const double inc = dt * (psi * k0[i] + p[i] * k1[i]);  // eq. (30b), the increment of psi^2
-            double hi, lo;
-            detail::two_sum(sq, inc, hi, lo);
-            lo += sq_err + r[i];
-            const double xi = hi + lo;  // renormalise (|lo| is below an ulp of hi)
-            lo -= xi - hi;
-            bad += xi >= 0.0 ? 0.0 : 1.0;
-            const double root = std::sqrt(xi);
-            double root_sq, root_err;
-            detail::two_product(root, root, root_sq, root_err);
-            // xi - root^2 is exact (Sterbenz), so the new residual carries everything the square root dropped.
-            k0[i] = ((xi - root_sq) - root_err) + lo;  // k0[i] is read above and no longer needed
-            p[i] = std::copysign(root, p[i]);          // the predictor's sign, eq. (30b)
-        }
+        // a call only pays off beyond a few modes
+        const double bad = n >= 64 ? detail::compensated_c_pc_finish(p, k0, xr.data(), k1, r, dt, n)
+                                   : detail::compensated_c_pc_finish_inline(p, k0, xr.data(), k1, r, dt, n);
         if (bad != 0.0)
             return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(p[i] == p[i]); }));
         using std::swap;
