@@ -118,6 +118,7 @@ void print_summary(std::FILE* f, const run_summary& s) {
         std::fprintf(f, "  iterative solves %llu, iterations mean %.3g, max %d\n",
                      static_cast<unsigned long long>(s.stats.solver.solves), s.stats.solver.mean_iterations(),
                      s.stats.solver.max_iterations);
+    for (const auto& [name, value] : s.figures) std::fprintf(f, "  %s %s\n", name.c_str(), number(value).c_str());
 }
 
 void write_summary_json(std::FILE* f, const run_summary& s) {
@@ -141,6 +142,7 @@ void write_summary_json(std::FILE* f, const run_summary& s) {
         write_json_number(f, s.stats.solver.mean_iterations());
         std::fprintf(f, ", \"iterations_max\": %d},\n", s.stats.solver.max_iterations);
     }
+    for (const auto& [name, value] : s.figures) key(name.c_str()), write_json_number(f, value), std::fputs(",\n", f);
     key("invariants");
     std::fputs("{", f);
     for (std::size_t i = 0; i < s.invariants.size(); ++i) {

@@ -46,6 +46,8 @@ struct run_summary {
     run_stats stats{};
     double wall_seconds = 0.0;
     std::vector<invariant_record> invariants;
+    /// Model-specific figures of merit at the end of the run (e.g. Kepler's Runge-Lenz turn), name and value.
+    std::vector<std::pair<std::string, double>> figures;
 };
 
 /// The CSV column names of the real unknowns of a state of `size` modes: `prefix`0... for a real state,
@@ -116,6 +118,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     using S = typename Model::state_type;
     const method_info method = resolve_method(info, settings);
     const run_span span = resolve_span(info, settings);
+    const S x0 = x;
     try {
         model.validate();
     } catch (const std::invalid_argument& e) {
@@ -233,6 +236,8 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     progress.finish();
     if (!found) throw bad_input("method '" + summary.method + "' has no stepper for model " + info.name);
     summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if constexpr (requires { model.end_of_run_figures(x0, x); })
+        for (const auto& [name, value] : model.end_of_run_figures(x0, x)) summary.figures.emplace_back(name, value);
 
     csv.commit();
     print_summary(stderr, summary);

@@ -126,6 +126,18 @@ TEST_F(CliLvKepler, KeplerPaperPcRunGainsEnergy) {
     const std::size_t at = r.out.find("\"hamiltonian\"");
     ASSERT_NE(at, std::string::npos);
     EXPECT_NEAR(json_number(r.out, "final", at), -0.8632, 1e-3);
+    // ... and its orbit's axis turns by about -80 degrees, which the summary reports.
+    EXPECT_NEAR(json_number(r.out, "runge_lenz_turn_degrees"), -80.0, 0.5);
+    EXPECT_NE(r.err.find("runge_lenz_turn_degrees"), std::string::npos) << r.err;
+}
+
+// Fig. 9 through the binary: C-PC keeps the axis; its turn is round-off, bounded by a few eps per step
+// (|A| is 0.5, so each step's rounding of A turns it by ~eps/0.5 rad; 1000 steps random-walk to ~sqrt(1000) of it).
+TEST_F(CliLvKepler, KeplerPaperCpcRunKeepsTheOrbitAxis) {
+    const result r = eci("run kepler --summary-json -");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const double bound_degrees = 16.0 * 2.22e-16 / 0.5 * std::sqrt(1000.0) * 180.0 / 3.141592653589793;
+    EXPECT_LE(std::abs(json_number(r.out, "runge_lenz_turn_degrees")), bound_degrees);
 }
 
 // Bad input: one line on stderr naming the problem, exit status 2, no CSV file left behind.

@@ -8,6 +8,7 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 #include "../concepts.hpp"
 #include "../detail/format.hpp"
@@ -74,6 +75,12 @@ struct kepler {
     double runge_lenz_turn(const state_type& from, const state_type& to) const {
         const auto a = runge_lenz(from), b = runge_lenz(to);
         return std::atan2(a[0] * b[1] - a[1] * b[0], a[0] * b[0] + a[1] * b[1]);
+    }
+
+    /// Figures a run reports at its end (the CLI summary): the turn of the orbit's axis, in degrees.
+    std::array<std::pair<const char*, double>, 1> end_of_run_figures(const state_type& x0,
+                                                                      const state_type& x) const {
+        return {{{"runge_lenz_turn_degrees", runge_lenz_turn(x0, x) * 180.0 / std::numbers::pi}}};
     }
 
     /// Cartesian x = r cos theta (derived output, for plotting).
