@@ -40,13 +40,13 @@ def problem_label(p):
     return f"n-wave N={short if float(short) == n else n} {kind}"
 
 
-def step_rows(med, pairs, big):
+def step_rows(med, pairs):
     rows = []
     problems = {p for p, _ in med} | {p for p, _, _ in pairs}
     problems = sorted(problems, key=lambda p: (p != "three_wave", len(p), p))
     for p in problems:
         realistic = p.endswith("_t20")
-        is_big = p.startswith(f"nwave_{big}_")
+        is_big = p.startswith("nwave_") and int(p.split("_")[1]) >= 3000000  # the target's size
         cpc_target = 1.05 if realistic else (1.10 if is_big else None)
         comparisons = [
             ("C-PC / PC", "c_pc", "pc", cpc_target),
@@ -114,13 +114,12 @@ def main():
     ap.add_argument("--steps", required=True)
     ap.add_argument("--memory", required=True)
     ap.add_argument("--drift", required=True)
-    ap.add_argument("--big", type=int, required=True)
     ap.add_argument("--drift-steps", type=int, required=True)
     ap.add_argument("--mem-n", type=int, required=True)
     ap.add_argument("--json")
     args = ap.parse_args()
 
-    rows = step_rows(*load_steps(args.steps), args.big)
+    rows = step_rows(*load_steps(args.steps))
     mem, buffers, rss = memory_rows(args.memory, args.mem_n)
     rows += mem
     rows += drift_rows(args.drift, args.drift_steps)

@@ -1,6 +1,7 @@
 // Per-step cost of every eci stepper and of Boost.Odeint's RK4 and Heun on identical work: the three-wave model
 // and random n-wave systems (in cache and memory bound, cheap and realistic right-hand sides). run.sh turns the
-// medians into ratios. Own flags: --eci_big=N (modes of the large systems), --eci_min_time=S (per repetition),
+// medians into ratios. Own flags: --eci_big=N and --eci_big_realistic=N (modes of the large systems with 1 and 20
+// triads per mode), --eci_min_time=S (per repetition),
 // --eci_big_realistic_pairs=P (paired steps timed on the large system with 20 triads per mode, see run_pair).
 #include <benchmark/benchmark.h>
 
@@ -202,12 +203,14 @@ std::unique_ptr<problem<eci::n_wave<double>>> make_n_wave(std::size_t modes, std
 
 int main(int argc, char** argv) {
     benchmark::Initialize(&argc, argv);
-    std::size_t big = 3000000;
+    std::size_t big = 3000000, big_realistic = 3000000;
     double min_time = 0.2;
     int big_realistic_pairs = 5;
     for (int i = 1; i < argc; ++i) {
         if (std::strncmp(argv[i], "--eci_big=", 10) == 0) {
             big = std::strtoull(argv[i] + 10, nullptr, 10);
+        } else if (std::strncmp(argv[i], "--eci_big_realistic=", 20) == 0) {
+            big_realistic = std::strtoull(argv[i] + 20, nullptr, 10);
         } else if (std::strncmp(argv[i], "--eci_big_realistic_pairs=", 26) == 0) {
             big_realistic_pairs = std::atoi(argv[i] + 26);
         } else if (std::strncmp(argv[i], "--eci_min_time=", 15) == 0) {
@@ -217,20 +220,21 @@ int main(int argc, char** argv) {
             return 2;
         }
     }
-    if (big < 3 || big % 3 != 0 || !(min_time > 0.0) || big_realistic_pairs < 1) {
-        std::fprintf(stderr, "eci_bench_step: --eci_big must be a multiple of 3, --eci_min_time and "
-                             "--eci_big_realistic_pairs positive\n");
+    if (big < 3 || big % 3 != 0 || big_realistic < 3 || !(min_time > 0.0) || big_realistic_pairs < 1) {
+        std::fprintf(stderr, "eci_bench_step: --eci_big must be a multiple of 3, --eci_big_realistic at least 3, "
+                             "--eci_min_time and --eci_big_realistic_pairs positive\n");
         return 2;
     }
     problem<eci::three_wave> three{eci::three_wave{}, {1.0, 0.5, -0.25}};
     register_problem("three_wave", &three, min_time);
     std::vector<std::unique_ptr<problem<eci::n_wave<double>>>> keep;
-    for (std::size_t modes : {std::size_t{3000}, big}) {
-        if (modes == 3000 && big == 3000) continue;
-        for (std::size_t per_mode : {std::size_t{1}, std::size_t{20}}) {
+    for (std::size_t per_mode : {std::size_t{1}, std::size_t{20}}) {
+        const std::size_t large = per_mode == 1 ? big : big_realistic;
+        for (std::size_t modes : {std::size_t{3000}, large}) {
+            if (modes == 3000 && large == 3000) continue;
             const std::string name = "nwave_" + std::to_string(modes) + "_t" + std::to_string(per_mode);
             keep.push_back(make_n_wave(modes, per_mode));
-            if (modes == big && per_mode == 20)
+            if (modes == large && per_mode == 20)
                 register_pairs(name, keep.back().get(), big_realistic_pairs);
             else
                 register_problem(name, keep.back().get(), min_time);
