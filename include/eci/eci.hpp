@@ -3,9 +3,11 @@
 
 #include "concepts.hpp"
 #include "integrate.hpp"
+#include "steppers/compensated_c_pc.hpp"
 #include "steppers/conservative_euler.hpp"
 #include "steppers/conservative_rk.hpp"
 #include "steppers/explicit_rk.hpp"
+#include "steppers/implicit_midpoint.hpp"
 #include "steppers/kahan.hpp"
 #include "steppers/transformed_rk.hpp"
 #include "tableaus.hpp"

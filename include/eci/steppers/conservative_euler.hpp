@@ -11,6 +11,7 @@
 
 #include "../concepts.hpp"
 #include "../detail/state_ops.hpp"
+#include "implicit_midpoint.hpp"
 
 namespace eci {
 
@@ -27,12 +28,12 @@ class conservative_euler {
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
-        detail::resize_like(k_, x);
-        detail::resize_like(y_, x);
-        f(x, k_, t);
+        // The explicit step uses the implicit stepper's derivative and iterate buffers: no buffer of its own.
+        implicit_.prepare(x);
+        f(x, implicit_.k_, t);
         const auto xr = detail::reals(std::as_const(x));
-        const double* k = detail::reals(std::as_const(k_)).data();
-        double* y = detail::reals(y_).data();
+        const double* k = detail::reals(std::as_const(implicit_.k_)).data();
+        double* y = detail::reals(implicit_.y_).data();
         const std::size_t n = xr.size();
         double near_zero = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
@@ -44,64 +45,20 @@ class conservative_euler {
         }
         if (near_zero == 0.0) {
             using std::swap;
-            swap(x, y_);
+            swap(x, implicit_.y_);
             return step_result::success();
         }
-        return implicit_midpoint_step(f, x, t, dt);
+        implicit_.max_iterations = max_iterations;
+        return implicit_.iterate(f, x, t, dt);  // implicit_.k_ still holds f(x)
     }
 
     /// Statistics of the implicit steps taken so far.
-    const solver_stats& solver_statistics() const { return solver_; }
+    const solver_stats& solver_statistics() const { return implicit_.solver_statistics(); }
 
-    static constexpr std::size_t buffer_count() { return 3; }
+    static constexpr std::size_t buffer_count() { return implicit_midpoint<S>::buffer_count(); }
 
    private:
-    // y = x + dt f((x + y)/2) by fixed-point iteration from the Euler guess; k_ holds f(x) on entry.
-    template <class F>
-    step_result implicit_midpoint_step(F& f, S& x, double t, double dt) {
-        detail::resize_like(mid_, x);
-        const auto xr = detail::reals(std::as_const(x));
-        const std::size_t n = xr.size();
-        double* y = detail::reals(y_).data();
-        double* m = detail::reals(mid_).data();
-        const double* k = detail::reals(std::as_const(k_)).data();
-        for (std::size_t i = 0; i < n; ++i) y[i] = xr[i] + dt * k[i];
-        constexpr double eps = std::numeric_limits<double>::epsilon();
-        double previous = std::numeric_limits<double>::infinity();
-        std::size_t worst = 0;  // the unknown that moved most in the last iteration: the one that failed
-        for (int it = 1; it <= max_iterations; ++it) {
-            for (std::size_t i = 0; i < n; ++i) m[i] = 0.5 * (xr[i] + y[i]);
-            f(std::as_const(mid_), k_, t + 0.5 * dt);
-            double change = 0.0, scale = 0.0;
-            for (std::size_t i = 0; i < n; ++i) {
-                const double next = xr[i] + dt * k[i];
-                const double d = std::abs(next - y[i]);
-                // Unlike std::max, this keeps a NaN, so that a non-finite iterate never passes as converged.
-                if (!(d <= change) && change == change) {
-                    change = d;
-                    worst = i;
-                }
-                scale = std::max(scale, std::abs(next));
-                y[i] = next;
-            }
-            // Converged when the update is at round-off, or has stopped shrinking once near it.
-            const bool at_roundoff = change <= 2.0 * eps * scale;
-            const bool stalled = change >= previous && change <= 1e3 * eps * scale;
-            if (at_roundoff || stalled) {
-                solver_.record(it);
-                using std::swap;
-                swap(x, y_);
-                return step_result::success();
-            }
-            if (!(change == change)) break;  // NaN: no point iterating
-            previous = change;
-        }
-        solver_.record(max_iterations);
-        return step_result::failure(worst);
-    }
-
-    S k_{}, y_{}, mid_{};
-    solver_stats solver_{};
+    implicit_midpoint<S> implicit_;
 };
 
 /// C-Euler under its registry name.

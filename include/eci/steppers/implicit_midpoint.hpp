@@ -13,6 +13,9 @@
 
 namespace eci {
 
+template <state S>
+class conservative_euler;
+
 /// The implicit midpoint rule (second order, symplectic). Each step iterates y <- x + tau f((x + y)/2) from
 /// the explicit Euler guess until the update is at round-off; a solve that does not converge fails the step.
 template <state S>
@@ -24,10 +27,29 @@ class implicit_midpoint {
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
+        prepare(x);
+        f(x, k_, t);
+        return iterate(f, x, t, dt);
+    }
+
+    /// Statistics of the implicit solves so far: iterations (= right-hand-side evaluations beyond the first) per step.
+    const solver_stats& solver_statistics() const { return solver_; }
+
+    /// How many state-sized buffers this stepper holds (derivative, iterate, midpoint).
+    static constexpr std::size_t buffer_count() { return 3; }
+
+   private:
+    friend class conservative_euler<S>;  // C-Euler's fallback near zero; it shares these buffers
+
+    void prepare(const S& x) {
         detail::resize_like(k_, x);
         detail::resize_like(y_, x);
         detail::resize_like(mid_, x);
-        f(x, k_, t);
+    }
+
+    // The solve, with k_ = f(x, t) on entry.
+    template <class F>
+    step_result iterate(F& f, S& x, double t, double dt) {
         const auto xr = detail::reals(std::as_const(x));
         const std::size_t n = xr.size();
         double* y = detail::reals(y_).data();
@@ -36,13 +58,19 @@ class implicit_midpoint {
         for (std::size_t i = 0; i < n; ++i) y[i] = xr[i] + dt * k[i];
         constexpr double eps = std::numeric_limits<double>::epsilon();
         double previous = std::numeric_limits<double>::infinity();
+        std::size_t worst = 0;  // the unknown that moved most in the last iteration: the one that failed
         for (int it = 1; it <= max_iterations; ++it) {
             for (std::size_t i = 0; i < n; ++i) m[i] = 0.5 * (xr[i] + y[i]);
             f(std::as_const(mid_), k_, t + 0.5 * dt);
             double change = 0.0, scale = 0.0;
             for (std::size_t i = 0; i < n; ++i) {
                 const double next = xr[i] + dt * k[i];
-                change = std::max(change, std::abs(next - y[i]));
+                const double d = std::abs(next - y[i]);
+                // Unlike std::max, this keeps a NaN, so that a non-finite iterate never passes as converged.
+                if (!(d <= change) && change == change) {
+                    change = d;
+                    worst = i;
+                }
                 scale = std::max(scale, std::abs(next));
                 y[i] = next;
             }
@@ -60,16 +88,9 @@ class implicit_midpoint {
             previous = change;
         }
         solver_.record(max_iterations);
-        return step_result::failure(0);
+        return step_result::failure(worst);
     }
 
-    /// Statistics of the implicit solves so far: iterations (= right-hand-side evaluations beyond the first) per step.
-    const solver_stats& solver_statistics() const { return solver_; }
-
-    /// How many state-sized buffers this stepper holds (derivative, iterate, midpoint).
-    static constexpr std::size_t buffer_count() { return 3; }
-
-   private:
     S k_{}, y_{}, mid_{};
     solver_stats solver_{};
 };
