@@ -44,7 +44,7 @@ std::string shortest(double v) {
 void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
     std::printf("Methods (eci run MODEL --method NAME):\n");
     for (const eci::method_info& m : eci::methods)
-        std::printf("  %-9s order %d  %-12s  %.*s\n", std::string(m.name).c_str(), m.order,
+        std::printf("  %-17s order %d  %-12s  %.*s\n", std::string(m.name).c_str(), m.order,
                     m.conservative ? "conservative" : "conventional", static_cast<int>(m.description.size()),
                     m.description.data());
     std::printf("\nModels (eci run MODEL --help for options):\n");

@@ -10,9 +10,11 @@
 #include <vector>
 
 #include "concepts.hpp"
+#include "steppers/compensated_c_pc.hpp"
 #include "steppers/conservative_euler.hpp"
 #include "steppers/conservative_rk.hpp"
 #include "steppers/explicit_rk.hpp"
+#include "steppers/implicit_midpoint.hpp"
 
 namespace eci {
 
@@ -71,6 +73,19 @@ struct c_rk4 {
     template <state S> using stepper = eci::c_rk4<S>;
 };
 
+/// C-PC that carries the rounding residual of psi^2 between steps (long runs: no sqrt(steps) random walk).
+struct c_pc_compensated {
+    static constexpr method_info info{"c-pc-compensated", 2, true,
+                                      "C-PC with compensated psi^2 (no round-off random walk; one more buffer)"};
+    template <state S> using stepper = eci::compensated_c_pc<S>;
+};
+/// The implicit midpoint rule, the implicit way to conserve quadratic invariants (for comparison).
+struct implicit_midpoint {
+    static constexpr method_info info{"implicit-midpoint", 2, true,
+                                      "implicit midpoint rule, fixed-point iteration to round-off (for comparison)"};
+    template <state S> using stepper = eci::implicit_midpoint<S>;
+};
+
 /// Kahan's linearly implicit method; eci::kahan<Model> needs the model's Jacobian, so models dispatch it.
 struct kahan {
     static constexpr method_info info{"kahan", 2, false,
@@ -127,7 +142,7 @@ struct method_list {
 using registered_methods =
     detail::method_list<method_entries::euler, method_entries::pc, method_entries::rk2, method_entries::rk4,
                         method_entries::c_euler, method_entries::c_pc, method_entries::c_rk2, method_entries::c_rk4,
-                        method_entries::kahan>;
+                        method_entries::c_pc_compensated, method_entries::implicit_midpoint, method_entries::kahan>;
 
 /// Every registered method, in list order.
 inline constexpr auto methods = registered_methods::infos;
