@@ -2,61 +2,26 @@
 // summary, the paper's runs through the binary, and bad input refused with one line and exit status 2.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-
-#include <array>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <limits>
-#include <sstream>
 #include <string>
+
+#include "support.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 
-struct result {
-    int status = -1;
-    std::string out, err;
-};
-
-std::string slurp(const fs::path& file) {
-    std::ifstream in(file);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
+using eci::test_cli::run_eci;
+using result = eci::test_cli::run_result;
+using eci::test_cli::scratch_dir;
 
 // A scratch directory per test, removed afterwards.
 class CliLvKepler : public ::testing::Test {
    protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() / ("eci_cli_lv_kepler_" + std::string(info->name()));
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-
     // Runs `eci args` (through the shell) capturing stdout and stderr.
-    result eci(const std::string& args) const {
-        const fs::path err = dir_ / "stderr";
-        // Appended piece by piece: GCC 12 warns falsely (-Wrestrict) on a chain of operator+ here.
-        std::string command = "'";
-        command.append(ECI_CLI_PATH).append("' ").append(args).append(" 2>'").append(err.string()).append("'");
-        result r;
-        FILE* pipe = popen(command.c_str(), "r");
-        if (!pipe) return r;
-        std::array<char, 4096> buffer{};
-        std::size_t n = 0;
-        while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) r.out.append(buffer.data(), n);
-        const int status = pclose(pipe);
-        r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-        r.err = slurp(err);
-        return r;
-    }
+    result eci(const std::string& args) const { return run_eci(args, dir_); }
 
     // The value after "key": in a JSON text (numbers only), or NaN.
     static double json_number(const std::string& json, const std::string& key, std::size_t from = 0) {
@@ -65,7 +30,8 @@ class CliLvKepler : public ::testing::Test {
         return std::stod(json.substr(at + key.size() + 3));
     }
 
-    fs::path dir_;
+    scratch_dir scratch_{"cli-lv-kepler"};
+    fs::path dir_ = scratch_.path();
 };
 
 std::string first_line(const std::string& text) { return text.substr(0, text.find('\n')); }

@@ -2,13 +2,10 @@
 // directory: bad input, CSV layout and thinning, the JSON summary, conservation, no partial output.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
 #include <cctype>
 #include <cmath>
-#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -22,44 +19,20 @@
 #include <eci/models/three_wave.hpp>
 #include <eci/registry.hpp>
 
+#include "support.hpp"
+
 namespace {
 
 namespace fs = std::filesystem;
+using eci::test_cli::lines_of;
+using eci::test_cli::read_text;
+using eci::test_cli::run_eci;
+using eci::test_cli::run_result;
+using eci::test_cli::scratch_dir;
+using eci::test_cli::shell_quote;
+using eci::test_cli::split;
 
 constexpr double eps = std::numeric_limits<double>::epsilon();
-
-std::string shell_quote(const std::string& s) {
-    // Appends only: GCC 12 warns (-Wrestrict, falsely) on some operator+ chains of literals and strings.
-    std::string q = "'";
-    for (char c : s) {
-        if (c == '\'')
-            q.append("'\\''");
-        else
-            q.push_back(c);
-    }
-    q.push_back('\'');
-    return q;
-}
-
-std::string read_file(const fs::path& p) {
-    std::ifstream in(p, std::ios::binary);
-    std::ostringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-std::vector<std::string> lines_of(const std::string& text) {
-    std::vector<std::string> lines;
-    std::istringstream in(text);
-    for (std::string line; std::getline(in, line);) lines.push_back(line);
-    return lines;
-}
-
-/// What one run of the binary did.
-struct run_result {
-    int status = -1;
-    std::string out, err;
-};
 
 /// A test with its own directory tree under the system temp dir, removed at the end: the binary runs in
 /// work/ (where every output goes), its stdout and stderr are captured in capture/ so work/ holds only what
@@ -67,32 +40,18 @@ struct run_result {
 class cli : public ::testing::Test {
    protected:
     void SetUp() override {
-        std::string pattern = (fs::temp_directory_path() / "eci-cli-test-XXXXXX").string();
-        ASSERT_NE(::mkdtemp(pattern.data()), nullptr);
-        root_ = pattern;
-        work_ = root_ / "work";
+        work_ = scratch_.path() / "work";
         fs::create_directory(work_);
-        fs::create_directory(root_ / "capture");
-    }
-    void TearDown() override {
-        std::error_code ec;
-        fs::remove_all(root_, ec);
+        fs::create_directory(scratch_.path() / "capture");
     }
 
     /// Runs eci with args in work/; `wrapper` (a command prefix such as timeout) runs it, if given.
     run_result eci(const std::vector<std::string>& args, const std::string& wrapper = "") const {
-        std::string cmd = "cd ";
-        cmd.append(shell_quote(work_.string())).append(" && ").append(wrapper).append(" ");
-        cmd.append(shell_quote(ECI_CLI_PATH));
-        for (const std::string& a : args) cmd.append(" ").append(shell_quote(a));
-        const fs::path out = root_ / "capture" / "out", err = root_ / "capture" / "err";
-        cmd.append(" </dev/null >").append(shell_quote(out.string())).append(" 2>").append(shell_quote(err.string()));
-        const int raw = std::system(cmd.c_str());
-        run_result r;
-        r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
-        r.out = read_file(out);
-        r.err = read_file(err);
-        return r;
+        std::string prefix = "cd ";
+        prefix.append(shell_quote(work_.string())).append(" && ").append(wrapper);
+        std::string quoted;
+        for (const std::string& a : args) quoted.append(" ").append(shell_quote(a));
+        return run_eci(quoted, scratch_.path() / "capture", prefix);
     }
 
     /// The names of the files in work/, sorted.
@@ -105,7 +64,8 @@ class cli : public ::testing::Test {
     fs::path work(const std::string& name) const { return work_ / name; }
 
    private:
-    fs::path root_, work_;
+    scratch_dir scratch_{"cli-test"};
+    fs::path work_;
 };
 
 /// A CSV file: its header and its rows as numbers.
@@ -119,14 +79,6 @@ struct csv_table {
         throw std::runtime_error("no column " + name);
     }
 };
-
-std::vector<std::string> split(const std::string& line, char sep) {
-    std::vector<std::string> parts;
-    std::string part;
-    std::istringstream in(line);
-    while (std::getline(in, part, sep)) parts.push_back(part);
-    return parts;
-}
 
 csv_table parse_csv(const std::string& text) {
     csv_table t;
@@ -286,8 +238,8 @@ TEST_P(cli_bad_input, leaves_existing_output_files_untouched) {
     auto args = GetParam().args;
     args.insert(args.end(), {"--output", "out.csv", "--summary-json", "out.json"});
     expect_one_error_line(eci(args), 2);
-    EXPECT_EQ(read_file(work("out.csv")), "precious csv\n");
-    EXPECT_EQ(read_file(work("out.json")), "precious json\n");
+    EXPECT_EQ(read_text(work("out.csv")), "precious csv\n");
+    EXPECT_EQ(read_text(work("out.json")), "precious json\n");
     EXPECT_EQ(work_files(), (std::set<std::string>{"out.csv", "out.json"}));
 }
 
@@ -316,7 +268,7 @@ TEST_F(cli, unwritable_json_path_removes_the_csv_already_opened) {
     std::ofstream(work("out.csv")) << "precious csv\n";
     const run_result r = eci({"run", "three-wave", "--output", "out.csv", "--summary-json", "missing/out.json"});
     expect_one_error_line(r, 2);
-    EXPECT_EQ(read_file(work("out.csv")), "precious csv\n");
+    EXPECT_EQ(read_text(work("out.csv")), "precious csv\n");
     EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
 }
 
@@ -344,7 +296,7 @@ TEST_F(cli, step_size_underflow_names_time_and_csv_column_and_leaves_nothing) {
     expect_one_error_line(r, 1);
     EXPECT_NE(r.err.find("at t = 0 "), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("component psi_Q"), std::string::npos) << r.err;
-    EXPECT_EQ(read_file(work("out.csv")), "precious csv\n");
+    EXPECT_EQ(read_text(work("out.csv")), "precious csv\n");
     EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
 }
 
@@ -356,7 +308,7 @@ TEST_F(cli, interrupt_removes_partial_output_and_exits_130) {
                              "timeout -s INT --preserve-status 0.5");
     expect_one_error_line(r, 130);
     EXPECT_NE(r.err.find("interrupted at t = "), std::string::npos) << r.err;
-    EXPECT_EQ(read_file(work("out.csv")), "precious csv\n");
+    EXPECT_EQ(read_text(work("out.csv")), "precious csv\n");
     EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
 }
 
@@ -366,7 +318,7 @@ TEST_F(cli, interrupt_removes_partial_output_and_exits_130) {
 TEST_F(cli, three_wave_csv_header_and_initial_row) {
     const run_result r = eci({"run", "three-wave", "--steps", "4", "--output", "out.csv"});
     ASSERT_EQ(r.status, 0) << r.err;
-    const std::string text = read_file(work("out.csv"));
+    const std::string text = read_text(work("out.csv"));
     EXPECT_EQ(lines_of(text).at(0), "t,psi_K,psi_P,psi_Q,energy,enstrophy");
     const csv_table t = parse_csv(text);
     ASSERT_EQ(t.rows.size(), 5u);
@@ -389,11 +341,11 @@ TEST_F(cli, n_wave_csv_headers_real_and_complex) {
     ASSERT_EQ(eci({"run", "n-wave", "--modes", "4", "--triads-per-mode", "2", "--steps", "2", "--output", "r.csv"})
                   .status,
               0);
-    EXPECT_EQ(lines_of(read_file(work("r.csv"))).at(0), "t,psi_0,psi_1,psi_2,psi_3,energy,enstrophy");
+    EXPECT_EQ(lines_of(read_text(work("r.csv"))).at(0), "t,psi_0,psi_1,psi_2,psi_3,energy,enstrophy");
     ASSERT_EQ(eci({"run", "n-wave-complex", "--modes", "3", "--steps", "2", "--output", "c.csv"}).status, 0);
-    EXPECT_EQ(lines_of(read_file(work("c.csv"))).at(0),
+    EXPECT_EQ(lines_of(read_text(work("c.csv"))).at(0),
               "t,re_psi_0,im_psi_0,re_psi_1,im_psi_1,re_psi_2,im_psi_2,energy,enstrophy");
-    EXPECT_EQ(parse_csv(read_file(work("c.csv"))).rows.size(), 3u);
+    EXPECT_EQ(parse_csv(read_text(work("c.csv"))).rows.size(), 3u);
 }
 
 TEST_F(cli, every_thins_rows_but_keeps_first_and_last) {
@@ -401,7 +353,7 @@ TEST_F(cli, every_thins_rows_but_keeps_first_and_last) {
     ASSERT_EQ(eci({"run", "three-wave", "--dt", "0.01", "--steps", "10", "--every", "3", "--output", "a.csv"})
                   .status,
               0);
-    const csv_table a = parse_csv(read_file(work("a.csv")));
+    const csv_table a = parse_csv(read_text(work("a.csv")));
     ASSERT_EQ(a.rows.size(), 5u);
     const std::vector<int> steps{0, 3, 6, 9, 10};
     for (std::size_t i = 0; i < steps.size(); ++i) EXPECT_EQ(a.rows[i][0], steps[i] * 0.01);  // t0 + i dt
@@ -410,22 +362,22 @@ TEST_F(cli, every_thins_rows_but_keeps_first_and_last) {
     ASSERT_EQ(eci({"run", "three-wave", "--dt", "0.03", "--t-end", "0.1", "--every", "2", "--output", "b.csv"})
                   .status,
               0);
-    const csv_table b = parse_csv(read_file(work("b.csv")));
+    const csv_table b = parse_csv(read_text(work("b.csv")));
     ASSERT_EQ(b.rows.size(), 3u);
     EXPECT_EQ(b.rows[1][0], 2 * 0.03);
     EXPECT_EQ(b.rows[2][0], 0.1);  // lands on t-end exactly
 
     // every larger than the run: the first and the last row only; no steps: the initial row only.
     ASSERT_EQ(eci({"run", "three-wave", "--steps", "5", "--every", "100", "--output", "c.csv"}).status, 0);
-    EXPECT_EQ(parse_csv(read_file(work("c.csv"))).rows.size(), 2u);
+    EXPECT_EQ(parse_csv(read_text(work("c.csv"))).rows.size(), 2u);
     ASSERT_EQ(eci({"run", "three-wave", "--steps", "0", "--output", "d.csv"}).status, 0);
-    EXPECT_EQ(parse_csv(read_file(work("d.csv"))).rows.size(), 1u);
+    EXPECT_EQ(parse_csv(read_text(work("d.csv"))).rows.size(), 1u);
 }
 
 TEST_F(cli, default_run_covers_t_end_10_with_dt_0_01) {
     const run_result r = eci({"run", "three-wave", "--every", "100", "--output", "out.csv"});
     ASSERT_EQ(r.status, 0) << r.err;
-    const csv_table t = parse_csv(read_file(work("out.csv")));
+    const csv_table t = parse_csv(read_text(work("out.csv")));
     ASSERT_EQ(t.rows.size(), 11u);
     EXPECT_EQ(t.rows.back()[0], 10.0);
     EXPECT_NE(r.err.find("steps 1000,"), std::string::npos) << r.err;
@@ -446,7 +398,7 @@ TEST_F(cli, dash_writes_csv_to_stdout_and_no_output_writes_no_file) {
 TEST_F(cli, a_successful_run_replaces_an_existing_file) {
     std::ofstream(work("out.csv")) << "old\n";
     ASSERT_EQ(eci({"run", "three-wave", "--steps", "2", "--output", "out.csv"}).status, 0);
-    EXPECT_EQ(parse_csv(read_file(work("out.csv"))).rows.size(), 3u);
+    EXPECT_EQ(parse_csv(read_text(work("out.csv"))).rows.size(), 3u);
     EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
 }
 
@@ -458,8 +410,8 @@ TEST_F(cli, summary_json_is_consistent_with_the_csv_and_with_itself) {
     const run_result r = eci({"run", "three-wave", "--method", "c-pc", "--dt", "0.2", "--t-end", "100", "--output",
                               "out.csv", "--summary-json", "out.json"});
     ASSERT_EQ(r.status, 0) << r.err;
-    const json_reader j(read_file(work("out.json")));
-    const csv_table t = parse_csv(read_file(work("out.csv")));
+    const json_reader j(read_text(work("out.json")));
+    const csv_table t = parse_csv(read_text(work("out.csv")));
     EXPECT_EQ(j.values.at("model"), "three-wave");
     EXPECT_EQ(j.values.at("method"), "c-pc");
     EXPECT_EQ(j.number("order"), 2.0);
@@ -497,7 +449,7 @@ TEST_F(cli, summary_json_shows_conservation_for_conservative_methods_only) {
             const run_result r =
                 eci({"run", "three-wave", "--method", method, "--dt", dt, "--t-end", "100", "--summary-json", "s.json"});
             ASSERT_EQ(r.status, 0) << r.err;
-            const json_reader j(read_file(work("s.json")));
+            const json_reader j(read_text(work("s.json")));
             const double n = j.number("steps") + j.number("step_reductions");
             for (const std::string name : {"energy", "enstrophy"})
                 EXPECT_LE(j.number("invariants." + name + ".max_rel_drift"), bound(n)) << method << " dt " << dt;
@@ -507,7 +459,7 @@ TEST_F(cli, summary_json_shows_conservation_for_conservative_methods_only) {
     const run_result r =
         eci({"run", "three-wave", "--method", "pc", "--dt", "0.01", "--t-end", "100", "--summary-json", "s.json"});
     ASSERT_EQ(r.status, 0) << r.err;
-    const json_reader j(read_file(work("s.json")));
+    const json_reader j(read_text(work("s.json")));
     EXPECT_GT(j.number("invariants.energy.max_rel_drift"), 1e6 * bound(j.number("steps")));
 }
 
@@ -515,7 +467,7 @@ TEST_F(cli, summary_json_reports_iterative_solves_when_there_are_some) {
     // psi_P = 0 at t = 0 puts C-Euler next to a zero mode, where it takes implicit midpoint steps.
     const run_result r = eci({"run", "three-wave", "--method", "c-euler", "--summary-json", "s.json"});
     ASSERT_EQ(r.status, 0) << r.err;
-    const json_reader j(read_file(work("s.json")));
+    const json_reader j(read_text(work("s.json")));
     ASSERT_TRUE(j.has("solver.solves"));
     EXPECT_GT(j.number("solver.solves"), 0.0);
     EXPECT_GE(j.number("solver.iterations_max"), 1.0);

@@ -2,56 +2,28 @@
 // (conservation, PC's energy gain, fitted orders, Kepler precession) and its behaviour without gnuplot.
 #include <gtest/gtest.h>
 
-#include <sys/wait.h>
-#include <unistd.h>
-
 #include <algorithm>
-#include <array>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
 #include <map>
-#include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
+
+#include "support.hpp"
 
 namespace {
 
 namespace fs = std::filesystem;
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
-struct command_result {
-    int status = -1;
-    std::string out, err;
-};
-
-std::string read_text(const fs::path& file) {
-    std::ifstream in(file);
-    std::stringstream s;
-    s << in.rdbuf();
-    return s.str();
-}
-
-/// Runs `[env] eci args` through the shell; stderr is captured through a file next to `scratch`.
-command_result run_eci(const std::string& args, const fs::path& scratch, const std::string& env = "") {
-    const fs::path err_file = scratch.string() + ".stderr";
-    const std::string command = env + (env.empty() ? "" : " ") + "'" + std::string(ECI_CLI_PATH) + "' " + args +
-                                " 2>'" + err_file.string() + "'";
-    command_result r;
-    FILE* pipe = popen(command.c_str(), "r");
-    if (!pipe) return r;
-    std::array<char, 4096> buffer{};
-    std::size_t n = 0;
-    while ((n = fread(buffer.data(), 1, buffer.size(), pipe)) > 0) r.out.append(buffer.data(), n);
-    const int status = pclose(pipe);
-    r.status = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    r.err = read_text(err_file);
-    fs::remove(err_file);
-    return r;
-}
+using eci::test_cli::read_text;
+using eci::test_cli::run_eci;
+using eci::test_cli::scratch_dir;
+using eci::test_cli::split;
 
 /// A CSV file of numbers with a header row, by column name.
 struct csv {
@@ -64,14 +36,6 @@ struct csv {
         return it->second;
     }
 };
-
-std::vector<std::string> split(const std::string& line) {
-    std::vector<std::string> fields;
-    std::stringstream s(line);
-    std::string f;
-    while (std::getline(s, f, ',')) fields.push_back(f);
-    return fields;
-}
 
 csv read_csv(const fs::path& file) {
     std::ifstream in(file);
@@ -107,12 +71,6 @@ double max_abs_change(const std::vector<double>& v) {
     double worst = 0.0;
     for (double x : v) worst = std::max(worst, std::abs(x - v.front()));
     return worst;
-}
-
-fs::path fresh_dir(const std::string& name) {
-    const fs::path dir = fs::temp_directory_path() / ("eci_test_figures_" + name + "_" + std::to_string(::getpid()));
-    fs::remove_all(dir);
-    return dir;
 }
 
 void check_every_file_is_written(const fs::path& dir_) {
@@ -288,9 +246,10 @@ void check_fig8_9_kepler(const fs::path& dir) {
 // One full run (a few seconds), then every check on its output: ctest runs each TEST in its own process, so
 // one TEST keeps the run from being repeated per check.
 TEST(figures_all, reproduces_the_papers_figures_and_key_numbers) {
-    const fs::path dir = fresh_dir("all");
+    const scratch_dir scratch("figures-all");
+    const fs::path dir = scratch.path() / "figures";
     const auto start = std::chrono::steady_clock::now();
-    const auto r = run_eci("figures --out '" + dir.string() + "'", dir);
+    const auto r = run_eci("figures --out '" + dir.string() + "'", scratch.path());
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     EXPECT_EQ(r.err, "");  // gnuplot is installed here: no warning, no gnuplot complaint
@@ -311,12 +270,13 @@ TEST(figures_all, reproduces_the_papers_figures_and_key_numbers) {
         SCOPED_TRACE(name);
         check(dir);
     }
-    fs::remove_all(dir);
 }
 
 TEST(figures_cli, without_gnuplot_the_csv_files_remain_and_the_message_says_how_to_plot) {
-    const fs::path dir = fresh_dir("nognuplot");
-    const auto r = run_eci("figures --only 5 --out '" + dir.string() + "'", dir, "ECI_GNUPLOT=/nonexistent/gnuplot");
+    const scratch_dir scratch("figures-nognuplot");
+    const fs::path dir = scratch.path() / "figures";
+    const auto r =
+        run_eci("figures --only 5 --out '" + dir.string() + "'", scratch.path(), "ECI_GNUPLOT=/nonexistent/gnuplot");
     EXPECT_EQ(r.status, 0) << r.err;  // the CSV files are the data; the pictures can be drawn later
     EXPECT_TRUE(fs::exists(dir / "fig5.csv"));
     EXPECT_TRUE(fs::exists(dir / "fig5.gp"));
@@ -326,12 +286,12 @@ TEST(figures_cli, without_gnuplot_the_csv_files_remain_and_the_message_says_how_
     EXPECT_NE(r.err.find("apt-get install gnuplot-nox"), std::string::npos) << r.err;
     EXPECT_NE(r.err.find("figN.gp"), std::string::npos) << r.err;
     EXPECT_EQ(read_csv(dir / "fig5.csv").rows, 11u);
-    fs::remove_all(dir);
 }
 
 TEST(figures_cli, only_writes_the_one_figure) {
-    const fs::path dir = fresh_dir("only");
-    const auto r = run_eci("figures --only 2 --out '" + dir.string() + "'", dir);
+    const scratch_dir scratch("figures-only");
+    const fs::path dir = scratch.path() / "figures";
+    const auto r = run_eci("figures --only 2 --out '" + dir.string() + "'", scratch.path());
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_TRUE(fs::exists(dir / "fig2.png"));
     EXPECT_TRUE(fs::exists(dir / "fig2_exact.csv"));
@@ -340,13 +300,13 @@ TEST(figures_cli, only_writes_the_one_figure) {
     const auto summary = read_summary(dir / "summary.csv");
     EXPECT_EQ(summary.count("c_pc_step_reductions"), 1u);
     EXPECT_EQ(summary.count("pc_fit_n"), 0u);
-    fs::remove_all(dir);
 }
 
 TEST(figures_cli, a_bad_figure_number_fails_with_exit_2_and_writes_nothing) {
-    const fs::path dir = fresh_dir("bad");
+    const scratch_dir scratch("figures-bad");
+    const fs::path dir = scratch.path() / "figures";
     for (const char* n : {"0", "10", "x"}) {
-        const auto r = run_eci(std::string("figures --only ") + n + " --out '" + dir.string() + "'", dir);
+        const auto r = run_eci(std::string("figures --only ") + n + " --out '" + dir.string() + "'", scratch.path());
         EXPECT_EQ(r.status, 2) << n;
         EXPECT_NE(r.err.find("--only"), std::string::npos) << r.err;
         EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
@@ -355,13 +315,13 @@ TEST(figures_cli, a_bad_figure_number_fails_with_exit_2_and_writes_nothing) {
 }
 
 TEST(figures_cli, an_output_path_that_is_a_file_fails_with_exit_2) {
-    const fs::path file = fresh_dir("file");
+    const scratch_dir scratch("figures-file");
+    const fs::path file = scratch.path() / "figures";
     std::ofstream(file) << "x";
-    const auto r = run_eci("figures --only 5 --out '" + file.string() + "'", file);
+    const auto r = run_eci("figures --only 5 --out '" + file.string() + "'", scratch.path());
     EXPECT_EQ(r.status, 2);
     EXPECT_NE(r.err.find("not a directory"), std::string::npos) << r.err;
     EXPECT_EQ(read_text(file), "x");
-    fs::remove(file);
 }
 
 }  // namespace

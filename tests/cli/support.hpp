@@ -1,0 +1,102 @@
+// Helpers shared by the CLI tests: run the real `eci` binary (ECI_CLI_PATH) through the shell with its exit
+// status, stdout and stderr captured, read files back, split CSV lines, and own a scratch directory.
+#pragma once
+
+#include <sys/wait.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace eci::test_cli {
+
+namespace fs = std::filesystem;
+
+/// What one run of the binary did: exit status (-1 if it did not exit normally), stdout, stderr.
+struct run_result {
+    int status = -1;
+    std::string out, err;
+};
+
+/// The whole content of a file, byte for byte ("" if it cannot be read).
+inline std::string read_text(const fs::path& file) {
+    std::ifstream in(file, std::ios::binary);
+    std::ostringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+/// The lines of a text, without their '\n'.
+inline std::vector<std::string> lines_of(const std::string& text) {
+    std::vector<std::string> lines;
+    std::istringstream in(text);
+    for (std::string line; std::getline(in, line);) lines.push_back(line);
+    return lines;
+}
+
+/// The fields of one line split at `sep` (a trailing empty field is dropped, as std::getline does).
+inline std::vector<std::string> split(const std::string& line, char sep = ',') {
+    std::vector<std::string> parts;
+    std::istringstream in(line);
+    for (std::string part; std::getline(in, part, sep);) parts.push_back(part);
+    return parts;
+}
+
+/// `s` single-quoted for the shell.
+inline std::string shell_quote(const std::string& s) {
+    // Appends only: GCC 12 warns (-Wrestrict, falsely) on some operator+ chains of literals and strings.
+    std::string q = "'";
+    for (char c : s) {
+        if (c == '\'')
+            q.append("'\\''");
+        else
+            q.push_back(c);
+    }
+    q.push_back('\'');
+    return q;
+}
+
+/// Runs `prefix eci shell_args` through the shell (stdin from /dev/null); stdout and stderr go through the files
+/// out and err in `capture_dir`, so the directory eci writes into holds only what eci itself wrote.
+inline run_result run_eci(const std::string& shell_args, const fs::path& capture_dir, const std::string& prefix = "") {
+    const fs::path out = capture_dir / "out", err = capture_dir / "err";
+    std::string cmd = prefix;
+    cmd.append(" ").append(shell_quote(ECI_CLI_PATH)).append(" ").append(shell_args);
+    cmd.append(" </dev/null >").append(shell_quote(out.string())).append(" 2>").append(shell_quote(err.string()));
+    const int raw = std::system(cmd.c_str());
+    run_result r;
+    r.status = WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    r.out = read_text(out);
+    r.err = read_text(err);
+    fs::remove(out);
+    fs::remove(err);
+    return r;
+}
+
+/// A fresh, uniquely named directory under the system temp dir, removed with everything in it on destruction.
+class scratch_dir {
+   public:
+    explicit scratch_dir(const std::string& tag) {
+        std::string pattern = (fs::temp_directory_path() / ("eci-" + tag + "-XXXXXX")).string();
+        if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("cannot create a temp dir " + pattern);
+        path_ = pattern;
+    }
+    scratch_dir(const scratch_dir&) = delete;
+    scratch_dir& operator=(const scratch_dir&) = delete;
+    ~scratch_dir() {
+        std::error_code ec;
+        fs::remove_all(path_, ec);
+    }
+
+    /// The directory itself.
+    const fs::path& path() const { return path_; }
+
+   private:
+    fs::path path_;
+};
+
+}  // namespace eci::test_cli
