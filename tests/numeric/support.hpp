@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <string>
 #include <vector>
 
 #include <eci/eci.hpp>
@@ -84,5 +85,15 @@ inline std::vector<double> log_space(double lo, double hi, std::size_t n) {
     for (std::size_t i = 0; i < n; ++i) v[i] = lo * std::pow(hi / lo, double(i) / double(n - 1));
     return v;
 }
+
+/// GoogleTest name generator for typed tests over method tags: the method's registry name, '-' made '_'.
+struct method_names {
+    template <class Method>
+    static std::string GetName(int) {
+        std::string s = Method::name;
+        for (char& c : s) c = c == '-' ? '_' : c;
+        return s;
+    }
+};
 
 }  // namespace eci::test

@@ -56,14 +56,6 @@ drift_result run() {
 template <class Method>
 class ConservativeMethodKeepsInvariants : public ::testing::Test {};
 
-struct method_names {
-    template <class Method>
-    static std::string GetName(int) {
-        std::string s = Method::name;
-        for (char& c : s) c = c == '-' ? '_' : c;
-        return s;
-    }
-};
 
 using conservative_methods = ::testing::Types<c_euler_m, c_pc_m, c_rk2_m, c_rk4_m>;
 TYPED_TEST_SUITE(ConservativeMethodKeepsInvariants, conservative_methods, method_names);

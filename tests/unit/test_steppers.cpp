@@ -74,14 +74,6 @@ void expect_linear_convergence() {
 template <class Method>
 class EveryMethod : public ::testing::Test {};
 
-struct method_names {
-    template <class Method>
-    static std::string GetName(int) {
-        std::string s = Method::name;
-        for (char& c : s) c = c == '-' ? '_' : c;
-        return s;
-    }
-};
 
 using all_methods = ::testing::Types<euler_m, pc_m, rk2_m, rk4_m, c_euler_m, c_pc_m, c_rk2_m, c_rk4_m>;
 TYPED_TEST_SUITE(EveryMethod, all_methods, method_names);
