@@ -71,4 +71,5 @@ fi
 echo "== results in $out" >&2
 python3 "$repo/bench/report.py" --steps "$out/step.json" --memory "$out/memory.txt" --drift "$out/drift.txt" \
     --mem-n $mem_n --drift-steps $drift_steps ${json:+--json "$json"} | tee "$out/table.txt"
+if [ "$mode" = smoke ]; then echo "(smoke run: every program ran once, at token sizes: the ratios above mean nothing)"; fi
 grep -h "^wp " "$out/work_precision.txt" | grep -v "lvk=" > "$out/work_precision_summary.txt" || true
