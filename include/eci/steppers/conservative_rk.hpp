@@ -66,12 +66,12 @@ class conservative_rk {
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
         st_.prepare(x);
-        if constexpr (!is_c_pc) detail::resize_like(acc_, x);
-        st_.run_stages(f, x, t, dt, [](std::size_t, auto, auto) {});
+        if constexpr (!is_c_pc) detail::resize_like(result_, x);
+        st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
         const auto xr = detail::reals(std::as_const(x));
         const std::size_t n = xr.size();
         double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
-        S& out = is_c_pc ? st_.stage : acc_;
+        S& out = is_c_pc ? st_.stage : result_;
         double* o = detail::reals(out).data();
         if constexpr (is_c_pc) {
             const double* k1 = detail::reals(std::as_const(st_.k[1])).data();
@@ -125,7 +125,7 @@ class conservative_rk {
     }
 
     detail::stage_storage<T, S> st_;
-    S acc_{};
+    S result_{};  // the new state until the step is known to succeed (C-PC reuses its stage buffer)
 };
 
 /// C-PC, eq. (30): Heun's tableau, the new amplitude takes the predictor's sign.

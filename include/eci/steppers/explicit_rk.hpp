@@ -28,7 +28,8 @@ void combine_stages(double* out, const double* x, const std::array<const double*
 
 /// The stage buffers of an explicit tableau, and the computation of every stage's derivative.
 /// After `run_stages`, k[i] holds f(Y_i) and `stage` holds the last stage value Y_{s-1} (Y_0 = x itself).
-/// `on_stage(i, Y_i, k_i)` is called after each stage (the conservative engine accumulates there).
+/// `on_stage(i, Y_i, k_i)` is called with the stage's state and derivative after each stage (the transformed
+/// engine accumulates the rate of xi there).
 template <const auto& T, state S>
 struct stage_storage {
     static constexpr std::size_t s = std::remove_cvref_t<decltype(T)>::stages;
@@ -52,14 +53,14 @@ struct stage_storage {
     void run_stage(F& f, const S& x, double t, double dt, OnStage& on_stage) {
         if constexpr (I == 0) {
             f(x, k[0], t);
-            on_stage(I, reals(x), reals(std::as_const(k[0])));
+            on_stage(I, x, std::as_const(k[0]));
         } else {
             std::array<const double*, I> kp{};
             for (std::size_t j = 0; j < I; ++j) kp[j] = reals(std::as_const(k[j])).data();
             const auto xr = reals(x);
             combine_stages<row<I>>(reals(stage).data(), xr.data(), kp, dt, xr.size(), std::make_index_sequence<I>{});
             f(std::as_const(stage), k[I], t + T.c[I] * dt);
-            on_stage(I, reals(std::as_const(stage)), reals(std::as_const(k[I])));
+            on_stage(I, std::as_const(stage), std::as_const(k[I]));
         }
     }
 
@@ -83,7 +84,7 @@ class explicit_rk {
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
         st_.prepare(x);
-        st_.run_stages(f, x, t, dt, [](std::size_t, auto, auto) {});
+        st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
         std::array<const double*, T.stages> kp{};
         for (std::size_t j = 0; j < T.stages; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
         auto xr = detail::reals(x);

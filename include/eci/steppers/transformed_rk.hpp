@@ -95,51 +95,32 @@ class transformed_rk {
             tr_.to_xi(x, xi_);
             have_xi_ = true;
         }
-        const auto xr = detail::reals(std::as_const(x));
-        const std::size_t n = xr.size();
-        for (auto& ki : k_) detail::resize_like(ki, x);
-        detail::resize_like(stage_, x);
+        st_.prepare(x);
         detail::resize_like(xi_new_, xi_);
         detail::resize_like(rate_, xi_);
         detail::resize_like(rate_sum_, xi_);
         const auto acc = detail::reals(rate_sum_);
         for (double& a : acc) a = 0.0;
-        for (std::size_t i = 0; i < s; ++i) {
-            // Stage i: Y_i = x + dt sum_j a_ij k_j (Y_0 = x), k_i = f(Y_i), and the rate of xi at Y_i.
-            const state_type* y = &x;
-            if (i > 0) {
-                const auto st = detail::reals(stage_);
-                for (std::size_t m = 0; m < n; ++m) {
-                    double v = xr[m];
-                    for (std::size_t j = 0; j < i; ++j)
-                        if (T.a[i][j] != 0.0) v += dt * T.a[i][j] * detail::reals(std::as_const(k_[j]))[m];
-                    st[m] = v;
-                }
-                y = &stage_;
-            }
-            f(*y, k_[i], t + T.c[i] * dt);
-            if (T.b[i] == 0.0) continue;
-            tr_.xi_rate(*y, std::as_const(k_[i]), rate_);
+        // The conventional stages in x (the engine of explicit_rk.hpp), and the rate of xi at each stage.
+        st_.run_stages(f, x, t, dt, [&](std::size_t i, const state_type& y, const state_type& k) {
+            if (T.b[i] == 0.0) return;
+            tr_.xi_rate(y, k, rate_);
             const auto r = detail::reals(std::as_const(rate_));
             for (std::size_t m = 0; m < acc.size(); ++m) acc[m] += T.b[i] * r[m];
-        }
+        });
         // Trapezoid (or the tableau's quadrature) in xi: eq. (42c,d), eqs. (51)-(52).
         const auto xo = detail::reals(std::as_const(xi_));
         const auto xn = detail::reals(xi_new_);
         for (std::size_t m = 0; m < xn.size(); ++m) xn[m] = xo[m] + dt * acc[m];
-        const state_type* hint = &stage_;
+        const state_type* hint = s > 1 ? &st_.stage : &x;  // the last stage: the predictor x~ for C-PC
         if constexpr (Sign == sign_rule::of_update) {
             detail::resize_like(update_, x);
-            const auto u = detail::reals(update_);
-            for (std::size_t m = 0; m < n; ++m) {
-                double v = xr[m];
-                for (std::size_t j = 0; j < s; ++j)
-                    if (T.b[j] != 0.0) v += dt * T.b[j] * detail::reals(std::as_const(k_[j]))[m];
-                u[m] = v;
-            }
+            std::array<const double*, s> kp{};
+            for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
+            const auto xr = detail::reals(std::as_const(x));
+            detail::combine_stages<T.b>(detail::reals(update_).data(), xr.data(), kp, dt, xr.size(),
+                                        std::make_index_sequence<s>{});
             hint = &update_;
-        } else if constexpr (s == 1) {
-            hint = &x;
         }
         const step_result r = tr_.from_xi(std::as_const(xi_new_), *hint, x_new_, stats_);
         if (!r) return r;
@@ -161,8 +142,8 @@ class transformed_rk {
 
    private:
     Tr tr_;
-    std::array<state_type, s> k_{};
-    state_type stage_{}, update_{}, x_new_{}, last_x_{};
+    detail::stage_storage<T, state_type> st_;
+    state_type update_{}, x_new_{}, last_x_{};
     xi_type xi_{}, xi_new_{}, rate_{}, rate_sum_{};
     bool have_xi_ = false;
     solver_stats stats_{};
