@@ -9,5 +9,6 @@
 #include "steppers/explicit_rk.hpp"
 #include "steppers/implicit_midpoint.hpp"
 #include "steppers/kahan.hpp"
+#include "steppers/radicand_remedy.hpp"
 #include "steppers/transformed_rk.hpp"
 #include "tableaus.hpp"

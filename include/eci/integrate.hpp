@@ -1,5 +1,5 @@
-// Drivers: fixed steps to a step count or an end time, an observer every k steps, run statistics, and the
-// step reduction that turns a failed step (negative radicand, non-invertible transform) into two half steps.
+// Drivers: fixed steps to a step count or an end time, an observer every k steps, run statistics, the model's
+// quadratic invariants handed to the stepper's remedy, and step halving when a step still fails.
 #pragma once
 
 #include <algorithm>
@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "concepts.hpp"
+#include "steppers/radicand_remedy.hpp"
 
 namespace eci {
 
@@ -21,6 +22,8 @@ struct run_stats {
     std::uint64_t steps = 0;            ///< steps of the requested size (the output grid)
     std::uint64_t step_reductions = 0;  ///< failed steps that were retried as two half steps
     std::uint64_t rhs_evals = 0;        ///< right-hand-side evaluations, failed attempts included
+    std::uint64_t remedied_steps = 0;   ///< steps whose negative radicands were remedied without a halving
+    std::uint64_t components_remedied = 0;  ///< real unknowns given the remedy, summed over those steps
     solver_stats solver{};              ///< iterative solves (Newton inverses, implicit fallbacks), if any
 };
 
@@ -66,6 +69,23 @@ void collect_solver_stats(const St& stepper, run_stats& stats) {
     if constexpr (requires { stepper.solver_statistics(); }) stats.solver = stepper.solver_statistics();
 }
 
+/// Gives a conservative stepper the quadratic invariants the model declares (`quadratic_invariant_weights()`),
+/// which its remedy for negative radicands needs; a system that declares none (a plain lambda) changes nothing.
+template <class St, class F>
+void attach_quadratic_invariants(St& stepper, const F& f) {
+    if constexpr (requires { stepper.set_quadratic_invariants(f.quadratic_invariant_weights()); })
+        stepper.set_quadratic_invariants(f.quadratic_invariant_weights());
+}
+
+/// The stepper's remedy counters (zero for a stepper without the remedy).
+template <class St>
+remedy_stats remedy_counters(const St& stepper) {
+    if constexpr (requires { stepper.remedy_statistics(); })
+        return stepper.remedy_statistics();
+    else
+        return {};
+}
+
 }  // namespace detail
 
 /// Observer that does nothing.
@@ -86,12 +106,17 @@ run_stats integrate_n_steps(St& stepper, F&& f, S& x, double t0, double dt, std:
         ++stats.rhs_evals;
         f(a, b, t);
     };
+    detail::attach_quadratic_invariants(stepper, f);
+    const remedy_stats before = detail::remedy_counters(stepper);
     observe(std::as_const(x), t0, std::uint64_t{0});
     for (std::uint64_t i = 1; i <= n; ++i) {
         detail::advance_with_reduction(stepper, counted, x, t0 + double(i - 1) * dt, dt, opt.max_halvings, stats);
         ++stats.steps;
         if (i % opt.every == 0 || i == n) observe(std::as_const(x), t0 + double(i) * dt, i);
     }
+    const remedy_stats after = detail::remedy_counters(stepper);
+    stats.remedied_steps = after.remedied_steps - before.remedied_steps;
+    stats.components_remedied = after.components_remedied - before.components_remedied;
     detail::collect_solver_stats(stepper, stats);
     return stats;
 }
@@ -130,6 +155,8 @@ run_stats integrate_to(St& stepper, F&& f, S& x, double t0, double t_end, double
     stats.steps += tail.steps;
     stats.step_reductions += tail.step_reductions;
     stats.rhs_evals += tail.rhs_evals;
+    stats.remedied_steps += tail.remedied_steps;
+    stats.components_remedied += tail.components_remedied;
     detail::collect_solver_stats(stepper, stats);
     observe(std::as_const(x), t_end, n);
     return stats;

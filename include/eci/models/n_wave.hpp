@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "../concepts.hpp"
+#include "../steppers/radicand_remedy.hpp"
 #include "invariant.hpp"
 
 namespace eci {
@@ -80,6 +81,14 @@ struct n_wave {
         double z = 0.0;
         for (std::size_t i = 0; i < x.size(); ++i) z += sq(wavenumber[i]) * std::norm(x[i]);
         return 0.5 * z;
+    }
+
+    /// The weights of energy and enstrophy as quadratic invariants sum_k w_k |psi_k|^2 (1/2 and k^2/2), in the
+    /// order of invariants(): what the conservative steppers' remedy for negative radicands needs.
+    quadratic_weights quadratic_invariant_weights() const {
+        quadratic_weights w(2, std::vector<double>(size(), 0.5));
+        for (std::size_t i = 0; i < size(); ++i) w[1][i] = 0.5 * sq(wavenumber[i]);
+        return w;
     }
 
     static constexpr auto invariants() {

@@ -4,10 +4,12 @@
 
 #include <cmath>
 #include <cstddef>
+#include <ranges>
 #include <utility>
 
 #include "../concepts.hpp"
 #include "../detail/state_ops.hpp"
+#include "radicand_remedy.hpp"
 
 namespace eci {
 
@@ -42,7 +44,8 @@ inline void two_sum(double a, double b, double& s, double& e) {
 #endif
 
 /// The finishing pass of compensated C-PC over n real unknowns: p holds psi~ and becomes the new psi; k0 holds
-/// S(psi) and becomes the new residual. Returns the number of negative radicands (a double keeps it vectorizable).
+/// S(psi) and becomes the new residual, except where the radicand is negative (p is then NaN and k0 keeps S, for
+/// the remedy). Returns the number of negative radicands (a double keeps it vectorizable).
 inline double compensated_c_pc_finish_inline(double* p, double* k0, const double* x, const double* k1,
                                              const double* r, double dt, std::size_t n) {
     double bad = 0.0;
@@ -61,7 +64,8 @@ inline double compensated_c_pc_finish_inline(double* p, double* k0, const double
         double root_sq, root_err;
         two_product(root, root, root_sq, root_err);
         // xi - root^2 is exact (Sterbenz), so the new residual carries everything the square root dropped.
-        k0[i] = ((xi - root_sq) - root_err) + lo;  // k0[i] is read above and no longer needed
+        const double residual = ((xi - root_sq) - root_err) + lo;
+        k0[i] = xi >= 0.0 ? residual : k0[i];  // k0[i] is read above and, where the step succeeds, no longer needed
         p[i] = std::copysign(root, p[i]);          // the predictor's sign, eq. (30b)
     }
     return bad;
@@ -84,8 +88,9 @@ ECI_DETAIL_COMPENSATED_CLONES inline double compensated_c_pc_finish(double* p, d
 /// residual r_k = xi_k - psi_k^2 (below an ulp of psi_k^2) from step to step, so xi_k = psi_k^2 + r_k is carried
 /// with compensated summation and only the rounding of the small increments tau (psi S + psi~ S~) remains.
 /// A state changed between steps inherits the old residual, a perturbation under one ulp; `reset()` drops it.
+/// Isolated negative radicands are remedied as in conservative_rk (radicand_remedy.hpp), residuals included.
 template <state S>
-class compensated_c_pc {
+class compensated_c_pc : public radicand_remedy {
    public:
     static constexpr int order = 2;
 
@@ -109,8 +114,10 @@ class compensated_c_pc {
         // a call only pays off beyond a few modes
         const double bad = n >= 64 ? detail::compensated_c_pc_finish(p, k0, xr.data(), k1, r, dt, n)
                                    : detail::compensated_c_pc_finish_inline(p, k0, xr.data(), k1, r, dt, n);
-        if (bad != 0.0)
-            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(p[i] == p[i]); }));
+        if (bad != 0.0) {  // only steps with failures pay for what follows
+            const std::size_t first = detail::first_index(n, [&](std::size_t i) { return !(p[i] == p[i]); });
+            if (!remedy_failures(p, k0, xr.data(), k1, r, dt, n)) return step_result::failure(first);
+        }
         using std::swap;
         swap(x, pred_);
         swap(res_, k0_);
@@ -124,6 +131,38 @@ class compensated_c_pc {
     static constexpr std::size_t buffer_count() { return 4; }
 
    private:
+    static constexpr std::size_t per = sizeof(std::ranges::range_value_t<S>) / sizeof(double);
+
+    // The remedy: failed unknowns (p NaN, k0 still S) take Heun's update with a zero residual; then every
+    // xi = psi^2 + residual is rescaled in double-double, as the finishing pass forms it.
+    bool remedy_failures(double* p, double* k0, const double* x, const double* k1, const double* r, double dt,
+                         std::size_t n) {
+        auto failed = [&](std::size_t i) { return !(p[i] == p[i]); };
+        auto fix = [&](std::size_t i) -> std::pair<double, double> {
+            const double pred = x[i] + dt * k0[i];  // eq. (30a)
+            const double conv = x[i] + 0.5 * dt * (k0[i] + k1[i]);
+            const double rad = x[i] * x[i] + r[i] + dt * (x[i] * k0[i] + pred * k1[i]);  // eq. (30b)
+            k0[i] = 0.0;  // conv^2 is taken as exact: no residual
+            return {conv, rad};
+        };
+        auto rescale_pass = [&](const auto& c) {
+            for_each_factor(n, per == 2 ? 1 : 0, c, [&](std::size_t i, double s) {
+                double sq, sq_err, hi, lo;
+                detail::two_product(p[i], p[i], sq, sq_err);
+                detail::two_sum(sq, sq * s, hi, lo);  // xi (1 + s); the rounding of sq * s is below eps |xi s|
+                lo += sq_err + k0[i] * (1.0 + s);
+                const double xi = hi + lo;
+                lo -= xi - hi;
+                const double root = std::sqrt(xi);
+                double root_sq, root_err;
+                detail::two_product(root, root, root_sq, root_err);
+                k0[i] = ((xi - root_sq) - root_err) + lo;
+                p[i] = std::copysign(root, p[i]);
+            });
+        };
+        return try_remedy(p, x, n, per, failed, fix, rescale_pass);
+    }
+
     S k0_{}, k1_{}, pred_{}, res_{};
     std::size_t res_n_ = 0;
 };

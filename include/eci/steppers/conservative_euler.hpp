@@ -7,11 +7,13 @@
 #include <cmath>
 #include <cstddef>
 #include <limits>
+#include <ranges>
 #include <utility>
 
 #include "../concepts.hpp"
 #include "../detail/state_ops.hpp"
 #include "implicit_midpoint.hpp"
+#include "radicand_remedy.hpp"
 
 namespace eci {
 
@@ -19,8 +21,9 @@ namespace eci {
 /// (Euler predicts no sign change within 2 tau, the paper's chi test) and |psi_k| > tau |S_k| for every mode
 /// (from Figure 1's start this cuts the error on [0, 10] threefold); otherwise the step is the implicit
 /// midpoint rule, solved by fixed-point iteration to round-off. Non-convergence fails the step.
+/// Isolated near-zero modes are remedied instead (radicand_remedy.hpp) when the model's invariants are known.
 template <state S>
-class conservative_euler {
+class conservative_euler : public radicand_remedy {
    public:
     static constexpr int order = 1;
     /// Bound on the fixed-point iterations of one implicit step.
@@ -43,7 +46,9 @@ class conservative_euler {
             near_zero += (rad > 0.0 && std::abs(xr[i]) > dt * std::abs(k[i])) ? 0.0 : 1.0;
             y[i] = std::copysign(std::sqrt(rad), xr[i]);
         }
-        if (near_zero == 0.0) {
+        // A few near-zero modes among many take Euler's own update, and the rescale of radicand_remedy.hpp makes
+        // the step exact again: no implicit solve for the whole state.
+        if (near_zero == 0.0 || remedy_near_zero(y, xr.data(), k, dt, n)) {
             using std::swap;
             swap(x, implicit_.y_);
             return step_result::success();
@@ -58,6 +63,19 @@ class conservative_euler {
     static constexpr std::size_t buffer_count() { return implicit_midpoint<S>::buffer_count(); }
 
    private:
+    static constexpr std::size_t per = sizeof(std::ranges::range_value_t<S>) / sizeof(double);
+
+    bool remedy_near_zero(double* y, const double* x, const double* k, double dt, std::size_t n) {
+        auto near = [&](std::size_t i) {
+            const double rad = x[i] * (x[i] + 2.0 * dt * k[i]);
+            return !(rad > 0.0 && std::abs(x[i]) > dt * std::abs(k[i]));
+        };
+        auto fix = [&](std::size_t i) -> std::pair<double, double> {
+            return {x[i] + dt * k[i], x[i] * (x[i] + 2.0 * dt * k[i])};  // Euler, eq. (7); eq. (16)'s radicand
+        };
+        return try_remedy(y, x, n, per, near, fix, [&](const auto& c) { rescale(y, n, per, c); });
+    }
+
     implicit_midpoint<S> implicit_;
 };
 

@@ -3,12 +3,15 @@
 // with sum_k w_k psi_k S_k = 0 is then conserved to round-off, all at once, and the method keeps its order.
 #pragma once
 
+#include <array>
 #include <cmath>
 #include <cstddef>
+#include <ranges>
 #include <span>
 #include <utility>
 
 #include "explicit_rk.hpp"
+#include "radicand_remedy.hpp"
 
 namespace eci {
 
@@ -50,9 +53,11 @@ ECI_DETAIL_SQRT_CLONES inline double c_pc_finish(double* o, const double* x, con
 /// for Heun's tableau is the predictor psi~ of eq. (30b).
 enum class sign_rule { of_update, of_last_stage };
 
-/// The conservative version of the explicit tableau T. A negative radicand fails the step (x is unchanged).
+/// The conservative version of the explicit tableau T. Negative radicands in isolated components are remedied
+/// exactly when the model's quadratic invariants are known (radicand_remedy.hpp); otherwise they fail the step
+/// (x is unchanged) and the driver halves it.
 template <const auto& T, state S, sign_rule Sign = sign_rule::of_update>
-class conservative_rk {
+class conservative_rk : public radicand_remedy {
     static constexpr std::size_t s = T.stages;
     // Heun with the predictor's sign is C-PC, eq. (30). Its radicand factorises,
     // psi^2 + tau (psi S + psi~ S~) = psi~ (psi + tau S~) since psi~ = psi + tau S,
@@ -82,8 +87,10 @@ class conservative_rk {
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
             finish_general(o, xr.data(), kp, dt, n, bad, std::make_index_sequence<s>{});
         }
-        if (bad != 0.0)
-            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
+        if (bad != 0.0) {  // only steps with failures pay for what follows
+            const std::size_t first = detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); });
+            if (!remedy_failures(o, xr.data(), dt, n)) return step_result::failure(first);
+        }
         using std::swap;
         swap(x, out);
         return step_result::success();
@@ -103,6 +110,38 @@ class conservative_rk {
             ((T.a[J][M] != 0.0 ? (acc += (dt * T.a[J][M]) * k[M][i], 0) : 0), ...);
         }(std::make_index_sequence<J>{});
         return acc;
+    }
+
+    static constexpr std::size_t per = sizeof(std::ranges::range_value_t<S>) / sizeof(double);
+
+    // The remedy (radicand_remedy.hpp) for the unknowns whose radicand is negative (NaN in o): their conventional
+    // update, recomputed with the very operations of the stage and finishing passes, and their radicand.
+    bool remedy_failures(double* o, const double* x, double dt, std::size_t n) {
+        std::array<const double*, s> kp{};
+        for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
+        auto failed = [&](std::size_t i) { return !(o[i] == o[i]); };
+        auto fix = [&](std::size_t i) -> std::pair<double, double> {
+            double conv = x[i];
+            [&]<std::size_t... J>(std::index_sequence<J...>) {
+                ((T.b[J] != 0.0 ? (conv += (dt * T.b[J]) * kp[J][i], 0) : 0), ...);
+            }(std::make_index_sequence<s>{});
+            if constexpr (is_c_pc) {
+                const double pred = stage_value<1>(x[i], kp, i, dt);  // psi~, eq. (30a)
+                return {conv, pred * (x[i] + dt * kp[1][i])};         // eq. (30b), factorised
+            } else {
+                return {conv, radicand(x, kp, i, dt, std::make_index_sequence<s>{})};
+            }
+        };
+        return try_remedy(o, x, n, per, failed, fix, [&](const auto& c) { rescale(o, n, per, c); });
+    }
+
+    // psi^2 + dt sum_j 2 b_j Y_j k_j at unknown i, as finish_general forms it.
+    template <std::size_t... J>
+    static double radicand(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt,
+                           std::index_sequence<J...>) {
+        double rate = 2.0 * T.b[0] * x[i] * k[0][i];
+        ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * stage_value<J>(x[i], k, i, dt) * k[J][i], 0) : 0), ...);
+        return x[i] * x[i] + dt * rate;
     }
 
     // One pass over x and the k_j: the conventional update (for the sign), the rate of psi^2,

@@ -1,0 +1,262 @@
+// The remedy for isolated negative radicands in the conservative engines (issue 9): the few failing components
+// take the conventional update, then one rescale psi_k^2 <- psi_k^2 (1 + sum_j c_j w_jk) restores every invariant.
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+namespace eci {
+
+/// What a conservative stepper does when some radicands (new psi_k^2) come out negative.
+enum class radicand_policy {
+    remedy,  ///< isolated failures: conventional update for them, exact rescale of all; else as `halve`
+    halve,   ///< fail the step, so the driver halves it: the paper's procedure
+};
+
+/// The weights of a model's quadratic invariants I_j = sum_k w_jk |psi_k|^2: one row per invariant, one weight per
+/// state element (a complex mode's weight applies to both its parts). A model declares them with a member
+/// `quadratic_invariant_weights()` returning this type; the drivers hand them to the stepper.
+using quadratic_weights = std::vector<std::vector<double>>;
+
+/// Settings of the remedy (docs/methods.md derives each threshold).
+struct remedy_options {
+    radicand_policy policy = radicand_policy::remedy;  ///< remedy (default) or halve
+    /// "Isolated": the failing real unknowns are at most this fraction of all, and hold at most this fraction of
+    /// every invariant's magnitude sum_k |w_jk| psi_k^2 (before and after the step). On three modes one failure is
+    /// a third of the state, so small systems always halve.
+    double max_fraction = 0.01;
+    /// Largest relative change |s_k| = |sum_j c_j w_jk| of any psi_k^2 the rescale may make; beyond it (a
+    /// correction that is not small, e.g. from nearly dependent weights) the step is halved instead.
+    double max_rescale = 0.01;
+};
+
+/// What the remedy did so far (a stepper's counters, from the stepper's construction).
+struct remedy_stats {
+    std::uint64_t remedied_steps = 0;       ///< steps completed by the remedy instead of a halving
+    std::uint64_t components_remedied = 0;  ///< real unknowns given the conventional update, summed over steps
+    std::uint64_t declined = 0;             ///< steps with failures the remedy left to halving (not isolated,
+                                            ///< ill-conditioned, rescale too large, non-finite)
+};
+
+/// The remedy's state: options, weights, counters. Every conservative stepper derives from it, which gives it
+/// `remedy` (the options), `set_quadratic_invariants()` and `remedy_statistics()`.
+class radicand_remedy {
+   public:
+    /// Policy and thresholds.
+    remedy_options remedy{};
+
+    /// Tells the stepper the invariants it conserves, which the remedy needs (without them it halves). Throws
+    /// std::invalid_argument for rows of different sizes, non-finite weights or more than `max_invariants` rows.
+    void set_quadratic_invariants(quadratic_weights w) {
+        if (w.size() > max_invariants)
+            throw std::invalid_argument("at most " + std::to_string(max_invariants) + " quadratic invariants");
+        for (const auto& row : w) {
+            if (row.size() != w.front().size())
+                throw std::invalid_argument("quadratic invariant weights: rows of different sizes");
+            for (double v : row)
+                if (!std::isfinite(v)) throw std::invalid_argument("quadratic invariant weights must be finite");
+        }
+        weights_ = std::move(w);
+        for (std::size_t j = 0; j < weights_.size(); ++j) {
+            wmax_[j] = 0.0;
+            for (double v : weights_[j]) wmax_[j] = std::max(wmax_[j], std::abs(v));
+        }
+    }
+    /// The weights in use (empty: none known, the stepper halves).
+    const quadratic_weights& quadratic_invariants() const { return weights_; }
+    /// Counters since construction.
+    const remedy_stats& remedy_statistics() const { return stats_; }
+
+    /// The most invariants the remedy handles (its m x m system lives on the stack).
+    static constexpr std::size_t max_invariants = 8;
+
+   protected:
+    // Tries to complete a step whose output o (n real unknowns, `per` per state element) has failures. bad(i)
+    // says whether unknown i failed; fix(i) returns {conventional update, the conservative radicand} of unknown i.
+    // On success o holds the remedied state; Rescale(o, s) then applies psi_k^2 <- psi_k^2 (1 + s_k) (plain
+    // steppers call rescale() below; compensated C-PC carries its residual through it). On failure o is garbage.
+    template <class Bad, class Fix, class Rescale>
+    bool try_remedy(double* o, const double* x, std::size_t n, std::size_t per, Bad&& bad, Fix&& fix,
+                    Rescale&& rescale_pass) {
+        const std::size_t m = weights_.size();
+        if (remedy.policy != radicand_policy::remedy || m == 0 || weights_.front().size() * per != n) return false;
+        const std::size_t shift = per == 2 ? 1 : 0;
+        const double limit = remedy.max_fraction * double(n);
+        bad_.clear();
+        for (std::size_t i = 0; i < n; ++i) {
+            if (!bad(i)) continue;
+            bad_.push_back(i);
+            if (double(bad_.size()) > limit) return decline();
+        }
+        if (bad_.empty()) return decline();
+        // The conventional update for the failing components, and the defect it makes in each invariant.
+        std::array<double, max_invariants> defect{}, held{};
+        for (std::size_t i : bad_) {
+            const auto [conv, rad] = fix(i);
+            if (!std::isfinite(conv) || !std::isfinite(rad)) return decline();
+            o[i] = conv;
+            const double d = conv * conv - rad, h = std::max(x[i] * x[i], conv * conv);
+            for (std::size_t j = 0; j < m; ++j) {
+                const double w = weights_[j][i >> shift];
+                defect[j] += w * d;
+                held[j] += std::abs(w) * h;
+            }
+        }
+        // The Gram matrix G_ij = sum_k w_ik w_jk xi_k and each invariant's magnitude A_j = sum_k |w_jk| xi_k.
+        std::array<double, max_invariants * max_invariants> g{};
+        std::array<double, max_invariants> mag{};
+        gram(o, n, shift, g, mag);
+        for (std::size_t j = 0; j < m; ++j)
+            if (!(held[j] <= remedy.max_fraction * mag[j])) return decline();
+        std::array<double, max_invariants> c{};
+        if (!solve(g, mag, defect, c)) return decline();
+        // |s_k| <= sum_j |c_j| max_k |w_jk|: a bound, checked before anything is rescaled.
+        double s_bound = 0.0;
+        for (std::size_t j = 0; j < m; ++j) s_bound += std::abs(c[j]) * wmax_[j];
+        if (!(s_bound <= remedy.max_rescale)) return decline();
+        rescale_pass(c);
+        ++stats_.remedied_steps;
+        stats_.components_remedied += bad_.size();
+        return true;
+    }
+
+    // psi_k <- psi_k sqrt(1 + s_k), s_k = sum_j c_j w_jk, written psi_k + psi_k h_k with h = s / (1 + sqrt(1 + s))
+    // so that a tiny s is not lost in 1 + s.
+    void rescale(double* o, std::size_t n, std::size_t per, const std::array<double, max_invariants>& c) const {
+        const std::size_t shift = per == 2 ? 1 : 0;
+        for_each_factor(n, shift, c, [&](std::size_t i, double s) { o[i] += o[i] * (s / (1.0 + std::sqrt(1.0 + s))); });
+    }
+
+    // Calls fn(i, s_i) for every real unknown i, with s_i = sum_j c_j w_ji.
+    template <class Fn>
+    void for_each_factor(std::size_t n, std::size_t shift, const std::array<double, max_invariants>& c,
+                         Fn&& fn) const {
+        const std::size_t m = weights_.size();
+        if (m == 2) {  // the common case (energy and enstrophy), as a loop the compiler vectorizes
+            const double* w0 = weights_[0].data();
+            const double* w1 = weights_[1].data();
+            for (std::size_t i = 0; i < n; ++i) fn(i, c[0] * w0[i >> shift] + c[1] * w1[i >> shift]);
+            return;
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+            double s = 0.0;
+            for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][i >> shift];
+            fn(i, s);
+        }
+    }
+
+
+   private:
+    bool decline() {
+        ++stats_.declined;
+        return false;
+    }
+
+    void gram(const double* o, std::size_t n, std::size_t shift,
+              std::array<double, max_invariants * max_invariants>& g, std::array<double, max_invariants>& mag) const {
+        const std::size_t m = weights_.size();
+        if (m == 2) {
+            const double* w0 = weights_[0].data();
+            const double* w1 = weights_[1].data();
+            double g00 = 0, g01 = 0, g11 = 0, a0 = 0, a1 = 0;
+            for (std::size_t i = 0; i < n; ++i) {
+                const double xi = o[i] * o[i], u = w0[i >> shift], v = w1[i >> shift];
+                g00 += u * u * xi, g01 += u * v * xi, g11 += v * v * xi;
+                a0 += std::abs(u) * xi, a1 += std::abs(v) * xi;
+            }
+            g[0] = g00, g[1] = g[max_invariants] = g01, g[max_invariants + 1] = g11;
+            mag[0] = a0, mag[1] = a1;
+            return;
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+            const double xi = o[i] * o[i];
+            for (std::size_t a = 0; a < m; ++a) {
+                const double wa = weights_[a][i >> shift];
+                mag[a] += std::abs(wa) * xi;
+                for (std::size_t b = 0; b <= a; ++b) g[a * max_invariants + b] += wa * weights_[b][i >> shift] * xi;
+            }
+        }
+        for (std::size_t a = 0; a < m; ++a)
+            for (std::size_t b = 0; b < a; ++b) g[b * max_invariants + a] = g[a * max_invariants + b];
+    }
+
+    // G c = -defect in the least-squares sense on G's numerically non-zero eigenvalues (Jacobi-scaled, cyclic
+    // Jacobi eigen-decomposition): exactly dependent weights (two names for one invariant) are handled, since the
+    // defect lies in G's range. Accepts c only if the residual G c + defect is round-off of every invariant.
+    bool solve(const std::array<double, max_invariants * max_invariants>& g, const std::array<double, max_invariants>& mag,
+               const std::array<double, max_invariants>& defect, std::array<double, max_invariants>& c) const {
+        const std::size_t m = weights_.size();
+        constexpr std::size_t M = max_invariants;
+        std::array<double, M> d{};
+        for (std::size_t j = 0; j < m; ++j) d[j] = g[j * M + j] > 0.0 ? 1.0 / std::sqrt(g[j * M + j]) : 1.0;
+        std::array<double, M * M> a{}, v{};
+        for (std::size_t i = 0; i < m; ++i) {
+            v[i * M + i] = 1.0;
+            for (std::size_t j = 0; j < m; ++j) a[i * M + j] = d[i] * g[i * M + j] * d[j];
+        }
+        for (int sweep = 0; sweep < 30; ++sweep) {
+            double off = 0.0;
+            for (std::size_t p = 0; p < m; ++p)
+                for (std::size_t q = p + 1; q < m; ++q) off += a[p * M + q] * a[p * M + q];
+            if (off == 0.0) break;
+            for (std::size_t p = 0; p < m; ++p)
+                for (std::size_t q = p + 1; q < m; ++q) {
+                    const double apq = a[p * M + q];
+                    if (apq == 0.0) continue;
+                    const double theta = (a[q * M + q] - a[p * M + p]) / (2.0 * apq);
+                    const double t = (theta >= 0 ? 1.0 : -1.0) / (std::abs(theta) + std::sqrt(theta * theta + 1.0));
+                    const double cs = 1.0 / std::sqrt(t * t + 1.0), sn = t * cs;
+                    for (std::size_t k = 0; k < m; ++k) {  // A <- J^T A J, V <- V J
+                        const double akp = a[k * M + p], akq = a[k * M + q];
+                        a[k * M + p] = cs * akp - sn * akq, a[k * M + q] = sn * akp + cs * akq;
+                    }
+                    for (std::size_t k = 0; k < m; ++k) {
+                        const double apk = a[p * M + k], aqk = a[q * M + k];
+                        a[p * M + k] = cs * apk - sn * aqk, a[q * M + k] = sn * apk + cs * aqk;
+                    }
+                    for (std::size_t k = 0; k < m; ++k) {
+                        const double vkp = v[k * M + p], vkq = v[k * M + q];
+                        v[k * M + p] = cs * vkp - sn * vkq, v[k * M + q] = sn * vkp + cs * vkq;
+                    }
+                }
+        }
+        double lmax = 0.0;
+        for (std::size_t i = 0; i < m; ++i) lmax = std::max(lmax, a[i * M + i]);
+        if (!(lmax > 0.0)) return false;
+        // Eigenvalues below the Jacobi method's absolute accuracy (a few eps lambda_max) are zero: dependent weights.
+        const double cutoff = 64.0 * std::numeric_limits<double>::epsilon() * lmax;
+        std::array<double, M> ct{};
+        for (std::size_t e = 0; e < m; ++e) {
+            const double lambda = a[e * M + e];
+            if (!(lambda > cutoff)) continue;
+            double proj = 0.0;
+            for (std::size_t i = 0; i < m; ++i) proj -= v[i * M + e] * d[i] * defect[i];
+            for (std::size_t i = 0; i < m; ++i) ct[i] += v[i * M + e] * proj / lambda;
+        }
+        for (std::size_t i = 0; i < m; ++i) c[i] = d[i] * ct[i];
+        // What the rescale leaves of each defect; a few roundings of the invariant are allowed (the remedied step is
+        // then conserving like any other), anything more means G could not absorb it.
+        for (std::size_t i = 0; i < m; ++i) {
+            double r = defect[i];
+            for (std::size_t j = 0; j < m; ++j) r += g[i * M + j] * c[j];
+            if (!std::isfinite(c[i]) || !(std::abs(r) <= 4.0 * std::numeric_limits<double>::epsilon() * mag[i]))
+                return false;
+        }
+        return true;
+    }
+
+    quadratic_weights weights_;
+    std::array<double, max_invariants> wmax_{};
+    std::vector<std::size_t> bad_;
+    remedy_stats stats_{};
+};
+
+}  // namespace eci
