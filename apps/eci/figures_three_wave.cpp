@@ -35,9 +35,17 @@ struct trajectory {
     run_stats stats;
 };
 
+/// The paper's procedure for a negative radicand: halve the step (C-PC; C-Euler takes its implicit step), never
+/// the remedy of radicand_remedy.hpp (which on three modes would not apply anyway: one mode is not isolated).
+template <class Stepper>
+void use_papers_procedure(Stepper& stepper) {
+    if constexpr (requires { stepper.remedy.policy; }) stepper.remedy.policy = radicand_policy::halve;
+}
+
 template <class Stepper>
 trajectory run(const three_wave& model, double dt, double t_final) {
     Stepper stepper;
+    use_papers_procedure(stepper);
     trajectory out;
     state x = psi0_figs_1_to_4;
     const auto n = static_cast<std::uint64_t>(std::llround(t_final / dt));
@@ -338,6 +346,7 @@ std::pair<double, double> fit_power_law(const std::vector<double>& tau, const st
 template <class Stepper>
 double single_step_error(const three_wave& model, const three_wave_exact& exact, double tau) {
     Stepper stepper;
+    use_papers_procedure(stepper);
     state x = psi0_fig_5;
     three_wave f = model;
     if (!stepper.step(f, x, 0.0, tau)) return std::numeric_limits<double>::quiet_NaN();
