@@ -32,11 +32,18 @@ case $mode in
   quick) big=3000000; big_real=300000;  reps=5; big_pairs=7;  min_time=0.05; mem_n=9999999; mem_reps=1; drift_steps=1000000;  drift_members=4; wp_quick=1 ;;
   smoke) big=3003;    big_real=3003;    reps=1; big_pairs=1;  min_time=1e-6; mem_n=30000;   mem_reps=1; drift_steps=1000;     drift_members=1; wp_quick=1 ;;
 esac
+# The cost of conservation at the users' step sizes (CLI default dt = 0.01, CFL-like, and the old dt = 1e-5),
+# realistic n-wave system, remedy against the halving it replaces.
+case $mode in
+  full)  remedy_sizes=100000,1000000; remedy_pairs=7; remedy_before=1 ;;
+  quick) remedy_sizes=100000;         remedy_pairs=5; remedy_before=1 ;;
+  smoke) remedy_sizes=3000;           remedy_pairs=1; remedy_before=1 ;;
+esac
 
 echo "== building ($build, Release, same flags for eci and Boost.Odeint)" >&2
 cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DECI_BUILD_TESTS=OFF \
       -DECI_BUILD_APPS=OFF -DECI_BUILD_EXAMPLES=OFF > "$out/cmake.log"
-cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
+cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift eci_bench_remedy \
       >> "$out/cmake.log"
 bin="$build/bench"
 
@@ -44,6 +51,10 @@ echo "== per-step cost ($reps interleaved repetitions, large systems N=$big and 
 "$bin/eci_bench_step" --eci_big=$big --eci_big_realistic=$big_real --eci_big_realistic_pairs=$big_pairs \
     --eci_min_time=$min_time --benchmark_repetitions=$reps --benchmark_enable_random_interleaving=true --benchmark_report_aggregates_only=true \
     --benchmark_out="$out/step.json" --benchmark_out_format=json > "$out/step.txt" 2>&1
+
+echo "== conservation at the users' step sizes: remedy vs halving, N=$remedy_sizes, $remedy_pairs paired steps" >&2
+"$bin/eci_bench_remedy" --sizes=$remedy_sizes --pairs=$remedy_pairs --before-pairs=$remedy_before \
+    --csv="$out/remedy.csv" > "$out/remedy.txt"
 
 echo "== peak memory, N=$mem_n, each stepper in its own process" >&2
 : > "$out/memory.txt"
@@ -71,5 +82,9 @@ fi
 echo "== results in $out" >&2
 python3 "$repo/bench/report.py" --steps "$out/step.json" --memory "$out/memory.txt" --drift "$out/drift.txt" \
     --mem-n $mem_n --drift-steps $drift_steps ${json:+--json "$json"} | tee "$out/table.txt"
+echo
+echo "negative radicands at the users' step sizes (realistic n-wave, 20 triads/mode; per step; cpu ratio = fastest"
+echo "paired steps (median of pair ratios)); targets C-PC/PC and C-RK4/RK4 <= 1.10 in rhs and cpu, no halvings:"
+tee -a "$out/table.txt" < "$out/remedy.txt"
 if [ "$mode" = smoke ]; then echo "(smoke run: every program ran once, at token sizes: the ratios above mean nothing)"; fi
 grep -h "^wp " "$out/work_precision.txt" | grep -v "lvk=" > "$out/work_precision_summary.txt" || true

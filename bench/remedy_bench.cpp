@@ -1,0 +1,207 @@
+// The cost of exact conservation at the step sizes users choose (issue 9): C-PC / PC and C-RK4 / RK4 on the realistic
+// n-wave system, in right-hand-side evaluations and CPU time, with the remedy (default) and with halving (before).
+// Usage: eci_bench_remedy [--sizes=N1,N2,...] [--pairs=P] [--before-pairs=Q] [--csv=FILE]
+//   Each row times P pairs of single steps, the two methods back to back in alternating order (thread CPU time),
+//   each method advancing its own copy of the state from the same start. The CPU ratio is that of the fastest
+//   steps (interference only adds time) and, in brackets, the median of the per-pair ratios.
+#include <time.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include <eci/eci.hpp>
+#include <eci/models/n_wave.hpp>
+
+#include "bench_common.hpp"
+
+namespace {
+
+using model = eci::n_wave<double>;
+using state = model::state_type;
+
+double thread_cpu_seconds() {
+    timespec ts{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &ts);
+    return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+}
+
+// The CFL-like step: Courant number 1 against the Gershgorin bound of the Jacobian at the initial state,
+// max_k sum over k's triads of |dS_k/dpsi|, the fastest rate at which one mode can be driven.
+double cfl_step(const model& m, const state& x) {
+    std::vector<double> rate(m.size(), 0.0);
+    for (const eci::triad& t : m.triads) {
+        rate[t.k] += std::abs(t.Mk) * (std::abs(x[t.p]) + std::abs(x[t.q]));
+        rate[t.p] += std::abs(t.Mp) * (std::abs(x[t.q]) + std::abs(x[t.k]));
+        rate[t.q] += std::abs(t.Mq) * (std::abs(x[t.k]) + std::abs(x[t.p]));
+    }
+    return 1.0 / *std::max_element(rate.begin(), rate.end());
+}
+
+// One method with its own state, stepping as the driver does (remedy inside the step, halving outside).
+template <class Stepper>
+struct runner {
+    const model* m;
+    double dt;
+    Stepper stepper{};
+    state x;
+    double t = 0.0;
+    std::uint64_t evals = 0, steps = 0;
+    eci::run_stats stats{};
+
+    runner(const model* mod, const state& x0, double step, bool remedy) : m(mod), dt(step), x(x0) {
+        if constexpr (requires { stepper.remedy; }) {
+            stepper.remedy.policy = remedy ? eci::radicand_policy::remedy : eci::radicand_policy::halve;
+            stepper.set_quadratic_invariants(m->quadratic_invariant_weights());
+        }
+    }
+    void step() {
+        eci::bench::counted_rhs<model> f{m, &evals};
+        eci::detail::advance_with_reduction(stepper, f, x, t, dt, 40, stats);
+        t += dt;
+        ++steps;
+    }
+    std::uint64_t remedied() const {
+        if constexpr (requires { stepper.remedy_statistics(); })
+            return stepper.remedy_statistics().components_remedied;
+        else
+            return 0;
+    }
+};
+
+struct pair_result {
+    double cpu_ratio_best = 0, cpu_ratio_median = 0, evals_a = 0, evals_b = 0, halvings_a = 0, remedied_a = 0;
+};
+
+// P pairs of steps, alternating which method goes first; the first step of each is untimed (buffer sizing).
+template <class A, class B>
+pair_result run_pair(A& a, B& b, int pairs) {
+    a.step();
+    b.step();
+    const std::uint64_t ea0 = a.evals, eb0 = b.evals, ha0 = a.stats.step_reductions, ra0 = a.remedied();
+    std::vector<double> ratios;
+    double best_a = 1e300, best_b = 1e300;
+    for (int p = 0; p < pairs; ++p) {
+        double ta = 0, tb = 0;
+        for (int k = 0; k < 2; ++k) {
+            const bool run_a = (k == 0) == (p % 2 == 0);
+            const double t0 = thread_cpu_seconds();
+            run_a ? a.step() : b.step();
+            (run_a ? ta : tb) = thread_cpu_seconds() - t0;
+        }
+        ratios.push_back(ta / tb);
+        best_a = std::min(best_a, ta);
+        best_b = std::min(best_b, tb);
+    }
+    std::sort(ratios.begin(), ratios.end());
+    const std::size_t n = ratios.size();
+    pair_result r;
+    r.cpu_ratio_best = best_a / best_b;
+    r.cpu_ratio_median = n % 2 ? ratios[n / 2] : 0.5 * (ratios[n / 2 - 1] + ratios[n / 2]);
+    r.evals_a = double(a.evals - ea0) / pairs;
+    r.evals_b = double(b.evals - eb0) / pairs;
+    r.halvings_a = double(a.stats.step_reductions - ha0) / pairs;
+    r.remedied_a = double(a.remedied() - ra0) / pairs;
+    return r;
+}
+
+struct row_printer {
+    std::FILE* csv;
+    void header() const {
+        std::printf("%-8s %-26s %-34s %5s %9s %9s %13s %11s %10s %s\n", "N", "dt", "ratio", "pairs", "rhs/step",
+                    "rhs ratio", "cpu ratio", "halvings/st", "remedied/st", "target: <= 1.10, no halvings");
+        if (csv)
+            std::fprintf(csv, "modes,dt,dt_label,comparison,policy,pairs,rhs_per_step_a,rhs_per_step_b,rhs_ratio,"
+                              "cpu_ratio_best,cpu_ratio_median,halvings_per_step,remedied_per_step\n");
+    }
+    void row(std::size_t n, double dt, const std::string& label, const std::string& what, const std::string& policy,
+             int pairs, const pair_result& r, bool targeted) const {
+        const double rhs_ratio = r.evals_a / r.evals_b;
+        char dts[64], cpu[32];
+        std::snprintf(dts, sizeof dts, "%.3g %s", dt, label.c_str());
+        std::snprintf(cpu, sizeof cpu, "%.3f (%.3f)", r.cpu_ratio_best, r.cpu_ratio_median);
+        const char* met = !targeted ? "-" : (rhs_ratio <= 1.10 && r.cpu_ratio_best <= 1.10 && r.halvings_a == 0.0 ? "met" : "MISSED");
+        std::printf("%-8zu %-26s %-34s %5d %9.1f %9.3f %13s %11.2f %10.2f %s\n", n, dts,
+                    (what + " " + policy).c_str(), pairs, r.evals_a, rhs_ratio, cpu, r.halvings_a, r.remedied_a, met);
+        std::fflush(stdout);
+        if (csv)
+            std::fprintf(csv, "%zu,%.17g,%s,%s,%s,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", n, dt, label.c_str(),
+                         what.c_str(), policy.c_str(), pairs, r.evals_a, r.evals_b, rhs_ratio, r.cpu_ratio_best,
+                         r.cpu_ratio_median, r.halvings_a, r.remedied_a);
+    }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    std::vector<std::size_t> sizes{100000, 1000000};
+    int pairs = 5, before_pairs = 1;
+    std::string csv_path;
+    for (int i = 1; i < argc; ++i) {
+        if (std::strncmp(argv[i], "--sizes=", 8) == 0) {
+            sizes.clear();
+            std::string list = argv[i] + 8;
+            for (std::size_t at = 0; at <= list.size();) {
+                const std::size_t comma = std::min(list.find(',', at), list.size());
+                sizes.push_back(std::strtoull(list.substr(at, comma - at).c_str(), nullptr, 10));
+                at = comma + 1;
+            }
+        } else if (std::strncmp(argv[i], "--pairs=", 8) == 0) {
+            pairs = std::atoi(argv[i] + 8);
+        } else if (std::strncmp(argv[i], "--before-pairs=", 15) == 0) {
+            before_pairs = std::atoi(argv[i] + 15);
+        } else if (std::strncmp(argv[i], "--csv=", 6) == 0) {
+            csv_path = argv[i] + 6;
+        } else {
+            std::fprintf(stderr, "eci_bench_remedy: unknown argument %s\n", argv[i]);
+            return 2;
+        }
+    }
+    if (sizes.empty() || pairs < 1 || before_pairs < 0 ||
+        std::any_of(sizes.begin(), sizes.end(), [](std::size_t n) { return n < 300; })) {
+        std::fprintf(stderr, "eci_bench_remedy: --sizes needs sizes >= 300, --pairs >= 1, --before-pairs >= 0\n");
+        return 2;
+    }
+    std::FILE* csv = csv_path.empty() ? nullptr : std::fopen(csv_path.c_str(), "w");
+    if (!csv_path.empty() && !csv) {
+        std::fprintf(stderr, "eci_bench_remedy: cannot write %s\n", csv_path.c_str());
+        return 2;
+    }
+    const row_printer out{csv};
+    out.header();
+    for (std::size_t n : sizes) {
+        const model m = model::random(n, 20, 12345);  // the realistic system: 20 triads per mode
+        const state x0 = m.random_state(678);
+        struct step_size {
+            double dt;
+            std::string label;
+        };
+        const std::vector<step_size> steps{{0.01, "(CLI default)"}, {cfl_step(m, x0), "(CFL 1)"},
+                                           {1e-5, "(tiny, the old rows)"}};
+        for (const step_size& s : steps) {
+            auto compare = [&]<class C, class P>(const char* what, bool remedy, int count, bool targeted) {
+                if (count == 0) return;
+                runner<C> a(&m, x0, s.dt, remedy);
+                runner<P> b(&m, x0, s.dt, true);
+                out.row(n, s.dt, s.label, what, remedy ? "remedy" : "halving (before)", count, run_pair(a, b, count),
+                        targeted);
+            };
+            compare.template operator()<eci::c_pc<state>, eci::pc<state>>("C-PC / PC", true, pairs, true);
+            compare.template operator()<eci::c_rk4<state>, eci::rk4<state>>("C-RK4 / RK4", true, pairs, true);
+            compare.template operator()<eci::c_euler<state>, eci::euler<state>>("C-Euler / Euler", true, pairs, false);
+            // Before: the paper's procedure (halving; C-Euler's implicit step), measured in the same run.
+            compare.template operator()<eci::c_pc<state>, eci::pc<state>>("C-PC / PC", false, before_pairs, false);
+            compare.template operator()<eci::c_rk4<state>, eci::rk4<state>>("C-RK4 / RK4", false, before_pairs, false);
+            compare.template operator()<eci::c_euler<state>, eci::euler<state>>("C-Euler / Euler", false, before_pairs,
+                                                                               false);
+            compare.template operator()<eci::pc<state>, eci::pc<state>>("PC / PC (noise floor)", true, pairs, false);
+        }
+    }
+    if (csv) std::fclose(csv);
+    return 0;
+}
