@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <ranges>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -71,10 +72,18 @@ void collect_solver_stats(const St& stepper, run_stats& stats) {
 
 /// Gives a conservative stepper the quadratic invariants the model declares (`quadratic_invariant_weights()`),
 /// which its remedy for negative radicands needs; a system that declares none (a plain lambda) changes nothing.
-template <class St, class F>
-void attach_quadratic_invariants(St& stepper, const F& f) {
-    if constexpr (requires { stepper.set_quadratic_invariants(f.quadratic_invariant_weights()); })
-        stepper.set_quadratic_invariants(f.quadratic_invariant_weights());
+/// Throws std::invalid_argument if the weights do not have one entry per element of x.
+template <class St, class F, class S>
+void attach_quadratic_invariants(St& stepper, const F& f, const S& x) {
+    if constexpr (requires { stepper.set_quadratic_invariants(f.quadratic_invariant_weights()); }) {
+        quadratic_weights w = f.quadratic_invariant_weights();
+        for (const auto& row : w)
+            if (row.size() != std::ranges::size(x))
+                throw std::invalid_argument("quadratic_invariant_weights() gives " + std::to_string(row.size()) +
+                                            " weights for a state of " + std::to_string(std::ranges::size(x)) +
+                                            " elements");
+        stepper.set_quadratic_invariants(std::move(w));
+    }
 }
 
 /// The stepper's remedy counters (zero for a stepper without the remedy).
@@ -106,7 +115,7 @@ run_stats integrate_n_steps(St& stepper, F&& f, S& x, double t0, double dt, std:
         ++stats.rhs_evals;
         f(a, b, t);
     };
-    detail::attach_quadratic_invariants(stepper, f);
+    detail::attach_quadratic_invariants(stepper, f, x);
     const remedy_stats before = detail::remedy_counters(stepper);
     observe(std::as_const(x), t0, std::uint64_t{0});
     for (std::uint64_t i = 1; i <= n; ++i) {

@@ -263,4 +263,16 @@ TEST(RadicandRemedy, ThreeWaveNeverRemedies) {
     EXPECT_EQ(s.remedied_steps, 0u);
 }
 
+// A model whose declared weights do not match its state is a programming error the driver reports at once.
+TEST(RadicandRemedy, DriverRejectsWeightsOfAnotherSize) {
+    struct wrong_weights {
+        eci::n_wave<double> model = eci::n_wave<double>::random(300, 4, 7);
+        void operator()(const std::vector<double>& x, std::vector<double>& dxdt, double t) const { model(x, dxdt, t); }
+        eci::quadratic_weights quadratic_invariant_weights() const { return {std::vector<double>(299, 0.5)}; }
+    } f;
+    std::vector<double> x = f.model.random_state(8);
+    eci::c_pc<std::vector<double>> st;
+    EXPECT_THROW(eci::integrate_n_steps(st, f, x, 0.0, 0.01, 1), std::invalid_argument);
+}
+
 }  // namespace

@@ -114,10 +114,9 @@ class compensated_c_pc : public radicand_remedy {
         // a call only pays off beyond a few modes
         const double bad = n >= 64 ? detail::compensated_c_pc_finish(p, k0, xr.data(), k1, r, dt, n)
                                    : detail::compensated_c_pc_finish_inline(p, k0, xr.data(), k1, r, dt, n);
-        if (bad != 0.0) {  // only steps with failures pay for what follows
-            const std::size_t first = detail::first_index(n, [&](std::size_t i) { return !(p[i] == p[i]); });
-            if (!remedy_failures(p, k0, xr.data(), k1, r, dt, n)) return step_result::failure(first);
-        }
+        // Only steps with failures pay for the remedy; the failed unknowns are NaN in p.
+        if (bad != 0.0 && !remedy_failures(p, k0, xr.data(), k1, r, dt, n))
+            return step_result::failure(first_failure(n, [&](std::size_t i) { return !(p[i] == p[i]); }));
         using std::swap;
         swap(x, pred_);
         swap(res_, k0_);

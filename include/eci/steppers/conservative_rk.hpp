@@ -87,10 +87,9 @@ class conservative_rk : public radicand_remedy {
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
             finish_general(o, xr.data(), kp, dt, n, bad, std::make_index_sequence<s>{});
         }
-        if (bad != 0.0) {  // only steps with failures pay for what follows
-            const std::size_t first = detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); });
-            if (!remedy_failures(o, xr.data(), dt, n)) return step_result::failure(first);
-        }
+        // Only steps with failures pay for the remedy; the failed unknowns are NaN in o.
+        if (bad != 0.0 && !remedy_failures(o, xr.data(), dt, n))
+            return step_result::failure(first_failure(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
         using std::swap;
         swap(x, out);
         return step_result::success();

@@ -87,10 +87,10 @@ class radicand_remedy {
     bool try_remedy(double* o, const double* x, std::size_t n, std::size_t per, Bad&& bad, Fix&& fix,
                     Rescale&& rescale_pass) {
         const std::size_t m = weights_.size();
+        bad_.clear();
         if (remedy.policy != radicand_policy::remedy || m == 0 || weights_.front().size() * per != n) return false;
         const std::size_t shift = per == 2 ? 1 : 0;
         const double limit = remedy.max_fraction * double(n);
-        bad_.clear();
         for (std::size_t i = 0; i < n; ++i) {
             if (!bad(i)) continue;
             bad_.push_back(i);
@@ -126,6 +126,15 @@ class radicand_remedy {
         ++stats_.remedied_steps;
         stats_.components_remedied += bad_.size();
         return true;
+    }
+
+    // The first failed unknown after try_remedy declined: from its list when it made one, else by bad(i).
+    template <class Bad>
+    std::size_t first_failure(std::size_t n, Bad&& bad) const {
+        if (!bad_.empty()) return bad_.front();
+        for (std::size_t i = 0; i < n; ++i)
+            if (bad(i)) return i;
+        return 0;
     }
 
     // psi_k <- psi_k sqrt(1 + s_k), s_k = sum_j c_j w_jk, written psi_k + psi_k h_k with h = s / (1 + sqrt(1 + s))
