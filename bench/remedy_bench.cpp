@@ -12,11 +12,10 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <string>
-#include <vector>
-
 #include <eci/eci.hpp>
 #include <eci/models/n_wave.hpp>
+#include <string>
+#include <vector>
 
 #include "bench_common.hpp"
 
@@ -116,8 +115,9 @@ struct row_printer {
         std::printf("%-8s %-26s %-34s %5s %9s %9s %13s %11s %10s %s\n", "N", "dt", "ratio", "pairs", "rhs/step",
                     "rhs ratio", "cpu ratio", "halvings/st", "remedied/st", "target: <= 1.10, no halvings");
         if (csv)
-            std::fprintf(csv, "modes,dt,dt_label,comparison,policy,pairs,rhs_per_step_a,rhs_per_step_b,rhs_ratio,"
-                              "cpu_ratio_best,cpu_ratio_median,halvings_per_step,remedied_per_step\n");
+            std::fprintf(csv,
+                         "modes,dt,dt_label,comparison,policy,pairs,rhs_per_step_a,rhs_per_step_b,rhs_ratio,"
+                         "cpu_ratio_best,cpu_ratio_median,halvings_per_step,remedied_per_step\n");
     }
     void row(std::size_t n, double dt, const std::string& label, const std::string& what, const std::string& policy,
              int pairs, const pair_result& r, bool targeted) const {
@@ -125,9 +125,10 @@ struct row_printer {
         char dts[64], cpu[32];
         std::snprintf(dts, sizeof dts, "%.3g %s", dt, label.c_str());
         std::snprintf(cpu, sizeof cpu, "%.3f (%.3f)", r.cpu_ratio_best, r.cpu_ratio_median);
-        const char* met = !targeted ? "-" : (rhs_ratio <= 1.10 && r.cpu_ratio_best <= 1.10 && r.halvings_a == 0.0 ? "met" : "MISSED");
-        std::printf("%-8zu %-26s %-34s %5d %9.1f %9.3f %13s %11.2f %10.2f %s\n", n, dts,
-                    (what + " " + policy).c_str(), pairs, r.evals_a, rhs_ratio, cpu, r.halvings_a, r.remedied_a, met);
+        const char* met =
+            !targeted ? "-" : (rhs_ratio <= 1.10 && r.cpu_ratio_best <= 1.10 && r.halvings_a == 0.0 ? "met" : "MISSED");
+        std::printf("%-8zu %-26s %-34s %5d %9.1f %9.3f %13s %11.2f %10.2f %s\n", n, dts, (what + " " + policy).c_str(),
+                    pairs, r.evals_a, rhs_ratio, cpu, r.halvings_a, r.remedied_a, met);
         std::fflush(stdout);
         if (csv)
             std::fprintf(csv, "%zu,%.17g,%s,%s,%s,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", n, dt, label.c_str(),
@@ -181,8 +182,8 @@ int main(int argc, char** argv) {
             double dt;
             std::string label;
         };
-        const std::vector<step_size> steps{{0.01, "(CLI default)"}, {cfl_step(m, x0), "(CFL 1)"},
-                                           {1e-5, "(tiny, the old rows)"}};
+        const std::vector<step_size> steps{
+            {0.01, "(CLI default)"}, {cfl_step(m, x0), "(CFL 1)"}, {1e-5, "(tiny, the old rows)"}};
         for (const step_size& s : steps) {
             auto compare = [&]<class C, class P>(const char* what, bool remedy, int count, bool targeted) {
                 if (count == 0) return;
@@ -198,7 +199,7 @@ int main(int argc, char** argv) {
             compare.template operator()<eci::c_pc<state>, eci::pc<state>>("C-PC / PC", false, before_pairs, false);
             compare.template operator()<eci::c_rk4<state>, eci::rk4<state>>("C-RK4 / RK4", false, before_pairs, false);
             compare.template operator()<eci::c_euler<state>, eci::euler<state>>("C-Euler / Euler", false, before_pairs,
-                                                                               false);
+                                                                                false);
             compare.template operator()<eci::pc<state>, eci::pc<state>>("PC / PC (noise floor)", true, pairs, false);
         }
     }

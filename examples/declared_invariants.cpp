@@ -3,10 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <eci/eci.hpp>
 #include <limits>
 #include <vector>
-
-#include <eci/eci.hpp>
 
 /// Modes on a ring, each triad (i, i+1, i+3) obeying the paper's eqs. (2)-(3), so E = 1/2 sum psi^2 and
 /// Z = 1/2 sum k^2 psi^2 are invariant.
@@ -60,13 +59,13 @@ int main() {
         const eci::run_stats s = eci::integrate_n_steps(stepper, f, x, 0.0, dt, steps);
         const double de = std::abs(invariant(x, w[0]) / invariant(x0, w[0]) - 1.0);
         const double dz = std::abs(invariant(x, w[1]) / invariant(x0, w[1]) - 1.0);
-        std::printf("c-pc, %-6s: %llu steps, %llu halvings, %llu remedied steps (%llu modes), %llu rhs evaluations, "
-                    "|dE|/E %.1e, |dZ|/Z %.1e\n",
-                    policy == eci::radicand_policy::remedy ? "remedy" : "halve",
-                    static_cast<unsigned long long>(s.steps), static_cast<unsigned long long>(s.step_reductions),
-                    static_cast<unsigned long long>(s.remedied_steps),
-                    static_cast<unsigned long long>(s.components_remedied),
-                    static_cast<unsigned long long>(s.rhs_evals), de, dz);
+        std::printf(
+            "c-pc, %-6s: %llu steps, %llu halvings, %llu remedied steps (%llu modes), %llu rhs evaluations, "
+            "|dE|/E %.1e, |dZ|/Z %.1e\n",
+            policy == eci::radicand_policy::remedy ? "remedy" : "halve", static_cast<unsigned long long>(s.steps),
+            static_cast<unsigned long long>(s.step_reductions), static_cast<unsigned long long>(s.remedied_steps),
+            static_cast<unsigned long long>(s.components_remedied), static_cast<unsigned long long>(s.rhs_evals), de,
+            dz);
         // A few roundings per step, a random walk over the steps (plus the plain sums above, ~sqrt(N) eps).
         const double bound = 64.0 * std::numeric_limits<double>::epsilon() * std::sqrt(double(steps));
         if (!(de <= bound && dz <= bound)) status = 1;

@@ -4,10 +4,9 @@
 
 #include <complex>
 #include <cstdio>
-#include <vector>
-
 #include <eci/models/n_wave.hpp>
 #include <eci/models/three_wave.hpp>
+#include <vector>
 
 #include "numeric/support.hpp"
 
@@ -64,11 +63,12 @@ void expect_exact_without_halvings(double dt) {
     typename Method::template stepper<S> st;
     const std::uint64_t steps = 1000;
     const conservation_run r = run_and_measure(st, model, model.random_state(8), dt, steps);
-    std::printf("  %-6s %s dt = %g: %llu remedied steps, %llu components remedied, %llu halvings, worst drift %.2g eps\n",
-                Method::name, eci::n_wave<T>::is_complex ? "complex" : "real", dt,
-                static_cast<unsigned long long>(r.stats.remedied_steps),
-                static_cast<unsigned long long>(r.stats.components_remedied),
-                static_cast<unsigned long long>(r.stats.step_reductions), r.worst / eps);
+    std::printf(
+        "  %-6s %s dt = %g: %llu remedied steps, %llu components remedied, %llu halvings, worst drift %.2g eps\n",
+        Method::name, eci::n_wave<T>::is_complex ? "complex" : "real", dt,
+        static_cast<unsigned long long>(r.stats.remedied_steps),
+        static_cast<unsigned long long>(r.stats.components_remedied),
+        static_cast<unsigned long long>(r.stats.step_reductions), r.worst / eps);
     EXPECT_EQ(r.stats.step_reductions, 0u) << "isolated failures must not halve the step";
     // "Many components every step": the remedy fired in (nearly) every step, several components at a time.
     EXPECT_GE(r.stats.remedied_steps, steps * 9 / 10);
@@ -144,11 +144,12 @@ double global_slope(const std::vector<double>& dts) {
         const double e = rms_error(eci::radicand_policy::remedy, dt, s);
         const double e_halving = rms_error(eci::radicand_policy::halve, dt, h);
         errors.push_back(e);
-        std::printf("  %-6s dt = %-8g RMS error %.3e (%llu remedied steps, %llu components); with halving %.3e "
-                    "(%llu halvings)\n",
-                    Method::name, dt, e, static_cast<unsigned long long>(s.remedied_steps),
-                    static_cast<unsigned long long>(s.components_remedied), e_halving,
-                    static_cast<unsigned long long>(h.step_reductions));
+        std::printf(
+            "  %-6s dt = %-8g RMS error %.3e (%llu remedied steps, %llu components); with halving %.3e "
+            "(%llu halvings)\n",
+            Method::name, dt, e, static_cast<unsigned long long>(s.remedied_steps),
+            static_cast<unsigned long long>(s.components_remedied), e_halving,
+            static_cast<unsigned long long>(h.step_reductions));
         if (dt == dts.front()) {
             EXPECT_GT(s.remedied_steps, 0u) << "the coarsest step must exercise the remedy";
         }
@@ -202,7 +203,8 @@ TEST(RadicandRemedy, NearlyDependentWeightsStayExactEitherWay) {
     auto model = eci::n_wave<double>::random(10002, 4, 7);
     for (std::size_t i = 0; i < model.size(); ++i) model.wavenumber[i] = 1.0 + 1e-6 * double(i % 97) / 97.0;
     for (eci::triad& t : model.triads) {  // coefficients obeying eqs. (2)-(3) for the new wavenumbers
-        const double k2 = model.wavenumber[t.k] * model.wavenumber[t.k], p2 = model.wavenumber[t.p] * model.wavenumber[t.p],
+        const double k2 = model.wavenumber[t.k] * model.wavenumber[t.k],
+                     p2 = model.wavenumber[t.p] * model.wavenumber[t.p],
                      q2 = model.wavenumber[t.q] * model.wavenumber[t.q];
         const double mk = p2 - q2, mp = q2 - k2, mq = k2 - p2;
         const double scale = 1.0 / std::max({std::abs(mk), std::abs(mp), std::abs(mq), 1e-300});
@@ -247,8 +249,8 @@ TEST(RadicandRemedy, HalvingPolicyAndUndeclaredWeightsHalve) {
 
     eci::c_pc<S> no_weights;
     S x = model.random_state(8);
-    const eci::run_stats s = eci::integrate_n_steps(no_weights, [&](const S& a, S& b, double t) { model(a, b, t); },
-                                                    x, 0.0, 0.05, 20);
+    const eci::run_stats s = eci::integrate_n_steps(
+        no_weights, [&](const S& a, S& b, double t) { model(a, b, t); }, x, 0.0, 0.05, 20);
     EXPECT_GT(s.step_reductions, 0u);
     EXPECT_EQ(s.remedied_steps, 0u);
 }

@@ -146,8 +146,7 @@ class radicand_remedy {
 
     // Calls fn(i, s_i) for every real unknown i, with s_i = sum_j c_j w_ji.
     template <class Fn>
-    void for_each_factor(std::size_t n, std::size_t shift, const std::array<double, max_invariants>& c,
-                         Fn&& fn) const {
+    void for_each_factor(std::size_t n, std::size_t shift, const std::array<double, max_invariants>& c, Fn&& fn) const {
         const std::size_t m = weights_.size();
         if (m == 2) {  // the common case (energy and enstrophy), as a loop the compiler vectorizes
             const double* w0 = weights_[0].data();
@@ -162,15 +161,14 @@ class radicand_remedy {
         }
     }
 
-
    private:
     bool decline() {
         ++stats_.declined;
         return false;
     }
 
-    void gram(const double* o, std::size_t n, std::size_t shift,
-              std::array<double, max_invariants * max_invariants>& g, std::array<double, max_invariants>& mag) const {
+    void gram(const double* o, std::size_t n, std::size_t shift, std::array<double, max_invariants * max_invariants>& g,
+              std::array<double, max_invariants>& mag) const {
         const std::size_t m = weights_.size();
         if (m == 2) {
             const double* w0 = weights_[0].data();
@@ -200,8 +198,9 @@ class radicand_remedy {
     // G c = -defect in the least-squares sense on G's numerically non-zero eigenvalues (Jacobi-scaled, cyclic
     // Jacobi eigen-decomposition): exactly dependent weights (two names for one invariant) are handled, since the
     // defect lies in G's range. Accepts c only if the residual G c + defect is round-off of every invariant.
-    bool solve(const std::array<double, max_invariants * max_invariants>& g, const std::array<double, max_invariants>& mag,
-               const std::array<double, max_invariants>& defect, std::array<double, max_invariants>& c) const {
+    bool solve(const std::array<double, max_invariants * max_invariants>& g,
+               const std::array<double, max_invariants>& mag, const std::array<double, max_invariants>& defect,
+               std::array<double, max_invariants>& c) const {
         const std::size_t m = weights_.size();
         constexpr std::size_t M = max_invariants;
         std::array<double, M> d{};
