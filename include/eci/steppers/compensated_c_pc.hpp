@@ -59,7 +59,7 @@ inline double compensated_c_pc_finish_inline(double* p, double* k0, const double
         // xi - root^2 is exact (Sterbenz), so the new residual carries everything the square root dropped.
         const double residual = ((xi - root_sq) - root_err) + lo;
         k0[i] = xi >= 0.0 ? residual : k0[i];  // k0[i] is read above and, where the step succeeds, no longer needed
-        p[i] = std::copysign(root, p[i]);          // the predictor's sign, eq. (30b)
+        p[i] = std::copysign(root, p[i]);  // the predictor's sign, eq. (30b)
     }
     return bad;
 }
