@@ -147,7 +147,7 @@ class compensated_c_pc : public radicand_remedy {
             return {conv, rad};
         };
         auto rescale_pass = [&](const auto& c) {
-            for_each_factor(n, per == 2 ? 1 : 0, c, [&](std::size_t i, double s) {
+            for_each_factor<per == 2 ? 1 : 0>(n, c, [&](std::size_t i, double s) {
                 double sq, sq_err, hi, lo;
                 detail::two_product(p[i], p[i], sq, sq_err);
                 detail::two_sum(sq, sq * s, hi, lo);  // xi (1 + s); the rounding of sq * s is below eps |xi s|
@@ -161,7 +161,7 @@ class compensated_c_pc : public radicand_remedy {
                 p[i] = std::copysign(root, p[i]);
             });
         };
-        return try_remedy(p, x, n, per, failed, fix, rescale_pass);
+        return try_remedy<per>(p, x, n, failed, fix, rescale_pass);
     }
 
     S k0_{}, k1_{}, pred_{}, res_{};

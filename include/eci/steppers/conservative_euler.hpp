@@ -73,7 +73,7 @@ class conservative_euler : public radicand_remedy {
         auto fix = [&](std::size_t i) -> std::pair<double, double> {
             return {x[i] + dt * k[i], x[i] * (x[i] + 2.0 * dt * k[i])};  // Euler, eq. (7); eq. (16)'s radicand
         };
-        return try_remedy(y, x, n, per, near, fix, [&](const auto& c) { rescale(y, n, per, c); });
+        return try_remedy<per>(y, x, n, near, fix, [&](const auto& c) { rescale<per>(y, n, c); });
     }
 
     implicit_midpoint<S> implicit_;

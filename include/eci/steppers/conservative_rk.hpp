@@ -98,7 +98,7 @@ class conservative_rk : public radicand_remedy {
                 return {conv, radicand(x, kp, i, dt, std::make_index_sequence<s>{})};
             }
         };
-        return try_remedy(o, x, n, per, failed, fix, [&](const auto& c) { rescale(o, n, per, c); });
+        return try_remedy<per>(o, x, n, failed, fix, [&](const auto& c) { rescale<per>(o, n, c); });
     }
 
     // psi^2 + dt sum_j 2 b_j Y_j k_j at unknown i, as finish_general forms it.

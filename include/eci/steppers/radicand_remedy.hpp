@@ -81,15 +81,14 @@ class radicand_remedy {
    protected:
     // Tries to complete a step whose output o (n real unknowns, `per` per state element) has failures. bad(i)
     // says whether unknown i failed; fix(i) returns {conventional update, the conservative radicand} of unknown i.
-    // On success o holds the remedied state; Rescale(o, s) then applies psi_k^2 <- psi_k^2 (1 + s_k) (plain
+    // On success o holds the remedied state; rescale_pass(c) then applies psi_k^2 <- psi_k^2 (1 + s_k) (plain
     // steppers call rescale() below; compensated C-PC carries its residual through it). On failure o is garbage.
-    template <class Bad, class Fix, class Rescale>
-    bool try_remedy(double* o, const double* x, std::size_t n, std::size_t per, Bad&& bad, Fix&& fix,
-                    Rescale&& rescale_pass) {
+    template <std::size_t Per, class Bad, class Fix, class Rescale>
+    bool try_remedy(double* o, const double* x, std::size_t n, Bad&& bad, Fix&& fix, Rescale&& rescale_pass) {
         const std::size_t m = weights_.size();
         bad_.clear();
-        if (remedy.policy != radicand_policy::remedy || m == 0 || weights_.front().size() * per != n) return false;
-        const std::size_t shift = per == 2 ? 1 : 0;
+        if (remedy.policy != radicand_policy::remedy || m == 0 || weights_.front().size() * Per != n) return false;
+        constexpr std::size_t shift = Per == 2 ? 1 : 0;
         const double limit = remedy.max_fraction * double(n);
         for (std::size_t i = 0; i < n; ++i) {
             if (!bad(i)) continue;
@@ -113,7 +112,7 @@ class radicand_remedy {
         // The Gram matrix G_ij = sum_k w_ik w_jk xi_k and each invariant's magnitude A_j = sum_k |w_jk| xi_k.
         std::array<double, max_invariants * max_invariants> g{};
         std::array<double, max_invariants> mag{};
-        gram(o, n, shift, g, mag);
+        gram<shift>(o, n, g, mag);
         for (std::size_t j = 0; j < m; ++j)
             if (!(held[j] <= remedy.max_fraction * mag[j])) return decline();
         std::array<double, max_invariants> c{};
@@ -122,6 +121,7 @@ class radicand_remedy {
         double s_bound = 0.0;
         for (std::size_t j = 0; j < m; ++j) s_bound += std::abs(c[j]) * wmax_[j];
         if (!(s_bound <= remedy.max_rescale)) return decline();
+        s_bound_ = s_bound;
         rescale_pass(c);
         ++stats_.remedied_steps;
         stats_.components_remedied += bad_.size();
@@ -137,26 +137,35 @@ class radicand_remedy {
         return 0;
     }
 
-    // psi_k <- psi_k sqrt(1 + s_k), s_k = sum_j c_j w_jk, written psi_k + psi_k h_k with h = s / (1 + sqrt(1 + s))
-    // so that a tiny s is not lost in 1 + s.
-    void rescale(double* o, std::size_t n, std::size_t per, const std::array<double, max_invariants>& c) const {
-        const std::size_t shift = per == 2 ? 1 : 0;
-        for_each_factor(n, shift, c, [&](std::size_t i, double s) { o[i] += o[i] * (s / (1.0 + std::sqrt(1.0 + s))); });
+    // psi_k <- psi_k sqrt(1 + s_k), s_k = sum_j c_j w_jk, written psi_k + psi_k h_k with h = sqrt(1 + s) - 1 so that
+    // a tiny s is not lost in 1 + s. For |s| <= 1e-4 (the usual case: s ~ defect / invariant) h is its Taylor
+    // series to s^4, whose remainder (< 0.03 s^5) is below eps h: no square root, and a loop that vectorizes.
+    template <std::size_t Per>
+    void rescale(double* o, std::size_t n, const std::array<double, max_invariants>& c) const {
+        constexpr std::size_t shift = Per == 2 ? 1 : 0;
+        if (s_bound_ <= 1e-4) {
+            for_each_factor<shift>(n, c, [&](std::size_t i, double s) {
+                o[i] += o[i] * (s * (0.5 + s * (-0.125 + s * (0.0625 - s * 0.0390625))));
+            });
+        } else {
+            for_each_factor<shift>(n, c, [&](std::size_t i, double s) { o[i] += o[i] * (s / (1.0 + std::sqrt(1.0 + s))); });
+        }
     }
 
-    // Calls fn(i, s_i) for every real unknown i, with s_i = sum_j c_j w_ji.
-    template <class Fn>
-    void for_each_factor(std::size_t n, std::size_t shift, const std::array<double, max_invariants>& c, Fn&& fn) const {
+    // Calls fn(i, s_i) for every real unknown i, with s_i = sum_j c_j w_ji (weights per element, i >> Shift).
+    template <std::size_t Shift, class Fn>
+    void for_each_factor(std::size_t n, const std::array<double, max_invariants>& c, Fn&& fn) const {
         const std::size_t m = weights_.size();
         if (m == 2) {  // the common case (energy and enstrophy), as a loop the compiler vectorizes
             const double* w0 = weights_[0].data();
             const double* w1 = weights_[1].data();
-            for (std::size_t i = 0; i < n; ++i) fn(i, c[0] * w0[i >> shift] + c[1] * w1[i >> shift]);
+            const double c0 = c[0], c1 = c[1];
+            for (std::size_t i = 0; i < n; ++i) fn(i, c0 * w0[i >> Shift] + c1 * w1[i >> Shift]);
             return;
         }
         for (std::size_t i = 0; i < n; ++i) {
             double s = 0.0;
-            for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][i >> shift];
+            for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][i >> Shift];
             fn(i, s);
         }
     }
@@ -167,28 +176,31 @@ class radicand_remedy {
         return false;
     }
 
-    void gram(const double* o, std::size_t n, std::size_t shift, std::array<double, max_invariants * max_invariants>& g,
+    template <std::size_t Shift>
+    void gram(const double* o, std::size_t n, std::array<double, max_invariants * max_invariants>& g,
               std::array<double, max_invariants>& mag) const {
         const std::size_t m = weights_.size();
-        if (m == 2) {
+        if (m == 2) {  // two interleaved sets of sums break the add chains (G needs no particular summation order)
             const double* w0 = weights_[0].data();
             const double* w1 = weights_[1].data();
-            double g00 = 0, g01 = 0, g11 = 0, a0 = 0, a1 = 0;
+            std::array<double, 2> g00{}, g01{}, g11{}, a0{}, a1{};
             for (std::size_t i = 0; i < n; ++i) {
-                const double xi = o[i] * o[i], u = w0[i >> shift], v = w1[i >> shift];
-                g00 += u * u * xi, g01 += u * v * xi, g11 += v * v * xi;
-                a0 += std::abs(u) * xi, a1 += std::abs(v) * xi;
+                const std::size_t l = i & 1;
+                const double xi = o[i] * o[i], u = w0[i >> Shift], v = w1[i >> Shift];
+                g00[l] += u * u * xi, g01[l] += u * v * xi, g11[l] += v * v * xi;
+                a0[l] += std::abs(u) * xi, a1[l] += std::abs(v) * xi;
             }
-            g[0] = g00, g[1] = g[max_invariants] = g01, g[max_invariants + 1] = g11;
-            mag[0] = a0, mag[1] = a1;
+            g[0] = g00[0] + g00[1], g[1] = g[max_invariants] = g01[0] + g01[1];
+            g[max_invariants + 1] = g11[0] + g11[1];
+            mag[0] = a0[0] + a0[1], mag[1] = a1[0] + a1[1];
             return;
         }
         for (std::size_t i = 0; i < n; ++i) {
             const double xi = o[i] * o[i];
             for (std::size_t a = 0; a < m; ++a) {
-                const double wa = weights_[a][i >> shift];
+                const double wa = weights_[a][i >> Shift];
                 mag[a] += std::abs(wa) * xi;
-                for (std::size_t b = 0; b <= a; ++b) g[a * max_invariants + b] += wa * weights_[b][i >> shift] * xi;
+                for (std::size_t b = 0; b <= a; ++b) g[a * max_invariants + b] += wa * weights_[b][i >> Shift] * xi;
             }
         }
         for (std::size_t a = 0; a < m; ++a)
@@ -264,6 +276,7 @@ class radicand_remedy {
     quadratic_weights weights_;
     std::array<double, max_invariants> wmax_{};
     std::vector<std::size_t> bad_;
+    double s_bound_ = 0.0;  // the bound on |s_k| of the rescale under way
     remedy_stats stats_{};
 };
 
