@@ -156,6 +156,7 @@ struct row_printer {
             std::fprintf(csv, "%zu,%.17g,%s,%s,%s,%d,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g,%.6g\n", n, dt, label.c_str(),
                          what.c_str(), policy.c_str(), pairs, r.evals_a, r.evals_b, rhs_ratio, r.cpu_ratio_best,
                          r.cpu_ratio_median, r.halvings_a, r.remedied_a);
+        if (csv) std::fflush(csv);
     }
 };
 
