@@ -1,6 +1,7 @@
 // The cost of exact conservation at the step sizes users choose (issue 9): C-PC / PC and C-RK4 / RK4 on the realistic
 // n-wave system, in right-hand-side evaluations and CPU time, with the remedy (default) and with halving (before).
-// Usage: eci_bench_remedy [--sizes=N1,N2,...] [--pairs=P] [--before-pairs=Q] [--csv=FILE] [--probe-only]
+// Usage: eci_bench_remedy [--sizes=N1,N2,...] [--steps=default,cfl,tiny] [--pairs=P] [--before-pairs=Q]
+//                         [--csv=FILE] [--probe-only]
 //   Each row times P pairs of single steps, the two methods back to back in alternating order (thread CPU time),
 //   each method advancing its own copy of the state from the same start. The CPU ratio is that of the fastest
 //   steps (interference only adds time) and, in brackets, the median of the per-pair ratios.
@@ -166,6 +167,7 @@ int main(int argc, char** argv) {
     std::vector<std::size_t> sizes{100000, 1000000};
     int pairs = 5, before_pairs = 1;
     bool probe_only = false;
+    std::string which = "default,cfl,tiny";
     std::string csv_path;
     for (int i = 1; i < argc; ++i) {
         if (std::strncmp(argv[i], "--sizes=", 8) == 0) {
@@ -180,6 +182,8 @@ int main(int argc, char** argv) {
             pairs = std::atoi(argv[i] + 8);
         } else if (std::strncmp(argv[i], "--before-pairs=", 15) == 0) {
             before_pairs = std::atoi(argv[i] + 15);
+        } else if (std::strncmp(argv[i], "--steps=", 8) == 0) {
+            which = argv[i] + 8;
         } else if (std::strcmp(argv[i], "--probe-only") == 0) {
             probe_only = true;
         } else if (std::strncmp(argv[i], "--csv=", 6) == 0) {
@@ -208,8 +212,10 @@ int main(int argc, char** argv) {
             double dt;
             std::string label;
         };
-        const std::vector<step_size> steps{
-            {0.01, "(CLI default)"}, {cfl_step(m, x0), "(CFL 1)"}, {1e-5, "(tiny, the old rows)"}};
+        std::vector<step_size> steps;
+        if (which.find("default") != std::string::npos) steps.push_back({0.01, "(CLI default)"});
+        if (which.find("cfl") != std::string::npos) steps.push_back({cfl_step(m, x0), "(CFL 1)"});
+        if (which.find("tiny") != std::string::npos) steps.push_back({1e-5, "(tiny, the old rows)"});
         for (const step_size& s : steps) {
             if (probe_only) break;
             auto compare = [&]<class C, class P>(const char* what, bool remedy, int count, bool targeted) {
