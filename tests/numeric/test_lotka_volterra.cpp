@@ -13,6 +13,8 @@
 #include <eci/steppers/kahan.hpp>
 #include <eci/steppers/transformed_rk.hpp>
 
+#include "numeric/support.hpp"
+
 namespace {
 
 constexpr double eps = std::numeric_limits<double>::epsilon();
@@ -42,11 +44,10 @@ TEST(LotkaVolterra, PaperRunCpcKeepsHamiltonian) {
     state x{1.0, 0.4};
     const double h0 = model.hamiltonian(x);
     c_pc_lv st;
-    double worst = 0.0;
-    const auto stats = eci::integrate_n_steps(st, model, x, 0.0, paper_dt, paper_steps,
-                                              [&](const state& s, double, std::uint64_t) {
-                                                  worst = std::max(worst, std::abs(model.hamiltonian(s) - h0));
-                                              });
+    const eci::run_report rep = eci::run(st, model, x, eci::run_span::n_steps(paper_steps, paper_dt));
+    ASSERT_TRUE(rep.completed());
+    const auto& stats = rep.stats;
+    const double worst = eci::test::record_of(rep, "hamiltonian").max_abs_drift;
     // Each step rounds xi_1 + D and xi_2 - D (a random walk of ~eps H per step) and the inverse adds a
     // non-accumulating eps H: 4 eps H sqrt(n) has ample margin yet is ~1e7 times below PC's drift.
     EXPECT_LE(worst, 4.0 * eps * h0 * std::sqrt(double(paper_steps)));
