@@ -61,8 +61,8 @@ struct summary {
 };
 
 template <class Stepper>
-summary run_ensemble(const std::string& name, const eci::three_wave& m, int members, const std::vector<std::uint64_t>& at,
-                     std::FILE* csv) {
+summary run_ensemble(const std::string& name, const eci::three_wave& m, int members,
+                     const std::vector<std::uint64_t>& at, std::FILE* csv) {
     summary s{std::vector<double>(at.size(), 0.0), std::vector<double>(at.size(), 0.0)};
     std::vector<double> rms_e(at.size()), rms_z(at.size());
     for (int j = 0; j < members; ++j) {

@@ -173,7 +173,9 @@ void register_pairs(const std::string& name, const problem<Model>* pb, int pairs
     using S = typename Model::state_type;
     namespace me = eci::method_entries;
     auto add = [&](const std::string& a, const std::string& b, auto fn) {
-        benchmark::RegisterBenchmark((name + "/pair:" + a + ":" + b).c_str(), fn, pb)->Iterations(pairs)->Repetitions(1);
+        benchmark::RegisterBenchmark((name + "/pair:" + a + ":" + b).c_str(), fn, pb)
+            ->Iterations(pairs)
+            ->Repetitions(1);
     };
     using e_pc = eci_runner<Model, eci_stepper<me::pc, Model>>;
     using e_rk4 = eci_runner<Model, eci_stepper<me::rk4, Model>>;

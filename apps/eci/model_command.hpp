@@ -3,9 +3,13 @@
 // registry (which methods run on it). apps/eci/CMakeLists.txt instantiates it once per listed model.
 #pragma once
 
+#include <algorithm>
+#include <cstddef>
 #include <memory>
+#include <span>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <eci/models/description.hpp>
@@ -80,12 +84,12 @@ class model_command_for final : public model_command {
                                     detail::option_help(q.description, q.constraint, detail::shortest_list(v)),
                                     v.size(), &reals_[k++]});
             }
-            for (const state_field& f : fields)
-                options_.push_back(
-                    {std::string(f.name),
-                     detail::option_help(f.description, f.constraint,
-                                         detail::shortest_list(std::span<const double>(p.x0).subspan(f.first, f.count))),
-                     f.count, &reals_[k++]});
+            for (const state_field& f : fields) {
+                const auto v = std::span<const double>(p.x0).subspan(f.first, f.count);
+                options_.push_back({std::string(f.name),
+                                    detail::option_help(f.description, f.constraint, detail::shortest_list(v)),
+                                    f.count, &reals_[k++]});
+            }
         }
     }
 

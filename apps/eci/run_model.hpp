@@ -167,7 +167,8 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         }
     };
 
-    const run_span span = plan.fixed_steps ? run_span::n_steps(plan.steps, plan.dt) : run_span::until(plan.t_end, plan.dt);
+    const run_span span =
+        plan.fixed_steps ? run_span::n_steps(plan.steps, plan.dt) : run_span::until(plan.t_end, plan.dt);
     const auto start = std::chrono::steady_clock::now();
     run_report report;
     const bool found = with_stepper<Model>(method.name, [&](auto stepper) {

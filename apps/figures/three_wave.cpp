@@ -44,10 +44,11 @@ trajectory run(const preset<three_wave>& p) {
     Stepper stepper;
     trajectory out;
     state x = p.x0;
-    const run_report r = eci::run(stepper, p.model, x, run_span::n_steps(p.steps(), p.dt), [&](const state& s, double t) {
+    auto keep = [&](const state& s, double t) {
         out.t.push_back(t);
         out.x.push_back(s);
-    });
+    };
+    const run_report r = eci::run(stepper, p.model, x, run_span::n_steps(p.steps(), p.dt), keep);
     if (r.failure) throw std::runtime_error(r.failure->what());
     out.stats = r.stats;
     out.invariants = r.invariants;
