@@ -1,5 +1,5 @@
-// Drivers: fixed steps to a step count or an end time, an observer every k steps, run statistics, and the
-// step reduction that turns a failed step (negative radicand, non-invertible transform) into two half steps.
+// Drivers: fixed steps to a step count or an end time, an observer (x, t, i) or (x, t) every k steps, run statistics,
+// and the step reduction (public: step_with_reduction) that retries a failed step as two half steps.
 #pragma once
 
 #include <algorithm>
@@ -80,6 +80,8 @@ struct counting_system {
     const F& wrapped() const { return f; }
 };
 
+/// A step, retried as two half steps on failure (recursively, halvings_left more times); eci::step_with_reduction
+/// is the public form.
 template <class St, class F, class S>
 void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, int halvings_left, run_stats& stats) {
     const step_result r = stepper.step(f, x, t, dt);

@@ -42,6 +42,9 @@ TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
               (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "kahan"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler>()),
               (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint"}));
+    // Each with its family on the model: the transform is used on Kepler, the psi^2 engine on three-wave.
+    EXPECT_EQ(eci::methods_for<eci::kepler>()[4].family, eci::method_family::transformed);
+    EXPECT_EQ(eci::methods_for<eci::three_wave>()[5].family, eci::method_family::conservative);
     // A plain system on a state type: every method but the model-specific one.
     EXPECT_EQ(eci::methods_for<std::vector<double>>().size(), eci::methods.size() - 1);
 }
