@@ -18,10 +18,7 @@ namespace {
 using namespace eci::test;
 using tw_state = eci::three_wave::state_type;
 
-struct compensated_m {
-    template <class S>
-    using stepper = eci::c_pc_compensated<S>;
-};
+using compensated_m = method_tag<eci::method_entries::c_pc_compensated>;
 
 TEST(CompensatedCPC, FollowsCPCToRoundOff) {
     const eci::three_wave model{};
