@@ -477,6 +477,24 @@ TEST_F(cli, summary_json_reports_iterative_solves_when_there_are_some) {
     EXPECT_NE(r.err.find("iterative solves"), std::string::npos);
 }
 
+// Issue 9: at the CLI's default step a 1000-mode n-wave system meets negative radicands; they are remedied in
+// the step (counted in the summary), with no halving and exactly PC's two evaluations per step.
+TEST_F(cli, n_wave_at_default_step_remedies_instead_of_halving_issue_9) {
+    const run_result r = eci({"run", "n-wave", "--modes", "1000", "--steps", "100", "--summary-json", "-"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const json_reader j(r.out);
+    EXPECT_EQ(j.values.at("method"), "c-pc");
+    EXPECT_EQ(j.number("step_reductions"), 0.0);
+    EXPECT_EQ(j.number("rhs_evals"), 200.0);
+    EXPECT_GT(j.number("remedied_steps"), 0.0);
+    EXPECT_GE(j.number("components_remedied"), j.number("remedied_steps"));
+    EXPECT_NE(r.err.find("remedied steps"), std::string::npos) << r.err;
+    // Invariants exact to round-off: a few roundings per step over 100 steps, measured by a plain sum of 1000
+    // terms (sqrt(1000) eps): 64 eps sqrt(steps) has room for both.
+    EXPECT_LE(j.number("invariants.energy.max_rel_drift"), 64 * 2.2e-16 * std::sqrt(100.0));
+    EXPECT_LE(j.number("invariants.enstrophy.max_rel_drift"), 64 * 2.2e-16 * std::sqrt(100.0));
+}
+
 TEST_F(cli, summary_json_to_stdout) {
     const run_result r = eci({"run", "n-wave", "--modes", "6", "--steps", "10", "--summary-json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;

@@ -89,11 +89,7 @@ TEST(RadicandRemedy, CRk4ComplexIsExactWithoutHalvings) {
     expect_exact_without_halvings<c_rk4_m, std::complex<double>>(0.12);
 }
 
-struct compensated_c_pc_m {
-    template <class S>
-    using stepper = eci::compensated_c_pc<S>;
-    static constexpr const char* name = "c-pc-compensated";
-};
+using compensated_c_pc_m = method_tag<eci::method_entries::c_pc_compensated>;
 TEST(RadicandRemedy, CompensatedCPcIsExactWithoutHalvings) {
     expect_exact_without_halvings<compensated_c_pc_m, double>(0.05);
 }

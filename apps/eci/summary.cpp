@@ -1,6 +1,6 @@
 // The model-independent half of `eci run`: checking the method and time settings, and the summary it prints
 // (stderr) and writes (JSON).
-#include "run.hpp"
+#include "run_model.hpp"
 
 #include <charconv>
 #include <filesystem>
@@ -21,14 +21,13 @@ std::string number(double v) {
     return std::string(format_double(v, buffer));
 }
 
-// The shortest text that reads back as v: what a person typed (0.2, not 0.20000000000000001).
+}  // namespace
+
 std::string shortest(double v) {
     char buffer[32];
     const auto r = std::to_chars(buffer, buffer + sizeof buffer, v);
     return std::string(buffer, r.ptr);
 }
-
-}  // namespace
 
 std::vector<std::string> indexed_columns(std::string_view prefix, std::size_t size, bool complex) {
     std::vector<std::string> c;
@@ -45,8 +44,7 @@ std::vector<std::string> indexed_columns(std::string_view prefix, std::size_t si
     return c;
 }
 
-method_info resolve_method(const model_info& model, const run_settings& settings) {
-    const std::string name = settings.method.empty() ? model.default_method : settings.method;
+method_info resolve_method(const model_info& model, const std::string& name) {
     const auto m = find_method(name);
     if (!m) {
         std::vector<std::string> all;
@@ -59,9 +57,9 @@ method_info resolve_method(const model_info& model, const run_settings& settings
     return *m;
 }
 
-run_span resolve_span(const model_info& model, const run_settings& settings) {
-    run_span span{};
-    span.dt = settings.dt.value_or(model.default_dt);
+run_plan resolve_plan(double default_dt, double default_t_end, const run_settings& settings) {
+    run_plan span{};
+    span.dt = settings.dt.value_or(default_dt);
     if (!(span.dt > 0.0) || !std::isfinite(span.dt))
         throw bad_input("--dt must be a positive finite number, not " + shortest(span.dt));
     if (settings.every == 0) throw bad_input("--every must be at least 1");
@@ -75,7 +73,7 @@ run_span resolve_span(const model_info& model, const run_settings& settings) {
         span.t_end = double(span.steps) * span.dt;
         return span;
     }
-    span.t_end = settings.t_end.value_or(model.default_t_end);
+    span.t_end = settings.t_end.value_or(default_t_end);
     if (!(span.t_end >= 0.0) || !std::isfinite(span.t_end))
         throw bad_input("--t-end must be a finite number >= 0, not " + shortest(span.t_end));
     if (span.t_end / span.dt > 0x1p53)
@@ -97,6 +95,15 @@ void check_distinct_outputs(const run_settings& settings) {
         throw bad_input("--output and --summary-json name the same file '" + settings.output + "'");
 }
 
+std::string underflow_message(const step_size_underflow& e, const std::vector<std::string>& columns) {
+    char t[32], h[32];
+    const std::string column = e.component < columns.size() ? columns[e.component] : "?";
+    return "step failed at t = " + std::string(format_double(e.time, t)) + " in component " + column +
+           " even with the step halved " + std::to_string(run_options{}.max_halvings) +
+           " times (dt = " + std::string(format_double(e.dt, h)) +
+           "): negative radicand, non-invertible transform or non-finite state";
+}
+
 void print_summary(std::FILE* f, const run_summary& s) {
     std::fprintf(f, "eci run %s: method %s (order %d, %s), dt %s, t 0 to %s\n", s.model.c_str(), s.method.c_str(),
                  s.order, s.conservative ? "conservative" : "conventional", shortest(s.dt).c_str(),
@@ -105,6 +112,10 @@ void print_summary(std::FILE* f, const run_summary& s) {
                  static_cast<unsigned long long>(s.stats.steps),
                  static_cast<unsigned long long>(s.stats.step_reductions),
                  static_cast<unsigned long long>(s.stats.rhs_evals), s.wall_seconds);
+    if (s.stats.remedied_steps > 0)  // negative radicands remedied without halving (docs/methods.md)
+        std::fprintf(f, "  remedied steps %llu, components remedied %llu\n",
+                     static_cast<unsigned long long>(s.stats.remedied_steps),
+                     static_cast<unsigned long long>(s.stats.components_remedied));
     std::fprintf(f, "  %-12s %-24s %-24s %-13s %s\n", "invariant", "initial", "final", "max abs drift",
                  "max rel drift");
     for (const invariant_record& r : s.invariants) {
@@ -133,6 +144,9 @@ void write_summary_json(std::FILE* f, const run_summary& s) {
     key("steps"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.steps));
     key("step_reductions"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.step_reductions));
     key("rhs_evals"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.rhs_evals));
+    key("remedied_steps"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.remedied_steps));
+    key("components_remedied"),
+        std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.components_remedied));
     key("wall_seconds"), write_json_number(f, s.wall_seconds), std::fputs(",\n", f);
     if (s.stats.solver.solves > 0) {
         key("solver");
