@@ -94,6 +94,12 @@ _ADAPTIVE_MISSING = ("adaptive step control (rtol, atol) is not available in thi
                      "give a fixed step dt")
 
 
+def _shortest(v):
+    """v as the CLI quotes a number: the shortest text that reads back as v, without a trailing '.0'."""
+    text = repr(float(v))
+    return text[:-2] if text.endswith(".0") else text
+
+
 def _number(value, what):
     if isinstance(value, bool) or not isinstance(value, numbers.Real):
         raise TypeError(f"{what} must be a real number, not {type(value).__name__}")
@@ -188,9 +194,9 @@ def solve(fun, t_span, y0=None, method="c-rk4", dt=None, rtol=None, atol=None, t
         raise ValueError(f"t_span must be a pair (t0, t1), not {t_span!r}") from None
     t0, t1 = _number(t0, "t_span[0]"), _number(t1, "t_span[1]")
     if not math.isfinite(t0):
-        raise ValueError(f"t_span[0] must be finite, not {t0!r}")
+        raise ValueError(f"t_span[0] must be a finite number, not {_shortest(t0)}")
     if not (t1 >= t0) or not math.isfinite(t1):
-        raise ValueError(f"t_span[1] must be a finite number >= t_span[0] = {t0!r}, not {t1!r}")
+        raise ValueError(f"t_span[1] must be a finite number >= {_shortest(t0)}, not {_shortest(t1)}")
     if rtol is not None or atol is not None:
         if dt is not None:
             raise ValueError("give either dt (fixed steps) or rtol/atol (adaptive step control), not both")
@@ -201,9 +207,9 @@ def solve(fun, t_span, y0=None, method="c-rk4", dt=None, rtol=None, atol=None, t
         dt = fun.default_dt
     dt = _number(dt, "dt")
     if not (dt > 0.0) or not math.isfinite(dt):
-        raise ValueError(f"dt must be a positive finite number, not {dt!r}")
-    if (t1 - t0) / dt > 2.0 ** 53:
-        raise ValueError(f"t_span / dt is {(t1 - t0) / dt!r} steps, too many")
+        raise ValueError(f"dt must be a positive finite number, not {_shortest(dt)}")
+    if (t1 - t0) / dt > 2.0 ** 53:  # beyond 2^53 steps the grid t0 + i dt is no longer exact
+        raise ValueError(f"t_span / dt is {_shortest((t1 - t0) / dt)} steps, too many")
     if isinstance(max_halvings, bool) or not isinstance(max_halvings, numbers.Integral) or not 0 <= max_halvings <= 60:
         raise ValueError(f"max_halvings must be a whole number from 0 to 60, not {max_halvings!r}")
     times = _t_eval_array(t_eval, t0, t1)

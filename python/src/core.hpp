@@ -155,7 +155,8 @@ struct run_request {
 /// Advances x by h, halving a failed step (a failure reported by the stepper, or a non-finite value returned by a
 /// Python fun) until it succeeds or has been halved `left` times, as eci's drivers do.
 template <class St, class F, class S>
-void advance(St& stepper, F& f, S& x, double t, double h, int left, run_report& report, const component_namer& name) {
+void advance(St& stepper, F& f, S& x, double t, double h, int left, run_report& report, const component_namer& name,
+             int max_halvings) {
     step_result r;
     bool non_finite = false;
     double bad_value = 0.0;
@@ -173,14 +174,14 @@ void advance(St& stepper, F& f, S& x, double t, double h, int left, run_report& 
                                                    name(r.component)
                                              : "negative radicand, non-invertible transform or non-finite state";
         throw underflow_error("step failed at t = " + full_text(t) + " in component " + name(r.component) +
-                                  " even with the step halved " + std::to_string(run_options{}.max_halvings) +
+                                  " even with the step halved " + std::to_string(max_halvings) +
                                   " times (dt = " + full_text(h) + "): " + cause,
                               t, r.component, name(r.component), h, non_finite, report);
     }
     ++(non_finite ? report.rejected.non_finite_fun : report.rejected.step_failed);
     ++report.stats.step_reductions;
-    advance(stepper, f, x, t, 0.5 * h, left - 1, report, name);
-    advance(stepper, f, x, t + 0.5 * h, 0.5 * h, left - 1, report, name);
+    advance(stepper, f, x, t, 0.5 * h, left - 1, report, name, max_halvings);
+    advance(stepper, f, x, t + 0.5 * h, 0.5 * h, left - 1, report, name, max_halvings);
 }
 
 /// Integrates from (x, t0) to t1 on the grid of `eci run`: times t0 + i dt, the last step shortened to land on t1
@@ -214,12 +215,12 @@ void run_grid(St& stepper, F& f, S& x, const run_request& req, Measure&& measure
         for (; te && k < te->size() && (*te)[k] < end; ++k) {
             St side = stepper;
             S xs = x;
-            advance(side, counted, xs, start, (*te)[k] - start, req.max_halvings, report, name);
+            advance(side, counted, xs, start, (*te)[k] - start, req.max_halvings, report, name, req.max_halvings);
             ++report.t_eval_steps;
             measure(std::as_const(xs), false);
             out.record((*te)[k], xs);
         }
-        advance(stepper, counted, x, start, h, req.max_halvings, report, name);
+        advance(stepper, counted, x, start, h, req.max_halvings, report, name, req.max_halvings);
         ++report.stats.steps;
         measure(std::as_const(x), false);
         emit(end);

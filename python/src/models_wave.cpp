@@ -28,7 +28,17 @@ void bind_n_wave(py::module_& m, const char* name, const char* cli_name) {
                   "energy, enstrophy. The system and its default initial condition are drawn from seed."
                 : "n real modes coupled by random triads obeying eqs. (2)-(3) (section III.C); invariants energy, "
                   "enstrophy. The system and its default initial condition are drawn from seed.")
-        .def(py::init([cli_name](std::size_t modes, std::size_t triads_per_mode, std::uint64_t seed) {
+        .def(py::init([cli_name](long long modes_in, long long triads_in, long long seed_in) {
+                 // the CLI's checks of its whole-number options, then the generator's own
+                 auto whole = [](long long v, long long min, const char* what) {
+                     if (v < min)
+                         throw std::invalid_argument(std::string(what) + " must be a whole number >= " +
+                                                     std::to_string(min) + ", not " + std::to_string(v));
+                     return static_cast<std::uint64_t>(v);
+                 };
+                 const std::size_t modes = whole(modes_in, 1, "modes");
+                 const std::size_t triads_per_mode = whole(triads_in, 1, "triads_per_mode");
+                 const std::uint64_t seed = whole(seed_in, 0, "seed");
                  n_wave<T> model;
                  try {
                      model = n_wave<T>::random(modes, triads_per_mode, seed);
