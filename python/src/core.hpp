@@ -184,6 +184,21 @@ void advance(St& stepper, F& f, S& x, double t, double h, int left, run_report& 
     advance(stepper, f, x, t + 0.5 * h, 0.5 * h, left - 1, report, name, max_halvings);
 }
 
+/// The system the steppers see: f, with its evaluations counted. Steppers that need the model itself (its
+/// transform, its Jacobian) reach it through wrapped().
+template <class F>
+struct counted_system {
+    const F& f;
+    run_report& report;
+
+    template <class S>
+    void operator()(const S& x, S& dxdt, double t) const {
+        ++report.stats.rhs_evals;
+        f(x, dxdt, t);
+    }
+    const F& wrapped() const { return f; }
+};
+
 /// Integrates from (x, t0) to t1 on the grid of `eci run`: times t0 + i dt, the last step shortened to land on t1
 /// exactly (integrate_to's arithmetic, so the states are bit for bit the CLI's). measure(x, first) runs at the start
 /// and after every step; out records every grid state, or, with t_eval, the states at those times (a point between
@@ -192,10 +207,7 @@ void advance(St& stepper, F& f, S& x, double t, double h, int left, run_report& 
 template <class S, class F, class St, class Measure>
 void run_grid(St& stepper, F& f, S& x, const run_request& req, Measure&& measure, interrupt_check& interrupt,
               recorded_output<S>& out, run_report& report, const component_namer& name) {
-    auto counted = [&](const S& a, S& b, double t) {
-        ++report.stats.rhs_evals;
-        f(a, b, t);
-    };
+    counted_system<std::remove_cvref_t<F>> counted{f, report};
     const std::vector<double>* te = req.t_eval ? &*req.t_eval : nullptr;
     std::size_t k = 0;
     auto emit = [&](double t) {

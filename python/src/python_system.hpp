@@ -118,18 +118,20 @@ struct python_transform {
     using xi_type = std::vector<double>;
 
     py::object forward, inverse, jacobian, rate;
-    std::size_t n = 0;        ///< unknowns
-    mutable std::size_t m = 0;  ///< xi components, fixed by the first forward call
+    std::size_t n = 0;  ///< unknowns
+    std::size_t m = 0;  ///< xi components (see measure_xi)
+
+    /// Fixes m from forward(y0), checking that it is a non-empty one-dimensional array.
+    void measure_xi(const state_type& y0) {
+        const py::array a = py::array::ensure(forward(to_numpy(y0)));
+        if (!a || a.ndim() != 1 || a.shape(0) == 0)
+            throw py::value_error("transform forward(x) must return a non-empty one-dimensional array");
+        m = static_cast<std::size_t>(a.shape(0));
+    }
 
     void to_xi(const state_type& x, xi_type& xi) const {
-        const py::object r = forward(to_numpy(x));
-        if (m == 0) {
-            const py::array a = py::array::ensure(r);
-            if (!a || a.ndim() != 1 || a.shape(0) == 0)
-                throw py::value_error("transform forward(x) must return a non-empty one-dimensional array");
-            m = static_cast<std::size_t>(a.shape(0));
-        }
-        copy_checked(as_vector<double>(r, m, "transform forward(x)", true, "its first result"), xi, "forward(x)");
+        copy_checked(as_vector<double>(forward(to_numpy(x)), m, "transform forward(x)", true, "forward(y0)"), xi,
+                     "forward(x)");
     }
 
     void xi_rate(const state_type& x, const state_type& dxdt, xi_type& out) const {

@@ -9,6 +9,16 @@ namespace eci::python {
 
 namespace {
 
+/// fun(t, y) with a user's transform: the system transformed_rk steps, a model with a linearizing transform.
+struct python_transformed_system {
+    using state_type = std::vector<double>;
+    python_rhs<double> rhs;
+    python_transform transform;
+
+    void operator()(const state_type& x, state_type& dxdt, double t) const { rhs(x, dxdt, t); }
+    python_transform linearizing_transform() const { return transform; }
+};
+
 template <class T>
 using input_array = py::array_t<T, py::array::c_style | py::array::forcecast>;
 
@@ -51,8 +61,9 @@ py::dict solve_transformed(py::object fun, py::object forward, py::object invers
     const std::size_t n = static_cast<std::size_t>(y0.shape(0));
     S x(y0.data(), y0.data() + n);
     const method_info info = resolve_method(method, {"c-pc", "c-rk2", "c-rk4"}, "a transform");
-    const python_rhs<double> f(std::move(fun), n);
-    const python_transform tr{std::move(forward), std::move(inverse), std::move(jacobian), std::move(rate), n};
+    python_transform tr{std::move(forward), std::move(inverse), std::move(jacobian), std::move(rate), n};
+    tr.measure_xi(x);
+    const python_transformed_system f{python_rhs<double>(std::move(fun), n), tr};
     const python_invariants<double> invs{std::move(invariants)};
     std::vector<drift_record> drift = named_records<double>(invariant_names);
     const run_request req{t0, t1, dt, std::move(t_eval), max_halvings};
