@@ -31,6 +31,7 @@ def main():
     ap.add_argument("--cli", default=os.path.join(os.path.dirname(__file__), "..", "build", "eci"))
     ap.add_argument("--reps", type=int, default=5)
     ap.add_argument("--quick", action="store_true", help="runs 10x shorter (CI smoke; numbers noisier)")
+    ap.add_argument("--only", help="only the cases of this model (CLI name)")
     args = ap.parse_args()
     scale = 0.1 if args.quick else 1.0
     print(f"{'model':16s} {'method':7s} {'steps':>9s} {'CLI process':>12s} {'CLI loop':>10s} {'eci.solve':>10s} "
@@ -39,6 +40,8 @@ def main():
     with tempfile.TemporaryDirectory() as tmp:
         summary = os.path.join(tmp, "s.json")
         for cli_model, make, method, dt, t_end in CASES:
+            if args.only and cli_model[0] != args.only:
+                continue
             t_end *= scale
             model = make()
             best = {"process": float("inf"), "loop": float("inf"), "python": float("inf")}

@@ -12,6 +12,7 @@
 #include <complex>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -95,12 +96,18 @@ class interrupt_check {
    public:
     explicit interrupt_check(bool gil_held) : gil_held_(gil_held), last_(std::chrono::steady_clock::now()) {}
 
+    /// Called between steps: a counter on the fast path, so that it inlines into the step loop.
     void operator()() {
-        if (gil_held_) {
-            if (PyErr_CheckSignals() != 0) throw py::error_already_set();
-            return;
-        }
-        if (++count_ < stride_) return;
+        if (gil_held_) return check_now();
+        if (++count_ >= stride_) slow_path();
+    }
+
+   private:
+    static void check_now() {
+        if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+    }
+
+    [[gnu::noinline]] void slow_path() {
         count_ = 0;
         const auto now = std::chrono::steady_clock::now();
         const auto elapsed = now - last_;
@@ -110,10 +117,9 @@ class interrupt_check {
         else if (elapsed > std::chrono::milliseconds(10) && stride_ > 1)
             stride_ /= 2;
         py::gil_scoped_acquire gil;
-        if (PyErr_CheckSignals() != 0) throw py::error_already_set();
+        check_now();
     }
 
-   private:
     bool gil_held_;
     std::uint64_t count_ = 0, stride_ = 1;
     std::chrono::steady_clock::time_point last_;
@@ -208,11 +214,16 @@ template <class S, class F, class St, class Measure>
 void run_grid(St& stepper, F& f, S& x, const run_request& req, Measure&& measure, interrupt_check& interrupt,
               recorded_output<S>& out, run_report& report, const component_namer& name) {
     counted_system<std::remove_cvref_t<F>> counted{f, report};
-    const std::vector<double>* te = req.t_eval ? &*req.t_eval : nullptr;
+    // Without t_eval every grid time is output; with it, `next` is the next output time (infinity after the last).
+    constexpr double never = std::numeric_limits<double>::infinity();
+    const bool every_step = !req.t_eval;
+    const std::vector<double> empty;
+    const std::vector<double>& te = req.t_eval ? *req.t_eval : empty;
     std::size_t k = 0;
+    double next = te.empty() ? never : te[0];
     auto emit = [&](double t) {
-        if (!te) return out.record(t, x);
-        for (; k < te->size() && (*te)[k] == t; ++k) out.record(t, x);
+        if (every_step) return out.record(t, x);
+        for (; next == t; next = ++k < te.size() ? te[k] : never) out.record(t, x);
     };
     measure(std::as_const(x), true);
     emit(req.t0);
@@ -224,18 +235,18 @@ void run_grid(St& stepper, F& f, S& x, const run_request& req, Measure&& measure
         const double start = req.t0 + double(i - 1) * req.dt;
         const double h = (i < n || full_last) ? req.dt : last;
         const double end = i == n ? req.t1 : req.t0 + double(i) * req.dt;
-        for (; te && k < te->size() && (*te)[k] < end; ++k) {
+        for (; next < end; next = ++k < te.size() ? te[k] : never) {
             St side = stepper;
             S xs = x;
-            advance(side, counted, xs, start, (*te)[k] - start, req.max_halvings, report, name, req.max_halvings);
+            advance(side, counted, xs, start, next - start, req.max_halvings, report, name, req.max_halvings);
             ++report.t_eval_steps;
             measure(std::as_const(xs), false);
-            out.record((*te)[k], xs);
+            out.record(next, xs);
         }
         advance(stepper, counted, x, start, h, req.max_halvings, report, name, req.max_halvings);
         ++report.stats.steps;
         measure(std::as_const(x), false);
-        emit(end);
+        if (every_step || next == end) emit(end);
     }
     detail::collect_solver_stats(stepper, report.stats);
 }

@@ -131,7 +131,8 @@ class model_object : public model_base {
             std::optional<py::gil_scoped_release> unlocked;
             if (release) unlocked.emplace();
             interrupt_check interrupt(!release);
-            auto measure = [&](const S& s, bool first) {
+            // inlined into the step loop, as the CLI's observer is
+            auto measure = [&](const S& s, bool first) __attribute__((always_inline)) {
                 for (std::size_t j = 0; j < model_invariants.size(); ++j)
                     drift[j].update((model_.*model_invariants[j].value)(s), first);
                 if (!release) user.measure(to_vector(s), drift, model_invariants.size(), first);
