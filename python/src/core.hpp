@@ -158,36 +158,62 @@ struct run_request {
     int max_halvings = run_options{}.max_halvings;
 };
 
-/// Advances x by h, halving a failed step (a failure reported by the stepper, or a non-finite value returned by a
-/// Python fun) until it succeeds or has been halved `left` times, as eci's drivers do.
-template <class St, class F, class S>
-void advance(St& stepper, F& f, S& x, double t, double h, int left, run_report& report, const component_namer& name,
-             int max_halvings) {
-    step_result r;
+/// A system whose evaluation may throw non_finite_rhs (a Python fun); the built-in models never do, and their
+/// steps then run without an exception handler around them.
+template <class F>
+concept checks_finite = requires { requires F::checks_finite; };
+
+/// One attempt at a step: its result, and whether it failed on a non-finite value returned by fun.
+struct attempt {
+    step_result result;
     bool non_finite = false;
-    double bad_value = 0.0;
-    try {
-        r = stepper.step(f, x, t, h);
-    } catch (const non_finite_rhs& e) {
-        r = step_result::failure(e.component);
-        non_finite = true;
-        bad_value = e.value;
+    double value = 0.0;
+};
+
+template <class St, class F, class S>
+inline attempt try_step(St& stepper, F& f, S& x, double t, double h) {
+    if constexpr (checks_finite<std::remove_cvref_t<F>>) {
+        try {
+            return {stepper.step(f, x, t, h)};
+        } catch (const non_finite_rhs& e) {
+            return {step_result::failure(e.component), true, e.value};
+        }
+    } else {
+        return {stepper.step(f, x, t, h)};
     }
-    if (r) return;
+}
+
+/// Retries the failed attempt `a` from (x, t) as two half steps, and so on until each part succeeds or has been
+/// halved `left` times, as eci's drivers do; out of line, so that the successful step stays lean.
+template <class St, class F, class S>
+[[gnu::noinline]] void reduce(St& stepper, F& f, S& x, double t, double h, int left, attempt a, run_report& report,
+                              const component_namer& name, int max_halvings) {
     if (left == 0) {
         detail::collect_solver_stats(stepper, report.stats);
-        const std::string cause = non_finite ? "fun(t, y) returned " + full_text(bad_value) + " in component " +
-                                                   name(r.component)
-                                             : "negative radicand, non-invertible transform or non-finite state";
-        throw underflow_error("step failed at t = " + full_text(t) + " in component " + name(r.component) +
-                                  " even with the step halved " + std::to_string(max_halvings) +
-                                  " times (dt = " + full_text(h) + "): " + cause,
-                              t, r.component, name(r.component), h, non_finite, report);
+        const std::size_t c = a.result.component;
+        const std::string cause = a.non_finite ? "fun(t, y) returned " + full_text(a.value) + " in component " + name(c)
+                                               : "negative radicand, non-invertible transform or non-finite state";
+        throw underflow_error("step failed at t = " + full_text(t) + " in component " + name(c) +
+                                  " even with the step halved " + std::to_string(max_halvings) + " times (dt = " +
+                                  full_text(h) + "): " + cause,
+                              t, c, name(c), h, a.non_finite, report);
     }
-    ++(non_finite ? report.rejected.non_finite_fun : report.rejected.step_failed);
+    ++(a.non_finite ? report.rejected.non_finite_fun : report.rejected.step_failed);
     ++report.stats.step_reductions;
-    advance(stepper, f, x, t, 0.5 * h, left - 1, report, name, max_halvings);
-    advance(stepper, f, x, t + 0.5 * h, 0.5 * h, left - 1, report, name, max_halvings);
+    for (const double start : {t, t + 0.5 * h}) {
+        const attempt half = try_step(stepper, f, x, start, 0.5 * h);
+        if (!half.result) reduce(stepper, f, x, start, 0.5 * h, left - 1, half, report, name, max_halvings);
+    }
+}
+
+/// Advances x by h; a failed step (reported by the stepper, or a non-finite value returned by a Python fun) is
+/// retried smaller by reduce().
+template <class St, class F, class S>
+inline void advance(St& stepper, F& f, S& x, double t, double h, int max_halvings, run_report& report,
+                    const component_namer& name) {
+    const attempt a = try_step(stepper, f, x, t, h);
+    if (!a.result) [[unlikely]]
+        reduce(stepper, f, x, t, h, max_halvings, a, report, name, max_halvings);
 }
 
 /// The system the steppers see: f, with its evaluations counted. Steppers that need the model itself (its
@@ -196,6 +222,7 @@ template <class F>
 struct counted_system {
     const F& f;
     run_report& report;
+    static constexpr bool checks_finite = eci::python::checks_finite<F>;
 
     template <class S>
     void operator()(const S& x, S& dxdt, double t) const {
@@ -238,12 +265,12 @@ void run_grid(St& stepper, F& f, S& x, const run_request& req, Measure&& measure
         for (; next < end; next = ++k < te.size() ? te[k] : never) {
             St side = stepper;
             S xs = x;
-            advance(side, counted, xs, start, next - start, req.max_halvings, report, name, req.max_halvings);
+            advance(side, counted, xs, start, next - start, req.max_halvings, report, name);
             ++report.t_eval_steps;
             measure(std::as_const(xs), false);
             out.record(next, xs);
         }
-        advance(stepper, counted, x, start, h, req.max_halvings, report, name, req.max_halvings);
+        advance(stepper, counted, x, start, h, req.max_halvings, report, name);
         ++report.stats.steps;
         measure(std::as_const(x), false);
         if (every_step || next == end) emit(end);

@@ -64,6 +64,8 @@ py::array_t<T, py::array::c_style> as_vector(const py::object& r, std::size_t n,
 template <class T>
 class python_rhs {
    public:
+    static constexpr bool checks_finite = true;  ///< throws non_finite_rhs
+
     python_rhs(py::object fun, std::size_t n) : fun_(std::move(fun)), n_(n) {}
 
     void operator()(const std::vector<T>& x, std::vector<T>& dxdt, double t) const {

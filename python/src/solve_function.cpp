@@ -12,6 +12,7 @@ namespace {
 /// fun(t, y) with a user's transform: the system transformed_rk steps, a model with a linearizing transform.
 struct python_transformed_system {
     using state_type = std::vector<double>;
+    static constexpr bool checks_finite = true;  ///< throws non_finite_rhs
     python_rhs<double> rhs;
     python_transform transform;
 
