@@ -17,6 +17,23 @@
 
 namespace eci::python {
 
+/// Dispatches a method name through the registry, which builds the stepper the model supports (the transformed
+/// engine where the model has a linearizing transform, Kahan's method where it has a Jacobian, ...).
+struct registry_dispatch {
+    template <class Model, class Fn>
+    bool operator()(const Model&, std::string_view name, Fn&& fn) const {
+        return with_stepper<Model>(name, std::forward<Fn>(fn));
+    }
+};
+
+/// The methods the registry runs on Model, as strings (computed, the list `eci list` shows).
+template <class Model>
+std::vector<std::string> registry_methods() {
+    std::vector<std::string> v;
+    for (std::string_view n : method_names_for<Model>()) v.emplace_back(n);
+    return v;
+}
+
 /// What every model object offers Python; eci.solve only needs _solve.
 class model_base {
    public:
@@ -43,7 +60,7 @@ class model_base {
 };
 
 /// A model of eci's library behind model_base. Dispatch(name, fn) calls fn with the stepper called name.
-template <class Model, class Dispatch>
+template <class Model, class Dispatch = registry_dispatch>
 class model_object : public model_base {
    public:
     using S = typename Model::state_type;
@@ -181,21 +198,18 @@ class model_object : public model_base {
     Dispatch dispatch_{};
 };
 
-/// Dispatches through the registry alone (models whose methods all run on any state).
-template <class S>
-struct registry_dispatch {
-    template <class Model, class Fn>
-    bool operator()(const Model&, std::string_view name, Fn&& fn) const {
-        return with_method<S>(name, std::forward<Fn>(fn));
-    }
-};
+/// What eci.solve and the CLI take from a model's own description: its name, the methods that run on it, and
+/// its first preset's step and end time (`eci run NAME`'s defaults); `columns` names its real unknowns.
+template <class Model, class Meta>
+Meta describe(std::vector<std::string> columns) {
+    const auto standard = Model::presets()[0];
+    return {std::string(Model::name), registry_methods<Model>(), standard.dt, standard.t_end, std::move(columns)};
+}
 
-/// The registry's methods for state type S, as strings.
-template <class S>
-std::vector<std::string> registry_methods() {
-    std::vector<std::string> v;
-    for (std::string_view n : method_names_for<S>()) v.emplace_back(n);
-    return v;
+/// A fixed-size model's component names.
+template <class Model>
+std::vector<std::string> component_columns() {
+    return {Model::component_names.begin(), Model::component_names.end()};
 }
 
 /// The CLI's column names for a state of `size` modes: psi_0... or re_psi_0, im_psi_0, ...
@@ -214,9 +228,9 @@ inline std::vector<std::string> indexed_columns(const std::string& prefix, std::
 }
 
 /// Binds model_object<Model, Dispatch> as the Python class `name`, a subclass of eci._eci.Model.
-template <class Model, class Dispatch>
-py::class_<model_object<Model, Dispatch>, model_base> bind_model(py::module_& m, const char* name, const char* doc) {
-    return py::class_<model_object<Model, Dispatch>, model_base>(m, name, doc);
+template <class Model>
+py::class_<model_object<Model>, model_base> bind_model(py::module_& m, const char* name, const char* doc) {
+    return py::class_<model_object<Model>, model_base>(m, name, doc);
 }
 
 }  // namespace eci::python

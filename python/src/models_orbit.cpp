@@ -1,9 +1,7 @@
 // eci.models.LotkaVolterra and Kepler: eqs. (36)-(42) and (43)-(54), with the CLI's parameters, defaults, methods
-// and messages; the conservative methods run through each model's linearizing transform, Kahan on its Jacobian.
+// and messages; the registry runs the conservative methods through each model's transform, Kahan on its Jacobian.
 #include <eci/models/kepler.hpp>
 #include <eci/models/lotka_volterra.hpp>
-#include <eci/steppers/kahan.hpp>
-#include <eci/steppers/transformed_rk.hpp>
 
 #include "models.hpp"
 #include "module.hpp"
@@ -12,55 +10,35 @@ namespace eci::python {
 
 namespace {
 
-// The conservative methods through the model's transform; kahan where the model has a Jacobian; the
-// conventional ones from the registry (the CLI's adapters choose the same).
-struct transform_dispatch {
-    template <class Model, class Fn>
-    bool operator()(const Model& model, std::string_view name, Fn&& fn) const {
-        using Tr = typename Model::transform;
-        const Tr tr = model.linearizing_transform();
-        if (name == "c-pc") return fn(transformed_pc<Tr>{tr}), true;
-        if (name == "c-rk2") return fn(transformed_rk2<Tr>{tr}), true;
-        if (name == "c-rk4") return fn(transformed_rk4<Tr>{tr}), true;
-        if constexpr (requires { model.jacobian(typename Model::state_type{}); })
-            if (name == "kahan") return fn(kahan<Model>{model}), true;
-        return with_method<typename Model::state_type>(name, std::forward<Fn>(fn));
-    }
-};
-
-using lv_object = model_object<lotka_volterra, transform_dispatch>;
-using kepler_object = model_object<kepler, transform_dispatch>;
+using lv_object = model_object<lotka_volterra>;
+using kepler_object = model_object<kepler>;
 
 }  // namespace
 
 void init_orbit_models(py::module_& m) {
-    bind_model<lotka_volterra, transform_dispatch>(
+    bind_model<lotka_volterra>(
         m, "LotkaVolterra",
         "Predator-prey equations (36), dx/dt = -mu x (1 - y), dy/dt = y (1 - x); invariant the Hamiltonian (37). "
         "c-pc is eq. (42); every conservative method goes through the transform (39).")
         .def(py::init([](double mu) {
-                 lv_object::meta meta{"lotka-volterra",
-                                      {"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "kahan"},
-                                      0.02,
-                                      16000.0,
-                                      {"x", "y"}};
-                 return lv_object(lotka_volterra{mu}, std::move(meta), {1.0, 0.4});
+                 lotka_volterra model;
+                 model.mu = mu;
+                 return lv_object(model, describe<lotka_volterra, lv_object::meta>(component_columns<lotka_volterra>()),
+                                  lotka_volterra::presets()[0].x0);
              }),
              py::arg("mu") = 1.5)
         .def_property_readonly("mu", [](const lv_object& o) { return o.model().mu; })
         .def("__repr__", [](const lv_object& o) { return "LotkaVolterra(mu=" + shortest_text(o.model().mu) + ")"; });
 
-    bind_model<kepler, transform_dispatch>(
+    bind_model<kepler>(
         m, "Kepler",
         "The Kepler problem (45) in polar variables (r, v_r, theta), bound orbits; invariants H (46) and the "
         "Runge-Lenz vector (47). c-pc is eqs. (49)-(54); every conservative method goes through the transform (50).")
         .def(py::init([](double mass, double K, double ell) {
-                 kepler_object::meta meta{"kepler",
-                                          {"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4"},
-                                          0.105,
-                                          105.0,
-                                          {"r", "v_r", "theta"}};
-                 return kepler_object(kepler{mass, K, ell}, std::move(meta), {1.0, 0.0, 0.0});
+                 kepler model;
+                 model.m = mass, model.K = K, model.ell = ell;
+                 return kepler_object(model, describe<kepler, kepler_object::meta>(component_columns<kepler>()),
+                                      kepler::presets()[0].x0);
              }),
              py::arg("m") = 1.0, py::arg("K") = 1.5, py::arg("ell") = 1.0)
         .def_property_readonly("m", [](const kepler_object& o) { return o.model().m; })

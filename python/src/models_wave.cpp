@@ -13,16 +13,16 @@ namespace eci::python {
 
 namespace {
 
-using three_wave_object = model_object<three_wave, registry_dispatch<three_wave::state_type>>;
+using three_wave_object = model_object<three_wave>;
 
 template <class T>
-using n_wave_object = model_object<n_wave<T>, registry_dispatch<typename n_wave<T>::state_type>>;
+using n_wave_object = model_object<n_wave<T>>;
 
 template <class T>
 void bind_n_wave(py::module_& m, const char* name, const char* cli_name) {
     using object = n_wave_object<T>;
     constexpr bool complex = n_wave<T>::is_complex;
-    bind_model<n_wave<T>, registry_dispatch<typename n_wave<T>::state_type>>(
+    bind_model<n_wave<T>>(
         m, name,
         complex ? "n complex modes coupled by random triads obeying eqs. (2)-(3) (section III.C); invariants "
                   "energy, enstrophy. The system and its default initial condition are drawn from seed."
@@ -46,8 +46,7 @@ void bind_n_wave(py::module_& m, const char* name, const char* cli_name) {
                      throw std::invalid_argument(std::string(cli_name) + ": " + e.what());
                  }
                  auto y0 = model.random_state(seed);
-                 typename object::meta meta{cli_name, registry_methods<typename n_wave<T>::state_type>(), 0.01, 10.0,
-                                            indexed_columns("psi_", modes, complex)};
+                 auto meta = describe<n_wave<T>, typename object::meta>(indexed_columns("psi_", modes, complex));
                  return object(std::move(model), std::move(meta), std::move(y0));
              }),
              py::arg("modes") = 30, py::arg("triads_per_mode") = 20, py::arg("seed") = 1)
@@ -74,16 +73,15 @@ void bind_n_wave(py::module_& m, const char* name, const char* cli_name) {
 }  // namespace
 
 void init_wave_models(py::module_& m) {
-    bind_model<three_wave, registry_dispatch<three_wave::state_type>>(
+    bind_model<three_wave>(
         m, "ThreeWave",
         "Three real modes of the truncated Euler equations, eq. (1); invariants energy (4) and enstrophy (5). "
         "Defaults are the paper's (Figs. 1-5); M must obey eqs. (2)-(3).")
         .def(py::init([](double K, double P, double Q, std::array<double, 3> M) {
                  three_wave model;
                  model.K = K, model.P = P, model.Q = Q, model.M = M;
-                 three_wave_object::meta meta{"three-wave", registry_methods<three_wave::state_type>(), 0.01, 10.0,
-                                              {"psi_K", "psi_P", "psi_Q"}};
-                 return three_wave_object(model, std::move(meta), {std::sqrt(1.5), 0.0, std::sqrt(1.5)});
+                 return three_wave_object(model, describe<three_wave, three_wave_object::meta>(component_columns<three_wave>()),
+                                          three_wave::presets()[0].x0);
              }),
              py::arg("K") = std::sqrt(3.0), py::arg("P") = 3.0, py::arg("Q") = std::sqrt(6.0),
              py::arg("M") = std::array<double, 3>{1.0, 1.0, -2.0})

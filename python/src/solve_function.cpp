@@ -61,7 +61,11 @@ py::dict solve_transformed(py::object fun, py::object forward, py::object invers
     using S = std::vector<double>;
     const std::size_t n = static_cast<std::size_t>(y0.shape(0));
     S x(y0.data(), y0.data() + n);
-    const method_info info = resolve_method(method, {"c-pc", "c-rk2", "c-rk4"}, "a transform");
+    // the conservative tableaux, which the registry runs through the system's transform
+    std::vector<std::string> available;
+    for (const method_info& m : methods_for<python_transformed_system>())
+        if (m.family == method_family::transformed) available.emplace_back(m.name);
+    const method_info info = resolve_method(method, available, "a transform");
     python_transform tr{std::move(forward), std::move(inverse), std::move(jacobian), std::move(rate), n};
     tr.measure_xi(x);
     const python_transformed_system f{python_rhs<double>(std::move(fun), n), tr};
@@ -73,10 +77,8 @@ py::dict solve_transformed(py::object fun, py::object forward, py::object invers
     recorded_output<S> out;
     run_report report;
     auto measure = [&](const S& s, bool first) { invs.measure(s, drift, 0, first); };
-    auto run = [&](auto stepper) { run_grid(stepper, f, x, req, measure, interrupt, out, report, namer); };
-    if (method == "c-pc") run(transformed_pc<python_transform>{tr});
-    if (method == "c-rk2") run(transformed_rk2<python_transform>{tr});
-    if (method == "c-rk4") run(transformed_rk4<python_transform>{tr});
+    with_stepper<python_transformed_system>(
+        method, [&](auto stepper) { run_grid(stepper, f, x, req, measure, interrupt, out, report, namer); });
     return result_dict(out, n, report, drift, info);
 }
 
