@@ -42,6 +42,8 @@ class model_base {
     virtual std::string name() const = 0;
     /// The methods eci.solve accepts for this model.
     virtual std::vector<std::string> methods() const = 0;
+    /// How each method is built on this model (the registry's family: "transformed" where its transform is used).
+    virtual py::dict method_families() const = 0;
     /// The CLI's default step and end time.
     virtual double default_dt() const = 0;
     virtual double default_t_end() const = 0;
@@ -87,6 +89,11 @@ class model_object : public model_base {
 
     std::string name() const override { return meta_.name; }
     std::vector<std::string> methods() const override { return meta_.methods; }
+    py::dict method_families() const override {
+        py::dict d;
+        for (const method_info& m : methods_for<Model>()) d[py::str(std::string(m.name))] = std::string(family_name(m.family));
+        return d;
+    }
     double default_dt() const override { return meta_.default_dt; }
     double default_t_end() const override { return meta_.default_t_end; }
     py::array default_y0() const override { return to_array(y0_); }

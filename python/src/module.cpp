@@ -15,6 +15,9 @@ void bind_model_base(py::module_& m) {
     py::class_<model_base>(m, "Model", "A built-in model: eci.solve(model, ...) integrates it entirely in C++.")
         .def_property_readonly("name", &model_base::name, "the model's name in the CLI (eci run NAME)")
         .def_property_readonly("methods", &model_base::methods, "the methods eci.solve accepts for this model")
+        .def_property_readonly("method_families", &model_base::method_families,
+                               "how each method is built on this model: conventional, conservative, transformed "
+                               "(through the model's transform), implicit or model-specific")
         .def_property_readonly("default_dt", &model_base::default_dt, "the CLI's default time step")
         .def_property_readonly("default_t_end", &model_base::default_t_end, "the CLI's default end time")
         .def_property_readonly("default_y0", &model_base::default_y0, "the CLI's default initial condition")
