@@ -241,6 +241,10 @@ template <class S, class F, class St, class Measure>
 void run_grid(St& stepper, F& f, S& x, const run_request& req, Measure&& measure, interrupt_check& interrupt,
               recorded_output<S>& out, run_report& report, const component_namer& name) {
     counted_system<std::remove_cvref_t<F>> counted{f, report};
+    // As eci's drivers: a model's declared quadratic invariants go to the stepper's negative-radicand remedy, so
+    // the states stay bit for bit the CLI's.
+    detail::attach_quadratic_invariants(stepper, f, x);
+    const remedy_stats remedy_before = detail::remedy_counters(stepper);
     // Without t_eval every grid time is output; with it, `next` is the next output time (infinity after the last).
     constexpr double never = std::numeric_limits<double>::infinity();
     const bool every_step = !req.t_eval;
@@ -276,6 +280,7 @@ void run_grid(St& stepper, F& f, S& x, const run_request& req, Measure&& measure
         if (every_step || next == end) emit(end);
     }
     detail::collect_solver_stats(stepper, report.stats);
+    detail::collect_remedy_stats(stepper, remedy_before, report.stats);
 }
 
 /// The statistics as the Python dict `result.stats`.
@@ -289,6 +294,8 @@ inline py::dict stats_dict(const run_report& r) {
     d["t_eval_steps"] = r.t_eval_steps;
     d["rejected_steps"] = rejected;
     d["rhs_evals"] = r.stats.rhs_evals;
+    d["remedied_steps"] = r.stats.remedied_steps;
+    d["components_remedied"] = r.stats.components_remedied;
     d["solver_solves"] = r.stats.solver.solves;
     d["solver_iterations"] = r.stats.solver.iterations;
     d["solver_max_iterations"] = r.stats.solver.max_iterations;

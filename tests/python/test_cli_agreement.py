@@ -100,3 +100,14 @@ def test_t_eval_points_on_the_grid_are_the_grid_states(cli, tmp_path):
     r = eci.solve(eci.models.ThreeWave(), (0.0, 10.0), method="c-rk4", dt=0.01, t_eval=t[::100])
     assert r.stats["t_eval_steps"] == 0
     assert np.array_equal(r.y[0], columns["psi_K"][::100])
+
+
+def test_n_wave_remedy_matches_cli_issue_9(cli, tmp_path):
+    # 1000 modes at the CLI's default step: negative radicands are remedied inside the step (no halving), by the
+    # same computation in both, so the runs still agree bit for bit.
+    t, columns, summary = cli_run(cli, tmp_path, "n-wave", "c-pc", 0.01, 1.0, "--modes", 1000)
+    r = eci.solve(eci.models.NWave(modes=1000), (0.0, 1.0), method="c-pc", dt=0.01)
+    assert summary["remedied_steps"] > 0 and summary["step_reductions"] == 0
+    assert r.stats["remedied_steps"] == summary["remedied_steps"]
+    assert r.stats["components_remedied"] == summary["components_remedied"]
+    assert_same_run(r, t, columns, summary, [f"psi_{i}" for i in range(1000)])
