@@ -2,7 +2,7 @@
 # Installs the Debian packages eci builds, tests and draws with, where they are missing (a fresh Debian 12 as root).
 set -euo pipefail
 
-packages=(g++ cmake make libboost-dev libcli11-dev libgtest-dev libbenchmark-dev gnuplot-nox)
+packages=(g++ cmake make pkg-config libboost-dev libcli11-dev libgtest-dev libbenchmark-dev gnuplot-nox libfftw3-dev libhdf5-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
