@@ -6,6 +6,8 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <cstring>
+#include <string>
 #include <cstdint>
 #include <limits>
 #include <numbers>
@@ -166,6 +168,224 @@ TEST(NavierStokes2d, TaylorGreenDecaysAsExpMinus2NuT) {
         if (w0[i] != std::complex<double>{}) worst = std::max(worst, std::abs(w[i] - decay * w0[i]) / std::abs(w0[i]));
     EXPECT_LE(worst, 1e-12);
     EXPECT_EQ(stats.step_reductions, 0u);
+}
+
+}  // namespace
+
+namespace {
+
+struct drift {
+    double energy = 0.0, enstrophy = 0.0;
+    eci::run_stats stats{};
+};
+
+// Steps of size dt from w; the worst relative change of E and Z over the run, checked every step.
+template <class St>
+drift inviscid_drift(navier_stokes_2d& m, state w, double dt, int steps) {
+    St st;
+    eci::ns2d_budget b;
+    drift d;
+    const double e0 = m.energy(w), z0 = m.enstrophy(w);
+    for (int i = 0; i < steps; ++i) {
+        eci::ns2d_step(st, m, w, i * dt, dt, b, d.stats);
+        d.energy = std::max(d.energy, std::abs(m.energy(w) - e0) / e0);
+        d.enstrophy = std::max(d.enstrophy, std::abs(m.enstrophy(w) - z0) / z0);
+        if (!std::isfinite(d.energy + d.enstrophy)) break;
+    }
+    return d;
+}
+
+// Inviscid, unforced, 10^4 steps at CFL 0.5: C-PC and C-RK4 keep E and Z to round-off, RK4 drifts.
+void check_inviscid(int n, int steps) {
+    navier_stokes_2d m(small(n));
+    const state w = m.random_field(3.0, 0.5, 11);
+    const double dt = 0.5 * (2.0 * std::numbers::pi / n) / m.max_velocity(w);  // CFL 0.5
+    const drift cpc = inviscid_drift<eci::c_pc<state>>(m, w, dt, steps);
+    const drift crk4 = inviscid_drift<eci::c_rk4<state>>(m, w, dt, steps);
+    const drift rk4 = inviscid_drift<eci::rk4<state>>(m, w, dt, steps);
+    std::printf("n %d, %d steps of dt %.4g: C-PC E %.3g Z %.3g (%llu halvings); C-RK4 E %.3g Z %.3g (%llu); "
+                "RK4 E %.3g Z %.3g\n",
+                n, steps, dt, cpc.energy, cpc.enstrophy, (unsigned long long)cpc.stats.step_reductions,
+                crk4.energy, crk4.enstrophy, (unsigned long long)crk4.stats.step_reductions, rk4.energy,
+                rk4.enstrophy);
+    // Each step rounds every sum w xi once (relative eps per term, a random walk over steps) and the nonlinear
+    // term's sum_k w_k psi_k S_k is zero only to a few eps (DealiasedNonlinearTerm... above): 8 eps sqrt(steps)
+    // relative, with halved steps counted as extra steps.
+    for (const drift& d : {cpc, crk4}) {
+        const double tol = 8.0 * eps * std::sqrt(double(steps + 2 * d.stats.step_reductions));
+        EXPECT_LE(d.energy, tol);
+        EXPECT_LE(d.enstrophy, tol);
+    }
+    // RK4 at the same steps drifts by far more than round-off.
+    EXPECT_GT(std::max(rk4.energy, rk4.enstrophy), 1e3 * 8.0 * eps * std::sqrt(double(steps)));
+}
+
+TEST(NavierStokes2d, InviscidConservativeMethodsKeepEnergyAndEnstrophyRk4Drifts) { check_inviscid(32, 10000); }
+
+// The size, N = 128 and 10^4 steps: minutes, so only with --gtest_also_run_disabled_tests (label long).
+TEST(NavierStokes2dLong, DISABLED_InviscidN128TenThousandSteps) { check_inviscid(128, 10000); }
+
+}  // namespace
+
+namespace {
+
+// Decaying turbulence at N = 64 to t = 0.1: the error, in the energy-weighted norm, against a tiny-step RK4
+// reference, fitted against dt. Each real unknown is sgn * sqrt(xi) with xi off by O(dt^(p+1)): one that passes
+// near zero at a step is off by up to sqrt of that, so the asymptotic slope is reached only at small steps (the
+// CFL numbers here are 0.02 to 0.2) and even there single crossings scatter the points by about +-0.4.
+struct order_fixture {
+    eci::ns2d_params p = [] {
+        auto q = small(64);
+        q.nu = 2e-3;
+        return q;
+    }();
+    navier_stokes_2d m{p};
+    state w0 = m.random_field(4.0, 0.5, 5);
+    double t_end = 0.1;
+
+    template <class St>
+    state run(int steps) {
+        St st;
+        state w = w0;
+        eci::ns2d_budget b;
+        eci::run_stats stats;
+        const double dt = t_end / steps;
+        for (int i = 0; i < steps; ++i) eci::ns2d_step(st, m, w, i * dt, dt, b, stats);
+        return w;
+    }
+
+    template <class St>
+    double slope(const std::vector<int>& counts) {
+        static const state ref = run<eci::rk4<state>>(4096);  // RK4's own error there is ~1e-16 relative
+        std::vector<double> x, y;
+        for (int steps : counts) {
+            const state w = run<St>(steps);
+            double e = 0.0, norm = 0.0;
+            for (std::size_t i = 0; i < m.size(); ++i) {
+                e += m.weights()[i] * std::norm(w[i] - ref[i]);
+                norm += m.weights()[i] * std::norm(ref[i]);
+            }
+            x.push_back(std::log(double(steps)));
+            y.push_back(std::log(std::sqrt(e / norm)));
+            std::printf("%d steps: relative error %.3g\n", steps, std::sqrt(e / norm));
+        }
+        double mx = 0, my = 0, sxy = 0, sxx = 0;
+        for (std::size_t i = 0; i < x.size(); ++i) mx += x[i] / double(x.size()), my += y[i] / double(x.size());
+        for (std::size_t i = 0; i < x.size(); ++i) sxy += (x[i] - mx) * (y[i] - my), sxx += (x[i] - mx) * (x[i] - mx);
+        return -sxy / sxx;
+    }
+};
+
+TEST(NavierStokes2d, CRk4IsFourthOrder) {
+    order_fixture f;
+    const double s = f.slope<eci::c_rk4<state>>({64, 128, 256, 512});
+    std::printf("C-RK4 slope %.3f\n", s);
+    EXPECT_NEAR(s, 4.0, 0.4);
+}
+TEST(NavierStokes2d, CPcIsSecondOrder) {
+    order_fixture f;
+    const double s = f.slope<eci::c_pc<state>>({128, 256, 512, 1024});
+    std::printf("C-PC slope %.3f\n", s);
+    EXPECT_NEAR(s, 2.0, 0.4);
+}
+
+// Forced and dissipative: per step, E(t + dt) - E(t) equals the injection minus dissipation integrated with the
+// step's own stages and weights, to round-off (the same for Z).
+template <class St>
+void check_budget(eci::ns2d_forcing forcing) {
+    auto p = small(32);
+    p.nu = 5e-3;
+    p.hyper_nu = 1e-6;
+    p.hyper_p = 2;
+    p.drag = 0.05;
+    p.forcing = forcing;
+    p.forcing_k = 4.0;
+    p.forcing_amplitude = 2.0;
+    p.injection_rate = 0.5;
+    p.forcing_seed = 9;
+    navier_stokes_2d m(p);
+    state w = m.random_field(3.0, 0.5, 2);
+    const double dt = 0.5 * (2.0 * std::numbers::pi / p.n) / m.max_velocity(w);
+    St st;
+    eci::run_stats stats;
+    double worst_e = 0.0, worst_z = 0.0, injected = 0.0, dissipated = 0.0;
+    const int steps = 400;
+    for (int i = 0; i < steps; ++i) {
+        eci::ns2d_budget b;
+        const double e0 = m.energy(w), z0 = m.enstrophy(w);
+        eci::ns2d_step(st, m, w, i * dt, dt, b, stats);
+        const double e1 = m.energy(w), z1 = m.enstrophy(w);
+        worst_e = std::max(worst_e, std::abs(e1 - e0 - (b.energy_injection - b.energy_dissipation)) / e1);
+        worst_z = std::max(worst_z, std::abs(z1 - z0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
+        injected += b.energy_injection;
+        dissipated += b.energy_dissipation;
+    }
+    std::printf("budget residual per step, relative: E %.3g, Z %.3g (injected %.4g, dissipated %.4g, %llu halvings)\n",
+                worst_e, worst_z, injected, dissipated, (unsigned long long)stats.step_reductions);
+    // Both sides are sums of a few thousand terms rounded once each: the bound 1e-13 is ~450 eps.
+    EXPECT_LE(worst_e, 1e-13);
+    EXPECT_LE(worst_z, 1e-13);
+    // The budget is not trivially zero: forcing and dissipation both did work comparable to E.
+    EXPECT_GT(injected, 0.1 * m.energy(w));
+    EXPECT_GT(dissipated, 0.1 * m.energy(w));
+}
+
+TEST(NavierStokes2d, BudgetClosesStochasticCRk4) { check_budget<eci::c_rk4<state>>(eci::ns2d_forcing::stochastic); }
+TEST(NavierStokes2d, BudgetClosesStochasticCPc) { check_budget<eci::c_pc<state>>(eci::ns2d_forcing::stochastic); }
+TEST(NavierStokes2d, BudgetClosesDeterministicCRk4) {
+    check_budget<eci::c_rk4<state>>(eci::ns2d_forcing::deterministic);
+}
+
+// A run continued from a saved state and generator state on a freshly built model is the same, bit for bit.
+TEST(NavierStokes2d, RestartFromStateAndGeneratorIsBitIdentical) {
+    auto p = small(32);
+    p.nu = 1e-3;
+    p.forcing = eci::ns2d_forcing::stochastic;
+    p.injection_rate = 0.2;
+    const double dt = 0.02;
+    auto steps = [&](navier_stokes_2d& m, state& w, int from, int to) {
+        eci::c_rk4<state> st;
+        eci::ns2d_budget b;
+        eci::run_stats stats;
+        for (int i = from; i < to; ++i) eci::ns2d_step(st, m, w, i * dt, dt, b, stats);
+    };
+    navier_stokes_2d a(p);
+    state wa = a.random_field(3.0, 0.5, 4);
+    state wb = wa;
+    steps(a, wa, 0, 40);
+    navier_stokes_2d b1(p);
+    steps(b1, wb, 0, 20);
+    const std::uint64_t rng = b1.rng_state();
+    navier_stokes_2d b2(p);
+    b2.set_rng_state(rng);
+    steps(b2, wb, 20, 40);
+    ASSERT_EQ(wa.size(), wb.size());
+    EXPECT_EQ(0, std::memcmp(wa.data(), wb.data(), wa.size() * sizeof(wa[0])));
+}
+
+// Bad parameters are rejected with a message naming them.
+TEST(NavierStokes2d, RejectsBadParameters) {
+    auto expect_bad = [](auto change, const char* needle) {
+        auto p = small(16);
+        change(p);
+        try {
+            navier_stokes_2d m(p);
+            ADD_FAILURE() << "accepted: " << needle;
+        } catch (const std::invalid_argument& e) {
+            EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+        }
+    };
+    expect_bad([](eci::ns2d_params& p) { p.n = 15; }, "even");
+    expect_bad([](eci::ns2d_params& p) { p.n = 6; }, "at least 8");
+    expect_bad([](eci::ns2d_params& p) { p.nu = -1.0; }, "viscosity");
+    expect_bad([](eci::ns2d_params& p) { p.hyper_p = 0; }, "power");
+    expect_bad([](eci::ns2d_params& p) { p.drag = -0.1; }, "drag");
+    expect_bad(
+        [](eci::ns2d_params& p) {
+            p.forcing = eci::ns2d_forcing::stochastic;
+            p.forcing_k = 40.0;
+        },
+        "forcing band");
 }
 
 }  // namespace
