@@ -234,13 +234,13 @@ navier_stokes_2d& navier_stokes_2d::operator=(navier_stokes_2d&&) noexcept = def
 
 const ns2d_params& navier_stokes_2d::params() const { return d_->p; }
 
-std::array<std::vector<double>, 2> navier_stokes_2d::invariant_weights() const {
-    std::array<std::vector<double>, 2> w{std::vector<double>(2 * size()), std::vector<double>(2 * size())};
+std::vector<std::vector<double>> navier_stokes_2d::quadratic_invariant_weights() const {
+    std::vector<std::vector<double>> q(2, std::vector<double>(size()));
     for (std::size_t i = 0; i < size(); ++i) {
-        w[0][2 * i] = w[0][2 * i + 1] = 0.5 * weights_[i] * d_->inv_k2[i];
-        w[1][2 * i] = w[1][2 * i + 1] = 0.5 * weights_[i];
+        q[0][i] = 0.5 * weights_[i] * d_->inv_k2[i];
+        q[1][i] = 0.5 * weights_[i];
     }
-    return w;
+    return q;
 }
 
 void navier_stokes_2d::nonlinear(const state_type& w, state_type& out) {

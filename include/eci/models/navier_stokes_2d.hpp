@@ -96,8 +96,9 @@ class navier_stokes_2d {
     /// How often stored mode i appears in the full plane: 2 (itself and its conjugate -k, which is not stored),
     /// 1 on the k_x = 0 and Nyquist columns (where -k is stored too), 0 for a truncated mode or k = 0.
     const std::vector<double>& weights() const { return weights_; }
-    /// The per-unknown weights of E (w_k / (2|k|^2)) and Z (w_k / 2) over the state's reals (re, im interleaved).
-    std::array<std::vector<double>, 2> invariant_weights() const;
+    /// E and Z as quadratic invariants sum_k q_k |omega_k|^2 over the stored modes, in the order of invariants():
+    /// q = w_k / (2 |k|^2) and w_k / 2 (what the conservative steppers' remedy for negative radicands needs).
+    std::vector<std::vector<double>> quadratic_invariant_weights() const;
 
     /// The right-hand side. Records the rates of the linear terms and forcing when recording is on.
     void operator()(const state_type& w, state_type& dwdt, double t);
