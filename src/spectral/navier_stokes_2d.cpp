@@ -208,6 +208,8 @@ navier_stokes_2d::navier_stokes_2d(const ns2d_params& p) : n_(p.n), d_(std::make
 
     std::call_once(fftw_threads_once, [] { fftw_init_threads(); });
     if (!p.wisdom_file.empty()) fftw_import_wisdom_from_filename(p.wisdom_file.c_str());
+    if (!p.wisdom.empty() && !fftw_import_wisdom_from_string(p.wisdom.c_str()))
+        throw std::invalid_argument("FFTW wisdom could not be read");
     fftw_plan_with_nthreads(p.threads);
     d.c = reinterpret_cast<cplx*>(fftw_alloc_complex(2 * d.m));
     d.out = reinterpret_cast<cplx*>(fftw_alloc_complex(d.m));
@@ -233,6 +235,14 @@ navier_stokes_2d::navier_stokes_2d(navier_stokes_2d&&) noexcept = default;
 navier_stokes_2d& navier_stokes_2d::operator=(navier_stokes_2d&&) noexcept = default;
 
 const ns2d_params& navier_stokes_2d::params() const { return d_->p; }
+
+std::string navier_stokes_2d::fftw_wisdom() {
+    char* w = fftw_export_wisdom_to_string();
+    if (!w) return {};
+    std::string s(w);
+    fftw_free(w);
+    return s;
+}
 
 std::vector<std::vector<double>> navier_stokes_2d::quadratic_invariant_weights() const {
     std::vector<std::vector<double>> q(2, std::vector<double>(size()));
@@ -404,12 +414,15 @@ navier_stokes_2d::state_type navier_stokes_2d::vortex_pair(double radius, double
     require(std::isfinite(peak), "peak vorticity must be finite");
     const double h = 2.0 * std::numbers::pi / n_, L = 2.0 * std::numbers::pi;
     std::vector<double> f(std::size_t(n_) * std::size_t(n_));
-    const double cx[2] = {std::numbers::pi - 0.5 * separation, std::numbers::pi + 0.5 * separation};
+    // The pair's centre is off the grid's symmetry points: centred on one, half the Fourier components would be
+    // zero up to round-off, with right-hand sides of random sign, and their radicands negative at any step size.
+    const double xc = std::numbers::pi + 0.1234, yc = std::numbers::pi + 0.0567;
+    const double cx[2] = {xc - 0.5 * separation, xc + 0.5 * separation};
     for (int j = 0; j < n_; ++j)
         for (int i = 0; i < n_; ++i) {
             double v = 0.0;
             for (double c : cx) {
-                double dx = std::remainder(i * h - c, L), dy = std::remainder(j * h - std::numbers::pi, L);
+                double dx = std::remainder(i * h - c, L), dy = std::remainder(j * h - yc, L);
                 v += peak * std::exp(-(dx * dx + dy * dy) / (radius * radius));
             }
             f[std::size_t(j) * std::size_t(n_) + std::size_t(i)] = v;

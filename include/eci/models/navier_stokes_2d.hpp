@@ -37,6 +37,8 @@ struct ns2d_params {
     int threads = 1;                   ///< FFTW and OpenMP threads
     bool measure = true;               ///< FFTW_MEASURE plans (FFTW_ESTIMATE when false)
     std::string wisdom_file;           ///< FFTW wisdom read before planning and written after; empty: none
+    std::string wisdom;                ///< FFTW wisdom text imported before planning (a checkpoint's, so that a
+                                       ///< restart plans the same transforms and continues bit for bit)
 
     /// Throws std::invalid_argument naming the first bad parameter.
     void validate() const;
@@ -74,6 +76,8 @@ class navier_stokes_2d {
     navier_stokes_2d(const navier_stokes_2d&) = delete;
     navier_stokes_2d& operator=(const navier_stokes_2d&) = delete;
 
+    /// FFTW's accumulated wisdom as text (holds this model's plans).
+    static std::string fftw_wisdom();
     /// The parameters it was built with.
     const ns2d_params& params() const;
     /// Grid points per side.
@@ -131,7 +135,7 @@ class navier_stokes_2d {
     std::vector<double> to_physical(const state_type& w);
     /// A random field with energy spectrum E(k) ~ k^4 exp(-2 (k / k_peak)^2), scaled to energy `energy`.
     state_type random_field(double k_peak, double energy, std::uint64_t seed);
-    /// Two co-rotating Gaussian vortices of radius `radius`, peak vorticity `peak`, `separation` apart about the
+    /// Two co-rotating Gaussian vortices of radius `radius`, peak vorticity `peak`, `separation` apart near the
     /// centre (the merger problem).
     state_type vortex_pair(double radius, double separation, double peak);
     /// The Taylor-Green vortex omega = 2 U sin x sin y, a steady Euler flow that viscosity damps as exp(-2 nu t).

@@ -1,0 +1,412 @@
+// `eci run navier-stokes-2d`: 2-D turbulence with the pseudo-spectral vorticity model (eci::spectral): CSV of the
+// diagnostics and exact budgets, vorticity snapshots (PNG, HDF5), E(k), checkpoint/restart, blow-up detection.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <filesystem>
+#include <limits>
+#include <numbers>
+#include <optional>
+#include <string>
+
+#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/registry.hpp>
+#include <eci/steppers/conservative_rk.hpp>
+#include <eci/steppers/explicit_rk.hpp>
+
+#include "models.hpp"
+#include "ns2d_output.hpp"
+#include "run.hpp"
+
+namespace eci::cli {
+
+namespace {
+
+using state = navier_stokes_2d::state_type;
+
+// The Runge-Kutta methods whose stages the budget can weigh (ns2d_step needs the stepper's tableau).
+template <class Fn>
+bool with_rk_method(const std::string& name, Fn&& fn) {
+    if (name == "c-pc") return fn(c_pc<state>{}), true;
+    if (name == "c-rk2") return fn(c_rk2<state>{}), true;
+    if (name == "c-rk4") return fn(c_rk4<state>{}), true;
+    if (name == "pc") return fn(pc<state>{}), true;
+    if (name == "rk2") return fn(rk2<state>{}), true;
+    if (name == "rk4") return fn(rk4<state>{}), true;
+    if (name == "euler") return fn(euler<state>{}), true;
+    return false;
+}
+
+std::string num(double v) {
+    char b[32];
+    return std::string(format_double(v, b));
+}
+
+class navier_stokes_2d_command final : public model_command {
+   public:
+    const model_info& info() const override { return info_; }
+
+    void add_options(CLI::App& app) override {
+        app.add_option("--N", n_, "grid points per side, even, >= 8 (default 256); modes |k_x|,|k_y| <= (N-1)/3 kept");
+        app.add_option("--nu", nu_, "viscosity nu (default 0)");
+        app.add_option("--hyper-nu", hyper_nu_, "hyperviscosity nu_h of -nu_h |k|^(2p) omega (default 0)");
+        app.add_option("--hyper-p", hyper_p_, "hyperviscosity power p (default 2)");
+        app.add_option("--drag", drag_, "linear drag mu of -mu omega (default 0)");
+        app.add_option("--forcing", forcing_, "none, deterministic (fixed band, random phases) or stochastic "
+                                              "(white in time) (default none)")
+            ->check(CLI::IsMember({"none", "deterministic", "stochastic"}));
+        app.add_option("--forcing-k", forcing_k_, "forced band k_f - 1/2 <= |k| < k_f + 1/2 (default 4)");
+        app.add_option("--forcing-amplitude", forcing_amplitude_, "deterministic forcing: rms (default 1)");
+        app.add_option("--injection-rate", injection_rate_, "stochastic forcing: energy injection rate (default 1)");
+        app.add_option("--forcing-seed", forcing_seed_, "seed of the forcing (default 1)")->check(whole_number(0));
+        app.add_option("--ic", ic_, "initial condition: random, vortex-pair, taylor-green or FILE (an eci snapshot "
+                                    "or checkpoint .h5) (default random)");
+        app.add_option("--k-peak", k_peak_, "random: peak wavenumber of E(k) ~ k^4 exp(-2 (k/k_p)^2) (default 8)");
+        app.add_option("--energy", energy_, "random: initial energy (default 0.5)");
+        app.add_option("--seed", seed_, "random: seed (default 1)")->check(whole_number(0));
+        app.add_option("--vortex-radius", vortex_radius_, "vortex-pair: radius (default 0.3)");
+        app.add_option("--vortex-separation", vortex_separation_, "vortex-pair: distance of centres (default 0.8)");
+        app.add_option("--vortex-peak", vortex_peak_, "vortex-pair / taylor-green: peak vorticity / velocity (default 1)");
+        app.add_option("--threads", threads_, "FFTW and OpenMP threads (default 1)")->check(whole_number(1));
+        app.add_option("--cfl", cfl_, "choose dt = CFL dx / max|u| at the start (default 0.5; exclusive with --dt)");
+        app.add_option("--snapshot-every", snapshot_every_, "vorticity PNG + HDF5 and E(k) every K steps (default: "
+                                                           "none)")
+            ->check(whole_number(1));
+        app.add_option("--snapshot-dir", snapshot_dir_, "directory of the snapshots (default ns2d-snapshots)");
+        app.add_option("--checkpoint-every", checkpoint_every_, "write the checkpoint every K steps")
+            ->check(whole_number(1));
+        app.add_option("--checkpoint", checkpoint_, "checkpoint file, also written on SIGINT/SIGTERM (default "
+                                                    "ns2d-checkpoint.h5)");
+        app.add_option("--restart", restart_, "continue, bit for bit, from a checkpoint");
+        app.add_option("--fftw-wisdom", wisdom_file_, "FFTW wisdom file read before and written after planning");
+        app.add_flag("--fftw-estimate", estimate_, "FFTW_ESTIMATE plans instead of FFTW_MEASURE (no planning time)");
+    }
+
+    int run(const run_settings& settings) override;
+
+   private:
+    model_info info_{"navier-stokes-2d",
+                     "2-D incompressible Navier-Stokes/Euler vorticity on [0,2pi)^2, dealiased pseudo-spectral "
+                     "(FFTW); invariants energy, enstrophy",
+                     {"c-rk4", "c-pc", "c-rk2", "rk4", "pc", "rk2", "euler"},
+                     "c-rk4",
+                     std::numeric_limits<double>::quiet_NaN(),
+                     10.0};
+    std::optional<int> n_, hyper_p_;
+    std::optional<double> nu_, hyper_nu_, drag_, forcing_k_, forcing_amplitude_, injection_rate_;
+    std::optional<std::string> forcing_;
+    std::optional<std::uint64_t> forcing_seed_;
+    std::string ic_ = "random";
+    double k_peak_ = 8.0, energy_ = 0.5;
+    std::uint64_t seed_ = 1;
+    double vortex_radius_ = 0.3, vortex_separation_ = 0.8, vortex_peak_ = 1.0;
+    std::optional<int> threads_;
+    std::optional<double> cfl_;
+    std::uint64_t snapshot_every_ = 0, checkpoint_every_ = 0;
+    std::string snapshot_dir_ = "ns2d-snapshots", checkpoint_ = "ns2d-checkpoint.h5", restart_, wisdom_file_;
+    bool estimate_ = false;
+    bool warned_ = false;
+};
+
+ns2d_forcing parse_forcing(const std::string& s) {
+    return s == "stochastic" ? ns2d_forcing::stochastic
+           : s == "deterministic" ? ns2d_forcing::deterministic
+                                  : ns2d_forcing::none;
+}
+
+int navier_stokes_2d_command::run(const run_settings& settings) {
+    // ---- parameters, from the options or the checkpoint (options that contradict it are an error)
+    ns2d_checkpoint ck;
+    const bool restart = !restart_.empty();
+    if (restart) {
+        try {
+            ck = read_checkpoint(restart_);
+        } catch (const std::exception& e) {
+            throw bad_input(std::string("cannot restart: ") + e.what());
+        }
+        auto same = [&](const char* name, auto given, auto stored) {
+            if (given && *given != stored)
+                throw bad_input(std::string("--") + name + " " + num(double(*given)) + " does not match the restart file's " +
+                                num(double(stored)) + " (" + restart_ + ")");
+        };
+        same("N", n_, ck.params.n);
+        same("nu", nu_, ck.params.nu);
+        same("hyper-nu", hyper_nu_, ck.params.hyper_nu);
+        same("hyper-p", hyper_p_, ck.params.hyper_p);
+        same("drag", drag_, ck.params.drag);
+        same("forcing-k", forcing_k_, ck.params.forcing_k);
+        if (forcing_ && parse_forcing(*forcing_) != ck.params.forcing)
+            throw bad_input("--forcing does not match the restart file's (" + restart_ + ")");
+        if (!settings.method.empty() && settings.method != ck.method)
+            throw bad_input("--method " + settings.method + " does not match the restart file's " + ck.method);
+        if (settings.dt && *settings.dt != ck.dt)
+            throw bad_input("--dt does not match the restart file's " + num(ck.dt));
+        if (cfl_) throw bad_input("--cfl cannot be combined with --restart (the time step is the checkpoint's)");
+        if (ic_ != "random") throw bad_input("--ic cannot be combined with --restart");
+    }
+    ns2d_params p = restart ? ck.params : ns2d_params{};
+    if (!restart) {
+        p.n = n_.value_or(256);
+        p.nu = nu_.value_or(0.0);
+        p.hyper_nu = hyper_nu_.value_or(0.0);
+        p.hyper_p = hyper_p_.value_or(2);
+        p.drag = drag_.value_or(0.0);
+        p.forcing = parse_forcing(forcing_.value_or("none"));
+        p.forcing_k = forcing_k_.value_or(4.0);
+        p.forcing_amplitude = forcing_amplitude_.value_or(1.0);
+        p.injection_rate = injection_rate_.value_or(1.0);
+        p.forcing_seed = forcing_seed_.value_or(1);
+    }
+    if (threads_) p.threads = *threads_;
+    p.measure = !estimate_;
+    p.wisdom_file = wisdom_file_;
+    try {
+        p.validate();
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(std::string("navier-stokes-2d: ") + e.what());
+    }
+    const std::string method = restart ? ck.method : settings.method.empty() ? info_.default_method : settings.method;
+    if (std::find(info_.methods.begin(), info_.methods.end(), method) == info_.methods.end())
+        throw bad_input("method '" + method + "' is not available for navier-stokes-2d (one of c-rk4, c-pc, c-rk2, "
+                        "rk4, pc, rk2, euler)");
+    if (settings.dt && cfl_) throw bad_input("give --dt or --cfl, not both");
+    if (cfl_ && !(std::isfinite(*cfl_) && *cfl_ > 0.0)) throw bad_input("--cfl must be a positive number");
+    if (settings.dt && !(std::isfinite(*settings.dt) && *settings.dt > 0.0))
+        throw bad_input("--dt must be a positive number");
+    if (settings.t_end && settings.steps) throw bad_input("give --t-end or --steps, not both");
+    if (settings.t_end && !(std::isfinite(*settings.t_end) && *settings.t_end >= 0.0))
+        throw bad_input("--t-end must be a finite number >= 0");
+    if (settings.every == 0) throw bad_input("--every must be at least 1");
+    check_distinct_outputs(settings);
+
+    // ---- the initial condition (a file of another grid is an error)
+    std::optional<ns2d_checkpoint> ic_checkpoint;
+    std::optional<std::pair<int, std::vector<double>>> ic_field;
+    if (!restart && ic_ != "random" && ic_ != "vortex-pair" && ic_ != "taylor-green") {
+        try {
+            if (is_checkpoint(ic_))
+                ic_checkpoint = read_checkpoint(ic_);
+            else
+                ic_field = read_vorticity(ic_);
+        } catch (const std::exception& e) {
+            throw bad_input(std::string("--ic: ") + e.what());
+        }
+        const int file_n = ic_checkpoint ? ic_checkpoint->params.n : ic_field->first;
+        if (file_n != p.n)
+            throw bad_input("--ic " + ic_ + " holds a " + std::to_string(file_n) + "^2 grid, not N = " +
+                            std::to_string(p.n));
+    }
+
+    navier_stokes_2d model = [&] {
+        try {
+            return navier_stokes_2d(p);
+        } catch (const std::invalid_argument& e) {
+            throw bad_input(std::string("navier-stokes-2d: ") + e.what());
+        }
+    }();
+    state w;
+    try {
+        if (restart) {
+            w = ck.state;
+            model.set_rng_state(ck.rng_state);
+        } else if (ic_ == "random") {
+            w = model.random_field(k_peak_, energy_, seed_);
+        } else if (ic_ == "vortex-pair") {
+            w = model.vortex_pair(vortex_radius_, vortex_separation_, vortex_peak_);
+        } else if (ic_ == "taylor-green") {
+            w = model.taylor_green(vortex_peak_);
+        } else if (ic_checkpoint) {
+            w = ic_checkpoint->state;
+        } else {
+            w = model.from_physical(ic_field->second);
+        }
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(std::string("initial condition: ") + e.what());
+    }
+    for (const auto& v : w)
+        if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) throw bad_input("initial condition is not finite");
+
+    // ---- time step and span
+    const double dx = 2.0 * std::numbers::pi / p.n;
+    double dt = restart ? ck.dt : 0.0;
+    if (!restart) {
+        if (settings.dt) {
+            dt = *settings.dt;
+        } else {
+            const double u = model.max_velocity(w);
+            if (!(u > 0.0)) throw bad_input("the initial velocity is zero: give --dt");
+            dt = cfl_.value_or(0.5) * dx / u;
+        }
+    }
+    const std::uint64_t first = restart ? ck.step : 0;
+    std::uint64_t last = 0;
+    if (settings.steps)
+        last = *settings.steps;
+    else if (settings.t_end)
+        last = steps_to_reach(0.0, *settings.t_end, dt);
+    else
+        last = restart ? ck.total_steps : steps_to_reach(0.0, info_.default_t_end, dt);
+    if (last < first)
+        throw bad_input("the restart file is at step " + std::to_string(first) + ", beyond the requested " +
+                        std::to_string(last));
+
+    // ---- outputs: opened (or their directories created) only now that the input is known to be good
+    output_file csv = settings.output.empty() ? output_file() : output_file(settings.output, "CSV output");
+    output_file json = settings.summary_json.empty() ? output_file() : output_file(settings.summary_json, "summary JSON");
+    if (snapshot_every_ > 0) {
+        std::error_code ec;
+        std::filesystem::create_directories(snapshot_dir_, ec);
+        if (ec) throw bad_input("cannot create snapshot directory " + snapshot_dir_);
+    }
+
+    ns2d_checkpoint run = restart ? ck : ns2d_checkpoint{};
+    run.params = p;
+    run.method = method;
+    run.dt = dt;
+    run.total_steps = last;
+    if (!restart) {
+        run.energy0 = model.energy(w);
+        run.enstrophy0 = model.enstrophy(w);
+    }
+    std::FILE* out = csv.get();
+    if (out)
+        std::fputs("step,t,energy,enstrophy,palinstrophy,energy_injection,energy_dissipation,enstrophy_injection,"
+                   "enstrophy_dissipation,energy_budget_residual,enstrophy_budget_residual,max_velocity,cfl,"
+                   "halvings\n",
+                   out);
+    auto row = [&](std::uint64_t i) {
+        const double e = model.energy(w), z = model.enstrophy(w), u = model.max_velocity(w);
+        const ns2d_budget& b = run.budget;
+        std::fprintf(out, "%llu,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%llu\n", (unsigned long long)i,
+                     num(double(i) * dt).c_str(), num(e).c_str(), num(z).c_str(), num(model.palinstrophy(w)).c_str(),
+                     num(b.energy_injection).c_str(), num(b.energy_dissipation).c_str(),
+                     num(b.enstrophy_injection).c_str(), num(b.enstrophy_dissipation).c_str(),
+                     num(e - run.energy0 - (b.energy_injection - b.energy_dissipation)).c_str(),
+                     num(z - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)).c_str(),
+                     num(u).c_str(), num(u * dt / dx).c_str(), (unsigned long long)run.halvings);
+    };
+    auto snapshot = [&](std::uint64_t i) {
+        char stem[32];
+        std::snprintf(stem, sizeof stem, "%08llu", (unsigned long long)i);
+        const std::string base = snapshot_dir_ + "/", t = num(double(i) * dt);
+        const std::vector<double> field = model.to_physical(w);
+        write_snapshot_h5(base + "vorticity_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
+        if (!plot_vorticity_png(base + "vorticity_" + stem + ".png", p.n, field, double(i) * dt) && !warned_) {
+            std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
+            warned_ = true;
+        }
+        write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
+                       model.energy_spectrum(w), double(i) * dt);
+    };
+    auto save = [&](std::uint64_t i) {
+        run.step = i;
+        run.state = w;
+        run.rng_state = model.rng_state();
+        write_checkpoint(checkpoint_, run);
+    };
+
+    progress_bar progress(last - first);
+    const auto start = std::chrono::steady_clock::now();
+    std::uint64_t good_checkpoint = restart ? first : std::numeric_limits<std::uint64_t>::max();
+    const bool found = with_rk_method(method, [&](auto stepper) {
+        if (out) row(first);
+        if (snapshot_every_ > 0 && !restart) snapshot(first);
+        for (std::uint64_t i = first + 1; i <= last; ++i) {
+            const double e0 = model.energy(w), z0 = model.enstrophy(w);
+            ns2d_budget b;
+            run_stats stats;
+            try {
+                ns2d_step(stepper, model, w, double(i - 1) * dt, dt, b, stats);
+            } catch (const step_size_underflow& e) {
+                progress.finish();
+                throw run_failure("step " + std::to_string(i) + " failed at t = " + num(e.time) +
+                                  " even with the step halved 40 times (non-finite state?)" +
+                                  (good_checkpoint != std::numeric_limits<std::uint64_t>::max()
+                                       ? "; last good checkpoint: " + checkpoint_ + " (step " +
+                                             std::to_string(good_checkpoint) + ")"
+                                       : std::string()));
+            }
+            run.halvings += stats.step_reductions;
+            run.rhs_evals += stats.rhs_evals;
+            run.budget.energy_injection += b.energy_injection;
+            run.budget.energy_dissipation += b.energy_dissipation;
+            run.budget.enstrophy_injection += b.enstrophy_injection;
+            run.budget.enstrophy_dissipation += b.enstrophy_dissipation;
+            const double e1 = model.energy(w), z1 = model.enstrophy(w);
+            // A blow-up: non-finite invariants, or energy grown a thousandfold beyond what the forcing put in.
+            if (!std::isfinite(e1) || !std::isfinite(z1) ||
+                e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
+                progress.finish();
+                if (out) csv.commit();
+                throw run_failure("blow-up at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
+                                  ": energy " + num(e1) + " (CFL " + num(model.cfl(w, dt)) +
+                                  "); reduce --dt or --cfl" +
+                                  (good_checkpoint != std::numeric_limits<std::uint64_t>::max()
+                                       ? "; last good checkpoint: " + checkpoint_ + " (step " +
+                                             std::to_string(good_checkpoint) + ")"
+                                       : std::string()));
+            }
+            run.max_energy_residual = std::max(
+                run.max_energy_residual, std::abs(e1 - e0 - (b.energy_injection - b.energy_dissipation)) / e1);
+            run.max_enstrophy_residual = std::max(
+                run.max_enstrophy_residual,
+                std::abs(z1 - z0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
+            run.max_energy_drift = std::max(run.max_energy_drift, std::abs(e1 - run.energy0));
+            run.max_enstrophy_drift = std::max(run.max_enstrophy_drift, std::abs(z1 - run.enstrophy0));
+            if (out && (i % settings.every == 0 || i == last)) row(i);
+            if (snapshot_every_ > 0 && (i % snapshot_every_ == 0 || i == last)) snapshot(i);
+            if (checkpoint_every_ > 0 && (i % checkpoint_every_ == 0 || i == last)) {
+                save(i);
+                good_checkpoint = i;
+            }
+            progress.update(i - first, double(i) * dt);
+            if (interrupt_requested()) {
+                progress.finish();
+                save(i);
+                if (out) csv.commit();
+                throw interrupted("interrupted at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
+                                  "; checkpoint written to " + checkpoint_ + " (continue with --restart " +
+                                  checkpoint_ + ")");
+            }
+        }
+    });
+    progress.finish();
+    if (!found) throw bad_input("method '" + method + "' is not available for navier-stokes-2d");
+
+    run_summary s;
+    s.model = info_.name;
+    s.method = method;
+    with_method<state>(method, [&](auto st) { s.order = decltype(st)::order; });
+    s.conservative = method.rfind("c-", 0) == 0;
+    s.dt = dt;
+    s.t_end = double(last) * dt;
+    s.stats.steps = last - first;
+    s.stats.step_reductions = run.halvings;
+    s.stats.rhs_evals = run.rhs_evals;
+    s.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    s.invariants.push_back({"energy", run.energy0, model.energy(w), run.max_energy_drift});
+    s.invariants.push_back({"enstrophy", run.enstrophy0, model.enstrophy(w), run.max_enstrophy_drift});
+    s.figures = {{"palinstrophy", model.palinstrophy(w)},
+                 {"energy_injection", run.budget.energy_injection},
+                 {"energy_dissipation", run.budget.energy_dissipation},
+                 {"enstrophy_injection", run.budget.enstrophy_injection},
+                 {"enstrophy_dissipation", run.budget.enstrophy_dissipation},
+                 {"max_energy_budget_residual_per_step", run.max_energy_residual},
+                 {"max_enstrophy_budget_residual_per_step", run.max_enstrophy_residual},
+                 {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(last, 1))},
+                 {"final_cfl", model.cfl(w, dt)}};
+    csv.commit();
+    print_summary(stderr, s);
+    if (std::FILE* j = json.get()) write_summary_json(j, s);
+    json.commit();
+    return 0;
+}
+
+}  // namespace
+
+/// The navier-stokes-2d adapter.
+std::unique_ptr<model_command> make_navier_stokes_2d_command() { return std::make_unique<navier_stokes_2d_command>(); }
+
+}  // namespace eci::cli
