@@ -5,6 +5,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <limits>
 #include <numbers>
@@ -80,7 +81,10 @@ class navier_stokes_2d_command final : public model_command {
         app.add_option("--checkpoint", checkpoint_, "checkpoint file, also written on SIGINT/SIGTERM (default "
                                                     "ns2d-checkpoint.h5)");
         app.add_option("--restart", restart_, "continue, bit for bit, from a checkpoint");
-        app.add_option("--fftw-wisdom", wisdom_file_, "FFTW wisdom file read before and written after planning");
+        app.add_option("--fftw-wisdom", wisdom_file_,
+                       "FFTW wisdom file read before and written after planning, so that every run plans the same "
+                       "transforms and repeats bit for bit; 'none' for no file (default $XDG_CACHE_HOME/eci/"
+                       "fftw-wisdom, else ~/.cache/eci/fftw-wisdom)");
         app.add_flag("--fftw-estimate", estimate_, "FFTW_ESTIMATE plans instead of FFTW_MEASURE (no planning time)");
     }
 
@@ -109,6 +113,22 @@ class navier_stokes_2d_command final : public model_command {
     bool estimate_ = false;
     bool warned_ = false;
 };
+
+// The user's wisdom cache (created if need be); empty if there is no home to put it in.
+std::string default_wisdom_file() {
+    const char* xdg = std::getenv("XDG_CACHE_HOME");
+    const char* home = std::getenv("HOME");
+    std::filesystem::path dir;
+    if (xdg && *xdg)
+        dir = std::filesystem::path(xdg) / "eci";
+    else if (home && *home)
+        dir = std::filesystem::path(home) / ".cache" / "eci";
+    else
+        return {};
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    return ec ? std::string() : (dir / "fftw-wisdom").string();
+}
 
 ns2d_forcing parse_forcing(const std::string& s) {
     return s == "stochastic" ? ns2d_forcing::stochastic
@@ -161,7 +181,7 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
     }
     if (threads_) p.threads = *threads_;
     p.measure = !estimate_;
-    p.wisdom_file = wisdom_file_;
+    p.wisdom_file = wisdom_file_ == "none" ? std::string() : wisdom_file_.empty() ? default_wisdom_file() : wisdom_file_;
     try {
         p.validate();
     } catch (const std::invalid_argument& e) {
