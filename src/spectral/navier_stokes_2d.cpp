@@ -253,6 +253,12 @@ std::vector<std::vector<double>> navier_stokes_2d::quadratic_invariant_weights()
     return q;
 }
 
+void navier_stokes_2d::execute_transforms() {
+    fftw_execute(d_->inverse2);
+    fftw_execute(d_->inverse2);
+    fftw_execute(d_->forward);
+}
+
 void navier_stokes_2d::nonlinear(const state_type& w, state_type& out) {
     if (w.size() != size()) throw std::invalid_argument("state size does not match the grid");
     out.resize(size());

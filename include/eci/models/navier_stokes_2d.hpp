@@ -106,6 +106,9 @@ class navier_stokes_2d {
 
     /// The right-hand side. Records the rates of the linear terms and forcing when recording is on.
     void operator()(const state_type& w, state_type& dwdt, double t);
+    /// Executes the transforms of one right-hand-side evaluation (4 inverse, 1 forward) on the scratch arrays and
+    /// nothing else: the FFT floor of a step, for benchmarks.
+    void execute_transforms();
     /// The nonlinear term alone, -u . grad omega, dealiased (zero outside the retained modes).
     void nonlinear(const state_type& w, state_type& out);
     /// The rates of one state (with the current forcing).
