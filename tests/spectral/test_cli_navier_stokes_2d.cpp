@@ -120,6 +120,24 @@ TEST(CliNavierStokes2d, BlowUpKeepsLastGoodCheckpoint) {
     for (double x : v) ASSERT_TRUE(std::isfinite(x));
 }
 
+// SIGINT: the run writes its checkpoint atomically and exits 130; the checkpoint restarts.
+TEST(CliNavierStokes2d, InterruptWritesCheckpointThatRestarts) {
+    scratch_dir dir("ns2d-sigint");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    auto r = run_eci("run navier-stokes-2d --N 32 --steps 100000000 --fftw-estimate --checkpoint " + q + "/c.h5", d,
+                     "timeout --preserve-status -s INT 1");
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("--restart"), std::string::npos) << r.err;
+    ASSERT_FALSE(read_doubles(d / "c.h5", "omega_hat").empty());
+    r = run_eci("run navier-stokes-2d --restart " + q + "/c.h5 --steps 100000000 --fftw-estimate --checkpoint " + q +
+                    "/c2.h5",
+                d, "timeout --preserve-status -s INT 1");
+    EXPECT_EQ(r.status, 130) << r.err;
+    for (const auto& e : fs::directory_iterator(d))  // no temporary left behind
+        EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
 // Bad input: one line on stderr, exit 2, the output file neither created nor replaced.
 TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
     scratch_dir dir("ns2d-bad");
