@@ -64,7 +64,7 @@ class navier_stokes_2d_command final : public model_command {
         app.add_option("--forcing-seed", forcing_seed_, "seed of the forcing (default 1)")->check(whole_number(0));
         app.add_option("--ic", ic_, "initial condition: random, vortex-pair, taylor-green or FILE (an eci snapshot "
                                     "or checkpoint .h5) (default random)");
-        app.add_option("--k-peak", k_peak_, "random: peak wavenumber of E(k) ~ k^4 exp(-2 (k/k_p)^2) (default 8)");
+        app.add_option("--k-peak", k_peak_, "random: peak wavenumber k_p of E(k) ~ q^4 / (1 + q^2)^4, q = k/k_p (default 8)");
         app.add_option("--energy", energy_, "random: initial energy (default 0.5)");
         app.add_option("--seed", seed_, "random: seed (default 1)")->check(whole_number(0));
         app.add_option("--vortex-radius", vortex_radius_, "vortex-pair: radius (default 0.3)");
@@ -330,6 +330,7 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
     progress_bar progress(last - first);
     const auto start = std::chrono::steady_clock::now();
     std::uint64_t good_checkpoint = restart ? first : std::numeric_limits<std::uint64_t>::max();
+    state w_prev;
     const bool found = with_rk_method(method, [&](auto stepper) {
         if (out) row(first);
         if (snapshot_every_ > 0 && !restart) snapshot(first);
@@ -337,8 +338,19 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
             const double e0 = model.energy(w), z0 = model.enstrophy(w);
             ns2d_budget b;
             run_stats stats;
+            w_prev = w;  // an interrupted step goes back to the last whole step
+            const std::uint64_t rng_prev = model.rng_state();
             try {
-                ns2d_step(stepper, model, w, double(i - 1) * dt, dt, b, stats);
+                ns2d_step(stepper, model, w, double(i - 1) * dt, dt, b, stats, 40, &interrupt_requested);
+            } catch (const step_interrupted&) {
+                progress.finish();
+                w = w_prev;
+                model.set_rng_state(rng_prev);
+                save(i - 1);
+                if (out) csv.commit();
+                throw interrupted("interrupted at step " + std::to_string(i - 1) + ", t = " + num(double(i - 1) * dt) +
+                                  "; checkpoint written to " + checkpoint_ + " (continue with --restart " +
+                                  checkpoint_ + ")");
             } catch (const step_size_underflow& e) {
                 progress.finish();
                 throw run_failure("step " + std::to_string(i) + " failed at t = " + num(e.time) +

@@ -401,8 +401,10 @@ navier_stokes_2d::state_type navier_stokes_2d::random_field(double k_peak, doubl
         const double phase = 2.0 * std::numbers::pi * uniform(s);
         if (!retained(i)) continue;
         const double k = std::sqrt(d_->k2[i]), q = k / k_peak;
-        // A shell of radius k holds about 2 pi k modes of energy |omega|^2 / (2 k^2) each.
-        const double shell_energy = q * q * q * q * std::exp(-2.0 * q * q);
+        // A shell of radius k holds about 2 pi k modes of energy |omega|^2 / (2 k^2) each. The tail is a power
+        // law: an exponential one leaves the far modes below round-off, where their right-hand sides are FFT noise
+        // of random sign and the conservative methods' radicands negative at any step size.
+        const double shell_energy = q * q * q * q / std::pow(1.0 + q * q, 4);
         w[i] = std::polar(std::sqrt(shell_energy * k / std::numbers::pi), phase);
     }
     d_->make_hermitian(w.data());

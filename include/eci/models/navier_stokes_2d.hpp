@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -136,7 +137,8 @@ class navier_stokes_2d {
     state_type from_physical(std::span<const double> field);
     /// The field on the grid (row-major, y rows).
     std::vector<double> to_physical(const state_type& w);
-    /// A random field with energy spectrum E(k) ~ k^4 exp(-2 (k / k_peak)^2), scaled to energy `energy`.
+    /// A random field with energy spectrum E(k) ~ q^4 / (1 + q^2)^4, q = k / k_peak (peak at k_peak, tail k^-4),
+    /// random phases, scaled to energy `energy`.
     state_type random_field(double k_peak, double energy, std::uint64_t seed);
     /// Two co-rotating Gaussian vortices of radius `radius`, peak vorticity `peak`, `separation` apart near the
     /// centre (the merger problem).
@@ -171,6 +173,12 @@ class navier_stokes_2d {
     std::size_t recorded_count_ = 0;
 };
 
+/// A step abandoned between attempts because `stop()` said so; the state may be part-way through the step.
+class step_interrupted : public std::runtime_error {
+   public:
+    using std::runtime_error::runtime_error;
+};
+
 namespace detail {
 
 /// The Butcher tableau of a Runge-Kutta stepper (conventional or conservative): its weights weigh the budget.
@@ -184,7 +192,7 @@ template <const auto& T, state S, sign_rule R> struct tableau_of<conservative_rk
 
 template <class St>
 void ns2d_attempt(St& stepper, navier_stokes_2d& m, navier_stokes_2d::state_type& x, double t, double dt,
-                  int halvings_left, ns2d_budget& b, run_stats& stats) {
+                  int halvings_left, ns2d_budget& b, run_stats& stats, bool (*stop)()) {
     constexpr const auto& T = tableau_of<St>::value;
     m.start_recording();
     const step_result r = stepper.step(m, x, t, dt);
@@ -205,21 +213,24 @@ void ns2d_attempt(St& stepper, navier_stokes_2d& m, navier_stokes_2d::state_type
     }
     m.stop_recording();
     if (halvings_left == 0) throw step_size_underflow(t, r.component, dt);
+    // a cascade of halvings can take long: let the caller stop it (Ctrl-C)
+    if (stop && stop()) throw step_interrupted("step interrupted while halving");
     ++stats.step_reductions;
-    ns2d_attempt(stepper, m, x, t, 0.5 * dt, halvings_left - 1, b, stats);
-    ns2d_attempt(stepper, m, x, t + 0.5 * dt, 0.5 * dt, halvings_left - 1, b, stats);
+    ns2d_attempt(stepper, m, x, t, 0.5 * dt, halvings_left - 1, b, stats, stop);
+    ns2d_attempt(stepper, m, x, t + 0.5 * dt, 0.5 * dt, halvings_left - 1, b, stats, stop);
 }
 
 }  // namespace detail
 
 /// One step of a Runge-Kutta stepper (conventional or conservative) on the vorticity equation: draws the step's
 /// stochastic forcing, steps (halving on a failed step, the forcing held), and adds the step's injection and
-/// dissipation, integrated with the stepper's own stage values and weights, to `budget`.
+/// dissipation, integrated with the stepper's own stage values and weights, to `budget`. Between halvings it
+/// throws step_interrupted if `stop` (optional) returns true.
 template <class St>
 void ns2d_step(St& stepper, navier_stokes_2d& m, navier_stokes_2d::state_type& x, double t, double dt,
-               ns2d_budget& budget, run_stats& stats, int max_halvings = 40) {
+               ns2d_budget& budget, run_stats& stats, int max_halvings = 40, bool (*stop)() = nullptr) {
     m.draw_forcing(dt);
-    detail::ns2d_attempt(stepper, m, x, t, dt, max_halvings, budget, stats);
+    detail::ns2d_attempt(stepper, m, x, t, dt, max_halvings, budget, stats, stop);
     ++stats.steps;
 }
 
