@@ -19,7 +19,9 @@ std::unique_ptr<model_command> make_n_wave_command();
 std::unique_ptr<model_command> make_n_wave_complex_command();
 std::unique_ptr<model_command> make_lotka_volterra_command();
 std::unique_ptr<model_command> make_kepler_command();
+#ifdef ECI_HAVE_SPECTRAL
 std::unique_ptr<model_command> make_navier_stokes_2d_command();
+#endif
 
 std::vector<std::unique_ptr<model_command>> registered_models() {
     std::vector<std::unique_ptr<model_command>> models;
@@ -28,7 +30,9 @@ std::vector<std::unique_ptr<model_command>> registered_models() {
     models.push_back(make_n_wave_complex_command());
     models.push_back(make_lotka_volterra_command());
     models.push_back(make_kepler_command());
+#ifdef ECI_HAVE_SPECTRAL
     models.push_back(make_navier_stokes_2d_command());
+#endif
     return models;
 }
 
