@@ -57,8 +57,10 @@ struct ns2d_rates {
 
 /// The budget of E and Z over steps: injection and dissipation integrated with the steps' own stages and weights.
 struct ns2d_budget {
-    double energy_injection = 0.0, energy_dissipation = 0.0;
-    double enstrophy_injection = 0.0, enstrophy_dissipation = 0.0;
+    double energy_injection = 0.0;       ///< dt sum_j b_j (energy_injection rate at stage j)
+    double energy_dissipation = 0.0;     ///< dt sum_j b_j (energy_dissipation rate at stage j)
+    double enstrophy_injection = 0.0;    ///< the same for Z
+    double enstrophy_dissipation = 0.0;  ///< the same for Z
 };
 
 /// The 2-D vorticity equation d omega/dt = -u . grad omega - (nu |k|^2 + nu_h |k|^2p + drag) omega + F.
