@@ -9,7 +9,9 @@
 #include <filesystem>
 #include <limits>
 #include <numbers>
+#include <memory>
 #include <optional>
+#include <stdexcept>
 #include <string>
 
 #include <eci/models/navier_stokes_2d.hpp>
@@ -17,9 +19,10 @@
 #include <eci/steppers/conservative_rk.hpp>
 #include <eci/steppers/explicit_rk.hpp>
 
-#include "models.hpp"
+#include "command.hpp"
 #include "ns2d_output.hpp"
-#include "run.hpp"
+#include "output.hpp"
+#include "run_model.hpp"
 
 namespace eci::cli {
 
@@ -47,70 +50,94 @@ std::string num(double v) {
 
 class navier_stokes_2d_command final : public model_command {
    public:
-    const model_info& info() const override { return info_; }
-
-    void add_options(CLI::App& app) override {
-        app.add_option("--N", n_, "grid points per side, even, >= 8 (default 256); modes |k_x|,|k_y| <= (N-1)/3 kept");
-        app.add_option("--nu", nu_, "viscosity nu (default 0)");
-        app.add_option("--hyper-nu", hyper_nu_, "hyperviscosity nu_h of -nu_h |k|^(2p) omega (default 0)");
-        app.add_option("--hyper-p", hyper_p_, "hyperviscosity power p (default 2)");
-        app.add_option("--drag", drag_, "linear drag mu of -mu omega (default 0)");
-        app.add_option("--forcing", forcing_, "none, deterministic (fixed band, random phases) or stochastic "
-                                              "(white in time) (default none)")
-            ->check(CLI::IsMember({"none", "deterministic", "stochastic"}));
-        app.add_option("--forcing-k", forcing_k_, "forced band k_f - 1/2 <= |k| < k_f + 1/2 (default 4)");
-        app.add_option("--forcing-amplitude", forcing_amplitude_, "deterministic forcing: rms (default 1)");
-        app.add_option("--injection-rate", injection_rate_, "stochastic forcing: energy injection rate (default 1)");
-        app.add_option("--forcing-seed", forcing_seed_, "seed of the forcing (default 1)")->check(whole_number(0));
-        app.add_option("--ic", ic_, "initial condition: random, vortex-pair, taylor-green or FILE (an eci snapshot "
-                                    "or checkpoint .h5) (default random)");
-        app.add_option("--k-peak", k_peak_, "random: peak wavenumber k_p of E(k) ~ q^4 / (1 + q^2)^4, q = k/k_p (default 8)");
-        app.add_option("--energy", energy_, "random: initial energy (default 0.5)");
-        app.add_option("--seed", seed_, "random: seed (default 1)")->check(whole_number(0));
-        app.add_option("--vortex-radius", vortex_radius_, "vortex-pair: radius (default 0.3)");
-        app.add_option("--vortex-separation", vortex_separation_, "vortex-pair: distance of centres (default 0.8)");
-        app.add_option("--vortex-peak", vortex_peak_, "vortex-pair / taylor-green: peak vorticity / velocity (default 1)");
-        app.add_option("--threads", threads_, "FFTW and OpenMP threads (default 1)")->check(whole_number(1));
-        app.add_option("--cfl", cfl_, "choose dt = CFL dx / max|u| at the start (default 0.5; exclusive with --dt)");
-        app.add_option("--snapshot-every", snapshot_every_, "vorticity PNG + HDF5 and E(k) every K steps (default: "
-                                                           "none)")
-            ->check(whole_number(1));
-        app.add_option("--snapshot-dir", snapshot_dir_, "directory of the snapshots (default ns2d-snapshots)");
-        app.add_option("--checkpoint-every", checkpoint_every_, "write the checkpoint every K steps")
-            ->check(whole_number(1));
-        app.add_option("--checkpoint", checkpoint_, "checkpoint file, also written on SIGINT/SIGTERM (default "
-                                                    "ns2d-checkpoint.h5)");
-        app.add_option("--restart", restart_, "continue, bit for bit, from a checkpoint");
-        app.add_option("--fftw-wisdom", wisdom_file_,
-                       "FFTW wisdom file read before and written after planning, so that every run plans the same "
-                       "transforms and repeats bit for bit; 'none' for no file (default $XDG_CACHE_HOME/eci/"
-                       "fftw-wisdom, else ~/.cache/eci/fftw-wisdom)");
-        app.add_flag("--fftw-estimate", estimate_, "FFTW_ESTIMATE plans instead of FFTW_MEASURE (no planning time)");
+    navier_stokes_2d_command() {
+        // name, help, and where the value goes: a real, a whole number >= min, a text or a flag
+        real("nu", "viscosity nu (default 0)");
+        real("hyper-nu", "hyperviscosity nu_h of -nu_h |k|^(2p) omega (default 0)");
+        real("drag", "linear drag mu of -mu omega (default 0)");
+        real("forcing-k", "forced band k_f - 1/2 <= |k| < k_f + 1/2 (default 4)");
+        real("forcing-amplitude", "deterministic forcing: rms of the forcing field (default 1)");
+        real("injection-rate", "stochastic forcing: mean energy injection rate (default 1)");
+        real("k-peak", "random: peak wavenumber k_p of E(k) ~ q^4 / (1 + q^2)^4, q = k/k_p (default 8)");
+        real("energy", "random: initial energy (default 0.5)");
+        real("vortex-radius", "vortex-pair: radius of each Gaussian vortex (default 0.25)");
+        real("vortex-separation", "vortex-pair: distance of the centres (default 0.7)");
+        real("vortex-peak", "vortex-pair: peak vorticity; taylor-green: velocity (default 10, 1)");
+        real("cfl", "dt = CFL dx / max|u| at the start (default 0.5; exclusive with --dt)");
+        whole("N", "grid points per side, even, >= 8 (default 256); |k_x|, |k_y| <= (N - 1)/3 kept", 0);
+        whole("hyper-p", "hyperviscosity power p (default 2)", 0);
+        whole("forcing-seed", "seed of the forcing (default 1)", 0);
+        whole("seed", "random: seed of the initial field (default 1)", 0);
+        whole("threads", "FFTW and OpenMP threads (default 1)", 1);
+        whole("snapshot-every", "vorticity PNG + HDF5 and E(k) CSV + PNG every K steps (default none)", 1);
+        whole("checkpoint-every", "write the checkpoint every K steps (default: only on SIGINT/SIGTERM)", 1);
+        text("forcing", "none, deterministic (fixed band, random phases) or stochastic (white in time) (default none)");
+        text("ic", "initial condition: random, vortex-pair, taylor-green, or FILE (an eci snapshot or checkpoint "
+                   ".h5 on the same grid) (default random)");
+        text("snapshot-dir", "directory of the snapshots (default ns2d-snapshots)");
+        text("checkpoint", "checkpoint file, also written on SIGINT/SIGTERM (default ns2d-checkpoint.h5)");
+        text("restart", "continue, bit for bit, from a checkpoint");
+        text("fftw-wisdom", "FFTW wisdom file read before and written after planning, so that every run plans the "
+                            "same transforms and repeats bit for bit; 'none' for no file (default "
+                            "$XDG_CACHE_HOME/eci/fftw-wisdom, else ~/.cache/eci/fftw-wisdom)");
+        flag("fftw-estimate", "FFTW_ESTIMATE plans instead of FFTW_MEASURE (no planning time; not bit-identical "
+                              "across FFTW versions or machines either way)");
     }
 
+    const model_info& info() const override { return info_; }
+    std::vector<option_spec>& options() override { return specs_; }
     int run(const run_settings& settings) override;
 
    private:
+    void real(const char* name, const char* help) {
+        reals_.push_back(std::make_unique<std::vector<double>>(1, 0.0));
+        specs_.push_back({name, help, 1, reals_.back().get(), nullptr, 0, nullptr, nullptr, false});
+    }
+    void whole(const char* name, const char* help, std::uint64_t min) {
+        wholes_.push_back(std::make_unique<std::uint64_t>(0));
+        specs_.push_back({name, help, 1, nullptr, wholes_.back().get(), min, nullptr, nullptr, false});
+    }
+    void text(const char* name, const char* help) {
+        texts_.push_back(std::make_unique<std::string>());
+        specs_.push_back({name, help, 1, nullptr, nullptr, 0, texts_.back().get(), nullptr, false});
+    }
+    void flag(const char* name, const char* help) {
+        flags_.push_back(std::make_unique<bool>(false));
+        specs_.push_back({name, help, 1, nullptr, nullptr, 0, nullptr, flags_.back().get(), false});
+    }
+    const option_spec& spec(const std::string& name) const {
+        for (const option_spec& o : specs_)
+            if (o.name == name) return o;
+        throw std::logic_error("no option " + name);
+    }
+    // The value of an option if given, else nothing.
+    std::optional<double> given_real(const std::string& n) const {
+        const option_spec& o = spec(n);
+        return o.given ? std::optional<double>(o.reals->front()) : std::nullopt;
+    }
+    std::optional<std::uint64_t> given_whole(const std::string& n) const {
+        const option_spec& o = spec(n);
+        return o.given ? std::optional<std::uint64_t>(*o.whole) : std::nullopt;
+    }
+    std::optional<std::string> given_text(const std::string& n) const {
+        const option_spec& o = spec(n);
+        return o.given ? std::optional<std::string>(*o.text) : std::nullopt;
+    }
+
     model_info info_{"navier-stokes-2d",
                      "2-D incompressible Navier-Stokes/Euler vorticity on [0,2pi)^2, dealiased pseudo-spectral "
-                     "(FFTW); invariants energy, enstrophy",
+                     "(FFTW); invariants energy, enstrophy; docs/turbulence.md",
                      {"c-rk4", "c-pc", "c-rk2", "rk4", "pc", "rk2", "euler"},
                      "c-rk4",
-                     std::numeric_limits<double>::quiet_NaN(),
-                     10.0};
-    std::optional<int> n_, hyper_p_;
-    std::optional<double> nu_, hyper_nu_, drag_, forcing_k_, forcing_amplitude_, injection_rate_;
-    std::optional<std::string> forcing_;
-    std::optional<std::uint64_t> forcing_seed_;
-    std::string ic_ = "random";
-    double k_peak_ = 8.0, energy_ = 0.5;
-    std::uint64_t seed_ = 1;
-    double vortex_radius_ = 0.3, vortex_separation_ = 0.8, vortex_peak_ = 1.0;
-    std::optional<int> threads_;
-    std::optional<double> cfl_;
-    std::uint64_t snapshot_every_ = 0, checkpoint_every_ = 0;
-    std::string snapshot_dir_ = "ns2d-snapshots", checkpoint_ = "ns2d-checkpoint.h5", restart_, wisdom_file_;
-    bool estimate_ = false;
+                     0.0,  // none: dt comes from --cfl (0.5) unless --dt is given
+                     10.0,
+                     {{"default", "random field peaked at k = 8, inviscid, dt from CFL 0.5 (see --help for the "
+                                  "initial conditions, forcing and outputs)"}}};
+    std::vector<option_spec> specs_;
+    std::vector<std::unique_ptr<std::vector<double>>> reals_;
+    std::vector<std::unique_ptr<std::uint64_t>> wholes_;
+    std::vector<std::unique_ptr<std::string>> texts_;
+    std::vector<std::unique_ptr<bool>> flags_;
     bool warned_ = false;
 };
 
@@ -139,6 +166,7 @@ ns2d_forcing parse_forcing(const std::string& s) {
 int navier_stokes_2d_command::run(const run_settings& settings) {
     // ---- parameters, from the options or the checkpoint (options that contradict it are an error)
     ns2d_checkpoint ck;
+    const std::string restart_ = given_text("restart").value_or("");
     const bool restart = !restart_.empty();
     if (restart) {
         try {
@@ -148,40 +176,59 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
         }
         auto same = [&](const char* name, auto given, auto stored) {
             if (given && *given != stored)
-                throw bad_input(std::string("--") + name + " " + num(double(*given)) + " does not match the restart file's " +
-                                num(double(stored)) + " (" + restart_ + ")");
+                throw bad_input(std::string("--") + name + " " + num(double(*given)) +
+                                " does not match the restart file's " + num(double(stored)) + " (" + restart_ + ")");
         };
-        same("N", n_, ck.params.n);
-        same("nu", nu_, ck.params.nu);
-        same("hyper-nu", hyper_nu_, ck.params.hyper_nu);
-        same("hyper-p", hyper_p_, ck.params.hyper_p);
-        same("drag", drag_, ck.params.drag);
-        same("forcing-k", forcing_k_, ck.params.forcing_k);
-        if (forcing_ && parse_forcing(*forcing_) != ck.params.forcing)
+        same("N", given_whole("N"), std::uint64_t(ck.params.n));
+        same("nu", given_real("nu"), ck.params.nu);
+        same("hyper-nu", given_real("hyper-nu"), ck.params.hyper_nu);
+        same("hyper-p", given_whole("hyper-p"), std::uint64_t(ck.params.hyper_p));
+        same("drag", given_real("drag"), ck.params.drag);
+        same("forcing-k", given_real("forcing-k"), ck.params.forcing_k);
+        if (given_text("forcing") && parse_forcing(*given_text("forcing")) != ck.params.forcing)
             throw bad_input("--forcing does not match the restart file's (" + restart_ + ")");
         if (!settings.method.empty() && settings.method != ck.method)
             throw bad_input("--method " + settings.method + " does not match the restart file's " + ck.method);
         if (settings.dt && *settings.dt != ck.dt)
             throw bad_input("--dt does not match the restart file's " + num(ck.dt));
-        if (cfl_) throw bad_input("--cfl cannot be combined with --restart (the time step is the checkpoint's)");
-        if (ic_ != "random") throw bad_input("--ic cannot be combined with --restart");
+        if (given_real("cfl")) throw bad_input("--cfl cannot be combined with --restart (the time step is the checkpoint's)");
+        if (given_text("ic")) throw bad_input("--ic cannot be combined with --restart");
     }
     ns2d_params p = restart ? ck.params : ns2d_params{};
     if (!restart) {
-        p.n = n_.value_or(256);
-        p.nu = nu_.value_or(0.0);
-        p.hyper_nu = hyper_nu_.value_or(0.0);
-        p.hyper_p = hyper_p_.value_or(2);
-        p.drag = drag_.value_or(0.0);
-        p.forcing = parse_forcing(forcing_.value_or("none"));
-        p.forcing_k = forcing_k_.value_or(4.0);
-        p.forcing_amplitude = forcing_amplitude_.value_or(1.0);
-        p.injection_rate = injection_rate_.value_or(1.0);
-        p.forcing_seed = forcing_seed_.value_or(1);
+        const std::uint64_t n = given_whole("N").value_or(256), hp = given_whole("hyper-p").value_or(2);
+        if (n > 65536 || hp > 16) throw bad_input(n > 65536 ? "--N is too large" : "--hyper-p must be in 1..16");
+        p.n = int(n);
+        p.nu = given_real("nu").value_or(0.0);
+        p.hyper_nu = given_real("hyper-nu").value_or(0.0);
+        p.hyper_p = int(hp);
+        p.drag = given_real("drag").value_or(0.0);
+        const std::string forcing = given_text("forcing").value_or("none");
+        if (forcing != "none" && forcing != "deterministic" && forcing != "stochastic")
+            throw bad_input("--forcing must be none, deterministic or stochastic, not '" + forcing + "'");
+        p.forcing = parse_forcing(forcing);
+        p.forcing_k = given_real("forcing-k").value_or(4.0);
+        p.forcing_amplitude = given_real("forcing-amplitude").value_or(1.0);
+        p.injection_rate = given_real("injection-rate").value_or(1.0);
+        p.forcing_seed = given_whole("forcing-seed").value_or(1);
     }
-    if (threads_) p.threads = *threads_;
-    p.measure = !estimate_;
-    p.wisdom_file = wisdom_file_ == "none" ? std::string() : wisdom_file_.empty() ? default_wisdom_file() : wisdom_file_;
+    if (given_whole("threads")) p.threads = int(std::min<std::uint64_t>(*given_whole("threads"), 1000));
+    p.measure = !*spec("fftw-estimate").flag;
+    const std::string wisdom_file = given_text("fftw-wisdom").value_or("");
+    p.wisdom_file = wisdom_file == "none" ? std::string() : wisdom_file.empty() ? default_wisdom_file() : wisdom_file;
+    const std::string ic_ = given_text("ic").value_or("random");
+    const double k_peak_ = given_real("k-peak").value_or(8.0), energy_ = given_real("energy").value_or(0.5);
+    const std::uint64_t seed_ = given_whole("seed").value_or(1);
+    const double vortex_radius_ = given_real("vortex-radius").value_or(0.25);
+    const double vortex_separation_ = given_real("vortex-separation").value_or(0.7);
+    const double vortex_peak_ = given_real("vortex-peak").value_or(ic_ == "taylor-green" ? 1.0 : 10.0);
+    const std::optional<double> cfl_ = given_real("cfl");
+    const std::uint64_t snapshot_every_ = given_whole("snapshot-every").value_or(0);
+    const std::uint64_t checkpoint_every_ = given_whole("checkpoint-every").value_or(0);
+    const std::string snapshot_dir_ = given_text("snapshot-dir").value_or("ns2d-snapshots");
+    const std::string checkpoint_ = given_text("checkpoint").value_or("ns2d-checkpoint.h5");
+    if (!settings.preset.empty() && settings.preset != "default")
+        throw bad_input("navier-stokes-2d has one preset, default; set the initial condition with --ic");
     try {
         p.validate();
     } catch (const std::invalid_argument& e) {
