@@ -157,6 +157,13 @@ bool gnuplot(const std::string& script) {
     return ::pclose(g) == 0;
 }
 
+// A double as gnuplot reads it back exactly (std::to_string's %f would print 1e-13 as 0.000000).
+std::string g(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.17g", v);
+    return b;
+}
+
 std::string quoted(const std::string& s) {
     std::string q = "'";
     for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
@@ -298,12 +305,11 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
     const double h = 2.0 * M_PI / n;
     std::string s = "set terminal pngcairo size 760,640\nset output " + quoted(tmp) + "\n";
     s += "set title " + quoted(title) + "\nset size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n";
-    s += "set xrange [0:2*pi]\nset yrange [0:2*pi]\nset cbrange [" + std::to_string(-vmax) + ":" +
-         std::to_string(vmax) + "]\n";
+    s += "set xrange [0:2*pi]\nset yrange [0:2*pi]\nset cbrange [" + g(-vmax) + ":" + g(vmax) + "]\n";
     s += "set palette defined (0 '#053061', 0.25 '#4393c3', 0.5 '#f7f7f7', 0.75 '#d6604d', 1 '#67001f')\n";
     s += "set cblabel 'omega'\n";
     s += "plot " + quoted(data) + " binary array=(" + std::to_string(n) + "," + std::to_string(n) +
-         ") format='%float64' dx=" + std::to_string(h) + " dy=" + std::to_string(h) + " with image notitle\n";
+         ") format='%float64' dx=" + g(h) + " dy=" + g(h) + " with image notitle\n";
     const bool ok = gnuplot(s);
     std::error_code ec;
     std::filesystem::remove(data, ec);
@@ -337,11 +343,10 @@ void write_spectrum(const std::string& csv_path, const std::string& png_path, co
     std::string s = "set terminal pngcairo size 720,540\nset output " + quoted(ptmp) + "\nset datafile separator ','\n";
     s += "set logscale xy\nset format y '10^{%L}'\nset xlabel 'k'\nset ylabel 'E(k)'\nset key bottom left\n";
     s += "set title " + quoted(title) + "\n";
-    s += "set yrange [" + std::to_string(ep * 1e-12) + ":" + std::to_string(ep * 10) + "]\n";
+    s += "set yrange [" + g(ep * 1e-12) + ":" + g(ep * 10) + "]\n";
     s += "plot " + quoted(csv_path) + " skip 1 using 1:($2 > 0 ? $2 : NaN) with linespoints pt 7 ps 0.4 title 'E(k)', ";
-    s += std::to_string(ep) + "*(x/" + std::to_string(kp) + ")**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
-    s += std::to_string(ep) + "*(x/" + std::to_string(kp) +
-         ")**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
+    s += g(ep) + "*(x/" + std::to_string(kp) + ".)**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
+    s += g(ep) + "*(x/" + std::to_string(kp) + ".)**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
     if (gnuplot(s)) {
         commit(ptmp, png_path);
     } else {
