@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Builds the benchmarks in Release, runs them all and prints one table of side-by-side ratios with their targets.
-# Usage: bench/run.sh [--quick | --smoke] [--json FILE] [--out DIR] [--build-dir DIR]
+# Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--json FILE] [--out DIR] [--build-dir DIR]
 #   --quick  smaller large systems and fewer repetitions (under two minutes)
 #   --smoke  every program for a token run (CI: keeps them compiling and running, under a minute); numbers meaningless
+#   --ns2d   also the 2-D Navier-Stokes benchmarks (N = 1024 steps, threads, N = 128..4096 scaling, NumPy; ~15 min)
 set -euo pipefail
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -10,10 +11,12 @@ mode=full
 json=""
 out=""
 build="$repo/build-bench-release"
+ns2d=0
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --quick) mode=quick ;;
     --smoke) mode=smoke ;;
+    --ns2d) ns2d=1 ;;
     --json) [[ $# -ge 2 ]] || { echo "run.sh: --json needs a file name" >&2; exit 2; }; json=$(realpath -m "$2"); shift ;;
     --out) [[ $# -ge 2 ]] || { echo "run.sh: --out needs a directory" >&2; exit 2; }; out=$(realpath -m "$2"); shift ;;
     --build-dir) [[ $# -ge 2 ]] || { echo "run.sh: --build-dir needs a directory" >&2; exit 2; }; build=$(realpath -m "$2"); shift ;;
@@ -42,9 +45,9 @@ esac
 
 echo "== building ($build, Release, same flags for eci and Boost.Odeint)" >&2
 cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DECI_BUILD_TESTS=OFF \
-      -DECI_BUILD_APPS=OFF -DECI_BUILD_EXAMPLES=OFF > "$out/cmake.log"
-cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift eci_bench_remedy \
-      >> "$out/cmake.log"
+      -DECI_BUILD_APPS=$([ $ns2d = 1 ] && echo ON || echo OFF) -DECI_BUILD_EXAMPLES=OFF > "$out/cmake.log"
+cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
+      eci_bench_remedy $([ $ns2d = 1 ] && echo eci_bench_ns2d_step eci_bench_ns2d_radicand eci_cli) >> "$out/cmake.log"
 bin="$build/bench"
 
 echo "== per-step cost ($reps interleaved repetitions, large systems N=$big and $big_real)" >&2
@@ -88,3 +91,60 @@ echo "paired steps (median of pair ratios)); targets C-PC/PC and C-RK4/RK4 <= 1.
 tee -a "$out/table.txt" < "$out/remedy.txt"
 if [ "$mode" = smoke ]; then echo "(smoke run: every program ran once, at token sizes: the ratios above mean nothing)"; fi
 grep -h "^wp " "$out/work_precision.txt" | grep -v "lvk=" > "$out/work_precision_summary.txt" || true
+
+if [ $ns2d = 1 ]; then
+  # 2-D Navier-Stokes (issue 11): every ratio measured side by side in one process; the wisdom file keeps plans.
+  wisdom="$out/fftw-wisdom"
+  case $mode in
+    full)  sizes="128 256 512 1024 2048 4096"; big=1024; reps=5; rad_steps=100 ;;
+    quick) sizes="128 256 512 1024"; big=1024; reps=3; rad_steps=20 ;;
+    smoke) sizes="32 64"; big=64; reps=1; rad_steps=2 ;;
+  esac
+  echo "== ns2d: per-step cost, N=$big, 1 and 2 threads" >&2
+  : > "$out/ns2d_step.txt"
+  for t in 1 2; do "$bin/eci_bench_ns2d_step" $big $t $reps "$wisdom" >> "$out/ns2d_step.txt"; done
+  echo "== ns2d: step time against N^2 log N (N = $sizes), peak memory" >&2
+  : > "$out/ns2d_scaling.txt"
+  for n in $sizes; do
+    /usr/bin/time -f "ns2d-memory N=$n peak_kib=%M" "$bin/eci_bench_ns2d_step" $n 1 $reps "$wisdom" \
+      >> "$out/ns2d_scaling.txt" 2>> "$out/ns2d_scaling.txt"
+  done
+  echo "== ns2d: negative radicands at CFL 0.5, N=256" >&2
+  "$bin/eci_bench_ns2d_radicand" 256 $rad_steps > "$out/ns2d_radicand.txt"
+  echo "== ns2d: independent NumPy solver" >&2
+  {
+    /usr/bin/python3 "$repo/bench/ns2d_numpy.py" check "$build/eci" || echo "ns2d-numpy check FAILED"
+    [ "$mode" = smoke ] || /usr/bin/python3 "$repo/bench/ns2d_numpy.py" time "$build/eci"
+  } > "$out/ns2d_numpy.txt"
+  python3 - "$out" <<'PY'
+import re, sys
+out = sys.argv[1]
+def fields(line):
+    return dict(kv.split("=", 1) for kv in line.split()[1:] if "=" in kv)
+steps = [fields(l) for l in open(out + "/ns2d_step.txt") if l.startswith("ns2d-step")]
+print("\n2-D Navier-Stokes (targets in brackets)")
+for s in steps:
+    print("  N=%s threads=%s: C-RK4/RK4 %s [<= 1.03], C-PC/PC %s [<= 1.03], C-RK4 step / its FFTs %s [<= 1.3]"
+          % (s["N"], s["threads"], s["c_rk4/rk4"], s["c_pc/pc"], s["c_rk4/fft"]))
+if len(steps) == 2:
+    print("  2 threads vs 1 (C-RK4 step): %.2f [>= 1.6]" % (float(steps[0]["c_rk4"]) / float(steps[1]["c_rk4"])))
+import math
+scal = [fields(l) for l in open(out + "/ns2d_scaling.txt") if l.startswith("ns2d-step")]
+mem = {f["N"]: f["peak_kib"] for f in (fields(l) for l in open(out + "/ns2d_scaling.txt") if l.startswith("ns2d-memory"))}
+with open(out + "/ns2d_scaling.csv", "w") as f:
+    f.write("N,c_rk4_step_seconds,per_N2logN,peak_kib\n")
+    for s in scal:
+        n = int(s["N"]); t = float(s["c_rk4"])
+        f.write("%d,%.6g,%.6g,%s\n" % (n, t, t / (n * n * math.log2(n)), mem.get(s["N"], "")))
+        print("  N=%5d: C-RK4 step %.4g s, per N^2 log2 N %.3g ns, peak memory %s KiB" % (n, t, 1e9 * t / (n * n * math.log2(n)), mem.get(s["N"], "?")))
+for l in open(out + "/ns2d_numpy.txt"): print("  " + l.strip())
+for l in open(out + "/ns2d_radicand.txt"): print("  " + l.strip())
+PY
+  if command -v gnuplot > /dev/null; then
+    gnuplot -e "set terminal pngcairo size 640,480; set output '$out/ns2d_scaling.png'; set datafile separator ','; \
+      set logscale xy; set xlabel 'N'; set ylabel 'C-RK4 step (s)'; set key top left; \
+      f(x) = c * x**2 * log(x); c = 1e-9; fit f(x) '$out/ns2d_scaling.csv' skip 1 using 1:2 via c; \
+      plot '$out/ns2d_scaling.csv' skip 1 using 1:2 with linespoints pt 7 title 'eci C-RK4', f(x) title 'c N^2 log N'" \
+      2> /dev/null || true
+  fi
+fi

@@ -5,7 +5,7 @@ set -euo pipefail
 
 packages=(g++ cmake make libboost-dev libcli11-dev libgtest-dev libbenchmark-dev gnuplot-nox
           python3 python3-dev pybind11-dev python3-pybind11 python3-numpy python3-scipy python3-pytest
-          python3-matplotlib)
+          python3-matplotlib pkg-config libfftw3-dev libhdf5-dev python3-h5py)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")

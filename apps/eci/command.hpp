@@ -43,6 +43,8 @@ struct option_spec {
     std::vector<double>* reals = nullptr;
     std::uint64_t* whole = nullptr;
     std::uint64_t min = 0;
+    std::string* text = nullptr;  ///< a text option (a file, a choice) instead of numbers
+    bool* flag = nullptr;         ///< a flag without a value instead of numbers
     bool given = false;  ///< set by main.cpp after parsing
 };
 

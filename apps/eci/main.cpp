@@ -51,7 +51,11 @@ CLI::Validator whole_number(std::uint64_t min) {
 void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
     for (option_spec& o : options) {
         const std::string flag = "--" + o.name;
-        if (o.whole) {
+        if (o.text) {
+            sub.add_option(flag, *o.text, o.help);
+        } else if (o.flag) {
+            sub.add_flag(flag, *o.flag, o.help);
+        } else if (o.whole) {
             sub.add_option(flag, *o.whole, o.help)->check(whole_number(o.min));
         } else if (o.count == 1) {
             o.reals->resize(1);

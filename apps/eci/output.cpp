@@ -123,15 +123,23 @@ void install_interrupt_handler() {
 
 bool interrupt_requested() { return interrupt_flag != 0; }
 
-progress_bar::progress_bar(std::uint64_t total)
-    : total_(total), enabled_(::isatty(STDERR_FILENO) == 1), start_(std::chrono::steady_clock::now()) {}
+progress_bar::progress_bar(std::uint64_t total, std::uint64_t check_every)
+    : total_(total),
+      check_every_(check_every == 0 ? 1 : check_every),
+      enabled_(::isatty(STDERR_FILENO) == 1),
+      start_(std::chrono::steady_clock::now()) {}
 
-void progress_bar::draw(std::uint64_t i, double t) {
+bool progress_bar::due() {
     using namespace std::chrono;
     const auto now = steady_clock::now();
     // Short runs show nothing; a long one redraws at most ten times a second.
-    if (now - start_ < seconds(1) || (shown_ && now - last_draw_ < milliseconds(100))) return;
+    if (now - start_ < seconds(1) || (shown_ && now - last_draw_ < milliseconds(100))) return false;
     last_draw_ = now;
+    return true;
+}
+
+void progress_bar::draw(std::uint64_t i, double t, const std::string& detail) {
+    using namespace std::chrono;
     shown_ = true;
     const double fraction = total_ ? double(i) / double(total_) : 1.0;
     constexpr int width = 40;
@@ -139,9 +147,10 @@ void progress_bar::draw(std::uint64_t i, double t) {
     char bar[width + 1];
     for (int k = 0; k < width; ++k) bar[k] = k < filled ? '#' : '.';
     bar[width] = '\0';
-    const double elapsed = duration<double>(now - start_).count();
+    const double elapsed = duration<double>(last_draw_ - start_).count();
     const double remaining = fraction > 0.0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
-    std::fprintf(stderr, "\r[%s] %5.1f%%  t = %-12.6g  %.0f s left ", bar, 100.0 * fraction, t, remaining);
+    std::fprintf(stderr, "\r[%s] %5.1f%%  t = %-12.6g  %.0f s left %s", bar, 100.0 * fraction, t, remaining,
+                 detail.c_str());
     std::fflush(stderr);
 }
 

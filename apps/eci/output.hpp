@@ -72,23 +72,30 @@ bool interrupt_requested();
 /// second. update() is cheap: it looks at the clock once every 4096 calls.
 class progress_bar {
    public:
-    /// A bar for a run of `total` steps.
-    explicit progress_bar(std::uint64_t total);
+    /// A bar for a run of `total` steps; the clock is read every `check_every` updates (1 for slow steps).
+    explicit progress_bar(std::uint64_t total, std::uint64_t check_every = 4096);
     ~progress_bar() { finish(); }
     progress_bar(const progress_bar&) = delete;
     progress_bar& operator=(const progress_bar&) = delete;
 
     /// Called at every step i (time t).
     void update(std::uint64_t i, double t) {
-        if (enabled_ && (++calls_ & 4095u) == 0) draw(i, t);
+        if (enabled_ && (++calls_ % check_every_) == 0 && due()) draw(i, t, {});
+    }
+    /// The same, with detail() (called only when the bar is redrawn: it may be costly) appended to the line.
+    template <class Detail>
+    void update(std::uint64_t i, double t, Detail&& detail) {
+        if (enabled_ && (++calls_ % check_every_) == 0 && due()) draw(i, t, detail());
     }
     /// Erases the bar, if it was drawn.
     void finish();
 
    private:
-    void draw(std::uint64_t i, double t);
+    bool due();
+    void draw(std::uint64_t i, double t, const std::string& detail);
 
     std::uint64_t total_;
+    std::uint64_t check_every_;
     std::uint64_t calls_ = 0;
     bool enabled_;
     bool shown_ = false;

@@ -1,0 +1,500 @@
+// `eci run navier-stokes-2d`: 2-D turbulence with the pseudo-spectral vorticity model (eci::spectral): CSV of the
+// diagnostics and exact budgets, vorticity snapshots (PNG, HDF5), E(k), checkpoint/restart, blow-up detection.
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+#include <numbers>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+
+#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/registry.hpp>
+#include <eci/steppers/conservative_rk.hpp>
+#include <eci/steppers/explicit_rk.hpp>
+
+#include "command.hpp"
+#include "ns2d_output.hpp"
+#include "output.hpp"
+#include "run_model.hpp"
+
+namespace eci::cli {
+
+namespace {
+
+using state = navier_stokes_2d::state_type;
+
+// The Runge-Kutta methods whose stages the budget can weigh (ns2d_step needs the stepper's tableau).
+template <class Fn>
+bool with_rk_method(const std::string& name, Fn&& fn) {
+    if (name == "c-pc") return fn(c_pc<state>{}), true;
+    if (name == "c-rk2") return fn(c_rk2<state>{}), true;
+    if (name == "c-rk4") return fn(c_rk4<state>{}), true;
+    if (name == "pc") return fn(pc<state>{}), true;
+    if (name == "rk2") return fn(rk2<state>{}), true;
+    if (name == "rk4") return fn(rk4<state>{}), true;
+    if (name == "euler") return fn(euler<state>{}), true;
+    return false;
+}
+
+std::string num(double v) {
+    char b[32];
+    return std::string(format_double(v, b));
+}
+
+class navier_stokes_2d_command final : public model_command {
+   public:
+    navier_stokes_2d_command() {
+        // name, help, and where the value goes: a real, a whole number >= min, a text or a flag
+        real("nu", "viscosity nu (default 0)");
+        real("hyper-nu", "hyperviscosity nu_h of -nu_h |k|^(2p) omega (default 0)");
+        real("drag", "linear drag mu of -mu omega (default 0)");
+        real("forcing-k", "forced band k_f - 1/2 <= |k| < k_f + 1/2 (default 4)");
+        real("forcing-amplitude", "deterministic forcing: rms of the forcing field (default 1)");
+        real("injection-rate", "stochastic forcing: mean energy injection rate (default 1)");
+        real("k-peak", "random: peak wavenumber k_p of E(k) ~ q^4 / (1 + q^2)^4, q = k/k_p (default 8)");
+        real("energy", "random: initial energy (default 0.5)");
+        real("vortex-radius", "vortex-pair: radius of each Gaussian vortex (default 0.25)");
+        real("vortex-separation", "vortex-pair: distance of the centres (default 0.7)");
+        real("vortex-peak", "vortex-pair: peak vorticity; taylor-green: velocity (default 10, 1)");
+        real("cfl", "dt = CFL dx / max|u| at the start (default 0.5; exclusive with --dt)");
+        whole("N", "grid points per side, even, >= 8 (default 256); |k_x|, |k_y| <= (N - 1)/3 kept", 0);
+        whole("hyper-p", "hyperviscosity power p (default 2)", 0);
+        whole("forcing-seed", "seed of the forcing (default 1)", 0);
+        whole("seed", "random: seed of the initial field (default 1)", 0);
+        whole("threads", "FFTW and OpenMP threads (default 1)", 1);
+        whole("snapshot-every", "vorticity PNG + HDF5 and E(k) CSV + PNG every K steps (default none)", 1);
+        whole("checkpoint-every", "write the checkpoint every K steps (default: only on SIGINT/SIGTERM)", 1);
+        text("forcing", "none, deterministic (fixed band, random phases) or stochastic (white in time) (default none)");
+        text("ic", "initial condition: random, vortex-pair, taylor-green, or FILE (an eci snapshot or checkpoint "
+                   ".h5 on the same grid) (default random)");
+        text("snapshot-dir", "directory of the snapshots (default ns2d-snapshots)");
+        text("checkpoint", "checkpoint file, also written on SIGINT/SIGTERM (default ns2d-checkpoint.h5)");
+        text("restart", "continue, bit for bit, from a checkpoint");
+        text("fftw-wisdom", "FFTW wisdom file read before and written after planning, so that every run plans the "
+                            "same transforms and repeats bit for bit; 'none' for no file (default "
+                            "$XDG_CACHE_HOME/eci/fftw-wisdom, else ~/.cache/eci/fftw-wisdom)");
+        flag("fftw-estimate", "FFTW_ESTIMATE plans instead of FFTW_MEASURE (no planning time; not bit-identical "
+                              "across FFTW versions or machines either way)");
+    }
+
+    const model_info& info() const override { return info_; }
+    std::vector<option_spec>& options() override { return specs_; }
+    int run(const run_settings& settings) override;
+
+   private:
+    void real(const char* name, const char* help) {
+        reals_.push_back(std::make_unique<std::vector<double>>(1, 0.0));
+        specs_.push_back({name, help, 1, reals_.back().get(), nullptr, 0, nullptr, nullptr, false});
+    }
+    void whole(const char* name, const char* help, std::uint64_t min) {
+        wholes_.push_back(std::make_unique<std::uint64_t>(0));
+        specs_.push_back({name, help, 1, nullptr, wholes_.back().get(), min, nullptr, nullptr, false});
+    }
+    void text(const char* name, const char* help) {
+        texts_.push_back(std::make_unique<std::string>());
+        specs_.push_back({name, help, 1, nullptr, nullptr, 0, texts_.back().get(), nullptr, false});
+    }
+    void flag(const char* name, const char* help) {
+        flags_.push_back(std::make_unique<bool>(false));
+        specs_.push_back({name, help, 1, nullptr, nullptr, 0, nullptr, flags_.back().get(), false});
+    }
+    const option_spec& spec(const std::string& name) const {
+        for (const option_spec& o : specs_)
+            if (o.name == name) return o;
+        throw std::logic_error("no option " + name);
+    }
+    // The value of an option if given, else nothing.
+    std::optional<double> given_real(const std::string& n) const {
+        const option_spec& o = spec(n);
+        return o.given ? std::optional<double>(o.reals->front()) : std::nullopt;
+    }
+    std::optional<std::uint64_t> given_whole(const std::string& n) const {
+        const option_spec& o = spec(n);
+        return o.given ? std::optional<std::uint64_t>(*o.whole) : std::nullopt;
+    }
+    std::optional<std::string> given_text(const std::string& n) const {
+        const option_spec& o = spec(n);
+        return o.given ? std::optional<std::string>(*o.text) : std::nullopt;
+    }
+
+    model_info info_{"navier-stokes-2d",
+                     "2-D incompressible Navier-Stokes/Euler vorticity on [0,2pi)^2, dealiased pseudo-spectral "
+                     "(FFTW); invariants energy, enstrophy; docs/turbulence.md",
+                     {"c-rk4", "c-pc", "c-rk2", "rk4", "pc", "rk2", "euler"},
+                     "c-rk4",
+                     0.0,  // none: dt comes from --cfl (0.5) unless --dt is given
+                     10.0,
+                     {{"default", "random field peaked at k = 8, inviscid, dt from CFL 0.5 (see --help for the "
+                                  "initial conditions, forcing and outputs)"}}};
+    std::vector<option_spec> specs_;
+    std::vector<std::unique_ptr<std::vector<double>>> reals_;
+    std::vector<std::unique_ptr<std::uint64_t>> wholes_;
+    std::vector<std::unique_ptr<std::string>> texts_;
+    std::vector<std::unique_ptr<bool>> flags_;
+    bool warned_ = false;
+};
+
+// The user's wisdom cache (created if need be); empty if there is no home to put it in.
+std::string default_wisdom_file() {
+    const char* xdg = std::getenv("XDG_CACHE_HOME");
+    const char* home = std::getenv("HOME");
+    std::filesystem::path dir;
+    if (xdg && *xdg)
+        dir = std::filesystem::path(xdg) / "eci";
+    else if (home && *home)
+        dir = std::filesystem::path(home) / ".cache" / "eci";
+    else
+        return {};
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    return ec ? std::string() : (dir / "fftw-wisdom").string();
+}
+
+ns2d_forcing parse_forcing(const std::string& s) {
+    return s == "stochastic" ? ns2d_forcing::stochastic
+           : s == "deterministic" ? ns2d_forcing::deterministic
+                                  : ns2d_forcing::none;
+}
+
+int navier_stokes_2d_command::run(const run_settings& settings) {
+    // ---- parameters, from the options or the checkpoint (options that contradict it are an error)
+    ns2d_checkpoint ck;
+    const std::string restart_ = given_text("restart").value_or("");
+    const bool restart = !restart_.empty();
+    if (restart) {
+        try {
+            ck = read_checkpoint(restart_);
+        } catch (const std::exception& e) {
+            throw bad_input(std::string("cannot restart: ") + e.what());
+        }
+        auto same = [&](const char* name, auto given, auto stored) {
+            if (given && *given != stored)
+                throw bad_input(std::string("--") + name + " " + num(double(*given)) +
+                                " does not match the restart file's " + num(double(stored)) + " (" + restart_ + ")");
+        };
+        same("N", given_whole("N"), std::uint64_t(ck.params.n));
+        same("nu", given_real("nu"), ck.params.nu);
+        same("hyper-nu", given_real("hyper-nu"), ck.params.hyper_nu);
+        same("hyper-p", given_whole("hyper-p"), std::uint64_t(ck.params.hyper_p));
+        same("drag", given_real("drag"), ck.params.drag);
+        same("forcing-k", given_real("forcing-k"), ck.params.forcing_k);
+        if (given_text("forcing") && parse_forcing(*given_text("forcing")) != ck.params.forcing)
+            throw bad_input("--forcing does not match the restart file's (" + restart_ + ")");
+        if (!settings.method.empty() && settings.method != ck.method)
+            throw bad_input("--method " + settings.method + " does not match the restart file's " + ck.method);
+        if (settings.dt && *settings.dt != ck.dt)
+            throw bad_input("--dt does not match the restart file's " + num(ck.dt));
+        if (given_real("cfl")) throw bad_input("--cfl cannot be combined with --restart (the time step is the checkpoint's)");
+        if (given_text("ic")) throw bad_input("--ic cannot be combined with --restart");
+    }
+    ns2d_params p = restart ? ck.params : ns2d_params{};
+    if (!restart) {
+        const std::uint64_t n = given_whole("N").value_or(256), hp = given_whole("hyper-p").value_or(2);
+        if (n > 65536 || hp > 16) throw bad_input(n > 65536 ? "--N is too large" : "--hyper-p must be in 1..16");
+        p.n = int(n);
+        p.nu = given_real("nu").value_or(0.0);
+        p.hyper_nu = given_real("hyper-nu").value_or(0.0);
+        p.hyper_p = int(hp);
+        p.drag = given_real("drag").value_or(0.0);
+        const std::string forcing = given_text("forcing").value_or("none");
+        if (forcing != "none" && forcing != "deterministic" && forcing != "stochastic")
+            throw bad_input("--forcing must be none, deterministic or stochastic, not '" + forcing + "'");
+        p.forcing = parse_forcing(forcing);
+        p.forcing_k = given_real("forcing-k").value_or(4.0);
+        p.forcing_amplitude = given_real("forcing-amplitude").value_or(1.0);
+        p.injection_rate = given_real("injection-rate").value_or(1.0);
+        p.forcing_seed = given_whole("forcing-seed").value_or(1);
+    }
+    if (given_whole("threads")) p.threads = int(std::min<std::uint64_t>(*given_whole("threads"), 1000));
+    p.measure = !*spec("fftw-estimate").flag;
+    const std::string wisdom_file = given_text("fftw-wisdom").value_or("");
+    p.wisdom_file = wisdom_file == "none" ? std::string() : wisdom_file.empty() ? default_wisdom_file() : wisdom_file;
+    const std::string ic_ = given_text("ic").value_or("random");
+    const double k_peak_ = given_real("k-peak").value_or(8.0), energy_ = given_real("energy").value_or(0.5);
+    const std::uint64_t seed_ = given_whole("seed").value_or(1);
+    const double vortex_radius_ = given_real("vortex-radius").value_or(0.25);
+    const double vortex_separation_ = given_real("vortex-separation").value_or(0.7);
+    const double vortex_peak_ = given_real("vortex-peak").value_or(ic_ == "taylor-green" ? 1.0 : 10.0);
+    const std::optional<double> cfl_ = given_real("cfl");
+    const std::uint64_t snapshot_every_ = given_whole("snapshot-every").value_or(0);
+    const std::uint64_t checkpoint_every_ = given_whole("checkpoint-every").value_or(0);
+    const std::string snapshot_dir_ = given_text("snapshot-dir").value_or("ns2d-snapshots");
+    const std::string checkpoint_ = given_text("checkpoint").value_or("ns2d-checkpoint.h5");
+    if (!settings.preset.empty() && settings.preset != "default")
+        throw bad_input("navier-stokes-2d has one preset, default; set the initial condition with --ic");
+    try {
+        p.validate();
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(std::string("navier-stokes-2d: ") + e.what());
+    }
+    const std::string method = restart ? ck.method : settings.method.empty() ? info_.default_method : settings.method;
+    if (std::find(info_.methods.begin(), info_.methods.end(), method) == info_.methods.end())
+        throw bad_input("method '" + method + "' is not available for navier-stokes-2d (one of c-rk4, c-pc, c-rk2, "
+                        "rk4, pc, rk2, euler)");
+    if (settings.dt && cfl_) throw bad_input("give --dt or --cfl, not both");
+    if (cfl_ && !(std::isfinite(*cfl_) && *cfl_ > 0.0)) throw bad_input("--cfl must be a positive number");
+    if (settings.dt && !(std::isfinite(*settings.dt) && *settings.dt > 0.0))
+        throw bad_input("--dt must be a positive number");
+    if (settings.t_end && settings.steps) throw bad_input("give --t-end or --steps, not both");
+    if (settings.t_end && !(std::isfinite(*settings.t_end) && *settings.t_end >= 0.0))
+        throw bad_input("--t-end must be a finite number >= 0");
+    if (settings.every == 0) throw bad_input("--every must be at least 1");
+    check_distinct_outputs(settings);
+
+    // ---- the initial condition (a file of another grid is an error)
+    std::optional<ns2d_checkpoint> ic_checkpoint;
+    std::optional<std::pair<int, std::vector<double>>> ic_field;
+    if (!restart && ic_ != "random" && ic_ != "vortex-pair" && ic_ != "taylor-green") {
+        try {
+            if (is_checkpoint(ic_))
+                ic_checkpoint = read_checkpoint(ic_);
+            else
+                ic_field = read_vorticity(ic_);
+        } catch (const std::exception& e) {
+            throw bad_input(std::string("--ic: ") + e.what());
+        }
+        const int file_n = ic_checkpoint ? ic_checkpoint->params.n : ic_field->first;
+        if (file_n != p.n)
+            throw bad_input("--ic " + ic_ + " holds a " + std::to_string(file_n) + "^2 grid, not N = " +
+                            std::to_string(p.n));
+    }
+
+    navier_stokes_2d model = [&] {
+        try {
+            return navier_stokes_2d(p);
+        } catch (const std::invalid_argument& e) {
+            throw bad_input(std::string("navier-stokes-2d: ") + e.what());
+        }
+    }();
+    state w;
+    try {
+        if (restart) {
+            w = ck.state;
+            model.set_rng_state(ck.rng_state);
+        } else if (ic_ == "random") {
+            w = model.random_field(k_peak_, energy_, seed_);
+        } else if (ic_ == "vortex-pair") {
+            w = model.vortex_pair(vortex_radius_, vortex_separation_, vortex_peak_);
+        } else if (ic_ == "taylor-green") {
+            w = model.taylor_green(vortex_peak_);
+        } else if (ic_checkpoint) {
+            w = ic_checkpoint->state;
+        } else {
+            w = model.from_physical(ic_field->second);
+        }
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(std::string("initial condition: ") + e.what());
+    }
+    for (const auto& v : w)
+        if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) throw bad_input("initial condition is not finite");
+
+    // ---- time step and span
+    const double dx = 2.0 * std::numbers::pi / p.n;
+    double dt = restart ? ck.dt : 0.0;
+    if (!restart) {
+        if (settings.dt) {
+            dt = *settings.dt;
+        } else {
+            const double u = model.max_velocity(w);
+            if (!(u > 0.0)) throw bad_input("the initial velocity is zero: give --dt");
+            dt = cfl_.value_or(0.5) * dx / u;
+        }
+    }
+    const std::uint64_t first = restart ? ck.step : 0;
+    std::uint64_t last = 0;
+    if (settings.steps)
+        last = *settings.steps;
+    else if (settings.t_end)
+        last = steps_to_reach(0.0, *settings.t_end, dt);
+    else
+        last = restart ? ck.total_steps : steps_to_reach(0.0, info_.default_t_end, dt);
+    if (last < first)
+        throw bad_input("the restart file is at step " + std::to_string(first) + ", beyond the requested " +
+                        std::to_string(last));
+
+    // ---- outputs: opened (or their directories created) only now that the input is known to be good
+    output_file csv = settings.output.empty() ? output_file() : output_file(settings.output, "CSV output");
+    output_file json = settings.summary_json.empty() ? output_file() : output_file(settings.summary_json, "summary JSON");
+    if (snapshot_every_ > 0) {
+        std::error_code ec;
+        std::filesystem::create_directories(snapshot_dir_, ec);
+        if (ec) throw bad_input("cannot create snapshot directory " + snapshot_dir_);
+    }
+
+    ns2d_checkpoint run = restart ? ck : ns2d_checkpoint{};
+    run.params = p;
+    run.method = method;
+    run.dt = dt;
+    run.total_steps = last;
+    if (!restart) {
+        run.energy0 = model.energy(w);
+        run.enstrophy0 = model.enstrophy(w);
+    }
+    std::FILE* out = csv.get();
+    if (out)
+        std::fputs("step,t,energy,enstrophy,palinstrophy,energy_injection,energy_dissipation,enstrophy_injection,"
+                   "enstrophy_dissipation,energy_budget_residual,enstrophy_budget_residual,max_velocity,cfl,"
+                   "halvings\n",
+                   out);
+    auto row = [&](std::uint64_t i) {
+        const double e = model.energy(w), z = model.enstrophy(w), u = model.max_velocity(w);
+        const ns2d_budget& b = run.budget;
+        std::fprintf(out, "%llu,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%llu\n", (unsigned long long)i,
+                     num(double(i) * dt).c_str(), num(e).c_str(), num(z).c_str(), num(model.palinstrophy(w)).c_str(),
+                     num(b.energy_injection).c_str(), num(b.energy_dissipation).c_str(),
+                     num(b.enstrophy_injection).c_str(), num(b.enstrophy_dissipation).c_str(),
+                     num(e - run.energy0 - (b.energy_injection - b.energy_dissipation)).c_str(),
+                     num(z - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)).c_str(),
+                     num(u).c_str(), num(u * dt / dx).c_str(), (unsigned long long)run.halvings);
+    };
+    auto snapshot = [&](std::uint64_t i) {
+        char stem[32];
+        std::snprintf(stem, sizeof stem, "%08llu", (unsigned long long)i);
+        const std::string base = snapshot_dir_ + "/", t = num(double(i) * dt);
+        const std::vector<double> field = model.to_physical(w);
+        write_snapshot_h5(base + "vorticity_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
+        if (!plot_vorticity_png(base + "vorticity_" + stem + ".png", p.n, field, double(i) * dt) && !warned_) {
+            std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
+            warned_ = true;
+        }
+        write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
+                       model.energy_spectrum(w), double(i) * dt);
+    };
+    auto save = [&](std::uint64_t i) {
+        run.step = i;
+        run.state = w;
+        run.rng_state = model.rng_state();
+        write_checkpoint(checkpoint_, run);
+    };
+
+    progress_bar progress(last - first, 1);  // steps take milliseconds or more: look at the clock every step
+    const auto start = std::chrono::steady_clock::now();
+    std::uint64_t good_checkpoint = restart ? first : std::numeric_limits<std::uint64_t>::max();
+    state w_prev;
+    const bool found = with_rk_method(method, [&](auto stepper) {
+        if (out) row(first);
+        if (snapshot_every_ > 0 && !restart) snapshot(first);
+        for (std::uint64_t i = first + 1; i <= last; ++i) {
+            const double e0 = model.energy(w), z0 = model.enstrophy(w);
+            ns2d_budget b;
+            run_stats stats;
+            w_prev = w;  // an interrupted step goes back to the last whole step
+            const std::uint64_t rng_prev = model.rng_state();
+            try {
+                ns2d_step(stepper, model, w, double(i - 1) * dt, dt, b, stats, 40, &interrupt_requested);
+            } catch (const step_interrupted&) {
+                progress.finish();
+                w = w_prev;
+                model.set_rng_state(rng_prev);
+                save(i - 1);
+                if (out) csv.commit();
+                throw interrupted("interrupted at step " + std::to_string(i - 1) + ", t = " + num(double(i - 1) * dt) +
+                                  "; checkpoint written to " + checkpoint_ + " (continue with --restart " +
+                                  checkpoint_ + ")");
+            } catch (const step_size_underflow& e) {
+                progress.finish();
+                throw run_failure("step " + std::to_string(i) + " failed at t = " + num(e.time) +
+                                  " even with the step halved 40 times (non-finite state?)" +
+                                  (good_checkpoint != std::numeric_limits<std::uint64_t>::max()
+                                       ? "; last good checkpoint: " + checkpoint_ + " (step " +
+                                             std::to_string(good_checkpoint) + ")"
+                                       : std::string()));
+            }
+            run.halvings += stats.step_reductions;
+            run.rhs_evals += stats.rhs_evals;
+            run.budget.energy_injection += b.energy_injection;
+            run.budget.energy_dissipation += b.energy_dissipation;
+            run.budget.enstrophy_injection += b.enstrophy_injection;
+            run.budget.enstrophy_dissipation += b.enstrophy_dissipation;
+            const double e1 = model.energy(w), z1 = model.enstrophy(w);
+            // A blow-up: non-finite invariants, or energy grown a thousandfold beyond what the forcing put in.
+            if (!std::isfinite(e1) || !std::isfinite(z1) ||
+                e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
+                progress.finish();
+                if (out) csv.commit();
+                throw run_failure("blow-up at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
+                                  ": energy " + num(e1) + " (CFL " + num(model.cfl(w, dt)) +
+                                  "); reduce --dt or --cfl" +
+                                  (good_checkpoint != std::numeric_limits<std::uint64_t>::max()
+                                       ? "; last good checkpoint: " + checkpoint_ + " (step " +
+                                             std::to_string(good_checkpoint) + ")"
+                                       : std::string()));
+            }
+            run.max_energy_residual = std::max(
+                run.max_energy_residual, std::abs(e1 - e0 - (b.energy_injection - b.energy_dissipation)) / e1);
+            run.max_enstrophy_residual = std::max(
+                run.max_enstrophy_residual,
+                std::abs(z1 - z0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
+            run.max_energy_drift = std::max(run.max_energy_drift, std::abs(e1 - run.energy0));
+            run.max_enstrophy_drift = std::max(run.max_enstrophy_drift, std::abs(z1 - run.enstrophy0));
+            if (out && (i % settings.every == 0 || i == last)) row(i);
+            if (snapshot_every_ > 0 && (i % snapshot_every_ == 0 || i == last)) snapshot(i);
+            if (checkpoint_every_ > 0 && (i % checkpoint_every_ == 0 || i == last)) {
+                save(i);
+                good_checkpoint = i;
+            }
+            progress.update(i - first, double(i) * dt, [&] {
+                // drift from the exact budget (pure drift when nothing is forced or dissipated)
+                const ns2d_budget& b = run.budget;
+                char line[160];
+                std::snprintf(line, sizeof line, " step %llu  CFL %.3g  E drift %.2g  Z drift %.2g ",
+                              (unsigned long long)i, model.cfl(w, dt),
+                              (e1 - run.energy0 - (b.energy_injection - b.energy_dissipation)) / e1,
+                              (z1 - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
+                return std::string(line);
+            });
+            if (interrupt_requested()) {
+                progress.finish();
+                save(i);
+                if (out) csv.commit();
+                throw interrupted("interrupted at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
+                                  "; checkpoint written to " + checkpoint_ + " (continue with --restart " +
+                                  checkpoint_ + ")");
+            }
+        }
+    });
+    progress.finish();
+    if (!found) throw bad_input("method '" + method + "' is not available for navier-stokes-2d");
+
+    run_summary s;
+    s.model = info_.name;
+    s.method = method;
+    with_method<state>(method, [&](auto st) { s.order = decltype(st)::order; });
+    s.conservative = method.rfind("c-", 0) == 0;
+    s.dt = dt;
+    s.t_end = double(last) * dt;
+    s.stats.steps = last - first;
+    s.stats.step_reductions = run.halvings;
+    s.stats.rhs_evals = run.rhs_evals;
+    s.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    s.invariants.push_back({"energy", run.energy0, model.energy(w), run.max_energy_drift});
+    s.invariants.push_back({"enstrophy", run.enstrophy0, model.enstrophy(w), run.max_enstrophy_drift});
+    s.figures = {{"palinstrophy", model.palinstrophy(w)},
+                 {"energy_injection", run.budget.energy_injection},
+                 {"energy_dissipation", run.budget.energy_dissipation},
+                 {"enstrophy_injection", run.budget.enstrophy_injection},
+                 {"enstrophy_dissipation", run.budget.enstrophy_dissipation},
+                 {"max_energy_budget_residual_per_step", run.max_energy_residual},
+                 {"max_enstrophy_budget_residual_per_step", run.max_enstrophy_residual},
+                 {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(last, 1))},
+                 {"final_cfl", model.cfl(w, dt)}};
+    csv.commit();
+    print_summary(stderr, s);
+    if (std::FILE* j = json.get()) write_summary_json(j, s);
+    json.commit();
+    return 0;
+}
+
+}  // namespace
+
+/// The navier-stokes-2d adapter.
+std::unique_ptr<model_command> make_navier_stokes_2d_command() { return std::make_unique<navier_stokes_2d_command>(); }
+
+}  // namespace eci::cli

@@ -1,0 +1,358 @@
+// HDF5 snapshots and checkpoints of `eci run navier-stokes-2d` (C API; fixed-length string attributes, readable by
+// h5py), and gnuplot figures of the vorticity and of E(k). Every file is written under a temporary name, renamed.
+#include "ns2d_output.hpp"
+
+#include <hdf5.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <cstdio>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <unistd.h>
+
+namespace eci::cli {
+
+namespace {
+
+// One HDF5 handle, closed by the matching function.
+struct handle {
+    hid_t id;
+    herr_t (*close)(hid_t);
+    handle(hid_t i, herr_t (*c)(hid_t), const std::string& what) : id(i), close(c) {
+        if (id < 0) throw std::runtime_error(what);
+    }
+    ~handle() { close(id); }
+    handle(const handle&) = delete;
+    handle& operator=(const handle&) = delete;
+    operator hid_t() const { return id; }
+};
+
+void quiet_hdf5() {
+    static const bool done = [] { return H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0; }();
+    (void)done;
+}
+
+std::string temp_name(const std::string& path) {
+    const std::filesystem::path p(path);
+    std::string name = ".";  // built by appending: GCC 12 warns falsely (-Wrestrict) on "." + string
+    name += p.filename().string();
+    name += ".tmp";
+    name += std::to_string(::getpid());
+    return (p.parent_path() / name).string();
+}
+
+void commit(const std::string& tmp, const std::string& path) {
+    std::error_code ec;
+    std::filesystem::rename(tmp, path, ec);
+    if (ec) {
+        std::filesystem::remove(tmp, ec);
+        throw std::runtime_error("cannot write " + path);
+    }
+}
+
+template <class T>
+hid_t native();
+template <> hid_t native<double>() { return H5T_NATIVE_DOUBLE; }
+template <> hid_t native<std::uint64_t>() { return H5T_NATIVE_UINT64; }
+template <> hid_t native<std::int64_t>() { return H5T_NATIVE_INT64; }
+
+template <class T>
+void put(hid_t obj, const char* name, T v) {
+    handle sp(H5Screate(H5S_SCALAR), H5Sclose, "HDF5 dataspace");
+    handle a(H5Acreate2(obj, name, native<T>(), sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose,
+             std::string("HDF5 attribute ") + name);
+    if (H5Awrite(a, native<T>(), &v) < 0) throw std::runtime_error(std::string("HDF5 attribute ") + name);
+}
+
+void put(hid_t obj, const char* name, const std::string& v) {
+    handle t(H5Tcopy(H5T_C_S1), H5Tclose, "HDF5 string type");
+    H5Tset_size(t, std::max<std::size_t>(v.size(), 1));
+    handle sp(H5Screate(H5S_SCALAR), H5Sclose, "HDF5 dataspace");
+    handle a(H5Acreate2(obj, name, t, sp, H5P_DEFAULT, H5P_DEFAULT), H5Aclose, std::string("HDF5 attribute ") + name);
+    const std::string data = v.empty() ? std::string(1, '\0') : v;
+    if (H5Awrite(a, t, data.data()) < 0) throw std::runtime_error(std::string("HDF5 attribute ") + name);
+}
+
+template <class T>
+T get(hid_t obj, const char* name) {
+    if (H5Aexists(obj, name) <= 0) throw std::runtime_error(std::string("attribute '") + name + "' missing");
+    handle a(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
+    T v{};
+    if (H5Aread(a, native<T>(), &v) < 0) throw std::runtime_error(std::string("attribute '") + name + "' unreadable");
+    return v;
+}
+
+std::string get_string(hid_t obj, const char* name) {
+    if (H5Aexists(obj, name) <= 0) throw std::runtime_error(std::string("attribute '") + name + "' missing");
+    handle a(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
+    handle t(H5Aget_type(a), H5Tclose, "attribute type");
+    if (H5Tget_class(t) != H5T_STRING || H5Tis_variable_str(t) > 0)
+        throw std::runtime_error(std::string("attribute '") + name + "' is not a fixed-length string");
+    std::string s(H5Tget_size(t), '\0');
+    if (H5Aread(a, t, s.data()) < 0) throw std::runtime_error(std::string("attribute '") + name + "' unreadable");
+    while (!s.empty() && s.back() == '\0') s.pop_back();
+    return s;
+}
+
+void write_dataset(hid_t file, const char* name, const double* data, std::initializer_list<hsize_t> dims) {
+    std::vector<hsize_t> d(dims);
+    handle sp(H5Screate_simple(int(d.size()), d.data(), nullptr), H5Sclose, "HDF5 dataspace");
+    handle ds(H5Dcreate2(file, name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
+              std::string("HDF5 dataset ") + name);
+    if (H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+        throw std::runtime_error(std::string("HDF5 dataset ") + name);
+}
+
+std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize_t>& dims) {
+    if (H5Lexists(file, name, H5P_DEFAULT) <= 0) throw std::runtime_error(std::string("dataset '") + name + "' missing");
+    handle ds(H5Dopen2(file, name, H5P_DEFAULT), H5Dclose, std::string("dataset ") + name);
+    handle sp(H5Dget_space(ds), H5Sclose, "dataspace");
+    const int rank = H5Sget_simple_extent_ndims(sp);
+    if (rank < 1 || rank > 2) throw std::runtime_error(std::string("dataset '") + name + "' has the wrong rank");
+    dims.assign(std::size_t(rank), 0);
+    H5Sget_simple_extent_dims(sp, dims.data(), nullptr);
+    std::size_t count = 1;
+    for (hsize_t d : dims) count *= std::size_t(d);
+    std::vector<double> v(count);
+    if (H5Dread(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0)
+        throw std::runtime_error(std::string("dataset '") + name + "' unreadable");
+    return v;
+}
+
+const char* forcing_name(ns2d_forcing f) {
+    return f == ns2d_forcing::deterministic ? "deterministic" : f == ns2d_forcing::stochastic ? "stochastic" : "none";
+}
+
+void put_params(hid_t f, const ns2d_params& p) {
+    put(f, "N", std::int64_t(p.n));
+    put(f, "nu", p.nu);
+    put(f, "hyper_nu", p.hyper_nu);
+    put(f, "hyper_p", std::int64_t(p.hyper_p));
+    put(f, "drag", p.drag);
+    put(f, "forcing", std::string(forcing_name(p.forcing)));
+    put(f, "forcing_k", p.forcing_k);
+    put(f, "forcing_amplitude", p.forcing_amplitude);
+    put(f, "injection_rate", p.injection_rate);
+    put(f, "forcing_seed", p.forcing_seed);
+    put(f, "domain_length", 2.0 * M_PI);
+}
+
+handle open_for_reading(const std::string& path) {
+    quiet_hdf5();
+    if (!std::filesystem::is_regular_file(path)) throw std::runtime_error("cannot read " + path + ": no such file");
+    if (H5Fis_hdf5(path.c_str()) <= 0) throw std::runtime_error(path + " is not an HDF5 file");
+    return handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "cannot open " + path);
+}
+
+// Runs a gnuplot script; false when gnuplot is missing or fails.
+bool gnuplot(const std::string& script) {
+    static const bool available = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
+    if (!available) return false;
+    std::FILE* g = ::popen("gnuplot 2> /dev/null", "w");
+    if (!g) return false;
+    std::fputs(script.c_str(), g);
+    return ::pclose(g) == 0;
+}
+
+// A double as gnuplot reads it back exactly (std::to_string's %f would print 1e-13 as 0.000000).
+std::string g(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.17g", v);
+    return b;
+}
+
+std::string quoted(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
+    return q + "'";
+}
+
+}  // namespace
+
+void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
+    quiet_hdf5();
+    const std::string tmp = temp_name(path);
+    {
+        handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "cannot write " + path);
+        put(f, "format", std::string("eci navier-stokes-2d checkpoint"));
+        put(f, "version", std::int64_t(1));
+        put_params(f, c.params);
+        put(f, "threads", std::int64_t(c.params.threads));
+        put(f, "method", c.method);
+        put(f, "dt", c.dt);
+        put(f, "step", c.step);
+        put(f, "time", double(c.step) * c.dt);
+        put(f, "total_steps", c.total_steps);
+        put(f, "rng_state", c.rng_state);
+        put(f, "fftw_wisdom", navier_stokes_2d::fftw_wisdom());
+        put(f, "halvings", c.halvings);
+        put(f, "rhs_evals", c.rhs_evals);
+        put(f, "energy_injection", c.budget.energy_injection);
+        put(f, "energy_dissipation", c.budget.energy_dissipation);
+        put(f, "enstrophy_injection", c.budget.enstrophy_injection);
+        put(f, "enstrophy_dissipation", c.budget.enstrophy_dissipation);
+        put(f, "energy0", c.energy0);
+        put(f, "enstrophy0", c.enstrophy0);
+        put(f, "max_energy_drift", c.max_energy_drift);
+        put(f, "max_enstrophy_drift", c.max_enstrophy_drift);
+        put(f, "max_energy_residual", c.max_energy_residual);
+        put(f, "max_enstrophy_residual", c.max_enstrophy_residual);
+        const hsize_t rows = hsize_t(c.params.n), cols = hsize_t(c.params.n / 2 + 1);
+        write_dataset(f, "omega_hat", reinterpret_cast<const double*>(c.state.data()), {rows, cols * 2});
+    }
+    commit(tmp, path);
+}
+
+ns2d_checkpoint read_checkpoint(const std::string& path) {
+    handle f = open_for_reading(path);
+    if (H5Aexists(f, "format") <= 0 || get_string(f, "format") != "eci navier-stokes-2d checkpoint")
+        throw std::runtime_error(path + " is not an eci navier-stokes-2d checkpoint");
+    if (get<std::int64_t>(f, "version") != 1) throw std::runtime_error(path + ": unknown checkpoint version");
+    ns2d_checkpoint c;
+    ns2d_params& p = c.params;
+    p.n = int(get<std::int64_t>(f, "N"));
+    p.nu = get<double>(f, "nu");
+    p.hyper_nu = get<double>(f, "hyper_nu");
+    p.hyper_p = int(get<std::int64_t>(f, "hyper_p"));
+    p.drag = get<double>(f, "drag");
+    const std::string forcing = get_string(f, "forcing");
+    p.forcing = forcing == "stochastic"      ? ns2d_forcing::stochastic
+                : forcing == "deterministic" ? ns2d_forcing::deterministic
+                                             : ns2d_forcing::none;
+    p.forcing_k = get<double>(f, "forcing_k");
+    p.forcing_amplitude = get<double>(f, "forcing_amplitude");
+    p.injection_rate = get<double>(f, "injection_rate");
+    p.forcing_seed = get<std::uint64_t>(f, "forcing_seed");
+    p.threads = int(get<std::int64_t>(f, "threads"));
+    p.wisdom = get_string(f, "fftw_wisdom");
+    c.method = get_string(f, "method");
+    c.dt = get<double>(f, "dt");
+    c.step = get<std::uint64_t>(f, "step");
+    c.total_steps = get<std::uint64_t>(f, "total_steps");
+    c.rng_state = get<std::uint64_t>(f, "rng_state");
+    c.halvings = get<std::uint64_t>(f, "halvings");
+    c.rhs_evals = get<std::uint64_t>(f, "rhs_evals");
+    c.budget.energy_injection = get<double>(f, "energy_injection");
+    c.budget.energy_dissipation = get<double>(f, "energy_dissipation");
+    c.budget.enstrophy_injection = get<double>(f, "enstrophy_injection");
+    c.budget.enstrophy_dissipation = get<double>(f, "enstrophy_dissipation");
+    c.energy0 = get<double>(f, "energy0");
+    c.enstrophy0 = get<double>(f, "enstrophy0");
+    c.max_energy_drift = get<double>(f, "max_energy_drift");
+    c.max_enstrophy_drift = get<double>(f, "max_enstrophy_drift");
+    c.max_energy_residual = get<double>(f, "max_energy_residual");
+    c.max_enstrophy_residual = get<double>(f, "max_enstrophy_residual");
+    std::vector<hsize_t> dims;
+    const std::vector<double> v = read_dataset(f, "omega_hat", dims);
+    if (dims.size() != 2 || dims[0] != hsize_t(p.n) || dims[1] != hsize_t(2 * (p.n / 2 + 1)))
+        throw std::runtime_error(path + ": omega_hat does not match the grid N = " + std::to_string(p.n));
+    c.state.resize(v.size() / 2);
+    for (std::size_t i = 0; i < c.state.size(); ++i) c.state[i] = {v[2 * i], v[2 * i + 1]};
+    return c;
+}
+
+void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const std::vector<double>& field,
+                       double t, std::uint64_t step, const std::string& method, double dt) {
+    quiet_hdf5();
+    const std::string tmp = temp_name(path);
+    {
+        handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "cannot write " + path);
+        put(f, "format", std::string("eci navier-stokes-2d snapshot"));
+        put_params(f, m.params());
+        put(f, "time", t);
+        put(f, "step", step);
+        put(f, "method", method);
+        put(f, "dt", dt);
+        const hsize_t n = hsize_t(m.n());
+        write_dataset(f, "vorticity", field.data(), {n, n});
+        std::vector<double> x(m.n());
+        for (int i = 0; i < m.n(); ++i) x[std::size_t(i)] = 2.0 * M_PI * i / m.n();
+        write_dataset(f, "x", x.data(), {n});
+        write_dataset(f, "y", x.data(), {n});
+    }
+    commit(tmp, path);
+}
+
+bool is_checkpoint(const std::string& path) {
+    handle f = open_for_reading(path);
+    return H5Aexists(f, "format") > 0 && get_string(f, "format") == "eci navier-stokes-2d checkpoint";
+}
+
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path) {
+    handle f = open_for_reading(path);
+    std::vector<hsize_t> dims;
+    std::vector<double> v = read_dataset(f, "vorticity", dims);
+    if (dims.size() != 2 || dims[0] != dims[1]) throw std::runtime_error(path + ": vorticity is not a square grid");
+    return {int(dims[0]), std::move(v)};
+}
+
+bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t) {
+    const std::string data = temp_name(path) + ".bin", tmp = temp_name(path);
+    {
+        std::FILE* f = std::fopen(data.c_str(), "wb");
+        if (!f) return false;
+        std::fwrite(field.data(), sizeof(double), field.size(), f);
+        std::fclose(f);
+    }
+    double vmax = 0.0;
+    for (double v : field) vmax = std::max(vmax, std::abs(v));
+    if (!(vmax > 0.0)) vmax = 1.0;
+    char title[64];
+    std::snprintf(title, sizeof title, "vorticity, t = %.4g", t);
+    const double h = 2.0 * M_PI / n;
+    std::string s = "set terminal pngcairo size 760,640\nset output " + quoted(tmp) + "\n";
+    s += "set title " + quoted(title) + "\nset size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n";
+    s += "set xrange [0:2*pi]\nset yrange [0:2*pi]\nset cbrange [" + g(-vmax) + ":" + g(vmax) + "]\n";
+    s += "set palette defined (0 '#053061', 0.25 '#4393c3', 0.5 '#f7f7f7', 0.75 '#d6604d', 1 '#67001f')\n";
+    s += "set cblabel 'omega'\n";
+    s += "plot " + quoted(data) + " binary array=(" + std::to_string(n) + "," + std::to_string(n) +
+         ") format='%float64' dx=" + g(h) + " dy=" + g(h) + " with image notitle\n";
+    const bool ok = gnuplot(s);
+    std::error_code ec;
+    std::filesystem::remove(data, ec);
+    if (!ok) {
+        std::filesystem::remove(tmp, ec);
+        return false;
+    }
+    commit(tmp, path);
+    return true;
+}
+
+void write_spectrum(const std::string& csv_path, const std::string& png_path, const std::vector<double>& e, double t) {
+    const std::string tmp = temp_name(csv_path);
+    {
+        std::FILE* f = std::fopen(tmp.c_str(), "w");
+        if (!f) throw std::runtime_error("cannot write " + csv_path);
+        std::fprintf(f, "k,E\n");
+        for (std::size_t k = 1; k < e.size(); ++k) std::fprintf(f, "%zu,%.17g\n", k, e[k]);
+        if (std::fclose(f) != 0) throw std::runtime_error("cannot write " + csv_path);
+    }
+    commit(tmp, csv_path);
+    if (png_path.empty()) return;
+    // Guides through the spectrum's peak: k^-3 (enstrophy cascade) and k^-5/3 (inverse energy cascade).
+    std::size_t kp = 1;
+    for (std::size_t k = 1; k < e.size(); ++k)
+        if (e[k] > e[kp]) kp = k;
+    const double ep = std::max(e[kp], 1e-300);
+    char title[64];
+    std::snprintf(title, sizeof title, "energy spectrum, t = %.4g", t);
+    const std::string ptmp = temp_name(png_path);
+    std::string s = "set terminal pngcairo size 720,540\nset output " + quoted(ptmp) + "\nset datafile separator ','\n";
+    s += "set logscale xy\nset format y '10^{%L}'\nset xlabel 'k'\nset ylabel 'E(k)'\nset key bottom left\n";
+    s += "set title " + quoted(title) + "\n";
+    s += "set yrange [" + g(ep * 1e-12) + ":" + g(ep * 10) + "]\n";
+    s += "plot " + quoted(csv_path) + " skip 1 using 1:($2 > 0 ? $2 : NaN) with linespoints pt 7 ps 0.4 title 'E(k)', ";
+    s += g(ep) + "*(x/" + std::to_string(kp) + ".)**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
+    s += g(ep) + "*(x/" + std::to_string(kp) + ".)**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
+    if (gnuplot(s)) {
+        commit(ptmp, png_path);
+    } else {
+        std::error_code ec;
+        std::filesystem::remove(ptmp, ec);
+    }
+}
+
+}  // namespace eci::cli

@@ -1,0 +1,50 @@
+// The files of `eci run navier-stokes-2d`: HDF5 snapshots and checkpoints (written atomically), and the vorticity
+// and energy-spectrum figures drawn by gnuplot.
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <eci/models/navier_stokes_2d.hpp>
+
+namespace eci::cli {
+
+/// Everything a restart needs: parameters, state, step counter, generator, and the run's statistics so far.
+struct ns2d_checkpoint {
+    ns2d_params params;
+    std::string method;
+    double dt = 0.0;
+    std::uint64_t step = 0;           ///< steps done; t = step * dt
+    std::uint64_t total_steps = 0;    ///< steps the run was asked for
+    std::uint64_t rng_state = 0;
+    navier_stokes_2d::state_type state;
+    // statistics
+    std::uint64_t halvings = 0, rhs_evals = 0;
+    ns2d_budget budget;               ///< cumulative since step 0
+    double energy0 = 0.0, enstrophy0 = 0.0;
+    double max_energy_drift = 0.0, max_enstrophy_drift = 0.0;      ///< max |I - I0| over steps
+    double max_energy_residual = 0.0, max_enstrophy_residual = 0.0;  ///< max per-step budget residual, relative
+};
+
+/// Writes the checkpoint under a temporary name and renames it over `path`; throws std::runtime_error.
+void write_checkpoint(const std::string& path, const ns2d_checkpoint& c);
+/// Reads a checkpoint; throws std::runtime_error naming the problem (unreadable, not an eci checkpoint, ...).
+ns2d_checkpoint read_checkpoint(const std::string& path);
+
+/// A vorticity snapshot: the field on the grid with grid, time and parameters as attributes (atomic).
+void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const std::vector<double>& field,
+                       double t, std::uint64_t step, const std::string& method, double dt);
+/// Whether `path` is an HDF5 file holding an eci checkpoint (false for a snapshot); throws if it is unreadable.
+bool is_checkpoint(const std::string& path);
+/// The vorticity field of an eci snapshot and its grid size n; throws std::runtime_error.
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path);
+
+/// The vorticity as a PNG (diverging colour map symmetric about 0, colour bar, time in the title), by gnuplot.
+/// Returns false (and draws nothing) when gnuplot is not available.
+bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t);
+/// E(k) as CSV (k,E) and, if gnuplot is available, a log-log PNG with k^-3 and k^-5/3 guide lines.
+void write_spectrum(const std::string& csv_path, const std::string& png_path, const std::vector<double>& e, double t);
+
+}  // namespace eci::cli

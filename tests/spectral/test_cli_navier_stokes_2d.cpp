@@ -1,0 +1,180 @@
+// `eci run navier-stokes-2d` end to end: restart continues bit for bit, snapshots and checkpoints are readable
+// HDF5, a blow-up keeps the last good checkpoint, bad input is one line, exit 2 and no file touched.
+#ifdef ECI_CLI_PATH
+
+#include <gtest/gtest.h>
+#include <hdf5.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "cli/support.hpp"
+
+namespace {
+
+using namespace eci::test_cli;
+
+// A dataset of doubles from an HDF5 file (empty if it cannot be read).
+std::vector<double> read_doubles(const fs::path& file, const char* name) {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    std::vector<double> v;
+    const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) return v;
+    const hid_t d = H5Dopen2(f, name, H5P_DEFAULT);
+    if (d >= 0) {
+        const hid_t s = H5Dget_space(d);
+        v.resize(std::size_t(H5Sget_simple_extent_npoints(s)));
+        if (H5Dread(d, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data()) < 0) v.clear();
+        H5Sclose(s);
+        H5Dclose(d);
+    }
+    H5Fclose(f);
+    return v;
+}
+
+const std::string forced = "run navier-stokes-2d --N 32 --nu 1e-3 --forcing stochastic --injection-rate 0.2 "
+                           "--dt 0.02 --every 1 ";
+
+// 40 steps in one go, and 20 steps + restart to 40: the state and every CSV row after the restart are the same bits.
+// Measured FFTW plans (the default) are the same in every process through the wisdom file (and a restart imports
+// the wisdom its checkpoint carries).
+TEST(CliNavierStokes2d, RestartIsBitIdentical) {
+    scratch_dir dir("ns2d-restart");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    const std::string forced = ::forced + "--fftw-wisdom " + q + "/wisdom ";
+    auto r = run_eci(forced + "--steps 40 --output " + q + "/full.csv --checkpoint-every 40 --checkpoint " + q +
+                         "/full.h5",
+                     d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = run_eci(forced + "--steps 20 --output " + q + "/half.csv --checkpoint-every 20 --checkpoint " + q +
+                    "/half.h5",
+                d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = run_eci("run navier-stokes-2d --fftw-wisdom " + q + "/wisdom --restart " + q + "/half.h5 --steps 40 --every 1 --output " + q +
+                    "/rest.csv --checkpoint-every 40 --checkpoint " + q + "/rest.h5",
+                d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto full = read_doubles(d / "full.h5", "omega_hat"), rest = read_doubles(d / "rest.h5", "omega_hat");
+    ASSERT_EQ(full.size(), 32u * 17u * 2u);
+    ASSERT_EQ(full.size(), rest.size());
+    EXPECT_EQ(0, std::memcmp(full.data(), rest.data(), full.size() * sizeof(double)));
+    const auto full_rows = lines_of(read_text(d / "full.csv")), rest_rows = lines_of(read_text(d / "rest.csv"));
+    ASSERT_EQ(full_rows.size(), 42u);  // header + steps 0..40
+    ASSERT_EQ(rest_rows.size(), 22u);  // header + steps 20..40
+    for (std::size_t i = 1; i < rest_rows.size(); ++i) EXPECT_EQ(rest_rows[i], full_rows[i + 20]);
+    // and the forcing did something: the run without the restart's generator state would differ
+    const auto half = read_doubles(d / "half.h5", "omega_hat");
+    EXPECT_NE(0, std::memcmp(full.data(), half.data(), full.size() * sizeof(double)));
+}
+
+// Snapshots: vorticity as HDF5 (grid, time, parameters) and PNG, E(k) as CSV; the budget columns close.
+TEST(CliNavierStokes2d, SnapshotsSpectrumAndBudgetColumns) {
+    scratch_dir dir("ns2d-snap");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    const auto r = run_eci("run navier-stokes-2d --N 32 --nu 2e-3 --hyper-nu 1e-7 --drag 0.02 --forcing "
+                           "deterministic --forcing-amplitude 0.5 --steps 30 --every 10 --fftw-estimate "
+                           "--snapshot-every 15 --snapshot-dir " + q + "/snaps --output " + q + "/ts.csv",
+                           d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (const char* f : {"vorticity_00000000.h5", "vorticity_00000015.h5", "vorticity_00000030.h5",
+                          "spectrum_00000030.csv"})
+        EXPECT_TRUE(fs::exists(d / "snaps" / f)) << f;
+    EXPECT_EQ(read_doubles(d / "snaps" / "vorticity_00000030.h5", "vorticity").size(), 32u * 32u);
+    const auto rows = lines_of(read_text(d / "ts.csv"));
+    ASSERT_EQ(rows.size(), 5u);
+    const auto head = split(rows[0]);
+    const auto last = split(rows.back());
+    ASSERT_EQ(head.size(), last.size());
+    double e = 0, e_in = 0, e_out = 0, residual = 1;
+    for (std::size_t i = 0; i < head.size(); ++i) {
+        if (head[i] == "energy") e = std::stod(last[i]);
+        if (head[i] == "energy_injection") e_in = std::stod(last[i]);
+        if (head[i] == "energy_dissipation") e_out = std::stod(last[i]);
+        if (head[i] == "energy_budget_residual") residual = std::stod(last[i]);
+    }
+    EXPECT_GT(std::abs(e_in), 1e-6 * e);  // fixed random phases: the forcing may as well take energy out
+    EXPECT_GT(e_out, 0.0);
+    // 30 steps, each closing to a few eps of E (the library's budget test): 1e-13 per step is ample.
+    EXPECT_LE(std::abs(residual), 30 * 1e-13 * e);
+}
+
+// A blow-up (forward Euler far beyond its stability limit) stops with an error naming it, exit 1, and the last
+// good checkpoint stays readable and finite.
+TEST(CliNavierStokes2d, BlowUpKeepsLastGoodCheckpoint) {
+    scratch_dir dir("ns2d-blowup");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    const auto r = run_eci("run navier-stokes-2d --N 32 --method euler --cfl 2 --steps 500 --fftw-estimate "
+                           "--checkpoint-every 1 --checkpoint " + q + "/c.h5",
+                           d);
+    EXPECT_EQ(r.status, 1);
+    EXPECT_NE(r.err.find("blow-up"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("last good checkpoint"), std::string::npos) << r.err;
+    const auto v = read_doubles(d / "c.h5", "omega_hat");
+    ASSERT_FALSE(v.empty());
+    for (double x : v) ASSERT_TRUE(std::isfinite(x));
+}
+
+// SIGINT: the run writes its checkpoint atomically and exits 130; the checkpoint restarts.
+TEST(CliNavierStokes2d, InterruptWritesCheckpointThatRestarts) {
+    scratch_dir dir("ns2d-sigint");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    auto r = run_eci("run navier-stokes-2d --N 32 --steps 100000000 --fftw-estimate --checkpoint " + q + "/c.h5", d,
+                     "timeout --preserve-status -s INT 1");
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("--restart"), std::string::npos) << r.err;
+    ASSERT_FALSE(read_doubles(d / "c.h5", "omega_hat").empty());
+    r = run_eci("run navier-stokes-2d --restart " + q + "/c.h5 --steps 100000000 --fftw-estimate --checkpoint " + q +
+                    "/c2.h5",
+                d, "timeout --preserve-status -s INT 1");
+    EXPECT_EQ(r.status, 130) << r.err;
+    for (const auto& e : fs::directory_iterator(d))  // no temporary left behind
+        EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+// Bad input: one line on stderr, exit 2, the output file neither created nor replaced.
+TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
+    scratch_dir dir("ns2d-bad");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    auto r = run_eci("run navier-stokes-2d --N 16 --steps 2 --fftw-estimate --checkpoint-every 2 --checkpoint " +
+                         q + "/ok.h5",
+                     d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    {
+        std::ofstream keep(d / "keep.csv");
+        keep << "precious\n";
+    }
+    const std::vector<std::pair<std::string, std::string>> cases = {
+        {"--N 31", "even"},
+        {"--N 4", "at least 8"},
+        {"--nu -0.1", "viscosity"},
+        {"--restart " + q + "/missing.h5", "cannot restart"},
+        {"--restart " + q + "/keep.csv", "cannot restart"},
+        {"--restart " + q + "/ok.h5 --N 32", "does not match"},
+        {"--ic " + q + "/ok.h5 --N 32", "grid"},
+        {"--dt 0.1 --cfl 0.5", "not both"},
+        {"--method c-euler", "not available"},
+    };
+    for (const auto& [args, needle] : cases) {
+        for (const char* out : {"new.csv", "keep.csv"}) {
+            r = run_eci("run navier-stokes-2d --steps 2 --fftw-estimate " + args + " --output " + q + "/" + out, d);
+            EXPECT_EQ(r.status, 2) << args;
+            EXPECT_EQ(lines_of(r.err).size(), 1u) << args << ": " << r.err;
+            EXPECT_NE(r.err.find(needle), std::string::npos) << args << ": " << r.err;
+        }
+        EXPECT_FALSE(fs::exists(d / "new.csv")) << args;
+        EXPECT_EQ(read_text(d / "keep.csv"), "precious\n") << args;
+        EXPECT_FALSE(fs::exists(d / "ns2d-checkpoint.h5")) << args;
+    }
+}
+
+}  // namespace
+
+#endif  // ECI_CLI_PATH
