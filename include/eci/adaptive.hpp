@@ -80,10 +80,13 @@ class adaptive_failure : public std::runtime_error {
     }
 };
 
-/// How a run with output times produces its rows: by landing a step on each time (the default: as accurate as the
-/// method), or by the cubic Hermite dense output (third order; for a conservative stepper an interpolant of xi
-/// that keeps every invariant, landed instead where it would need the square root of a negative xi).
-enum class output_mode { landing, dense };
+/// How a run with output times produces its rows: by landing a step on each time, or by dense output (for a
+/// conservative stepper an interpolant of xi that keeps every invariant).
+enum class output_mode {
+    landing,   ///< a step lands on every output time
+    dense,     ///< the stepper's dense output (landed where a conservative interpolant would need sqrt of < 0)
+    automatic  ///< dense where it is as accurate as the steps (DP54's continuous extension, BS32), else landing
+};
 
 /// A stepper the adaptive drivers can run: attempt / accept / reset with an embedded error estimate.
 template <class St, class F, class S>
@@ -229,6 +232,35 @@ void check_run(const S& x, double t0, double t_end, double dt0, const adaptive_o
     check_options(o, std::ranges::size(x));
 }
 
+/// The dense-output half of integrate_adaptive_at: interpolate every output time inside each accepted step.
+template <class St, class F, class S, class Loop, class Observer, class Emit>
+void dense_run(St& stepper, F& counted, S& x, const std::vector<double>& times, Loop& loop, std::size_t& next,
+               Observer& observe, Emit& emit_until, adaptive_stats& stats) {
+    S scratch{}, start{};
+    St fallback{};
+    loop.advance(times.back(), [&](double t_prev, double t_new) {
+        if (next >= times.size() || times[next] >= t_new) return emit_until(t_new);
+        stepper.prepare_dense(counted, std::as_const(x), t_new);
+        const double h = t_new - t_prev;
+        while (next < times.size() && times[next] < t_new) {
+            const double theta = (times[next] - t_prev) / h;
+            if (stepper.interpolate(std::as_const(x), theta, scratch)) {
+                ++stats.dense_points;
+            } else {
+                // The interpolated xi went negative: land a step from the step's start instead.
+                ++stats.dense_fallbacks;
+                start = stepper.step_start();
+                fallback.reset();
+                integrate_to(fallback, counted, start, t_prev, times[next], times[next] - t_prev);
+                scratch = start;
+            }
+            detail::notify(observe, std::as_const(scratch), times[next], next);
+            ++next;
+        }
+        emit_until(t_new);
+    });
+}
+
 }  // namespace detail
 
 /// Integrate x from t0 to t_end with adaptive steps starting from dt0. The observer sees (x, t) (or (x, t, i))
@@ -256,7 +288,7 @@ template <state S, system<S> F, class St, class Observer>
     requires adaptive_stepper<St, F, S>
 adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const std::vector<double>& times,
                                      double dt0, const adaptive_options& options, Observer&& observe,
-                                     output_mode mode = output_mode::landing) {
+                                     output_mode mode = output_mode::automatic) {
     const double t_end = times.empty() ? t0 : times.back();
     detail::check_run<F>(x, t0, t_end, dt0, options);
     for (std::size_t i = 0; i < times.size(); ++i)
@@ -276,7 +308,21 @@ adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const 
         }
     };
     emit_until(t0);
-    if (mode == output_mode::landing) {
+    if (times.empty()) return stats;
+    constexpr bool has_dense = requires(const St& c, St& m, const S& y, S& out, double th) {
+        { c.interpolate(y, th, out) } -> std::same_as<step_result>;
+        m.prepare_dense(counted, y, th);
+        c.step_start();
+    };
+    if (mode == output_mode::automatic) {
+        if constexpr (has_dense && requires { St::dense_matches_steps; }) {
+            mode = St::dense_matches_steps ? output_mode::dense : output_mode::landing;
+        } else {
+            mode = output_mode::landing;
+        }
+    }
+    if (mode == output_mode::dense && !has_dense) throw std::invalid_argument("this stepper has no dense output");
+    if (mode == output_mode::landing || !has_dense) {
         while (next < times.size()) {
             loop.advance(times[next], [](double, double) {});
             ++stats.landed_points;
@@ -284,30 +330,9 @@ adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const 
         }
         return stats;
     }
-    S scratch{}, start{};
-    St fallback{};
-    loop.advance(t_end, [&](double t_prev, double t_new) {
-        if (next >= times.size() || times[next] >= t_new) return emit_until(t_new);
-        stepper.prepare_dense(counted, std::as_const(x), t_new);
-        const double h = t_new - t_prev;
-        while (next < times.size() && times[next] < t_new) {
-            const double theta = (times[next] - t_prev) / h;
-            if (stepper.interpolate(std::as_const(x), theta, scratch)) {
-                ++stats.dense_points;
-            } else {
-                // The interpolated xi went negative: land a step from the step's start instead.
-                ++stats.dense_fallbacks;
-                start = stepper.step_start();
-                fallback.reset();
-                integrate_to(fallback, counted, start, t_prev, times[next], times[next] - t_prev);
-                scratch = start;
-            }
-            detail::notify(observe, std::as_const(scratch), times[next], next);
-            ++next;
-        }
-        emit_until(t_new);
-    });
+    if constexpr (has_dense) detail::dense_run(stepper, counted, x, times, loop, next, observe, emit_until, stats);
     return stats;
 }
+
 
 }  // namespace eci

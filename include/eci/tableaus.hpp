@@ -51,6 +51,13 @@ struct embedded_tableau {
     std::array<double, S> c;
 };
 
+/// An embedded pair with a continuous extension: y(t0 + theta h) = y0 + theta (D + (1 - theta)(h k_1 - D +
+/// theta (2 D - h (k_1 + k_s) + (1 - theta) h sum_i d_i k_i))), D = y1 - y0, for an FSAL pair (k_s at y1).
+template <std::size_t S>
+struct dense_embedded_tableau : embedded_tableau<S> {
+    std::array<double, S> d;  ///< weights of the quartic term of the continuous extension
+};
+
 /// First same as last: the last stage is evaluated at the propagated solution (a's last row is b, c = 1),
 /// so a conventional method's last derivative is the next step's first.
 template <std::size_t S>
@@ -88,8 +95,9 @@ inline constexpr embedded_tableau<6> cash_karp_54{
     {2825.0 / 27648.0, 0.0, 18575.0 / 48384.0, 13525.0 / 55296.0, 277.0 / 14336.0, 1.0 / 4.0},
     {0.0, 1.0 / 5.0, 3.0 / 10.0, 3.0 / 5.0, 1.0, 7.0 / 8.0}};
 
-/// Dormand & Prince (1980) 5(4): fifth-order solution, fourth-order embedded one, seven stages with FSAL.
-inline constexpr embedded_tableau<7> dormand_prince_54{
+/// Dormand & Prince (1980) 5(4): fifth-order solution, fourth-order embedded one, seven stages with FSAL, and
+/// the fourth-order continuous extension of Hairer, Norsett & Wanner (I, section II.6; Shampine 1986).
+inline constexpr dense_embedded_tableau<7> dormand_prince_54{{
     5,
     4,
     {{{0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0},
@@ -101,7 +109,9 @@ inline constexpr embedded_tableau<7> dormand_prince_54{
       {35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0, 0.0}}},
     {35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0, 0.0},
     {5179.0 / 57600.0, 0.0, 7571.0 / 16695.0, 393.0 / 640.0, -92097.0 / 339200.0, 187.0 / 2100.0, 1.0 / 40.0},
-    {0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0}};
+    {0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0, 1.0}},
+    {-12715105075.0 / 11282082432.0, 0.0, 87487479700.0 / 32700410799.0, -10690763975.0 / 1880347072.0,
+     701980252875.0 / 199316789632.0, -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0}};
 
 /// Fehlberg (1968) 7(8), thirteen stages. Like Boost.Odeint's runge_kutta_fehlberg78 (so the two compare side
 /// by side) eci propagates the eighth-order solution and takes the seventh-order one as the embedded estimate.

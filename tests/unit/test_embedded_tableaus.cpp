@@ -147,4 +147,35 @@ TEST(EmbeddedTableaus, FsalIsDetectedFromTheCoefficients) {
     EXPECT_FALSE(eci::is_fsal(eci::tableaus::fehlberg_78));
 }
 
+// The continuous extension of DP54 written as y0 + h sum_i beta_i(theta) k_i: beta_i(theta) satisfies every order
+// condition up to order 4 with theta^|t| / gamma(t) on the right, at any theta; and beta(1) = b (continuity).
+TEST(EmbeddedTableaus, DormandPrinceContinuousExtensionIsFourthOrder) {
+    const auto& T = eci::tableaus::dormand_prince_54;
+    const auto trees = rooted_trees(5);
+    bool fifth_violated = false;
+    for (double theta : {0.2, 0.5, 0.7, 1.0}) {
+        // y(theta) - y0 = theta (D + (1 - theta)(h k1 - D + theta (2 D - h k1 - h k7 + (1 - theta) h sum d k)))
+        // with D = h sum b k: collect the weight of each k_i.
+        std::array<double, 7> beta{};
+        const double c_d = theta * (1.0 - (1.0 - theta) + (1.0 - theta) * theta * 2.0);
+        for (std::size_t i = 0; i < 7; ++i) beta[i] = c_d * T.b[i] + theta * (1.0 - theta) * theta * (1.0 - theta) * T.d[i];
+        beta[0] += theta * (1.0 - theta) * (1.0 - theta);
+        beta[6] -= theta * (1.0 - theta) * theta;
+        // scale the order conditions: sum beta Phi(t) = theta^|t| / gamma(t)  <=>  sum (beta / theta) Phi = ...
+        const auto r = check(static_cast<const eci::embedded_tableau<7>&>(T), beta, trees);
+        for (std::size_t t = 0; t < trees.size(); ++t) {
+            const double target = std::pow(theta, trees[t].order) / trees[t].gamma;
+            const double residual = r.residual[t] + 1.0 / trees[t].gamma - target;
+            if (trees[t].order <= 4)
+                EXPECT_LE(std::abs(residual), roundings * eps * r.magnitude[t]) << "theta " << theta << " tree " << t;
+            else if (theta < 1.0 && std::abs(residual) > 1e-6)
+                fifth_violated = true;
+        }
+        if (theta == 1.0) {
+            for (std::size_t i = 0; i < 7; ++i) EXPECT_NEAR(beta[i], T.b[i], 4.0 * eps) << "continuity at stage " << i;
+        }
+    }
+    EXPECT_TRUE(fifth_violated) << "a fourth-order extension cannot be fifth order inside the step";
+}
+
 }  // namespace

@@ -50,6 +50,9 @@ namespace detail {
 template <class Tab>
 concept embedded_pair = requires(const Tab& t) { t.bhat; t.embedded_order; };
 
+template <class Tab>
+concept with_continuous_extension = requires(const Tab& t) { t.d; };
+
 template <const auto& T>
 constexpr bool tableau_is_fsal() {
     if constexpr (embedded_pair<std::remove_cvref_t<decltype(T)>>)
@@ -92,6 +95,11 @@ class embedded_rk {
     static constexpr bool is_conservative = conservative;
     /// Whether the first stage of a step reuses the last of the step before.
     static constexpr bool first_same_as_last = fsal;
+    /// Whether the dense output is the pair's own continuous extension (else a cubic Hermite interpolant).
+    static constexpr bool has_continuous_extension = detail::with_continuous_extension<tableau_type> && fsal;
+    /// Whether the dense output is as accurate as the steps themselves (measured in tests/numeric/test_adaptive.cpp):
+    /// a continuous extension, or a cubic Hermite interpolant for a pair of order at most 3.
+    static constexpr bool dense_matches_steps = has_continuous_extension || T.order <= 3;
 
     /// Attempt a step of dt from (x, t). x is not changed; on success, accept() makes the candidate the state.
     /// With `w`, the error norm is computed; with `track_worst`, also the component with the largest error.
@@ -175,44 +183,73 @@ class embedded_rk {
     }
 
     /// The dense output at t0 + theta dt of the accepted step (x is the current state; call prepare_dense first).
-    /// Conventional: the cubic Hermite interpolant of psi. Conservative: the cubic Hermite interpolant of
-    /// xi = psi^2 with xi' = 2 Y S(Y) at both ends; since the basis weights of xi0 and xi1 sum to one and every
-    /// rate term has sum_k w_k Y_k S_k(Y) = 0, each interpolated point keeps every invariant of the step's ends.
-    /// psi takes the sign of the Hermite interpolant of psi. A negative interpolated xi fails (x out unchanged
-    /// in value, the component named): the caller then lands a step on that time instead.
+    /// Conventional: the pair's continuous extension (DP54, fourth order) or the cubic Hermite interpolant of psi.
+    /// Conservative: the same interpolant applied to xi = psi^2, with the stage rates 2 Y_i S(Y_i) in place of the
+    /// k_i. Every such interpolant is xi0 + c (xi1 - xi0) + dt sum_i beta_i 2 Y_i S(Y_i): xi0 and xi1 have equal
+    /// invariants and every rate term has sum_k w_k Y_k S_k(Y) = 0, so each interpolated point keeps every
+    /// invariant of the step's ends. psi takes the sign of the conventional interpolant. A negative interpolated
+    /// xi fails (the component named): the caller then lands a step on that time instead.
     step_result interpolate(const S& x, double theta, S& out) const {
         detail::resize_like(out, x);
         const auto x1 = detail::reals(x);
         const double* x0 = detail::reals(std::as_const(result_)).data();
-        const double* k0 = detail::reals(std::as_const(k_[fsal ? s - 1 : 0])).data();
-        const double* k1 = detail::reals(std::as_const(k_[fsal ? 0 : s - 1])).data();
+        // the stage derivatives of the accepted step, in stage order (an FSAL accept rotated k_0 and k_{s-1})
+        std::array<const double*, s> k{};
+        for (std::size_t j = 0; j < s; ++j) k[j] = detail::reals(std::as_const(k_[j])).data();
+        if constexpr (fsal) std::swap(k[0], k[s - 1]);
+        const double* k_end = fsal ? k[s - 1] : detail::reals(std::as_const(k_[s - 1])).data();
         const double h = last_dt_;
-        const double h00 = (1.0 + 2.0 * theta) * (1.0 - theta) * (1.0 - theta), h10 = theta * (1.0 - theta) * (1.0 - theta);
-        const double h01 = theta * theta * (3.0 - 2.0 * theta), h11 = theta * theta * (theta - 1.0);
         double* o = detail::reals(out).data();
         const std::size_t n = x1.size();
-        if constexpr (!conservative) {
-            for (std::size_t i = 0; i < n; ++i) o[i] = h00 * x0[i] + h01 * x1[i] + h * (h10 * k0[i] + h11 * k1[i]);
-            return step_result::success();
-        } else {
-            // Where each end's derivative was taken: the state itself, or (FSAL) the conventional update.
-            const double* p0 = p0_is_x0_ ? x0 : detail::reals(std::as_const(stage_)).data();
-            const double* p1 = first_is_x_ ? x1.data() : detail::reals(std::as_const(first_point_)).data();
-            const double* r0 = compensated ? detail::reals(std::as_const(res_new_)).data() : nullptr;
-            const double* r1 = compensated ? detail::reals(std::as_const(res_)).data() : nullptr;
-            double bad = 0.0;
-            for (std::size_t i = 0; i < n; ++i) {
+        // Where each end's derivative was taken: the state itself, or (conservative FSAL) the conventional update.
+        const double* p0 = x0;
+        const double* p1 = x1.data();
+        if constexpr (conservative && fsal) {
+            if (!p0_is_x0_) p0 = detail::reals(std::as_const(stage_)).data();
+            p1 = detail::reals(std::as_const(first_point_)).data();
+        }
+        const double* r0 = compensated ? detail::reals(std::as_const(res_new_)).data() : nullptr;
+        const double* r1 = compensated ? detail::reals(std::as_const(res_)).data() : nullptr;
+        // One interpolant, given the end values, the end rates and (continuous extension) sum_i d_i rate_i.
+        auto interpolant = [&](double y0, double y1, double f0, double f1, double fd) {
+            if constexpr (has_continuous_extension) {
+                const double dy = y1 - y0, c3 = h * f0 - dy, c4 = dy - h * f1 - c3;
+                return y0 + theta * (dy + (1.0 - theta) * (c3 + theta * (c4 + (1.0 - theta) * h * fd)));
+            } else {
+                (void)fd;
+                const double h00 = (1.0 + 2.0 * theta) * (1.0 - theta) * (1.0 - theta);
+                const double h10 = theta * (1.0 - theta) * (1.0 - theta);
+                const double h01 = theta * theta * (3.0 - 2.0 * theta), h11 = theta * theta * (theta - 1.0);
+                return (h00 * y0 + h01 * y1) + h * (h10 * f0 + h11 * f1);
+            }
+        };
+        double bad = 0.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            double kd = 0.0, rd = 0.0;  // sum_i d_i k_i and sum_i d_i 2 Y_i k_i
+            if constexpr (has_continuous_extension) {
+                [&]<std::size_t... J>(std::index_sequence<J...>) {
+                    ((T.d[J] != 0.0 ? (void)(kd += T.d[J] * k[J][i],
+                                             rd += T.d[J] * 2.0 *
+                                                   (J == 0 ? p0[i] : stage_value<J>(x0[i], k, i, h)) * k[J][i])
+                                    : (void)0),
+                     ...);
+                }(std::make_index_sequence<s>{});
+            }
+            // conventional interpolant of psi: between x0 and the conventional update (x1 itself if conventional)
+            const double psi = interpolant(x0[i], p1[i], k[0][i], k_end[i], kd);
+            if constexpr (!conservative) {
+                o[i] = psi;
+            } else {
                 double xi0 = x0[i] * x0[i], xi1 = x1[i] * x1[i];
                 if constexpr (compensated) xi0 += r0[i], xi1 += r1[i];
-                const double xi = (h00 * xi0 + h01 * xi1) + h * (h10 * (2.0 * p0[i] * k0[i]) + h11 * (2.0 * p1[i] * k1[i]));
-                const double sign = h00 * x0[i] + h01 * x1[i] + h * (h10 * k0[i] + h11 * k1[i]);
+                const double xi = interpolant(xi0, xi1, 2.0 * p0[i] * k[0][i], 2.0 * p1[i] * k_end[i], rd);
                 bad += xi >= 0.0 ? 0.0 : 1.0;
-                o[i] = std::copysign(std::sqrt(xi), sign);
+                o[i] = std::copysign(std::sqrt(xi), psi);
             }
-            if (bad != 0.0)
-                return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
-            return step_result::success();
         }
+        if (bad != 0.0)
+            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
+        return step_result::success();
     }
 
     /// The state at the start of the accepted step (valid from accept() to the next attempt).
