@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Builds the benchmarks in Release, runs them all and prints one table of side-by-side ratios with their targets.
-# Usage: bench/run.sh [--quick | --smoke] [--json FILE] [--out DIR] [--build-dir DIR]
+# Usage: bench/run.sh [--quick | --smoke] [--long] [--json FILE] [--out DIR] [--build-dir DIR]
 #   --quick  smaller large systems and fewer repetitions (under two minutes)
 #   --smoke  every program for a token run (CI: keeps them compiling and running, under a minute); numbers meaningless
+#   --long   also the 1e7-step round-off runs of compensated C-RK4 / C-DP54 (adaptive bench; minutes)
 set -euo pipefail
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -10,10 +11,12 @@ mode=full
 json=""
 out=""
 build="$repo/build-bench-release"
+long=0
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --quick) mode=quick ;;
     --smoke) mode=smoke ;;
+    --long) long=1 ;;
     --json) [[ $# -ge 2 ]] || { echo "run.sh: --json needs a file name" >&2; exit 2; }; json=$(realpath -m "$2"); shift ;;
     --out) [[ $# -ge 2 ]] || { echo "run.sh: --out needs a directory" >&2; exit 2; }; out=$(realpath -m "$2"); shift ;;
     --build-dir) [[ $# -ge 2 ]] || { echo "run.sh: --build-dir needs a directory" >&2; exit 2; }; build=$(realpath -m "$2"); shift ;;
@@ -36,7 +39,7 @@ esac
 echo "== building ($build, Release, same flags for eci and Boost.Odeint)" >&2
 cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DECI_BUILD_TESTS=OFF \
       -DECI_BUILD_APPS=OFF -DECI_BUILD_EXAMPLES=OFF > "$out/cmake.log"
-cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
+cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift eci_bench_adaptive \
       >> "$out/cmake.log"
 bin="$build/bench"
 
@@ -59,6 +62,12 @@ echo "== long-run drift, $drift_steps steps x $drift_members initial conditions"
 echo "== work-precision" >&2
 "$bin/eci_bench_work_precision" $wp_quick "$out/work_precision.csv" > "$out/work_precision.txt"
 
+echo "== adaptive: work-precision against odeint, per-step cost C-DP54/DP54 (N=$big_real)" >&2
+long_steps=0
+if [ "$long" = 1 ]; then long_steps=10000000; fi
+if [ "$mode" = smoke ]; then long_steps=$((long * 1000)); fi
+"$bin/eci_bench_adaptive" $wp_quick "$out/adaptive.csv" $big_real $long_steps > "$out/adaptive.txt"
+
 if command -v gnuplot > /dev/null; then
   for model in $(tail -n +2 "$out/work_precision.csv" | cut -d, -f1 | sort -u); do
     gnuplot -e "csv='$out/work_precision.csv'; model='$model'; out='$out/wp_$model'" "$repo/bench/plot_work_precision.gp"
@@ -73,3 +82,4 @@ python3 "$repo/bench/report.py" --steps "$out/step.json" --memory "$out/memory.t
     --mem-n $mem_n --drift-steps $drift_steps ${json:+--json "$json"} | tee "$out/table.txt"
 if [ "$mode" = smoke ]; then echo "(smoke run: every program ran once, at token sizes: the ratios above mean nothing)"; fi
 grep -h "^wp " "$out/work_precision.txt" | grep -v "lvk=" > "$out/work_precision_summary.txt" || true
+cat "$out/adaptive.txt"
