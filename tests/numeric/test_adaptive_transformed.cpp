@@ -128,6 +128,11 @@ TEST(AdaptiveKepler, KeepsInvariantsAtEveryTolerance) {
         const double a_bound = 8.0 * eps * (c.scale_ratio + std::abs(c.theta_end));
         EXPECT_LE(c.h_drift, h_bound) << "tol " << tol;
         EXPECT_LE(c.a_drift, a_bound) << "tol " << tol;
+        // At 1e-3 the controller proposes steps past perihelion where xi_1 >= 0 or v_r^2 < 0: non-invertible
+        // transforms, rejected and counted apart from error rejections (measured 46 in 163 steps).
+        if (e == 3) {
+            EXPECT_GT(c.stats.rejected_radicand, 0u);
+        }
         if (e == 3 || e == 12)
             std::printf("  tol %.0e: %llu steps, %llu/%llu rejected (error/non-invertible), |dH/H| %.2e, |dA|/|A| %.2e\n",
                         tol, (unsigned long long)c.stats.accepted, (unsigned long long)c.stats.rejected_error,

@@ -265,15 +265,14 @@ class embedded_rk {
     }
 
     /// The fixed-step face: one step of dt, reusing carried data only if x is the state this stepper produced
-    /// last at time t (so a caller that changes x between steps needs no reset()).
+    /// last (so a caller that changes x between steps needs no reset()).
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
-        if (!(stepped_ && t == last_t_ && x == last_x_)) reset();
+        if (!(stepped_ && x == last_x_)) reset();
         const attempt_result r = attempt(f, x, t, dt);
         if (!r.ok) return step_result::failure(r.component);
         accept(x);
         stepped_ = true;
-        last_t_ = t + dt;
         last_x_ = x;
         return step_result::success();
     }
@@ -432,7 +431,7 @@ class embedded_rk {
     bool dense_ready_ = false;
     bool residual_valid_ = false;
     bool stepped_ = false;
-    double last_t_ = 0.0, last_dt_ = 0.0;
+    double last_dt_ = 0.0;
 };
 
 /// Bogacki-Shampine 3(2), conventional.

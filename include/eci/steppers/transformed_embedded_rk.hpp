@@ -116,12 +116,11 @@ class transformed_embedded_rk {
     /// The fixed-step face.
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
-        if (!(stepped_ && t == last_t_ && x == last_x_)) reset();
+        if (!(stepped_ && x == last_x_)) reset();
         const attempt_result r = attempt(f, x, t, dt);
         if (!r.ok) return step_result::failure(r.component);
         accept(x);
         stepped_ = true;
-        last_t_ = t + dt;
         last_x_ = x;
         return step_result::success();
     }
@@ -151,7 +150,6 @@ class transformed_embedded_rk {
     S stage_{}, conv_{}, conv_hat_{}, x_new_{}, x_hat_{}, first_point_{}, last_x_{};
     X xi_{}, xi_new_{}, xi_hat_{}, rate_{}, acc_{}, acc_hat_{};
     bool have_xi_ = false, have_first_ = false, stepped_ = false;
-    double last_t_ = 0.0;
     solver_stats stats_{};
 };
 
