@@ -346,6 +346,24 @@ class embedded_rk {
         return acc;
     }
 
+    // Stage J's term of the two rates of xi, 2 Y_J k_J weighted by b_J and by b_J - bhat_J (Y_0 is the point the
+    // first derivative was taken at: x, or the FSAL point); terms with zero weights vanish at compile time.
+    template <std::size_t J>
+    static void add_rate(double p0, double x, const std::array<const double*, s>& k, std::size_t i, double dt,
+                         double& rate, double& drate) {
+        constexpr double bj = T.b[J], dj = error_weights_of_tableau[J];
+        if constexpr (bj != 0.0 || dj != 0.0) {
+            double y;
+            if constexpr (J == 0)
+                y = p0;
+            else
+                y = stage_value<J>(x, k, i, dt);
+            const double yk = 2.0 * y * k[J][i];
+            if constexpr (bj != 0.0) rate += bj * yk;
+            if constexpr (dj != 0.0) drate += dj * yk;
+        }
+    }
+
     // One pass over the unknowns: the new state, its error and the error norm's sums.
     template <bool Norm, bool Track, std::size_t... J>
     static void finish(double* o, double* rn, const double* x, const double* p0, const double* r,
@@ -360,21 +378,8 @@ class embedded_rk {
             ((T.b[J] != 0.0 ? (conv += wb[J] * k[J][i], 0) : 0), ...);
             double next = conv, err = 0.0;
             if constexpr (conservative) {
-                // Y_0 is the point the first derivative was taken at (x, or the FSAL point)
-                auto y = [&]<std::size_t M>(std::integral_constant<std::size_t, M>) {
-                    if constexpr (M == 0)
-                        return p0[i];
-                    else
-                        return stage_value<M>(x[i], k, i, dt);
-                };
                 double rate = 0.0, drate = 0.0;  // sum_j b_j 2 Y_j k_j and sum_j (b_j - bhat_j) 2 Y_j k_j
-                (((T.b[J] != 0.0 || d[J] != 0.0) ? (void)([&] {
-                     const double yk = 2.0 * y(std::integral_constant<std::size_t, J>{}) * k[J][i];
-                     if (T.b[J] != 0.0) rate += T.b[J] * yk;
-                     if (d[J] != 0.0) drate += d[J] * yk;
-                 }())
-                                                  : (void)0),
-                 ...);
+                (add_rate<J>(p0[i], x[i], k, i, dt, rate, drate), ...);
                 const double inc = dt * rate;
                 double xi;
                 if constexpr (compensated) {
