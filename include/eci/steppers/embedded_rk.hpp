@@ -127,13 +127,15 @@ class embedded_rk {
         const double* r = compensated ? detail::reals(std::as_const(res_)).data() : nullptr;
         const std::size_t n = xr.size();
         finish_sums sums;
+        constexpr auto J = std::make_index_sequence<s>{};
         if (w == nullptr)
-            finish<false, false>(o, rn, xr.data(), p0, r, kp, dt, n, error_weights{}, sums,
-                                 std::make_index_sequence<s>{});
+            finish<false, false, false>(o, rn, xr.data(), p0, r, kp, dt, n, error_weights{}, sums, J);
         else if (track_worst)
-            finish<true, true>(o, rn, xr.data(), p0, r, kp, dt, n, *w, sums, std::make_index_sequence<s>{});
-        else
-            finish<true, false>(o, rn, xr.data(), p0, r, kp, dt, n, *w, sums, std::make_index_sequence<s>{});
+            finish<true, true, true>(o, rn, xr.data(), p0, r, kp, dt, n, *w, sums, J);
+        else if (w->rtol_each || w->atol_each)
+            finish<true, false, true>(o, rn, xr.data(), p0, r, kp, dt, n, *w, sums, J);
+        else  // scalar tolerances: no per-unknown branch, so the pass vectorizes
+            finish<true, false, false>(o, rn, xr.data(), p0, r, kp, dt, n, *w, sums, J);
         attempt_result res;
         if (sums.bad != 0.0) {
             res.ok = false;
@@ -365,7 +367,7 @@ class embedded_rk {
     }
 
     // One pass over the unknowns: the new state, its error and the error norm's sums.
-    template <bool Norm, bool Track, std::size_t... J>
+    template <bool Norm, bool Track, bool Each, std::size_t... J>
     static void finish(double* o, double* rn, const double* x, const double* p0, const double* r,
                        const std::array<const double*, s>& k, double dt, std::size_t n, const error_weights& w,
                        finish_sums& sums, std::index_sequence<J...>) {
@@ -401,18 +403,23 @@ class embedded_rk {
                     next = std::copysign(std::sqrt(xi), conv);
                 }
                 if constexpr (Norm && has_error_estimate) {
-                    // psi - psihat = (xi - xihat) / (sqrt(xi) + sqrt(xihat)), without cancellation
+                    // psi - psihat = (xi - xihat) / (sqrt(xi) + sqrt(xihat)), without cancellation. For xi, xihat >= 0
+                    // the denominator is >= sqrt|xi - xihat|; the max only acts where xihat < 0 (then the error is
+                    // taken as sqrt(xi - xihat)) or both are 0, and keeps the loop free of branches.
                     const double dxi = dt * drate;
                     const double den = std::abs(next) + std::sqrt(std::max(xi - dxi, 0.0));
-                    err = den > 0.0 ? dxi / den : std::sqrt(std::abs(dxi));
+                    err = dxi / std::max(den, std::sqrt(std::abs(dxi)));
                 }
             } else if constexpr (Norm && has_error_estimate) {
                 ((d[J] != 0.0 ? (err += (dt * d[J]) * k[J][i], 0) : 0), ...);
             }
             o[i] = next;
             if constexpr (Norm && has_error_estimate) {
-                const double rt = w.rtol_each ? w.rtol_each[i] : w.rtol;
-                const double at = w.atol_each ? w.atol_each[i] : w.atol;
+                double rt = w.rtol, at = w.atol;
+                if constexpr (Each) {
+                    if (w.rtol_each) rt = w.rtol_each[i];
+                    if (w.atol_each) at = w.atol_each[i];
+                }
                 const double ratio = err / (at + rt * std::max(std::abs(x[i]), std::abs(next)));
                 sq += ratio * ratio;
                 if constexpr (Track) {
