@@ -123,6 +123,20 @@ inline void check_options(const adaptive_options& o, std::size_t elements) {
     if (o.max_attempts == 0) throw std::invalid_argument("max_attempts must be at least 1");
 }
 
+/// The adaptive drivers' view of a system: counts its evaluations and exposes it as wrapped(), so that a stepper
+/// that needs the model behind f (a transform) still reaches it.
+template <class F>
+struct counted_system {
+    F* f;
+    std::uint64_t* count;
+    template <class S>
+    void operator()(const S& x, S& dxdt, double t) const {
+        ++*count;
+        (*f)(x, dxdt, t);
+    }
+    const F& wrapped() const { return *f; }
+};
+
 /// Call an observer as (x, t) or, odeint-style with an index, (x, t, i).
 template <class Observer, class S>
 void notify(Observer& observe, const S& x, double t, std::uint64_t i) {
@@ -272,10 +286,7 @@ adaptive_stats integrate_adaptive(St& stepper, F&& f, S& x, double t0, double t_
                                   const adaptive_options& options = {}, Observer&& observe = {}) {
     detail::check_run<F>(x, t0, t_end, dt0, options);
     adaptive_stats stats;
-    auto counted = [&](const S& a, S& b, double t) {
-        ++stats.rhs_evals;
-        f(a, b, t);
-    };
+    const detail::counted_system<std::remove_reference_t<F>> counted{&f, &stats.rhs_evals};
     detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
     detail::notify(observe, std::as_const(x), t0, 0);
     loop.advance(t_end, [&](double, double t) { detail::notify(observe, std::as_const(x), t, stats.accepted); });
@@ -295,10 +306,7 @@ adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const 
         if (!std::isfinite(times[i]) || times[i] < t0 || (i > 0 && !(times[i] >= times[i - 1])))
             throw std::invalid_argument("output times must be finite, >= the start time and non-decreasing");
     adaptive_stats stats;
-    auto counted = [&](const S& a, S& b, double t) {
-        ++stats.rhs_evals;
-        f(a, b, t);
-    };
+    const detail::counted_system<std::remove_reference_t<F>> counted{&f, &stats.rhs_evals};
     detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
     std::size_t next = 0;
     auto emit_until = [&](double t) {  // outputs at or before the current time t that equal it
