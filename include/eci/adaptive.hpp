@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -16,7 +17,10 @@
 #include "concepts.hpp"
 #include "detail/state_ops.hpp"
 #include "integrate.hpp"
+#include "registry.hpp"
+#include "run.hpp"
 #include "steppers/embedded_rk.hpp"
+#include "steppers/transformed_embedded_rk.hpp"
 
 namespace eci {
 
@@ -137,14 +141,6 @@ struct counted_system {
     const F& wrapped() const { return *f; }
 };
 
-/// Call an observer as (x, t) or, odeint-style with an index, (x, t, i).
-template <class Observer, class S>
-void notify(Observer& observe, const S& x, double t, std::uint64_t i) {
-    if constexpr (std::invocable<Observer&, const S&, double>)
-        observe(x, t);
-    else
-        observe(x, t, i);
-}
 
 /// The controller and the loop shared by all adaptive drivers. `advance(t_target, on_accept)` steps x from t to
 /// t_target (landing on it); on_accept(t_prev, t_new) sees every accepted step.
@@ -342,5 +338,107 @@ adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const 
     return stats;
 }
 
+
+namespace detail {
+
+template <class E>
+concept embedded_method = tableau_method<E> && embedded_pair<std::remove_cvref_t<decltype(E::tableau)>>;
+
+// The adaptive stepper of registry entry E on model M: the embedded engine, conventional or conservative, or the
+// transformed one on a model with a linearizing transform; `unsupported` for a method without an error estimate.
+template <class E, class M>
+constexpr auto resolve_adaptive() {
+    using S = typename M::state_type;
+    if constexpr (!embedded_method<E>)
+        return type_is<unsupported>{};
+    else if constexpr (E::info.family == method_family::conventional)
+        return type_is<embedded_rk<E::tableau, S, update_rule::conventional>>{};
+    else if constexpr (linearizable<M>)
+        return type_is<transformed_embedded_rk<E::tableau, transform_t<M>>>{};
+    else if constexpr (quadratic_invariants<M>)
+        return type_is<embedded_rk<E::tableau, S, update_rule::conservative>>{};
+    else
+        return type_is<unsupported>{};
+}
+
+}  // namespace detail
+
+/// The adaptive stepper of registry entry E on model M (or a state type), or detail::unsupported.
+template <class E, class M>
+using adaptive_stepper_for = typename decltype(detail::resolve_adaptive<E, typename detail::as_model<M>::type>())::type;
+
+namespace detail {
+template <class M, class Fn, class... E>
+bool dispatch_adaptive(std::string_view name, Fn& fn, type_list<E...>) {
+    auto try_one = [&]<class Entry>(Entry*) {
+        if constexpr (!std::same_as<adaptive_stepper_for<Entry, M>, unsupported>) {
+            if (Entry::info.name != name) return false;
+            fn(adaptive_stepper_for<Entry, M>{});
+            return true;
+        } else {
+            return false;
+        }
+    };
+    return (try_one(static_cast<E*>(nullptr)) || ...);
+}
+template <class M, class... E>
+std::vector<method_info> adaptive_methods(type_list<E...>) {
+    std::vector<method_info> out;
+    ((!std::same_as<adaptive_stepper_for<E, M>, unsupported> ? out.push_back(E::info) : void()), ...);
+    return out;
+}
+}  // namespace detail
+
+/// Calls fn(stepper) with the adaptive stepper of the registered method `name` on Model and returns true; false
+/// if that method has no error estimate (is not an embedded pair) or does not run on Model.
+template <class Model, class Fn>
+bool with_adaptive_stepper(std::string_view name, Fn&& fn) {
+    return detail::dispatch_adaptive<typename detail::as_model<Model>::type>(name, fn, method_entry_list{});
+}
+
+/// The registered methods that run adaptively on Model, in list order.
+template <class Model>
+std::vector<method_info> adaptive_methods_for() {
+    return detail::adaptive_methods<typename detail::as_model<Model>::type>(method_entry_list{});
+}
+
+/// What run_adaptive() reports.
+struct adaptive_report {
+    adaptive_stats stats{};                        ///< steps by outcome, evaluations, step sizes (also if it failed)
+    std::vector<invariant_record> invariants;      ///< every named invariant, at every observed state
+    double t = 0.0;                                ///< the time of the last state observed
+    std::optional<adaptive_failure> failure;       ///< set if the run stopped early
+    bool completed() const { return !failure.has_value(); }
+};
+
+/// Runs an adaptive `stepper` on `model` from x (at t0) to t_end, monitoring the model's invariants. Without
+/// output times the observer sees every accepted step; with them, exactly those times (by `mode`). The observer
+/// may be (x, t), (x, t, i) or (x, t, i, monitor) and may throw to stop the run. A run that stops early (minimum
+/// step, step budget) reports `failure` with the statistics and drifts up to there; x is the state reached.
+template <has_named_invariants Model, class St, class Observer = no_observer>
+adaptive_report run_adaptive(St& stepper, const Model& model, typename Model::state_type& x, double t0, double t_end,
+                             double dt0, const adaptive_options& options, const std::vector<double>& times = {},
+                             Observer&& observe = {}, output_mode mode = output_mode::automatic) {
+    using S = typename Model::state_type;
+    invariant_monitor<Model> monitor(model);
+    adaptive_report report;
+    auto watch = [&](const S& s, double t, std::uint64_t i) {
+        monitor.record(s);
+        report.t = t;
+        if constexpr (std::invocable<Observer&, const S&, double, std::uint64_t, const invariant_monitor<Model>&>)
+            observe(s, t, i, std::as_const(monitor));
+        else
+            detail::notify(observe, s, t, i);
+    };
+    try {
+        report.stats = times.empty() ? integrate_adaptive(stepper, model, x, t0, t_end, dt0, options, watch)
+                                     : integrate_adaptive_at(stepper, model, x, t0, times, dt0, options, watch, mode);
+    } catch (const adaptive_failure& e) {
+        report.stats = e.stats;
+        report.failure = e;
+    }
+    report.invariants = monitor.records();
+    return report;
+}
 
 }  // namespace eci

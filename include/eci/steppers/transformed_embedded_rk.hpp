@@ -23,6 +23,7 @@ namespace eci {
 /// the branch of the conventional embedded update: the two solutions' difference in the state's own units.
 /// A non-invertible xi (or xihat) rejects the step, like a negative radicand. FSAL as in embedded_rk: the carried
 /// derivative is paired, in the rate of xi, with the conventional point it was taken at.
+/// The transform comes from the model behind the f passed to attempt (model_of(f).linearizing_transform()).
 /// Protocol as embedded_rk (attempt / accept / reset / step); no dense output.
 template <const auto& T, invariant_transform Tr>
 class transformed_embedded_rk {
@@ -39,16 +40,15 @@ class transformed_embedded_rk {
     static constexpr bool is_conservative = true;
     static constexpr bool first_same_as_last = fsal;
 
-    /// The stepper for the transform `tr` (which must describe the same system as the f passed to attempt).
-    explicit transformed_embedded_rk(Tr tr = {}) : tr_(std::move(tr)) {}
-
     template <system<S> F>
     attempt_result attempt(F& f, const S& x, double t, double dt, const error_weights* w = nullptr,
                            bool track_worst = false) {
+        // The transform is the system's own, taken from the model behind f at every attempt (as transformed_rk).
+        const Tr tr = transformed_rk<T, Tr>::transform_of(model_of(f));
         for (auto& ki : k_) detail::resize_like(ki, x);
         for (S* b : {&stage_, &conv_, &conv_hat_, &x_new_, &x_hat_, &first_point_}) detail::resize_like(*b, x);
         if (!have_xi_) {
-            tr_.to_xi(x, xi_);
+            tr.to_xi(x, xi_);
             have_xi_ = true;
         }
         if (!have_first_) {
@@ -62,7 +62,7 @@ class transformed_embedded_rk {
         std::fill(acc_hat.begin(), acc_hat.end(), 0.0);
         auto add_rate = [&](std::size_t i, const S& y, const S& k) {
             if (T.b[i] == 0.0 && T.bhat[i] == 0.0) return;
-            tr_.xi_rate(y, k, rate_);
+            tr.xi_rate(y, k, rate_);
             const auto r = detail::reals(std::as_const(rate_));
             for (std::size_t m = 0; m < acc.size(); ++m) acc[m] += T.b[i] * r[m], acc_hat[m] += T.bhat[i] * r[m];
         };
@@ -80,10 +80,10 @@ class transformed_embedded_rk {
         combine<T.b>(conv_, x, dt, std::make_index_sequence<s>{});
         combine<T.bhat>(conv_hat_, x, dt, std::make_index_sequence<s>{});
         attempt_result res;
-        const step_result r = tr_.from_xi(std::as_const(xi_new_), std::as_const(conv_), x_new_, stats_);
+        const step_result r = tr.from_xi(std::as_const(xi_new_), std::as_const(conv_), x_new_, stats_);
         if (!r) return {false, r.component, 0.0};
         if (w == nullptr) return res;
-        const step_result rh = tr_.from_xi(std::as_const(xi_hat_), std::as_const(conv_hat_), x_hat_, stats_);
+        const step_result rh = tr.from_xi(std::as_const(xi_hat_), std::as_const(conv_hat_), x_hat_, stats_);
         if (!rh) return {true, rh.component, std::numeric_limits<double>::infinity()};
         const auto a = detail::reals(std::as_const(x_new_)), b = detail::reals(std::as_const(x_hat_));
         double sq = 0.0, worst = -1.0;
@@ -145,7 +145,6 @@ class transformed_embedded_rk {
         detail::combine_stages<coeff>(detail::reals(out).data(), xr.data(), kp, dt, xr.size(), seq);
     }
 
-    Tr tr_;
     std::array<S, s> k_{};
     S stage_{}, conv_{}, conv_hat_{}, x_new_{}, x_hat_{}, first_point_{}, last_x_{};
     X xi_{}, xi_new_{}, xi_hat_{}, rate_{}, acc_{}, acc_hat_{};
