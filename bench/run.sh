@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Builds the benchmarks in Release, runs them all and prints one table of side-by-side ratios with their targets.
-# Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--json FILE] [--out DIR] [--build-dir DIR]
+# Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--long] [--json FILE] [--out DIR] [--build-dir DIR]
 #   --quick  smaller large systems and fewer repetitions (under two minutes)
 #   --smoke  every program for a token run (CI: keeps them compiling and running, under a minute); numbers meaningless
 #   --ns2d   also the 2-D Navier-Stokes benchmarks (N = 1024 steps, threads, N = 128..4096 scaling, NumPy; ~15 min)
+#   --long   also the 1e7-step round-off runs of compensated C-RK4 / C-DP54 (adaptive bench; minutes)
 set -euo pipefail
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -12,11 +13,13 @@ json=""
 out=""
 build="$repo/build-bench-release"
 ns2d=0
+long=0
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --quick) mode=quick ;;
     --smoke) mode=smoke ;;
     --ns2d) ns2d=1 ;;
+    --long) long=1 ;;
     --json) [[ $# -ge 2 ]] || { echo "run.sh: --json needs a file name" >&2; exit 2; }; json=$(realpath -m "$2"); shift ;;
     --out) [[ $# -ge 2 ]] || { echo "run.sh: --out needs a directory" >&2; exit 2; }; out=$(realpath -m "$2"); shift ;;
     --build-dir) [[ $# -ge 2 ]] || { echo "run.sh: --build-dir needs a directory" >&2; exit 2; }; build=$(realpath -m "$2"); shift ;;
@@ -47,7 +50,8 @@ echo "== building ($build, Release, same flags for eci and Boost.Odeint)" >&2
 cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DECI_BUILD_TESTS=OFF \
       -DECI_BUILD_APPS=$([ $ns2d = 1 ] && echo ON || echo OFF) -DECI_BUILD_EXAMPLES=OFF > "$out/cmake.log"
 cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
-      eci_bench_remedy $([ $ns2d = 1 ] && echo eci_bench_ns2d_step eci_bench_ns2d_radicand eci_cli) >> "$out/cmake.log"
+      eci_bench_remedy eci_bench_adaptive \
+      $([ $ns2d = 1 ] && echo eci_bench_ns2d_step eci_bench_ns2d_radicand eci_cli) >> "$out/cmake.log"
 bin="$build/bench"
 
 echo "== per-step cost ($reps interleaved repetitions, large systems N=$big and $big_real)" >&2
@@ -72,6 +76,12 @@ echo "== long-run drift, $drift_steps steps x $drift_members initial conditions"
 
 echo "== work-precision" >&2
 "$bin/eci_bench_work_precision" $wp_quick "$out/work_precision.csv" > "$out/work_precision.txt"
+
+echo "== adaptive: work-precision against odeint, per-step cost C-DP54/DP54 (N=$big_real)" >&2
+long_steps=0
+if [ "$long" = 1 ]; then long_steps=10000000; fi
+if [ "$mode" = smoke ]; then long_steps=$((long * 1000)); fi
+"$bin/eci_bench_adaptive" $wp_quick "$out/adaptive.csv" $big_real $long_steps > "$out/adaptive.txt"
 
 if command -v gnuplot > /dev/null; then
   for model in $(tail -n +2 "$out/work_precision.csv" | cut -d, -f1 | sort -u); do
@@ -148,3 +158,4 @@ PY
       2> /dev/null || true
   fi
 fi
+cat "$out/adaptive.txt"

@@ -101,7 +101,7 @@ int run_cli(int argc, char** argv) {
 
     // One set of run options, bound on every model's subcommand; only one of them is ever parsed.
     run_settings settings;
-    double dt = 0.0, t_end = 0.0;
+    double dt = 0.0, t_end = 0.0, rtol = 0.0, atol = 0.0, output_dt = 0.0;
     std::uint64_t steps = 0;
     for (const auto& model : models) {
         const model_info& i = model->info();
@@ -118,6 +118,13 @@ int run_cli(int argc, char** argv) {
                         "written; '-' writes it to standard output");
         sub->add_option("--summary-json", settings.summary_json,
                         "also write the run summary as JSON to this file ('-': standard output)");
+        sub->add_option("--rtol", rtol,
+                        "relative tolerance: run with adaptive step control (an embedded pair: bs32, ck54, dp54, "
+                        "f78 and their c- versions); --dt is then the first step");
+        sub->add_option("--atol", atol, "absolute tolerance of adaptive step control (default: the --rtol value)");
+        sub->add_option("--output-dt", output_dt,
+                        "write CSV rows at multiples of this time and at the end (adaptive: dense output or steps "
+                        "landing on them; fixed steps: a multiple of --dt)");
         std::string presets;
         for (const auto& [name, what] : i.presets) presets += (presets.empty() ? "" : "; ") + name + ": " + what;
         sub->add_option("--preset", settings.preset,
@@ -171,6 +178,9 @@ int run_cli(int argc, char** argv) {
         if (sub->count("--dt")) settings.dt = dt;
         if (sub->count("--t-end")) settings.t_end = t_end;
         if (sub->count("--steps")) settings.steps = steps;
+        if (sub->count("--rtol")) settings.rtol = rtol;
+        if (sub->count("--atol")) settings.atol = atol;
+        if (sub->count("--output-dt")) settings.output_dt = output_dt;
         for (option_spec& o : model->options()) o.given = sub->count("--" + o.name) > 0;
         install_interrupt_handler();
         return model->run(settings);

@@ -8,12 +8,14 @@
 #include <complex>
 #include <cstdint>
 #include <cstdio>
+#include <span>
 #include <string>
 #include <string_view>
 #include <type_traits>
 #include <utility>
 #include <vector>
 
+#include <eci/adaptive.hpp>
 #include <eci/registry.hpp>
 #include <eci/run.hpp>
 
@@ -33,6 +35,9 @@ struct run_summary {
     std::vector<invariant_record> invariants;
     /// Model-specific figures of merit at the end of the run (e.g. Kepler's Runge-Lenz turn), name and value.
     std::vector<std::pair<std::string, double>> figures;
+    bool adaptive = false;  ///< --rtol/--atol: adaptive step control (dt is then the first step)
+    double rtol = 0.0, atol = 0.0;
+    adaptive_stats adaptive_counts{};  ///< accepted and rejected steps, step sizes, dense outputs
 };
 
 /// The CSV column names of the real unknowns of a state of `size` modes: `prefix`0... for a real state,
@@ -117,6 +122,49 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     }
     check_distinct_outputs(settings);
 
+    // Adaptive control (--rtol/--atol) and output times (--output-dt): checked before any file is opened.
+    const bool adaptive = settings.rtol.has_value() || settings.atol.has_value();
+    adaptive_options tolerances;
+    if (adaptive) {
+        if (plan.fixed_steps) throw bad_input("--steps counts fixed steps; an adaptive run (--rtol/--atol) ends at --t-end");
+        tolerances.rtol = settings.rtol.value_or(*settings.atol);
+        tolerances.atol = settings.atol.value_or(*settings.rtol);
+        try {
+            eci::detail::check_options(tolerances, std::ranges::size(x));
+        } catch (const std::invalid_argument& e) {
+            throw bad_input(std::string("--rtol/--atol: ") + e.what());
+        }
+        bool found = false;
+        std::string names;
+        for (const method_info& m : adaptive_methods_for<Model>()) {
+            found = found || m.name == method.name;
+            names += (names.empty() ? "" : ", ") + std::string(m.name);
+        }
+        if (!found)
+            throw bad_input("method " + std::string(method.name) + " has no error estimate for --rtol/--atol; adaptive "
+                            "methods for " + info.name + ": " + names);
+    }
+    std::vector<double> output_times;
+    std::uint64_t every = settings.every;
+    if (settings.output_dt) {
+        const double h = *settings.output_dt;
+        if (!(h > 0.0) || !std::isfinite(h))
+            throw bad_input("--output-dt must be a positive finite number, not " + shortest(h));
+        if (plan.t_end / h > 1e9) throw bad_input("--output-dt " + shortest(h) + " asks for too many rows");
+        if (adaptive) {
+            output_times.push_back(0.0);  // the initial state, as fixed-step runs write it
+            for (std::uint64_t k = 1; double(k) * h < plan.t_end * (1.0 - 1e-12); ++k) output_times.push_back(double(k) * h);
+            output_times.push_back(plan.t_end);
+        } else {
+            // fixed steps: rows every k steps, so --output-dt must be a whole number of --dt
+            const double k = std::round(h / plan.dt);
+            if (!(k >= 1.0) || std::abs(h / plan.dt - k) > 1e-9 * k)
+                throw bad_input("--output-dt " + shortest(h) + " is not a multiple of --dt " + shortest(plan.dt) +
+                                " (with fixed steps; --rtol/--atol lifts that)");
+            every = std::uint64_t(k);
+        }
+    }
+
     // Open both outputs before running: an unwritable path is bad input, reported before any work.
     output_file csv = settings.output.empty() ? output_file() : output_file(settings.output, "CSV output");
     output_file json =
@@ -136,6 +184,9 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     summary.conservative = method.conservative;
     summary.dt = plan.dt;
     summary.t_end = plan.t_end;
+    summary.adaptive = adaptive;
+    summary.rtol = tolerances.rtol;
+    summary.atol = tolerances.atol;
 
     std::FILE* out = csv.get();
     if (out) {
@@ -146,20 +197,55 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         std::fputc('\n', out);
     }
 
+    auto write_row = [&](const S& state, double t, std::span<const double> invariant_values) {
+        char buffer[32];
+        const std::string_view s = format_double(t, buffer);
+        std::fwrite(s.data(), 1, s.size(), out);
+        detail::for_each_real(state, [&](double v) { detail::write_csv_number(out, v); });
+        for (const auto& d : derived) detail::write_csv_number(out, (model.*d.value)(state));
+        for (double v : invariant_values) detail::write_csv_number(out, v);
+        std::fputc('\n', out);
+    };
+    if (adaptive) {
+        // Rows at every `every` accepted steps (and the end), or at the --output-dt times.
+        auto observe = [&](const S& state, double t, std::uint64_t i, const invariant_monitor<Model>& monitor) {
+            if (out && (!output_times.empty() || i % every == 0 || t == plan.t_end)) write_row(state, t, monitor.values());
+            if (interrupt_requested()) {
+                char buffer[32];
+                throw interrupted("interrupted at t = " + std::string(format_double(t, buffer)));
+            }
+        };
+        const auto start = std::chrono::steady_clock::now();
+        adaptive_report report;
+        with_adaptive_stepper<Model>(method.name, [&](auto stepper) {
+            report = run_adaptive(stepper, model, x, 0.0, plan.t_end, plan.dt, tolerances, output_times, observe);
+        });
+        if (report.failure) {
+            const std::size_t c = report.failure->component;
+            throw run_failure(std::string(report.failure->what()) + " [component " +
+                              (c < columns.size() ? columns[c] : std::string("?")) + "]");
+        }
+        summary.adaptive_counts = report.stats;
+        summary.stats.steps = report.stats.accepted;
+        summary.stats.step_reductions = report.stats.rejected_radicand;
+        summary.stats.rhs_evals = report.stats.rhs_evals;
+        summary.invariants = report.invariants;
+        summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if constexpr (requires { model.end_of_run_figures(x0, x); })
+            for (const auto& [name, value] : model.end_of_run_figures(x0, x)) summary.figures.emplace_back(name, value);
+        csv.commit();
+        print_summary(stderr, summary);
+        if (std::FILE* j = json.get()) write_summary_json(j, summary);
+        json.commit();
+        return 0;
+    }
+
     progress_bar progress(plan.steps);
-    const std::uint64_t every = settings.every, last = plan.steps;
+    const std::uint64_t last = plan.steps;
     // eci::run observes every step (opt.every = 1): the CSV rows are thinned here, keeping the first and the
     // last, so that Ctrl-C and the progress bar are looked at every step whatever --every is.
     auto observe = [&](const S& state, double t, std::uint64_t i, const invariant_monitor<Model>& monitor) {
-        if (out && (i % every == 0 || i == last)) {
-            char buffer[32];
-            const std::string_view s = format_double(t, buffer);
-            std::fwrite(s.data(), 1, s.size(), out);
-            detail::for_each_real(state, [&](double v) { detail::write_csv_number(out, v); });
-            for (const auto& d : derived) detail::write_csv_number(out, (model.*d.value)(state));
-            for (double v : monitor.values()) detail::write_csv_number(out, v);
-            std::fputc('\n', out);
-        }
+        if (out && (i % every == 0 || i == last)) write_row(state, t, monitor.values());
         progress.update(i, t);
         if (interrupt_requested()) {
             char buffer[32];

@@ -108,10 +108,25 @@ void print_summary(std::FILE* f, const run_summary& s) {
     std::fprintf(f, "eci run %s: method %s (order %d, %s), dt %s, t 0 to %s\n", s.model.c_str(), s.method.c_str(),
                  s.order, s.conservative ? "conservative" : "conventional", shortest(s.dt).c_str(),
                  shortest(s.t_end).c_str());
-    std::fprintf(f, "  steps %llu, step reductions %llu, rhs evals %llu, wall time %.3g s\n",
-                 static_cast<unsigned long long>(s.stats.steps),
-                 static_cast<unsigned long long>(s.stats.step_reductions),
-                 static_cast<unsigned long long>(s.stats.rhs_evals), s.wall_seconds);
+    if (s.adaptive) {
+        const adaptive_stats& a = s.adaptive_counts;
+        std::fprintf(f, "  adaptive, rtol %s, atol %s (dt is the first step)\n", shortest(s.rtol).c_str(),
+                     shortest(s.atol).c_str());
+        std::fprintf(f, "  accepted steps %llu, rejected %llu by error and %llu by negative radicand or transform, "
+                        "rhs evals %llu, wall time %.3g s\n",
+                     static_cast<unsigned long long>(a.accepted), static_cast<unsigned long long>(a.rejected_error),
+                     static_cast<unsigned long long>(a.rejected_radicand),
+                     static_cast<unsigned long long>(a.rhs_evals), s.wall_seconds);
+        std::fprintf(f, "  step size %s to %s; outputs: %llu dense, %llu landed, %llu dense refused\n",
+                     number(a.accepted ? a.dt_smallest : 0.0).c_str(), number(a.dt_largest).c_str(),
+                     static_cast<unsigned long long>(a.dense_points), static_cast<unsigned long long>(a.landed_points),
+                     static_cast<unsigned long long>(a.dense_fallbacks));
+    } else {
+        std::fprintf(f, "  steps %llu, step reductions %llu, rhs evals %llu, wall time %.3g s\n",
+                     static_cast<unsigned long long>(s.stats.steps),
+                     static_cast<unsigned long long>(s.stats.step_reductions),
+                     static_cast<unsigned long long>(s.stats.rhs_evals), s.wall_seconds);
+    }
     if (s.stats.remedied_steps > 0)  // negative radicands remedied without halving (docs/methods.md)
         std::fprintf(f, "  remedied steps %llu, components remedied %llu\n",
                      static_cast<unsigned long long>(s.stats.remedied_steps),
@@ -148,6 +163,20 @@ void write_summary_json(std::FILE* f, const run_summary& s) {
     key("components_remedied"),
         std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.components_remedied));
     key("wall_seconds"), write_json_number(f, s.wall_seconds), std::fputs(",\n", f);
+    if (s.adaptive) {
+        const adaptive_stats& a = s.adaptive_counts;
+        key("adaptive"), std::fputs("true,\n", f);
+        key("rtol"), write_json_number(f, s.rtol), std::fputs(",\n", f);
+        key("atol"), write_json_number(f, s.atol), std::fputs(",\n", f);
+        key("accepted_steps"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(a.accepted));
+        key("rejected_error"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(a.rejected_error));
+        key("rejected_radicand"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(a.rejected_radicand));
+        key("dt_smallest"), write_json_number(f, a.accepted ? a.dt_smallest : 0.0), std::fputs(",\n", f);
+        key("dt_largest"), write_json_number(f, a.dt_largest), std::fputs(",\n", f);
+        key("dense_outputs"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(a.dense_points));
+        key("landed_outputs"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(a.landed_points));
+        key("dense_refused"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(a.dense_fallbacks));
+    }
     if (s.stats.solver.solves > 0) {
         key("solver");
         std::fprintf(f, "{\"solves\": %llu, \"iterations\": %llu, \"iterations_mean\": ",

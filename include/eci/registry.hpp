@@ -135,6 +135,55 @@ struct kahan {
     static constexpr bool runs_on = has_jacobian<M> && requires { std::tuple_size<typename M::state_type>::value; };
 };
 
+/// Bogacki-Shampine 3(2), adaptive with --rtol/--atol.
+struct bs32 {
+    static constexpr method_info info{"bs32", method_family::conventional, 3, false,
+                                      "Bogacki-Shampine 3(2) embedded pair (adaptive with --rtol/--atol)"};
+    static constexpr const auto& tableau = tableaus::bogacki_shampine_32;
+};
+/// Conservative Bogacki-Shampine 3(2).
+struct c_bs32 {
+    static constexpr method_info info{"c-bs32", method_family::conservative, 3, true,
+                                      "conservative Bogacki-Shampine 3(2), xi = psi^2 error estimate, Hermite dense output"};
+    static constexpr const auto& tableau = tableaus::bogacki_shampine_32;
+};
+/// Cash-Karp 5(4).
+struct ck54 {
+    static constexpr method_info info{"ck54", method_family::conventional, 5, false,
+                                      "Cash-Karp 5(4) embedded pair (adaptive with --rtol/--atol)"};
+    static constexpr const auto& tableau = tableaus::cash_karp_54;
+};
+/// Conservative Cash-Karp 5(4) (Bowman's adaptive conservative RK5).
+struct c_ck54 {
+    static constexpr method_info info{"c-ck54", method_family::conservative, 5, true,
+                                      "conservative Cash-Karp 5(4) (adaptive with --rtol/--atol)"};
+    static constexpr const auto& tableau = tableaus::cash_karp_54;
+};
+/// Dormand-Prince 5(4).
+struct dp54 {
+    static constexpr method_info info{"dp54", method_family::conventional, 5, false,
+                                      "Dormand-Prince 5(4) embedded pair, FSAL, dense output (adaptive with --rtol/--atol)"};
+    static constexpr const auto& tableau = tableaus::dormand_prince_54;
+};
+/// Conservative Dormand-Prince 5(4).
+struct c_dp54 {
+    static constexpr method_info info{"c-dp54", method_family::conservative, 5, true,
+                                      "conservative Dormand-Prince 5(4), FSAL, invariant-exact dense output"};
+    static constexpr const auto& tableau = tableaus::dormand_prince_54;
+};
+/// Fehlberg 7(8), propagating order 8.
+struct f78 {
+    static constexpr method_info info{"f78", method_family::conventional, 8, false,
+                                      "Fehlberg 7(8) embedded pair, order 8 propagated (adaptive with --rtol/--atol)"};
+    static constexpr const auto& tableau = tableaus::fehlberg_78;
+};
+/// Conservative Fehlberg 7(8).
+struct c_f78 {
+    static constexpr method_info info{"c-f78", method_family::conservative, 8, true,
+                                      "conservative Fehlberg 7(8), order 8 (adaptive with --rtol/--atol)"};
+    static constexpr const auto& tableau = tableaus::fehlberg_78;
+};
+
 }  // namespace method_entries
 
 namespace detail {
@@ -242,7 +291,9 @@ constexpr method_family family_on() {
 using method_entry_list =
     detail::type_list<method_entries::euler, method_entries::pc, method_entries::rk2, method_entries::rk4,
                       method_entries::c_euler, method_entries::c_pc, method_entries::c_rk2, method_entries::c_rk4,
-                      method_entries::c_pc_compensated, method_entries::implicit_midpoint, method_entries::kahan>;
+                      method_entries::c_pc_compensated, method_entries::implicit_midpoint, method_entries::kahan,
+                      method_entries::bs32, method_entries::c_bs32, method_entries::ck54, method_entries::c_ck54,
+                      method_entries::dp54, method_entries::c_dp54, method_entries::f78, method_entries::c_f78>;
 
 namespace detail {
 

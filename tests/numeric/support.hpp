@@ -24,6 +24,7 @@ inline constexpr double eps = std::numeric_limits<double>::epsilon();
 /// A registry entry as a test tag: its stepper on a plain system of state S (`stepper<S>`) and its registry name.
 template <class Entry>
 struct method_tag {
+    using entry = Entry;  ///< the registry entry (its info, its tableau if it has one)
     template <class S>
     using stepper = eci::stepper_for<Entry, S>;
     static constexpr const char* name = Entry::info.name.data();  // a string literal: null-terminated

@@ -35,13 +35,15 @@ using strings = std::vector<std::string>;
 TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     EXPECT_EQ(names_of(eci::methods_for<eci::three_wave>()),
               (strings{"euler", "pc", "rk2", "rk4", "c-euler", "c-pc", "c-rk2", "c-rk4", "c-pc-compensated",
-                       "implicit-midpoint"}));
+                       "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::n_wave<std::complex<double>>>()),
               names_of(eci::methods_for<eci::three_wave>()));
     EXPECT_EQ(names_of(eci::methods_for<eci::lotka_volterra>()),
-              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "kahan"}));
+              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "kahan", "bs32",
+                       "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler>()),
-              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint"}));
+              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "bs32", "c-bs32",
+                       "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78"}));
     // Each with its family on the model: the transform is used on Kepler, the psi^2 engine on three-wave.
     EXPECT_EQ(eci::methods_for<eci::kepler>()[4].family, eci::method_family::transformed);
     EXPECT_EQ(eci::methods_for<eci::three_wave>()[5].family, eci::method_family::conservative);

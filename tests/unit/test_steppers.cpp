@@ -37,6 +37,27 @@ double amplification(const char* name, double z) {
     return std::numeric_limits<double>::quiet_NaN();
 }
 
+// For a tableau method in general: the stability function R(z) = 1 + z sum_i b_i Y_i, Y_i = 1 + z sum_j a_ij Y_j,
+// and for its conservative version the tableau applied to psi^2, sqrt(1 + 2 z sum_i b_i Y_i^2) with R's sign.
+template <class Method>
+double amplification_of(double z) {
+    if constexpr (requires { Method::entry::tableau.bhat; }) {
+        const auto& T = Method::entry::tableau;
+        constexpr std::size_t s = std::remove_cvref_t<decltype(T)>::stages;
+        std::array<double, s> y{};
+        double r = 1.0, xi = 1.0;
+        for (std::size_t i = 0; i < s; ++i) {
+            y[i] = 1.0;
+            for (std::size_t j = 0; j < i; ++j) y[i] += z * T.a[i][j] * y[j];
+            r += z * T.b[i] * y[i];
+            xi += 2.0 * z * T.b[i] * y[i] * y[i];
+        }
+        return Method::entry::info.conservative ? std::copysign(std::sqrt(xi), r) : r;
+    } else {
+        return amplification(Method::name, z);
+    }
+}
+
 template <class Method>
 void expect_linear_step_matches_formula() {
     for (double lambda : {-0.7, 0.3}) {
@@ -48,7 +69,7 @@ void expect_linear_step_matches_formula() {
             const std::vector<double> x0 = x;
             typename Method::template stepper<std::vector<double>> st;
             ASSERT_TRUE(st.step(f, x, 0.0, dt));
-            const double g = amplification(Method::name, lambda * dt);
+            const double g = amplification_of<Method>(lambda * dt);
             for (std::size_t i = 0; i < x.size(); ++i)
                 EXPECT_NEAR(x[i], g * x0[i], 8.0 * eps * std::abs(x0[i])) << Method::name << " dt " << dt;
         }
@@ -56,17 +77,26 @@ void expect_linear_step_matches_formula() {
 }
 
 // Integrated to t = 1 on x' = -x, the error against e^-1 falls by 2^p per halving of dt.
+// (Steps grow with the order so that the error stays above round-off: 0.05 up to order 4, 0.1 for 5, 0.4 for 8.)
 template <class Method, int P>
 void expect_linear_convergence() {
     const auto f = [](const std::array<double, 1>& x, std::array<double, 1>& d, double) { d[0] = -x[0]; };
     double previous = 0.0;
-    for (double dt : {0.05, 0.025, 0.0125}) {
+    const double dt0 = P <= 4 ? 0.05 : P <= 5 ? 0.1 : 0.4;
+    for (double dt : {dt0, dt0 / 2.0, dt0 / 4.0}) {
         std::array<double, 1> x{1.0};
         typename Method::template stepper<std::array<double, 1>> st;
         eci::integrate_to(st, f, x, 0.0, 1.0, dt);
         const double error = std::abs(x[0] - std::exp(-1.0));
         if (previous > 0.0) {
-            EXPECT_NEAR(std::log2(previous / error), double(P), 0.1) << Method::name << " dt " << dt;
+            // Up to order 4 the ratio is 2^p to 0.1; the embedded pairs (orders 5, 8) are tuned to small principal
+            // error terms, so at steps where their error is still above round-off the next term can make it fall
+            // faster: at least 2^(p - 0.3) per halving.
+            if constexpr (P <= 4) {
+                EXPECT_NEAR(std::log2(previous / error), double(P), 0.1) << Method::name << " dt " << dt;
+            } else {
+                EXPECT_GE(std::log2(previous / error), double(P) - 0.3) << Method::name << " dt " << dt;
+            }
         }
         previous = error;
     }
@@ -102,8 +132,9 @@ TYPED_TEST(EveryMethod, FollowsAComplexRotation) {
         error = std::max(error, std::abs(x[i] - x0[i] * std::exp(std::complex<double>(0.0, omega * t_end))));
         drift = std::max(drift, std::abs(std::norm(x[i]) - std::norm(x0[i])) / std::norm(x0[i]));
     }
-    // Global error ~ C (omega dt)^p omega t_end; C <= 1 for these methods (Euler's is 1/2).
-    EXPECT_LT(error, std::pow(omega * dt, St::order) * omega * t_end) << TypeParam::name;
+    // Global error ~ C (omega dt)^p omega t_end; C <= 1 for these methods (Euler's is 1/2). For high orders that is
+    // below round-off, which adds a phase error of a few eps per step: 4 eps steps.
+    EXPECT_LT(error, std::pow(omega * dt, St::order) * omega * t_end + 4.0 * eps * double(stats.steps)) << TypeParam::name;
     if (std::string(TypeParam::name).starts_with("c-")) {
         // Each mode's |psi|^2 is itself invariant (Re(conj(psi) i omega psi) = 0 mode by mode): round-off only,
         // 4 eps per step as a random walk (see numeric/test_conservation.cpp).

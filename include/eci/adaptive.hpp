@@ -1,0 +1,444 @@
+// Adaptive step-size control for the embedded steppers (steppers/embedded_rk.hpp): the RMS error norm, an I or PI
+// controller, negative radicands as their own kind of rejection, output at requested times by landing or dense.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <limits>
+#include <optional>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "concepts.hpp"
+#include "detail/state_ops.hpp"
+#include "integrate.hpp"
+#include "registry.hpp"
+#include "run.hpp"
+#include "steppers/embedded_rk.hpp"
+#include "steppers/transformed_embedded_rk.hpp"
+
+namespace eci {
+
+/// Tolerances and controller settings of an adaptive run.
+struct adaptive_options {
+    double rtol = 1e-6;                  ///< relative tolerance (all components)
+    double atol = 1e-6;                  ///< absolute tolerance (all components)
+    std::vector<double> rtol_each{};     ///< per state element (a complex mode's two parts share one); overrides rtol
+    std::vector<double> atol_each{};     ///< per state element; overrides atol
+    double safety = 0.9;                 ///< the controller aims at safety * tolerance
+    double min_factor = 0.2;             ///< a step shrinks by at most this factor after an error rejection
+    double max_factor = 5.0;             ///< and grows by at most this one after an accepted step
+    bool pi_control = false;             ///< PI controller (Gustafsson; Hairer-Wanner II, IV.2) instead of I
+    double pi_beta = 0.04;               ///< PI: weight of the previous error (alpha = 1/(q+1) - 0.75 beta)
+    double radicand_factor = 0.5;        ///< a negative radicand / non-invertible transform shrinks the step so
+    double dt_min = 0.0;                 ///< smallest step; 0 means 64 eps max(|t|, |t_end|), the resolution of time
+    double dt_max = std::numeric_limits<double>::infinity();  ///< largest step
+    std::uint64_t max_attempts = 50'000'000;  ///< accepted plus rejected steps before the run stops
+};
+
+/// What an adaptive run did.
+struct adaptive_stats {
+    std::uint64_t accepted = 0;           ///< accepted steps
+    std::uint64_t rejected_error = 0;     ///< steps rejected because the error estimate exceeded the tolerance
+    std::uint64_t rejected_radicand = 0;  ///< steps rejected for a negative radicand (or non-finite error)
+    std::uint64_t rhs_evals = 0;          ///< right-hand-side evaluations, rejected steps included
+    double dt_smallest = std::numeric_limits<double>::infinity();  ///< smallest accepted step
+    double dt_largest = 0.0;                                       ///< largest accepted step
+    std::uint64_t dense_points = 0;       ///< outputs interpolated by the dense output
+    std::uint64_t landed_points = 0;      ///< outputs computed by a step landing on them
+    std::uint64_t dense_fallbacks = 0;    ///< dense outputs refused (negative interpolated xi) and landed instead
+    std::uint64_t rejected() const { return rejected_error + rejected_radicand; }
+};
+
+/// An adaptive run stopped: the step fell below the minimum (naming the time and the component that forced it),
+/// or the run reached its maximum number of steps. Carries the statistics up to that point.
+class adaptive_failure : public std::runtime_error {
+   public:
+    enum class reason { step_too_small, too_many_steps };
+    adaptive_failure(reason why, double t, std::size_t component, double dt, adaptive_stats s)
+        : std::runtime_error(message(why, t, component, dt, s)),
+          why(why), time(t), component(component), dt(dt), stats(s) {}
+    reason why;
+    double time;            ///< the time the run could not step from
+    std::size_t component;  ///< the real unknown with the largest error or the negative radicand
+    double dt;              ///< the step size that was refused
+    adaptive_stats stats;   ///< the run's statistics until then
+
+   private:
+    static std::string message(reason why, double t, std::size_t component, double dt, const adaptive_stats& s) {
+        std::ostringstream os;
+        os.precision(17);
+        if (why == reason::step_too_small)
+            os << "adaptive step fell below the minimum at t = " << t << " (dt = " << dt << ", component " << component
+               << ", after " << s.accepted << " accepted steps; tolerance too tight, a singularity, or the state "
+               << "is not finite)";
+        else
+            os << "adaptive run reached its maximum of " << s.accepted + s.rejected() << " steps at t = " << t
+               << " (dt = " << dt << ")";
+        return os.str();
+    }
+};
+
+/// How a run with output times produces its rows: by landing a step on each time, or by dense output (for a
+/// conservative stepper an interpolant of xi that keeps every invariant).
+enum class output_mode {
+    landing,   ///< a step lands on every output time
+    dense,     ///< the stepper's dense output (landed where a conservative interpolant would need sqrt of < 0)
+    automatic  ///< dense where it is as accurate as the steps (DP54's continuous extension, BS32), else landing
+};
+
+/// A stepper the adaptive drivers can run: attempt / accept / reset with an embedded error estimate.
+template <class St, class F, class S>
+concept adaptive_stepper = system<F, S> && St::has_error_estimate && St::embedded_order > 0 &&
+                           requires(St& st, F& f, const S& cx, S& x, double t, double dt, const error_weights* w) {
+                               { st.attempt(f, cx, t, dt, w, true) } -> std::same_as<attempt_result>;
+                               st.accept(x);
+                               st.reset();
+                           };
+
+namespace detail {
+
+inline void check_options(const adaptive_options& o, std::size_t elements) {
+    auto non_negative_finite = [](double v) { return v >= 0.0 && std::isfinite(v); };
+    if (!non_negative_finite(o.rtol)) throw std::invalid_argument("rtol must be a finite number >= 0");
+    if (!non_negative_finite(o.atol)) throw std::invalid_argument("atol must be a finite number >= 0");
+    for (const auto* v : {&o.rtol_each, &o.atol_each}) {
+        if (!v->empty() && v->size() != elements)
+            throw std::invalid_argument("per-component tolerances need one value per state element (" +
+                                        std::to_string(elements) + "), got " + std::to_string(v->size()));
+        for (double e : *v)
+            if (!non_negative_finite(e)) throw std::invalid_argument("per-component tolerances must be finite and >= 0");
+    }
+    if (o.rtol_each.empty() && o.atol_each.empty() && !(o.rtol + o.atol > 0.0))
+        throw std::invalid_argument("rtol and atol cannot both be zero");
+    if (!(o.safety > 0.0 && o.safety <= 1.0)) throw std::invalid_argument("safety factor must be in (0, 1]");
+    if (!(o.min_factor > 0.0 && o.min_factor < 1.0)) throw std::invalid_argument("min_factor must be in (0, 1)");
+    if (!(o.max_factor > 1.0 && std::isfinite(o.max_factor))) throw std::invalid_argument("max_factor must be > 1");
+    if (!(o.radicand_factor > 0.0 && o.radicand_factor < 1.0))
+        throw std::invalid_argument("radicand_factor must be in (0, 1)");
+    if (!(o.pi_beta >= 0.0 && o.pi_beta < 0.5)) throw std::invalid_argument("pi_beta must be in [0, 0.5)");
+    if (!(o.dt_min >= 0.0) || !std::isfinite(o.dt_min)) throw std::invalid_argument("dt_min must be finite, >= 0");
+    if (!(o.dt_max > 0.0)) throw std::invalid_argument("dt_max must be positive");
+    if (o.max_attempts == 0) throw std::invalid_argument("max_attempts must be at least 1");
+}
+
+/// The adaptive drivers' view of a system: counts its evaluations and exposes it as wrapped(), so that a stepper
+/// that needs the model behind f (a transform) still reaches it.
+template <class F>
+struct counted_system {
+    F* f;
+    std::uint64_t* count;
+    template <class S>
+    void operator()(const S& x, S& dxdt, double t) const {
+        ++*count;
+        (*f)(x, dxdt, t);
+    }
+    const F& wrapped() const { return *f; }
+};
+
+
+/// The controller and the loop shared by all adaptive drivers. `advance(t_target, on_accept)` steps x from t to
+/// t_target (landing on it); on_accept(t_prev, t_new) sees every accepted step.
+template <class St, class F, class S>
+class adaptive_loop {
+   public:
+    adaptive_loop(St& st, F& f, S& x, double t0, double dt0, const adaptive_options& o, adaptive_stats& stats)
+        : st_(st), f_(f), x_(x), t_(t0), dt_(dt0), o_(o), stats_(stats) {
+        const std::size_t n = reals(std::as_const(x)).size();
+        const std::size_t per = std::ranges::size(x) ? n / std::ranges::size(x) : 1;
+        auto expand = [&](const std::vector<double>& each, std::vector<double>& out) {
+            if (each.empty()) return;
+            out.resize(n);
+            for (std::size_t i = 0; i < n; ++i) out[i] = each[i / per];
+        };
+        expand(o.rtol_each, rtol_);
+        expand(o.atol_each, atol_);
+        w_ = {o.rtol, o.atol, rtol_.empty() ? nullptr : rtol_.data(), atol_.empty() ? nullptr : atol_.data()};
+        st_.reset();
+    }
+
+    double time() const { return t_; }
+
+    template <class OnAccept>
+    void advance(double t_target, OnAccept&& on_accept) {
+        constexpr double q1 = double(St::embedded_order + 1);
+        while (t_ < t_target) {
+            // Land on the target when the proposed step would (nearly) reach it: no sliver of a last step.
+            double dt = std::min({dt_, o_.dt_max});
+            const bool landing = t_ + 1.01 * dt >= t_target;
+            if (landing) dt = t_target - t_;
+            if (stats_.accepted + stats_.rejected() >= o_.max_attempts)
+                throw adaptive_failure(adaptive_failure::reason::too_many_steps, t_, 0, dt, stats_);
+            const attempt_result r = st_.attempt(f_, std::as_const(x_), t_, dt, &w_, false);
+            const bool finite = r.ok && std::isfinite(r.error);
+            if (finite && r.error <= 1.0) {
+                st_.accept(x_);
+                const double t_prev = t_;
+                t_ = landing ? t_target : t_ + dt;
+                ++stats_.accepted;
+                stats_.dt_smallest = std::min(stats_.dt_smallest, dt);
+                stats_.dt_largest = std::max(stats_.dt_largest, dt);
+                double factor = o_.safety * std::pow(std::max(r.error, 1e-10), -1.0 / q1);
+                if (o_.pi_control) {
+                    const double alpha = 1.0 / q1 - 0.75 * o_.pi_beta;
+                    factor = o_.safety * std::pow(std::max(r.error, 1e-10), -alpha) *
+                             std::pow(std::max(previous_error_, 1e-4), o_.pi_beta);
+                }
+                factor = std::clamp(factor, o_.min_factor, just_rejected_ ? 1.0 : o_.max_factor);
+                previous_error_ = r.error;
+                just_rejected_ = false;
+                // A step cut short to land keeps the controller's proposal for the next one.
+                dt_ = landing && dt < dt_ ? std::max(dt_, dt * factor) : dt * factor;
+                on_accept(t_prev, t_);
+                continue;
+            }
+            if (!r.ok) {
+                ++stats_.rejected_radicand;
+                dt_ = dt * o_.radicand_factor;
+            } else if (!finite) {
+                ++stats_.rejected_radicand;  // a non-finite error: the state or f blew up, as for a radicand
+                dt_ = dt * o_.min_factor;
+            } else {
+                ++stats_.rejected_error;
+                dt_ = dt * std::max(o_.min_factor, o_.safety * std::pow(r.error, -1.0 / q1));
+            }
+            just_rejected_ = true;
+            const double dt_min = o_.dt_min > 0.0 ? o_.dt_min
+                                                  : 64.0 * std::numeric_limits<double>::epsilon() *
+                                                        std::max({std::abs(t_), std::abs(t_target),
+                                                                  std::numeric_limits<double>::min()});
+            if (dt_ < dt_min) {
+                std::size_t component = r.component;
+                if (r.ok) component = st_.attempt(f_, std::as_const(x_), t_, dt, &w_, true).component;
+                st_.reset();
+                throw adaptive_failure(adaptive_failure::reason::step_too_small, t_, component, dt_, stats_);
+            }
+        }
+    }
+
+   private:
+    St& st_;
+    F& f_;
+    S& x_;
+    double t_, dt_;
+    const adaptive_options& o_;
+    adaptive_stats& stats_;
+    std::vector<double> rtol_, atol_;
+    error_weights w_{};
+    double previous_error_ = 1.0;
+    bool just_rejected_ = false;
+};
+
+template <class F, class S>
+void check_run(const S& x, double t0, double t_end, double dt0, const adaptive_options& o) {
+    if (!std::isfinite(t0) || !std::isfinite(t_end) || !(t_end >= t0))
+        throw std::invalid_argument("end time must be finite and >= start");
+    if (!(dt0 > 0.0) || !std::isfinite(dt0)) throw std::invalid_argument("initial step must be a positive finite number");
+    check_options(o, std::ranges::size(x));
+}
+
+/// The dense-output half of integrate_adaptive_at: interpolate every output time inside each accepted step.
+template <class St, class F, class S, class Loop, class Observer, class Emit>
+void dense_run(St& stepper, F& counted, S& x, const std::vector<double>& times, Loop& loop, std::size_t& next,
+               Observer& observe, Emit& emit_until, adaptive_stats& stats) {
+    S scratch{}, start{};
+    St fallback{};
+    loop.advance(times.back(), [&](double t_prev, double t_new) {
+        if (next >= times.size() || times[next] >= t_new) return emit_until(t_new);
+        stepper.prepare_dense(counted, std::as_const(x), t_new);
+        const double h = t_new - t_prev;
+        while (next < times.size() && times[next] < t_new) {
+            const double theta = (times[next] - t_prev) / h;
+            if (stepper.interpolate(std::as_const(x), theta, scratch)) {
+                ++stats.dense_points;
+            } else {
+                // The interpolated xi went negative: land a step from the step's start instead.
+                ++stats.dense_fallbacks;
+                start = stepper.step_start();
+                fallback.reset();
+                integrate_to(fallback, counted, start, t_prev, times[next], times[next] - t_prev);
+                scratch = start;
+            }
+            detail::notify(observe, std::as_const(scratch), times[next], next);
+            ++next;
+        }
+        emit_until(t_new);
+    });
+}
+
+}  // namespace detail
+
+/// Integrate x from t0 to t_end with adaptive steps starting from dt0. The observer sees (x, t) (or (x, t, i))
+/// at t0 and after every accepted step; the last step lands on t_end. Throws adaptive_failure if the step falls
+/// below options.dt_min or the run exceeds options.max_attempts.
+template <state S, system<S> F, class St, class Observer = no_observer>
+    requires adaptive_stepper<St, F, S>
+adaptive_stats integrate_adaptive(St& stepper, F&& f, S& x, double t0, double t_end, double dt0,
+                                  const adaptive_options& options = {}, Observer&& observe = {}) {
+    detail::check_run<F>(x, t0, t_end, dt0, options);
+    adaptive_stats stats;
+    const detail::counted_system<std::remove_reference_t<F>> counted{&f, &stats.rhs_evals};
+    detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
+    detail::notify(observe, std::as_const(x), t0, 0);
+    loop.advance(t_end, [&](double, double t) { detail::notify(observe, std::as_const(x), t, stats.accepted); });
+    return stats;
+}
+
+/// Integrate x from t0 through the increasing output times `times` (all >= t0), calling the observer at each
+/// with the state there, by landing steps on them or by dense output. x ends at the last time.
+template <state S, system<S> F, class St, class Observer>
+    requires adaptive_stepper<St, F, S>
+adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const std::vector<double>& times,
+                                     double dt0, const adaptive_options& options, Observer&& observe,
+                                     output_mode mode = output_mode::automatic) {
+    const double t_end = times.empty() ? t0 : times.back();
+    detail::check_run<F>(x, t0, t_end, dt0, options);
+    for (std::size_t i = 0; i < times.size(); ++i)
+        if (!std::isfinite(times[i]) || times[i] < t0 || (i > 0 && !(times[i] >= times[i - 1])))
+            throw std::invalid_argument("output times must be finite, >= the start time and non-decreasing");
+    adaptive_stats stats;
+    const detail::counted_system<std::remove_reference_t<F>> counted{&f, &stats.rhs_evals};
+    detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
+    std::size_t next = 0;
+    auto emit_until = [&](double t) {  // outputs at or before the current time t that equal it
+        while (next < times.size() && times[next] <= t) {
+            detail::notify(observe, std::as_const(x), times[next], next);
+            ++next;
+        }
+    };
+    emit_until(t0);
+    if (times.empty()) return stats;
+    constexpr bool has_dense = requires(const St& c, St& m, const S& y, S& out, double th) {
+        { c.interpolate(y, th, out) } -> std::same_as<step_result>;
+        m.prepare_dense(counted, y, th);
+        c.step_start();
+    };
+    if (mode == output_mode::automatic) {
+        if constexpr (has_dense && requires { St::dense_matches_steps; }) {
+            mode = St::dense_matches_steps ? output_mode::dense : output_mode::landing;
+        } else {
+            mode = output_mode::landing;
+        }
+    }
+    if (mode == output_mode::dense && !has_dense) throw std::invalid_argument("this stepper has no dense output");
+    if (mode == output_mode::landing || !has_dense) {
+        while (next < times.size()) {
+            loop.advance(times[next], [](double, double) {});
+            ++stats.landed_points;
+            emit_until(times[next]);
+        }
+        return stats;
+    }
+    if constexpr (has_dense) detail::dense_run(stepper, counted, x, times, loop, next, observe, emit_until, stats);
+    return stats;
+}
+
+
+namespace detail {
+
+template <class E>
+concept embedded_method = tableau_method<E> && embedded_pair<std::remove_cvref_t<decltype(E::tableau)>>;
+
+// The adaptive stepper of registry entry E on model M: the embedded engine, conventional or conservative, or the
+// transformed one on a model with a linearizing transform; `unsupported` for a method without an error estimate.
+template <class E, class M>
+constexpr auto resolve_adaptive() {
+    using S = typename M::state_type;
+    if constexpr (!embedded_method<E>)
+        return type_is<unsupported>{};
+    else if constexpr (E::info.family == method_family::conventional)
+        return type_is<embedded_rk<E::tableau, S, update_rule::conventional>>{};
+    else if constexpr (linearizable<M>)
+        return type_is<transformed_embedded_rk<E::tableau, transform_t<M>>>{};
+    else if constexpr (quadratic_invariants<M>)
+        return type_is<embedded_rk<E::tableau, S, update_rule::conservative>>{};
+    else
+        return type_is<unsupported>{};
+}
+
+}  // namespace detail
+
+/// The adaptive stepper of registry entry E on model M (or a state type), or detail::unsupported.
+template <class E, class M>
+using adaptive_stepper_for = typename decltype(detail::resolve_adaptive<E, typename detail::as_model<M>::type>())::type;
+
+namespace detail {
+template <class M, class Fn, class... E>
+bool dispatch_adaptive(std::string_view name, Fn& fn, type_list<E...>) {
+    auto try_one = [&]<class Entry>(Entry*) {
+        if constexpr (!std::same_as<adaptive_stepper_for<Entry, M>, unsupported>) {
+            if (Entry::info.name != name) return false;
+            fn(adaptive_stepper_for<Entry, M>{});
+            return true;
+        } else {
+            return false;
+        }
+    };
+    return (try_one(static_cast<E*>(nullptr)) || ...);
+}
+template <class M, class... E>
+std::vector<method_info> adaptive_methods(type_list<E...>) {
+    std::vector<method_info> out;
+    ((!std::same_as<adaptive_stepper_for<E, M>, unsupported> ? out.push_back(E::info) : void()), ...);
+    return out;
+}
+}  // namespace detail
+
+/// Calls fn(stepper) with the adaptive stepper of the registered method `name` on Model and returns true; false
+/// if that method has no error estimate (is not an embedded pair) or does not run on Model.
+template <class Model, class Fn>
+bool with_adaptive_stepper(std::string_view name, Fn&& fn) {
+    return detail::dispatch_adaptive<typename detail::as_model<Model>::type>(name, fn, method_entry_list{});
+}
+
+/// The registered methods that run adaptively on Model, in list order.
+template <class Model>
+std::vector<method_info> adaptive_methods_for() {
+    return detail::adaptive_methods<typename detail::as_model<Model>::type>(method_entry_list{});
+}
+
+/// What run_adaptive() reports.
+struct adaptive_report {
+    adaptive_stats stats{};                        ///< steps by outcome, evaluations, step sizes (also if it failed)
+    std::vector<invariant_record> invariants;      ///< every named invariant, at every observed state
+    double t = 0.0;                                ///< the time of the last state observed
+    std::optional<adaptive_failure> failure;       ///< set if the run stopped early
+    bool completed() const { return !failure.has_value(); }
+};
+
+/// Runs an adaptive `stepper` on `model` from x (at t0) to t_end, monitoring the model's invariants. Without
+/// output times the observer sees every accepted step; with them, exactly those times (by `mode`). The observer
+/// may be (x, t), (x, t, i) or (x, t, i, monitor) and may throw to stop the run. A run that stops early (minimum
+/// step, step budget) reports `failure` with the statistics and drifts up to there; x is the state reached.
+template <has_named_invariants Model, class St, class Observer = no_observer>
+adaptive_report run_adaptive(St& stepper, const Model& model, typename Model::state_type& x, double t0, double t_end,
+                             double dt0, const adaptive_options& options, const std::vector<double>& times = {},
+                             Observer&& observe = {}, output_mode mode = output_mode::automatic) {
+    using S = typename Model::state_type;
+    invariant_monitor<Model> monitor(model);
+    adaptive_report report;
+    auto watch = [&](const S& s, double t, std::uint64_t i) {
+        monitor.record(s);
+        report.t = t;
+        if constexpr (std::invocable<Observer&, const S&, double, std::uint64_t, const invariant_monitor<Model>&>)
+            observe(s, t, i, std::as_const(monitor));
+        else
+            detail::notify(observe, s, t, i);
+    };
+    try {
+        report.stats = times.empty() ? integrate_adaptive(stepper, model, x, t0, t_end, dt0, options, watch)
+                                     : integrate_adaptive_at(stepper, model, x, t0, times, dt0, options, watch, mode);
+    } catch (const adaptive_failure& e) {
+        report.stats = e.stats;
+        report.failure = e;
+    }
+    report.invariants = monitor.records();
+    return report;
+}
+
+}  // namespace eci

@@ -1,0 +1,472 @@
+// One engine for adaptive Runge-Kutta: any tableau (an embedded pair or a plain one), conventional or exactly
+// conservative (errata item 9, xi = psi^2 advanced by the tableau), with FSAL, an embedded error estimate,
+// conservative dense output (a Hermite interpolant of xi) and xi carried plainly or compensated (a policy).
+#pragma once
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstddef>
+#include <type_traits>
+#include <utility>
+
+#include "../concepts.hpp"
+#include "../detail/state_ops.hpp"
+#include "../tableaus.hpp"
+#include "compensated_c_pc.hpp"
+#include "explicit_rk.hpp"
+
+namespace eci {
+
+/// How the new state is formed from the stages: the tableau's weights applied to psi (conventional), or to
+/// xi = psi^2 with psi = sign * sqrt(xi) (conservative, errata item 9).
+enum class update_rule { conventional, conservative };
+
+/// How a conservative stepper carries xi = psi^2 from step to step: as psi^2 recomputed in double (plain), or
+/// with the rounding residual xi - psi^2 kept between steps in double-double arithmetic (compensated), so that
+/// the invariants do not random-walk by one rounding of psi^2 per step.
+enum class xi_carry { plain, compensated };
+
+/// The error norm's weights: component i's error e_i is measured against atol_i + rtol_i max(|x_i|, |x_new_i|).
+/// Pointers (if not null) hold one value per real unknown and override the scalars.
+struct error_weights {
+    double rtol = 1e-6;
+    double atol = 1e-6;
+    const double* rtol_each = nullptr;
+    const double* atol_each = nullptr;
+};
+
+/// The outcome of one attempted step: whether the candidate exists (no negative radicand), which real unknown
+/// failed, the RMS error norm (Hairer's, eq. (4.11) of Hairer-Norsett-Wanner I, section II.4), and which unknown
+/// had the largest weighted error (computed only on request).
+struct attempt_result {
+    bool ok = true;
+    std::size_t component = 0;  ///< the first negative radicand (if !ok) or the worst error (if requested)
+    double error = 0.0;         ///< RMS of e_i / weight_i; <= 1 means the step meets the tolerances
+};
+
+namespace detail {
+
+template <class Tab>
+concept embedded_pair = requires(const Tab& t) { t.bhat; t.embedded_order; };
+
+template <class Tab>
+concept with_continuous_extension = requires(const Tab& t) { t.d; };
+
+template <const auto& T>
+constexpr bool tableau_is_fsal() {
+    if constexpr (embedded_pair<std::remove_cvref_t<decltype(T)>>)
+        return is_fsal(T);
+    else
+        return false;
+}
+
+}  // namespace detail
+
+/// The Runge-Kutta engine over the tableau T (an embedded_tableau or a butcher_tableau) for states S.
+///
+/// Protocol: `attempt(f, x, t, dt, w)` forms the candidate x(t+dt) and its error norm, leaving x untouched;
+/// `accept(x)` makes the candidate the state. Between an accept and the next attempt, `interpolate` evaluates the
+/// dense output on the accepted step. The stepper carries data from one step to the next (the FSAL derivative,
+/// the compensated residual): `reset()` drops it, and must be called whenever x is changed by anyone else.
+/// `step(f, x, t, dt)` is the fixed-step face of every eci stepper (it checks x itself, so needs no reset).
+template <const auto& T, state S, update_rule U, xi_carry X = xi_carry::plain>
+class embedded_rk {
+    using tableau_type = std::remove_cvref_t<decltype(T)>;
+    static constexpr std::size_t s = tableau_type::stages;
+    static constexpr bool conservative = U == update_rule::conservative;
+    static constexpr bool compensated = X == xi_carry::compensated;
+    static_assert(conservative || !compensated, "only a conservative stepper carries xi");
+    static constexpr bool fsal = detail::tableau_is_fsal<T>();
+
+   public:
+    /// Order of the propagated solution.
+    static constexpr int order = T.order;
+    /// Whether the tableau has an embedded solution (an error estimate for step control).
+    static constexpr bool has_error_estimate = detail::embedded_pair<tableau_type>;
+    /// Order of the embedded solution (0 if there is none): the error estimate is O(dt^(embedded_order + 1)).
+    static constexpr int embedded_order = [] {
+        if constexpr (has_error_estimate)
+            return T.embedded_order;
+        else
+            return 0;
+    }();
+    /// Whether the stepper keeps every invariant sum_k w_k psi_k^2 of the system exactly.
+    static constexpr bool is_conservative = conservative;
+    /// Whether the first stage of a step reuses the last of the step before.
+    static constexpr bool first_same_as_last = fsal;
+    /// Whether the dense output is the pair's own continuous extension (else a cubic Hermite interpolant).
+    static constexpr bool has_continuous_extension = detail::with_continuous_extension<tableau_type> && fsal;
+    /// Whether the dense output is as accurate as the steps themselves (measured in tests/numeric/test_adaptive.cpp):
+    /// a continuous extension, or a cubic Hermite interpolant for a pair of order at most 3.
+    static constexpr bool dense_matches_steps = has_continuous_extension || T.order <= 3;
+
+    /// Attempt a step of dt from (x, t). x is not changed; on success, accept() makes the candidate the state.
+    /// With `w`, the error norm is computed; with `track_worst`, also the component with the largest error.
+    template <system<S> F>
+    attempt_result attempt(F& f, const S& x, double t, double dt, const error_weights* w = nullptr,
+                           bool track_worst = false) {
+        prepare(x);
+        if (!have_first_) {
+            f(x, k_[0], t);
+            first_is_x_ = true;
+        } else if (pending_first_) {
+            using std::swap;
+            swap(k_[0], k_[s - 1]);  // f(x) evaluated for the dense output of the step before
+        }
+        pending_first_ = false;
+        have_first_ = true;
+        dense_ready_ = false;
+        run_stages(f, x, t, dt, std::make_index_sequence<s>{});
+        const auto xr = detail::reals(x);
+        const double* p0 = conservative && !first_is_x_ ? detail::reals(std::as_const(first_point_)).data() : xr.data();
+        std::array<const double*, s> kp{};
+        for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(k_[j])).data();
+        double* o = detail::reals(result_).data();
+        double* rn = compensated ? detail::reals(res_new_).data() : nullptr;
+        const double* r = compensated ? detail::reals(std::as_const(res_)).data() : nullptr;
+        const std::size_t n = xr.size();
+        finish_sums sums;
+        constexpr auto J = std::make_index_sequence<s>{};
+        if (w == nullptr)
+            finish<false, false, false>(o, rn, xr.data(), p0, r, kp, dt, n, error_weights{}, sums, J);
+        else if (track_worst)
+            finish<true, true, true>(o, rn, xr.data(), p0, r, kp, dt, n, *w, sums, J);
+        else if (w->rtol_each || w->atol_each)
+            finish<true, false, true>(o, rn, xr.data(), p0, r, kp, dt, n, *w, sums, J);
+        else  // scalar tolerances: no per-unknown branch, so the pass vectorizes
+            finish<true, false, false>(o, rn, xr.data(), p0, r, kp, dt, n, *w, sums, J);
+        attempt_result res;
+        if (sums.bad != 0.0) {
+            res.ok = false;
+            res.component = detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); });
+            return res;
+        }
+        res.error = n > 0 ? std::sqrt(sums.sq / double(n)) : 0.0;
+        res.component = sums.worst;
+        last_dt_ = dt;
+        return res;
+    }
+
+    /// Make the candidate of the last successful attempt the state x (the x that attempt was given).
+    void accept(S& x) {
+        using std::swap;
+        swap(x, result_);  // result_ now holds the step's start, x0, for the dense output
+        if constexpr (compensated) swap(res_, res_new_);
+        p0_is_x0_ = first_is_x_;
+        if constexpr (fsal) {
+            swap(k_[0], k_[s - 1]);  // the derivative at the new state (conventional: the state itself)
+            if constexpr (conservative) {
+                // Conservative FSAL: the derivative was taken at the conventional update Y_s, not at the new psi,
+                // and the xi rate of the next step's first stage pairs it with Y_s (see docs/methods.md).
+                swap(first_point_, stage_);
+                first_is_x_ = false;
+            }
+            have_first_ = true;
+            dense_ready_ = true;
+        } else {
+            have_first_ = false;
+            first_is_x_ = true;
+            dense_ready_ = false;
+        }
+    }
+
+    /// Make the dense output of the accepted step available: a non-FSAL tableau needs f at the new state, which
+    /// this evaluates once and keeps as the next step's first stage (so dense output costs no extra evaluation
+    /// over a run). x is the current state (the one accept() produced), t its time.
+    template <system<S> F>
+    void prepare_dense(F& f, const S& x, double t) {
+        if (dense_ready_) return;
+        f(x, k_[s - 1], t);
+        pending_first_ = true;
+        have_first_ = true;
+        first_is_x_ = true;
+        dense_ready_ = true;
+    }
+
+    /// The dense output at t0 + theta dt of the accepted step (x is the current state; call prepare_dense first).
+    /// Conventional: the pair's continuous extension (DP54, fourth order) or the cubic Hermite interpolant of psi.
+    /// Conservative: the same interpolant applied to xi = psi^2, with the stage rates 2 Y_i S(Y_i) in place of the
+    /// k_i. Every such interpolant is xi0 + c (xi1 - xi0) + dt sum_i beta_i 2 Y_i S(Y_i): xi0 and xi1 have equal
+    /// invariants and every rate term has sum_k w_k Y_k S_k(Y) = 0, so each interpolated point keeps every
+    /// invariant of the step's ends. psi takes the sign of the conventional interpolant. A negative interpolated
+    /// xi fails (the component named): the caller then lands a step on that time instead.
+    step_result interpolate(const S& x, double theta, S& out) const {
+        detail::resize_like(out, x);
+        const auto x1 = detail::reals(x);
+        const double* x0 = detail::reals(std::as_const(result_)).data();
+        // the stage derivatives of the accepted step, in stage order (an FSAL accept rotated k_0 and k_{s-1})
+        std::array<const double*, s> k{};
+        for (std::size_t j = 0; j < s; ++j) k[j] = detail::reals(std::as_const(k_[j])).data();
+        if constexpr (fsal) std::swap(k[0], k[s - 1]);
+        const double* k_end = fsal ? k[s - 1] : detail::reals(std::as_const(k_[s - 1])).data();
+        const double h = last_dt_;
+        double* o = detail::reals(out).data();
+        const std::size_t n = x1.size();
+        // Where each end's derivative was taken: the state itself, or (conservative FSAL) the conventional update.
+        const double* p0 = x0;
+        const double* p1 = x1.data();
+        if constexpr (conservative && fsal) {
+            if (!p0_is_x0_) p0 = detail::reals(std::as_const(stage_)).data();
+            p1 = detail::reals(std::as_const(first_point_)).data();
+        }
+        const double* r0 = compensated ? detail::reals(std::as_const(res_new_)).data() : nullptr;
+        const double* r1 = compensated ? detail::reals(std::as_const(res_)).data() : nullptr;
+        // One interpolant, given the end values, the end rates and (continuous extension) sum_i d_i rate_i.
+        auto interpolant = [&](double y0, double y1, double f0, double f1, double fd) {
+            if constexpr (has_continuous_extension) {
+                const double dy = y1 - y0, c3 = h * f0 - dy, c4 = dy - h * f1 - c3;
+                return y0 + theta * (dy + (1.0 - theta) * (c3 + theta * (c4 + (1.0 - theta) * h * fd)));
+            } else {
+                (void)fd;
+                const double h00 = (1.0 + 2.0 * theta) * (1.0 - theta) * (1.0 - theta);
+                const double h10 = theta * (1.0 - theta) * (1.0 - theta);
+                const double h01 = theta * theta * (3.0 - 2.0 * theta), h11 = theta * theta * (theta - 1.0);
+                return (h00 * y0 + h01 * y1) + h * (h10 * f0 + h11 * f1);
+            }
+        };
+        double bad = 0.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            double kd = 0.0, rd = 0.0;  // sum_i d_i k_i and sum_i d_i 2 Y_i k_i
+            if constexpr (has_continuous_extension) {
+                [&]<std::size_t... J>(std::index_sequence<J...>) {
+                    ((T.d[J] != 0.0 ? (void)(kd += T.d[J] * k[J][i],
+                                             rd += T.d[J] * 2.0 *
+                                                   (J == 0 ? p0[i] : stage_value<J>(x0[i], k, i, h)) * k[J][i])
+                                    : (void)0),
+                     ...);
+                }(std::make_index_sequence<s>{});
+            }
+            // conventional interpolant of psi: between x0 and the conventional update (x1 itself if conventional)
+            const double psi = interpolant(x0[i], p1[i], k[0][i], k_end[i], kd);
+            if constexpr (!conservative) {
+                o[i] = psi;
+            } else {
+                double xi0 = x0[i] * x0[i], xi1 = x1[i] * x1[i];
+                if constexpr (compensated) xi0 += r0[i], xi1 += r1[i];
+                const double xi = interpolant(xi0, xi1, 2.0 * p0[i] * k[0][i], 2.0 * p1[i] * k_end[i], rd);
+                bad += xi >= 0.0 ? 0.0 : 1.0;
+                o[i] = std::copysign(std::sqrt(xi), psi);
+            }
+        }
+        if (bad != 0.0)
+            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
+        return step_result::success();
+    }
+
+    /// The state at the start of the accepted step (valid from accept() to the next attempt).
+    const S& step_start() const { return result_; }
+    /// The size of the last attempted step.
+    double last_step_size() const { return last_dt_; }
+
+    /// Forget everything carried between steps (FSAL derivative, compensated residual, dense output).
+    void reset() {
+        have_first_ = pending_first_ = dense_ready_ = false;
+        first_is_x_ = true;
+        residual_valid_ = false;
+    }
+
+    /// The fixed-step face: one step of dt, reusing carried data only if x is the state this stepper produced
+    /// last (so a caller that changes x between steps needs no reset()).
+    template <system<S> F>
+    step_result step(F& f, S& x, double t, double dt) {
+        if (!(stepped_ && x == last_x_)) reset();
+        const attempt_result r = attempt(f, x, t, dt);
+        if (!r.ok) return step_result::failure(r.component);
+        accept(x);
+        stepped_ = true;
+        last_x_ = x;
+        return step_result::success();
+    }
+
+    /// How many state-sized buffers an adaptive run holds: the stages, one stage value, the candidate, and for a
+    /// conservative FSAL pair the point of the carried derivative, for a compensated one two residuals.
+    /// (step() keeps one more, a copy of the last state, to detect a changed x.)
+    static constexpr std::size_t buffer_count() {
+        return s + 2 + (conservative && fsal ? 1 : 0) + (compensated ? 2 : 0);
+    }
+
+   private:
+    struct finish_sums {
+        double bad = 0.0;  // negative radicands, as a double to keep the loop vectorizable
+        double sq = 0.0;   // sum of squared weighted errors
+        double worst_ratio = -1.0;
+        std::size_t worst = 0;
+    };
+
+    void prepare(const S& x) {
+        for (auto& ki : k_) detail::resize_like(ki, x);
+        detail::resize_like(stage_, x);
+        detail::resize_like(result_, x);
+        if constexpr (conservative && fsal) detail::resize_like(first_point_, x);
+        if constexpr (compensated) {
+            detail::resize_like(res_, x);
+            detail::resize_like(res_new_, x);
+            if (!residual_valid_) {
+                for (double& v : detail::reals(res_)) v = 0.0;
+                residual_valid_ = true;
+            }
+        }
+    }
+
+    template <class F, std::size_t... I>
+    void run_stages(F& f, const S& x, double t, double dt, std::index_sequence<0, I...>) {
+        (run_stage<I>(f, x, t, dt), ...);
+    }
+
+    template <std::size_t I, class F>
+    void run_stage(F& f, const S& x, double t, double dt) {
+        std::array<const double*, I> kp{};
+        for (std::size_t j = 0; j < I; ++j) kp[j] = detail::reals(std::as_const(k_[j])).data();
+        const auto xr = detail::reals(x);
+        detail::combine_stages<row<I>>(detail::reals(stage_).data(), xr.data(), kp, dt, xr.size(),
+                                       std::make_index_sequence<I>{});
+        f(std::as_const(stage_), k_[I], t + T.c[I] * dt);
+    }
+
+    template <std::size_t I>
+    static constexpr std::array<double, I> row = [] {
+        std::array<double, I> r{};
+        for (std::size_t j = 0; j < I; ++j) r[j] = T.a[I][j];
+        return r;
+    }();
+
+    static constexpr std::array<double, s> error_weights_of_tableau = [] {
+        std::array<double, s> d{};
+        if constexpr (has_error_estimate)
+            for (std::size_t j = 0; j < s; ++j) d[j] = T.b[j] - T.bhat[j];
+        return d;
+    }();
+
+    // Stage value Y_J at one unknown, recomputed with the operations combine_stages used (the same bits).
+    template <std::size_t J>
+    static double stage_value(double x, const std::array<const double*, s>& k, std::size_t i, double dt) {
+        double acc = x;
+        [&]<std::size_t... M>(std::index_sequence<M...>) {
+            ((T.a[J][M] != 0.0 ? (acc += (dt * T.a[J][M]) * k[M][i], 0) : 0), ...);
+        }(std::make_index_sequence<J>{});
+        return acc;
+    }
+
+    // Stage J's term of the two rates of xi, 2 Y_J k_J weighted by b_J and by b_J - bhat_J (Y_0 is the point the
+    // first derivative was taken at: x, or the FSAL point); terms with zero weights vanish at compile time.
+    template <std::size_t J>
+    static void add_rate(double p0, double x, const std::array<const double*, s>& k, std::size_t i, double dt,
+                         double& rate, double& drate) {
+        constexpr double bj = T.b[J], dj = error_weights_of_tableau[J];
+        if constexpr (bj != 0.0 || dj != 0.0) {
+            double y;
+            if constexpr (J == 0)
+                y = p0;
+            else
+                y = stage_value<J>(x, k, i, dt);
+            const double yk = 2.0 * y * k[J][i];
+            if constexpr (bj != 0.0) rate += bj * yk;
+            if constexpr (dj != 0.0) drate += dj * yk;
+        }
+    }
+
+    // One pass over the unknowns: the new state, its error and the error norm's sums.
+    template <bool Norm, bool Track, bool Each, std::size_t... J>
+    static void finish(double* o, double* rn, const double* x, const double* p0, const double* r,
+                       const std::array<const double*, s>& k, double dt, std::size_t n, const error_weights& w,
+                       finish_sums& sums, std::index_sequence<J...>) {
+        constexpr auto d = error_weights_of_tableau;
+        (void)w, (void)rn, (void)r, (void)p0;
+        const std::array<double, s> wb{(dt * T.b[J])...};
+        double bad = 0.0, sq = 0.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            double conv = x[i];  // the conventional update: the state, or the sign of the conservative one
+            ((T.b[J] != 0.0 ? (conv += wb[J] * k[J][i], 0) : 0), ...);
+            double next = conv, err = 0.0;
+            if constexpr (conservative) {
+                double rate = 0.0, drate = 0.0;  // sum_j b_j 2 Y_j k_j and sum_j (b_j - bhat_j) 2 Y_j k_j
+                (add_rate<J>(p0[i], x[i], k, i, dt, rate, drate), ...);
+                const double inc = dt * rate;
+                double xi;
+                if constexpr (compensated) {
+                    double sq0, sq_err, hi, lo;
+                    detail::two_product(x[i], x[i], sq0, sq_err);
+                    detail::two_sum(sq0, inc, hi, lo);
+                    lo += sq_err + r[i];
+                    xi = hi + lo;  // renormalise (|lo| is below an ulp of hi)
+                    lo -= xi - hi;
+                    bad += xi >= 0.0 ? 0.0 : 1.0;
+                    const double root = std::sqrt(xi);
+                    double root_sq, root_err;
+                    detail::two_product(root, root, root_sq, root_err);
+                    rn[i] = ((xi - root_sq) - root_err) + lo;  // all the square root dropped
+                    next = std::copysign(root, conv);
+                } else {
+                    xi = x[i] * x[i] + inc;  // errata item 9: the tableau applied to d(psi^2)/dt = 2 psi S
+                    bad += xi >= 0.0 ? 0.0 : 1.0;
+                    next = std::copysign(std::sqrt(xi), conv);
+                }
+                if constexpr (Norm && has_error_estimate) {
+                    // psi - psihat = (xi - xihat) / (sqrt(xi) + sqrt(xihat)), without cancellation. For xi, xihat >= 0
+                    // the denominator is >= sqrt|xi - xihat|; the max only acts where xihat < 0 (then the error is
+                    // taken as sqrt(xi - xihat)) or both are 0, and keeps the loop free of branches.
+                    const double dxi = dt * drate;
+                    const double den = std::abs(next) + std::sqrt(std::max(xi - dxi, 0.0));
+                    err = dxi / std::max(den, std::sqrt(std::abs(dxi)));
+                }
+            } else if constexpr (Norm && has_error_estimate) {
+                ((d[J] != 0.0 ? (err += (dt * d[J]) * k[J][i], 0) : 0), ...);
+            }
+            o[i] = next;
+            if constexpr (Norm && has_error_estimate) {
+                double rt = w.rtol, at = w.atol;
+                if constexpr (Each) {
+                    if (w.rtol_each) rt = w.rtol_each[i];
+                    if (w.atol_each) at = w.atol_each[i];
+                }
+                const double ratio = err / (at + rt * std::max(std::abs(x[i]), std::abs(next)));
+                sq += ratio * ratio;
+                if constexpr (Track) {
+                    if (!(std::abs(ratio) <= sums.worst_ratio)) {
+                        sums.worst_ratio = std::abs(ratio);
+                        sums.worst = i;
+                    }
+                }
+            }
+        }
+        sums.bad = bad;
+        sums.sq = sq;
+    }
+
+    std::array<S, s> k_{};
+    S stage_{}, result_{}, first_point_{}, res_{}, res_new_{}, last_x_{};
+    bool have_first_ = false;      // k_[0] holds the derivative for the current state's first stage
+    bool pending_first_ = false;   // ... but it waits in k_[s - 1] (evaluated for the dense output)
+    bool first_is_x_ = true;       // the first derivative was taken at x itself (else at first_point_)
+    bool p0_is_x0_ = true;         // the same, for the start of the accepted step (dense output)
+    bool dense_ready_ = false;
+    bool residual_valid_ = false;
+    bool stepped_ = false;
+    double last_dt_ = 0.0;
+};
+
+/// Bogacki-Shampine 3(2), conventional.
+template <state S> using bs32 = embedded_rk<tableaus::bogacki_shampine_32, S, update_rule::conventional>;
+/// Bogacki-Shampine 3(2), conservative.
+template <state S> using c_bs32 = embedded_rk<tableaus::bogacki_shampine_32, S, update_rule::conservative>;
+/// Cash-Karp 5(4), conventional.
+template <state S> using ck54 = embedded_rk<tableaus::cash_karp_54, S, update_rule::conventional>;
+/// Cash-Karp 5(4), conservative.
+template <state S> using c_ck54 = embedded_rk<tableaus::cash_karp_54, S, update_rule::conservative>;
+/// Dormand-Prince 5(4), conventional.
+template <state S> using dp54 = embedded_rk<tableaus::dormand_prince_54, S, update_rule::conventional>;
+/// Dormand-Prince 5(4), conservative.
+template <state S> using c_dp54 = embedded_rk<tableaus::dormand_prince_54, S, update_rule::conservative>;
+/// Fehlberg 7(8) (propagating order 8), conventional.
+template <state S> using f78 = embedded_rk<tableaus::fehlberg_78, S, update_rule::conventional>;
+/// Fehlberg 7(8) (propagating order 8), conservative.
+template <state S> using c_f78 = embedded_rk<tableaus::fehlberg_78, S, update_rule::conservative>;
+/// Conservative Dormand-Prince 5(4) with compensated xi.
+template <state S>
+using c_dp54_compensated = embedded_rk<tableaus::dormand_prince_54, S, update_rule::conservative, xi_carry::compensated>;
+/// Conservative classical Runge-Kutta with compensated xi (fixed steps; no error estimate).
+template <state S>
+using c_rk4_compensated = embedded_rk<tableaus::rk4, S, update_rule::conservative, xi_carry::compensated>;
+
+}  // namespace eci

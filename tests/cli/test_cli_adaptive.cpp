@@ -1,0 +1,130 @@
+// `eci run` with adaptive step control (issue 10): --rtol/--atol, rows at --output-dt times, the new counters in
+// --summary-json, and bad input refused with exit status 2 and no output file.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "cli/support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using eci::test_cli::lines_of;
+using eci::test_cli::read_text;
+using eci::test_cli::run_eci;
+using eci::test_cli::run_result;
+using eci::test_cli::scratch_dir;
+using eci::test_cli::split;
+
+constexpr double eps = std::numeric_limits<double>::epsilon();
+
+/// Each test runs eci in its own scratch work/ directory (where every output goes) and captures stdout and stderr
+/// in a sibling capture/ directory, so work/ holds only what eci itself wrote.
+class cli_adaptive : public ::testing::Test {
+   protected:
+    void SetUp() override {
+        fs::create_directory(scratch_.path() / "work");
+        fs::create_directory(scratch_.path() / "capture");
+    }
+    run_result eci(const std::string& args) const {
+        return run_eci(args, scratch_.path() / "capture",
+                       "cd " + eci::test_cli::shell_quote((scratch_.path() / "work").string()) + " &&");
+    }
+    fs::path file(const std::string& name) const { return scratch_.path() / "work" / name; }
+    scratch_dir scratch_{"adaptive"};
+};
+
+/// The number after "key": in a JSON text (NaN if absent).
+double json_number(const std::string& json, const std::string& key) {
+    const auto at = json.find("\"" + key + "\": ");
+    return at == std::string::npos ? std::nan("") : std::stod(json.substr(at + key.size() + 4));
+}
+
+// Rows at t = 0, 0.5, ..., 10 by the conservative dense output; both invariants to round-off at every row; the
+// JSON summary carries the adaptive counters.
+TEST_F(cli_adaptive, ConservativeDp54WritesRowsAtOutputTimesAndKeepsInvariants) {
+    const run_result r = eci("run three-wave --method c-dp54 --rtol 1e-8 --atol 1e-8 --t-end 10 --output-dt 0.5 "
+                             "--output out.csv --summary-json sum.json");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto lines = lines_of(read_text(file("out.csv")));
+    ASSERT_EQ(lines.size(), 1u + 21u) << "header, t = 0 and 20 output times";
+    const auto header = split(lines[0]);
+    ASSERT_EQ(header.back(), "enstrophy");
+    double e0 = 0, z0 = 0;
+    for (std::size_t i = 1; i < lines.size(); ++i) {
+        const auto cells = split(lines[i]);
+        EXPECT_NEAR(std::stod(cells[0]), 0.5 * double(i - 1), 1e-12);
+        const double e = std::stod(cells[cells.size() - 2]), z = std::stod(cells.back());
+        if (i == 1) e0 = e, z0 = z;
+        // round-off of a few hundred steps: 4 eps sqrt(steps) with steps < 10^4
+        EXPECT_NEAR(e, e0, 400.0 * eps * e0) << "row " << i;
+        EXPECT_NEAR(z, z0, 400.0 * eps * z0) << "row " << i;
+    }
+    const std::string json = read_text(file("sum.json"));
+    EXPECT_NE(json.find("\"adaptive\": true"), std::string::npos) << json;
+    EXPECT_EQ(json_number(json, "rtol"), 1e-8);
+    EXPECT_GT(json_number(json, "accepted_steps"), 10.0);
+    EXPECT_GE(json_number(json, "rejected_error"), 0.0);
+    EXPECT_GE(json_number(json, "rejected_radicand"), 0.0);
+    EXPECT_LE(json_number(json, "dt_smallest"), json_number(json, "dt_largest"));
+    // every output time strictly inside a step is interpolated (t = 10 is the last step's end)
+    EXPECT_GE(json_number(json, "dense_outputs") + json_number(json, "dense_refused"), 18.0) << json;
+    EXPECT_NE(r.err.find("accepted steps"), std::string::npos) << r.err;
+}
+
+// Without --output-dt: a row per accepted step; Kepler through its transform, the orbit's axis kept.
+TEST_F(cli_adaptive, KeplerThroughTheTransformEveryAcceptedStep) {
+    const run_result r = eci("run kepler --method c-dp54 --rtol 1e-9 --t-end 50 --output k.csv --summary-json k.json");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto lines = lines_of(read_text(file("k.csv")));
+    EXPECT_GT(lines.size(), 50u);
+    const std::string json = read_text(file("k.json"));
+    // the axis turns by round-off only (theta is known to ~eps |theta| radians)
+    EXPECT_LT(std::abs(json_number(json, "runge_lenz_turn_degrees")), 1e-9) << json;
+}
+
+// Fixed steps with --output-dt: rows every k steps when output-dt = k dt, refused otherwise.
+TEST_F(cli_adaptive, OutputDtWithFixedSteps) {
+    run_result r = eci("run three-wave --method c-rk4 --dt 0.01 --t-end 1 --output-dt 0.25 --output f.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(lines_of(read_text(file("f.csv"))).size(), 1u + 5u);
+    r = eci("run three-wave --method c-rk4 --dt 0.03 --t-end 1 --output-dt 0.25 --output g.csv");
+    EXPECT_EQ(r.status, 2);
+    EXPECT_NE(r.err.find("not a multiple of --dt"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(file("g.csv")));
+}
+
+// Bad input: a one-line error, exit status 2, no output file.
+TEST_F(cli_adaptive, BadInputIsRefused) {
+    const std::vector<std::pair<std::string, std::string>> cases{
+        {"--method c-dp54 --rtol -1", "rtol"},
+        {"--method c-dp54 --rtol 0 --atol 0", "cannot both be zero"},
+        {"--method c-dp54 --rtol nan", "rtol"},
+        {"--method c-rk4 --rtol 1e-6", "no error estimate"},
+        {"--method c-dp54 --rtol 1e-6 --steps 10", "--steps"},
+        {"--method c-dp54 --rtol 1e-6 --output-dt 0", "--output-dt"},
+    };
+    for (const auto& [args, what] : cases) {
+        const run_result r = eci("run three-wave " + args + " --output bad.csv");
+        EXPECT_EQ(r.status, 2) << args << ": " << r.err;
+        EXPECT_NE(r.err.find(what), std::string::npos) << args << ": " << r.err;
+        EXPECT_FALSE(fs::exists(file("bad.csv"))) << args;
+    }
+}
+
+// The minimum-step path from the command line: a tolerance below what double precision can meet stops the run
+// with exit status 1, naming the time and component, and leaves no output file.
+TEST_F(cli_adaptive, UnreachableToleranceStopsWithAClearError) {
+    const run_result r = eci("run three-wave --method c-dp54 --rtol 0 --atol 1e-300 --t-end 1 --output m.csv");
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.err.find("below the minimum at t = "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("component psi_"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(file("m.csv")));
+}
+
+}  // namespace

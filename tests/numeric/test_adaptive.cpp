@@ -1,0 +1,484 @@
+// Adaptive, exactly conservative integration (issue 10): order of each embedded pair, the error estimate's
+// scaling, invariants at every tolerance and at dense-output points, tolerance proportionality, rejections by cause.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include <eci/adaptive.hpp>
+#include <eci/models/n_wave.hpp>
+#include <eci/models/three_wave.hpp>
+#include <eci/models/three_wave_exact.hpp>
+
+#include "numeric/support.hpp"
+
+namespace {
+
+using namespace eci::test;
+using state = eci::three_wave::state_type;
+using rvec = std::vector<double>;
+using cvec = std::vector<std::complex<double>>;
+
+const eci::three_wave model{};
+const state figure5_ic{std::sqrt(1.5), 1.0, std::sqrt(1.5)};
+
+#define ECI_PAIR(tag, alias, label, q_)                 \
+    struct tag {                                        \
+        template <class S>                              \
+        using stepper = eci::alias<S>;                  \
+        static constexpr const char* name = label;      \
+        static constexpr int q = q_;                    \
+    }
+ECI_PAIR(bs32_m, bs32, "bs32", 2);
+ECI_PAIR(c_bs32_m, c_bs32, "c-bs32", 2);
+ECI_PAIR(ck54_m, ck54, "ck54", 4);
+ECI_PAIR(c_ck54_m, c_ck54, "c-ck54", 4);
+ECI_PAIR(dp54_m, dp54, "dp54", 4);
+ECI_PAIR(c_dp54_m, c_dp54, "c-dp54", 4);
+ECI_PAIR(f78_m, f78, "f78", 7);
+ECI_PAIR(c_f78_m, c_f78, "c-f78", 7);
+ECI_PAIR(c_dp54_comp_m, c_dp54_compensated, "c-dp54-compensated", 4);
+#undef ECI_PAIR
+
+template <class M>
+class AdaptivePair : public ::testing::Test {};
+using all_pairs = ::testing::Types<bs32_m, c_bs32_m, ck54_m, c_ck54_m, dp54_m, c_dp54_m, f78_m, c_f78_m, c_dp54_comp_m>;
+TYPED_TEST_SUITE(AdaptivePair, all_pairs, method_names);
+
+template <class M>
+class ConservativePair : public ::testing::Test {};
+using conservative_pairs = ::testing::Types<c_bs32_m, c_ck54_m, c_dp54_m, c_f78_m, c_dp54_comp_m>;
+TYPED_TEST_SUITE(ConservativePair, conservative_pairs, method_names);
+
+// ---------------------------------------------------------------------------------------------------------------
+// Order of the propagated solution: fixed steps through step() (which carries the FSAL derivative and, for
+// conservative FSAL pairs, its point), the largest error against the exact solution on [0, 10] as dt halves.
+// Step ranges keep the smallest error well above round-off (about 1e-13 here).
+
+template <class M>
+double fixed_step_order(double dt0, int halvings) {
+    const eci::three_wave_exact exact(model, figure5_ic);
+    std::vector<double> dts, errors;
+    for (int h = 0; h <= halvings; ++h) {
+        const double dt = dt0 / double(1 << h);
+        state x = figure5_ic;
+        typename M::template stepper<state> st;
+        double worst = 0.0;
+        eci::integrate_to(st, model, x, 0.0, 10.0, dt, [&](const state& s, double t, std::uint64_t) {
+            const state e = exact(t);
+            for (std::size_t k = 0; k < 3; ++k) worst = std::max(worst, std::abs(s[k] - e[k]));
+        });
+        dts.push_back(dt);
+        errors.push_back(worst);
+    }
+    const double p = log_log_slope(dts, errors);
+    std::printf("  %-20s max error %.2e (dt %g) .. %.2e (dt %g), order %.3f\n", M::name, errors.front(), dts.front(),
+                errors.back(), dts.back(), p);
+    return p;
+}
+
+TYPED_TEST(AdaptivePair, FixedStepRunsHaveTheDeclaredOrder) {
+    using St = typename TypeParam::template stepper<state>;
+    constexpr int p = St::order;
+    // dt ranges where the conventional pairs are asymptotic and the error stays above 1e-12. The conservative
+    // pairs' error is uneven from one halving to the next (where a step ends near a zero crossing, the error of
+    // psi = sqrt(xi) is that of xi divided by 2 psi) and often falls faster: they must reach at least order p.
+    const double dt0 = p == 3 ? 0.05 : p == 5 ? 0.025 : 0.4;
+    const int halvings = p == 3 ? 4 : p == 5 && !St::is_conservative ? 2 : 3;
+    const double fitted = fixed_step_order<TypeParam>(dt0, halvings);
+    if (St::is_conservative)
+        EXPECT_GE(fitted, p - 0.4);
+    else
+        EXPECT_NEAR(fitted, double(p), p == 8 ? 0.5 : 0.25);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// The embedded estimate is O(dt^(q+1)): one attempt from a state, atol = 1 and rtol = 0, so the norm is the RMS
+// of the estimated errors themselves. For the conservative pairs that is psi - psihat, the two square roots of the
+// xi solutions of b and bhat (see docs/methods.md).
+
+template <class St, class F, class S>
+double estimate_slope(const F& f, const S& x0, double dt_lo, double dt_hi, const char* label) {
+    const std::vector<double> dts = log_space(dt_lo, dt_hi, 7);
+    std::vector<double> est;
+    const eci::error_weights w{0.0, 1.0};
+    for (double dt : dts) {
+        St st;
+        auto g = f;
+        const eci::attempt_result r = st.attempt(g, x0, 0.0, dt, &w);
+        EXPECT_TRUE(r.ok);
+        est.push_back(r.error);
+    }
+    const double slope = log_log_slope(dts, est);
+    std::printf("  %-20s estimate %.2e (dt %g) .. %.2e (dt %g), slope %.3f\n", label, est.front(), dts.front(),
+                est.back(), dts.back(), slope);
+    return slope;
+}
+
+TYPED_TEST(AdaptivePair, ErrorEstimateScalesAsDtToTheEmbeddedOrderPlusOne) {
+    constexpr int q = TypeParam::q;
+    using St3 = typename TypeParam::template stepper<state>;
+    // dt ranges where the estimate is asymptotic and above its own rounding (~1e-18 here).
+    const eci::three_wave_exact exact(model, figure5_ic);
+    const double hi = q == 2 ? 0.025 : q == 4 ? 0.05 : 0.1;
+    const double slope3 = estimate_slope<St3>(model, exact(1.0), hi / (q == 7 ? 4.0 : 8.0), hi, TypeParam::name);
+    // Fehlberg's b - bhat vanishes on quadratures (stages 1, 12 and 11, 13 share their nodes), and the rate of
+    // xi depends on psi only through the stages: on the three-wave model C-F78's xi estimate is not yet
+    // asymptotic where it meets its own rounding (measured slopes 12.6, 7.0, 6.9 per halving from dt = 0.2),
+    // so it is checked on the n-wave system only.
+    if (!(St3::is_conservative && q == 7)) {
+        EXPECT_NEAR(slope3, q + 1.0, 0.2);
+    }
+    const auto nw = eci::n_wave<std::complex<double>>::random(30, 4, 7);
+    const double hc = q == 2 ? 0.00625 : q == 4 ? 0.003125 : 0.05;  // |S| is larger on the n-wave system
+    EXPECT_NEAR((estimate_slope<typename TypeParam::template stepper<cvec>>(nw, nw.random_state(8),
+                                                                         hc / (q == 7 ? 4.0 : 8.0), hc,
+                                                                         TypeParam::name)),
+                q + 1.0, 0.2);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Invariants at every tolerance, at every accepted step and at dense-output points. Each accepted step rounds
+// xi once (a few eps), and each dense point adds the rounding of one Hermite combination of equal-invariant data:
+// the relative drift random-walks, bounded by 4 eps sqrt(steps + 1) (measured 0.1..0.5 of that).
+
+struct drift_check {
+    double worst = 0.0;        // the largest relative change of E or Z, over 4 eps sqrt(steps + 1)
+    std::uint64_t points = 0;  // observations made
+};
+
+template <class St, class Model>
+drift_check check_invariants(const Model& m, typename Model::state_type x, double t_end, double tol,
+                             eci::output_mode mode, eci::adaptive_stats* out = nullptr) {
+    St st;
+    eci::adaptive_options o;
+    o.rtol = o.atol = tol;
+    const double e0 = m.energy(x), z0 = m.enstrophy(x);
+    drift_check d;
+    auto observe = [&](const typename Model::state_type& s, double) {
+        d.worst = std::max({d.worst, relative_change(m.energy(s), e0), relative_change(m.enstrophy(s), z0)});
+        ++d.points;
+    };
+    eci::adaptive_stats s;
+    if (mode == eci::output_mode::landing) {
+        s = eci::integrate_adaptive(st, m, x, 0.0, t_end, 1e-3, o, observe);
+    } else {
+        std::vector<double> times;
+        for (int i = 1; i <= 400; ++i) times.push_back(t_end * i / 400.0);
+        s = eci::integrate_adaptive_at(st, m, x, 0.0, times, 1e-3, o, observe, mode);
+        // every output time but those that fall on a step's end (t_end at least) is interpolated
+        EXPECT_GE(s.dense_points + s.dense_fallbacks, 390u);
+    }
+    d.worst /= 4.0 * eps * std::sqrt(double(s.accepted) + 1.0);
+    if (out) *out = s;
+    return d;
+}
+
+template <class St, class Model>
+void expect_conserved_at_all_tolerances(const Model& m, const typename Model::state_type& x0, double t_end,
+                                        const char* label) {
+    for (int e = 3; e <= 12; ++e) {
+        const double tol = std::pow(10.0, -e);
+        for (auto mode : {eci::output_mode::landing, eci::output_mode::dense}) {
+            eci::adaptive_stats s;
+            const drift_check d = check_invariants<St>(m, x0, t_end, tol, mode, &s);
+            EXPECT_LE(d.worst, 1.0) << label << " tol " << tol << (mode == eci::output_mode::dense ? " dense" : "");
+            EXPECT_GT(d.points, 10u);
+            if (e == 3 || e == 12)
+                std::printf("  %-20s %-7s tol %.0e: %8llu steps, %5llu/%llu rejected (error/radicand), %llu dense "
+                            "fallbacks, worst drift %.2f x 4 eps sqrt(steps)\n",
+                            label, mode == eci::output_mode::dense ? "dense" : "landing", tol,
+                            (unsigned long long)s.accepted, (unsigned long long)s.rejected_error,
+                            (unsigned long long)s.rejected_radicand, (unsigned long long)s.dense_fallbacks, d.worst);
+        }
+    }
+}
+
+TYPED_TEST(ConservativePair, KeepsThreeWaveInvariantsAtEveryTolerance) {
+    expect_conserved_at_all_tolerances<typename TypeParam::template stepper<state>>(model, figure5_ic, 50.0,
+                                                                                    TypeParam::name);
+}
+TYPED_TEST(ConservativePair, KeepsRealNWaveInvariantsAtEveryTolerance) {
+    const auto nw = eci::n_wave<double>::random(45, 4, 3);
+    expect_conserved_at_all_tolerances<typename TypeParam::template stepper<rvec>>(nw, nw.random_state(4), 5.0,
+                                                                                   TypeParam::name);
+}
+TYPED_TEST(ConservativePair, KeepsComplexNWaveInvariantsAtEveryTolerance) {
+    const auto nw = eci::n_wave<std::complex<double>>::random(45, 4, 5);
+    expect_conserved_at_all_tolerances<typename TypeParam::template stepper<cvec>>(nw, nw.random_state(6), 5.0,
+                                                                                   TypeParam::name);
+}
+
+// The conventional pairs do not: their drift at a loose tolerance is far above round-off (so the check above
+// can fail).
+TEST(AdaptiveConventional, DriftsAtLooseTolerance) {
+    const drift_check d = check_invariants<eci::dp54<state>>(model, figure5_ic, 50.0, 1e-6, eci::output_mode::landing);
+    EXPECT_GT(d.worst, 1e6);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Dense output keeps the invariants (above). Its accuracy, against the exact solution at 400 output times on
+// [0, 20], compared with the same run's error at its own steps: DP54's continuous extension (fourth order) applied
+// to xi, and the cubic Hermite interpolant for BS32 (its own order), are as accurate as the steps, so
+// output_mode::automatic uses them. For CK54 and F78 only the Hermite cubic exists: far less accurate than their
+// steps (measured c-ck54 1.5e-5 against 1.6e-8 at tol 1e-10), so they land on output times unless asked.
+
+template <class St>
+std::pair<double, double> dense_and_step_error(double tol) {
+    const eci::three_wave_exact exact(model, figure5_ic);
+    std::vector<double> times;
+    for (int i = 1; i <= 400; ++i) times.push_back(20.0 * i / 400.0);
+    eci::adaptive_options o;
+    o.rtol = o.atol = tol;
+    double err[2] = {0.0, 0.0};
+    for (int m = 0; m < 2; ++m) {
+        St st;
+        state x = figure5_ic;
+        auto observe = [&](const state& s, double t) {
+            const state e = exact(t);
+            for (int k = 0; k < 3; ++k) err[m] = std::max(err[m], std::abs(s[std::size_t(k)] - e[std::size_t(k)]));
+        };
+        if (m == 0)
+            eci::integrate_adaptive_at(st, model, x, 0.0, times, 1e-3, o, observe, eci::output_mode::dense);
+        else
+            eci::integrate_adaptive(st, model, x, 0.0, 20.0, 1e-3, o, observe);
+    }
+    return {err[0], err[1]};
+}
+
+TYPED_TEST(ConservativePair, DenseOutputIsAsAccurateAsTheStepsWhereItIsTheDefault) {
+    using St = typename TypeParam::template stepper<state>;
+    std::vector<double> dense_errors;
+    for (double tol : {1e-4, 1e-6, 1e-8, 1e-10, 1e-12}) {
+        const auto [dense, steps] = dense_and_step_error<St>(tol);
+        std::printf("  %-20s tol %.0e: max error dense %.2e, at the steps %.2e\n", TypeParam::name, tol, dense, steps);
+        dense_errors.push_back(dense);
+        // measured at most 2.1x (c-dp54 at 1e-12, where the steps' own error is least regular)
+        if (St::dense_matches_steps) {
+            EXPECT_LE(dense, 3.0 * steps) << "tol " << tol;
+        }
+    }
+    // Every dense output converges: eight decades of tolerance gain at least three decades of dense error (two for
+    // F78, whose steps are longest for the cubic: measured 0.37 at 1e-4, 6.3e-4 at 1e-12).
+    EXPECT_LE(dense_errors.back(), (St::order == 8 ? 1e-2 : 1e-3) * dense_errors.front());
+}
+
+TEST(AdaptiveDense, AutomaticModeIsDenseOnlyWhereItMatchesTheSteps) {
+    static_assert(eci::c_dp54<state>::dense_matches_steps && eci::c_bs32<state>::dense_matches_steps);
+    static_assert(!eci::c_ck54<state>::dense_matches_steps && !eci::c_f78<state>::dense_matches_steps);
+    const std::vector<double> times{0.5, 1.0, 1.5, 2.0};
+    eci::adaptive_options o;
+    o.rtol = o.atol = 1e-8;
+    auto count = [&](auto st, eci::output_mode mode) {
+        state x = figure5_ic;
+        return eci::integrate_adaptive_at(st, model, x, 0.0, times, 1e-3, o, [](const state&, double) {}, mode);
+    };
+    EXPECT_EQ(count(eci::c_dp54<state>{}, eci::output_mode::automatic).dense_points, 3u);
+    EXPECT_EQ(count(eci::c_ck54<state>{}, eci::output_mode::automatic).landed_points, 4u);
+    EXPECT_EQ(count(eci::c_ck54<state>{}, eci::output_mode::dense).dense_points, 3u);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Tolerance proportionality: the global error at t = 10 against rtol = atol over four decades fits slope ~1
+// (a pair that propagates the higher order with an error-per-step controller: dt^(q+1) ~ tol, error ~ dt^p).
+
+TYPED_TEST(AdaptivePair, GlobalErrorIsProportionalToTheTolerance) {
+    using St = typename TypeParam::template stepper<state>;
+    const eci::three_wave_exact exact(model, figure5_ic);
+    const state e = exact(10.0);
+    std::vector<double> tols, errors;
+    for (int k = 5; k <= 9; ++k) {
+        const double tol = std::pow(10.0, -k);
+        St st;
+        state x = figure5_ic;
+        eci::adaptive_options o;
+        o.rtol = o.atol = tol;
+        eci::integrate_adaptive(st, model, x, 0.0, 10.0, 1e-3, o);
+        double err = 0.0;
+        for (int i = 0; i < 3; ++i) err = std::max(err, std::abs(x[std::size_t(i)] - e[std::size_t(i)]));
+        tols.push_back(tol);
+        errors.push_back(err);
+    }
+    const double slope = log_log_slope(tols, errors);
+    std::printf("  %-20s error %.2e (tol 1e-5) .. %.2e (tol 1e-9), slope %.3f\n", TypeParam::name, errors.front(),
+                errors.back(), slope);
+    // BS32 propagates order 3 with a dt^3 estimate, so slope ~1; the higher pairs' slope is p/(q+1) ~ 1 too.
+    EXPECT_GT(slope, 0.75);
+    EXPECT_LT(slope, 1.3);
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Counters: FSAL pairs spend s - 1 evaluations per attempt (the first stage is the last of the step before, or
+// of the rejected attempt at the same state); others s - 1 per attempt plus one per new state.
+
+TEST(AdaptiveCounters, FsalAndReusedFirstStagesAreCounted) {
+    eci::adaptive_options o;
+    o.rtol = o.atol = 1e-6;
+    {
+        eci::c_dp54<state> st;
+        state x = figure5_ic;
+        const auto s = eci::integrate_adaptive(st, model, x, 0.0, 20.0, 1e-3, o);
+        EXPECT_EQ(s.rhs_evals, 1 + 6 * (s.accepted + s.rejected()));
+    }
+    {
+        eci::c_ck54<state> st;
+        state x = figure5_ic;
+        const auto s = eci::integrate_adaptive(st, model, x, 0.0, 20.0, 1e-3, o);
+        EXPECT_EQ(s.rhs_evals, 5 * (s.accepted + s.rejected()) + s.accepted);
+        EXPECT_GT(s.rejected_error, 0u);
+        EXPECT_LE(s.dt_smallest, s.dt_largest);
+    }
+}
+
+// At a loose tolerance the controller proposes steps too long for some mode near zero: a negative radicand,
+// counted apart from error rejections, and the run still conserves.
+TEST(AdaptiveRejections, NegativeRadicandIsARejectedStepWithItsOwnCounter) {
+    eci::adaptive_stats s;
+    const drift_check d =
+        check_invariants<eci::c_dp54<state>>(model, figure5_ic, 100.0, 1e-3, eci::output_mode::landing, &s);
+    std::printf("  c-dp54 tol 1e-3: %llu accepted, %llu rejected by error, %llu by negative radicand\n",
+                (unsigned long long)s.accepted, (unsigned long long)s.rejected_error,
+                (unsigned long long)s.rejected_radicand);
+    EXPECT_GT(s.rejected_radicand, 0u);
+    EXPECT_LE(d.worst, 1.0);
+}
+
+// x' = x^2 from 1 blows up at t = 1: the step shrinks below the minimum there, and the error names the time and
+// the component and carries the statistics so far.
+TEST(AdaptiveRejections, MinimumStepStopsWithTimeAndComponent) {
+    auto f = [](const std::array<double, 2>& x, std::array<double, 2>& d, double) {
+        d[0] = 0.1;
+        d[1] = x[1] * x[1];
+    };
+    for (int cons = 0; cons < 2; ++cons) {
+        std::array<double, 2> x{1.0, 1.0};
+        eci::adaptive_options o;
+        o.rtol = o.atol = 1e-8;
+        try {
+            if (cons) {
+                eci::c_dp54<std::array<double, 2>> st;
+                eci::integrate_adaptive(st, f, x, 0.0, 2.0, 1e-3, o);
+            } else {
+                eci::dp54<std::array<double, 2>> st;
+                eci::integrate_adaptive(st, f, x, 0.0, 2.0, 1e-3, o);
+            }
+            ADD_FAILURE() << "a blow-up must not integrate to the end";
+        } catch (const eci::adaptive_failure& e) {
+            EXPECT_EQ(e.why, eci::adaptive_failure::reason::step_too_small);
+            EXPECT_NEAR(e.time, 1.0, 1e-3);
+            EXPECT_EQ(e.component, 1u);
+            EXPECT_GT(e.stats.accepted, 10u);
+            EXPECT_NE(std::string(e.what()).find("at t = "), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("component 1"), std::string::npos) << e.what();
+        }
+    }
+}
+
+TEST(AdaptiveRejections, MaximumStepsStopsTheRun) {
+    eci::c_dp54<state> st;
+    state x = figure5_ic;
+    eci::adaptive_options o;
+    o.max_attempts = 50;
+    try {
+        eci::integrate_adaptive(st, model, x, 0.0, 100.0, 1e-3, o);
+        ADD_FAILURE() << "100 time units at 1e-6 need more than 50 steps";
+    } catch (const eci::adaptive_failure& e) {
+        EXPECT_EQ(e.why, eci::adaptive_failure::reason::too_many_steps);
+        EXPECT_EQ(e.stats.accepted + e.stats.rejected(), 50u);
+        EXPECT_GT(e.time, 0.0);
+    }
+}
+
+TEST(AdaptiveOptions, BadInputIsRefusedWithAClearMessage) {
+    eci::c_dp54<state> st;
+    state x = figure5_ic;
+    auto run = [&](eci::adaptive_options o, double dt0 = 1e-3, double t_end = 1.0) {
+        eci::integrate_adaptive(st, model, x, 0.0, t_end, dt0, o);
+    };
+    eci::adaptive_options o;
+    o.rtol = -1.0;
+    EXPECT_THROW(run(o), std::invalid_argument);
+    o = {};
+    o.rtol = o.atol = 0.0;
+    EXPECT_THROW(run(o), std::invalid_argument);
+    o = {};
+    o.atol_each = {1e-6, 1e-6};  // three components
+    EXPECT_THROW(run(o), std::invalid_argument);
+    o = {};
+    o.atol = std::nan("");
+    EXPECT_THROW(run(o), std::invalid_argument);
+    EXPECT_THROW(run({}, 0.0), std::invalid_argument);
+    EXPECT_THROW(run({}, 1e-3, -1.0), std::invalid_argument);
+    EXPECT_EQ(x, figure5_ic);
+}
+
+// Per-component tolerances equal to the scalars give the same run bit for bit; a tighter tolerance on one
+// component makes that component more accurate.
+TEST(AdaptiveOptions, PerComponentTolerances) {
+    const eci::three_wave_exact exact(model, figure5_ic);
+    auto run = [&](const eci::adaptive_options& o) {
+        eci::c_dp54<state> st;
+        state x = figure5_ic;
+        const auto s = eci::integrate_adaptive(st, model, x, 0.0, 10.0, 1e-3, o);
+        return std::pair{x, s.accepted};
+    };
+    eci::adaptive_options scalar;
+    scalar.rtol = scalar.atol = 1e-6;
+    eci::adaptive_options each = scalar;
+    each.rtol_each = {1e-6, 1e-6, 1e-6};
+    each.atol_each = {1e-6, 1e-6, 1e-6};
+    EXPECT_EQ(run(scalar), run(each));
+    eci::adaptive_options tight = scalar;
+    tight.rtol_each = {1e-10, 1e-6, 1e-6};
+    tight.atol_each = {1e-10, 1e-6, 1e-6};
+    EXPECT_GT(run(tight).second, run(scalar).second);
+}
+
+TEST(AdaptiveOptions, PiControlAlsoConservesAndReachesTheEnd) {
+    eci::adaptive_options o;
+    o.rtol = o.atol = 1e-8;
+    o.pi_control = true;
+    eci::c_dp54<state> st;
+    state x = figure5_ic;
+    const auto s = eci::integrate_adaptive(st, model, x, 0.0, 50.0, 1e-3, o);
+    const eci::three_wave_exact exact(model, figure5_ic);
+    const state e = exact(50.0);
+    for (int i = 0; i < 3; ++i) EXPECT_NEAR(x[std::size_t(i)], e[std::size_t(i)], 1e-5);
+    EXPECT_LE(relative_change(model.energy(x), model.energy(figure5_ic)), 4.0 * eps * std::sqrt(double(s.accepted)));
+}
+
+// ---------------------------------------------------------------------------------------------------------------
+// Compensated xi, a policy of the same engine: over a long fixed-step run the invariants do not random-walk with
+// sqrt(steps). The bound is that of compensated C-PC (tests/numeric/test_compensated_c_pc.cpp): rounding of the
+// increments only, 4 eps (1 + 2 dt sqrt(n)); plain C-RK4 over the same run walks several times above it.
+
+struct comp_rk4_m {
+    template <class S>
+    using stepper = eci::c_rk4_compensated<S>;
+};
+
+TEST(CompensatedXi, RK4AndDP54CarryXiWithoutARandomWalk) {
+    constexpr std::uint64_t steps = 200000;
+    const double dt = 0.01;
+    const drift_result plain = measure_drift<c_rk4_m>(model, figure5_ic, dt, steps);
+    const drift_result rk4 = measure_drift<comp_rk4_m>(model, figure5_ic, dt, steps);
+    const drift_result dp54 = measure_drift<c_dp54_comp_m>(model, figure5_ic, dt, steps);
+    const double bound = 4.0 * eps * (1.0 + 2.0 * dt * std::sqrt(double(steps)));
+    // DP54's increment sums six stage terms where RK4's sums four and C-PC's two: sqrt(6) times the walk.
+    const double bound_dp54 = 4.0 * eps * (1.0 + 2.0 * std::sqrt(6.0) * dt * std::sqrt(double(steps)));
+    const drift_result plain_dp54 = measure_drift<c_dp54_m>(model, figure5_ic, dt, steps);
+    std::printf("  relative drift over %llu steps: c-rk4 %.2e, compensated c-rk4 %.2e, compensated c-dp54 %.2e "
+                "(bounds %.2e, %.2e), c-dp54 %.2e\n",
+                (unsigned long long)steps, plain.worst(), rk4.worst(), dp54.worst(), bound, bound_dp54,
+                plain_dp54.worst());
+    EXPECT_LE(rk4.worst(), bound);
+    EXPECT_LE(dp54.worst(), bound_dp54);
+    EXPECT_GT(plain.worst(), rk4.worst());
+    EXPECT_GT(plain_dp54.worst(), dp54.worst());
+}
+
+}  // namespace
