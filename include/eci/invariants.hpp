@@ -133,15 +133,16 @@ double dot(const S& a, const S& b) {
     return s;
 }
 
-/// A rounding scale of invariant i at x: sum over unknowns of |x_j dI/dx_j|, about the size of the terms whose
-/// rounding makes up the error of I's evaluation (for a homogeneous I of degree d it is d |I| when no terms cancel).
+/// A rounding scale of invariant i at x: |x| |grad I| (Euclidean norms over the real unknowns), the size of the
+/// terms whose rounding makes up the error of evaluating I (for a homogeneous I of degree d it bounds d |I|). It
+/// does not vanish where some terms do (the Runge-Lenz vector's zero component at an apsis).
 template <state S, class Set>
 double rounding_scale(const Set& inv, const S& x, std::size_t i, S& g) {
     inv.gradient(x, i, g);
     const auto a = reals(x), b = reals(std::as_const(g));
-    double s = 0.0;
-    for (std::size_t j = 0; j < a.size(); ++j) s += std::abs(a[j] * b[j]);
-    return s;
+    double xx = 0.0, gg = 0.0;
+    for (std::size_t j = 0; j < a.size(); ++j) xx += a[j] * a[j], gg += b[j] * b[j];
+    return std::sqrt(xx * gg);
 }
 
 /// Solve the m x m system A y = r in place (Gaussian elimination, partial pivoting); false if A is singular

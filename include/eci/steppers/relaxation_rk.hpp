@@ -206,7 +206,8 @@ class relaxation_rk {
         jac_.assign(m * m, 0.0);
         res_.assign(m, 0.0);
         int it = 0;
-        bool converged = false, polished = false;
+        bool converged = false, polishing = false, at_rounding = false;
+        std::array<double, m> within = gamma;  // the last gammas whose residuals were within tolerance
         for (;;) {
             combine(x, gamma, w_);
             bool small = true;
@@ -214,33 +215,48 @@ class relaxation_rk {
                 res_[k] = inv_.value(std::as_const(w_), k) - target[k];
                 if (!(std::abs(res_[k]) <= 4.0 * eps * scale[k])) small = false;
             }
-            // Within tolerance, one more Newton step (it converges quadratically) brings the residual down to the
-            // evaluation's own rounding, so the per-step errors random-walk at about eps rather than 4 eps.
-            if (small && (polished || it == opt_.max_iterations)) {
+            if (small) {
+                // Within tolerance, one more Newton step (quadratic convergence) brings the residual down to the
+                // evaluation's own rounding, so the per-step errors random-walk at about eps rather than 4 eps.
+                if (polishing || it == opt_.max_iterations) {
+                    converged = true;
+                    break;
+                }
+                within = gamma;
+                polishing = true;
+            } else if (polishing) {
+                // The polish made things worse (an ill-conditioned Jacobian, as where the directions nearly
+                // coincide on small steps): keep the gammas that were within tolerance.
+                gamma = within;
+                combine(x, gamma, w_);
                 converged = true;
                 break;
+            } else if (at_rounding) {
+                converged = true;  // Newton has stopped moving: the residual is what double resolves here
+                break;
+            } else if (it == opt_.max_iterations) {
+                break;
             }
-            if (it == opt_.max_iterations) break;
             ++it;
             for (std::size_t k = 0; k < m; ++k) {
                 inv_.gradient(std::as_const(w_), k, g_);
                 for (std::size_t j = 0; j < m; ++j) jac_[k * m + j] = detail::dot(std::as_const(g_), d_[j]);
             }
-            const std::array<double, m> before = gamma;
             if (!detail::solve_small(jac_, res_, m)) {
-                converged = small;
+                converged = polishing;  // a singular Jacobian at a point already within tolerance is no failure
                 break;
             }
-            for (std::size_t j = 0; j < m; ++j) gamma[j] -= res_[j];
-            polished = small;
-            if (!std::isfinite(gamma[0])) break;
-            if (small) continue;  // the polish is checked like any other step
             double step = 0.0, size = 0.0;
             for (std::size_t j = 0; j < m; ++j) {
-                step = std::max(step, std::abs(gamma[j] - before[j]));
+                gamma[j] -= res_[j];
+                step = std::max(step, std::abs(res_[j]));
                 size = std::max(size, std::abs(gamma[j]));
             }
-            polished = step <= 4.0 * eps * std::max(1.0, size);  // at gamma's rounding: no polish needed
+            if (!std::isfinite(size)) {
+                if (polishing) continue;  // restored above
+                break;
+            }
+            at_rounding = step <= 4.0 * eps * std::max(1.0, size);
         }
         stats_.solver.record(it);
         return converged;
