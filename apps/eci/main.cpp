@@ -8,6 +8,7 @@
 
 #include <CLI/CLI.hpp>
 #include <eci/registry.hpp>
+#include <eci/version.hpp>
 
 #include "figures.hpp"
 #include "models.hpp"
@@ -63,7 +64,7 @@ int run_cli(int argc, char** argv) {
 
     CLI::App app{"eci: explicit, exactly conservative ODE integrators (Shadwick, Bowman & Morrison)", "eci"};
     app.require_subcommand(1);
-    app.set_version_flag("--version", "eci 0.1.0");
+    app.set_version_flag("--version", std::string("eci ") + eci::version);
     app.footer(exit_status_help);
 
     CLI::App* run = app.add_subcommand("run", "integrate a model: eci run MODEL [options]; "
