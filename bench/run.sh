@@ -37,6 +37,7 @@ echo "== building ($build, Release, same flags for eci and Boost.Odeint)" >&2
 cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DECI_BUILD_TESTS=OFF \
       -DECI_BUILD_APPS=OFF -DECI_BUILD_EXAMPLES=OFF > "$out/cmake.log"
 cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
+      eci_bench_compare_methods \
       >> "$out/cmake.log"
 bin="$build/bench"
 
@@ -59,7 +60,13 @@ echo "== long-run drift, $drift_steps steps x $drift_members initial conditions"
 echo "== work-precision" >&2
 "$bin/eci_bench_work_precision" $wp_quick "$out/work_precision.csv" > "$out/work_precision.txt"
 
+echo "== keeping invariants: every family head to head (docs/comparison.md)" >&2
+"$bin/eci_bench_compare_methods" $wp_quick "$out/compare.csv" "$out/compare.md" > "$out/compare.txt"
+
 if command -v gnuplot > /dev/null; then
+  for problem in $(tail -n +2 "$out/compare.csv" | cut -d, -f1 | sort -u); do
+    gnuplot -e "csv='$out/compare.csv'; problem='$problem'; out='$out/cmp_$problem'" "$repo/bench/plot_compare.gp" 2> /dev/null
+  done
   for model in $(tail -n +2 "$out/work_precision.csv" | cut -d, -f1 | sort -u); do
     gnuplot -e "csv='$out/work_precision.csv'; model='$model'; out='$out/wp_$model'" "$repo/bench/plot_work_precision.gp"
   done
