@@ -177,6 +177,59 @@ inline bool solve_small(std::vector<double>& A, std::vector<double>& r, std::siz
 
 }  // namespace detail
 
+/// Invariant sources for the steppers' `Inv` parameter that take the invariants from the model being stepped
+/// (found through the system's wrappers), so the registry can build such a stepper without the model's
+/// parameters: every invariant of invariants_of(model), its first one, or independent_invariants_of(model) (a set
+/// whose gradients are independent wherever the model is integrable: what projection and multiple relaxation
+/// need). Those functions are in models/invariant_sets.hpp, which must be included where the stepper runs.
+struct all_model_invariants {
+    template <class M>
+    static auto of(const M& m) {
+        return invariants_of(m);
+    }
+};
+/// The first invariant of invariants_of(model) (energy, H, G1, ...): single-invariant relaxation.
+struct first_model_invariant {
+    template <class M>
+    static auto of(const M& m) {
+        return pick_invariants(invariants_of(m), {0});
+    }
+};
+/// independent_invariants_of(model).
+struct independent_model_invariants {
+    template <class M>
+    static auto of(const M& m) {
+        return independent_invariants_of(m);
+    }
+};
+
+/// Whether Inv is one of the model-invariant sources above.
+template <class Inv>
+concept model_invariant_source = std::same_as<Inv, all_model_invariants> || std::same_as<Inv, first_model_invariant> ||
+                                 std::same_as<Inv, independent_model_invariants>;
+
+namespace detail {
+
+/// The model behind a system: f, or what its wrappers (`wrapped()`) wrap.
+template <class F>
+constexpr const auto& model_behind(const F& f) {
+    if constexpr (requires { f.wrapped(); })
+        return model_behind(f.wrapped());
+    else
+        return f;
+}
+
+/// The invariants a stepper with source Inv uses on system f: its own (stored) set, or the model's.
+template <class Inv, class F>
+decltype(auto) invariants_for(const Inv& stored, const F& f) {
+    if constexpr (model_invariant_source<Inv>)
+        return Inv::of(model_behind(f));
+    else
+        return (stored);
+}
+
+}  // namespace detail
+
 /// Why steps of a relaxation or projection stepper were rejected, and how many were accepted.
 struct invariant_stats {
     std::uint64_t accepted = 0;            ///< steps taken

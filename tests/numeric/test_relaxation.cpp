@@ -190,3 +190,34 @@ TEST(RelaxationTime, TheLagIsOneStepsWorthNotAccumulated) {
 }
 
 }  // namespace
+
+namespace {
+
+// A system wrapping a model, as the drivers' evaluation counter does: steppers find the model through wrapped().
+struct wrapped_body {
+    const rigid_body* model;
+    void operator()(const rb_state& x, rb_state& d, double t) const { (*model)(x, d, t); }
+    const rigid_body& wrapped() const { return *model; }
+};
+
+// The registry builds steppers without a model: with a model-invariant source they take the invariants (and so
+// the parameters) of the system they step, through its wrappers, and match a stepper given them explicitly.
+TEST(RelaxationModelInvariants, TakesTheSteppedModelsInvariantsThroughWrappers) {
+    rigid_body other;
+    other.alpha = 1.7, other.beta = 0.4;  // not the defaults: G2's weights differ
+    const wrapped_body f{&other};
+    rrk4<rb_state, first_model_invariant> from_model;
+    rrk4<rb_state, rb_one> given(pick_invariants(invariants_of(other), {0}));
+    mrrk4_2<rb_state, all_model_invariants> both;
+    rb_state a = rigid_body::initial_state(), b = a, c = a;
+    for (int i = 0; i < 200; ++i) {
+        ASSERT_TRUE(from_model.step(f, a, 0.05 * i, 0.05));
+        ASSERT_TRUE(given.step(other, b, 0.05 * i, 0.05));
+        ASSERT_TRUE(both.step(f, c, 0.05 * i, 0.05));
+    }
+    EXPECT_EQ(a, b);
+    // Multiple relaxation kept the wrapped model's G2 (alpha = 1.7, beta = 0.4), not the default one.
+    EXPECT_LE(std::abs(other.g2(c) - other.g2(rigid_body::initial_state())), 16.0 * eps * std::sqrt(200.0));
+}
+
+}  // namespace

@@ -110,4 +110,22 @@ auto invariants_of(const Model& m) {
     return m.invariant_functions();
 }
 
+/// The invariants whose gradients are independent wherever the model is integrated, which projection and
+/// multiple relaxation need (a dependent set makes their linear systems singular): all of invariants_of(model)
+/// except for Kepler, where the Runge-Lenz vector depends on H and L (polar: H alone, ell being a parameter;
+/// Cartesian: H and L).
+template <class Model>
+    requires requires(const Model& m) { invariants_of(m); }
+auto independent_invariants_of(const Model& m) {
+    return invariants_of(m);
+}
+/// H alone for the polar Kepler model.
+inline invariant_subset<kepler_invariants> independent_invariants_of(const kepler& m) {
+    return pick_invariants(invariants_of(m), {0});
+}
+/// H and L for Kepler in Cartesian variables.
+inline invariant_subset<kepler_cartesian::invariant_set> independent_invariants_of(const kepler_cartesian& m) {
+    return pick_invariants(invariants_of(m), {0, 1});
+}
+
 }  // namespace eci

@@ -21,6 +21,11 @@ struct kepler_cartesian {
     using state_type = std::array<double, 4>;
 
     static constexpr std::array<const char*, 4> component_names{"q1", "q2", "p1", "p2"};
+    /// H is not a sum of squares of the unknowns: C-RK methods do not keep it (they keep L only).
+    static constexpr bool quadratic_invariants = false;
+    /// H = T(p) + V(q) with q' = p: symplectic splittings apply, and their drifts need no right-hand side.
+    static constexpr bool separable_hamiltonian = true;
+    static constexpr bool unit_mass = true;
 
     /// Ranocha & Ketcheson's initial state of eccentricity e: (1 - e, 0, 0, sqrt((1 + e) / (1 - e))), at
     /// pericentre; the period is 2 pi. Throws std::invalid_argument unless 0 <= e < 1.

@@ -21,7 +21,7 @@ namespace eci {
 /// does not converge within max_iterations, or a singular G G^T (dependent invariants), rejects the step (x
 /// unchanged, counted); the driver then halves it. A failure of Base is passed on as it is.
 template <class Base, state S, class Inv>
-    requires invariant_set<Inv, S>
+    requires invariant_set<Inv, S> || model_invariant_source<Inv>
 class orthogonal_projection {
    public:
     static constexpr int order = Base::order;
@@ -34,10 +34,27 @@ class orthogonal_projection {
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
-        const std::size_t m = inv_.count();
+        return step_with(detail::invariants_for(inv_, f), f, x, t, dt);
+    }
+
+    /// Accepted and rejected steps, and the Newton iterations of the projections.
+    const invariant_stats& statistics() const { return stats_; }
+    /// The Newton iterations (what the drivers collect into run_stats::solver).
+    const solver_stats& solver_statistics() const { return stats_.solver; }
+    /// The values projected onto (those of the state the run started from).
+    const std::vector<double>& targets() const { return target_; }
+    /// Forget the targets: the next step takes them from its x.
+    void reset() { have_target_ = false; }
+    /// The stepper before projection.
+    const Base& base() const { return base_; }
+
+   private:
+    template <class I, class F>
+    step_result step_with(const I& inv, F& f, S& x, double t, double dt) {
+        const std::size_t m = inv.count();
         if (!have_target_ || !(x == last_x_)) {
             target_.resize(m);
-            for (std::size_t k = 0; k < m; ++k) target_[k] = inv_.value(x, k);
+            for (std::size_t k = 0; k < m; ++k) target_[k] = inv.value(x, k);
             have_target_ = true;
         }
         detail::resize_like(y_, x);
@@ -54,7 +71,7 @@ class orthogonal_projection {
         scale_.assign(m, 0.0);
         for (std::size_t k = 0; k < m; ++k) {
             detail::resize_like(grad_[k], x);
-            scale_[k] = std::abs(target_[k]) + detail::rounding_scale(inv_, std::as_const(y_), k, grad_[k]);
+            scale_[k] = std::abs(target_[k]) + detail::rounding_scale(inv, std::as_const(y_), k, grad_[k]);
         }
         for (std::size_t k = 0; k < m; ++k)
             for (std::size_t j = 0; j <= k; ++j)
@@ -71,7 +88,7 @@ class orthogonal_projection {
             bool small = true;
             res_.resize(m);
             for (std::size_t k = 0; k < m; ++k) {
-                res_[k] = inv_.value(std::as_const(z_), k) - target_[k];
+                res_[k] = inv.value(std::as_const(z_), k) - target_[k];
                 if (!(std::abs(res_[k]) <= 4.0 * eps * scale_[k])) small = false;
             }
             if (small) {
@@ -101,18 +118,6 @@ class orthogonal_projection {
         return step_result::success();
     }
 
-    /// Accepted and rejected steps, and the Newton iterations of the projections.
-    const invariant_stats& statistics() const { return stats_; }
-    /// The Newton iterations (what the drivers collect into run_stats::solver).
-    const solver_stats& solver_statistics() const { return stats_.solver; }
-    /// The values projected onto (those of the state the run started from).
-    const std::vector<double>& targets() const { return target_; }
-    /// Forget the targets: the next step takes them from its x.
-    void reset() { have_target_ = false; }
-    /// The stepper before projection.
-    const Base& base() const { return base_; }
-
-   private:
     Inv inv_;
     Base base_;
     int max_iterations_;

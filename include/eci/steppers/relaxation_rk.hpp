@@ -69,13 +69,14 @@ struct relaxation_options {
 /// never accumulated. time_lag() reports it; compare with a reference at t + time_lag().
 template <const auto& T, state S, class Inv, relaxation_time R = relaxation_time::rrk,
           const auto& D = directions::none<std::remove_cvref_t<decltype(T)>::stages>>
-    requires invariant_set<Inv, S>
+    requires invariant_set<Inv, S> || model_invariant_source<Inv>
 class relaxation_rk {
     static constexpr std::size_t s = T.stages;
     static constexpr std::size_t extra = std::tuple_size_v<decltype(D.weights)>;
     static_assert(std::tuple_size_v<std::remove_cvref_t<decltype(D.weights[0])>> == s || extra == 0,
                   "search directions must have one weight per stage of the tableau");
-    static constexpr bool explicit_gamma = quadratic_invariant_set<Inv, S> && extra == 0;
+    template <class I>
+    static constexpr bool explicit_gamma = quadratic_invariant_set<I, S> && extra == 0;
 
    public:
     /// RRK keeps the tableau's order; IDT loses one (Ranocha et al. 2020).
@@ -91,8 +92,27 @@ class relaxation_rk {
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
+        return step_with(detail::invariants_for(inv_, f), f, x, t, dt);
+    }
+
+    /// The true time of the last state produced minus its grid time (0 for IDT or before the first step).
+    double time_lag() const { return R == relaxation_time::rrk && have_last_ ? lag_ : 0.0; }
+    /// The last accepted gamma (the sum of the gammas for multiple relaxation).
+    double gamma() const { return last_gamma_; }
+    /// Accepted and rejected steps, and the Newton iterations.
+    const invariant_stats& statistics() const { return stats_; }
+    /// The Newton iterations (what the drivers collect into run_stats::solver).
+    const solver_stats& solver_statistics() const { return stats_.solver; }
+    /// The invariants kept (the source tag when they are the model's).
+    const Inv& invariants() const { return inv_; }
+    /// Forget the time lag: the next step starts on its grid time.
+    void reset() { have_last_ = false; }
+
+   private:
+    template <class I, class F>
+    step_result step_with(const I& inv, F& f, S& x, double t, double dt) {
         constexpr double eps = std::numeric_limits<double>::epsilon();
-        const std::size_t m = inv_.count();
+        const std::size_t m = inv.count();
         if (m != 1 + extra)
             throw std::invalid_argument("relaxation: " + std::to_string(m) + " invariants need " +
                                         std::to_string(m - 1) + " further search directions, the stepper has " +
@@ -111,15 +131,15 @@ class relaxation_rk {
         for (auto& d : d_) detail::resize_like(d, x);
         detail::resize_like(w_, x);
         detail::resize_like(g_, x);
-        if constexpr (explicit_gamma) detail::resize_like(diff_, x);
+        if constexpr (explicit_gamma<I>) detail::resize_like(diff_, x);
         double production = 0.0;  // sum_i b_i B(Y_i - x, k_i)
         st_.run_stages(f, x, ta, tau, [&](std::size_t i, const S& y, const S& k) {
-            if constexpr (explicit_gamma) {
+            if constexpr (explicit_gamma<I>) {
                 if (T.b[i] == 0.0 || i == 0) return;  // Y_0 = x
                 const auto yr = detail::reals(y), xr = detail::reals(x);
                 const auto dr = detail::reals(diff_);
                 for (std::size_t j = 0; j < dr.size(); ++j) dr[j] = yr[j] - xr[j];
-                production += T.b[i] * inv_.inner(std::as_const(diff_), k, 0);
+                production += T.b[i] * inv.inner(std::as_const(diff_), k, 0);
             } else {
                 (void)i, (void)y, (void)k;
             }
@@ -129,10 +149,10 @@ class relaxation_rk {
 
         std::array<double, 1 + extra> gamma{};
         gamma[0] = 1.0;
-        if constexpr (explicit_gamma) {
-            const double dd = inv_.inner(std::as_const(d_[0]), std::as_const(d_[0]), 0);
+        if constexpr (explicit_gamma<I>) {
+            const double dd = inv.inner(std::as_const(d_[0]), std::as_const(d_[0]), 0);
             gamma[0] = dd != 0.0 ? 2.0 * tau * production / dd : 1.0;  // d = 0: nothing moves, any gamma will do
-        } else if (!solve_gammas(x, gamma)) {
+        } else if (!solve_gammas(inv, x, gamma)) {
             ++stats_.rejected_solver;
             return step_result::failure(0);
         }
@@ -155,20 +175,6 @@ class relaxation_rk {
         return step_result::success();
     }
 
-    /// The true time of the last state produced minus its grid time (0 for IDT or before the first step).
-    double time_lag() const { return R == relaxation_time::rrk && have_last_ ? lag_ : 0.0; }
-    /// The last accepted gamma (the sum of the gammas for multiple relaxation).
-    double gamma() const { return last_gamma_; }
-    /// Accepted and rejected steps, and the Newton iterations.
-    const invariant_stats& statistics() const { return stats_; }
-    /// The Newton iterations (what the drivers collect into run_stats::solver).
-    const solver_stats& solver_statistics() const { return stats_.solver; }
-    /// The invariants kept.
-    const Inv& invariants() const { return inv_; }
-    /// Forget the time lag: the next step starts on its grid time.
-    void reset() { have_last_ = false; }
-
-   private:
     // d = tau sum_i w_i k_i.
     template <class W>
     void form_direction(S& d, const W& w, double tau) {
@@ -196,13 +202,14 @@ class relaxation_rk {
     // Newton on I_k(x + sum_j gamma_j d_j) - I_k(x) = 0, Jacobian J_kj = grad I_k . d_j at the current point.
     // Converged when every residual is at the rounding of the invariant's evaluation (4 eps times its scale),
     // or when the Newton step is at the rounding of gamma; the gammas then hold to what double can resolve.
-    bool solve_gammas(const S& x, std::array<double, 1 + extra>& gamma) {
+    template <class I>
+    bool solve_gammas(const I& inv, const S& x, std::array<double, 1 + extra>& gamma) {
         constexpr std::size_t m = 1 + extra;
         constexpr double eps = std::numeric_limits<double>::epsilon();
         std::array<double, m> scale{};
         std::array<double, m> target{};
-        for (std::size_t k = 0; k < m; ++k) target[k] = inv_.value(x, k);
-        for (std::size_t k = 0; k < m; ++k) scale[k] = std::abs(target[k]) + detail::rounding_scale(inv_, x, k, g_);
+        for (std::size_t k = 0; k < m; ++k) target[k] = inv.value(x, k);
+        for (std::size_t k = 0; k < m; ++k) scale[k] = std::abs(target[k]) + detail::rounding_scale(inv, x, k, g_);
         jac_.assign(m * m, 0.0);
         res_.assign(m, 0.0);
         int it = 0;
@@ -212,7 +219,7 @@ class relaxation_rk {
             combine(x, gamma, w_);
             bool small = true;
             for (std::size_t k = 0; k < m; ++k) {
-                res_[k] = inv_.value(std::as_const(w_), k) - target[k];
+                res_[k] = inv.value(std::as_const(w_), k) - target[k];
                 if (!(std::abs(res_[k]) <= 4.0 * eps * scale[k])) small = false;
             }
             if (small) {
@@ -239,7 +246,7 @@ class relaxation_rk {
             }
             ++it;
             for (std::size_t k = 0; k < m; ++k) {
-                inv_.gradient(std::as_const(w_), k, g_);
+                inv.gradient(std::as_const(w_), k, g_);
                 for (std::size_t j = 0; j < m; ++j) jac_[k * m + j] = detail::dot(std::as_const(g_), d_[j]);
             }
             if (!detail::solve_small(jac_, res_, m)) {
