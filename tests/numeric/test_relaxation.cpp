@@ -60,6 +60,11 @@ TEST(RelaxationOrder, MultipleRelaxationKeepsFourthOrder) {
     auto make = [] { return mrrk4_2<rb_state, rb_set>(body_invariants); };
     EXPECT_NEAR(observed_order(make, body, rigid_body::initial_state(), 5.0, 20, rigid_body_exact), 4.0, 0.25);
 }
+// Any explicit tableau: Heun's (second order) relaxed, n = 40..320 steps to t = 5 (errors 1e-2..1e-4).
+TEST(RelaxationOrder, HeunsTableauKeepsSecondOrder) {
+    auto heun = [] { return relaxation_rk<tableaus::heun, rb_state, rb_one>(pick_invariants(body_invariants, {0})); };
+    EXPECT_NEAR(observed_order(heun, body, rigid_body::initial_state(), 5.0, 40, rigid_body_exact), 2.0, 0.2);
+}
 TEST(RelaxationOrder, RootSolveOnTheExponentialEntropy) {
     const exponential_entropy model;
     using S = exponential_entropy::state_type;

@@ -41,8 +41,6 @@ inline constexpr search_directions<S, 0> none{};
 inline constexpr search_directions<4, 1> rk4_midpoint{{{{0.0, 1.0, 0.0, 0.0}}}};
 /// Two further directions from RK4's stages: the midpoint rule and (1/6, 2/3, 0, 1/6) (second order).
 inline constexpr search_directions<4, 2> rk4_two{{{{0.0, 1.0, 0.0, 0.0}, {1.0 / 6.0, 2.0 / 3.0, 0.0, 1.0 / 6.0}}}};
-/// Heun's and the midpoint tableau's first stage: forward Euler (1, 0), first order.
-inline constexpr search_directions<2, 1> two_stage_euler{{{{1.0, 0.0}}}};
 
 }  // namespace directions
 
