@@ -60,11 +60,11 @@ struct kepler_cartesian {
     double angular_momentum(const state_type& u) const { return u[0] * u[3] - u[1] * u[2]; }
     /// x component of the Runge-Lenz vector A = p x L - q / |q|.
     double runge_lenz_x(const state_type& u) const {
-        return u[3] * angular_momentum(u) - u[0] / std::hypot(u[0], u[1]);
+        return u[3] * angular_momentum(u) - u[0] / std::hypot(u[0], u[1]) + 0.0;  // + 0.0: no "-0" in the output
     }
     /// y component of the Runge-Lenz vector.
     double runge_lenz_y(const state_type& u) const {
-        return -u[2] * angular_momentum(u) - u[1] / std::hypot(u[0], u[1]);
+        return -u[2] * angular_momentum(u) - u[1] / std::hypot(u[0], u[1]) + 0.0;
     }
 
     /// The invariants by name, in CSV column order.
