@@ -57,9 +57,10 @@ struct relaxation_options {
 /// One quadratic invariant without further directions has Ketcheson's explicit gamma,
 ///   gamma = 2 sum_i b_i B(Y_i - x, k_i) tau / B(d, d);
 /// otherwise Newton's method solves for the gammas, starting at (1, 0, ..., 0). The targets are I(x) of the step's
-/// own start, as published: aiming at the run's first values instead would need gammas far from (1, 0) on
-/// small steps (the directions differ by O(tau^q)), which the driver's step halving could never recover from. gamma (the sum of the gammas)
-/// outside [gamma_min, gamma_max], or a solve that does not converge, rejects the step (x unchanged, counted).
+/// own start, as published: aiming at the run's first values instead would need gammas far from (1, 0) on small
+/// steps (the directions differ by O(tau^q)), from which the driver's step halving could never recover.
+/// gamma (the sum of the gammas) outside [gamma_min, gamma_max], or a solve that does not converge, rejects the
+/// step (x unchanged, counted).
 ///
 /// With relaxation_time::rrk the relaxed state is at time t + gamma tau, off the driver's grid. To fit the
 /// fixed-step drivers, each step aims at the next grid point: a step from nominal t to t + dt starts at the true
