@@ -85,9 +85,10 @@ ECI_DETAIL_COMPENSATED_CLONES inline double compensated_c_pc_finish(double* p, d
 /// xi_k = psi_k^2 + tau (psi_k S_k + psi~_k S~_k) is formed in double-double arithmetic. The stepper keeps the
 /// residual r_k = xi_k - psi_k^2 (below an ulp of psi_k^2) from step to step, so xi_k = psi_k^2 + r_k is carried
 /// with compensated summation and only the rounding of the small increments tau (psi S + psi~ S~) remains.
-/// A state changed between steps inherits the old residual, a perturbation under one ulp; `reset()` drops it.
+/// reset() drops the residuals (the drivers call it when a run starts; a state of another size drops them too); a
+/// state changed between steps without reset() inherits the old residual, a perturbation under one ulp.
 template <state S>
-class compensated_c_pc {
+class c_pc_compensated {
    public:
     static constexpr int order = 2;
 
@@ -129,5 +130,9 @@ class compensated_c_pc {
     S k0_{}, k1_{}, pred_{}, res_{};
     std::size_t res_n_ = 0;
 };
+
+/// The former name of c_pc_compensated (deprecated: C++ names now follow the registry's, '-' written '_').
+template <state S>
+using compensated_c_pc = c_pc_compensated<S>;
 
 }  // namespace eci
