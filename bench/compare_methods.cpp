@@ -247,8 +247,7 @@ problem lotka_volterra_problem() {
     const auto inv = eci::invariants_of(model);
     add_relaxation_and_projection(p, model, x0, inv, inv, false, err);
     p.methods.push_back({"transformation", "transformed-rk4", [=](std::uint64_t n, bool o) {
-                             return run_stepper(eci::transformed_rk4<eci::lotka_volterra::transform>(
-                                                    model.linearizing_transform()),
+                             return run_stepper(eci::transformed_rk4<eci::lotka_volterra::transform>{},
                                                 model, x0, 20.0, n, o, identity<eci::lotka_volterra>(), err);
                          }});
     return p;
@@ -270,7 +269,7 @@ problem kepler_paper_problem() {
     const auto inv = eci::pick_invariants(eci::invariants_of(model), {0, 2});
     add_relaxation_and_projection(p, model, x0, eci::pick_invariants(eci::invariants_of(model), {0}), inv, true, err);
     p.methods.push_back({"transformation", "transformed-rk4", [=](std::uint64_t n, bool o) {
-                             return run_stepper(eci::transformed_rk4<eci::kepler::transform>(model.linearizing_transform()),
+                             return run_stepper(eci::transformed_rk4<eci::kepler::transform>{},
                                                 model, x0, 10.0, n, o, identity<eci::kepler>(), err);
                          }});
     return p;
@@ -333,7 +332,7 @@ problem kepler_05_problem(bool quick) {
     const eci::kepler polar = pmodel;
     const eci::kepler::state_type polar0 = p0;
     p.methods.push_back({"transformation", "transformed-rk4", [=](std::uint64_t n, bool o) {
-                             return run_stepper(eci::transformed_rk4<eci::kepler::transform>(polar.linearizing_transform()),
+                             return run_stepper(eci::transformed_rk4<eci::kepler::transform>{},
                                                 polar, polar0, T, n, o,
                                                 [ell = polar.ell](const eci::kepler::state_type& s) {
                                                     return to_vec(eci::kepler_cartesian::from_polar(s, ell));

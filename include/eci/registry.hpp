@@ -19,15 +19,30 @@
 #include "steppers/explicit_rk.hpp"
 #include "steppers/implicit_midpoint.hpp"
 #include "steppers/kahan.hpp"
+#include "steppers/projection.hpp"
+#include "steppers/relaxation_rk.hpp"
+#include "steppers/symplectic.hpp"
 #include "steppers/transformed_rk.hpp"
 #include "tableaus.hpp"
+#include "models/invariant_sets.hpp"
 
 namespace eci {
 
 /// How a method is built. A conventional or conservative method is a tableau run by an engine: explicit_rk
 /// (conventional); conservative_rk on a model with quadratic invariants, transformed_rk on a model with a
 /// linearizing transform (reported as `transformed`). Implicit and model-specific methods name their stepper.
-enum class method_family { conventional, conservative, transformed, implicit, model_specific };
+/// Relaxation, projection and symplectic methods (issue 12) keep invariants given as functions of the state, or
+/// a separable Hamiltonian's structure, instead.
+enum class method_family {
+    conventional,
+    conservative,
+    transformed,
+    implicit,
+    model_specific,
+    relaxation,
+    projection,
+    symplectic
+};
 
 /// The family's name as `eci list` prints it.
 constexpr std::string_view family_name(method_family f) {
@@ -37,6 +52,9 @@ constexpr std::string_view family_name(method_family f) {
         case method_family::transformed: return "transformed";
         case method_family::implicit: return "implicit";
         case method_family::model_specific: return "model-specific";
+        case method_family::relaxation: return "relaxation";
+        case method_family::projection: return "projection";
+        case method_family::symplectic: return "symplectic";
     }
     return "?";
 }
@@ -133,6 +151,53 @@ struct kahan {
     template <class M> using stepper = eci::kahan<typename M::state_type>;
     template <class M>
     static constexpr bool runs_on = has_jacobian<M> && requires { std::tuple_size<typename M::state_type>::value; };
+};
+
+/// Relaxation RK4 on the model's first invariant (issue 12).
+struct rrk_rk4 {
+    static constexpr method_info info{"rrk-rk4", method_family::relaxation, 4, false,
+                                      "relaxation RK4 keeping the model's first invariant (time advanced by gamma tau)"};
+    template <class M> using stepper = eci::rrk4<typename M::state_type, first_model_invariant>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
+};
+/// RK4 with the incremental direction technique on the model's first invariant.
+struct idt_rk4 {
+    static constexpr method_info info{"idt-rk4", method_family::relaxation, 3, false,
+                                      "RK4 relaxed by the incremental direction technique (first invariant; order 3)"};
+    template <class M> using stepper = eci::idt_rk4<typename M::state_type, first_model_invariant>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
+};
+/// Multiple relaxation RK4 (Biswas & Ketcheson) on a model with two independent invariants.
+struct mrrk_rk4 {
+    static constexpr method_info info{"mrrk-rk4", method_family::relaxation, 4, true,
+                                      "multiple relaxation RK4 keeping two invariants (Biswas & Ketcheson 2023)"};
+    template <class M> using stepper = eci::mrrk4_2<typename M::state_type, independent_model_invariants>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> == 2;
+};
+/// RK4 followed by the orthogonal projection onto the model's independent invariants.
+struct projected_rk4 {
+    static constexpr method_info info{"projected-rk4", method_family::projection, 4, true,
+                                      "RK4 + orthogonal projection onto the invariants (simplified Newton)"};
+    template <class M>
+    using stepper = eci::orthogonal_projection<eci::rk4<typename M::state_type>, typename M::state_type,
+                                               independent_model_invariants>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
+};
+/// Stormer-Verlet on a separable Hamiltonian model.
+struct stormer_verlet {
+    static constexpr method_info info{"stormer-verlet", method_family::symplectic, 2, false,
+                                      "Stormer-Verlet (separable Hamiltonians)"};
+    template <class M>
+    using stepper = eci::symplectic_splitting<splittings::stormer_verlet, typename M::state_type, drift_rule_of<M>>;
+    template <class M> static constexpr bool runs_on = separable_hamiltonian<M>;
+};
+/// McLachlan's fourth-order SB3A on a separable Hamiltonian model.
+struct sb3a {
+    static constexpr method_info info{"sb3a", method_family::symplectic, 4, false,
+                                      "McLachlan's symplectic SB3A, fourth order (separable Hamiltonians)"};
+    template <class M>
+    using stepper = eci::symplectic_splitting<splittings::mclachlan_sb3a, typename M::state_type, drift_rule_of<M>>;
+    template <class M> static constexpr bool runs_on = separable_hamiltonian<M>;
 };
 
 }  // namespace method_entries
@@ -242,7 +307,9 @@ constexpr method_family family_on() {
 using method_entry_list =
     detail::type_list<method_entries::euler, method_entries::pc, method_entries::rk2, method_entries::rk4,
                       method_entries::c_euler, method_entries::c_pc, method_entries::c_rk2, method_entries::c_rk4,
-                      method_entries::c_pc_compensated, method_entries::implicit_midpoint, method_entries::kahan>;
+                      method_entries::c_pc_compensated, method_entries::implicit_midpoint, method_entries::kahan,
+                      method_entries::rrk_rk4, method_entries::idt_rk4, method_entries::mrrk_rk4,
+                      method_entries::projected_rk4, method_entries::stormer_verlet, method_entries::sb3a>;
 
 namespace detail {
 
@@ -267,18 +334,10 @@ struct method_table<type_list<E...>> {
         return (try_one(static_cast<E*>(nullptr)) || ...);
     }
 
-    // The entries that run on M, each with its family on M (`transformed` where the model's transform is used).
     template <class M>
     static std::vector<method_info> supported() {
         std::vector<method_info> out;
-        auto add = [&]<class Entry>(Entry*) {
-            if constexpr (runs_on<Entry, M>) {
-                method_info m = Entry::info;
-                m.family = family_on<Entry, M>();
-                out.push_back(m);
-            }
-        };
-        (add(static_cast<E*>(nullptr)), ...);
+        ((runs_on<E, M> ? out.push_back(E::info) : void()), ...);
         return out;
     }
 
@@ -336,9 +395,8 @@ bool with_method(std::string_view name, Fn&& fn) {
     return with_stepper<S>(name, std::forward<Fn>(fn));
 }
 
-/// The methods that run on Model (a model type, or a state type for a plain system), in list order, each with its
-/// family on Model (`transformed` for the conservative tableaux on a model with a linearizing transform):
-/// computed from what the model offers, never typed by hand.
+/// The methods that run on Model (a model type, or a state type for a plain system), in list order: computed
+/// from what the model offers, never typed by hand.
 template <class Model>
 std::vector<method_info> methods_for() {
     return registered_methods::supported<typename detail::as_model<Model>::type>();

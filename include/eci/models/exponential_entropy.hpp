@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "../concepts.hpp"
+#include "description.hpp"
 #include "invariant.hpp"
 
 namespace eci {
@@ -16,7 +17,26 @@ namespace eci {
 struct exponential_entropy {
     using state_type = std::array<double, 2>;
 
+    static constexpr std::string_view name = "exp-entropy";  ///< `eci run exp-entropy`
+    static constexpr std::string_view description =
+        "ARKODE's conserved exponential entropy u' = -e^v, v' = e^u; invariant e^u + e^v (c-* through xi = e^u, e^v)";
     static constexpr std::array<const char*, 2> component_names{"u", "v"};
+
+    /// No parameters.
+    static constexpr auto parameters() { return std::array<parameter<exponential_entropy>, 0>{}; }
+    /// The initial state, set as one vector.
+    static constexpr auto initial_condition() {
+        return std::array<state_field, 1>{{{"uv", "initial state u,v", "", 0, 2}}};
+    }
+    /// ARKODE's set-up: (u, v)(0) = (1, 0.5) to t = 5; C-RK4 through the transform (default), and relaxation RK4.
+    static std::array<preset<exponential_entropy>, 2> presets() {
+        return {{{"standard", "(1, 0.5) to t = 5, C-RK4 through xi = (e^u, e^v), dt 0.01", {}, {1.0, 0.5}, "c-rk4",
+                  0.01, 5.0},
+                 {"relaxation", "the same with relaxation RK4 (root solve for gamma)", {}, {1.0, 0.5}, "rrk-rk4", 0.01,
+                  5.0}}};
+    }
+    /// No parameters to check.
+    void validate() const {}
 
     /// ARKODE's initial state (1, 0.5).
     static constexpr state_type initial_state() { return {1.0, 0.5}; }

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "../invariants.hpp"
+#include "../steppers/symplectic.hpp"
 #include "exponential_entropy.hpp"
 #include "kepler.hpp"
 #include "kepler_cartesian.hpp"
@@ -127,5 +128,34 @@ inline invariant_subset<kepler_invariants> independent_invariants_of(const keple
 inline invariant_subset<kepler_cartesian::invariant_set> independent_invariants_of(const kepler_cartesian& m) {
     return pick_invariants(invariants_of(m), {0, 1});
 }
+
+/// How many invariants independent_invariants_of(Model) has, known at compile time (0: the model offers none),
+/// so that the registry offers multiple relaxation only where it has two.
+template <class Model>
+inline constexpr std::size_t independent_invariant_count = 0;
+template <> inline constexpr std::size_t independent_invariant_count<three_wave> = 2;
+template <> inline constexpr std::size_t independent_invariant_count<n_wave<double>> = 2;
+template <> inline constexpr std::size_t independent_invariant_count<n_wave<std::complex<double>>> = 2;
+template <> inline constexpr std::size_t independent_invariant_count<rigid_body> = 2;
+template <> inline constexpr std::size_t independent_invariant_count<kepler_cartesian> = 2;
+template <> inline constexpr std::size_t independent_invariant_count<lotka_volterra> = 1;
+template <> inline constexpr std::size_t independent_invariant_count<kepler> = 1;
+template <> inline constexpr std::size_t independent_invariant_count<nonlinear_oscillator> = 1;
+template <> inline constexpr std::size_t independent_invariant_count<exponential_entropy> = 1;
+
+/// A model whose Hamiltonian is separable, H = T(p) + V(q), with state (q, p): symplectic splittings apply.
+template <class M>
+concept separable_hamiltonian = requires {
+    requires static_cast<bool>(M::separable_hamiltonian);
+};
+
+/// The drift rule of a separable model: dq/dt = p (no right-hand side needed) where the model says unit_mass.
+template <class M>
+inline constexpr drift_rule drift_rule_of = [] {
+    if constexpr (requires { requires static_cast<bool>(M::unit_mass); })
+        return drift_rule::momentum;
+    else
+        return drift_rule::from_system;
+}();
 
 }  // namespace eci

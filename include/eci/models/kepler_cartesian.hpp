@@ -10,6 +10,7 @@
 #include <string>
 
 #include "../detail/format.hpp"
+#include "description.hpp"
 #include "invariant.hpp"
 #include "kepler.hpp"
 #include "kepler_exact.hpp"
@@ -20,7 +21,28 @@ namespace eci {
 struct kepler_cartesian {
     using state_type = std::array<double, 4>;
 
+    static constexpr std::string_view name = "kepler-cartesian";  ///< `eci run kepler-cartesian`
+    static constexpr std::string_view description =
+        "Kepler problem in Cartesian variables (q, p), H = |p|^2/2 - 1/|q|; invariants H, L, Runge-Lenz vector";
     static constexpr std::array<const char*, 4> component_names{"q1", "q2", "p1", "p2"};
+
+    /// No parameters (unit mass and strength).
+    static constexpr auto parameters() { return std::array<parameter<kepler_cartesian>, 0>{}; }
+    /// The initial state: position and momentum (validate_state() requires a bound orbit with L != 0).
+    static constexpr auto initial_condition() {
+        return std::array<state_field, 2>{{{"q", "initial position q1,q2", "not (0, 0)", 0, 2},
+                                           {"p", "initial momentum p1,p2", "bound orbit, L != 0", 2, 2}}};
+    }
+    /// Ranocha & Ketcheson's set-up: eccentricity 0.5 to t = 300 pi; relaxation RK4 keeping H (default), and
+    /// McLachlan's symplectic SB3A.
+    static std::array<preset<kepler_cartesian>, 2> presets() {
+        const state_type u0 = initial_state(0.5);
+        const double T = 300.0 * 3.14159265358979323846;
+        return {{{"standard", "e = 0.5 to t = 300 pi, relaxation RK4 (H kept), dt 0.025", {}, u0, "rrk-rk4", 0.025, T},
+                 {"symplectic", "the same with the symplectic SB3A", {}, u0, "sb3a", 0.025, T}}};
+    }
+    /// No parameters to check.
+    void validate() const {}
     /// H is not a sum of squares of the unknowns: C-RK methods do not keep it (they keep L only).
     static constexpr bool quadratic_invariants = false;
     /// H = T(p) + V(q) with q' = p: symplectic splittings apply, and their drifts need no right-hand side.

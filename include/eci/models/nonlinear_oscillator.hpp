@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <stdexcept>
 
+#include "description.hpp"
 #include "invariant.hpp"
 
 namespace eci {
@@ -15,7 +16,23 @@ namespace eci {
 struct nonlinear_oscillator {
     using state_type = std::array<double, 2>;
 
+    static constexpr std::string_view name = "nonlinear-oscillator";  ///< `eci run nonlinear-oscillator`
+    static constexpr std::string_view description =
+        "Ketcheson's \"Ranocha problem\" u' = (-u2, u1)/|u|^2; invariant |u|^2, exact solution a rotation";
     static constexpr std::array<const char*, 2> component_names{"u1", "u2"};
+
+    /// No parameters.
+    static constexpr auto parameters() { return std::array<parameter<nonlinear_oscillator>, 0>{}; }
+    /// The initial state, set as one vector.
+    static constexpr auto initial_condition() {
+        return std::array<state_field, 1>{{{"u", "initial state u1,u2", "not (0, 0)", 0, 2}}};
+    }
+    /// Ketcheson's set-up: u(0) = (1, 0), tau = 0.1 to t = 10, relaxation RK4.
+    static std::array<preset<nonlinear_oscillator>, 1> presets() {
+        return {{{"standard", "u(0) = (1, 0), relaxation RK4, dt 0.1 to t = 10", {}, {1.0, 0.0}, "rrk-rk4", 0.1, 10.0}}};
+    }
+    /// No parameters to check.
+    void validate() const {}
 
     /// Ketcheson's initial state (1, 0).
     static constexpr state_type initial_state() { return {1.0, 0.0}; }

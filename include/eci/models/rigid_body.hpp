@@ -7,6 +7,7 @@
 #include <cstddef>
 
 #include "../invariants.hpp"
+#include "description.hpp"
 #include "invariant.hpp"
 
 namespace eci {
@@ -20,7 +21,30 @@ struct rigid_body {
     double alpha = 1.0 + 1.0 / std::sqrt(1.51);
     double beta = 1.0 - 0.51 / std::sqrt(1.51);
 
+    static constexpr std::string_view name = "rigid-body";  ///< `eci run rigid-body`
+    static constexpr std::string_view description =
+        "rigid body of Biswas & Ketcheson (2023), Euler's equations; quadratic invariants G1 = |u|^2, G2";
     static constexpr std::array<const char*, 3> component_names{"u1", "u2", "u3"};
+
+    /// The parameters (any finite values: G1 and G2 are invariant for all alpha, beta).
+    static constexpr auto parameters() {
+        return std::array<parameter<rigid_body>, 2>{{
+            {"alpha", "coefficient alpha (G2 = u1^2 + beta u2^2 + alpha u3^2)", "", member_values<&rigid_body::alpha, rigid_body>},
+            {"beta", "coefficient beta", "", member_values<&rigid_body::beta, rigid_body>},
+        }};
+    }
+    /// The initial state, set as one vector.
+    static constexpr auto initial_condition() {
+        return std::array<state_field, 1>{{{"u", "initial state u1,u2,u3", "", 0, 3}}};
+    }
+    /// Biswas & Ketcheson's set-up, u(0) = (0, 1, 1) to t = 1000 with steps of 0.1: eci's C-RK4 (the default),
+    /// and their multiple relaxation RK4.
+    static std::array<preset<rigid_body>, 2> presets() {
+        return {{{"standard", "Biswas & Ketcheson's set-up, C-RK4, dt 0.1 to t = 1000", {}, {0.0, 1.0, 1.0}, "c-rk4",
+                  0.1, 1000.0},
+                 {"multiple-relaxation", "the same with multiple relaxation RK4", {}, {0.0, 1.0, 1.0}, "mrrk-rk4", 0.1,
+                  1000.0}}};
+    }
 
     /// Biswas & Ketcheson's initial state (0, 1, 1).
     static constexpr state_type initial_state() { return {0.0, 1.0, 1.0}; }
