@@ -184,7 +184,8 @@ problem three_wave_problem() {
     const eci::three_wave model;
     const S x0{std::sqrt(1.5), 1.0, std::sqrt(1.5)};
     const eci::three_wave_exact exact(model, x0);
-    problem p{"three_wave", "Three-wave (paper, Fig. 5 initial state), t = 20", 20.0, 400, {100, 200, 400, 800, 1600, 3200},
+    problem p{"three_wave", "Three-wave (paper, Fig. 5 initial state), t = 20", 20.0, 400,
+              {100, 200, 400, 800, 1600, 3200},
               [exact](double t) { return to_vec(exact(t)); }, {}, "c-rk4", "energy / enstrophy"};
     const auto err = relative_errors({[model](const vec& u) { return model.energy({u[0], u[1], u[2]}); },
                                       [model](const vec& u) { return model.enstrophy({u[0], u[1], u[2]}); }},
@@ -220,7 +221,8 @@ problem entropy_problem() {
     using S = eci::exponential_entropy::state_type;
     const eci::exponential_entropy model;
     const S x0 = eci::exponential_entropy::initial_state();
-    problem p{"exponential_entropy", "Conserved exponential entropy (ARKODE), t = 5", 5.0, 100, {25, 50, 100, 200, 400, 800},
+    problem p{"exponential_entropy", "Conserved exponential entropy (ARKODE), t = 5", 5.0, 100,
+              {25, 50, 100, 200, 400, 800},
               [x0](double t) { return to_vec(eci::exponential_entropy::exact(x0, t)); }, {}, "transformed-rk4",
               "e^u + e^v"};
     const auto err = relative_errors({[model](const vec& u) { return model.entropy({u[0], u[1]}); }}, to_vec(x0));
@@ -241,7 +243,8 @@ problem lotka_volterra_problem() {
     S ref = x0;
     eci::rk4<S> r;
     eci::integrate_n_steps(r, model, ref, 0.0, 20.0 / 1048576.0, 1048576);
-    problem p{"lotka_volterra", "Lotka-Volterra (paper, Fig. 7 setup), t = 20", 20.0, 400, {100, 200, 400, 800, 1600, 3200},
+    problem p{"lotka_volterra", "Lotka-Volterra (paper, Fig. 7 setup), t = 20", 20.0, 400,
+              {100, 200, 400, 800, 1600, 3200},
               [ref](double) { return to_vec(ref); }, {}, "transformed-rk4", "H"};
     const auto err = relative_errors({[model](const vec& u) { return model.hamiltonian({u[0], u[1]}); }}, to_vec(x0));
     const auto inv = eci::invariants_of(model);
@@ -284,7 +287,8 @@ problem kepler_05_problem(bool quick) {
     const std::uint64_t base = quick ? 800 : 12000;
     problem p{"kepler_05",
               std::string("Kepler e = 0.5, Cartesian (Ranocha & Ketcheson), t = ") + (quick ? "20 pi" : "300 pi"), T,
-              2 * base, {base / 2, base, 2 * base, 4 * base, 8 * base}, [exact](double t) { return to_vec(exact(t)); }, {},
+              2 * base, {base / 2, base, 2 * base, 4 * base, 8 * base},
+              [exact](double t) { return to_vec(exact(t)); }, {},
               "transformed-rk4", "H / L / A_x / A_y"};
     const auto err =
         relative_errors({[model](const vec& u) { return model.hamiltonian({u[0], u[1], u[2], u[3]}); },
@@ -297,14 +301,14 @@ problem kepler_05_problem(bool quick) {
                                   true, err);
     auto id = identity<eci::kepler_cartesian>();
     p.methods.push_back({"symplectic", "stormer-verlet", [=](std::uint64_t n, bool o) {
-                             return run_stepper(
-                                 eci::symplectic_splitting<eci::splittings::stormer_verlet, S, eci::drift_rule::momentum>{},
-                                 model, x0, T, n, o, id, err);
+                             using verlet = eci::symplectic_splitting<eci::splittings::stormer_verlet, S,
+                                                                      eci::drift_rule::momentum>;
+                             return run_stepper(verlet{}, model, x0, T, n, o, id, err);
                          }});
     p.methods.push_back({"symplectic", "sb3a", [=](std::uint64_t n, bool o) {
-                             return run_stepper(
-                                 eci::symplectic_splitting<eci::splittings::mclachlan_sb3a, S, eci::drift_rule::momentum>{},
-                                 model, x0, T, n, o, id, err);
+                             using sb3a = eci::symplectic_splitting<eci::splittings::mclachlan_sb3a, S,
+                                                                    eci::drift_rule::momentum>;
+                             return run_stepper(sb3a{}, model, x0, T, n, o, id, err);
                          }});
     // Boost.Odeint's SB3A, given the force only (its Nystrom form): the same coefficients, odeint's engine.
     p.methods.push_back({"symplectic", "odeint-sb3a", [=](std::uint64_t n, bool o) {
@@ -394,8 +398,9 @@ void emit(const problem& p, bool quick, std::FILE* csv, std::FILE* md) {
         if (p.methods[m].name == p.reference) ref = m;
     std::fprintf(md, "\n### %s\n\n%llu steps of %.4g; invariants (relative change, largest over the run): %s.\n\n",
                  p.title.c_str(), static_cast<unsigned long long>(n), p.t_end / double(n), p.invariant_names.c_str());
-    std::fprintf(md, "| method | family | steps | RHS evaluations | solver iterations | rejected steps | invariant errors | "
-                     "end-time error | CPU time / %s |\n|---|---|---|---|---|---|---|---|---|\n",
+    std::fprintf(md,
+                 "| method | family | steps | RHS evaluations | solver iterations | rejected steps | invariant errors "
+                 "| end-time error | CPU time / %s |\n|---|---|---|---|---|---|---|---|---|\n",
                  p.reference.c_str());
     for (std::size_t m = 0; m < p.methods.size(); ++m) {
         const outcome o = p.methods[m].run(n, true);

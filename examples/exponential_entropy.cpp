@@ -47,9 +47,10 @@ int main() {
     auto drift = [&](auto stepper, const char* name) {
         state s = s0;
         double worst = 0.0;
-        const eci::run_stats r = eci::integrate_n_steps(stepper, f, s, 0.0, dt, steps, [&](const state& x, double, std::uint64_t) {
+        auto watch = [&](const state& x, double, std::uint64_t) {
             worst = std::fmax(worst, std::fabs(entropy(x) - entropy(s0)));
-        });
+        };
+        const eci::run_stats r = eci::integrate_n_steps(stepper, f, s, 0.0, dt, steps, watch);
         std::printf("%-16s u(5) = %.12f, max |change of e^u + e^v| %.2e, %llu solver iterations\n", name, s[0], worst,
                     static_cast<unsigned long long>(r.solver.iterations));
         return worst;

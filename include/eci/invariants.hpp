@@ -178,10 +178,10 @@ inline bool solve_small(std::vector<double>& A, std::vector<double>& r, std::siz
 }  // namespace detail
 
 /// Invariant sources for the steppers' `Inv` parameter that take the invariants from the model being stepped
-/// (found through the system's wrappers), so the registry can build such a stepper without the model's
-/// parameters: every invariant of invariants_of(model), its first one, or independent_invariants_of(model) (a set
-/// whose gradients are independent wherever the model is integrable: what projection and multiple relaxation
-/// need). Those functions are in models/invariant_sets.hpp, which must be included where the stepper runs.
+/// (model_of(f): found through the system's wrappers), so the registry can build such a stepper without the
+/// model's parameters: every invariant of invariants_of(model), its first one, or independent_invariants_of(model)
+/// (a set whose gradients are independent wherever the model is integrable: what projection and multiple
+/// relaxation need). Those functions are in models/invariant_sets.hpp, which must be included where the stepper runs.
 struct all_model_invariants {
     template <class M>
     static auto of(const M& m) {
@@ -210,20 +210,11 @@ concept model_invariant_source = std::same_as<Inv, all_model_invariants> || std:
 
 namespace detail {
 
-/// The model behind a system: f, or what its wrappers (`wrapped()`) wrap.
-template <class F>
-constexpr const auto& model_behind(const F& f) {
-    if constexpr (requires { f.wrapped(); })
-        return model_behind(f.wrapped());
-    else
-        return f;
-}
-
 /// The invariants a stepper with source Inv uses on system f: its own (stored) set, or the model's.
 template <class Inv, class F>
 decltype(auto) invariants_for(const Inv& stored, const F& f) {
     if constexpr (model_invariant_source<Inv>)
-        return Inv::of(model_behind(f));
+        return Inv::of(model_of(f));
     else
         return (stored);
 }

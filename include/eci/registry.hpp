@@ -156,7 +156,7 @@ struct kahan {
 /// Relaxation RK4 on the model's first invariant (issue 12).
 struct rrk_rk4 {
     static constexpr method_info info{"rrk-rk4", method_family::relaxation, 4, false,
-                                      "relaxation RK4 keeping the model's first invariant (time advanced by gamma tau)"};
+                                      "relaxation RK4 keeping the model's first invariant (time advanced gamma tau)"};
     template <class M> using stepper = eci::rrk4<typename M::state_type, first_model_invariant>;
     template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
 };

@@ -97,7 +97,8 @@ TEST(RigidBodyExact, AgreesWithTheThreeWaveSolutionAndKeepsTheInvariants) {
 }
 
 // The exact solutions of the oscillator and the exponential entropy solve their equations: a centred difference
-// of the solution matches the right-hand side (error h^2 |u'''| / 6, |u'''| up to C^3 ~ 100 here: 1e-7 at h = 1e-4, plus eps / h ~ 1e-12).
+// of the solution matches the right-hand side (error h^2 |u'''| / 6, |u'''| up to C^3 ~ 100 here: 1e-7 at h = 1e-4,
+// plus eps / h ~ 1e-12).
 TEST(NewModelsExact, SolveTheirEquations) {
     const exponential_entropy ee;
     const nonlinear_oscillator osc;

@@ -183,8 +183,9 @@ TEST(RelaxationTime, TheLagIsOneStepsWorthNotAccumulated) {
     rrk4<rb_state, rb_one> st(pick_invariants(body_invariants, {0}));
     rb_state u = rigid_body::initial_state();
     double worst = 0.0;
-    integrate_n_steps(st, body, u, 0.0, 0.1, 1000,
-                      [&](const rb_state&, double, std::uint64_t) { worst = std::max(worst, std::abs(st.time_lag())); });
+    integrate_n_steps(st, body, u, 0.0, 0.1, 1000, [&](const rb_state&, double, std::uint64_t) {
+        worst = std::max(worst, std::abs(st.time_lag()));
+    });
     std::printf("  largest time lag over 1000 steps of 0.1: %.2e\n", worst);
     EXPECT_GT(worst, 0.0);
     EXPECT_LT(worst, 1e-5);  // (gamma - 1) tau with gamma - 1 = O(tau^3) ~ 1e-4 at most

@@ -29,7 +29,8 @@ struct nonlinear_oscillator {
     }
     /// Ketcheson's set-up: u(0) = (1, 0), tau = 0.1 to t = 10, relaxation RK4.
     static std::array<preset<nonlinear_oscillator>, 1> presets() {
-        return {{{"standard", "u(0) = (1, 0), relaxation RK4, dt 0.1 to t = 10", {}, {1.0, 0.0}, "rrk-rk4", 0.1, 10.0}}};
+        return {{{"standard", "u(0) = (1, 0), relaxation RK4, dt 0.1 to t = 10", {}, {1.0, 0.0}, "rrk-rk4", 0.1,
+                  10.0}}};
     }
     /// No parameters to check.
     void validate() const {}

@@ -29,7 +29,8 @@ struct rigid_body {
     /// The parameters (any finite values: G1 and G2 are invariant for all alpha, beta).
     static constexpr auto parameters() {
         return std::array<parameter<rigid_body>, 2>{{
-            {"alpha", "coefficient alpha (G2 = u1^2 + beta u2^2 + alpha u3^2)", "", member_values<&rigid_body::alpha, rigid_body>},
+            {"alpha", "coefficient alpha (G2 = u1^2 + beta u2^2 + alpha u3^2)", "",
+             member_values<&rigid_body::alpha, rigid_body>},
             {"beta", "coefficient beta", "", member_values<&rigid_body::beta, rigid_body>},
         }};
     }

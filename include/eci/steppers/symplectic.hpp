@@ -47,8 +47,8 @@ enum class drift_rule { from_system, momentum };
 /// A splitting method with coefficients C for a separable Hamiltonian system whose state is (q, p): the first
 /// half of the real unknowns are positions, the second half momenta. The system f(x, dxdt, t) must give
 /// dq/dt depending on p only and dp/dt on q only (separable, autonomous); each drift or kick evaluates f once
-/// (the first drift of a step reuses the last evaluation of the step before). Never fails. With drift_rule::momentum, dq/dt = p is
-/// checked at every kick (std::invalid_argument if the system says otherwise).
+/// (the first drift of a step reuses the last evaluation of the step before). Never fails. With
+/// drift_rule::momentum, dq/dt = p is checked at every kick (std::invalid_argument if the system says otherwise).
 template <const auto& C, state S, drift_rule Drift = drift_rule::from_system>
 class symplectic_splitting {
     static constexpr std::size_t stages = std::tuple_size_v<decltype(C.a)>;
