@@ -1,14 +1,15 @@
 #!/usr/bin/env bash
-# Installs the Debian packages eci builds, tests and draws with, where they are missing (a fresh Debian 12 as root).
+# Installs the Debian packages eci builds, tests and draws with, where they are missing (a fresh Debian 12 as root);
+# the Python module is built for Debian's /usr/bin/python3, where python3-numpy and the others live.
 set -euo pipefail
 
-packages=(g++ cmake make libboost-dev libcli11-dev libgtest-dev libbenchmark-dev gnuplot-nox)
+packages=(g++ cmake make libboost-dev libcli11-dev libgtest-dev libbenchmark-dev gnuplot-nox
+          python3 python3-dev pybind11-dev python3-pybind11 python3-numpy python3-scipy python3-pytest
+          python3-matplotlib)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
 done
-# bench/run.sh's report is a small standard-library Python script; any python3 on PATH will do.
-command -v python3 >/dev/null 2>&1 || missing+=(python3)
 [ ${#missing[@]} -eq 0 ] && exit 0
 
 echo "eci setup: installing ${missing[*]}" >&2

@@ -1,15 +1,21 @@
 #!/usr/bin/env bash
-# Builds everything with warnings as errors and runs the whole test suite, then once more under
-# AddressSanitizer + UndefinedBehaviorSanitizer, and keeps the benchmarks compiling (one token iteration each).
+# Builds everything with warnings as errors and runs the whole test suite (ctest, then the Python module's pytest),
+# then the C++ tests once more under AddressSanitizer + UndefinedBehaviorSanitizer, and keeps the benchmarks
+# compiling (one token iteration each).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bash scripts/setup.sh
 jobs=2
 
 echo "== Release build, -Werror"
-cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DECI_WERROR=ON >/dev/null
+cmake -S . -B build -DCMAKE_BUILD_TYPE=Release -DECI_WERROR=ON -DECI_BUILD_PYTHON=ON >/dev/null
 cmake --build build -j$jobs
 ctest --test-dir build --output-on-failure -j$jobs
+
+echo "== Python module: pytest (tests/python, against build/python and build/eci)"
+# The interpreter the module was built for (Debian's /usr/bin/python3, not a pyenv python3 earlier on PATH).
+python=$(cat build/python/interpreter)
+ECI_BUILD_DIR="$PWD/build" "$python" -m pytest -q -p no:cacheprovider tests/python
 
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer"
 cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DECI_WERROR=ON -DECI_SANITIZE=ON >/dev/null

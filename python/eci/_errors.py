@@ -1,0 +1,26 @@
+"""eci's exceptions (bad input is ValueError or TypeError, as in NumPy and SciPy)."""
+
+
+class StepSizeUnderflow(RuntimeError):
+    """A step failed even after halving it max_halvings times (default 40: dt * 2**-40).
+
+    A step fails on a negative radicand, a transform that cannot be inverted, an implicit solve that does not
+    converge, or a non-finite value returned by fun; eci retries it as two half steps, and gives up here.
+
+    Attributes: t (start of the failed step), component (index of the real unknown that failed; for complex y,
+    2 i is Re y[i] and 2 i + 1 is Im y[i]), component_name, dt (the last step size tried), cause ("step_failed" or
+    "non_finite_fun") and stats (the run's statistics up to the failure, as SolveResult.stats).
+    """
+
+    def __init__(self, message, t, component, component_name, dt, cause, stats):
+        super().__init__(message)
+        self.t = t
+        self.component = component
+        self.component_name = component_name
+        self.dt = dt
+        self.cause = cause
+        self.stats = stats
+
+    def __reduce__(self):
+        return (type(self), (str(self), self.t, self.component, self.component_name, self.dt, self.cause,
+                             self.stats))

@@ -1,0 +1,243 @@
+// A built-in model as a Python object: eci.solve(model, ...) runs the whole integration in C++ with the GIL
+// released; the object is also callable as model(t, y), SciPy-style, and evaluates its invariants.
+#pragma once
+
+
+#include <array>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <eci/models/invariant.hpp>
+
+#include "core.hpp"
+#include "python_system.hpp"
+
+namespace eci::python {
+
+/// Dispatches a method name through the registry, which builds the stepper the model supports (the transformed
+/// engine where the model has a linearizing transform, Kahan's method where it has a Jacobian, ...).
+struct registry_dispatch {
+    template <class Model, class Fn>
+    bool operator()(const Model&, std::string_view name, Fn&& fn) const {
+        return with_stepper<Model>(name, std::forward<Fn>(fn));
+    }
+};
+
+/// The methods the registry runs on Model, as strings (computed, the list `eci list` shows).
+template <class Model>
+std::vector<std::string> registry_methods() {
+    std::vector<std::string> v;
+    for (std::string_view n : method_names_for<Model>()) v.emplace_back(n);
+    return v;
+}
+
+/// What every model object offers Python; eci.solve only needs _solve.
+class model_base {
+   public:
+    virtual ~model_base() = default;
+    /// The model's name in the CLI (`eci run NAME`).
+    virtual std::string name() const = 0;
+    /// The methods eci.solve accepts for this model.
+    virtual std::vector<std::string> methods() const = 0;
+    /// How each method is built on this model (the registry's family: "transformed" where its transform is used).
+    virtual py::dict method_families() const = 0;
+    /// The CLI's default step and end time.
+    virtual double default_dt() const = 0;
+    virtual double default_t_end() const = 0;
+    /// The CLI's default initial condition.
+    virtual py::array default_y0() const = 0;
+    /// The names of the model's invariants.
+    virtual std::vector<std::string> invariant_names() const = 0;
+    /// dy/dt at (t, y), as a NumPy array.
+    virtual py::array call(double t, const py::object& y) const = 0;
+    /// Each invariant at y (one-dimensional) or at every column of y (n x m, SciPy's layout).
+    virtual py::dict invariants(const py::object& y) const = 0;
+    /// The integration behind eci.solve(model, ...).
+    virtual py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
+                           std::optional<std::vector<double>> t_eval, std::vector<py::object> invariants,
+                           const std::vector<std::string>& invariant_names, int max_halvings) const = 0;
+};
+
+/// A model of eci's library behind model_base. Dispatch(name, fn) calls fn with the stepper called name.
+template <class Model, class Dispatch = registry_dispatch>
+class model_object : public model_base {
+   public:
+    using S = typename Model::state_type;
+    using value_type = std::ranges::range_value_t<S>;
+    static constexpr bool is_complex = std::is_same_v<value_type, std::complex<double>>;
+
+    struct meta {
+        std::string name;
+        std::vector<std::string> methods;
+        double default_dt, default_t_end;
+        std::vector<std::string> columns;  ///< the real unknowns' names, for messages
+    };
+
+    /// Validates the model with the CLI's message ("invalid NAME model: ...").
+    model_object(Model model, meta m, S y0) : model_(std::move(model)), meta_(std::move(m)), y0_(std::move(y0)) {
+        try {
+            model_.validate();
+        } catch (const std::invalid_argument& e) {
+            throw std::invalid_argument("invalid " + meta_.name + " model: " + e.what());
+        }
+    }
+
+    const Model& model() const { return model_; }
+
+    std::string name() const override { return meta_.name; }
+    std::vector<std::string> methods() const override { return meta_.methods; }
+    py::dict method_families() const override {
+        py::dict d;
+        for (const method_info& m : methods_for<Model>()) d[py::str(std::string(m.name))] = std::string(family_name(m.family));
+        return d;
+    }
+    double default_dt() const override { return meta_.default_dt; }
+    double default_t_end() const override { return meta_.default_t_end; }
+    py::array default_y0() const override { return to_array(y0_); }
+    std::vector<std::string> invariant_names() const override {
+        std::vector<std::string> names;
+        for (const auto& inv : Model::invariants()) names.emplace_back(inv.name);
+        return names;
+    }
+
+    py::array call(double t, const py::object& y) const override {
+        const S x = to_state(y);
+        S dxdt = x;
+        model_(x, dxdt, t);
+        return to_array(dxdt);
+    }
+
+    py::dict invariants(const py::object& y) const override {
+        const py::array a = py::array::ensure(y);
+        py::dict d;
+        if (a && a.ndim() == 2) {  // n x m: one value per column
+            const std::size_t n = size(), m = static_cast<std::size_t>(a.shape(1));
+            const auto c = py::array_t<value_type, py::array::f_style | py::array::forcecast>::ensure(a);
+            if (!c || static_cast<std::size_t>(c.shape(0)) != n)
+                throw py::value_error("y must have shape (" + std::to_string(n) + ", m), got " + shape_text(a));
+            for (const auto& inv : Model::invariants()) {
+                py::array_t<double> v(static_cast<py::ssize_t>(m));
+                for (std::size_t j = 0; j < m; ++j) {
+                    S x = y0_;
+                    std::copy(c.data() + j * n, c.data() + (j + 1) * n, std::ranges::begin(x));
+                    v.mutable_data()[j] = (model_.*inv.value)(x);
+                }
+                d[inv.name] = v;
+            }
+            return d;
+        }
+        const S x = to_state(y);
+        for (const auto& inv : Model::invariants()) d[inv.name] = (model_.*inv.value)(x);
+        return d;
+    }
+
+    py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
+                   std::optional<std::vector<double>> t_eval, std::vector<py::object> invariants,
+                   const std::vector<std::string>& invariant_names, int max_halvings) const override {
+        S x = y0.is_none() ? y0_ : to_state(y0);
+        check_initial(x);
+        const method_info info = resolve_method(method, meta_.methods, "model " + meta_.name);
+        constexpr auto model_invariants = Model::invariants();
+        std::vector<drift_record> drift;
+        for (const auto& inv : model_invariants) drift.push_back({inv.name});
+        for (const std::string& n : invariant_names) drift.push_back({n});
+        const python_invariants<value_type> user{std::move(invariants)};
+        const bool release = user.functions.empty();  // Python invariants need the GIL at every step
+        const run_request req{t0, t1, dt, std::move(t_eval), max_halvings};
+        const component_namer namer{meta_.columns, false};
+        recorded_output<S> out;
+        run_report report;
+        bool found = false;
+        {
+            std::optional<py::gil_scoped_release> unlocked;
+            if (release) unlocked.emplace();
+            interrupt_check interrupt(!release);
+            // inlined into the step loop, as the CLI's observer is
+            auto measure = [&](const S& s, bool first) __attribute__((always_inline)) {
+                for (std::size_t j = 0; j < model_invariants.size(); ++j)
+                    drift[j].update((model_.*model_invariants[j].value)(s), first);
+                if (!release) user.measure(to_vector(s), drift, model_invariants.size(), first);
+            };
+            found = dispatch_(model_, method, [&](auto stepper) {
+                run_grid(stepper, model_, x, req, measure, interrupt, out, report, namer);
+            });
+        }
+        if (!found) throw std::invalid_argument("method '" + method + "' has no stepper for model " + meta_.name);
+        return result_dict(out, size(), report, drift, info);
+    }
+
+   private:
+    std::size_t size() const { return std::ranges::size(y0_); }
+
+    static std::vector<value_type> to_vector(const S& x) { return {std::ranges::begin(x), std::ranges::end(x)}; }
+
+    static py::array to_array(const S& x) { return to_numpy(to_vector(x)); }
+
+    S to_state(const py::object& y) const {
+        const std::size_t n = size();
+        const auto a = as_vector<value_type>(y, n, "y", false, "the " + meta_.name + " state");
+        S x = y0_;
+        std::copy(a.data(), a.data() + n, std::ranges::begin(x));
+        return x;
+    }
+
+    // The CLI's checks and messages: every real unknown finite, then the model's domain.
+    void check_initial(const S& x) const {
+        const auto r = detail::reals(x);
+        for (std::size_t i = 0; i < r.size(); ++i)
+            if (!std::isfinite(r[i]))
+                throw std::invalid_argument("initial condition " + meta_.columns.at(i) + " is not finite");
+        if constexpr (requires { model_.validate_state(x); }) {
+            try {
+                model_.validate_state(x);
+            } catch (const std::invalid_argument& e) {
+                throw std::invalid_argument(std::string("invalid initial condition: ") + e.what());
+            }
+        }
+    }
+
+    Model model_;
+    meta meta_;
+    S y0_;
+    Dispatch dispatch_{};
+};
+
+/// What eci.solve and the CLI take from a model's own description: its name, the methods that run on it, and
+/// its first preset's step and end time (`eci run NAME`'s defaults); `columns` names its real unknowns.
+template <class Model, class Meta>
+Meta describe(std::vector<std::string> columns) {
+    const auto standard = Model::presets()[0];
+    return {std::string(Model::name), registry_methods<Model>(), standard.dt, standard.t_end, std::move(columns)};
+}
+
+/// A fixed-size model's component names.
+template <class Model>
+std::vector<std::string> component_columns() {
+    return {Model::component_names.begin(), Model::component_names.end()};
+}
+
+/// The CLI's column names for a state of `size` modes: psi_0... or re_psi_0, im_psi_0, ...
+inline std::vector<std::string> indexed_columns(const std::string& prefix, std::size_t size, bool complex) {
+    std::vector<std::string> c;
+    for (std::size_t i = 0; i < size; ++i) {
+        const std::string name = prefix + std::to_string(i);
+        if (complex) {
+            c.push_back("re_" + name);
+            c.push_back("im_" + name);
+        } else {
+            c.push_back(name);
+        }
+    }
+    return c;
+}
+
+/// Binds model_object<Model, Dispatch> as the Python class `name`, a subclass of eci._eci.Model.
+template <class Model>
+py::class_<model_object<Model>, model_base> bind_model(py::module_& m, const char* name, const char* doc) {
+    return py::class_<model_object<Model>, model_base>(m, name, doc);
+}
+
+}  // namespace eci::python

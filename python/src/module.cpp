@@ -1,0 +1,63 @@
+// The extension module eci._eci: the registry's methods, the Model base class of the built-in models, the solvers
+// behind eci.solve, and the translation of a step-size underflow into eci.StepSizeUnderflow.
+
+#include <eci/registry.hpp>
+
+#include "core.hpp"
+#include "models.hpp"
+#include "module.hpp"
+
+namespace eci::python {
+
+namespace {
+
+void bind_model_base(py::module_& m) {
+    py::class_<model_base>(m, "Model", "A built-in model: eci.solve(model, ...) integrates it entirely in C++.")
+        .def_property_readonly("name", &model_base::name, "the model's name in the CLI (eci run NAME)")
+        .def_property_readonly("methods", &model_base::methods, "the methods eci.solve accepts for this model")
+        .def_property_readonly("method_families", &model_base::method_families,
+                               "how each method is built on this model: conventional, conservative, transformed "
+                               "(through the model's transform), implicit or model-specific")
+        .def_property_readonly("default_dt", &model_base::default_dt, "the CLI's default time step")
+        .def_property_readonly("default_t_end", &model_base::default_t_end, "the CLI's default end time")
+        .def_property_readonly("default_y0", &model_base::default_y0, "the CLI's default initial condition")
+        .def_property_readonly("invariant_names", &model_base::invariant_names, "the model's invariants, by name")
+        .def("__call__", &model_base::call, py::arg("t"), py::arg("y"),
+             "dy/dt at (t, y), SciPy's fun(t, y) (so the model can be given to scipy.integrate.solve_ivp too)")
+        .def("invariants", &model_base::invariants, py::arg("y"),
+             "each invariant at the state y, or at every column of y (n x m, SciPy's layout), by name")
+        .def("_solve", &model_base::solve, py::arg("t0"), py::arg("t1"), py::arg("y0"), py::arg("method"),
+             py::arg("dt"), py::arg("t_eval"), py::arg("invariants"), py::arg("invariant_names"),
+             py::arg("max_halvings"), "The integration behind eci.solve(model, ...).");
+}
+
+py::list method_list() {
+    py::list l;
+    for (const method_info& i : eci::methods)
+        l.append(py::make_tuple(std::string(i.name), i.order, i.conservative, std::string(i.description)));
+    return l;
+}
+
+}  // namespace
+
+}  // namespace eci::python
+
+PYBIND11_MODULE(_eci, m) {
+    using namespace eci::python;
+    m.doc() = "The compiled part of eci (use the package eci: eci.solve, eci.models, eci.methods).";
+    m.def("_methods", &method_list, "Every registered method as (name, order, conservative, description).");
+    bind_model_base(m);
+    init_wave_models(m);
+    init_orbit_models(m);
+    init_functions(m);
+    py::register_exception_translator([](std::exception_ptr p) {
+        try {
+            if (p) std::rethrow_exception(p);
+        } catch (const underflow_error& e) {
+            const py::object cls = py::module_::import("eci._errors").attr("StepSizeUnderflow");
+            const py::object exc = cls(e.what(), e.t, e.component, e.component_name, e.dt,
+                                       e.non_finite ? "non_finite_fun" : "step_failed", stats_dict(e.report));
+            PyErr_SetObject(cls.ptr(), exc.ptr());
+        }
+    });
+}

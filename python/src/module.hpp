@@ -1,0 +1,15 @@
+// The parts of the extension eci._eci: each source file adds its functions or classes to the module.
+#pragma once
+
+#include <pybind11/pybind11.h>
+
+namespace eci::python {
+
+/// _solve_real, _solve_complex, _solve_transformed: eci.solve with a Python fun.
+void init_functions(pybind11::module_& m);
+/// The model base class and ThreeWave, NWave, NWaveComplex.
+void init_wave_models(pybind11::module_& m);
+/// LotkaVolterra and Kepler.
+void init_orbit_models(pybind11::module_& m);
+
+}  // namespace eci::python

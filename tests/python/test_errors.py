@@ -1,0 +1,263 @@
+# Bad input raises ValueError/TypeError with the CLI's one-line messages; a step that fails at every size raises
+# eci.StepSizeUnderflow with the time, the component and the statistics so far; a fun that misbehaves (wrong
+# shape or dtype, non-finite values, exceptions) gives a clear error and no crash; Ctrl-C stops a long run promptly.
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import numpy as np
+import pytest
+
+import eci
+from conftest import BUILD, cli_error
+
+M = eci.models
+
+
+def message(excinfo):
+    return str(excinfo.value)
+
+
+# --- the CLI's messages -----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("make, cli_args", [
+    (lambda: M.ThreeWave(M=(1.0, 1.0, -1.0)), ["three-wave", "--M", "1,1,-1"]),
+    (lambda: M.ThreeWave(K=1.0), ["three-wave", "--K", "1"]),
+    (lambda: M.ThreeWave(P=float("inf")), ["three-wave", "--P", "inf"]),
+    (lambda: M.LotkaVolterra(mu=-1.0), ["lotka-volterra", "--mu", "-1"]),
+    (lambda: M.Kepler(ell=0.0), ["kepler", "--ell", "0"]),
+    (lambda: M.Kepler(m=0.0), ["kepler", "--m", "0"]),
+    (lambda: M.NWave(modes=2), ["n-wave", "--modes", "2"]),
+    (lambda: M.NWave(modes=10, triads_per_mode=1), ["n-wave", "--modes", "10", "--triads-per-mode", "1"]),
+])
+def test_invalid_model_parameters_give_the_cli_message(cli, make, cli_args):
+    with pytest.raises(ValueError) as e:
+        make()
+    assert message(e) == cli_error(cli, "run", *cli_args)
+
+
+@pytest.mark.parametrize("model, y0, cli_args", [
+    (M.LotkaVolterra(), [-1.0, 0.4], ["lotka-volterra", "--x", "-1"]),
+    (M.LotkaVolterra(), [1.0, 0.0], ["lotka-volterra", "--y", "0"]),
+    (M.Kepler(), [1.0, 5.0, 0.0], ["kepler", "--v-r", "5"]),
+    (M.Kepler(), [-1.0, 0.0, 0.0], ["kepler", "--r", "-1"]),
+    (M.ThreeWave(), [float("nan"), 0.0, 1.0], ["three-wave", "--psi", "nan,0,1"]),
+])
+def test_invalid_initial_conditions_give_the_cli_message(cli, model, y0, cli_args):
+    with pytest.raises(ValueError) as e:
+        eci.solve(model, (0.0, 1.0), y0)
+    assert message(e) == cli_error(cli, "run", *cli_args)
+
+
+@pytest.mark.parametrize("kwargs, cli_args, option, python_name", [
+    (dict(method="rk5"), ["--method", "rk5"], None, None),
+    (dict(method="kahan"), ["--method", "kahan"], None, None),
+    (dict(dt=-1.0), ["--dt", "-1"], "--dt", "dt"),
+    (dict(dt=0.0), ["--dt", "0"], "--dt", "dt"),
+    (dict(dt=float("nan")), ["--dt", "nan"], "--dt", "dt"),
+    (dict(t_span=(0.0, -1.0)), ["--t-end", "-1"], "--t-end", "t_span[1]"),
+    (dict(t_span=(0.0, 1e10), dt=1e-10), ["--t-end", "1e10", "--dt", "1e-10"], "--t-end / --dt", "t_span / dt"),
+])
+def test_invalid_run_settings_give_the_cli_message(cli, kwargs, cli_args, option, python_name):
+    kwargs = dict(kwargs)
+    t_span = kwargs.pop("t_span", (0.0, 1.0))
+    with pytest.raises(ValueError) as e:
+        eci.solve(M.ThreeWave(), t_span, **kwargs)
+    expected = cli_error(cli, "run", "three-wave", *cli_args)
+    if option:
+        expected = expected.replace(option, python_name, 1)
+    assert message(e) == expected
+
+
+def test_kahan_needs_a_model_jacobian():
+    with pytest.raises(ValueError, match=r"method 'kahan' is not available for fun\(t, y\) \(available: euler"):
+        eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0], method="kahan", dt=0.1)
+
+
+# --- arguments of eci.solve -------------------------------------------------------------------------------------
+
+def decay(t, y):
+    return -y
+
+
+@pytest.mark.parametrize("kwargs, error, pattern", [
+    (dict(y0=[[1.0, 2.0]]), ValueError, r"y0 must be one-dimensional, got shape \(1, 2\)"),
+    (dict(y0=[]), ValueError, "y0 is empty"),
+    (dict(y0=["a"]), TypeError, "y0 must be real or complex numbers, not dtype <U1"),
+    (dict(y0=[1.0, np.inf]), ValueError, r"initial condition y\[1\] is not finite"),
+    (dict(y0=None), ValueError, "y0 is required for a Python fun"),
+    (dict(dt=None), ValueError, "dt is required: adaptive step control"),
+    (dict(dt=None, rtol=1e-6), NotImplementedError, "adaptive step control .* is not available"),
+    (dict(rtol=1e-6), ValueError, "give either dt .* or rtol/atol"),
+    (dict(dt="0.1"), TypeError, "dt must be a real number, not str"),
+    (dict(t_span=(0.0,)), ValueError, r"t_span must be a pair \(t0, t1\)"),
+    (dict(t_span=(float("nan"), 1.0)), ValueError, r"t_span\[0\] must be a finite number, not nan"),
+    (dict(t_eval=[0.5, 0.2]), ValueError, "t_eval must be sorted in increasing order"),
+    (dict(t_eval=[0.5, 2.0]), ValueError, r"t_eval values must lie within t_span \[0.0, 1.0\]"),
+    (dict(method=3), TypeError, "method must be a string"),
+    (dict(invariants=[1.0]), TypeError, "invariant 0 is not callable"),
+    (dict(max_halvings=-1), ValueError, "max_halvings must be a whole number from 0 to 60"),
+    (dict(transform="squares"), TypeError, "transform must be an eci.Transform"),
+])
+def test_bad_arguments(kwargs, error, pattern):
+    args = dict(fun=decay, t_span=(0.0, 1.0), y0=[1.0, 2.0], dt=0.1)
+    args.update(kwargs)
+    with pytest.raises(error, match=pattern):
+        eci.solve(**args)
+
+
+def test_fun_must_be_callable():
+    with pytest.raises(TypeError, match="fun must be a callable"):
+        eci.solve(42, (0.0, 1.0), [1.0], dt=0.1)
+
+
+def test_transform_is_for_functions_and_conservative_methods():
+    squares = eci.Transform(lambda x: x * x, lambda xi, hint: np.copysign(np.sqrt(xi), hint),
+                            jacobian=lambda x: np.diag(2 * x))
+    with pytest.raises(ValueError, match="transform is for a Python fun; model three-wave uses its own"):
+        eci.solve(M.ThreeWave(), (0.0, 1.0), transform=squares)
+    with pytest.raises(ValueError, match=r"method 'rk4' is not available for a transform \(available: c-pc, c-rk2, "
+                                         r"c-rk4\)"):
+        eci.solve(decay, (0.0, 1.0), [1.0], method="rk4", dt=0.1, transform=squares)
+    with pytest.raises(ValueError, match="a transform needs a real y0"):
+        eci.solve(decay, (0.0, 1.0), [1.0j], dt=0.1, transform=squares)
+    with pytest.raises(TypeError, match="exactly one of jacobian"):
+        eci.Transform(lambda x: x, lambda xi, hint: xi)
+
+
+# --- a fun that misbehaves --------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("fun, error, pattern", [
+    (lambda t, y: y[:2], ValueError, r"fun\(t, y\) returned an array of shape \(2,\), expected \(3,\) like y0"),
+    (lambda t, y: np.ones((3, 1)), ValueError, r"fun\(t, y\) returned an array of shape \(3, 1\), expected \(3,\)"),
+    (lambda t, y: 1.0, ValueError, r"fun\(t, y\) returned an array of shape \(\), expected \(3,\)"),
+    (lambda t, y: None, TypeError, r"fun\(t, y\) returned None, expected an array of 3 numbers"),
+    (lambda t, y: ["a", "b", "c"], TypeError, r"fun\(t, y\) returned values of dtype <U1, expected real numbers"),
+    (lambda t, y: 1j * y, TypeError, r"fun\(t, y\) returned complex values but y0 is real; pass a complex y0"),
+])
+def test_fun_returning_the_wrong_thing(fun, error, pattern):
+    with pytest.raises(error, match=pattern):
+        eci.solve(fun, (0.0, 1.0), [1.0, 2.0, 3.0], dt=0.1)
+
+
+def test_fun_returning_a_list_or_integers_is_converted():
+    r = eci.solve(lambda t, y: [0, 1, 2], (0.0, 1.0), [0.0, 0.0, 0.0], method="euler", dt=0.25)
+    assert np.array_equal(r.y[:, -1], [0.0, 1.0, 2.0])
+    r = eci.solve(lambda t, y: np.array([1.0, 2.0]), (0.0, 1.0), [1j, 0j], method="euler", dt=0.5)
+    assert r.y.dtype == np.complex128 and np.array_equal(r.y[:, -1], [1 + 1j, 2 + 0j])
+
+
+def test_fun_that_raises_propagates_its_exception():
+    calls = []
+
+    def fun(t, y):
+        calls.append(t)
+        if len(calls) == 7:
+            raise ZeroDivisionError("user bug")
+        return -y
+
+    with pytest.raises(ZeroDivisionError, match="user bug"):
+        eci.solve(fun, (0.0, 10.0), [1.0], method="rk4", dt=0.1)
+    assert len(calls) == 7
+    # the module is unharmed
+    assert eci.solve(decay, (0.0, 1.0), [1.0], dt=0.5).success
+
+
+def test_fun_returning_nan_everywhere_underflows_naming_it():
+    with pytest.raises(eci.StepSizeUnderflow) as e:
+        eci.solve(lambda t, y: np.array([0.0, np.nan]), (0.0, 1.0), [1.0, 1.0], method="c-rk4", dt=0.1)
+    err = e.value
+    assert isinstance(err, RuntimeError)
+    assert err.cause == "non_finite_fun" and err.component == 1 and err.component_name == "y[1]" and err.t == 0.0
+    assert err.dt == 0.1 * 2.0 ** -40
+    assert "fun(t, y) returned nan in component y[1]" in str(err)
+    assert err.stats["rejected_steps"]["non_finite_fun"] == 40
+    assert err.stats["rhs_evals"] == 41 and err.stats["steps"] == 0
+
+
+def test_a_non_finite_value_fails_the_step_which_is_retried_smaller():
+    calls = [0]
+
+    def fun(t, y):
+        calls[0] += 1
+        return np.array([np.inf]) if calls[0] == 2 else -y
+
+    r = eci.solve(fun, (0.0, 1.0), [1.0], method="c-rk4", dt=0.5)
+    assert r.stats["rejected_steps"] == {"step_failed": 0, "non_finite_fun": 1, "error_estimate": 0}
+    assert r.stats["steps"] == 2 and r.t[-1] == 1.0 and np.all(np.isfinite(r.y))
+
+
+def test_invariant_returning_a_non_number():
+    with pytest.raises(TypeError, match=r"invariant bad returned 'x', expected a real number"):
+        eci.solve(decay, (0.0, 1.0), [1.0], dt=0.5, invariants={"bad": lambda y: "x"})
+
+
+# --- step-size underflow ----------------------------------------------------------------------------------------
+
+def test_step_size_underflow_carries_time_component_and_statistics():
+    # Fig. 2's run (C-PC, dt = 0.2) needs step halvings; allowing none makes the first failure final.
+    with pytest.raises(eci.StepSizeUnderflow) as e:
+        eci.solve(M.ThreeWave(), (0.0, 100.0), method="c-pc", dt=0.2, max_halvings=0)
+    err = e.value
+    assert err.cause == "step_failed" and err.dt == 0.2
+    assert err.component_name in ("psi_K", "psi_P", "psi_Q") and err.component in (0, 1, 2)
+    assert err.t > 0.0 and err.t == pytest.approx(0.2 * err.stats["steps"], rel=1e-12)
+    assert err.stats["rhs_evals"] == 2 * err.stats["steps"] + 2
+    assert str(err).startswith(f"step failed at t = {err.t:.17g} in component {err.component_name} even with the step "
+                               "halved 0 times (dt = 0.20000000000000001): negative radicand")
+    # with the CLI's 40 halvings the same run completes
+    assert eci.solve(M.ThreeWave(), (0.0, 100.0), method="c-pc", dt=0.2).stats["rejected_steps"]["step_failed"] > 0
+
+
+def test_transform_that_cannot_be_inverted_underflows():
+    never = eci.Transform(lambda x: x * x, lambda xi, hint: None, rate=lambda x, f: 2 * x * f)
+    with pytest.raises(eci.StepSizeUnderflow, match="step failed at t = 0 in component y.0. even with the step "
+                                                    "halved 3 times"):
+        eci.solve(decay, (0.0, 1.0), [1.0], method="c-pc", dt=0.1, transform=never, max_halvings=3)
+
+
+# --- Ctrl-C -----------------------------------------------------------------------------------------------------
+
+INTERRUPTED = textwrap.dedent("""
+    import sys, time
+    sys.path.insert(0, {path!r})
+    import numpy as np
+    import eci
+    kind = sys.argv[1]
+    print("ready", flush=True)
+    start = time.monotonic()
+    try:
+        if kind == "model":   # the GIL is released: ~10^10 C++ steps, far longer than the test
+            eci.solve(eci.models.ThreeWave(), (0.0, 1e8), method="c-rk4", dt=0.01, t_eval=[1e8])
+        else:
+            eci.solve(lambda t, y: -y, (0.0, 1e8), np.ones(3), method="rk4", dt=0.01, t_eval=[1e8])
+    except KeyboardInterrupt:
+        print(f"interrupted after {{time.monotonic() - start:.3f}} s", flush=True)
+        sys.exit(0)
+    sys.exit(3)
+""")
+
+
+@pytest.mark.parametrize("kind", ["model", "function"])
+def test_ctrl_c_interrupts_a_long_run(kind, tmp_path):
+    script = tmp_path / "long_run.py"
+    script.write_text(INTERRUPTED.format(path=str(BUILD / "python")))
+    p = subprocess.Popen([sys.executable, str(script), kind], stdout=subprocess.PIPE, text=True)
+    try:
+        assert p.stdout.readline().strip() == "ready"
+        time.sleep(1.0)  # well inside eci.solve
+        sent = time.monotonic()
+        p.send_signal(signal.SIGINT)
+        out, _ = p.communicate(timeout=20)
+        latency = time.monotonic() - sent
+    finally:
+        if p.poll() is None:
+            p.kill()
+    assert p.returncode == 0, out
+    ran = float(out.split()[2])
+    assert ran >= 0.9  # it was interrupted inside the integration, not before it
+    # prompt: checked between steps (every 1-10 ms of run time with the GIL released); generous for a loaded CI
+    assert latency < 2.0, latency
