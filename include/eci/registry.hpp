@@ -334,10 +334,18 @@ struct method_table<type_list<E...>> {
         return (try_one(static_cast<E*>(nullptr)) || ...);
     }
 
+    // The entries that run on M, each with its family on M (`transformed` where the model's transform is used).
     template <class M>
     static std::vector<method_info> supported() {
         std::vector<method_info> out;
-        ((runs_on<E, M> ? out.push_back(E::info) : void()), ...);
+        auto add = [&]<class Entry>(Entry*) {
+            if constexpr (runs_on<Entry, M>) {
+                method_info m = Entry::info;
+                m.family = family_on<Entry, M>();
+                out.push_back(m);
+            }
+        };
+        (add(static_cast<E*>(nullptr)), ...);
         return out;
     }
 
@@ -395,8 +403,9 @@ bool with_method(std::string_view name, Fn&& fn) {
     return with_stepper<S>(name, std::forward<Fn>(fn));
 }
 
-/// The methods that run on Model (a model type, or a state type for a plain system), in list order: computed
-/// from what the model offers, never typed by hand.
+/// The methods that run on Model (a model type, or a state type for a plain system), in list order, each with its
+/// family on Model (`transformed` for the conservative tableaux on a model with a linearizing transform):
+/// computed from what the model offers, never typed by hand.
 template <class Model>
 std::vector<method_info> methods_for() {
     return registered_methods::supported<typename detail::as_model<Model>::type>();

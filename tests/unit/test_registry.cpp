@@ -44,6 +44,9 @@ TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler>()),
               (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "rrk-rk4", "idt-rk4",
                        "projected-rk4"}));
+    // Each with its family on the model: the transform is used on Kepler, the psi^2 engine on three-wave.
+    EXPECT_EQ(eci::methods_for<eci::kepler>()[4].family, eci::method_family::transformed);
+    EXPECT_EQ(eci::methods_for<eci::three_wave>()[5].family, eci::method_family::conservative);
     // Issue 12: multiple relaxation where there are two independent invariants, symplectic methods on a separable
     // Hamiltonian, and no C-RK on Kepler in Cartesian variables (H is not a sum of squares there).
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler_cartesian>()),
