@@ -50,7 +50,7 @@ echo "== building ($build, Release, same flags for eci and Boost.Odeint)" >&2
 cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DECI_BUILD_TESTS=OFF \
       -DECI_BUILD_APPS=$([ $ns2d = 1 ] && echo ON || echo OFF) -DECI_BUILD_EXAMPLES=OFF > "$out/cmake.log"
 cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
-      eci_bench_remedy eci_bench_adaptive \
+      eci_bench_remedy eci_bench_adaptive eci_bench_compare_methods \
       $([ $ns2d = 1 ] && echo eci_bench_ns2d_step eci_bench_ns2d_radicand eci_cli) >> "$out/cmake.log"
 bin="$build/bench"
 
@@ -83,7 +83,13 @@ if [ "$long" = 1 ]; then long_steps=10000000; fi
 if [ "$mode" = smoke ]; then long_steps=$((long * 1000)); fi
 "$bin/eci_bench_adaptive" $wp_quick "$out/adaptive.csv" $big_real $long_steps > "$out/adaptive.txt"
 
+echo "== keeping invariants: every family head to head (docs/comparison.md)" >&2
+"$bin/eci_bench_compare_methods" $wp_quick "$out/compare.csv" "$out/compare.md" > "$out/compare.txt"
+
 if command -v gnuplot > /dev/null; then
+  for problem in $(tail -n +2 "$out/compare.csv" | cut -d, -f1 | sort -u); do
+    gnuplot -e "csv='$out/compare.csv'; problem='$problem'; out='$out/cmp_$problem'" "$repo/bench/plot_compare.gp" 2> /dev/null
+  done
   for model in $(tail -n +2 "$out/work_precision.csv" | cut -d, -f1 | sort -u); do
     gnuplot -e "csv='$out/work_precision.csv'; model='$model'; out='$out/wp_$model'" "$repo/bench/plot_work_precision.gp"
   done

@@ -19,15 +19,30 @@
 #include "steppers/explicit_rk.hpp"
 #include "steppers/implicit_midpoint.hpp"
 #include "steppers/kahan.hpp"
+#include "steppers/projection.hpp"
+#include "steppers/relaxation_rk.hpp"
+#include "steppers/symplectic.hpp"
 #include "steppers/transformed_rk.hpp"
 #include "tableaus.hpp"
+#include "models/invariant_sets.hpp"
 
 namespace eci {
 
 /// How a method is built. A conventional or conservative method is a tableau run by an engine: explicit_rk
 /// (conventional); conservative_rk on a model with quadratic invariants, transformed_rk on a model with a
 /// linearizing transform (reported as `transformed`). Implicit and model-specific methods name their stepper.
-enum class method_family { conventional, conservative, transformed, implicit, model_specific };
+/// Relaxation, projection and symplectic methods (issue 12) keep invariants given as functions of the state, or
+/// a separable Hamiltonian's structure, instead.
+enum class method_family {
+    conventional,
+    conservative,
+    transformed,
+    implicit,
+    model_specific,
+    relaxation,
+    projection,
+    symplectic
+};
 
 /// The family's name as `eci list` prints it.
 constexpr std::string_view family_name(method_family f) {
@@ -37,6 +52,9 @@ constexpr std::string_view family_name(method_family f) {
         case method_family::transformed: return "transformed";
         case method_family::implicit: return "implicit";
         case method_family::model_specific: return "model-specific";
+        case method_family::relaxation: return "relaxation";
+        case method_family::projection: return "projection";
+        case method_family::symplectic: return "symplectic";
     }
     return "?";
 }
@@ -183,6 +201,52 @@ struct c_f78 {
                                       "conservative Fehlberg 7(8), order 8 (adaptive with --rtol/--atol)"};
     static constexpr const auto& tableau = tableaus::fehlberg_78;
 };
+/// Relaxation RK4 on the model's first invariant (issue 12).
+struct rrk_rk4 {
+    static constexpr method_info info{"rrk-rk4", method_family::relaxation, 4, false,
+                                      "relaxation RK4 keeping the model's first invariant (time advanced gamma tau)"};
+    template <class M> using stepper = eci::rrk4<typename M::state_type, first_model_invariant>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
+};
+/// RK4 with the incremental direction technique on the model's first invariant.
+struct idt_rk4 {
+    static constexpr method_info info{"idt-rk4", method_family::relaxation, 3, false,
+                                      "RK4 relaxed by the incremental direction technique (first invariant; order 3)"};
+    template <class M> using stepper = eci::idt_rk4<typename M::state_type, first_model_invariant>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
+};
+/// Multiple relaxation RK4 (Biswas & Ketcheson) on a model with two independent invariants.
+struct mrrk_rk4 {
+    static constexpr method_info info{"mrrk-rk4", method_family::relaxation, 4, true,
+                                      "multiple relaxation RK4 keeping two invariants (Biswas & Ketcheson 2023)"};
+    template <class M> using stepper = eci::mrrk4_2<typename M::state_type, independent_model_invariants>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> == 2;
+};
+/// RK4 followed by the orthogonal projection onto the model's independent invariants.
+struct projected_rk4 {
+    static constexpr method_info info{"projected-rk4", method_family::projection, 4, true,
+                                      "RK4 + orthogonal projection onto the invariants (simplified Newton)"};
+    template <class M>
+    using stepper = eci::orthogonal_projection<eci::rk4<typename M::state_type>, typename M::state_type,
+                                               independent_model_invariants>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
+};
+/// Stormer-Verlet on a separable Hamiltonian model.
+struct stormer_verlet {
+    static constexpr method_info info{"stormer-verlet", method_family::symplectic, 2, false,
+                                      "Stormer-Verlet (separable Hamiltonians)"};
+    template <class M>
+    using stepper = eci::symplectic_splitting<splittings::stormer_verlet, typename M::state_type, drift_rule_of<M>>;
+    template <class M> static constexpr bool runs_on = separable_hamiltonian<M>;
+};
+/// McLachlan's fourth-order SB3A on a separable Hamiltonian model.
+struct sb3a {
+    static constexpr method_info info{"sb3a", method_family::symplectic, 4, false,
+                                      "McLachlan's symplectic SB3A, fourth order (separable Hamiltonians)"};
+    template <class M>
+    using stepper = eci::symplectic_splitting<splittings::mclachlan_sb3a, typename M::state_type, drift_rule_of<M>>;
+    template <class M> static constexpr bool runs_on = separable_hamiltonian<M>;
+};
 
 }  // namespace method_entries
 
@@ -293,7 +357,9 @@ using method_entry_list =
                       method_entries::c_euler, method_entries::c_pc, method_entries::c_rk2, method_entries::c_rk4,
                       method_entries::c_pc_compensated, method_entries::implicit_midpoint, method_entries::kahan,
                       method_entries::bs32, method_entries::c_bs32, method_entries::ck54, method_entries::c_ck54,
-                      method_entries::dp54, method_entries::c_dp54, method_entries::f78, method_entries::c_f78>;
+                      method_entries::dp54, method_entries::c_dp54, method_entries::f78, method_entries::c_f78,
+                      method_entries::rrk_rk4, method_entries::idt_rk4, method_entries::mrrk_rk4,
+                      method_entries::projected_rk4, method_entries::stormer_verlet, method_entries::sb3a>;
 
 namespace detail {
 

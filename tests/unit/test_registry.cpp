@@ -35,20 +35,28 @@ using strings = std::vector<std::string>;
 TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     EXPECT_EQ(names_of(eci::methods_for<eci::three_wave>()),
               (strings{"euler", "pc", "rk2", "rk4", "c-euler", "c-pc", "c-rk2", "c-rk4", "c-pc-compensated",
-                       "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78"}));
+                       "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78",
+                       "rrk-rk4", "idt-rk4", "mrrk-rk4", "projected-rk4"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::n_wave<std::complex<double>>>()),
               names_of(eci::methods_for<eci::three_wave>()));
     EXPECT_EQ(names_of(eci::methods_for<eci::lotka_volterra>()),
-              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "kahan", "bs32",
-                       "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78"}));
+              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "kahan", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78",
+                       "rrk-rk4", "idt-rk4", "projected-rk4"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler>()),
-              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "bs32", "c-bs32",
-                       "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78"}));
+              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78",
+                       "rrk-rk4", "idt-rk4", "projected-rk4"}));
     // Each with its family on the model: the transform is used on Kepler, the psi^2 engine on three-wave.
     EXPECT_EQ(eci::methods_for<eci::kepler>()[4].family, eci::method_family::transformed);
     EXPECT_EQ(eci::methods_for<eci::three_wave>()[5].family, eci::method_family::conservative);
-    // A plain system on a state type: every method but the model-specific one.
-    EXPECT_EQ(eci::methods_for<std::vector<double>>().size(), eci::methods.size() - 1);
+    // Issue 12: multiple relaxation where there are two independent invariants, symplectic methods on a separable
+    // Hamiltonian, and no C-RK on Kepler in Cartesian variables (H is not a sum of squares there).
+    EXPECT_EQ(names_of(eci::methods_for<eci::kepler_cartesian>()),
+              (strings{"euler", "pc", "rk2", "rk4", "implicit-midpoint", "rrk-rk4", "idt-rk4", "mrrk-rk4",
+                       "projected-rk4", "stormer-verlet", "sb3a"}));
+    EXPECT_EQ(names_of(eci::methods_for<eci::rigid_body>()), names_of(eci::methods_for<eci::three_wave>()));
+    // A plain system on a state type: every method but the model-specific one and the six that need the model's
+    // invariants or a separable Hamiltonian.
+    EXPECT_EQ(eci::methods_for<std::vector<double>>().size(), eci::methods.size() - 7);
 }
 
 // The engine behind a name depends on the model: the transform where it has one, the fused psi^2 path otherwise.
