@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include <CLI/CLI.hpp>
+#include <eci/integrate.hpp>
 #include <eci/registry.hpp>
 
 #include "figures.hpp"
@@ -18,9 +19,12 @@ namespace {
 using namespace eci::cli;
 
 constexpr const char* exit_status_help =
-    "Exit status: 0 success; 1 a run that could not finish (a step failed even at dt * 2^-40) or a "
-    "feature not built; 2 bad input (unknown model or method, bad number, invalid coefficients, unwritable "
-    "output, ...); 130 interrupted. On any failure no output file is created or replaced.";
+    "Exit status: 0 success; 1 a run that could not finish (a step failed even at dt * 2^-40, needed too many "
+    "sub-steps or blew up; a write failed, e.g. a full disk) or a feature not built; 2 bad input (unknown model "
+    "or method, bad number, invalid coefficients, unwritable output, ...); 128+N stopped by signal N (130 "
+    "Ctrl-C; SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE). On any failure no output file or directory is created "
+    "or replaced (files of one run appear together), except what goes directly to standard output, a device, "
+    "a FIFO or /proc.";
 
 void print_error(std::string_view message) {
     std::string line(message);
@@ -59,6 +63,8 @@ void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
 }
 
 int run_cli(int argc, char** argv) {
+    // First of all: from here on no signal leaves a temporary file behind.
+    install_interrupt_handler();
     const auto models = registered_models();
 
     CLI::App app{"eci: explicit, exactly conservative ODE integrators (Shadwick, Bowman & Morrison)", "eci"};
@@ -143,7 +149,6 @@ int run_cli(int argc, char** argv) {
         if (sub->count("--dt")) settings.dt = dt;
         if (sub->count("--t-end")) settings.t_end = t_end;
         if (sub->count("--steps")) settings.steps = steps;
-        install_interrupt_handler();
         return model->run(settings);
     }
     throw bad_input("eci run needs a MODEL (models: " + model_names(models) + ")");
@@ -165,7 +170,10 @@ int main(int argc, char** argv) {
         return 1;
     } catch (const interrupted& e) {
         print_error(e.what());
-        return 130;
+        return interrupt_exit_status();
+    } catch (const eci::interrupted& e) {
+        print_error(e.what());
+        return interrupt_exit_status();
     } catch (const std::exception& e) {
         print_error(e.what());
         return 1;

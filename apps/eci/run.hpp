@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <cstdint>
 #include <cstdio>
 #include <string>
@@ -96,6 +97,43 @@ struct registry_dispatch {
 namespace detail {
 
 template <class S, class Fn>
+void for_each_real(const S& x, Fn&& fn);
+
+}  // namespace detail
+
+/// Rejects (bad_input) an initial state whose arithmetic is beyond double precision from the start: a
+/// subnormal component, an invariant or a rate that is not finite. (Each model's validate_state checks what
+/// its dynamics will reach; this is the part every model shares.)
+template <class Model>
+void check_arithmetic_range(const Model& model, const typename Model::state_type& x,
+                            const std::vector<std::string>& columns) {
+    std::size_t i = 0;
+    char buffer[32];
+    detail::for_each_real(x, [&](double v) {
+        if (v != 0.0 && std::abs(v) < std::numeric_limits<double>::min())
+            throw bad_input("initial condition " + columns.at(i) + " = " + std::string(format_double(v, buffer)) +
+                            " is subnormal (below 2.2e-308): its products underflow to 0");
+        ++i;
+    });
+    for (const auto& inv : Model::invariants()) {
+        const double v = (model.*inv.value)(x);
+        if (!std::isfinite(v))
+            throw bad_input(std::string("the initial ") + inv.name + " is " + std::string(format_double(v, buffer)) +
+                            ": the initial condition and parameters are beyond double precision");
+    }
+    typename Model::state_type dxdt = x;
+    model(x, dxdt, 0.0);
+    if (!eci::detail::all_finite(dxdt)) {
+        const std::size_t c = eci::detail::first_non_finite(dxdt);
+        throw bad_input("the rate of " + (c < columns.size() ? columns[c] : std::string("?")) +
+                        " overflows at the initial condition: the parameters and initial condition are beyond "
+                        "double precision");
+    }
+}
+
+namespace detail {
+
+template <class S, class Fn>
 void for_each_real(const S& x, Fn&& fn) {
     for (const auto& v : x) {
         if constexpr (std::is_same_v<std::remove_cvref_t<decltype(v)>, std::complex<double>>) {
@@ -138,6 +176,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             throw bad_input(std::string("invalid initial condition: ") + e.what());
         }
     }
+    check_arithmetic_range(model, x, columns);
     check_distinct_outputs(settings);
 
     // Open both outputs before running: an unwritable path is bad input, reported before any work.
@@ -182,6 +221,11 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             const double v = (model.*invariants[j].value)(state);
             values[j] = v;
             invariant_record& r = summary.invariants[j];
+            if (!std::isfinite(v)) {  // finite at the start (checked): a finite state whose invariant overflows
+                char buffer[32];
+                throw run_failure(std::string("the invariant ") + invariants[j].name + " overflowed at t = " +
+                                  std::string(format_double(t, buffer)) + ": the solution blew up; try a smaller --dt");
+            }
             if (i == 0) r.initial = v;
             r.final = v;
             const double d = std::abs(v - r.initial);
@@ -211,7 +255,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         progress.update(i, t);
         if (interrupt_requested()) {
             char buffer[32];
-            throw interrupted("interrupted at t = " + std::string(format_double(t, buffer)));
+            throw_if_interrupted("at t = " + std::string(format_double(t, buffer)));
         }
     };
 
@@ -219,7 +263,8 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     bool found = false;
     try {
         found = dispatch(method.name, [&](auto stepper) {
-            const run_options opt{1, run_options{}.max_halvings};
+            run_options opt;
+            opt.cancel = cancel_flag();  // polled between sub-steps and right-hand-side evaluations
             summary.stats = span.fixed_steps
                                 ? integrate_n_steps(stepper, model, x, 0.0, span.dt, span.steps, observe, opt)
                                 : integrate_to(stepper, model, x, 0.0, span.t_end, span.dt, observe, opt);
@@ -232,6 +277,22 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
                           column + " even with the step halved " + std::to_string(run_options{}.max_halvings) +
                           " times (dt = " + std::string(format_double(e.dt, h)) +
                           "): negative radicand, non-invertible transform or non-finite state");
+    } catch (const step_work_exceeded& e) {
+        progress.finish();
+        throw run_failure(std::string(e.what()) +
+                          ": the solution needs ever smaller steps here (a singularity, or numbers too small or "
+                          "large for double precision); try a smaller --dt");
+    } catch (const non_finite_state& e) {
+        progress.finish();
+        char t[32];
+        const std::string column = e.component < columns.size() ? columns[e.component] : "?";
+        throw run_failure("the state became non-finite (" + column + ") at t = " +
+                          std::string(format_double(e.time, t)) + ": the solution blew up; try a smaller --dt");
+    } catch (const eci::interrupted& e) {
+        progress.finish();
+        char t[32];
+        throw_if_interrupted("at t = " + std::string(format_double(e.time, t)));
+        throw interrupted(e.what());
     }
     progress.finish();
     if (!found) throw bad_input("method '" + summary.method + "' has no stepper for model " + info.name);
@@ -239,10 +300,10 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     if constexpr (requires { model.end_of_run_figures(x0, x); })
         for (const auto& [name, value] : model.end_of_run_figures(x0, x)) summary.figures.emplace_back(name, value);
 
-    csv.commit();
-    print_summary(stderr, summary);
+    // Both outputs complete before either replaces anything: committed together, or neither.
     if (std::FILE* j = json.get()) write_summary_json(j, summary);
-    json.commit();
+    commit_outputs({&csv, &json});
+    print_summary(stderr, summary);
     return 0;
 }
 

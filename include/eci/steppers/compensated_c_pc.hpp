@@ -109,8 +109,8 @@ class compensated_c_pc {
         // a call only pays off beyond a few modes
         const double bad = n >= 64 ? detail::compensated_c_pc_finish(p, k0, xr.data(), k1, r, dt, n)
                                    : detail::compensated_c_pc_finish_inline(p, k0, xr.data(), k1, r, dt, n);
-        if (bad != 0.0)
-            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(p[i] == p[i]); }));
+        if (bad != 0.0 || !detail::all_finite_reals(p, n))  // an overflow (inf) fails the step too
+            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(p[i]); }));
         using std::swap;
         swap(x, pred_);
         swap(res_, k0_);

@@ -82,8 +82,9 @@ class conservative_rk {
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
             finish_general(o, xr.data(), kp, dt, n, bad, std::make_index_sequence<s>{});
         }
-        if (bad != 0.0)
-            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
+        // The finish flags negative radicands; an overflow (inf) fails the step as well, never passes as a result.
+        if (bad != 0.0 || !detail::all_finite_reals(o, n))
+            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); }));
         using std::swap;
         swap(x, out);
         return step_result::success();
