@@ -261,6 +261,14 @@ output_file::output_file(std::string path, std::string_view what) : path_(std::m
     }
     if (path_.back() == '/') throw bad_input(message({what_, " '", path_, "' names a directory, not a file"}));
     if (!resolve_links(path_, target_)) throw fail(errno);
+    // A name longer than the directory allows would only fail at the final rename, after the whole run.
+    {
+        const long name_max = ::pathconf(dir_of(target_).c_str(), _PC_NAME_MAX);
+        if (base_of(target_).size() > static_cast<std::size_t>(name_max > 0 ? name_max : NAME_MAX))
+            throw bad_input(message({"cannot write ", what_, " '", path_, "': the file name is too long (",
+                                     std::to_string(base_of(target_).size()), " bytes, at most ",
+                                     std::to_string(name_max > 0 ? name_max : NAME_MAX), ")"}));
+    }
 
     struct stat st {};
     const bool exists = ::stat(target_.c_str(), &st) == 0;
