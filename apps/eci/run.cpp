@@ -30,19 +30,8 @@ std::string shortest(double v) {
 
 }  // namespace
 
-std::vector<std::string> indexed_columns(std::string_view prefix, std::size_t size, bool complex) {
-    std::vector<std::string> c;
-    c.reserve(complex ? 2 * size : size);
-    for (std::size_t i = 0; i < size; ++i) {
-        const std::string name = std::string(prefix) + std::to_string(i);
-        if (complex) {
-            c.push_back("re_" + name);
-            c.push_back("im_" + name);
-        } else {
-            c.push_back(name);
-        }
-    }
-    return c;
+column_names indexed_columns(std::string_view prefix, std::size_t size, bool complex) {
+    return column_names(std::string(prefix), size, complex);
 }
 
 method_info resolve_method(const model_info& model, const run_settings& settings) {

@@ -51,9 +51,36 @@ struct run_summary {
     std::vector<std::pair<std::string, double>> figures;
 };
 
+/// The names of a state's real unknowns (CSV header, error messages), made one at a time when asked for: a run
+/// of 10^7 modes without --output builds none of them.
+class column_names {
+   public:
+    /// A fixed list (a model's component_names).
+    column_names(std::vector<std::string> names) : fixed_(std::move(names)), size_(fixed_.size()) {}
+    /// `prefix`0, `prefix`1, ... for `modes` real modes; re_`prefix`0, im_`prefix`0, ... for complex ones.
+    column_names(std::string prefix, std::size_t modes, bool complex)
+        : prefix_(std::move(prefix)), size_(complex ? 2 * modes : modes), complex_(complex) {}
+    /// How many real unknowns there are.
+    std::size_t size() const { return size_; }
+    /// The name of real unknown i ("?" if there is none).
+    std::string operator[](std::size_t i) const {
+        if (i >= size_) return "?";
+        if (!fixed_.empty()) return fixed_[i];
+        if (!complex_) return prefix_ + std::to_string(i);
+        return (i % 2 ? "im_" : "re_") + prefix_ + std::to_string(i / 2);
+    }
+    std::string at(std::size_t i) const { return (*this)[i]; }
+
+   private:
+    std::vector<std::string> fixed_;
+    std::string prefix_;
+    std::size_t size_ = 0;
+    bool complex_ = false;
+};
+
 /// The CSV column names of the real unknowns of a state of `size` modes: `prefix`0... for a real state,
 /// re_`prefix`0, im_`prefix`0, ... for a complex one (the order in which step_result counts components).
-std::vector<std::string> indexed_columns(std::string_view prefix, std::size_t size, bool complex);
+column_names indexed_columns(std::string_view prefix, std::size_t size, bool complex);
 
 /// The full name of the method `settings` asks for (or the model's default), checked against the registry and
 /// the model's list; throws bad_input.
@@ -106,7 +133,7 @@ void for_each_real(const S& x, Fn&& fn);
 /// its dynamics will reach; this is the part every model shares.)
 template <class Model>
 void check_arithmetic_range(const Model& model, const typename Model::state_type& x,
-                            const std::vector<std::string>& columns) {
+                            const column_names& columns) {
     std::size_t i = 0;
     char buffer[32];
     detail::for_each_real(x, [&](double v) {
@@ -125,7 +152,7 @@ void check_arithmetic_range(const Model& model, const typename Model::state_type
     model(x, dxdt, 0.0);
     if (!eci::detail::all_finite(dxdt)) {
         const std::size_t c = eci::detail::first_non_finite(dxdt);
-        throw bad_input("the rate of " + (c < columns.size() ? columns[c] : std::string("?")) +
+        throw bad_input("the rate of " + columns[c] +
                         " overflows at the initial condition: the parameters and initial condition are beyond "
                         "double precision");
     }
@@ -152,11 +179,13 @@ void for_each_real(const S& x, Fn&& fn) {
 /// bad_input, run_failure or interrupted, in which case no output file is left behind.
 template <class Model, class Dispatch = registry_dispatch<typename Model::state_type>>
 int run_model(const model_info& info, const Model& model, typename Model::state_type x,
-              const std::vector<std::string>& columns, const run_settings& settings, Dispatch dispatch = {}) {
+              const column_names& columns, const run_settings& settings, Dispatch dispatch = {}) {
     using S = typename Model::state_type;
     const method_info method = resolve_method(info, settings);
     const run_span span = resolve_span(info, settings);
-    const S x0 = x;
+    // The initial state is kept only for a model that reports figures comparing it with the final one.
+    constexpr bool keeps_x0 = requires(const Model& m, const S& a) { m.end_of_run_figures(a, a); };
+    const S x0 = keeps_x0 ? x : S{};
     try {
         model.validate();
     } catch (const std::invalid_argument& e) {
@@ -204,7 +233,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     std::FILE* out = csv.get();
     if (out) {
         std::fputs("t", out);
-        for (const std::string& c : columns) std::fprintf(out, ",%s", c.c_str());
+        for (std::size_t i = 0; i < columns.size(); ++i) std::fprintf(out, ",%s", columns[i].c_str());
         for (const auto& d : derived) std::fprintf(out, ",%s", d.name);
         for (const auto& inv : invariants) std::fprintf(out, ",%s", inv.name);
         std::fputc('\n', out);
@@ -272,7 +301,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     } catch (const step_size_underflow& e) {
         progress.finish();
         char t[32], h[32];
-        const std::string column = e.component < columns.size() ? columns[e.component] : "?";
+        const std::string column = columns[e.component];
         throw run_failure("step failed at t = " + std::string(format_double(e.time, t)) + " in component " +
                           column + " even with the step halved " + std::to_string(run_options{}.max_halvings) +
                           " times (dt = " + std::string(format_double(e.dt, h)) +
@@ -285,7 +314,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     } catch (const non_finite_state& e) {
         progress.finish();
         char t[32];
-        const std::string column = e.component < columns.size() ? columns[e.component] : "?";
+        const std::string column = columns[e.component];
         throw run_failure("the state became non-finite (" + column + ") at t = " +
                           std::string(format_double(e.time, t)) + ": the solution blew up; try a smaller --dt");
     } catch (const eci::interrupted& e) {

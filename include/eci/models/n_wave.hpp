@@ -40,18 +40,18 @@ struct n_wave {
         }
         for (std::size_t i = 0; i < triads.size(); ++i) {
             const triad& t = triads[i];
-            const std::string name = "triad " + std::to_string(i);
-            if (t.k >= n || t.p >= n || t.q >= n) throw std::invalid_argument(name + " refers to a missing mode");
-            if (t.k == t.p || t.p == t.q || t.q == t.k) throw std::invalid_argument(name + " repeats a mode");
-            for (double m : {t.Mk, t.Mp, t.Mq}) detail::require_normal(m, name + " coefficient");
+            const auto name = [i] { return "triad " + std::to_string(i); };  // built only for a message
+            if (t.k >= n || t.p >= n || t.q >= n) throw std::invalid_argument(name() + " refers to a missing mode");
+            if (t.k == t.p || t.p == t.q || t.q == t.k) throw std::invalid_argument(name() + " repeats a mode");
+            for (double m : {t.Mk, t.Mp, t.Mq}) detail::require_normal(m, [&] { return name() + " coefficient"; });
             detail::require_cancellation(t.Mk + t.Mp + t.Mq, std::abs(t.Mk) + std::abs(t.Mp) + std::abs(t.Mq),
-                                         name + ": M_k + M_p + M_q (eq. 2)");
+                                         [&] { return name() + ": M_k + M_p + M_q (eq. 2)"; });
             const double k2 = sq(wavenumber[t.k]), p2 = sq(wavenumber[t.p]), q2 = sq(wavenumber[t.q]);
             for (double prod : {k2 * t.Mk, p2 * t.Mp, q2 * t.Mq})
-                detail::require_representable(prod, name + ": a product k^2 M_k", false);
+                detail::require_representable(prod, [&] { return name() + ": a product k^2 M_k"; }, false);
             detail::require_cancellation(k2 * t.Mk + p2 * t.Mp + q2 * t.Mq,
                                          std::abs(k2 * t.Mk) + std::abs(p2 * t.Mp) + std::abs(q2 * t.Mq),
-                                         name + ": k^2 M_k + p^2 M_p + q^2 M_q (eq. 3)");
+                                         [&] { return name() + ": k^2 M_k + p^2 M_p + q^2 M_q (eq. 3)"; });
         }
     }
 
