@@ -1,5 +1,6 @@
 // The `eci` command: parses `eci run MODEL ...`, `eci list` and `eci figures ...` with CLI11 and turns every
 // error into one line "eci: error: ..." on stderr with a documented exit status.
+#include <algorithm>
 #include <charconv>
 #include <cstdio>
 #include <exception>
@@ -43,6 +44,27 @@ std::string shortest(double v) {
     char buffer[32];
     const auto r = std::to_chars(buffer, buffer + sizeof buffer, v);
     return std::string(buffer, r.ptr);
+}
+
+bool is_model_name(const std::vector<std::unique_ptr<model_command>>& models, std::string_view name) {
+    for (const auto& m : models)
+        if (m->info().name == name) return true;
+    return false;
+}
+
+// CLI11 reads an empty value ("--t-end ''", "--theta=") as 0; no option of eci takes an empty value.
+void check_no_empty_values(int argc, char** argv) {
+    for (int i = 1; i < argc; ++i) {
+        const std::string_view a = argv[i];
+        if (a.size() < 3 || a.substr(0, 2) != "--") continue;
+        const std::size_t eq = a.find('=');
+        if (eq != std::string_view::npos) {
+            if (eq + 1 == a.size())
+                throw bad_input(std::string(a.substr(0, eq)) + " needs a value, got an empty string");
+        } else if (i + 1 < argc && argv[i + 1][0] == '\0') {
+            throw bad_input(std::string(a) + " needs a value, got an empty string");
+        }
+    }
 }
 
 void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
@@ -113,6 +135,17 @@ int run_cli(int argc, char** argv) {
 
     // CLI11 would say only that a subcommand is required, or call an unknown model an unexpected argument.
     if (argc == 1) throw bad_input("missing command (commands: run, list, figures; see eci --help)");
+    check_no_empty_values(argc, argv);
+    // `eci run --dt 0.1 three-wave`: CLI11 would list the stray tokens in reverse order.
+    if (argc > 2 && std::string_view(argv[1]) == "run" && argv[2][0] == '-' && std::string_view(argv[2]) != "--help" &&
+        std::string_view(argv[2]) != "-h") {
+        std::string stray;
+        int i = 2;
+        for (; i < argc && !is_model_name(models, argv[i]); ++i) stray.append(stray.empty() ? "" : " ").append(argv[i]);
+        if (i < argc)
+            throw bad_input("'" + stray + "' comes before the model " + argv[i] + ": options go after it (eci run " +
+                            argv[i] + " " + stray + ")");
+    }
     const auto named = [&](CLI::App* c) { return c->get_name() == argv[1]; };
     if (argv[1][0] != '-' && app.get_subcommands(named).empty())
         throw bad_input("unknown command '" + std::string(argv[1]) + "' (commands: run, list, figures)");
@@ -125,6 +158,19 @@ int run_cli(int argc, char** argv) {
 
     try {
         app.parse(argc, argv);
+    } catch (const CLI::ExtrasError&) {
+        // CLI11 lists the unexpected tokens last first; name them in the order they were typed.
+        std::vector<std::string> extras;
+        for (CLI::App* a : {&app, run, figures, list}) {
+            for (const std::string& s : a->remaining()) extras.push_back(s);
+            for (CLI::App* sub : a->get_subcommands({}))
+                for (const std::string& s : sub->remaining()) extras.push_back(s);
+        }
+        std::string typed;
+        for (int i = 1; i < argc; ++i)
+            if (std::find(extras.begin(), extras.end(), argv[i]) != extras.end())
+                typed.append(typed.empty() ? "" : " ").append(argv[i]);
+        throw bad_input("unexpected arguments: " + typed);
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
         throw bad_input(e.what());

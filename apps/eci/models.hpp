@@ -2,7 +2,9 @@
 // and the list of them. Each adapter lives in its own model_*.cpp; the list is in models.cpp.
 #pragma once
 
+#include <charconv>
 #include <cstdint>
+#include <system_error>
 #include <memory>
 #include <optional>
 #include <string>
@@ -47,13 +49,18 @@ class model_command {
     virtual int run(const run_settings& settings) = 0;
 };
 
-/// A CLI11 check that an option is a whole number >= min (CLI11 alone would wrap "-3" into a huge unsigned).
+/// A CLI11 check that an option is a whole number >= min (CLI11 alone would wrap "-3" into a huge unsigned);
+/// one beyond 2^64 - 1 is "too large", not "not a whole number".
 inline CLI::Validator whole_number(std::uint64_t min) {
     return CLI::Validator(
         [min](std::string& s) -> std::string {
             const std::string bad = "must be a whole number >= " + std::to_string(min) + ", not '" + s + "'";
-            if (s.empty() || s.size() > 19 || s.find_first_not_of("0123456789") != std::string::npos) return bad;
-            return std::stoull(s) < min ? bad : std::string();
+            if (s.empty() || s.find_first_not_of("0123456789") != std::string::npos) return bad;
+            std::uint64_t v = 0;
+            const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+            if (r.ec == std::errc::result_out_of_range)
+                return "'" + s + "' is too large (at most 18446744073709551615)";
+            return r.ec != std::errc() || v < min ? bad : std::string();
         },
         "INT>=" + std::to_string(min));
 }

@@ -433,3 +433,44 @@ TEST_F(reliability, figures_check_gnuplot_and_stop_it_on_interrupt) {
 }
 
 }  // namespace
+
+namespace {
+
+// ---- Messages ----
+
+// An empty value is not 0, for every numeric option of every model.
+TEST_F(reliability, empty_values_are_rejected_not_read_as_zero) {
+    const std::vector<std::vector<std::string>> cases{
+        {"run", "three-wave", "--t-end", ""},     {"run", "three-wave", "--dt="},
+        {"run", "kepler", "--theta", ""},         {"run", "kepler", "--r="},
+        {"run", "lotka-volterra", "--mu", ""},    {"run", "n-wave", "--seed", ""},
+        {"run", "n-wave-complex", "--modes", ""}, {"run", "three-wave", "--M", ""},
+        {"run", "three-wave", "--output", ""},    {"run", "lotka-volterra", "--x", "", "--output", "o.csv"},
+    };
+    for (const auto& args : cases) expect_one_line_error(eci(args), 2, "empty", args[2] + " " + args[3 % args.size()]);
+    EXPECT_TRUE(work_files().empty());
+}
+
+// Numbers in messages read back as what was computed or typed; counts beyond 2^64 - 1 are "too large".
+TEST_F(reliability, messages_name_the_problem_exactly) {
+    const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
+        {{"run", "three-wave", "--M", "1,1,-2.0000001"}, "-9.999999983634211e-08"},
+        {{"run", "three-wave", "--steps", "99999999999999999999"}, "too large"},
+        {{"run", "n-wave", "--seed", "18446744073709551616"}, "too large"},
+        {{"run", "n-wave", "--triads-per-mode", "9999999999999999999"}, "triads"},
+        {{"run", "kepler", "--r", "1e-320"}, "1e-320"},
+        {{"run", "--dt", "0.1", "three-wave"}, "'--dt 0.1'"},
+        {{"run", "three-wave", "one", "two"}, "one two"},
+    };
+    for (const auto& [args, needle] : cases) {
+        const run_result r = eci(args);
+        expect_one_line_error(r, 2, needle, args[1] + " " + args[2]);
+        EXPECT_EQ(r.err.find("-0.000000"), std::string::npos) << r.err;
+        EXPECT_EQ(r.err.find("nan"), std::string::npos) << r.err;
+        EXPECT_EQ(r.err.find("vector::"), std::string::npos) << r.err;
+    }
+    // The largest seed works.
+    EXPECT_EQ(eci({"run", "n-wave", "--seed", "18446744073709551615", "--t-end", "0.1"}).status, 0);
+}
+
+}  // namespace
