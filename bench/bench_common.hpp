@@ -1,5 +1,5 @@
 // Pieces every benchmark program shares: the right-hand side handle both libraries call, the Boost.Odeint
-// steppers built the way a user would build them, and a right-hand-side counter.
+// steppers built the way a user would build them, a right-hand-side counter and sets of registry methods.
 #pragma once
 
 #include <cstdint>
@@ -44,6 +44,10 @@ struct counted_rhs {
         (*model)(x, dxdt, t);
     }
 };
+
+/// A set of registry entries (eci::method_entries::...) a benchmark runs, each labelled eci::identifier(name).
+template <class... Entry>
+struct method_set {};
 
 namespace odeint = boost::numeric::odeint;
 

@@ -8,7 +8,6 @@
 
 #include <eci/eci.hpp>
 #include <eci/models/n_wave.hpp>
-#include <eci/steppers/compensated_c_pc.hpp>
 
 #include "bench_common.hpp"
 
@@ -24,22 +23,20 @@ long peak_rss_kib() {
 }
 
 template <class Stepper>
-int run(const model& m, state& x, unsigned long steps) {
+void run(const model& m, state& x, unsigned long steps) {
     Stepper stepper;
     eci::bench::rhs<model> f{&m};
     eci::run_stats stats;
-    for (unsigned long i = 0; i < steps; ++i)
-        eci::detail::advance_with_reduction(stepper, f, x, double(i) * 1e-5, 1e-5, 40, stats);
+    for (unsigned long i = 0; i < steps; ++i) eci::step_with_reduction(stepper, f, x, double(i) * 1e-5, 1e-5, stats);
     std::printf("%zu", Stepper::buffer_count());
-    return 0;
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
     if (argc != 4) {
-        std::fprintf(stderr, "usage: eci_bench_memory_driver <none|euler|pc|c_pc|c_pc_compensated|rk4|c_rk4> "
-                             "<modes> <steps>\n");
+        std::fprintf(stderr, "usage: eci_bench_memory_driver <none|METHOD> <modes> <steps> (METHOD: a "
+                             "method of `eci list` with '-' written '_', e.g. c_pc)\n");
         return 2;
     }
     const std::string name = argv[1];
@@ -48,17 +45,16 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "eci_bench_memory_driver: modes must be a positive multiple of 3\n");
         return 2;
     }
+    // The stepper by its bench label, the registry's name with '-' written '_' (eci::identifier).
+    std::string method;
+    for (const eci::method_info& i : eci::methods)
+        if (eci::identifier(i.name) == name) method = i.name;
     const model m = model::random(modes, 1, 1);
     state x = m.random_state(2);
     std::printf("%s buffers=", name.c_str());
-    if (name == "none") std::printf("0");
-    else if (name == "euler") run<eci::euler<state>>(m, x, steps);
-    else if (name == "pc") run<eci::pc<state>>(m, x, steps);
-    else if (name == "c_pc") run<eci::c_pc<state>>(m, x, steps);
-    else if (name == "c_pc_compensated") run<eci::compensated_c_pc<state>>(m, x, steps);
-    else if (name == "rk4") run<eci::rk4<state>>(m, x, steps);
-    else if (name == "c_rk4") run<eci::c_rk4<state>>(m, x, steps);
-    else {
+    if (name == "none")
+        std::printf("0");
+    else if (!eci::with_stepper<state>(method, [&](auto stepper) { run<decltype(stepper)>(m, x, steps); })) {
         std::fprintf(stderr, "\neci_bench_memory_driver: unknown stepper %s\n", name.c_str());
         return 2;
     }

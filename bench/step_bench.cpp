@@ -18,7 +18,6 @@
 #include <eci/eci.hpp>
 #include <eci/models/n_wave.hpp>
 #include <eci/models/three_wave.hpp>
-#include <eci/steppers/compensated_c_pc.hpp>
 
 #include "bench_common.hpp"
 
@@ -57,11 +56,11 @@ template <class Model, class Stepper>
     double t = 0.0;
     // One untimed step first: it sizes (and page-faults in) the stepper's buffers, which a large system's
     // few timed iterations would otherwise pay for.
-    eci::detail::advance_with_reduction(stepper, f, x, t, dt, 40, stats);
+    eci::step_with_reduction(stepper, f, x, t, dt, stats);
     t += dt;
     stats = {};
     for (auto _ : bs) {
-        eci::detail::advance_with_reduction(stepper, f, x, t, dt, 40, stats);
+        eci::step_with_reduction(stepper, f, x, t, dt, stats);
         t += dt;
         benchmark::DoNotOptimize(x.data());
         benchmark::ClobberMemory();
@@ -97,7 +96,7 @@ struct eci_runner {
     double t = 0.0;
     [[gnu::flatten]] void step() {
         rhs<Model> f{&pb->model};
-        eci::detail::advance_with_reduction(stepper, f, x, t, dt, 40, stats);
+        eci::step_with_reduction(stepper, f, x, t, dt, stats);
         t += dt;
     }
 };
@@ -155,35 +154,55 @@ void run_pair(benchmark::State& bs, const problem<Model>* pb) {
     bs.counters["ratio_max"] = ratios.back();
 }
 
+/// eci's stepper of registry entry E on the bench's model (a plain system: the handle rhs<Model>).
+template <class E, class Model>
+using eci_stepper = eci::stepper_for<E, typename Model::state_type>;
+
+/// The methods timed per step, as registry entries: each is labelled by its registry name (eci::identifier).
+using timed_methods = method_set<eci::method_entries::euler, eci::method_entries::c_euler, eci::method_entries::pc,
+                                 eci::method_entries::c_pc, eci::method_entries::c_pc_compensated,
+                                 eci::method_entries::rk4, eci::method_entries::c_rk4>;
+
+template <class E>
+std::string label() {
+    return eci::identifier(E::info.name);
+}
+
 template <class Model>
 void register_pairs(const std::string& name, const problem<Model>* pb, int pairs) {
     using S = typename Model::state_type;
-    auto add = [&](const std::string& label, auto fn) {
-        benchmark::RegisterBenchmark((name + "/pair:" + label).c_str(), fn, pb)->Iterations(pairs)->Repetitions(1);
+    namespace me = eci::method_entries;
+    auto add = [&](const std::string& a, const std::string& b, auto fn) {
+        benchmark::RegisterBenchmark((name + "/pair:" + a + ":" + b).c_str(), fn, pb)
+            ->Iterations(pairs)
+            ->Repetitions(1);
     };
-    using e_pc = eci_runner<Model, eci::pc<S>>;
-    using e_rk4 = eci_runner<Model, eci::rk4<S>>;
-    add("c_pc:pc", run_pair<eci_runner<Model, eci::c_pc<S>>, e_pc, Model>);
-    add("c_rk4:rk4", run_pair<eci_runner<Model, eci::c_rk4<S>>, e_rk4, Model>);
-    add("pc:odeint_heun", run_pair<e_pc, odeint_runner<Model, odeint_heun<S>, make_odeint_heun<S>>, Model>);
-    add("rk4:odeint_rk4",
+    using e_pc = eci_runner<Model, eci_stepper<me::pc, Model>>;
+    using e_rk4 = eci_runner<Model, eci_stepper<me::rk4, Model>>;
+    add(label<me::c_pc>(), label<me::pc>(), run_pair<eci_runner<Model, eci_stepper<me::c_pc, Model>>, e_pc, Model>);
+    add(label<me::c_rk4>(), label<me::rk4>(),
+        run_pair<eci_runner<Model, eci_stepper<me::c_rk4, Model>>, e_rk4, Model>);
+    add(label<me::pc>(), "odeint_heun",
+        run_pair<e_pc, odeint_runner<Model, odeint_heun<S>, make_odeint_heun<S>>, Model>);
+    add(label<me::rk4>(), "odeint_rk4",
         run_pair<e_rk4, odeint_runner<Model, odeint_rk4<S>, [] { return odeint_rk4<S>(); }>, Model>);
-    add("pc:pc", run_pair<e_pc, e_pc, Model>);  // the noise floor: two identical steppers
+    add(label<me::pc>(), label<me::pc>(), run_pair<e_pc, e_pc, Model>);  // the noise floor: two identical steppers
+}
+
+template <class Model, class... E>
+void register_eci(const std::string& name, const problem<Model>* pb, double min_time, method_set<E...>) {
+    (benchmark::RegisterBenchmark((name + "/" + label<E>()).c_str(), run_eci<Model, eci_stepper<E, Model>>, pb)
+         ->MinTime(min_time),
+     ...);
 }
 
 template <class Model>
 void register_problem(const std::string& name, const problem<Model>* pb, double min_time) {
     using S = typename Model::state_type;
+    register_eci(name, pb, min_time, timed_methods{});
     auto add = [&](const std::string& method, auto fn) {
         benchmark::RegisterBenchmark((name + "/" + method).c_str(), fn, pb)->MinTime(min_time);
     };
-    add("euler", run_eci<Model, eci::euler<S>>);
-    add("c_euler", run_eci<Model, eci::c_euler<S>>);
-    add("pc", run_eci<Model, eci::pc<S>>);
-    add("c_pc", run_eci<Model, eci::c_pc<S>>);
-    add("c_pc_compensated", run_eci<Model, eci::compensated_c_pc<S>>);
-    add("rk4", run_eci<Model, eci::rk4<S>>);
-    add("c_rk4", run_eci<Model, eci::c_rk4<S>>);
     add("odeint_rk4", [](benchmark::State& bs, const problem<Model>* p) {
         run_odeint<Model, odeint_rk4<S>>(bs, p, [] { return odeint_rk4<S>(); });
     });

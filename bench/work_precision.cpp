@@ -17,12 +17,10 @@
 #include <eci/eci.hpp>
 #include <eci/models/three_wave.hpp>
 #include <eci/models/three_wave_exact.hpp>
-#include <eci/steppers/implicit_midpoint.hpp>
 
 #include <eci/models/kepler.hpp>
 #include <eci/models/kepler_exact.hpp>
 #include <eci/models/lotka_volterra.hpp>
-#include <eci/steppers/transformed_rk.hpp>
 
 #include "bench_common.hpp"
 
@@ -68,12 +66,13 @@ double relative_state_error(const wp_problem<Model>& p, const typename Model::st
 // is zero (Kepler's A_y on an orbit starting on the x axis); the worst of them.
 template <class Model>
 double relative_invariant_error(const wp_problem<Model>& p, const typename Model::state_type& x) {
+    eci::invariant_monitor<Model> monitor(p.model);
+    monitor.record(p.x0);
+    monitor.record(x);
     double scale = 0, worst = 0;
-    for (const auto& inv : Model::invariants()) scale = std::max(scale, std::abs((p.model.*inv.value)(p.x0)));
-    for (const auto& inv : Model::invariants()) {
-        const double a = (p.model.*inv.value)(p.x0), b = (p.model.*inv.value)(x);
-        worst = std::max(worst, std::abs(b - a) / (a != 0.0 ? std::abs(a) : scale));
-    }
+    for (const auto& r : monitor.records()) scale = std::max(scale, std::abs(r.initial));
+    for (const auto& r : monitor.records())
+        worst = std::max(worst, std::abs(r.final - r.initial) / (r.initial != 0.0 ? std::abs(r.initial) : scale));
     return worst;
 }
 
@@ -102,13 +101,14 @@ wp_point measure(const wp_problem<Model>& p, const std::string& method, double p
     return pt;
 }
 
-template <class Stepper, class Model, class Make>
-void sweep_fixed(const wp_problem<Model>& p, const std::string& method, int min_exp, int max_exp, double min_cpu,
-                 std::vector<wp_point>& out, Make make) {
+/// Registry method E on problem p, dt = t_end / 2^e for e from min_exp to max_exp.
+template <class E, class Model>
+void sweep_fixed(const wp_problem<Model>& p, int min_exp, int max_exp, double min_cpu, std::vector<wp_point>& out) {
+    using Stepper = eci::stepper_for<E, Model>;
     for (int e = min_exp; e <= max_exp; ++e) {
         const double dt = p.t_end / std::ldexp(1.0, e);
         auto run = [&](typename Model::state_type& x) {
-            Stepper stepper = make();
+            Stepper stepper;
             try {
                 return eci::integrate_to(stepper, p.model, x, 0.0, p.t_end, dt).rhs_evals;
             } catch (const eci::step_size_underflow&) {
@@ -116,7 +116,7 @@ void sweep_fixed(const wp_problem<Model>& p, const std::string& method, int min_
                 return std::uint64_t{0};
             }
         };
-        const wp_point pt = measure(p, method, dt, run, min_cpu);
+        const wp_point pt = measure(p, eci::identifier(E::info.name), dt, run, min_cpu);
         if (std::isfinite(pt.state_error) && pt.state_error < 1.0) out.push_back(pt);
     }
 }
@@ -141,48 +141,22 @@ void sweep_dopri5(const wp_problem<Model>& p, bool dense, double min_cpu, std::v
     }
 }
 
-template <class St>
-St make_default() {
-    return St{};
-}
-
-/// The conservative steppers of a model: eci::c_pc / c_rk4 for the three-wave model (xi = psi^2), and the
-/// same tableaux through the model's invariant-linearizing transform for Lotka-Volterra and Kepler (§IV, §V).
-template <class Model>
-struct conservative_of {
-    using S = typename Model::state_type;
-    using pc = eci::c_pc<S>;
-    using rk4 = eci::c_rk4<S>;
-    static pc make_pc(const Model&) { return {}; }
-    static rk4 make_rk4(const Model&) { return {}; }
-};
-template <class Model>
-    requires requires(const Model& m) { m.linearizing_transform(); }
-struct conservative_of<Model> {
-    using Tr = decltype(std::declval<const Model&>().linearizing_transform());
-    using pc = eci::transformed_pc<Tr>;
-    using rk4 = eci::transformed_rk4<Tr>;
-    static pc make_pc(const Model& m) { return pc(m.linearizing_transform()); }
-    static rk4 make_rk4(const Model& m) { return rk4(m.linearizing_transform()); }
-};
-
-/// Every method on one problem; `extra` shifts the fixed-step ranges to suit the model's time scale.
+/// Every method on one problem, as registry entries (each labelled eci::identifier(name)): the registry picks
+/// its stepper on the model, so C-PC and C-RK4 run through the transform (50) or (39) on Kepler and
+/// Lotka-Volterra (§IV, §V) and on psi^2 on the three-wave model. `extra` shifts the fixed-step ranges to suit
+/// the model's time scale.
 template <class Model>
 std::vector<wp_point> run_all(const wp_problem<Model>& p, bool quick, int extra) {
-    using S = typename Model::state_type;
-    using C = conservative_of<Model>;
+    namespace me = eci::method_entries;
     const double min_cpu = quick ? 0.002 : 0.02;
     const int q = quick ? 3 : 0;  // quick runs skip the finest steps
     std::vector<wp_point> pts;
-    sweep_fixed<eci::euler<S>>(p, "euler", 6 + extra, 20 + extra - q, min_cpu, pts, make_default<eci::euler<S>>);
-    sweep_fixed<eci::pc<S>>(p, "pc", 5 + extra, 18 + extra - q, min_cpu, pts, make_default<eci::pc<S>>);
-    sweep_fixed<typename C::pc>(p, "c_pc", 5 + extra, 18 + extra - q, min_cpu, pts,
-                                [&] { return C::make_pc(p.model); });
-    sweep_fixed<eci::rk4<S>>(p, "rk4", 4 + extra, 14 + extra - q, min_cpu, pts, make_default<eci::rk4<S>>);
-    sweep_fixed<typename C::rk4>(p, "c_rk4", 4 + extra, 14 + extra - q, min_cpu, pts,
-                                 [&] { return C::make_rk4(p.model); });
-    sweep_fixed<eci::implicit_midpoint<S>>(p, "implicit_midpoint", 5 + extra, 18 + extra - q, min_cpu, pts,
-                                           make_default<eci::implicit_midpoint<S>>);
+    sweep_fixed<me::euler>(p, 6 + extra, 20 + extra - q, min_cpu, pts);
+    sweep_fixed<me::pc>(p, 5 + extra, 18 + extra - q, min_cpu, pts);
+    sweep_fixed<me::c_pc>(p, 5 + extra, 18 + extra - q, min_cpu, pts);
+    sweep_fixed<me::rk4>(p, 4 + extra, 14 + extra - q, min_cpu, pts);
+    sweep_fixed<me::c_rk4>(p, 4 + extra, 14 + extra - q, min_cpu, pts);
+    sweep_fixed<me::implicit_midpoint>(p, 5 + extra, 18 + extra - q, min_cpu, pts);
     sweep_dopri5(p, false, min_cpu, pts);
     sweep_dopri5(p, true, min_cpu, pts);
     return pts;
@@ -233,13 +207,15 @@ int main(int argc, char** argv) {
     std::fprintf(csv, "model,method,param,rhs_evals,cpu_seconds,state_error,invariant_error\n");
 
     // Three-wave, the paper's Fig. 5 initial condition, to t = 20 (a few periods), against the exact solution.
-    wp_problem<eci::three_wave> tw{"three_wave", eci::three_wave{}, {std::sqrt(1.5), 1.0, std::sqrt(1.5)}, 20.0, {}};
+    const auto fig5 = eci::find_preset<eci::three_wave>("fig5");
+    wp_problem<eci::three_wave> tw{"three_wave", fig5.model, fig5.x0, 20.0, {}};
     tw.reference = eci::three_wave_exact(tw.model, tw.x0)(tw.t_end);
     emit(csv, tw, quick, 0);
 
     // Lotka-Volterra, the paper's Fig. 7 setup (mu = 1.5, x = 1, y = 0.4), to t = 20 (about three cycles); no
     // closed form, so the reference is RK4 with 2^20 steps (truncation error ~1e-17, below its round-off).
-    wp_problem<eci::lotka_volterra> lv{"lotka_volterra", eci::lotka_volterra{}, {1.0, 0.4}, 20.0, {}};
+    const auto fig7 = eci::find_preset<eci::lotka_volterra>("fig7");
+    wp_problem<eci::lotka_volterra> lv{"lotka_volterra", fig7.model, fig7.x0, 20.0, {}};
     {
         auto x = lv.x0;
         eci::rk4<eci::lotka_volterra::state_type> ref;
@@ -250,7 +226,8 @@ int main(int argc, char** argv) {
 
     // Kepler, the paper's Figs. 8-9 orbit (r = 1, v_r = theta = 0, ell = 1, K = 3/2, m = 1: e = 1/3, period 3.33),
     // to t = 10 (three orbits), against the exact solution (Kepler's equation).
-    wp_problem<eci::kepler> kp{"kepler", eci::kepler{}, {1.0, 0.0, 0.0}, 10.0, {}};
+    const auto fig9 = eci::find_preset<eci::kepler>("fig9");
+    wp_problem<eci::kepler> kp{"kepler", fig9.model, fig9.x0, 10.0, {}};
     kp.reference = eci::kepler_exact(kp.model, kp.x0)(kp.t_end);
     emit(csv, kp, quick, 0);
     std::fclose(csv);

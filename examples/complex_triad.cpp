@@ -37,7 +37,7 @@ int main() {
     auto drift = [&](auto stepper, const char* name) {
         state a = a0;
         double worst = 0.0;
-        auto watch = [&](const state& s, double, std::uint64_t) {
+        auto watch = [&](const state& s, double) {  // an odeint-style observer (x, t)
             worst = std::fmax(worst, std::fabs(energy(s) / energy(a0) - 1.0));
             worst = std::fmax(worst, std::fabs(enstrophy(s) / enstrophy(a0) - 1.0));
         };

@@ -4,15 +4,17 @@
 #include <charconv>
 #include <cstdio>
 #include <exception>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 
 #include <CLI/CLI.hpp>
 #include <eci/integrate.hpp>
 #include <eci/registry.hpp>
+#include <eci/version.hpp>
 
+#include "command.hpp"
 #include "figures.hpp"
-#include "models.hpp"
 #include "output.hpp"
 
 namespace {
@@ -24,8 +26,8 @@ constexpr const char* exit_status_help =
     "sub-steps or blew up; a write failed, e.g. a full disk) or a feature not built; 2 bad input (unknown model "
     "or method, bad number, invalid coefficients, unwritable output, ...); 128+N stopped by signal N (130 "
     "Ctrl-C; SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE). On any failure no output file or directory is created "
-    "or replaced (files of one run appear together), except what goes directly to standard output, a device, "
-    "a FIFO or /proc.";
+    "or replaced (files of one run appear together), except what goes directly to standard output, a device "
+    "or a FIFO.";
 
 void print_error(std::string_view message) {
     std::string line(message);
@@ -40,10 +42,35 @@ std::string model_names(const std::vector<std::unique_ptr<model_command>>& model
     return s;
 }
 
-std::string shortest(double v) {
-    char buffer[32];
-    const auto r = std::to_chars(buffer, buffer + sizeof buffer, v);
-    return std::string(buffer, r.ptr);
+/// A CLI11 check that an option is a whole number >= min (CLI11 alone would wrap "-3" into a huge unsigned);
+/// one beyond 2^64 - 1 is "too large", not "not a whole number".
+CLI::Validator whole_number(std::uint64_t min) {
+    return CLI::Validator(
+        [min](std::string& s) -> std::string {
+            const std::string bad = "must be a whole number >= " + std::to_string(min) + ", not '" + s + "'";
+            if (s.empty() || s.find_first_not_of("0123456789") != std::string::npos) return bad;
+            std::uint64_t v = 0;
+            const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+            if (r.ec == std::errc::result_out_of_range)
+                return "'" + s + "' is too large (at most 18446744073709551615)";
+            return r.ec != std::errc() || v < min ? bad : std::string();
+        },
+        "INT>=" + std::to_string(min));
+}
+
+/// Binds a model's own options (its parameters, initial state or generator settings) on its subcommand.
+void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
+    for (option_spec& o : options) {
+        const std::string flag = "--" + o.name;
+        if (o.whole) {
+            sub.add_option(flag, *o.whole, o.help)->check(whole_number(o.min));
+        } else if (o.count == 1) {
+            o.reals->resize(1);
+            sub.add_option(flag, o.reals->front(), o.help);
+        } else {
+            sub.add_option(flag, *o.reals, o.help)->expected(int(o.count))->delimiter(',')->allow_extra_args(false);
+        }
+    }
 }
 
 bool is_model_name(const std::vector<std::unique_ptr<model_command>>& models, std::string_view name) {
@@ -81,6 +108,9 @@ void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
         for (const std::string& n : i.methods) methods += (methods.empty() ? "" : " ") + n;
         std::printf("  %-15s methods: %s (default %s); default dt %s, t-end %s\n", "", methods.c_str(),
                     i.default_method.c_str(), shortest(i.default_dt).c_str(), shortest(i.default_t_end).c_str());
+        std::string presets;
+        for (const auto& p : i.presets) presets += (presets.empty() ? "" : " ") + p.first;
+        std::printf("  %-15s presets (--preset): %s\n", "", presets.c_str());
     }
 }
 
@@ -91,7 +121,7 @@ int run_cli(int argc, char** argv) {
 
     CLI::App app{"eci: explicit, exactly conservative ODE integrators (Shadwick, Bowman & Morrison)", "eci"};
     app.require_subcommand(1);
-    app.set_version_flag("--version", "eci 0.1.0");
+    app.set_version_flag("--version", std::string("eci ") + eci::version);
     app.footer(exit_status_help);
 
     CLI::App* run = app.add_subcommand("run", "integrate a model: eci run MODEL [options]; "
@@ -118,7 +148,12 @@ int run_cli(int argc, char** argv) {
                         "written; '-' writes it to standard output");
         sub->add_option("--summary-json", settings.summary_json,
                         "also write the run summary as JSON to this file ('-': standard output)");
-        model->add_options(*sub);
+        std::string presets;
+        for (const auto& [name, what] : i.presets) presets += (presets.empty() ? "" : "; ") + name + ": " + what;
+        sub->add_option("--preset", settings.preset,
+                        "a set-up of the paper, whose values the other options override (default " +
+                            i.presets.front().first + "). " + presets);
+        add_model_options(*sub, model->options());
         sub->footer("The summary (steps, step reductions, rhs evaluations, wall time, each invariant's drift "
                     "measured at every step) goes to stderr; a progress bar too when stderr is a terminal and "
                     "the run takes over a second.\n" +
@@ -128,7 +163,7 @@ int run_cli(int argc, char** argv) {
     CLI::App* list = app.add_subcommand("list", "list the methods (with their order) and the models");
 
     CLI::App* figures = app.add_subcommand("figures", "reproduce the paper's figures (PNG, SVG and CSV)");
-    figures_options figure_options;
+    eci::figures::options figure_options;
     figures->add_option("--out", figure_options.out, "output directory (default figures)");
     int only = 0;
     figures->add_option("--only", only, "make only figure N (1-9)")->check(CLI::Range(1, 9));
@@ -182,12 +217,7 @@ int run_cli(int argc, char** argv) {
     }
     if (figures->parsed()) {
         if (figures->count("--only")) figure_options.only = only;
-#ifdef ECI_HAVE_FIGURES
-        return run_figures(figure_options);
-#else
-        print_error("figures are not built in this version");
-        return 1;
-#endif
+        return eci::figures::run_figures(figure_options);
     }
     for (const auto& model : models) {
         CLI::App* sub = run->get_subcommand(model->info().name);
@@ -195,6 +225,7 @@ int run_cli(int argc, char** argv) {
         if (sub->count("--dt")) settings.dt = dt;
         if (sub->count("--t-end")) settings.t_end = t_end;
         if (sub->count("--steps")) settings.steps = steps;
+        for (option_spec& o : model->options()) o.given = sub->count("--" + o.name) > 0;
         return model->run(settings);
     }
     throw bad_input("eci run needs a MODEL (models: " + model_names(models) + ")");

@@ -52,10 +52,70 @@ struct solver_stats {
 };
 
 /// A stepper: `step(f, x, t, dt)` advances x in place, or leaves it untouched and reports failure.
+/// A stepper that carries state from step to step (transformed_rk's xi, c_pc_compensated's residual) also has
+/// `reset()`, which forgets it; the drivers call it when a run starts (see carried_state below).
 template <class St, class F, class S>
 concept stepper = system<F, S> && requires(St& st, F& f, S& x, double t, double dt) {
     { st.step(f, x, t, dt) } -> std::same_as<step_result>;
     { St::order } -> std::convertible_to<int>;
+};
+
+/// A stepper with state carried between steps, and `reset()` to forget it.
+template <class St>
+concept carries_state = requires(St& st) { st.reset(); };
+
+/// Forget a stepper's carried state, if it has any: the next step starts a new trajectory from its x.
+template <class St>
+void reset_carried_state(St& st) {
+    if constexpr (carries_state<St>) st.reset();
+}
+
+/// A system that wraps another (the drivers' evaluation counter, a user's adaptor) exposes it as `wrapped()`,
+/// so that a stepper reaches the model being integrated through any number of wrappers.
+template <class F>
+concept system_wrapper = requires(const F& f) { f.wrapped(); };
+
+/// The model behind a system: f itself, or what its wrappers wrap. Steppers that need more than the right-hand
+/// side (a transform, a Jacobian) take it from here, so they always see the parameters of the system they step.
+template <class F>
+constexpr const auto& model_of(const F& f) {
+    if constexpr (system_wrapper<F>)
+        return model_of(f.wrapped());
+    else
+        return f;
+}
+
+/// A transform in which a system's invariants are sums of xi components. `to_xi(x, xi)` computes xi = T(x);
+/// `xi_rate(x, dxdt, rate)` computes dxi/dt at x (dxdt = f(x) is given, so no extra right-hand side is needed);
+/// `from_xi(xi, hint, x, stats)` inverts T on the branch of `hint`, recording any iterative solve in `stats`, and
+/// reports a non-invertible xi as a failure (the driver then reduces the step, as for a negative radicand).
+template <class Tr>
+concept invariant_transform =
+    state<typename Tr::state_type> && state<typename Tr::xi_type> &&
+    requires(const Tr& tr, const typename Tr::state_type& x, typename Tr::state_type& x_out,
+             const typename Tr::xi_type& xi, typename Tr::xi_type& xi_out, solver_stats& stats) {
+        tr.to_xi(x, xi_out);
+        tr.xi_rate(x, x, xi_out);
+        { tr.from_xi(xi, x, x_out, stats) } -> std::same_as<step_result>;
+    };
+
+/// A model with a linearizing transform, `linearizing_transform()` (Lotka-Volterra's (39), Kepler's (50)): its
+/// conservative methods run through the transformed engine.
+template <class M>
+concept linearizable = requires(const M& m) {
+    { m.linearizing_transform() } -> invariant_transform;
+};
+
+/// A model with a Jacobian `jacobian(x)` returning J as rows (Kahan's method needs it).
+template <class M>
+concept has_jacobian = requires(const M& m, const typename M::state_type& x) { m.jacobian(x); };
+
+/// A model whose invariants are sums of squares of its real unknowns (eqs. (4)-(5), errata item 9), on which
+/// the conservative engine applies directly: every model without a linearizing transform, unless it opts out with
+/// `static constexpr bool quadratic_invariants = false`.
+template <class M>
+concept quadratic_invariants = !linearizable<M> && !requires {
+    requires !static_cast<bool>(M::quadratic_invariants);
 };
 
 }  // namespace eci

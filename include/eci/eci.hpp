@@ -3,6 +3,8 @@
 
 #include "concepts.hpp"
 #include "integrate.hpp"
+#include "registry.hpp"
+#include "run.hpp"
 #include "steppers/compensated_c_pc.hpp"
 #include "steppers/conservative_euler.hpp"
 #include "steppers/conservative_rk.hpp"

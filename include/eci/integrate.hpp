@@ -1,14 +1,16 @@
-// Drivers: fixed steps to a step count or an end time, an observer every k steps, run statistics, the step
-// reduction that turns a failed step (negative radicand, non-invertible transform) into two half steps, a
-// bound on the work of one step, a non-finite check of every step and a cancellation hook.
+// Drivers: fixed steps to a step count or an end time, an observer (x, t, i) or (x, t) every k steps, run statistics,
+// the step reduction (public: step_with_reduction) that retries a failed step as two half steps, a bound on the
+// work of one step, a non-finite check of every step and a cancellation hook.
 #pragma once
 
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <cstddef>
+#include <concepts>
 #include <cstdint>
 #include <limits>
+#include <type_traits>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -32,6 +34,9 @@ struct run_stats {
 struct run_options {
     std::uint64_t every = 1;  ///< call the observer every `every` steps (and always at the start and the end)
     int max_halvings = 40;    ///< a step may be halved this often (dt * 2^-40) before the run stops
+    /// false (a new run): the driver first calls the stepper's reset(); true: this run continues the trajectory
+    /// the stepper is on (a run in segments), and its carried state (xi, residuals) is kept.
+    bool resume = false;
     /// Bound on the attempts (sub-steps, failed ones included) of one step of the grid: halving alone could
     /// otherwise spend up to 2^max_halvings sub-steps on one step (a state drifting into subnormal numbers).
     std::uint64_t max_substeps = std::uint64_t{1} << 16;
@@ -40,14 +45,23 @@ struct run_options {
     const std::atomic<bool>* cancel = nullptr;
 };
 
-/// A step could not be completed even at the smallest allowed size.
+/// Adds the counts of `more` (a later part of the same run) to `stats`.
+inline void accumulate(run_stats& stats, const run_stats& more) {
+    stats.steps += more.steps;
+    stats.step_reductions += more.step_reductions;
+    stats.rhs_evals += more.rhs_evals;
+}
+
+/// A step could not be completed even at the smallest allowed size. `stats` holds what the run did until then
+/// (completed steps, reductions, evaluations, solves), so a failed run still reports its work.
 class step_size_underflow : public std::runtime_error {
    public:
-    step_size_underflow(double t, std::size_t component, double dt)
-        : std::runtime_error(message(t, component, dt)), time(t), component(component), dt(dt) {}
+    step_size_underflow(double t, std::size_t component, double dt, run_stats partial = {})
+        : std::runtime_error(message(t, component, dt)), time(t), component(component), dt(dt), stats(partial) {}
     double time;
     std::size_t component;
     double dt;
+    run_stats stats;  ///< the run's statistics up to the failure
 
    private:
     static std::string message(double t, std::size_t component, double dt) {
@@ -113,6 +127,23 @@ class interrupted : public std::runtime_error {
 
 namespace detail {
 
+/// The drivers' view of a system: counts its evaluations, and exposes it (wrapped()) to steppers that need the
+/// model's transform or Jacobian.
+template <class F>
+struct counting_system {
+    F& f;
+    std::uint64_t& count;
+    const std::atomic<bool>* cancel = nullptr;  ///< polled before every evaluation (inside Newton iterations too)
+
+    template <class S>
+    void operator()(const S& x, S& dxdt, double t) const {
+        if (cancel && cancel->load(std::memory_order_relaxed)) throw interrupted(t);
+        ++count;
+        f(x, dxdt, t);
+    }
+    const F& wrapped() const { return f; }
+};
+
 /// Whether every real unknown of x is finite: one pass over the exponent bits, vectorizable.
 template <state S>
 bool all_finite(const S& x) {
@@ -131,7 +162,7 @@ inline void poll_cancel(const run_options& opt, double t) {
     if (opt.cancel && opt.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
 }
 
-/// One step of the grid from t to t + dt. A failed attempt is replaced by two half steps, depth first and
+/// One step of the grid from t to t + dt (eci::step_with_reduction is the public form). A failed attempt is replaced by two half steps, depth first and
 /// iteratively (an explicit stack of at most max_halvings + 1 depths): at most opt.max_substeps attempts.
 template <class St, class F, class S>
 void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const run_options& opt, run_stats& stats) {
@@ -141,7 +172,7 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const 
         if (!all_finite(x)) throw non_finite_state(t + dt, first_non_finite(x));
         return;
     }
-    if (opt.max_halvings <= 0) throw step_size_underflow(t, r.component, dt);
+    if (opt.max_halvings <= 0) throw step_size_underflow(t, r.component, dt, stats);
     ++stats.step_reductions;
     std::vector<int> pending{1, 1};  // depths of the pieces still to take, the next one last
     double offset = 0.0;             // sum of pieces taken: multiples of dt 2^-depth, exact
@@ -161,7 +192,7 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const 
             offset += h;
             continue;
         }
-        if (depth >= opt.max_halvings) throw step_size_underflow(ts, r.component, h);
+        if (depth >= opt.max_halvings) throw step_size_underflow(ts, r.component, h, stats);
         ++stats.step_reductions;
         pending.push_back(depth + 1);
         pending.push_back(depth + 1);
@@ -176,12 +207,62 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, int ma
     advance_with_reduction(stepper, f, x, t, dt, opt, stats);
 }
 
+
 template <class St>
 void collect_solver_stats(const St& stepper, run_stats& stats) {
     if constexpr (requires { stepper.solver_statistics(); }) stats.solver = stepper.solver_statistics();
 }
 
+/// Calls an observer as (x, t, i) or, odeint-style, as (x, t).
+template <class Observer, class S>
+void notify(Observer& observe, const S& x, double t, std::uint64_t i) {
+    if constexpr (std::invocable<Observer&, const S&, double, std::uint64_t>)
+        observe(x, t, i);
+    else if constexpr (std::invocable<Observer&, const S&, double>)
+        observe(x, t);
+    else
+        static_assert(std::invocable<Observer&, const S&, double>, "an observer takes (x, t, i) or (x, t)");
+}
+
+template <class St, class F, class S, class Observer>
+run_stats run_n_steps(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t n, Observer& observe,
+                      const run_options& opt) {
+    run_stats stats;
+    const counting_system<F> counted{f, stats.rhs_evals, opt.cancel};
+    notify(observe, std::as_const(x), t0, std::uint64_t{0});
+    try {
+        for (std::uint64_t i = 1; i <= n; ++i) {
+            advance_with_reduction(stepper, counted, x, t0 + double(i - 1) * dt, dt, opt, stats);
+            ++stats.steps;
+            if (i % opt.every == 0 || i == n) notify(observe, std::as_const(x), t0 + double(i) * dt, i);
+        }
+    } catch (step_size_underflow& e) {
+        collect_solver_stats(stepper, e.stats);
+        throw;
+    }
+    collect_solver_stats(stepper, stats);
+    return stats;
+}
+
+inline void check_step(double dt) {
+    if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument("time step must be a positive finite number");
+}
+
 }  // namespace detail
+
+/// One step of size dt from (x, t), as the drivers take it: a failed step is retried as two half steps, each
+/// of which may be halved again, up to `max_halvings` times. Adds the step, its reductions and its right-hand
+/// side evaluations to `stats`; throws step_size_underflow (x then holds the last state reached) if even the
+/// smallest step fails. For loops of one's own that need the drivers' robustness step by step.
+template <state S, system<S> F, stepper<F, S> St>
+void step_with_reduction(St& stepper, F&& f, S& x, double t, double dt, run_stats& stats,
+                         int max_halvings = run_options{}.max_halvings) {
+    const detail::counting_system<std::remove_reference_t<F>> counted{f, stats.rhs_evals};
+    run_options opt;
+    opt.max_halvings = max_halvings;
+    detail::advance_with_reduction(stepper, counted, x, t, dt, opt, stats);
+    ++stats.steps;
+}
 
 /// Observer that does nothing.
 struct no_observer {
@@ -189,27 +270,16 @@ struct no_observer {
     void operator()(const S&, double, std::uint64_t) const {}
 };
 
-/// Take `n` steps of size dt from (x, t0). The observer sees (x, t, step index) at step 0, every
-/// `opt.every` steps and at step n. Times are t0 + i dt, never accumulated, so they stay on the grid.
+/// Take `n` steps of size dt from (x, t0). The observer sees (x, t, step index), or (x, t), at step 0, every
+/// `opt.every` steps and at step n. Times are t0 + i dt, never accumulated, so they stay on the grid. The
+/// stepper's carried state is reset first unless `opt.resume`.
 template <state S, system<S> F, stepper<F, S> St, class Observer = no_observer>
 run_stats integrate_n_steps(St& stepper, F&& f, S& x, double t0, double dt, std::uint64_t n, Observer&& observe = {},
                             run_options opt = {}) {
-    if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument("time step must be a positive finite number");
+    detail::check_step(dt);
     if (opt.every == 0) throw std::invalid_argument("observer interval must be at least 1");
-    run_stats stats;
-    auto counted = [&](const S& a, S& b, double t) {
-        detail::poll_cancel(opt, t);  // also inside a stepper's iterations (Newton, fixed point)
-        ++stats.rhs_evals;
-        f(a, b, t);
-    };
-    observe(std::as_const(x), t0, std::uint64_t{0});
-    for (std::uint64_t i = 1; i <= n; ++i) {
-        detail::advance_with_reduction(stepper, counted, x, t0 + double(i - 1) * dt, dt, opt, stats);
-        ++stats.steps;
-        if (i % opt.every == 0 || i == n) observe(std::as_const(x), t0 + double(i) * dt, i);
-    }
-    detail::collect_solver_stats(stepper, stats);
-    return stats;
+    if (!opt.resume) reset_carried_state(stepper);
+    return detail::run_n_steps(stepper, f, x, t0, dt, n, observe, opt);
 }
 
 /// The number of steps of size dt that reach t_end from t0: at least one whenever t_end > t0, however short
@@ -222,35 +292,42 @@ inline std::uint64_t steps_to_reach(double t0, double t_end, double dt) {
     return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(q - slack)));
 }
 
-/// Step from t0 to t_end with steps of dt; the last step is shortened to land on t_end exactly.
+/// Step from t0 to t_end with steps of dt; the last step is shortened to land on t_end exactly. Observer,
+/// options and reset as for integrate_n_steps.
 template <state S, system<S> F, stepper<F, S> St, class Observer = no_observer>
 run_stats integrate_to(St& stepper, F&& f, S& x, double t0, double t_end, double dt, Observer&& observe = {},
                        run_options opt = {}) {
     if (!(t_end >= t0) || !std::isfinite(t_end)) throw std::invalid_argument("end time must be finite and >= start");
-    if (!(dt > 0.0) || !std::isfinite(dt)) throw std::invalid_argument("time step must be a positive finite number");
+    detail::check_step(dt);
+    if (opt.every == 0) throw std::invalid_argument("observer interval must be at least 1");
+    if (!opt.resume) reset_carried_state(stepper);
     const std::uint64_t n = steps_to_reach(t0, t_end, dt);
     if (n == 0) {
-        observe(std::as_const(x), t0, std::uint64_t{0});
+        detail::notify(observe, std::as_const(x), t0, std::uint64_t{0});
         return {};
     }
     const double last = t_end - (t0 + double(n - 1) * dt);
     if (std::abs(last - dt) <= 1e-12 * dt) {
         // t0 + n dt may miss t_end by round-off (3 * 0.1 != 0.3): the last observation reports t_end itself.
-        auto observe_end = [&](const S& s, double t, std::uint64_t i) { observe(s, i == n ? t_end : t, i); };
-        return integrate_n_steps(stepper, f, x, t0, dt, n, observe_end, opt);
+        auto observe_end = [&](const S& s, double t, std::uint64_t i) {
+            detail::notify(observe, s, i == n ? t_end : t, i);
+        };
+        return detail::run_n_steps(stepper, f, x, t0, dt, n, observe_end, opt);
     }
     // The grid holds n - 1 full steps, then one shorter step to t_end.
-    run_stats stats;
     auto observe_full = [&](const S& s, double t, std::uint64_t i) {
-        if (i % opt.every == 0 || i == 0) observe(s, t, i);
+        if (i % opt.every == 0 || i == 0) detail::notify(observe, s, t, i);
     };
-    stats = integrate_n_steps(stepper, f, x, t0, dt, n - 1, observe_full, opt);
-    run_stats tail = integrate_n_steps(stepper, f, x, t0 + double(n - 1) * dt, last, 1, no_observer{}, opt);
-    stats.steps += tail.steps;
-    stats.step_reductions += tail.step_reductions;
-    stats.rhs_evals += tail.rhs_evals;
+    run_stats stats = detail::run_n_steps(stepper, f, x, t0, dt, n - 1, observe_full, opt);
+    no_observer none;
+    try {
+        accumulate(stats, detail::run_n_steps(stepper, f, x, t0 + double(n - 1) * dt, last, 1, none, opt));
+    } catch (step_size_underflow& e) {
+        accumulate(e.stats, stats);
+        throw;
+    }
     detail::collect_solver_stats(stepper, stats);
-    observe(std::as_const(x), t_end, n);
+    detail::notify(observe, std::as_const(x), t_end, n);
     return stats;
 }
 

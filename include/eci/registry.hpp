@@ -1,11 +1,14 @@
-// The one list of eci's methods: name, order, whether it is exactly conservative, a one-line description,
-// and the stepper type behind each name. `eci list`, the docs table and parameterised tests all loop over it.
+// The one list of eci's methods, as data: name, family, tableau, order, one line. From what a model offers
+// (a linearizing transform, a Jacobian, quadratic invariants) it computes the stepper behind each name.
 #pragma once
 
 #include <array>
+#include <concepts>
 #include <cstddef>
 #include <optional>
+#include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -15,134 +18,293 @@
 #include "steppers/conservative_rk.hpp"
 #include "steppers/explicit_rk.hpp"
 #include "steppers/implicit_midpoint.hpp"
+#include "steppers/kahan.hpp"
+#include "steppers/transformed_rk.hpp"
+#include "tableaus.hpp"
 
 namespace eci {
 
+/// How a method is built. A conventional or conservative method is a tableau run by an engine: explicit_rk
+/// (conventional); conservative_rk on a model with quadratic invariants, transformed_rk on a model with a
+/// linearizing transform (reported as `transformed`). Implicit and model-specific methods name their stepper.
+enum class method_family { conventional, conservative, transformed, implicit, model_specific };
+
+/// The family's name as `eci list` prints it.
+constexpr std::string_view family_name(method_family f) {
+    switch (f) {
+        case method_family::conventional: return "conventional";
+        case method_family::conservative: return "conservative";
+        case method_family::transformed: return "transformed";
+        case method_family::implicit: return "implicit";
+        case method_family::model_specific: return "model-specific";
+    }
+    return "?";
+}
+
 /// What the registry knows about a method.
 struct method_info {
-    std::string_view name;         ///< the name the CLI and the docs use
+    std::string_view name;         ///< the name the CLI and the docs use; C++ and bench labels write '-' as '_'
+    method_family family;          ///< how it is built
     int order;                     ///< global order of accuracy
     bool conservative;             ///< conserves every quadratic invariant of eqs. (2)-(3) to round-off
     std::string_view description;  ///< one line
 };
 
-/// The registry's entries: one struct per method, with its `info` and, if the method works on any state,
-/// `stepper<S>`. A method whose stepper needs a particular model (a transform, a model-specific solve) omits
-/// `stepper`; the models that support it dispatch it themselves (see apps/eci/models.cpp).
+/// A method's name as a C++ identifier and bench label: '-' written '_' (c-pc-compensated -> c_pc_compensated,
+/// the name of its stepper type eci::c_pc_compensated and of its entry method_entries::c_pc_compensated).
+inline std::string identifier(std::string_view name) {
+    std::string s(name);
+    for (char& c : s) c = c == '-' ? '_' : c;
+    return s;
+}
+
+/// The registry's entries, one struct per method, named like its C++ stepper. A tableau method gives `tableau`
+/// (and `sign`, whose sign the conservative update takes; the update's by default). Any other method gives its
+/// stepper for a model, `stepper<Model>`, and the models it runs on, `runs_on<Model>`.
 namespace method_entries {
 
 /// Forward Euler.
 struct euler {
-    static constexpr method_info info{"euler", 1, false, "forward Euler, eq. (7)"};
-    template <state S> using stepper = eci::euler<S>;
+    static constexpr method_info info{"euler", method_family::conventional, 1, false, "forward Euler, eq. (7)"};
+    static constexpr const auto& tableau = tableaus::euler;
 };
 /// Heun's predictor-corrector.
 struct pc {
-    static constexpr method_info info{"pc", 2, false, "predictor-corrector (Heun), eq. (18)"};
-    template <state S> using stepper = eci::pc<S>;
+    static constexpr method_info info{"pc", method_family::conventional, 2, false,
+                                      "predictor-corrector (Heun), eq. (18)"};
+    static constexpr const auto& tableau = tableaus::heun;
 };
 /// Explicit midpoint rule.
 struct rk2 {
-    static constexpr method_info info{"rk2", 2, false, "second-order Runge-Kutta (explicit midpoint rule)"};
-    template <state S> using stepper = eci::rk2<S>;
+    static constexpr method_info info{"rk2", method_family::conventional, 2, false,
+                                      "second-order Runge-Kutta (explicit midpoint rule)"};
+    static constexpr const auto& tableau = tableaus::midpoint;
 };
 /// Classical Runge-Kutta.
 struct rk4 {
-    static constexpr method_info info{"rk4", 4, false, "classical fourth-order Runge-Kutta"};
-    template <state S> using stepper = eci::rk4<S>;
+    static constexpr method_info info{"rk4", method_family::conventional, 4, false,
+                                      "classical fourth-order Runge-Kutta"};
+    static constexpr const auto& tableau = tableaus::rk4;
 };
-/// Conservative Euler.
+/// Conservative Euler (its own engine: an implicit midpoint step near a zero mode).
 struct c_euler {
-    static constexpr method_info info{"c-euler", 1, true,
+    static constexpr method_info info{"c-euler", method_family::conservative, 1, true,
                                       "conservative Euler, eq. (16), implicit midpoint step near a zero mode"};
-    template <state S> using stepper = eci::c_euler<S>;
+    template <class M> using stepper = eci::c_euler<typename M::state_type>;
+    template <class M> static constexpr bool runs_on = quadratic_invariants<M>;
 };
-/// Conservative predictor-corrector.
+/// Conservative predictor-corrector: Heun's tableau, the predictor's sign (on quadratic invariants the fused path).
 struct c_pc {
-    static constexpr method_info info{"c-pc", 2, true, "conservative predictor-corrector, eq. (30)"};
-    template <state S> using stepper = eci::c_pc<S>;
+    static constexpr method_info info{"c-pc", method_family::conservative, 2, true,
+                                      "conservative predictor-corrector, eq. (30)"};
+    static constexpr const auto& tableau = tableaus::heun;
+    static constexpr sign_rule sign = sign_rule::of_last_stage;
 };
 /// Conservative midpoint rule.
 struct c_rk2 {
-    static constexpr method_info info{"c-rk2", 2, true, "conservative second-order Runge-Kutta (midpoint tableau)"};
-    template <state S> using stepper = eci::c_rk2<S>;
+    static constexpr method_info info{"c-rk2", method_family::conservative, 2, true,
+                                      "conservative second-order Runge-Kutta (midpoint tableau)"};
+    static constexpr const auto& tableau = tableaus::midpoint;
 };
 /// Conservative classical Runge-Kutta.
 struct c_rk4 {
-    static constexpr method_info info{"c-rk4", 4, true, "conservative fourth-order Runge-Kutta"};
-    template <state S> using stepper = eci::c_rk4<S>;
+    static constexpr method_info info{"c-rk4", method_family::conservative, 4, true,
+                                      "conservative fourth-order Runge-Kutta"};
+    static constexpr const auto& tableau = tableaus::rk4;
 };
-
 /// C-PC that carries the rounding residual of psi^2 between steps (long runs: no sqrt(steps) random walk).
 struct c_pc_compensated {
-    static constexpr method_info info{"c-pc-compensated", 2, true,
+    static constexpr method_info info{"c-pc-compensated", method_family::conservative, 2, true,
                                       "C-PC with compensated psi^2 (no round-off random walk; one more buffer)"};
-    template <state S> using stepper = eci::compensated_c_pc<S>;
+    template <class M> using stepper = eci::c_pc_compensated<typename M::state_type>;
+    template <class M> static constexpr bool runs_on = quadratic_invariants<M>;
 };
 /// The implicit midpoint rule, the implicit way to conserve quadratic invariants (for comparison).
 struct implicit_midpoint {
-    static constexpr method_info info{"implicit-midpoint", 2, true,
+    static constexpr method_info info{"implicit-midpoint", method_family::implicit, 2, true,
                                       "implicit midpoint rule, fixed-point iteration to round-off (for comparison)"};
-    template <state S> using stepper = eci::implicit_midpoint<S>;
+    template <class M> using stepper = eci::implicit_midpoint<typename M::state_type>;
+    template <class M> static constexpr bool runs_on = true;
 };
-
-/// Kahan's linearly implicit method; eci::kahan<Model> needs the model's Jacobian, so models dispatch it.
+/// Kahan's linearly implicit method, on models with a Jacobian and a fixed-size state.
 struct kahan {
-    static constexpr method_info info{"kahan", 2, false,
+    static constexpr method_info info{"kahan", method_family::model_specific, 2, false,
                                       "Kahan's linearly implicit method (quadratic fields; needs the model's Jacobian)"};
+    template <class M> using stepper = eci::kahan<typename M::state_type>;
+    template <class M>
+    static constexpr bool runs_on = has_jacobian<M> && requires { std::tuple_size<typename M::state_type>::value; };
 };
 
 }  // namespace method_entries
 
 namespace detail {
 
-template <class Entry, class S>
-concept generic_method = requires { typename Entry::template stepper<S>; };
+/// A list of types (the registry's entries, or a selection of them).
+template <class... T>
+struct type_list {
+    static constexpr std::size_t size = sizeof...(T);
+};
+template <class... A, class... B>
+type_list<A..., B...> operator+(type_list<A...>, type_list<B...>);  // for decltype only
 
-template <class... Entries>
-struct method_list {
-    static constexpr std::array<method_info, sizeof...(Entries)> infos{Entries::info...};
+/// The entries E of the list for which Keep<E>::value holds, in order.
+template <template <class> class Keep, class List>
+struct filter;
+template <template <class> class Keep, class... E>
+struct filter<Keep, type_list<E...>> {
+    using type = decltype((type_list<>{} + ... + std::conditional_t<Keep<E>::value, type_list<E>, type_list<>>{}));
+};
 
-    template <state S, class Fn>
-    static bool dispatch(std::string_view name, Fn&& fn) {
-        auto try_one = [&]<class E>(E*) {
-            if constexpr (generic_method<E, S>) {
-                if (E::info.name != name) return false;
-                fn(typename E::template stepper<S>{});
+/// The model of a plain system on state S (a user's lambda): no transform, no Jacobian, quadratic invariants.
+template <state S>
+struct plain_system {
+    using state_type = S;
+    void operator()(const S&, S&, double) const {}
+};
+
+/// T itself if it is a model (it has a state_type), else the plain system on state T.
+template <class T>
+struct as_model {
+    using type = T;
+};
+template <state S>
+    requires(!requires { typename S::state_type; })
+struct as_model<S> {
+    using type = plain_system<S>;
+};
+
+struct unsupported {};
+template <class T>
+struct type_is {
+    using type = T;
+};
+
+template <class E>
+concept tableau_method = requires { E::tableau; };
+
+template <class E>
+constexpr sign_rule sign_of() {
+    if constexpr (requires { E::sign; })
+        return E::sign;
+    else
+        return sign_rule::of_update;
+}
+
+template <class M>
+using transform_t = std::remove_cvref_t<decltype(std::declval<const M&>().linearizing_transform())>;
+
+// The stepper of entry E for model M, or `unsupported`: the one place where a method meets a model.
+template <class E, class M>
+constexpr auto resolve() {
+    using S = typename M::state_type;
+    if constexpr (!tableau_method<E>) {
+        if constexpr (E::template runs_on<M>)
+            return type_is<typename E::template stepper<M>>{};
+        else
+            return type_is<unsupported>{};
+    } else if constexpr (E::info.family == method_family::conventional) {
+        return type_is<explicit_rk<E::tableau, S>>{};
+    } else if constexpr (E::info.family == method_family::conservative) {
+        if constexpr (linearizable<M>)
+            return type_is<transformed_rk<E::tableau, transform_t<M>, sign_of<E>()>>{};
+        else if constexpr (quadratic_invariants<M>)
+            return type_is<conservative_rk<E::tableau, S, sign_of<E>()>>{};
+        else
+            return type_is<unsupported>{};
+    } else {
+        static_assert(tableau_method<E> && false, "a tableau method is conventional or conservative");
+    }
+}
+
+}  // namespace detail
+
+/// The stepper type of method entry E for a model M (or a state type, for a plain system on it); detail::
+/// unsupported if the method does not run on it.
+template <class E, class M>
+using stepper_for = typename decltype(detail::resolve<E, typename detail::as_model<M>::type>())::type;
+
+/// Whether method entry E runs on model M (or on a plain system on state type M).
+template <class E, class M>
+inline constexpr bool runs_on = !std::same_as<stepper_for<E, M>, detail::unsupported>;
+
+/// How method entry E is built on model M: `transformed` for a conservative tableau on a model with a transform.
+template <class E, class M>
+constexpr method_family family_on() {
+    if constexpr (detail::tableau_method<E> && E::info.family == method_family::conservative &&
+                  linearizable<typename detail::as_model<M>::type>)
+        return method_family::transformed;
+    else
+        return E::info.family;
+}
+
+/// THE list. To add a method: its tableau in tableaus.hpp (if it has one), its entry above, and its name here;
+/// every model that can run it, `eci list`, `eci run`, the tests and the docs check pick it up.
+using method_entry_list =
+    detail::type_list<method_entries::euler, method_entries::pc, method_entries::rk2, method_entries::rk4,
+                      method_entries::c_euler, method_entries::c_pc, method_entries::c_rk2, method_entries::c_rk4,
+                      method_entries::c_pc_compensated, method_entries::implicit_midpoint, method_entries::kahan>;
+
+namespace detail {
+
+template <class List>
+struct method_table;
+template <class... E>
+struct method_table<type_list<E...>> {
+    static constexpr std::array<method_info, sizeof...(E)> infos{E::info...};
+
+    // Calls fn(stepper) for the entry called `name` if it runs on M; one instantiation of fn per stepper type.
+    template <class M, class Fn>
+    static bool dispatch(std::string_view name, Fn& fn) {
+        auto try_one = [&]<class Entry>(Entry*) {
+            if constexpr (runs_on<Entry, M>) {
+                if (Entry::info.name != name) return false;
+                fn(stepper_for<Entry, M>{});
                 return true;
             } else {
                 return false;
             }
         };
-        return (try_one(static_cast<Entries*>(nullptr)) || ...);
+        return (try_one(static_cast<E*>(nullptr)) || ...);
     }
 
-    template <state S>
-    static std::vector<std::string_view> names_for() {
-        std::vector<std::string_view> names;
-        ((generic_method<Entries, S> ? names.push_back(Entries::info.name) : void()), ...);
-        return names;
+    // The entries that run on M, each with its family on M (`transformed` where the model's transform is used).
+    template <class M>
+    static std::vector<method_info> supported() {
+        std::vector<method_info> out;
+        auto add = [&]<class Entry>(Entry*) {
+            if constexpr (runs_on<Entry, M>) {
+                method_info m = Entry::info;
+                m.family = family_on<Entry, M>();
+                out.push_back(m);
+            }
+        };
+        (add(static_cast<E*>(nullptr)), ...);
+        return out;
     }
 
     // The declared order is the stepper's own, so the list cannot drift from the code.
-    template <class E>
+    template <class Entry>
     static constexpr bool order_matches() {
-        if constexpr (generic_method<E, std::vector<double>>)
-            return E::info.order == E::template stepper<std::vector<double>>::order;
+        if constexpr (tableau_method<Entry>)
+            return Entry::info.order == Entry::tableau.order;
         else
-            return true;
+            return Entry::info.order == Entry::template stepper<plain_system<std::array<double, 2>>>::order;
     }
-    static_assert((order_matches<Entries>() && ...), "a method's declared order differs from its stepper's");
+    static_assert((order_matches<E>() && ...), "a method's declared order differs from its stepper's");
+
+    static constexpr bool names_unique() {
+        for (std::size_t i = 0; i < infos.size(); ++i)
+            for (std::size_t j = i + 1; j < infos.size(); ++j)
+                if (infos[i].name == infos[j].name) return false;
+        return true;
+    }
+    static_assert(names_unique(), "two methods share a name");
 };
 
 }  // namespace detail
 
-/// THE list. To add a method: write its entry above (info, and `stepper<S>` if it runs on any state), then
-/// append it here; `eci list` and every loop over `methods` pick it up.
-using registered_methods =
-    detail::method_list<method_entries::euler, method_entries::pc, method_entries::rk2, method_entries::rk4,
-                        method_entries::c_euler, method_entries::c_pc, method_entries::c_rk2, method_entries::c_rk4,
-                        method_entries::c_pc_compensated, method_entries::implicit_midpoint, method_entries::kahan>;
+/// The registry over the list.
+using registered_methods = detail::method_table<method_entry_list>;
 
 /// Every registered method, in list order.
 inline constexpr auto methods = registered_methods::infos;
@@ -154,18 +316,55 @@ constexpr std::optional<method_info> find_method(std::string_view name) {
     return std::nullopt;
 }
 
-/// Calls fn(stepper) with a default-constructed stepper of the method called `name` for state type S, and
-/// returns true; returns false if no method of that name runs on any state. The choice is made once, here:
-/// fn is instantiated for each stepper type, so the integration loop inside it has no indirection.
-template <state S, class Fn>
-bool with_method(std::string_view name, Fn&& fn) {
-    return registered_methods::dispatch<S>(name, std::forward<Fn>(fn));
+/// Calls fn(stepper) with a default-constructed stepper of the method `name` as it runs on Model (a model type,
+/// or a state type for a plain system), and returns true; false if no such method runs on it. The choice is
+/// made once, here: fn is instantiated per stepper type, so the loop inside it has no indirection.
+template <class Model, class Fn>
+bool with_stepper(std::string_view name, Fn&& fn) {
+    return registered_methods::dispatch<typename detail::as_model<Model>::type>(name, fn);
 }
 
-/// The names of the methods whose stepper runs on any state of type S, in list order.
-template <state S>
-std::vector<std::string_view> method_names_for() {
-    return registered_methods::names_for<S>();
+/// The same, with the model's type taken from `model` (which the stepper does not keep: pass it to step).
+template <class Model, class Fn>
+bool with_stepper(std::string_view name, const Model&, Fn&& fn) {
+    return with_stepper<Model>(name, std::forward<Fn>(fn));
 }
+
+/// with_stepper for a plain system on state S (the former name).
+template <state S, class Fn>
+bool with_method(std::string_view name, Fn&& fn) {
+    return with_stepper<S>(name, std::forward<Fn>(fn));
+}
+
+/// The methods that run on Model (a model type, or a state type for a plain system), in list order, each with its
+/// family on Model (`transformed` for the conservative tableaux on a model with a linearizing transform):
+/// computed from what the model offers, never typed by hand.
+template <class Model>
+std::vector<method_info> methods_for() {
+    return registered_methods::supported<typename detail::as_model<Model>::type>();
+}
+
+/// Their names.
+template <class Model>
+std::vector<std::string_view> method_names_for() {
+    std::vector<std::string_view> names;
+    for (const method_info& m : methods_for<Model>()) names.push_back(m.name);
+    return names;
+}
+
+// The C++ names follow the registry's: each entry's stepper on a plain system is eci::<identifier><S>, and C-PC
+// is the fused conservative engine over Heun's tableau.
+static_assert(std::same_as<stepper_for<method_entries::euler, std::vector<double>>, euler<std::vector<double>>>);
+static_assert(std::same_as<stepper_for<method_entries::pc, std::vector<double>>, pc<std::vector<double>>>);
+static_assert(std::same_as<stepper_for<method_entries::rk2, std::vector<double>>, rk2<std::vector<double>>>);
+static_assert(std::same_as<stepper_for<method_entries::rk4, std::vector<double>>, rk4<std::vector<double>>>);
+static_assert(std::same_as<stepper_for<method_entries::c_euler, std::vector<double>>, c_euler<std::vector<double>>>);
+static_assert(std::same_as<stepper_for<method_entries::c_pc, std::vector<double>>, c_pc<std::vector<double>>>);
+static_assert(std::same_as<stepper_for<method_entries::c_rk2, std::vector<double>>, c_rk2<std::vector<double>>>);
+static_assert(std::same_as<stepper_for<method_entries::c_rk4, std::vector<double>>, c_rk4<std::vector<double>>>);
+static_assert(std::same_as<stepper_for<method_entries::c_pc_compensated, std::vector<double>>,
+                           c_pc_compensated<std::vector<double>>>);
+static_assert(std::same_as<stepper_for<method_entries::implicit_midpoint, std::vector<double>>,
+                           implicit_midpoint<std::vector<double>>>);
 
 }  // namespace eci

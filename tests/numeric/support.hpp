@@ -1,4 +1,4 @@
-// Shared helpers of the numeric tests: method tags, invariant drift over a run, and least-squares slopes.
+// Shared helpers of the numeric tests: method tags and typed lists from the registry, invariant drift over a run, and least-squares slopes.
 // Every tolerance built from these is a multiple of machine epsilon, with its reason stated where it is used.
 #pragma once
 
@@ -8,7 +8,11 @@
 #include <cstdint>
 #include <limits>
 #include <string>
+#include <string_view>
+#include <type_traits>
 #include <vector>
+
+#include <gtest/gtest.h>
 
 #include <eci/eci.hpp>
 
@@ -17,23 +21,43 @@ namespace eci::test {
 /// Machine epsilon of double.
 inline constexpr double eps = std::numeric_limits<double>::epsilon();
 
-/// Method tags: each gives a stepper template (`stepper<S>`) and the method's registry name.
-#define ECI_TEST_METHOD(tag, alias, label)              \
-    struct tag {                                        \
-        template <class S>                              \
-        using stepper = eci::alias<S>;                  \
-        static constexpr const char* name = label;      \
-    }
+/// A registry entry as a test tag: its stepper on a plain system of state S (`stepper<S>`) and its registry name.
+template <class Entry>
+struct method_tag {
+    template <class S>
+    using stepper = eci::stepper_for<Entry, S>;
+    static constexpr const char* name = Entry::info.name.data();  // a string literal: null-terminated
+};
 
-ECI_TEST_METHOD(euler_m, euler, "euler");
-ECI_TEST_METHOD(pc_m, pc, "pc");
-ECI_TEST_METHOD(rk2_m, rk2, "rk2");
-ECI_TEST_METHOD(rk4_m, rk4, "rk4");
-ECI_TEST_METHOD(c_euler_m, c_euler, "c-euler");
-ECI_TEST_METHOD(c_pc_m, c_pc, "c-pc");
-ECI_TEST_METHOD(c_rk2_m, c_rk2, "c-rk2");
-ECI_TEST_METHOD(c_rk4_m, c_rk4, "c-rk4");
-#undef ECI_TEST_METHOD
+using euler_m = method_tag<eci::method_entries::euler>;
+using pc_m = method_tag<eci::method_entries::pc>;
+using rk2_m = method_tag<eci::method_entries::rk2>;
+using rk4_m = method_tag<eci::method_entries::rk4>;
+using c_euler_m = method_tag<eci::method_entries::c_euler>;
+using c_pc_m = method_tag<eci::method_entries::c_pc>;
+using c_rk2_m = method_tag<eci::method_entries::c_rk2>;
+using c_rk4_m = method_tag<eci::method_entries::c_rk4>;
+
+/// Registry entries that run on any state (every method but the model-specific ones).
+template <class E>
+struct runs_on_any_state : std::bool_constant<eci::runs_on<E, std::vector<double>>> {};
+/// Registry entries of the conservative family that run on any state.
+template <class E>
+struct conservative_on_any_state
+    : std::bool_constant<eci::runs_on<E, std::vector<double>> && E::info.family == eci::method_family::conservative> {};
+
+template <class List>
+struct as_test_types;
+template <class... E>
+struct as_test_types<eci::detail::type_list<E...>> {
+    using type = ::testing::Types<method_tag<E>...>;
+};
+
+/// The typed-test lists, derived from the registry: a method added there is tested here without a line changed.
+using registry_methods_on_any_state =
+    as_test_types<eci::detail::filter<runs_on_any_state, eci::method_entry_list>::type>::type;
+using registry_conservative_methods_on_any_state =
+    as_test_types<eci::detail::filter<conservative_on_any_state, eci::method_entry_list>::type>::type;
 
 /// The largest relative change of a model's energy and enstrophy seen over a run, and the run's statistics.
 struct drift_result {
@@ -49,22 +73,36 @@ inline double relative_change(double value, double initial) {
     return std::isnan(r) ? std::numeric_limits<double>::infinity() : r;
 }
 
-/// Run `steps` steps of Method from x0 and record the worst relative drift of E and Z, observed every step.
+/// The record of the invariant called `name` in a run's report (fails the test if there is none).
+inline const invariant_record& record_of(const run_report& report, std::string_view name) {
+    for (const invariant_record& r : report.invariants)
+        if (r.name == name) return r;
+    ADD_FAILURE() << "no invariant called " << name;
+    static const invariant_record none{};
+    return none;
+}
+
+/// A record's largest relative drift, NaN (a blown-up run) counted as infinite.
+inline double worst_relative(const invariant_record& r) {
+    const double d = r.max_rel_drift();
+    return std::isnan(d) ? std::numeric_limits<double>::infinity() : d;
+}
+
+/// Run `steps` steps of Method from x0 and record the worst relative drift of E and Z, monitored every step
+/// (eci::run); a run that underflows has conserved nothing and reports infinite drifts.
 template <class Method, class Model>
 drift_result measure_drift(const Model& model, typename Model::state_type x, double dt, std::uint64_t steps) {
     typename Method::template stepper<typename Model::state_type> st;
-    const double e0 = model.energy(x), z0 = model.enstrophy(x);
+    const run_report rep = eci::run(st, model, x, run_span::n_steps(steps, dt));
     drift_result r;
-    auto observe = [&](const typename Model::state_type& s, double, std::uint64_t) {
-        r.energy = std::max(r.energy, relative_change(model.energy(s), e0));
-        r.enstrophy = std::max(r.enstrophy, relative_change(model.enstrophy(s), z0));
-    };
-    try {
-        r.stats = integrate_n_steps(st, model, x, 0.0, dt, steps, observe);
-    } catch (const step_size_underflow&) {
+    if (!rep.completed()) {
         // Only the conservative methods can fail a step; such a run has not conserved anything.
         r.energy = r.enstrophy = std::numeric_limits<double>::infinity();
+        return r;
     }
+    r.stats = rep.stats;
+    r.energy = worst_relative(record_of(rep, "energy"));
+    r.enstrophy = worst_relative(record_of(rep, "enstrophy"));
     return r;
 }
 

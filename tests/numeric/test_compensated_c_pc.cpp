@@ -18,16 +18,13 @@ namespace {
 using namespace eci::test;
 using tw_state = eci::three_wave::state_type;
 
-struct compensated_m {
-    template <class S>
-    using stepper = eci::compensated_c_pc<S>;
-};
+using compensated_m = method_tag<eci::method_entries::c_pc_compensated>;
 
 TEST(CompensatedCPC, FollowsCPCToRoundOff) {
     const eci::three_wave model{};
     tw_state a{std::sqrt(1.5), 1.0, std::sqrt(1.5)}, b = a;
     eci::c_pc<tw_state> plain;
-    eci::compensated_c_pc<tw_state> comp;
+    eci::c_pc_compensated<tw_state> comp;
     constexpr std::uint64_t steps = 1000;
     eci::integrate_n_steps(plain, model, a, 0.0, 0.01, steps);
     eci::integrate_n_steps(comp, model, b, 0.0, 0.01, steps);
@@ -43,7 +40,7 @@ TEST(CompensatedCPC, IsSecondOrderAgainstTheExactThreeWaveSolution) {
     std::vector<double> dts, errs;
     for (std::uint64_t steps : {400u, 800u, 1600u, 3200u}) {
         tw_state x = x0;
-        eci::compensated_c_pc<tw_state> st;
+        eci::c_pc_compensated<tw_state> st;
         eci::integrate_n_steps(st, model, x, 0.0, 5.0 / double(steps), steps);
         double e = 0;
         for (int i = 0; i < 3; ++i) e = std::max(e, std::abs(x[i] - exact[i]));
@@ -79,7 +76,7 @@ TEST(CompensatedCPC, AFailedStepLeavesStateAndResidualsUntouched) {
     const eci::three_wave model{};
     // psi_P = 0 with a step so large that the predictor overshoots: psi~ (psi + tau S~) < 0 for mode P.
     tw_state x{std::sqrt(1.5), 0.0, std::sqrt(1.5)};
-    eci::compensated_c_pc<tw_state> st, fresh;
+    eci::c_pc_compensated<tw_state> st, fresh;
     const tw_state before = x;
     const eci::three_wave& f = model;
     const eci::step_result bad = st.step(f, x, 0.0, 3.0);

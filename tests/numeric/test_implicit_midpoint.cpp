@@ -18,10 +18,7 @@ namespace {
 using namespace eci::test;
 using tw_state = eci::three_wave::state_type;
 
-struct implicit_midpoint_m {
-    template <class S>
-    using stepper = eci::implicit_midpoint<S>;
-};
+using implicit_midpoint_m = method_tag<eci::method_entries::implicit_midpoint>;
 
 double error_at(double t_end, std::uint64_t steps) {
     const eci::three_wave model{};

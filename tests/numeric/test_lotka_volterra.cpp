@@ -13,6 +13,8 @@
 #include <eci/steppers/kahan.hpp>
 #include <eci/steppers/transformed_rk.hpp>
 
+#include "numeric/support.hpp"
+
 namespace {
 
 constexpr double eps = std::numeric_limits<double>::epsilon();
@@ -41,12 +43,11 @@ TEST(LotkaVolterra, PaperRunCpcKeepsHamiltonian) {
     const eci::lotka_volterra model;
     state x{1.0, 0.4};
     const double h0 = model.hamiltonian(x);
-    c_pc_lv st{model.linearizing_transform()};
-    double worst = 0.0;
-    const auto stats = eci::integrate_n_steps(st, model, x, 0.0, paper_dt, paper_steps,
-                                              [&](const state& s, double, std::uint64_t) {
-                                                  worst = std::max(worst, std::abs(model.hamiltonian(s) - h0));
-                                              });
+    c_pc_lv st;
+    const eci::run_report rep = eci::run(st, model, x, eci::run_span::n_steps(paper_steps, paper_dt));
+    ASSERT_TRUE(rep.completed());
+    const auto& stats = rep.stats;
+    const double worst = eci::test::record_of(rep, "hamiltonian").max_abs_drift;
     // Each step rounds xi_1 + D and xi_2 - D (a random walk of ~eps H per step) and the inverse adds a
     // non-accumulating eps H: 4 eps H sqrt(n) has ample margin yet is ~1e7 times below PC's drift.
     EXPECT_LE(worst, 4.0 * eps * h0 * std::sqrt(double(paper_steps)));
@@ -87,7 +88,7 @@ TEST(LotkaVolterra, PaperRunKahanHasNoSecularDrift) {
     const eci::lotka_volterra model;
     state x{1.0, 0.4};
     const double h0 = model.hamiltonian(x);
-    eci::kahan<eci::lotka_volterra> st{model};
+    eci::kahan<eci::lotka_volterra::state_type> st;
     double worst_first = 0.0, worst_last = 0.0;
     eci::integrate_n_steps(st, model, x, 0.0, paper_dt, paper_steps, [&](const state& s, double, std::uint64_t i) {
         const double d = std::abs(model.hamiltonian(s) - h0);
@@ -115,7 +116,7 @@ TEST(LotkaVolterra, CpcIsSecondOrderAwayFromBranchPoints) {
     double previous = 0.0;
     for (double dt : {0.02, 0.01, 0.005, 0.0025}) {
         state x = start;
-        c_pc_lv st{model.linearizing_transform()};
+        c_pc_lv st;
         eci::integrate_n_steps(st, model, x, 0.3, dt, static_cast<std::uint64_t>(std::llround(1.5 / dt)));
         const double err = std::hypot(x[0] - ref[0], x[1] - ref[1]);
         if (previous > 0.0) {
@@ -139,7 +140,7 @@ TEST(LotkaVolterra, CpcIsSecondOrderThroughCrossings) {
     std::vector<double> log_dt, log_err;
     for (double dt : {0.02, 0.01, 0.005, 0.0025, 0.00125}) {
         state x = x0;
-        c_pc_lv st{model.linearizing_transform()};
+        c_pc_lv st;
         const auto every = static_cast<std::uint64_t>(std::llround(sample / dt));
         double worst = 0.0;
         eci::integrate_n_steps(st, model, x, 0.0, dt, 250 * every, [&](const state& s, double, std::uint64_t i) {
@@ -173,7 +174,7 @@ TEST(LotkaVolterra, KahanIsSecondOrder) {
     std::vector<double> errs;
     for (double dt : {0.02, 0.01}) {
         state x = x0;
-        eci::kahan<eci::lotka_volterra> st{model};
+        eci::kahan<eci::lotka_volterra::state_type> st;
         eci::integrate_n_steps(st, model, x, 0.0, dt, static_cast<std::uint64_t>(std::llround(10.0 / dt)));
         errs.push_back(std::hypot(x[0] - ref[0], x[1] - ref[1]));
     }
@@ -189,7 +190,7 @@ TEST(LotkaVolterra, CpcKeepsTheBranchAtEveryCrossing) {
     const std::uint64_t n = 40000;  // t = 200, about 40 orbits
     const auto ref = reference(model, x0, dt, n);
     state x = x0;
-    c_pc_lv st{model.linearizing_transform()};
+    c_pc_lv st;
     double worst = 0.0;
     int crossings_x = 0, crossings_y = 0;
     const auto stats = eci::integrate_n_steps(st, model, x, 0.0, dt, n, [&](const state& s, double, std::uint64_t i) {

@@ -1,5 +1,6 @@
 // The Kepler problem in polar variables, eqs. (43)-(54): the model, its Hamiltonian (46), the Runge-Lenz vector
-// (47) as two invariants, the Cartesian position as derived output, and the transform (50) behind its C-PC.
+// (47) as two invariants, the Cartesian position as derived output, the transform (50) behind its C-PC, its
+// parameters and the paper's set-ups (Figs. 8, 9).
 #pragma once
 
 #include <array>
@@ -8,11 +9,12 @@
 #include <numbers>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 #include <utility>
 
 #include "../concepts.hpp"
 #include "../detail/format.hpp"
-#include "invariant.hpp"
+#include "description.hpp"
 
 namespace eci {
 
@@ -25,7 +27,33 @@ struct kepler {
     double K = 1.5;    ///< strength of the potential phi = -K / r
     double ell = 1.0;  ///< angular momentum (nonzero; negative for clockwise motion)
 
+    static constexpr std::string_view name = "kepler";  ///< `eci run kepler`
+    static constexpr std::string_view description =
+        "Kepler problem (45) in polar variables (bound orbits); invariants H (46) and the Runge-Lenz vector (47); "
+        "c-pc is eqs. (49)-(54)";
     static constexpr std::array<const char*, 3> component_names{"r", "v_r", "theta"};
+
+    /// The parameters, with what validate() requires of them.
+    static constexpr auto parameters() {
+        return std::array<parameter<kepler>, 3>{{
+            {"m", "mass", "> 0", member_values<&kepler::m, kepler>},
+            {"K", "strength of the potential -K/r", "> 0", member_values<&kepler::K, kepler>},
+            {"ell", "angular momentum", "nonzero", member_values<&kepler::ell, kepler>},
+        }};
+    }
+    /// The initial state, one option per component (validate_state() requires r > 0 and a bound orbit).
+    static constexpr auto initial_condition() {
+        return std::array<state_field, 3>{{{"r", "initial radius", "> 0", 0, 1},
+                                           {"v-r", "initial radial velocity", "", 1, 1},
+                                           {"theta", "initial angle", "", 2, 1}}};
+    }
+    /// The paper's set-ups: the orbit r = 1, v_r = theta = 0 with m = 1, K = 3/2, ell = 1 (eccentricity 1/3),
+    /// C-PC in 1000 steps of 0.105 (Fig. 9, `eci run kepler`'s default) and PC in 1313 steps of 0.08 (Fig. 8),
+    /// which cost the same CPU time.
+    static std::array<preset<kepler>, 2> presets() {
+        return {{{"fig9", "Fig. 9: C-PC, 1000 steps of 0.105", {}, {1.0, 0.0, 0.0}, "c-pc", 0.105, 105.0},
+                 {"fig8", "Fig. 8: PC, 1313 steps of 0.08", {}, {1.0, 0.0, 0.0}, "pc", 0.08, 1313 * 0.08}}};
+    }
 
     /// Throws std::invalid_argument unless m > 0, K > 0, ell != 0, all finite.
     void validate() const {

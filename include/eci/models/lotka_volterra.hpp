@@ -1,5 +1,6 @@
 // The Lotka-Volterra system, eqs. (36)-(42): the model, its Hamiltonian (37), its Jacobian (for Kahan's method)
-// and the transform (39) in which H is linear, with the Newton inverse on the branch of a hint (errata item 6).
+// the transform (39) in which H is linear, with the Newton inverse on the branch of a hint (errata item 6), its
+// parameter and the paper's set-up (Fig. 7).
 #pragma once
 
 #include <algorithm>
@@ -8,10 +9,11 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 #include "../concepts.hpp"
 #include "../detail/format.hpp"
-#include "invariant.hpp"
+#include "description.hpp"
 
 namespace eci {
 
@@ -78,7 +80,25 @@ struct lotka_volterra {
 
     double mu = 1.5;  ///< the paper's mu
 
+    static constexpr std::string_view name = "lotka-volterra";  ///< `eci run lotka-volterra`
+    static constexpr std::string_view description =
+        "predator-prey equations (36); invariant the Hamiltonian (37); c-pc is eq. (42)";
     static constexpr std::array<const char*, 2> component_names{"x", "y"};
+
+    /// The parameter, with what validate() requires of it.
+    static constexpr auto parameters() {
+        return std::array<parameter<lotka_volterra>, 1>{
+            {{"mu", "the parameter mu of eq. (36)", "", member_values<&lotka_volterra::mu, lotka_volterra>}}};
+    }
+    /// The initial state, one option per component (validate_state() requires both positive).
+    static constexpr auto initial_condition() {
+        return std::array<state_field, 2>{{{"x", "initial x", "> 0", 0, 1}, {"y", "initial y", "> 0", 1, 1}}};
+    }
+    /// The paper's set-up: Fig. 7, mu = 1.5 from (1, 0.4), 8e5 steps of 0.02 (`eci run lotka-volterra`'s default).
+    static std::array<preset<lotka_volterra>, 1> presets() {
+        return {{{"fig7", "Fig. 7: PC against C-PC, mu = 1.5 from (1, 0.4), 8e5 steps of 0.02", {1.5}, {1.0, 0.4},
+                  "c-pc", 0.02, 16000.0}}};
+    }
 
     /// Throws std::invalid_argument unless mu is positive and finite.
     void validate() const {
@@ -155,6 +175,25 @@ struct lotka_volterra {
             return step_result::success();
         }
     };
+
+    /// The y on the level curve H(x, y) = h (eq. (37)) at x, on the branch of `hint` (y >= 1 if hint >= 1, else
+    /// y <= 1): by the Newton inverse of (39). Where no y reaches h (x beyond the curve's extremes) the branch
+    /// point y = 1. Throws std::invalid_argument unless x > 0 and h >= H(x, 1) is finite.
+    double y_on_level(double x, double h, double hint) const {
+        const double level = h - 1.0 - mu;  // = xi_1 + xi_2
+        const double rest = std::max(0.0, level - g(x)) / mu;  // (y - 1) - log y
+        const detail::newton_root y = detail::invert_x_minus_log(rest, hint);
+        if (!y.ok || !(x > 0.0)) throw std::invalid_argument("Lotka-Volterra level curve: no y for this x and H");
+        return y.value;
+    }
+    /// The two x at which the level curve H(x, y) = h crosses y = 1: its left and right extremes.
+    std::array<double, 2> x_extremes_of_level(double h) const {
+        const double level = h - 1.0 - mu;  // = xi_1 + xi_2 >= 0
+        const detail::newton_root lo = detail::invert_x_minus_log(level, 0.5);
+        const detail::newton_root hi = detail::invert_x_minus_log(level, 2.0);
+        if (!lo.ok || !hi.ok) throw std::invalid_argument("Lotka-Volterra level curve: H below its minimum 1 + mu");
+        return {lo.value, hi.value};
+    }
 
     /// The transform (39) for this model's mu.
     transform linearizing_transform() const { return {mu}; }

@@ -1,5 +1,6 @@
 // The n-wave generalization (paper §III.C): modes coupled by triads (k, p, q), each triad obeying eqs. (2)-(3),
-// so that energy and enstrophy are conserved; real or complex amplitudes; a seeded random generator of any size.
+// so that energy and enstrophy are conserved; real or complex amplitudes; a seeded random generator of any size,
+// described (its settings, a default set-up) like the other models' parameters.
 #pragma once
 
 #include <algorithm>
@@ -7,10 +8,12 @@
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include "../concepts.hpp"
-#include "invariant.hpp"
+#include "description.hpp"
 
 namespace eci {
 
@@ -28,6 +31,50 @@ struct n_wave {
 
     std::vector<double> wavenumber;  ///< |k| of each mode, the enstrophy weight's square root
     std::vector<triad> triads;
+
+    /// `eci run n-wave` or `eci run n-wave-complex`.
+    static constexpr std::string_view name = is_complex ? "n-wave-complex" : "n-wave";
+    static constexpr std::string_view description =
+        is_complex ? "n complex modes coupled by random triads obeying eqs. (2)-(3), section III.C; invariants "
+                     "energy, enstrophy"
+                   : "n real modes coupled by random triads obeying eqs. (2)-(3), section III.C; invariants energy, "
+                     "enstrophy";
+
+    /// What random() and random_state() draw from: the model's settings, in place of parameters.
+    struct recipe {
+        std::uint64_t modes = 30;
+        std::uint64_t triads_per_mode = 20;
+        std::uint64_t seed = 1;
+    };
+    /// The recipe's settings, with the smallest value random() accepts for each.
+    static constexpr auto recipe_parameters() {
+        return std::array<count_parameter<recipe>, 3>{{
+            {"modes", "number of modes", 1, &recipe::modes},
+            {"triads-per-mode", "triads each mode takes part in, about; 1 gives independent triads", 1,
+             &recipe::triads_per_mode},
+            {"seed", "seed of the random system and initial condition", 0, &recipe::seed},
+        }};
+    }
+    /// About how many bytes a run of this recipe holds: the triads, the wavenumbers and eight states (the state,
+    /// a stepper's buffers, checks); 0 for a recipe random() rejects anyway. Throws std::invalid_argument if the
+    /// triad count overflows.
+    static double bytes_needed(const recipe& r) {
+        if (r.modes < 3 || (r.triads_per_mode == 1 && r.modes % 3 != 0)) return 0.0;
+        const double triads = double(triad_count(r.modes, r.triads_per_mode));
+        return triads * double(sizeof(triad)) + double(r.modes) * (double(sizeof(double)) + 8.0 * double(sizeof(T)));
+    }
+    /// The system and initial state a recipe draws; throws std::invalid_argument as random() does.
+    static std::pair<n_wave, state_type> generate(const recipe& r) {
+        n_wave w = random(r.modes, r.triads_per_mode, r.seed);
+        state_type x = w.random_state(r.seed);
+        return {std::move(w), std::move(x)};
+    }
+    /// The default set-up (`eci run n-wave`): the default recipe, C-PC with dt 0.01 to t = 10.
+    static std::array<preset<n_wave>, 1> presets() {
+        auto [w, x] = generate(recipe{});
+        return {{{"standard", "30 modes in about 20 triads each (seed 1), C-PC with dt 0.01 to t = 10", std::move(w),
+                  std::move(x), "c-pc", 0.01, 10.0}}};
+    }
 
     std::size_t size() const { return wavenumber.size(); }
 

@@ -1,5 +1,6 @@
 // The three-wave model, eq. (1): three real modes of the truncated Euler equations, with energy (4) and
-// enstrophy (5). The coupling coefficients must satisfy eqs. (2) and (3), which make both invariants exact.
+// enstrophy (5), its parameters and the paper's set-ups. The coupling coefficients must satisfy eqs. (2) and (3),
+// which make both invariants exact.
 #pragma once
 
 #include <algorithm>
@@ -7,8 +8,9 @@
 #include <cmath>
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
-#include "invariant.hpp"
+#include "description.hpp"
 
 namespace eci {
 
@@ -21,7 +23,38 @@ struct three_wave {
     double Q = std::sqrt(6.0);
     std::array<double, 3> M{1.0, 1.0, -2.0};  ///< coupling coefficients M_K, M_P, M_Q
 
+    static constexpr std::string_view name = "three-wave";  ///< `eci run three-wave`
+    static constexpr std::string_view description =
+        "three real modes of the truncated Euler equations, eq. (1); invariants energy, enstrophy";
     static constexpr std::array<const char*, 3> component_names{"psi_K", "psi_P", "psi_Q"};
+
+    /// The parameters, with what validate() requires of them.
+    static constexpr auto parameters() {
+        return std::array<parameter<three_wave>, 4>{{
+            {"K", "wavenumber magnitude K", "", member_values<&three_wave::K, three_wave>},
+            {"P", "wavenumber magnitude P", "", member_values<&three_wave::P, three_wave>},
+            {"Q", "wavenumber magnitude Q", "", member_values<&three_wave::Q, three_wave>},
+            {"M", "coupling coefficients M_K,M_P,M_Q", "obeying eqs. (2)-(3)",
+             member_values<&three_wave::M, three_wave>},
+        }};
+    }
+    /// The initial state, set as one vector.
+    static constexpr auto initial_condition() {
+        return std::array<state_field, 1>{{{"psi", "initial condition psi_K,psi_P,psi_Q", "", 0, 3}}};
+    }
+    /// The paper's set-ups (the first is `eci run three-wave`'s default). The paper does not state the time span
+    /// of Figs. 1-4 and 6; t in [0, 10] shows about three periods.
+    static std::array<preset<three_wave>, 4> presets() {
+        const double r = std::sqrt(1.5);
+        return {{
+            {"standard", "Figs. 1-4's initial condition, C-PC with dt 0.01 to t = 10", {}, {r, 0.0, r}, "c-pc", 0.01,
+             10.0},
+            {"fig1", "Fig. 1: Euler against C-Euler, dt 0.02 to t = 10", {}, {r, 0.0, r}, "c-euler", 0.02, 10.0},
+            {"fig2", "Figs. 2-4 and 6: PC against C-PC, dt 0.2 to t = 10", {}, {r, 0.0, r}, "c-pc", 0.2, 10.0},
+            {"fig5", "Fig. 5: the initial condition of the single-step errors, one step of the largest tau 0.1", {},
+             {r, 1.0, r}, "c-pc", 0.1, 0.1},
+        }};
+    }
 
     /// Throws std::invalid_argument if eq. (2) or (3) fails beyond round-off or a parameter is not finite.
     void validate() const {

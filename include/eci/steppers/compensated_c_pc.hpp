@@ -34,13 +34,6 @@ inline void two_sum(double a, double b, double& s, double& e) {
     e = (a - (s - bb)) + (b - bb);
 }
 
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__) && !defined(__AVX2__) && \
-    !defined(__FMA__) && !defined(__SANITIZE_ADDRESS__)
-#define ECI_DETAIL_COMPENSATED_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define ECI_DETAIL_COMPENSATED_CLONES
-#endif
-
 /// The finishing pass of compensated C-PC over n real unknowns: p holds psi~ and becomes the new psi; k0 holds
 /// S(psi) and becomes the new residual. Returns the number of negative radicands (a double keeps it vectorizable).
 inline double compensated_c_pc_finish_inline(double* p, double* k0, const double* x, const double* k1,
@@ -67,8 +60,17 @@ inline double compensated_c_pc_finish_inline(double* p, double* k0, const double
     return bad;
 }
 
-/// The same, dispatched at load time: like C-PC's, it is also compiled for AVX2 on x86-64 Linux GCC (twice the
-/// lanes for its double-double arithmetic); AVX2 brings no FMA, so both versions round identically.
+// x86-64 Linux GCC builds that do not already target AVX2 also compile the pass for AVX2 (twice the lanes for its
+// double-double arithmetic) and pick the version at load time; AVX2 brings no FMA, so both round identically.
+// Its square root vectorizes only where the user compiles with -fno-math-errno (eci's own builds do).
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__) && !defined(__AVX2__) && \
+    !defined(__FMA__) && !defined(__SANITIZE_ADDRESS__)
+#define ECI_DETAIL_COMPENSATED_CLONES __attribute__((target_clones("avx2", "default")))
+#else
+#define ECI_DETAIL_COMPENSATED_CLONES
+#endif
+
+/// The same, dispatched at load time to the best compiled version.
 ECI_DETAIL_COMPENSATED_CLONES inline double compensated_c_pc_finish(double* p, double* k0, const double* x,
                                                                     const double* k1, const double* r, double dt,
                                                                     std::size_t n) {
@@ -83,9 +85,10 @@ ECI_DETAIL_COMPENSATED_CLONES inline double compensated_c_pc_finish(double* p, d
 /// xi_k = psi_k^2 + tau (psi_k S_k + psi~_k S~_k) is formed in double-double arithmetic. The stepper keeps the
 /// residual r_k = xi_k - psi_k^2 (below an ulp of psi_k^2) from step to step, so xi_k = psi_k^2 + r_k is carried
 /// with compensated summation and only the rounding of the small increments tau (psi S + psi~ S~) remains.
-/// A state changed between steps inherits the old residual, a perturbation under one ulp; `reset()` drops it.
+/// reset() drops the residuals (the drivers call it when a run starts; a state of another size drops them too); a
+/// state changed between steps without reset() inherits the old residual, a perturbation under one ulp.
 template <state S>
-class compensated_c_pc {
+class c_pc_compensated {
    public:
     static constexpr int order = 2;
 
@@ -127,5 +130,9 @@ class compensated_c_pc {
     S k0_{}, k1_{}, pred_{}, res_{};
     std::size_t res_n_ = 0;
 };
+
+/// The former name of c_pc_compensated (deprecated: C++ names now follow the registry's, '-' written '_').
+template <state S>
+using compensated_c_pc = c_pc_compensated<S>;
 
 }  // namespace eci

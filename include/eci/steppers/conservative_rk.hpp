@@ -8,43 +8,10 @@
 #include <span>
 #include <utility>
 
+#include "../detail/simd.hpp"
 #include "explicit_rk.hpp"
 
 namespace eci {
-
-namespace detail {
-
-// Square roots bound C-PC's finishing pass (two per SSE2 instruction), so x86-64 Linux GCC builds that do not
-// already target AVX2 also compile it for AVX2 (four per instruction) and pick the version at load time. AVX2
-// brings no FMA, so both versions round identically and results do not depend on the processor.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__) && !defined(__AVX2__) && \
-    !defined(__SANITIZE_ADDRESS__)
-#define ECI_DETAIL_SQRT_CLONES __attribute__((target_clones("avx2", "default")))
-#else
-#define ECI_DETAIL_SQRT_CLONES
-#endif
-
-/// C-PC's finishing pass, eq. (30b) factorised: o holds psi~ and becomes sgn(psi~) sqrt(psi~ (x + dt S~)).
-/// Returns the number of negative radicands (as a double, which keeps the loop vectorizable).
-inline double c_pc_finish_inline(double* o, const double* x, const double* k1, double dt, std::size_t n) {
-    double bad = 0.0;
-    for (std::size_t i = 0; i < n; ++i) {
-        const double rad = o[i] * (x[i] + dt * k1[i]);
-        bad += rad >= 0.0 ? 0.0 : 1.0;
-        o[i] = std::copysign(std::sqrt(rad), o[i]);
-    }
-    return bad;
-}
-
-/// The same, dispatched to the best compiled version (worth a call only for states of more than a few modes).
-ECI_DETAIL_SQRT_CLONES inline double c_pc_finish(double* o, const double* x, const double* k1, double dt,
-                                                 std::size_t n) {
-    return c_pc_finish_inline(o, x, k1, dt, n);
-}
-
-#undef ECI_DETAIL_SQRT_CLONES
-
-}  // namespace detail
 
 /// Whose sign the new amplitude takes: the conventional update's (errata 9), or the last stage value's, which
 /// for Heun's tableau is the predictor psi~ of eq. (30b).

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstddef>
 #include <tuple>
+#include <type_traits>
 #include <utility>
 
 #include "../concepts.hpp"
@@ -43,24 +44,22 @@ bool solve_linear(std::array<std::array<double, N>, N> M, std::array<double, N>&
 
 }  // namespace detail
 
-/// Kahan's method for a model with a fixed-size state and a `jacobian(x)` member returning J as rows.
-/// For quadratic f it is exactly Kahan's discretization (x' - x)/dt = the symmetric bilinear form of f at
-/// (x, x') plus the average of its linear part; for LV it is symplectic (Sanz-Serna) and keeps a modified H.
-template <class Model>
+/// Kahan's method on a fixed-size state S, for a system whose model has `jacobian(x)` returning J as rows (taken
+/// from the system passed to step, through model_of). For quadratic f it is exactly Kahan's discretization
+/// (x' - x)/dt = the symmetric bilinear form of f at (x, x') plus the average of its linear part; for LV it is
+/// symplectic (Sanz-Serna) and keeps a modified H.
+template <state S>
 class kahan {
    public:
-    using state_type = typename Model::state_type;
     static constexpr int order = 2;
 
-    /// The stepper for `model`, whose Jacobian it evaluates (f passed to step must be the same system).
-    explicit kahan(Model model = {}) : model_(std::move(model)) {}
-
-    template <system<state_type> F>
-    step_result step(F& f, state_type& x, double t, double dt) {
-        constexpr std::size_t n = std::tuple_size_v<state_type>;
-        state_type k{};
+    template <system<S> F>
+        requires has_jacobian<std::remove_cvref_t<decltype(model_of(std::declval<const F&>()))>>
+    step_result step(F& f, S& x, double t, double dt) {
+        constexpr std::size_t n = std::tuple_size_v<S>;
+        S k{};
         f(std::as_const(x), k, t);
-        const auto J = model_.jacobian(x);
+        const auto J = model_of(f).jacobian(x);
         std::array<std::array<double, n>, n> M{};
         std::array<double, n> d{};
         for (std::size_t i = 0; i < n; ++i) {
@@ -73,9 +72,6 @@ class kahan {
         for (std::size_t i = 0; i < n; ++i) x[i] += d[i];
         return step_result::success();
     }
-
-   private:
-    Model model_;
 };
 
 }  // namespace eci

@@ -7,6 +7,7 @@
 #include <concepts>
 #include <cstddef>
 #include <limits>
+#include <type_traits>
 #include <utility>
 
 #include "../concepts.hpp"
@@ -15,20 +16,6 @@
 #include "conservative_rk.hpp"
 
 namespace eci {
-
-/// A transform in which a system's invariants are sums of xi components. `to_xi(x, xi)` computes xi = T(x);
-/// `xi_rate(x, dxdt, rate)` computes dxi/dt at x (dxdt = f(x) is given, so no extra right-hand side is needed);
-/// `from_xi(xi, hint, x, stats)` inverts T on the branch of `hint`, recording any iterative solve in `stats`, and
-/// reports a non-invertible xi as a failure (the driver then reduces the step, as for a negative radicand).
-template <class Tr>
-concept invariant_transform =
-    state<typename Tr::state_type> && state<typename Tr::xi_type> &&
-    requires(const Tr& tr, const typename Tr::state_type& x, typename Tr::state_type& x_out,
-             const typename Tr::xi_type& xi, typename Tr::xi_type& xi_out, solver_stats& stats) {
-        tr.to_xi(x, xi_out);
-        tr.xi_rate(x, x, xi_out);
-        { tr.from_xi(xi, x, x_out, stats) } -> std::same_as<step_result>;
-    };
 
 /// The transform of §III.D, xi_k = psi_k^2 for every real unknown: with it transformed_rk over Heun's tableau
 /// is C-PC, eq. (30). conservative_rk.hpp keeps a fused loop for this case (c_pc), which is faster on n-wave
@@ -75,9 +62,11 @@ struct square_transform {
 /// conventional, xi(t+dt) = xi + dt sum_i b_i dxi/dt(Y_i), and x(t+dt) is T's inverse on the branch of the
 /// conventional update (Sign = of_update) or of the last stage value (of_last_stage; for Heun that is the
 /// predictor x~, which gives the paper's C-PC, eqs. (30), (42), (49)-(54)).
-/// xi is carried from step to step, so the invariants (sums of xi components) change only by the rounding of
-/// the additions, never by inversion error. It is recomputed from x whenever x is not the state this stepper
-/// produced last (a new run); call reset() after changing the model's parameters but not the state.
+/// The transform is the system's own: `model_of(f).linearizing_transform()` at every step (a parameter-free
+/// transform such as square_transform, for a system without one, is default-constructed), so it cannot describe
+/// another system than the one being stepped. xi is carried from step to step, so the invariants (sums of xi
+/// components) change only by the rounding of the additions, never by inversion error. reset() forgets it (the
+/// drivers call it when a run starts); as a guard, a state this stepper did not produce also restarts it.
 template <const auto& T, invariant_transform Tr, sign_rule Sign = sign_rule::of_update>
 class transformed_rk {
     static constexpr std::size_t s = T.stages;
@@ -87,13 +76,11 @@ class transformed_rk {
     using xi_type = typename Tr::xi_type;
     static constexpr int order = T.order;
 
-    /// The stepper for the transform `tr` (which must describe the same system as the f passed to step).
-    explicit transformed_rk(Tr tr = {}) : tr_(std::move(tr)) {}
-
     template <system<state_type> F>
     step_result step(F& f, state_type& x, double t, double dt) {
+        const Tr tr = transform_of(model_of(f));
         if (!have_xi_ || !(x == last_x_)) {
-            tr_.to_xi(x, xi_);
+            tr.to_xi(x, xi_);
             have_xi_ = true;
         }
         st_.prepare(x);
@@ -105,7 +92,7 @@ class transformed_rk {
         // The conventional stages in x (the engine of explicit_rk.hpp), and the rate of xi at each stage.
         st_.run_stages(f, x, t, dt, [&](std::size_t i, const state_type& y, const state_type& k) {
             if (T.b[i] == 0.0) return;
-            tr_.xi_rate(y, k, rate_);
+            tr.xi_rate(y, k, rate_);
             const auto r = detail::reals(std::as_const(rate_));
             for (std::size_t m = 0; m < acc.size(); ++m) acc[m] += T.b[i] * r[m];
         });
@@ -123,7 +110,7 @@ class transformed_rk {
                                         std::make_index_sequence<s>{});
             hint = &update_;
         }
-        const step_result r = tr_.from_xi(std::as_const(xi_new_), *hint, x_new_, stats_);
+        const step_result r = tr.from_xi(std::as_const(xi_new_), *hint, x_new_, stats_);
         if (!r) return r;
         using std::swap;
         swap(x, x_new_);
@@ -138,11 +125,21 @@ class transformed_rk {
     const xi_type& xi() const { return xi_; }
     /// Forget the carried xi: the next step recomputes it from its x.
     void reset() { have_xi_ = false; }
-    /// The transform in use.
-    const Tr& transform() const { return tr_; }
+    /// The transform of the system `m` (a model with a linearizing transform, or any system for a parameter-free Tr).
+    template <class M>
+    static Tr transform_of(const M& m) {
+        if constexpr (linearizable<M>) {
+            static_assert(std::same_as<std::remove_cvref_t<decltype(m.linearizing_transform())>, Tr>,
+                          "transformed_rk<T, Tr>: the system's linearizing_transform() is not a Tr");
+            return m.linearizing_transform();
+        } else {
+            static_assert(std::is_empty_v<Tr>, "transformed_rk<T, Tr>: a Tr with parameters must come from the "
+                                               "system's linearizing_transform()");
+            return Tr{};
+        }
+    }
 
    private:
-    Tr tr_;
     detail::stage_storage<T, state_type> st_;
     state_type update_{}, x_new_{}, last_x_{};
     xi_type xi_{}, xi_new_{}, rate_{}, rate_sum_{};

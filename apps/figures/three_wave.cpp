@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -11,40 +12,46 @@
 #include <eci/models/three_wave.hpp>
 #include <eci/models/three_wave_exact.hpp>
 
-#include "figures_common.hpp"
+#include "common.hpp"
 
-namespace eci::cli::detail {
+namespace eci::figures {
 namespace {
 
 using state = three_wave::state_type;
 
-// The paper does not state the time span of Figs. 1-4 and 6; t in [0, 10] shows about three periods.
-constexpr double t_end = 10.0;
-constexpr double dt_euler = 0.02;  // Fig. 1
-constexpr double dt_pc = 0.2;      // Figs. 2-4, 6
-const double root_1_5 = std::sqrt(1.5);
-const state psi0_figs_1_to_4{root_1_5, 0.0, root_1_5};  // Figs. 1-4, 6
-const state psi0_fig_5{root_1_5, 1.0, root_1_5};         // Fig. 5
+// The paper's set-ups, from the model's presets: t in [0, 10] (the paper does not state the span of Figs. 1-4
+// and 6; it shows about three periods), dt 0.02 for Fig. 1 and 0.2 for Figs. 2-4 and 6, and Fig. 5's psi(0).
+const preset<three_wave> fig1 = find_preset<three_wave>("fig1");
+const preset<three_wave> fig2 = find_preset<three_wave>("fig2");  // Figs. 2-4, 6
+const preset<three_wave> fig5 = find_preset<three_wave>("fig5");
+const double t_end = fig2.t_end;
+const double dt_pc = fig2.dt;
 
 const std::vector<std::string> mode_suffix{"K", "P", "Q"};
 
-/// Every step of a fixed-step run, with its statistics.
+/// Every step of a fixed-step run, its statistics and its invariants' record (energy, enstrophy).
 struct trajectory {
     std::vector<double> t;
     std::vector<state> x;
     run_stats stats;
+    std::vector<invariant_record> invariants;
 };
 
+constexpr std::size_t energy = 0, enstrophy = 1;  // in three_wave::invariants()
+
 template <class Stepper>
-trajectory run(const three_wave& model, double dt, double t_final) {
+trajectory run(const preset<three_wave>& p) {
     Stepper stepper;
     trajectory out;
-    state x = psi0_figs_1_to_4;
-    const auto n = static_cast<std::uint64_t>(std::llround(t_final / dt));
-    out.stats = integrate_n_steps(stepper, model, x, 0.0, dt, n, [&](const state& s, double t, std::uint64_t) {
+    state x = p.x0;
+    auto keep = [&](const state& s, double t) {
         out.t.push_back(t);
         out.x.push_back(s);
-    });
+    };
+    const run_report r = eci::run(stepper, p.model, x, run_span::n_steps(p.steps(), p.dt), keep);
+    if (r.failure) throw std::runtime_error(r.failure->what());
+    out.stats = r.stats;
+    out.invariants = r.invariants;
     return out;
 }
 
@@ -56,36 +63,25 @@ std::vector<std::string> mode_columns(const std::string& method) {
 
 void append(std::vector<std::string>& a, const std::vector<std::string>& b) { a.insert(a.end(), b.begin(), b.end()); }
 
-/// An invariant of the model, as a member function (energy, enstrophy).
-using invariant_fn = double (three_wave::*)(const state&) const;
-
-/// Largest |I(t) - I(0)| / I(0) along a trajectory.
-double max_relative_drift(const three_wave& model, const trajectory& tr, invariant_fn inv) {
-    const double v0 = (model.*inv)(tr.x.front());
-    double worst = 0.0;
-    for (const auto& s : tr.x) worst = std::max(worst, std::abs((model.*inv)(s) - v0) / v0);
-    return worst;
-}
-
 /// (I(end) - I(0)) / I(0) for an invariant I.
-double relative_change_at_end(const three_wave& model, const trajectory& tr, invariant_fn inv) {
-    const double v0 = (model.*inv)(tr.x.front());
-    return ((model.*inv)(tr.x.back()) - v0) / v0;
-}
+double relative_change_at_end(const invariant_record& r) { return (r.final - r.initial) / r.initial; }
 
-/// The two methods of a comparison figure, run over t in [0, t_end], and the exact solution on their grid.
+/// The two methods of a comparison figure, run on one preset, and the exact solution on their grid.
 struct comparison {
     three_wave model;
+    state psi0;
     trajectory conventional, conservative;
     std::vector<state> exact;  // at the conventional run's times (both runs share the grid)
 };
 
 template <class Conventional, class Conservative>
-comparison compare(double dt) {
+comparison compare(const preset<three_wave>& p) {
     comparison c;
-    c.conventional = run<Conventional>(c.model, dt, t_end);
-    c.conservative = run<Conservative>(c.model, dt, t_end);
-    const three_wave_exact exact(c.model, psi0_figs_1_to_4);
+    c.model = p.model;
+    c.psi0 = p.x0;
+    c.conventional = run<Conventional>(p);
+    c.conservative = run<Conservative>(p);
+    const three_wave_exact exact(c.model, c.psi0);
     for (double t : c.conventional.t) c.exact.push_back(exact(t));
     return c;
 }
@@ -153,11 +149,11 @@ unset multiplot
 }  // namespace
 
 figure_result make_figure_1() {
-    const auto c = compare<euler<state>, c_euler<state>>(dt_euler);
+    const auto c = compare<euler<state>, c_euler<state>>(fig1);
     figure_result r;
     r.number = 1;
     r.csvs.emplace_back("fig1.csv", solution_table(c, "euler", "c_euler"));
-    const double gain = relative_change_at_end(c.model, c.conventional, &three_wave::energy);
+    const double gain = relative_change_at_end(c.conventional.invariants[energy]);
     r.script = gnuplot_script(
         1, "three-wave psi_k(t): Euler, C-Euler and exact, dt = 0.02",
         fill(modes_body, {{"TEND", format_number(t_end)},
@@ -174,9 +170,9 @@ figure_result make_figure_1() {
     r.numbers = {
         {"euler_energy_gain_rel", "Euler: E(t_end)/E(0) - 1 (dt 0.02, t_end 10)", gain, "growth shown, no number"},
         {"c_euler_max_drift_E_rel", "C-Euler: max |E(t)-E(0)|/E(0)",
-         max_relative_drift(c.model, c.conservative, &three_wave::energy), "0 (exact)"},
+         c.conservative.invariants[energy].max_rel_drift(), "0 (exact)"},
         {"c_euler_max_drift_Z_rel", "C-Euler: max |Z(t)-Z(0)|/Z(0)",
-         max_relative_drift(c.model, c.conservative, &three_wave::enstrophy), "0 (exact)"},
+         c.conservative.invariants[enstrophy].max_rel_drift(), "0 (exact)"},
         {"c_euler_implicit_steps", "C-Euler: implicit midpoint steps near psi_k = 0",
          double(c.conservative.stats.solver.solves), "-"},
         {"euler_max_abs_error", "Euler: max |psi_k - exact|", max_abs_error(c.conventional, c.exact), "-"},
@@ -186,11 +182,11 @@ figure_result make_figure_1() {
 }
 
 figure_result make_figure_2() {
-    const auto c = compare<pc<state>, c_pc<state>>(dt_pc);
+    const auto c = compare<pc<state>, c_pc<state>>(fig2);
     figure_result r;
     r.number = 2;
     r.csvs.emplace_back("fig2.csv", solution_table(c, "pc", "c_pc"));
-    r.csvs.emplace_back("fig2_exact.csv", exact_table(c.model, psi0_figs_1_to_4, t_end, 0.01));
+    r.csvs.emplace_back("fig2_exact.csv", exact_table(c.model, c.psi0, t_end, 0.01));
     r.script = gnuplot_script(
         2, "three-wave psi_k(t): PC, C-PC and exact, dt = 0.2",
         fill(modes_body, {{"TEND", format_number(t_end)},
@@ -235,7 +231,7 @@ unset multiplot
 )gp";
 
 figure_result make_figure_3() {
-    const auto c = compare<pc<state>, c_pc<state>>(dt_pc);
+    const auto c = compare<pc<state>, c_pc<state>>(fig2);
     figure_result r;
     r.number = 3;
     csv_table table;
@@ -281,22 +277,22 @@ unset multiplot
 )gp";
 
 figure_result make_figure_4() {
-    const auto c = compare<pc<state>, c_pc<state>>(dt_pc);
+    const auto c = compare<pc<state>, c_pc<state>>(fig2);
     figure_result r;
     r.number = 4;
     csv_table table;
     table.columns = {"t", "pc_dE", "pc_dZ", "c_pc_dE", "c_pc_dZ"};
-    const double e0 = c.model.energy(psi0_figs_1_to_4), z0 = c.model.enstrophy(psi0_figs_1_to_4);
+    const double e0 = c.model.energy(c.psi0), z0 = c.model.enstrophy(c.psi0);
     for (std::size_t i = 0; i < c.exact.size(); ++i) {
         const state &u = c.conventional.x[i], &v = c.conservative.x[i];
         table.add({c.conventional.t[i], c.model.energy(u) - e0, c.model.enstrophy(u) - z0, c.model.energy(v) - e0,
                    c.model.enstrophy(v) - z0});
     }
     r.csvs.emplace_back("fig4.csv", std::move(table));
-    const double gain_e = relative_change_at_end(c.model, c.conventional, &three_wave::energy);
-    const double gain_z = relative_change_at_end(c.model, c.conventional, &three_wave::enstrophy);
-    const double drift_e = max_relative_drift(c.model, c.conservative, &three_wave::energy);
-    const double drift_z = max_relative_drift(c.model, c.conservative, &three_wave::enstrophy);
+    const double gain_e = relative_change_at_end(c.conventional.invariants[energy]);
+    const double gain_z = relative_change_at_end(c.conventional.invariants[enstrophy]);
+    const double drift_e = c.conservative.invariants[energy].max_rel_drift();
+    const double drift_z = c.conservative.invariants[enstrophy].max_rel_drift();
     const std::vector<std::pair<std::string, std::string>> values{
         {"TEND", format_number(t_end)},
         {"E0", format_number(e0)},
@@ -338,7 +334,7 @@ std::pair<double, double> fit_power_law(const std::vector<double>& tau, const st
 template <class Stepper>
 double single_step_error(const three_wave& model, const three_wave_exact& exact, double tau) {
     Stepper stepper;
-    state x = psi0_fig_5;
+    state x = fig5.x0;
     three_wave f = model;
     if (!stepper.step(f, x, 0.0, tau)) return std::numeric_limits<double>::quiet_NaN();
     return std::abs(x[0] - exact(tau)[0]);
@@ -367,8 +363,8 @@ plot c_pc_A * x**c_pc_n with lines lw 6 dt 1 lc rgb "#8fb3e8" title sprintf("C-P
 )gp";
 
 figure_result make_figure_5() {
-    const three_wave model;
-    const three_wave_exact exact(model, psi0_fig_5);
+    const three_wave model = fig5.model;
+    const three_wave_exact exact(model, fig5.x0);
     // tau from 1e-3 to 1e-1, 5 points per decade: small enough to be in the asymptotic range, large enough that
     // the single-step error (~tau^3) stays far above round-off.
     constexpr int points = 11;
@@ -441,7 +437,7 @@ unset multiplot
 )gp";
 
 figure_result make_figure_6() {
-    const auto c = compare<pc<state>, c_pc<state>>(dt_pc);
+    const auto c = compare<pc<state>, c_pc<state>>(fig2);
     figure_result r;
     r.number = 6;
     csv_table table;
@@ -454,17 +450,17 @@ figure_result make_figure_6() {
         table.add({c.conventional.t[i], u[0], u[1], u[2], v[0], v[1], v[2], c.model.energy(u), c.model.energy(v)});
     }
     r.csvs.emplace_back("fig6.csv", std::move(table));
-    const three_wave_exact exact(c.model, psi0_figs_1_to_4);
+    const three_wave_exact exact(c.model, c.psi0);
     const double period = exact.period();
-    r.csvs.emplace_back("fig6_exact.csv", exact_table(c.model, psi0_figs_1_to_4, period, period / 400));
+    r.csvs.emplace_back("fig6_exact.csv", exact_table(c.model, c.psi0, period, period / 400));
     // PC's energy gain after one period of the exact motion, interpolated between the grid points around it.
-    const double e0 = c.model.energy(psi0_figs_1_to_4);
+    const double e0 = c.model.energy(c.psi0);
     const auto i = static_cast<std::size_t>(period / dt_pc);
     const double w = period / dt_pc - double(i);
     const double e_period =
         (1 - w) * c.model.energy(c.conventional.x[i]) + w * c.model.energy(c.conventional.x[i + 1]);
     const double gain_period = e_period / e0 - 1.0;
-    const double gain_end = relative_change_at_end(c.model, c.conventional, &three_wave::energy);
+    const double gain_end = relative_change_at_end(c.conventional.invariants[energy]);
     const std::vector<std::pair<std::string, std::string>> values{
         {"TEND", format_number(t_end)},
         {"PERIOD", format_number(period)},
@@ -482,4 +478,4 @@ figure_result make_figure_6() {
     return r;
 }
 
-}  // namespace eci::cli::detail
+}  // namespace eci::figures

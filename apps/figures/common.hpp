@@ -7,7 +7,7 @@
 #include <utility>
 #include <vector>
 
-namespace eci::cli::detail {
+namespace eci::figures {
 
 /// A table of numbers with named columns, written as CSV with full (round-trip) precision.
 struct csv_table {
@@ -61,4 +61,4 @@ figure_result make_figure_7();
 figure_result make_figure_8();
 figure_result make_figure_9();
 
-}  // namespace eci::cli::detail
+}  // namespace eci::figures

@@ -1,6 +1,6 @@
 // The model-independent half of `eci run`: checking the method and time settings, and the summary it prints
 // (stderr) and writes (JSON).
-#include "run.hpp"
+#include "run_model.hpp"
 
 #include <charconv>
 #include <filesystem>
@@ -21,21 +21,19 @@ std::string number(double v) {
     return std::string(format_double(v, buffer));
 }
 
-// The shortest text that reads back as v: what a person typed (0.2, not 0.20000000000000001).
+}  // namespace
+
 std::string shortest(double v) {
     char buffer[32];
     const auto r = std::to_chars(buffer, buffer + sizeof buffer, v);
     return std::string(buffer, r.ptr);
 }
 
-}  // namespace
-
 column_names indexed_columns(std::string_view prefix, std::size_t size, bool complex) {
     return column_names(std::string(prefix), size, complex);
 }
 
-method_info resolve_method(const model_info& model, const run_settings& settings) {
-    const std::string name = settings.method.empty() ? model.default_method : settings.method;
+method_info resolve_method(const model_info& model, const std::string& name) {
     const auto m = find_method(name);
     if (!m) {
         std::vector<std::string> all;
@@ -48,9 +46,9 @@ method_info resolve_method(const model_info& model, const run_settings& settings
     return *m;
 }
 
-run_span resolve_span(const model_info& model, const run_settings& settings) {
-    run_span span{};
-    span.dt = settings.dt.value_or(model.default_dt);
+run_plan resolve_plan(double default_dt, double default_t_end, const run_settings& settings) {
+    run_plan span{};
+    span.dt = settings.dt.value_or(default_dt);
     if (!(span.dt > 0.0) || !std::isfinite(span.dt))
         throw bad_input("--dt must be a positive finite number, not " + shortest(span.dt));
     if (settings.every == 0) throw bad_input("--every must be at least 1");
@@ -64,7 +62,7 @@ run_span resolve_span(const model_info& model, const run_settings& settings) {
         span.t_end = double(span.steps) * span.dt;
         return span;
     }
-    span.t_end = settings.t_end.value_or(model.default_t_end);
+    span.t_end = settings.t_end.value_or(default_t_end);
     if (!(span.t_end >= 0.0) || !std::isfinite(span.t_end))
         throw bad_input("--t-end must be a finite number >= 0, not " + shortest(span.t_end));
     if (span.t_end / span.dt > 0x1p53)
@@ -84,6 +82,15 @@ void check_distinct_outputs(const run_settings& settings) {
     const fs::path b = fs::weakly_canonical(fs::absolute(settings.summary_json, ec), ec);
     if (settings.output != "-" && settings.summary_json != "-" && a == b)
         throw bad_input("--output and --summary-json name the same file '" + settings.output + "'");
+}
+
+std::string underflow_message(const step_size_underflow& e, const column_names& columns) {
+    char t[32], h[32];
+    const std::string column = columns[e.component];
+    return "step failed at t = " + std::string(format_double(e.time, t)) + " in component " + column +
+           " even with the step halved " + std::to_string(run_options{}.max_halvings) +
+           " times (dt = " + std::string(format_double(e.dt, h)) +
+           "): negative radicand, non-invertible transform or non-finite state";
 }
 
 void print_summary(std::FILE* f, const run_summary& s) {

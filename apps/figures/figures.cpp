@@ -22,11 +22,17 @@
 #include <system_error>
 #include <vector>
 
-#include "figures_common.hpp"
+#include "common.hpp"
 #include "output.hpp"
 
-namespace eci::cli {
-namespace detail {
+namespace eci::figures {
+
+using cli::bad_input;
+using cli::interrupt_requested;
+using cli::register_child;
+using cli::run_failure;
+using cli::staging_dir;
+using cli::throw_if_interrupted;
 
 void csv_table::add(std::vector<double> row) {
     if (row.size() != columns.size()) throw std::logic_error("csv_table: row size does not match the columns");
@@ -95,11 +101,7 @@ do for [format in "png svg"] {
                  {"BODY", body}});
 }
 
-}  // namespace detail
-
 namespace {
-
-using detail::figure_result;
 
 /// The plotting program: $ECI_GNUPLOT if set and not empty, else `gnuplot` from PATH.
 std::string plotting_program() {
@@ -167,9 +169,9 @@ void require_nonempty(const std::filesystem::path& file, const std::string& made
 /// The figure producers, by number.
 const std::vector<std::function<figure_result()>>& producers() {
     static const std::vector<std::function<figure_result()>> all{
-        detail::make_figure_1, detail::make_figure_2, detail::make_figure_3,
-        detail::make_figure_4, detail::make_figure_5, detail::make_figure_6,
-        detail::make_figure_7, detail::make_figure_8, detail::make_figure_9};
+        make_figure_1, make_figure_2, make_figure_3,
+        make_figure_4, make_figure_5, make_figure_6,
+        make_figure_7, make_figure_8, make_figure_9};
     return all;
 }
 
@@ -200,13 +202,13 @@ void print_summary(const std::vector<figure_result>& results) {
     for (const auto& r : results)
         for (const auto& k : r.numbers) {
             std::cout << std::left << std::setw(5) << r.number << std::setw(58) << k.description << std::setw(14)
-                      << detail::format_number(k.value, 4) << k.paper << '\n';
+                      << format_number(k.value, 4) << k.paper << '\n';
         }
 }
 
 }  // namespace
 
-int run_figures(const figures_options& options) {
+int run_figures(const options& options) {
     if (options.only && (*options.only < 1 || *options.only > 9))
         throw bad_input("--only must be a figure number from 1 to 9, got " + std::to_string(*options.only));
     const std::filesystem::path& dir = options.out;
@@ -282,4 +284,4 @@ int run_figures(const figures_options& options) {
     return 0;
 }
 
-}  // namespace eci::cli
+}  // namespace eci::figures

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <numbers>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -13,49 +14,43 @@
 #include <eci/models/kepler.hpp>
 #include <eci/models/kepler_exact.hpp>
 #include <eci/models/lotka_volterra.hpp>
-#include <eci/steppers/transformed_rk.hpp>
 
-#include "figures_common.hpp"
+#include "common.hpp"
 
-namespace eci::cli::detail {
+namespace eci::figures {
 namespace {
 
 // ---- Figure 7: Lotka-Volterra ----------------------------------------------------------------------------
 
 using lv_state = lotka_volterra::state_type;
-constexpr double lv_dt = 0.02;
-constexpr std::uint64_t lv_steps = 800000;
+// Fig. 7: mu = 1.5 from (1, 0.4), 8e5 steps of 0.02; every 200th point is plotted.
+const preset<lotka_volterra> fig7 = find_preset<lotka_volterra>("fig7");
 constexpr std::uint64_t lv_every = 200;
-const lv_state lv_start{1.0, 0.4};
 
 struct lv_run {
     std::vector<lv_state> points;  // every lv_every-th step
-    double max_drift = 0.0;        // max |H - H(0)| / H(0) over every step
-    double final_gain = 0.0;       // H(end) / H(0) - 1
+    invariant_record h;            // H over every step
     run_stats stats;
 };
 
 template <class Stepper>
-lv_run run_lv(const lotka_volterra& model, Stepper stepper) {
+lv_run run_lv() {
+    Stepper stepper;
     lv_run out;
-    lv_state s = lv_start;
-    const double h0 = model.hamiltonian(lv_start);
-    auto observe = [&](const lv_state& x, double, std::uint64_t i) {
-        const double h = model.hamiltonian(x);
-        out.max_drift = std::max(out.max_drift, std::abs(h - h0) / h0);
-        if (i % lv_every == 0) out.points.push_back(x);
-    };
-    out.stats = integrate_n_steps(stepper, model, s, 0.0, lv_dt, lv_steps, observe);
-    out.final_gain = model.hamiltonian(s) / h0 - 1.0;
+    lv_state s = fig7.x0;
+    auto keep = [&](const lv_state& x, double) { out.points.push_back(x); };
+    const run_report r =
+        eci::run(stepper, fig7.model, s, run_span::n_steps(fig7.steps(), fig7.dt), keep, {.every = lv_every});
+    if (r.failure) throw std::runtime_error(r.failure->what());
+    out.h = r.invariants.front();
+    out.stats = r.stats;
     return out;
 }
 
-/// The closed curve H(x, y) = H(0) (eq. 37): for x between its two extremes (where y = 1), the two y that
-/// solve mu ((y - 1) - log y) = H0 - 1 - mu - ((x - 1) - log x), by the library's Newton inverse of (39).
+/// The closed curve H(x, y) = H(0) (eq. 37): for x between its two extremes (where y = 1), the two y on it.
 csv_table lv_energy_curve(const lotka_volterra& model) {
-    const double level = model.hamiltonian(lv_start) - 1.0 - model.mu;  // = xi_1 + xi_2, both >= 0
-    const double x_lo = eci::detail::invert_x_minus_log(level, 0.5).value;
-    const double x_hi = eci::detail::invert_x_minus_log(level, 2.0).value;
+    const double h0 = model.hamiltonian(fig7.x0);
+    const auto [x_lo, x_hi] = model.x_extremes_of_level(h0);
     csv_table table;
     table.columns = {"x", "y"};
     constexpr int n = 600;
@@ -63,25 +58,24 @@ csv_table lv_energy_curve(const lotka_volterra& model) {
     // Cosine spacing clusters the samples near the turning points x_lo, x_hi, where y changes fastest.
     for (int i = 0; i <= n; ++i)
         xs.push_back(x_lo + (x_hi - x_lo) * 0.5 * (1.0 - std::cos(std::numbers::pi * i / n)));
-    auto y_at = [&](double x, double hint) {
-        const double rest = std::max(0.0, level - ((x - 1.0) - std::log(x)));
-        return eci::detail::invert_x_minus_log(rest / model.mu, hint).value;
-    };
-    for (double x : xs) table.add({x, y_at(x, 0.5)});                                   // lower branch y <= 1
-    for (auto it = xs.rbegin(); it != xs.rend(); ++it) table.add({*it, y_at(*it, 2.0)});  // upper branch y >= 1
+    for (double x : xs) table.add({x, model.y_on_level(x, h0, 0.5)});  // lower branch y <= 1
+    for (auto it = xs.rbegin(); it != xs.rend(); ++it) table.add({*it, model.y_on_level(*it, h0, 2.0)});  // upper
     return table;
 }
 
 // ---- Figures 8, 9: Kepler --------------------------------------------------------------------------------
 
 using kepler_state = kepler::state_type;
-const kepler_state kepler_start{1.0, 0.0, 0.0};  // r = 1, v_r = theta = 0; ell = 1, K = 3/2, m = 1 (the defaults)
+// Figs. 8 and 9: the orbit r = 1, v_r = theta = 0 (ell = 1, K = 3/2, m = 1), PC in 1313 steps of 0.08 and C-PC
+// in 1000 steps of 0.105, which cost the same CPU time.
+const preset<kepler> fig8 = find_preset<kepler>("fig8");
+const preset<kepler> fig9 = find_preset<kepler>("fig9");
 
 struct kepler_run {
     csv_table table;
     double h_error_end = 0.0;    // (H(end) - H(0)) / |H(0)|
     double h_max_drift = 0.0;    // max |H - H(0)| / |H(0)|
-    double a_max_drift = 0.0;    // max |A - A(0)| / |A(0)|
+    double a_max_drift = 0.0;    // max |A - A(0)| / |A(0)|, A the Runge-Lenz vector
     double turn = 0.0;           // the Runge-Lenz vector's total turn, unwrapped, radians
     double cpu_seconds = 0.0;    // CPU time of one run
     std::array<double, 2> a_start{}, a_end{};
@@ -94,27 +88,31 @@ double thread_cpu_seconds() {
     return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
 }
 
-template <class MakeStepper>
-kepler_run run_kepler(const kepler& model, MakeStepper make_stepper, double dt, std::uint64_t steps) {
+template <class Stepper>
+kepler_run run_kepler(const preset<kepler>& p) {
+    const kepler& model = p.model;
     kepler_run out;
     out.table.columns = {"t", "r", "v_r", "theta", "x", "y", "H", "A_x", "A_y"};
-    const double h0 = model.hamiltonian(kepler_start);
-    const auto a0 = model.runge_lenz(kepler_start);
+    const auto a0 = model.runge_lenz(p.x0);
     const double a0_norm = std::hypot(a0[0], a0[1]);
-    kepler_state previous = kepler_start;
-    kepler_state s = kepler_start;
-    auto stepper = make_stepper();
-    auto observe = [&](const kepler_state& x, double t, std::uint64_t) {
-        const double h = model.hamiltonian(x);
-        const auto a = model.runge_lenz(x);
-        out.h_max_drift = std::max(out.h_max_drift, std::abs(h - h0) / std::abs(h0));
+    kepler_state previous = p.x0;
+    kepler_state s = p.x0;
+    Stepper stepper;
+    // H and A = (A_x, A_y) are the model's invariants, as the monitor evaluated them at this step.
+    auto observe = [&](const kepler_state& x, double t, std::uint64_t, const invariant_monitor<kepler>& monitor) {
+        const double h = monitor.values()[0];
+        const std::array<double, 2> a{monitor.values()[1], monitor.values()[2]};
         out.a_max_drift = std::max(out.a_max_drift, std::hypot(a[0] - a0[0], a[1] - a0[1]) / a0_norm);
         out.turn += model.runge_lenz_turn(previous, x);  // small per step, so the sum unwraps the angle
         previous = x;
         out.table.add({t, x[0], x[1], x[2], model.position_x(x), model.position_y(x), h, a[0], a[1]});
     };
-    out.stats = integrate_n_steps(stepper, model, s, 0.0, dt, steps, observe);
-    out.h_error_end = (model.hamiltonian(s) - h0) / std::abs(h0);
+    const run_report r = eci::run(stepper, model, s, run_span::n_steps(p.steps(), p.dt), observe);
+    if (r.failure) throw std::runtime_error(r.failure->what());
+    out.stats = r.stats;
+    const invariant_record& h = r.invariants.front();
+    out.h_max_drift = h.max_rel_drift();
+    out.h_error_end = (h.final - h.initial) / std::abs(h.initial);
     out.a_start = a0;
     out.a_end = model.runge_lenz(s);
     // CPU time: the paper chose the two step sizes so that both runs cost the same. One run takes tens of
@@ -124,9 +122,9 @@ kepler_run run_kepler(const kepler& model, MakeStepper make_stepper, double dt, 
     for (int b = 0; b < batches; ++b) {
         const double start = thread_cpu_seconds();
         for (int i = 0; i < runs_per_batch; ++i) {
-            kepler_state x = kepler_start;
-            auto st = make_stepper();
-            integrate_n_steps(st, model, x, 0.0, dt, steps);
+            kepler_state x = p.x0;
+            Stepper st;
+            integrate_n_steps(st, model, x, 0.0, p.dt, p.steps());
             if (!(x[0] > 0.0)) return out;  // keeps the loop from being optimised away
         }
         best = std::min(best, (thread_cpu_seconds() - start) / runs_per_batch);
@@ -137,7 +135,7 @@ kepler_run run_kepler(const kepler& model, MakeStepper make_stepper, double dt, 
 
 /// The exact orbit over one period, as the reference ellipse.
 csv_table kepler_exact_orbit(const kepler& model) {
-    const kepler_exact exact(model, kepler_start);
+    const kepler_exact exact(model, fig9.x0);
     csv_table table;
     table.columns = {"x", "y"};
     constexpr int n = 400;
@@ -203,15 +201,11 @@ constexpr double rad_to_deg = 180.0 / std::numbers::pi;
 
 /// The PC run, made once: Fig. 9 compares its CPU time with the same measurement Fig. 8 reports.
 const kepler_run& kepler_pc_run() {
-    static const kepler_run run = run_kepler(kepler{}, [] { return pc<kepler_state>{}; }, 0.08, 1313);
+    static const kepler_run run = run_kepler<stepper_for<method_entries::pc, kepler>>(fig8);
     return run;
 }
 
-kepler_run kepler_c_pc_run() {
-    const kepler model;
-    return run_kepler(model, [&] { return transformed_pc<kepler::transform>(model.linearizing_transform()); }, 0.105,
-                      1000);
-}
+kepler_run kepler_c_pc_run() { return run_kepler<stepper_for<method_entries::c_pc, kepler>>(fig9); }
 
 }  // namespace
 
@@ -253,10 +247,10 @@ unset multiplot
 )gp";
 
 figure_result make_figure_7() {
-    const lotka_volterra model;
-    const lv_run conventional = run_lv(model, pc<lv_state>{});
-    const lv_run conservative =
-        run_lv(model, transformed_pc<lotka_volterra::transform>(model.linearizing_transform()));
+    const lotka_volterra& model = fig7.model;
+    const lv_run conventional = run_lv<stepper_for<method_entries::pc, lotka_volterra>>();
+    const lv_run conservative = run_lv<stepper_for<method_entries::c_pc, lotka_volterra>>();
+    const double pc_gain = conventional.h.final / conventional.h.initial - 1.0;  // H(end) / H(0) - 1
     figure_result r;
     r.number = 7;
     csv_table table;
@@ -264,18 +258,18 @@ figure_result make_figure_7() {
     for (std::size_t i = 0; i < conventional.points.size(); ++i) {
         const auto &u = conventional.points[i], &v = conservative.points[i];
         const double step = double(i * lv_every);
-        table.add({step, step * lv_dt, u[0], u[1], model.hamiltonian(u), v[0], v[1], model.hamiltonian(v)});
+        table.add({step, step * fig7.dt, u[0], u[1], model.hamiltonian(u), v[0], v[1], model.hamiltonian(v)});
     }
     r.csvs.emplace_back("fig7.csv", std::move(table));
     csv_table curve = lv_energy_curve(model);
     double x_hi = 0.0;  // the curve's right turning point, centre of the enlarged panel
     for (const auto& row : curve.rows) x_hi = std::max(x_hi, row[0]);
     r.csvs.emplace_back("fig7_energy_curve.csv", std::move(curve));
-    const double h0 = model.hamiltonian(lv_start);
+    const double h0 = model.hamiltonian(fig7.x0);
     const solver_stats& newton = conservative.stats.solver;
     const std::vector<std::pair<std::string, std::string>> values{
-        {"GAIN", format_number(100 * conventional.final_gain)},
-        {"DRIFT", format_number(conservative.max_drift, 2)},
+        {"GAIN", format_number(100 * pc_gain)},
+        {"DRIFT", format_number(conservative.h.max_rel_drift(), 2)},
         {"H0", format_number(h0, 5)},
         {"H0FULL", format_number(h0, 17)},
         {"ZX0", format_number(x_hi - 0.12, 4)},
@@ -286,9 +280,9 @@ figure_result make_figure_7() {
     r.script = gnuplot_script(7, "Lotka-Volterra, 8e5 steps of 0.02, every 200th point, PC against C-PC",
                               fill(fig7_body, values), 1400, 820);
     r.numbers = {
-        {"lv_pc_H_gain_percent", "LV PC: 100 (H(end)/H(0) - 1), 8e5 steps of 0.02", 100 * conventional.final_gain,
+        {"lv_pc_H_gain_percent", "LV PC: 100 (H(end)/H(0) - 1), 8e5 steps of 0.02", 100 * pc_gain,
          "1.2 (errata 7: ~0.5)"},
-        {"lv_c_pc_max_drift_H_rel", "LV C-PC: max |H - H(0)|/H(0) over all steps", conservative.max_drift,
+        {"lv_c_pc_max_drift_H_rel", "LV C-PC: max |H - H(0)|/H(0) over all steps", conservative.h.max_rel_drift(),
          "0 (exact)"},
         {"lv_c_pc_step_reductions", "LV C-PC: step halvings", double(conservative.stats.step_reductions), "-"},
         {"lv_c_pc_newton_mean", "LV C-PC: Newton iterations per inverse, mean", newton.mean_iterations(), "-"},
@@ -298,7 +292,7 @@ figure_result make_figure_7() {
 }
 
 figure_result make_figure_8() {
-    const kepler model;
+    const kepler& model = fig8.model;
     const kepler_run& run = kepler_pc_run();
     figure_result r;
     r.number = 8;
@@ -329,7 +323,7 @@ figure_result make_figure_8() {
 }
 
 figure_result make_figure_9() {
-    const kepler model;
+    const kepler& model = fig9.model;
     const kepler_run run = kepler_c_pc_run();
     const kepler_run& pc_run = kepler_pc_run();
     const double pc_cpu = pc_run.cpu_seconds;
@@ -370,4 +364,4 @@ figure_result make_figure_9() {
     return r;
 }
 
-}  // namespace eci::cli::detail
+}  // namespace eci::figures
