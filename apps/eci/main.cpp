@@ -1,5 +1,7 @@
 // The `eci` command: parses `eci run MODEL ...`, `eci list` and `eci figures ...` with CLI11 and turns every
 // error into one line "eci: error: ..." on stderr with a documented exit status.
+#include <algorithm>
+#include <charconv>
 #include <cstdio>
 #include <exception>
 #include <stdexcept>
@@ -7,6 +9,7 @@
 #include <string_view>
 
 #include <CLI/CLI.hpp>
+#include <eci/integrate.hpp>
 #include <eci/registry.hpp>
 #include <eci/version.hpp>
 
@@ -19,9 +22,12 @@ namespace {
 using namespace eci::cli;
 
 constexpr const char* exit_status_help =
-    "Exit status: 0 success; 1 a run that could not finish (a step failed even at dt * 2^-40) or a "
-    "feature not built; 2 bad input (unknown model or method, bad number, invalid coefficients, unwritable "
-    "output, ...); 130 interrupted. On any failure no output file is created or replaced.";
+    "Exit status: 0 success; 1 a run that could not finish (a step failed even at dt * 2^-40, needed too many "
+    "sub-steps or blew up; a write failed, e.g. a full disk) or a feature not built; 2 bad input (unknown model "
+    "or method, bad number, invalid coefficients, unwritable output, ...); 128+N stopped by signal N (130 "
+    "Ctrl-C; SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE). On any failure no output file or directory is created "
+    "or replaced (files of one run appear together), except what goes directly to standard output, a device "
+    "or a FIFO.";
 
 void print_error(std::string_view message) {
     std::string line(message);
@@ -36,13 +42,18 @@ std::string model_names(const std::vector<std::unique_ptr<model_command>>& model
     return s;
 }
 
-/// A CLI11 check that an option is a whole number >= min (CLI11 alone would wrap "-3" into a huge unsigned).
+/// A CLI11 check that an option is a whole number >= min (CLI11 alone would wrap "-3" into a huge unsigned);
+/// one beyond 2^64 - 1 is "too large", not "not a whole number".
 CLI::Validator whole_number(std::uint64_t min) {
     return CLI::Validator(
         [min](std::string& s) -> std::string {
             const std::string bad = "must be a whole number >= " + std::to_string(min) + ", not '" + s + "'";
-            if (s.empty() || s.size() > 19 || s.find_first_not_of("0123456789") != std::string::npos) return bad;
-            return std::stoull(s) < min ? bad : std::string();
+            if (s.empty() || s.find_first_not_of("0123456789") != std::string::npos) return bad;
+            std::uint64_t v = 0;
+            const auto r = std::from_chars(s.data(), s.data() + s.size(), v);
+            if (r.ec == std::errc::result_out_of_range)
+                return "'" + s + "' is too large (at most 18446744073709551615)";
+            return r.ec != std::errc() || v < min ? bad : std::string();
         },
         "INT>=" + std::to_string(min));
 }
@@ -62,6 +73,27 @@ void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
             sub.add_option(flag, o.reals->front(), o.help);
         } else {
             sub.add_option(flag, *o.reals, o.help)->expected(int(o.count))->delimiter(',')->allow_extra_args(false);
+        }
+    }
+}
+
+bool is_model_name(const std::vector<std::unique_ptr<model_command>>& models, std::string_view name) {
+    for (const auto& m : models)
+        if (m->info().name == name) return true;
+    return false;
+}
+
+// CLI11 reads an empty value ("--t-end ''", "--theta=") as 0; no option of eci takes an empty value.
+void check_no_empty_values(int argc, char** argv) {
+    for (int i = 1; i < argc; ++i) {
+        const std::string_view a = argv[i];
+        if (a.size() < 3 || a.substr(0, 2) != "--") continue;
+        const std::size_t eq = a.find('=');
+        if (eq != std::string_view::npos) {
+            if (eq + 1 == a.size())
+                throw bad_input(std::string(a.substr(0, eq)) + " needs a value, got an empty string");
+        } else if (i + 1 < argc && argv[i + 1][0] == '\0') {
+            throw bad_input(std::string(a) + " needs a value, got an empty string");
         }
     }
 }
@@ -87,6 +119,8 @@ void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
 }
 
 int run_cli(int argc, char** argv) {
+    // First of all: from here on no signal leaves a temporary file behind.
+    install_interrupt_handler();
     const auto models = registered_models();
 
     CLI::App app{"eci: explicit, exactly conservative ODE integrators (Shadwick, Bowman & Morrison)", "eci"};
@@ -147,6 +181,17 @@ int run_cli(int argc, char** argv) {
 
     // CLI11 would say only that a subcommand is required, or call an unknown model an unexpected argument.
     if (argc == 1) throw bad_input("missing command (commands: run, list, figures; see eci --help)");
+    check_no_empty_values(argc, argv);
+    // `eci run --dt 0.1 three-wave`: CLI11 would list the stray tokens in reverse order.
+    if (argc > 2 && std::string_view(argv[1]) == "run" && argv[2][0] == '-' && std::string_view(argv[2]) != "--help" &&
+        std::string_view(argv[2]) != "-h") {
+        std::string stray;
+        int i = 2;
+        for (; i < argc && !is_model_name(models, argv[i]); ++i) stray.append(stray.empty() ? "" : " ").append(argv[i]);
+        if (i < argc)
+            throw bad_input("'" + stray + "' comes before the model " + argv[i] + ": options go after it (eci run " +
+                            argv[i] + " " + stray + ")");
+    }
     const auto named = [&](CLI::App* c) { return c->get_name() == argv[1]; };
     if (argv[1][0] != '-' && app.get_subcommands(named).empty())
         throw bad_input("unknown command '" + std::string(argv[1]) + "' (commands: run, list, figures)");
@@ -159,6 +204,19 @@ int run_cli(int argc, char** argv) {
 
     try {
         app.parse(argc, argv);
+    } catch (const CLI::ExtrasError&) {
+        // CLI11 lists the unexpected tokens last first; name them in the order they were typed.
+        std::vector<std::string> extras;
+        for (CLI::App* a : {&app, run, figures, list}) {
+            for (const std::string& s : a->remaining()) extras.push_back(s);
+            for (CLI::App* sub : a->get_subcommands({}))
+                for (const std::string& s : sub->remaining()) extras.push_back(s);
+        }
+        std::string typed;
+        for (int i = 1; i < argc; ++i)
+            if (std::find(extras.begin(), extras.end(), argv[i]) != extras.end())
+                typed.append(typed.empty() ? "" : " ").append(argv[i]);
+        throw bad_input("unexpected arguments: " + typed);
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
         throw bad_input(e.what());
@@ -182,7 +240,6 @@ int run_cli(int argc, char** argv) {
         if (sub->count("--atol")) settings.atol = atol;
         if (sub->count("--output-dt")) settings.output_dt = output_dt;
         for (option_spec& o : model->options()) o.given = sub->count("--" + o.name) > 0;
-        install_interrupt_handler();
         return model->run(settings);
     }
     throw bad_input("eci run needs a MODEL (models: " + model_names(models) + ")");
@@ -204,7 +261,10 @@ int main(int argc, char** argv) {
         return 1;
     } catch (const interrupted& e) {
         print_error(e.what());
-        return 130;
+        return interrupt_exit_status();
+    } catch (const eci::interrupted& e) {
+        print_error(e.what());
+        return interrupt_exit_status();
     } catch (const std::exception& e) {
         print_error(e.what());
         return 1;

@@ -3,7 +3,10 @@
 // registry (which methods run on it). apps/eci/CMakeLists.txt instantiates it once per listed model.
 #pragma once
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cstdio>
 #include <cstddef>
 #include <memory>
 #include <span>
@@ -114,6 +117,7 @@ class model_command_for final : public model_command {
             typename Model::recipe r{};
             const auto settings_of = Model::recipe_parameters();
             for (std::size_t i = 0; i < settings_of.size(); ++i) r.*settings_of[i].value = whole_[i];
+            if constexpr (requires { Model::bytes_needed(r); }) check_memory(r);
             try {
                 std::tie(p.model, p.x0) = Model::generate(r);
             } catch (const std::invalid_argument& e) {
@@ -137,10 +141,30 @@ class model_command_for final : public model_command {
     }
 
    private:
+    // A huge request says what it costs before it starts, and one beyond this machine's memory is refused.
+    template <class Recipe>
+    void check_memory(const Recipe& r) const {
+        double bytes = 0.0;
+        try {
+            bytes = Model::bytes_needed(r);
+        } catch (const std::invalid_argument& e) {
+            throw bad_input(info_.name + ": " + e.what());
+        }
+        const double gib = bytes / double(1ull << 30);
+        const double physical = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
+        char size[32], have[32];
+        std::snprintf(size, sizeof size, "%.3g GiB", gib);
+        std::snprintf(have, sizeof have, "%.3g GiB", physical / double(1ull << 30));
+        if (physical > 0 && bytes > physical)
+            throw bad_input(info_.name + " needs about " + size + " of memory, more than this machine's " + have);
+        if (bytes > double(256ull << 20))
+            std::fprintf(stderr, "eci: note: %s needs about %s of memory\n", info_.name.c_str(), size);
+    }
+
     /// The CSV names of the real unknowns: the model's component names, or psi_0, ... (re_/im_ when complex).
-    static std::vector<std::string> columns(const Model& model) {
+    static column_names columns(const Model& model) {
         if constexpr (requires { Model::component_names; }) {
-            return {Model::component_names.begin(), Model::component_names.end()};
+            return std::vector<std::string>(Model::component_names.begin(), Model::component_names.end());
         } else {
             bool complex = false;
             if constexpr (requires { Model::is_complex; }) complex = Model::is_complex;

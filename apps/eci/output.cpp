@@ -1,8 +1,11 @@
-// Output plumbing of the CLI: temporary-then-rename files, full-precision numbers, JSON scalars, the progress
-// bar and the interrupt flag. No numerics here.
+// Output plumbing of the CLI: files committed together by rename (or written directly when they are special),
+// staged directories, full-precision numbers, JSON scalars, the progress bar and the signal handling that
+// cleans up after itself. No numerics here.
 #include "output.hpp"
 
 #include <charconv>
+#include <cerrno>
+#include <climits>
 #include <cmath>
 #include <csignal>
 #include <cstdlib>
@@ -10,19 +13,144 @@
 #include <filesystem>
 #include <initializer_list>
 #include <system_error>
+#include <vector>
 
+#include <dirent.h>
+#include <fcntl.h>
+#include <linux/magic.h>
 #include <sys/stat.h>
+#include <sys/syscall.h>
+#include <sys/time.h>
+#include <sys/vfs.h>
 #include <unistd.h>
 
 namespace eci::cli {
 
 namespace {
 
-volatile std::sig_atomic_t interrupt_flag = 0;
+// ---- What the signal handler may touch: lock-free atomics and fixed buffers only. ----
 
-extern "C" void on_interrupt(int) { interrupt_flag = 1; }
+std::atomic<bool> cancel{false};
+volatile std::sig_atomic_t signal_number = 0;
+std::atomic<pid_t> child_pid{0};
 
-std::string errno_text() { return std::strerror(errno); }
+/// A path the handler removes on a forced exit: a file (kind 1) or a flat directory (kind 2).
+struct cleanup_slot {
+    std::atomic<int> kind{0};
+    char path[PATH_MAX];
+};
+constexpr int cleanup_slots = 16;
+cleanup_slot cleanup[cleanup_slots];
+static_assert(std::atomic<int>::is_always_lock_free && std::atomic<bool>::is_always_lock_free &&
+              std::atomic<pid_t>::is_always_lock_free);
+
+constexpr int handled_signals[] = {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE};
+
+const char* signal_name(int s) {
+    switch (s) {
+        case SIGINT: return "SIGINT";
+        case SIGTERM: return "SIGTERM";
+        case SIGHUP: return "SIGHUP";
+        case SIGQUIT: return "SIGQUIT";
+        case SIGPIPE: return "SIGPIPE";
+        default: return "a signal";
+    }
+}
+
+int register_cleanup(const std::string& path, int kind) {
+    if (path.size() >= PATH_MAX) return -1;
+    for (int i = 0; i < cleanup_slots; ++i) {
+        int expected = 0;
+        // -1 reserves the slot while the path is copied; the handler ignores it until the kind is set.
+        if (cleanup[i].kind.compare_exchange_strong(expected, -1)) {
+            std::memcpy(cleanup[i].path, path.c_str(), path.size() + 1);
+            cleanup[i].kind.store(kind);
+            return i;
+        }
+    }
+    return -1;  // more temporaries than slots: still removed by their owners, only not on a forced exit
+}
+
+void unregister_cleanup(int slot) {
+    if (slot >= 0) cleanup[slot].kind.store(0);
+}
+
+// Removes a directory and the files in it with system calls only (getdents64, unlinkat, rmdir).
+void remove_flat_dir_signal_safe(const char* dir) {
+    const int fd = ::open(dir, O_RDONLY | O_DIRECTORY);
+    if (fd >= 0) {
+        alignas(8) char buffer[4096];
+        for (;;) {
+            const long n = ::syscall(SYS_getdents64, fd, buffer, sizeof buffer);
+            if (n <= 0) break;
+            for (long at = 0; at < n;) {
+                // struct linux_dirent64: u64 ino, s64 off, u16 reclen, u8 type, char name[]
+                unsigned short reclen;
+                std::memcpy(&reclen, buffer + at + 16, sizeof reclen);
+                const char* name = buffer + at + 19;
+                if (!(name[0] == '.' && (name[1] == '\0' || (name[1] == '.' && name[2] == '\0'))))
+                    ::unlinkat(fd, name, 0);
+                at += reclen;
+            }
+        }
+        ::close(fd);
+    }
+    ::rmdir(dir);
+}
+
+void write_stderr(const char* s) {
+    std::size_t n = std::strlen(s);
+    while (n > 0) {
+        const ssize_t w = ::write(STDERR_FILENO, s, n);
+        if (w <= 0) return;
+        s += w, n -= static_cast<std::size_t>(w);
+    }
+}
+
+[[noreturn]] void forced_exit() {
+    const pid_t child = child_pid.load();
+    if (child > 0) ::kill(-child, SIGKILL);  // the child runs in its own process group
+    for (cleanup_slot& c : cleanup) {
+        const int kind = c.kind.load();
+        if (kind == 1) ::unlink(c.path);
+        if (kind == 2) remove_flat_dir_signal_safe(c.path);
+    }
+    const int s = signal_number ? signal_number : SIGINT;
+    write_stderr("eci: error: interrupted by ");
+    write_stderr(signal_name(s));
+    write_stderr("\n");
+    ::_exit(128 + s);
+}
+
+extern "C" void on_interrupt(int s) {
+    if (!cancel.load()) {
+        signal_number = s;
+        cancel.store(true);
+        // The run stops at its next poll; if it has not within 0.3 s (a long right-hand side, a blocked
+        // write), the watchdog stops it here, cleaning up the same way.
+        itimerval watchdog{};
+        watchdog.it_value.tv_usec = 300000;
+        ::setitimer(ITIMER_REAL, &watchdog, nullptr);
+        return;
+    }
+    if (s != SIGPIPE) forced_exit();  // asked twice; repeated SIGPIPEs are just more failed writes
+}
+
+extern "C" void on_watchdog(int) {
+    if (cancel.load()) forced_exit();
+}
+
+sigset_t interrupt_set() {
+    sigset_t set;
+    sigemptyset(&set);
+    for (int s : handled_signals) sigaddset(&set, s);
+    sigaddset(&set, SIGALRM);
+    return set;
+}
+
+// ---- Files ----
+
+std::string errno_text(int e = errno) { return std::strerror(e); }
 
 // Built with append, not operator+ chains, which trip a false -Wrestrict in GCC 12's libstdc++.
 std::string message(std::initializer_list<std::string_view> parts) {
@@ -31,62 +159,371 @@ std::string message(std::initializer_list<std::string_view> parts) {
     return s;
 }
 
+std::string dir_of(const std::string& path) {
+    const std::size_t slash = path.find_last_of('/');
+    if (slash == std::string::npos) return ".";
+    if (slash == 0) return "/";
+    return path.substr(0, slash);
+}
+
+std::string base_of(const std::string& path) {
+    const std::size_t slash = path.find_last_of('/');
+    return slash == std::string::npos ? path : path.substr(slash + 1);
+}
+
+// A temporary name beside `target`: ".<name>.eci-tmp-XXXXXX", the name cut so the whole stays far below
+// NAME_MAX (255 bytes) however long the target's name is.
+std::string temp_template(const std::string& target, std::string_view tag) {
+    std::string base = base_of(target);
+    constexpr std::size_t keep = 96;
+    if (base.size() > keep) base.resize(keep);
+    return message({dir_of(target), "/.", base, tag, "XXXXXX"});
+}
+
+// The file a path finally names: symlinks followed (a dangling one names the file it would create). Returns
+// false with errno set for a loop or an unreadable link.
+bool resolve_links(std::string path, std::string& out) {
+    for (int depth = 0; depth < 40; ++depth) {
+        struct stat st {};
+        if (::lstat(path.c_str(), &st) != 0 || !S_ISLNK(st.st_mode)) {
+            out = path;
+            return true;
+        }
+        std::vector<char> buffer(static_cast<std::size_t>(st.st_size > 0 ? st.st_size : PATH_MAX) + 1);
+        const ssize_t n = ::readlink(path.c_str(), buffer.data(), buffer.size() - 1);
+        if (n < 0) return false;
+        std::string link(buffer.data(), static_cast<std::size_t>(n));
+        path = link.empty() || link[0] == '/' ? link : message({dir_of(path), "/", link});
+    }
+    errno = ELOOP;
+    return false;
+}
+
+// The kernel's pseudo file systems, whose files are interfaces, not storage: their name, or null.
+const char* pseudo_file_system(const std::string& path) {
+    struct statfs fs {};
+    if (::statfs(path.c_str(), &fs) != 0) return nullptr;
+    switch (static_cast<unsigned long>(fs.f_type)) {
+        case PROC_SUPER_MAGIC: return "/proc";
+        case SYSFS_MAGIC: return "/sys";
+        case CGROUP_SUPER_MAGIC:
+        case CGROUP2_SUPER_MAGIC: return "a cgroup file system";
+        case DEBUGFS_MAGIC: return "debugfs";
+        case SECURITYFS_MAGIC: return "securityfs";
+        default: return nullptr;
+    }
+}
+
+// "/dev/stdout", "/dev/fd/3", "/proc/self/fd/3": the descriptor they name, or -1.
+int named_descriptor(const std::string& path) {
+    if (path == "/dev/stdin") return 0;
+    if (path == "/dev/stdout") return 1;
+    if (path == "/dev/stderr") return 2;
+    for (std::string_view prefix : {"/dev/fd/", "/proc/self/fd/"}) {
+        if (path.compare(0, prefix.size(), prefix) != 0) continue;
+        const char* digits = path.c_str() + prefix.size();
+        int fd = -1;
+        const auto r = std::from_chars(digits, path.c_str() + path.size(), fd);
+        if (r.ec == std::errc() && r.ptr == path.c_str() + path.size() && fd >= 0) return fd;
+    }
+    return -1;
+}
+
 }  // namespace
 
+// ---- output_file ----
+
 output_file::output_file(std::string path, std::string_view what) : path_(std::move(path)), what_(what) {
+    const auto fail = [&](int e) {
+        return bad_input(message({"cannot write ", what_, " '", path_, "': ", errno_text(e)}));
+    };
+    if (path_.empty()) throw bad_input(message({what_, ": the file name is empty"}));
     if (path_ == "-") {
-        to_stdout_ = true;
         file_ = stdout;
         return;
     }
-    namespace fs = std::filesystem;
-    const fs::path target(path_);
-    std::error_code ec;
-    if (fs::is_directory(target, ec)) throw bad_input(message({what_, " '", path_, "' is a directory"}));
-    if (target.filename().empty()) throw bad_input(message({what_, " '", path_, "' names no file"}));
-    // Same directory as the target, so the final rename cannot cross file systems.
-    const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
-    std::string temp = (dir / message({".", target.filename().string(), ".eci-tmp-XXXXXX"})).string();
+    // A descriptor by name: write to it directly (a rename would replace /dev/stdout, or the file behind it).
+    if (const int fd = named_descriptor(path_); fd >= 0) {
+        if (fd == STDOUT_FILENO) {
+            file_ = stdout;
+            return;
+        }
+        const int copy = ::fcntl(fd, F_DUPFD_CLOEXEC, 3);
+        if (copy < 0) throw fail(errno);
+        file_ = ::fdopen(copy, "w");
+        if (!file_) {
+            const int e = errno;
+            ::close(copy);
+            throw fail(e);
+        }
+        owns_stream_ = true;
+        return;
+    }
+    if (path_.back() == '/') throw bad_input(message({what_, " '", path_, "' names a directory, not a file"}));
+    if (!resolve_links(path_, target_)) throw fail(errno);
+    // A name longer than the directory allows would only fail at the final rename, after the whole run.
+    {
+        const long name_max = ::pathconf(dir_of(target_).c_str(), _PC_NAME_MAX);
+        if (base_of(target_).size() > static_cast<std::size_t>(name_max > 0 ? name_max : NAME_MAX))
+            throw bad_input(message({"cannot write ", what_, " '", path_, "': the file name is too long (",
+                                     std::to_string(base_of(target_).size()), " bytes, at most ",
+                                     std::to_string(name_max > 0 ? name_max : NAME_MAX), ")"}));
+    }
+
+    struct stat st {};
+    const bool exists = ::stat(target_.c_str(), &st) == 0;
+    if (exists && S_ISDIR(st.st_mode)) throw bad_input(message({what_, " '", path_, "' is a directory"}));
+    // /proc/self/status is a "regular file" of size 0 that no data belongs in; a new file cannot be made there.
+    if (const char* pseudo = pseudo_file_system(exists ? target_ : dir_of(target_)))
+        throw bad_input(message({"cannot write ", what_, " '", path_, "': it is in ", pseudo,
+                                 ", a kernel interface, not a place for data files"}));
+    if (exists && !S_ISREG(st.st_mode)) {
+        // A device or FIFO: written directly, as a shell redirection would. O_NONBLOCK so that a
+        // FIFO without a reader is an error (ENXIO) instead of a hang; cleared once it is open.
+        const int fd = ::open(target_.c_str(), O_WRONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+        if (fd < 0) {
+            const int e = errno;
+            if (e == ENXIO && S_ISFIFO(st.st_mode))
+                throw bad_input(message({"cannot write ", what_, " '", path_, "': the FIFO has no reader"}));
+            throw fail(e);
+        }
+        ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) & ~O_NONBLOCK);
+        file_ = ::fdopen(fd, "w");
+        if (!file_) {
+            const int e = errno;
+            ::close(fd);
+            throw fail(e);
+        }
+        owns_stream_ = true;
+        return;
+    }
+    if (exists) {
+        // root may write anything; a file nobody may write (0444) is still not replaced.
+        if ((st.st_mode & 0222) == 0)
+            throw bad_input(message({"cannot write ", what_, " '", path_, "': the file is read-only"}));
+        if (::access(target_.c_str(), W_OK) != 0) throw fail(errno);
+    }
+    // The temporary goes beside the final target, so the rename neither crosses file systems nor replaces a
+    // symlink.
+    std::string temp = temp_template(target_, ".eci-tmp-");
     const int fd = ::mkstemp(temp.data());
-    if (fd < 0) throw bad_input(message({"cannot write ", what_, " '", path_, "': ", errno_text()}));
+    if (fd < 0) {
+        const int e = errno;
+        if (e == ENOENT)
+            throw bad_input(message({"cannot write ", what_, " '", path_, "': directory '", dir_of(target_),
+                                     "' does not exist"}));
+        throw bad_input(message({"cannot write ", what_, " '", path_, "': cannot create a file in '",
+                                 dir_of(target_), "': ", errno_text(e)}));
+    }
     temp_ = temp;
-    // mkstemp makes the file private (0600); give it the permissions a plain fopen would.
-    const mode_t mask = ::umask(0);
-    ::umask(mask);
-    ::fchmod(fd, 0666 & ~mask);
+    temp_slot_ = register_cleanup(temp_, 1);
+    if (exists) {
+        // The replacement keeps the replaced file's permissions (and, as root, its owner).
+        ::fchmod(fd, st.st_mode & 07777);
+        if (::geteuid() == 0 && ::fchown(fd, st.st_uid, st.st_gid) != 0) {
+            // not fatal: the file is still written, with root's ownership
+        }
+    } else {
+        // mkstemp makes the file private (0600); give it the permissions a plain fopen would.
+        const mode_t mask = ::umask(0);
+        ::umask(mask);
+        ::fchmod(fd, 0666 & ~mask);
+    }
     file_ = ::fdopen(fd, "w");
     if (!file_) {
+        const int e = errno;
         ::close(fd);
-        ::unlink(temp_.c_str());
-        throw bad_input(message({"cannot write ", what_, " '", path_, "': ", errno_text()}));
+        discard();
+        throw fail(e);
     }
+    owns_stream_ = true;
     static constexpr std::size_t buffer_size = 1 << 16;
     std::setvbuf(file_, nullptr, _IOFBF, buffer_size);
 }
 
-output_file::~output_file() {
-    if (to_stdout_ || !file_) return;
-    std::fclose(file_);
-    ::unlink(temp_.c_str());
+void output_file::discard() {
+    if (!temp_.empty()) {
+        ::unlink(temp_.c_str());
+        unregister_cleanup(temp_slot_);
+        temp_slot_ = -1;
+        temp_.clear();
+    }
 }
 
-void output_file::commit() {
-    if (!file_) return;
-    if (to_stdout_) {
-        if (std::fflush(stdout) != 0 || std::ferror(stdout))
-            throw bad_input(message({"cannot write ", what_, " to standard output: ", errno_text()}));
-        file_ = nullptr;
+output_file::~output_file() {
+    if (file_ && owns_stream_ && !finished_) std::fclose(file_);
+    discard();
+}
+
+void output_file::finish() {
+    if (!file_ || finished_) return;
+    finished_ = true;
+    if (!owns_stream_) {
+        if (std::fflush(file_) != 0 || std::ferror(file_))
+            throw run_failure(message({"cannot write ", what_, " to standard output: ", errno_text()}));
         return;
     }
     const bool write_failed = std::ferror(file_) != 0;
+    int e = errno;
+    // fflush first: a full disk shows up here, and fsync makes sure the data is on disk before the rename.
+    const bool flush_failed = std::fflush(file_) != 0;
+    if (flush_failed) e = errno;
+    const bool sync_failed = !temp_.empty() && ::fsync(::fileno(file_)) != 0 && errno != EINVAL;
+    if (sync_failed) e = errno;
     const bool close_failed = std::fclose(file_) != 0;
-    file_ = nullptr;
-    if (write_failed || close_failed || std::rename(temp_.c_str(), path_.c_str()) != 0) {
-        const std::string reason = errno_text();
-        ::unlink(temp_.c_str());
-        throw bad_input(message({"cannot write ", what_, " '", path_, "': ", reason}));
+    if (close_failed && !flush_failed && !sync_failed) e = errno;
+    if (write_failed || flush_failed || sync_failed || close_failed) {
+        discard();
+        throw run_failure(message({"cannot write ", what_, " '", path_, "': ", errno_text(e)}));
     }
 }
+
+void commit_outputs(std::initializer_list<output_file*> outputs) {
+    throw_if_interrupted("before its output was committed");
+    for (output_file* o : outputs)
+        if (o) o->finish();
+    // No signal between the first rename and the last: the outputs appear together or not at all.
+    const sigset_t block = interrupt_set();
+    sigset_t previous;
+    ::pthread_sigmask(SIG_BLOCK, &block, &previous);
+    try {
+        throw_if_interrupted("before its output was committed");
+        struct replaced {
+            output_file* o;
+            std::string backup;  // a hard link to the old file, empty if there was none (or none could be made)
+            bool existed;
+        };
+        std::vector<replaced> done;
+        auto roll_back = [&] {
+            for (auto it = done.rbegin(); it != done.rend(); ++it) {
+                if (!it->backup.empty())
+                    ::rename(it->backup.c_str(), it->o->target_.c_str());
+                else if (!it->existed)
+                    ::unlink(it->o->target_.c_str());
+            }
+        };
+        for (output_file* o : outputs) {
+            if (!o || !o->replaces()) continue;
+            replaced r{o, {}, false};
+            struct stat st {};
+            r.existed = ::lstat(o->target_.c_str(), &st) == 0;
+            if (r.existed) {
+                std::string backup = temp_template(o->target_, ".eci-old-");
+                const int fd = ::mkstemp(backup.data());
+                if (fd >= 0) {
+                    ::close(fd);
+                    ::unlink(backup.c_str());
+                    if (::link(o->target_.c_str(), backup.c_str()) == 0) r.backup = backup;
+                }
+            }
+            if (::rename(o->temp_.c_str(), o->target_.c_str()) != 0) {
+                const int e = errno;
+                if (!r.backup.empty()) ::unlink(r.backup.c_str());
+                roll_back();
+                for (const replaced& d : done)
+                    if (!d.backup.empty()) ::unlink(d.backup.c_str());
+                throw run_failure(message({"cannot write ", o->what_, " '", o->path_, "': ", errno_text(e)}));
+            }
+            unregister_cleanup(o->temp_slot_);
+            o->temp_slot_ = -1;
+            o->temp_.clear();
+            done.push_back(std::move(r));
+        }
+        for (const replaced& d : done)
+            if (!d.backup.empty()) ::unlink(d.backup.c_str());
+    } catch (...) {
+        ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+        throw;
+    }
+    // Committed: the run is complete, so later signals (pending ones included) no longer interrupt it.
+}
+
+// ---- staging_dir ----
+
+staging_dir::staging_dir(const std::string& final_dir) : final_(final_dir) {
+    while (final_.size() > 1 && final_.back() == '/') final_.pop_back();
+    if (final_.empty()) throw bad_input("the output directory name is empty");
+    struct stat st {};
+    const bool exists = ::stat(final_.c_str(), &st) == 0;
+    if (exists && !S_ISDIR(st.st_mode))
+        throw bad_input(message({"output directory '", final_, "' exists and is not a directory"}));
+    // A missing directory is staged beside its final place and renamed there whole; an existing one gets
+    // its files moved in one by one. Either way nothing appears in final_dir before the commit.
+    std::string temp = exists ? message({final_, "/.eci-tmp-XXXXXX"}) : temp_template(final_, ".eci-tmp-");
+    if (::mkdtemp(temp.data()) == nullptr) {
+        const int e = errno;
+        if (!exists && e == ENOENT)
+            throw bad_input(message({"cannot create output directory '", final_, "': directory '", dir_of(final_),
+                                     "' does not exist"}));
+        throw bad_input(message({"cannot write into '", exists ? final_ : dir_of(final_), "': ", errno_text(e)}));
+    }
+    path_ = temp;
+    slot_ = register_cleanup(path_, 2);
+}
+
+staging_dir::~staging_dir() {
+    if (committed_) return;
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+    unregister_cleanup(slot_);
+}
+
+void staging_dir::commit() {
+    namespace fs = std::filesystem;
+    throw_if_interrupted("before the figures were committed");
+    const sigset_t block = interrupt_set();
+    sigset_t previous;
+    ::pthread_sigmask(SIG_BLOCK, &block, &previous);
+    try {
+        throw_if_interrupted("before the figures were committed");
+        struct stat st {};
+        if (::stat(final_.c_str(), &st) != 0) {
+            // The directory did not exist: it appears whole.
+            const mode_t mask = ::umask(0);
+            ::umask(mask);
+            ::chmod(path_.c_str(), 0777 & ~mask);
+            if (::rename(path_.c_str(), final_.c_str()) != 0)
+                throw run_failure(message({"cannot create output directory '", final_, "': ", errno_text()}));
+        } else {
+            std::vector<std::pair<std::string, std::string>> moved;  // (target, backup or "")
+            std::vector<std::string> created;
+            auto roll_back = [&] {
+                for (const auto& [target, backup] : moved) ::rename(backup.c_str(), target.c_str());
+                for (const auto& target : created) ::unlink(target.c_str());
+            };
+            std::error_code ec;
+            for (const auto& entry : fs::directory_iterator(path_, ec)) {
+                const std::string name = entry.path().filename().string();
+                const std::string target = message({final_, "/", name});
+                struct stat old {};
+                const bool existed = ::stat(target.c_str(), &old) == 0 && S_ISREG(old.st_mode);
+                if (existed) {
+                    ::chmod(entry.path().c_str(), old.st_mode & 07777);
+                    std::string backup = message({path_, "/.old-", name});
+                    if (::link(target.c_str(), backup.c_str()) == 0) moved.emplace_back(target, backup);
+                }
+                if (::rename(entry.path().c_str(), target.c_str()) != 0) {
+                    const int e = errno;
+                    roll_back();
+                    throw run_failure(message({"cannot write '", target, "': ", errno_text(e)}));
+                }
+                if (!existed) created.push_back(target);
+            }
+            if (ec) {
+                roll_back();
+                throw run_failure(message({"cannot read '", path_, "': ", ec.message()}));
+            }
+            std::filesystem::remove_all(path_, ec);
+        }
+    } catch (...) {
+        ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
+        throw;
+    }
+    committed_ = true;
+    unregister_cleanup(slot_);
+}
+
+// ---- numbers ----
 
 std::string_view format_double(double v, char (&buffer)[32]) {
     const auto r = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::general, 17);
@@ -116,12 +553,39 @@ void write_json_string(std::FILE* f, std::string_view s) {
     std::fputc('"', f);
 }
 
+// ---- signals ----
+
 void install_interrupt_handler() {
-    std::signal(SIGINT, on_interrupt);
-    std::signal(SIGTERM, on_interrupt);
+    struct sigaction sa {};
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESTART;  // interrupted reads and writes resume; the loops poll the flag instead
+    sa.sa_handler = on_interrupt;
+    for (int s : handled_signals) ::sigaction(s, &sa, nullptr);
+    sa.sa_handler = on_watchdog;
+    ::sigaction(SIGALRM, &sa, nullptr);
 }
 
-bool interrupt_requested() { return interrupt_flag != 0; }
+bool interrupt_requested() { return cancel.load(std::memory_order_relaxed); }
+
+const std::atomic<bool>* cancel_flag() { return &cancel; }
+
+int interrupt_signal() { return cancel.load() ? static_cast<int>(signal_number) : 0; }
+
+int interrupt_exit_status() {
+    const int s = interrupt_signal();
+    return 128 + (s ? s : SIGINT);
+}
+
+void throw_if_interrupted(std::string_view where) {
+    if (!interrupt_requested()) return;
+    std::string m = message({"interrupted by ", signal_name(interrupt_signal())});
+    if (!where.empty()) m.append(" ").append(where);
+    throw interrupted(m);
+}
+
+void register_child(pid_t pid) { child_pid.store(pid); }
+
+// ---- progress bar ----
 
 progress_bar::progress_bar(std::uint64_t total, std::uint64_t check_every)
     : total_(total),

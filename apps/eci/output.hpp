@@ -1,10 +1,14 @@
-// What `eci run` writes besides numbers: files that appear only when complete, the CLI's error kinds, number
-// formatting at full precision, a progress bar and the handling of Ctrl-C.
+// What `eci run` writes besides numbers: files that appear only when complete (and all of a run's files
+// together), the CLI's error kinds, number formatting at full precision, a progress bar and the signals.
 #pragma once
 
+#include <sys/types.h>
+
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <initializer_list>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -23,34 +27,73 @@ class run_failure : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
-/// The run was stopped by SIGINT or SIGTERM: exit status 130.
+/// The run was stopped by a signal (SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE): exit status 128 + signal.
 class interrupted : public std::runtime_error {
    public:
     using std::runtime_error::runtime_error;
 };
 
-/// A file written under a temporary name in its own directory and renamed over `path` by commit(), so a
-/// reader never sees a partial file and a failed run leaves the old file (if any) untouched. "-" is stdout.
+/// An output of one run. A regular file (new, or existing and writable) is written under a temporary name
+/// beside it (beside a symlink's final target, so the link is kept) and renamed over it by commit_outputs(),
+/// keeping the replaced file's mode; a reader never sees a partial file and a failed run leaves the old
+/// file untouched. "-", /dev/stdout, /dev/fd/N and special files (devices, FIFOs, /proc) are written directly.
 class output_file {
    public:
     /// No file: get() is null.
     output_file() = default;
-    /// Creates the temporary now, so an unwritable path is reported before the run; throws bad_input.
+    /// Opens the output now, so an unwritable path is reported before the run; throws bad_input.
     output_file(std::string path, std::string_view what);
     output_file(const output_file&) = delete;
     output_file& operator=(const output_file&) = delete;
-    /// Removes the temporary unless commit() succeeded.
+    /// Removes the temporary unless it was committed.
     ~output_file();
 
     /// The stream to write to, or null when there is no file.
     std::FILE* get() const { return file_; }
-    /// Flushes, closes and renames the temporary over the path; throws bad_input on an I/O error.
+    /// Flushes and closes the temporary (or flushes a direct stream); throws bad_input on an I/O error.
+    void finish();
+    /// Whether the output goes through a temporary file and a rename.
+    bool replaces() const { return !temp_.empty(); }
+
+   private:
+    friend void commit_outputs(std::initializer_list<output_file*> outputs);
+    void discard();
+
+    std::string path_;    ///< as the user wrote it (messages)
+    std::string target_;  ///< the file the rename replaces (symlinks resolved)
+    std::string temp_;    ///< the temporary beside target_, empty for direct output
+    std::string what_;
+    std::FILE* file_ = nullptr;
+    bool owns_stream_ = false;  ///< file_ is ours to close (not stdout)
+    bool finished_ = false;
+    int temp_slot_ = -1;  ///< the temporary's slot in the signal handler's cleanup list
+};
+
+/// Commits the outputs of one run together: finishes every one, then renames every temporary over its target.
+/// If any step fails, the targets already replaced get their old content back (or are removed if they did not
+/// exist) and bad_input is thrown; if an interrupt has arrived, nothing is committed and `interrupted` is thrown.
+void commit_outputs(std::initializer_list<output_file*> outputs);
+
+/// A temporary directory beside `final_dir` whose contents replace `final_dir`'s files of the same names on
+/// commit(); removed with its contents unless committed, and by the signal handler on a forced exit.
+class staging_dir {
+   public:
+    /// Creates the temporary directory (and final_dir if missing); throws bad_input.
+    explicit staging_dir(const std::string& final_dir);
+    staging_dir(const staging_dir&) = delete;
+    staging_dir& operator=(const staging_dir&) = delete;
+    ~staging_dir();
+
+    /// The temporary directory to write into.
+    const std::string& path() const { return path_; }
+    /// Moves every file of the temporary directory into final_dir (replacing files of the same name, keeping
+    /// their mode), restoring the replaced ones if a move fails; throws bad_input or interrupted.
     void commit();
 
    private:
-    std::string path_, temp_, what_;
-    std::FILE* file_ = nullptr;
-    bool to_stdout_ = false;
+    std::string final_, path_;
+    int slot_ = -1;
+    bool committed_ = false;
 };
 
 /// v with 17 significant digits (what %.17g gives: enough to read back the same double).
@@ -62,11 +105,29 @@ void write_json_number(std::FILE* f, double v);
 /// Writes s as a JSON string.
 void write_json_string(std::FILE* f, std::string_view s);
 
-/// Installs the SIGINT/SIGTERM handler that makes interrupt_requested() true.
+/// Installs the handler of SIGINT, SIGTERM, SIGHUP, SIGQUIT and SIGPIPE: the first one sets the cancel flag
+/// (polled by the library's drivers and the CLI's loops) and arms a watchdog; if the program has not stopped
+/// 0.3 s later, or a second signal arrives, the handler removes the temporaries, stops child processes and
+/// exits with 128 + signal itself.
 void install_interrupt_handler();
 
-/// Whether SIGINT or SIGTERM has arrived since install_interrupt_handler().
+/// Whether an interrupt has arrived since install_interrupt_handler().
 bool interrupt_requested();
+
+/// The flag the library's drivers poll (run_options::cancel).
+const std::atomic<bool>* cancel_flag();
+
+/// The signal that interrupted the run (0 if none).
+int interrupt_signal();
+
+/// The exit status for an interrupt: 128 + the signal (130 for SIGINT).
+int interrupt_exit_status();
+
+/// Throws `interrupted` ("interrupted by SIGINT <where>") if an interrupt has arrived.
+void throw_if_interrupted(std::string_view where = {});
+
+/// Registers a child process (group) for the signal handler to kill on a forced exit; 0 unregisters.
+void register_child(pid_t pid);
 
 /// A one-line progress bar on stderr, shown only when stderr is a terminal and the run has lasted over a
 /// second. update() is cheap: it looks at the clock once every 4096 calls.

@@ -6,6 +6,7 @@
 #include <chrono>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <cstdint>
 #include <cstdio>
 #include <span>
@@ -40,9 +41,37 @@ struct run_summary {
     adaptive_stats adaptive_counts{};  ///< accepted and rejected steps, step sizes, dense outputs
 };
 
+/// The names of a state's real unknowns (CSV header, error messages), made one at a time when asked for: a run
+/// of 10^7 modes without --output builds none of them.
+class column_names {
+   public:
+    /// A fixed list (a model's component_names).
+    column_names(std::vector<std::string> names) : fixed_(std::move(names)), size_(fixed_.size()) {}
+    /// `prefix`0, `prefix`1, ... for `modes` real modes; re_`prefix`0, im_`prefix`0, ... for complex ones.
+    column_names(std::string prefix, std::size_t modes, bool complex)
+        : prefix_(std::move(prefix)), size_(complex ? 2 * modes : modes), complex_(complex) {}
+    /// How many real unknowns there are.
+    std::size_t size() const { return size_; }
+    /// The name of real unknown i ("?" if there is none).
+    std::string operator[](std::size_t i) const {
+        if (i >= size_) return "?";
+        if (!fixed_.empty()) return fixed_[i];
+        if (!complex_) return prefix_ + std::to_string(i);
+        return (i % 2 ? "im_" : "re_") + prefix_ + std::to_string(i / 2);
+    }
+    /// The same as operator[].
+    std::string at(std::size_t i) const { return (*this)[i]; }
+
+   private:
+    std::vector<std::string> fixed_;
+    std::string prefix_;
+    std::size_t size_ = 0;
+    bool complex_ = false;
+};
+
 /// The CSV column names of the real unknowns of a state of `size` modes: `prefix`0... for a real state,
 /// re_`prefix`0, im_`prefix`0, ... for a complex one (the order in which step_result counts components).
-std::vector<std::string> indexed_columns(std::string_view prefix, std::size_t size, bool complex);
+column_names indexed_columns(std::string_view prefix, std::size_t size, bool complex);
 
 /// The method `name` from the registry, checked against the model's list; throws bad_input.
 method_info resolve_method(const model_info& model, const std::string& name);
@@ -67,7 +96,7 @@ void print_summary(std::FILE* f, const run_summary& s);
 void write_summary_json(std::FILE* f, const run_summary& s);
 
 /// The message of a run that stopped because a step failed at every size.
-std::string underflow_message(const step_size_underflow& e, const std::vector<std::string>& columns);
+std::string underflow_message(const step_size_underflow& e, const column_names& columns);
 
 namespace detail {
 
@@ -92,15 +121,44 @@ inline void write_csv_number(std::FILE* out, double v) {
 
 }  // namespace detail
 
+/// Rejects (bad_input) an initial state whose arithmetic is beyond double precision from the start: a
+/// subnormal component, an invariant or a rate that is not finite. (Each model's validate_state checks what
+/// its dynamics will reach; this is the part every model shares.)
+template <class Model>
+void check_arithmetic_range(const Model& model, const typename Model::state_type& x, const column_names& columns) {
+    std::size_t i = 0;
+    char buffer[32];
+    detail::for_each_real(x, [&](double v) {
+        if (v != 0.0 && std::abs(v) < std::numeric_limits<double>::min())
+            throw bad_input("initial condition " + columns[i] + " = " + std::string(format_double(v, buffer)) +
+                            " is subnormal (below 2.2e-308): its products underflow to 0");
+        ++i;
+    });
+    for (const auto& inv : Model::invariants()) {
+        const double v = (model.*inv.value)(x);
+        if (!std::isfinite(v))
+            throw bad_input(std::string("the initial ") + inv.name + " is " + std::string(format_double(v, buffer)) +
+                            ": the initial condition and parameters are beyond double precision");
+    }
+    typename Model::state_type dxdt = x;
+    model(x, dxdt, 0.0);
+    if (!eci::detail::all_finite(dxdt))
+        throw bad_input("the rate of " + columns[eci::detail::first_non_finite(dxdt)] +
+                        " overflows at the initial condition: the parameters and initial condition are beyond "
+                        "double precision");
+}
+
 /// Runs `model` from x (at t = 0) with `method` over `plan`; `columns` names the real unknowns (CSV header and
 /// error messages). Returns the exit status (0); throws bad_input, run_failure or interrupted, in which case no
 /// output file is left behind.
 template <class Model>
 int run_model(const model_info& info, const Model& model, typename Model::state_type x,
-              const std::vector<std::string>& columns, const method_info& method, const run_plan& plan,
+              const column_names& columns, const method_info& method, const run_plan& plan,
               const run_settings& settings) {
     using S = typename Model::state_type;
-    const S x0 = x;
+    // The initial state is kept only for a model that reports figures comparing it with the final one.
+    constexpr bool keeps_x0 = requires(const Model& m, const S& a) { m.end_of_run_figures(a, a); };
+    const S x0 = keeps_x0 ? x : S{};
     try {
         model.validate();
     } catch (const std::invalid_argument& e) {
@@ -120,6 +178,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             throw bad_input(std::string("invalid initial condition: ") + e.what());
         }
     }
+    check_arithmetic_range(model, x, columns);
     check_distinct_outputs(settings);
 
     // Adaptive control (--rtol/--atol) and output times (--output-dt): checked before any file is opened.
@@ -191,7 +250,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     std::FILE* out = csv.get();
     if (out) {
         std::fputs("t", out);
-        for (const std::string& c : columns) std::fprintf(out, ",%s", c.c_str());
+        for (std::size_t i = 0; i < columns.size(); ++i) std::fprintf(out, ",%s", columns[i].c_str());
         for (const auto& d : derived) std::fprintf(out, ",%s", d.name);
         for (const auto& inv : Model::invariants()) std::fprintf(out, ",%s", inv.name);
         std::fputc('\n', out);
@@ -206,13 +265,23 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         for (double v : invariant_values) detail::write_csv_number(out, v);
         std::fputc('\n', out);
     };
+    // Finite at the start (checked): a finite state whose invariant overflows is no result.
+    auto require_finite_invariants = [&](double t, const invariant_monitor<Model>& monitor) {
+        for (std::size_t j = 0; j < monitor.values().size(); ++j) {
+            if (std::isfinite(monitor.values()[j])) continue;
+            char buffer[32];
+            throw run_failure(std::string("the invariant ") + monitor.records()[j].name + " overflowed at t = " +
+                              std::string(format_double(t, buffer)) + ": the solution blew up; try a smaller --dt");
+        }
+    };
     if (adaptive) {
         // Rows at every `every` accepted steps (and the end), or at the --output-dt times.
         auto observe = [&](const S& state, double t, std::uint64_t i, const invariant_monitor<Model>& monitor) {
+            require_finite_invariants(t, monitor);
             if (out && (!output_times.empty() || i % every == 0 || t == plan.t_end)) write_row(state, t, monitor.values());
             if (interrupt_requested()) {
                 char buffer[32];
-                throw interrupted("interrupted at t = " + std::string(format_double(t, buffer)));
+                throw_if_interrupted("at t = " + std::string(format_double(t, buffer)));
             }
         };
         const auto start = std::chrono::steady_clock::now();
@@ -233,10 +302,10 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if constexpr (requires { model.end_of_run_figures(x0, x); })
             for (const auto& [name, value] : model.end_of_run_figures(x0, x)) summary.figures.emplace_back(name, value);
-        csv.commit();
-        print_summary(stderr, summary);
+        // Both outputs complete before either replaces anything: committed together, or neither.
         if (std::FILE* j = json.get()) write_summary_json(j, summary);
-        json.commit();
+        commit_outputs({&csv, &json});
+        print_summary(stderr, summary);
         return 0;
     }
 
@@ -245,11 +314,12 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     // eci::run observes every step (opt.every = 1): the CSV rows are thinned here, keeping the first and the
     // last, so that Ctrl-C and the progress bar are looked at every step whatever --every is.
     auto observe = [&](const S& state, double t, std::uint64_t i, const invariant_monitor<Model>& monitor) {
+        require_finite_invariants(t, monitor);
         if (out && (i % every == 0 || i == last)) write_row(state, t, monitor.values());
         progress.update(i, t);
         if (interrupt_requested()) {
             char buffer[32];
-            throw interrupted("interrupted at t = " + std::string(format_double(t, buffer)));
+            throw_if_interrupted("at t = " + std::string(format_double(t, buffer)));
         }
     };
 
@@ -257,9 +327,29 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         plan.fixed_steps ? run_span::n_steps(plan.steps, plan.dt) : run_span::until(plan.t_end, plan.dt);
     const auto start = std::chrono::steady_clock::now();
     run_report report;
-    const bool found = with_stepper<Model>(method.name, [&](auto stepper) {
-        report = eci::run(stepper, model, x, span, observe, run_options{});
-    });
+    run_options opt;
+    opt.cancel = cancel_flag();  // polled between sub-steps and right-hand-side evaluations
+    bool found = false;
+    try {
+        found = with_stepper<Model>(method.name, [&](auto stepper) {
+            report = eci::run(stepper, model, x, span, observe, opt);
+        });
+    } catch (const step_work_exceeded& e) {
+        progress.finish();
+        throw run_failure(std::string(e.what()) +
+                          ": the solution needs ever smaller steps here (a singularity, or numbers too small or "
+                          "large for double precision); try a smaller --dt");
+    } catch (const non_finite_state& e) {
+        progress.finish();
+        char t[32];
+        throw run_failure("the state became non-finite (" + columns[e.component] + ") at t = " +
+                          std::string(format_double(e.time, t)) + ": the solution blew up; try a smaller --dt");
+    } catch (const eci::interrupted& e) {
+        progress.finish();
+        char t[32];
+        throw_if_interrupted("at t = " + std::string(format_double(e.time, t)));
+        throw interrupted(e.what());
+    }
     progress.finish();
     if (!found) throw bad_input("method '" + summary.method + "' has no stepper for model " + info.name);
     if (report.failure) throw run_failure(underflow_message(*report.failure, columns));
@@ -269,10 +359,10 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     if constexpr (requires { model.end_of_run_figures(x0, x); })
         for (const auto& [name, value] : model.end_of_run_figures(x0, x)) summary.figures.emplace_back(name, value);
 
-    csv.commit();
-    print_summary(stderr, summary);
+    // Both outputs complete before either replaces anything: committed together, or neither.
     if (std::FILE* j = json.get()) write_summary_json(j, summary);
-    json.commit();
+    commit_outputs({&csv, &json});
+    print_summary(stderr, summary);
     return 0;
 }
 

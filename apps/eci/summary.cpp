@@ -29,19 +29,8 @@ std::string shortest(double v) {
     return std::string(buffer, r.ptr);
 }
 
-std::vector<std::string> indexed_columns(std::string_view prefix, std::size_t size, bool complex) {
-    std::vector<std::string> c;
-    c.reserve(complex ? 2 * size : size);
-    for (std::size_t i = 0; i < size; ++i) {
-        const std::string name = std::string(prefix) + std::to_string(i);
-        if (complex) {
-            c.push_back("re_" + name);
-            c.push_back("im_" + name);
-        } else {
-            c.push_back(name);
-        }
-    }
-    return c;
+column_names indexed_columns(std::string_view prefix, std::size_t size, bool complex) {
+    return column_names(std::string(prefix), size, complex);
 }
 
 method_info resolve_method(const model_info& model, const std::string& name) {
@@ -95,9 +84,9 @@ void check_distinct_outputs(const run_settings& settings) {
         throw bad_input("--output and --summary-json name the same file '" + settings.output + "'");
 }
 
-std::string underflow_message(const step_size_underflow& e, const std::vector<std::string>& columns) {
+std::string underflow_message(const step_size_underflow& e, const column_names& columns) {
     char t[32], h[32];
-    const std::string column = e.component < columns.size() ? columns[e.component] : "?";
+    const std::string column = columns[e.component];
     return "step failed at t = " + std::string(format_double(e.time, t)) + " in component " + column +
            " even with the step halved " + std::to_string(run_options{}.max_halvings) +
            " times (dt = " + std::string(format_double(e.dt, h)) +

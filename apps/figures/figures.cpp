@@ -5,7 +5,10 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
+#include <csignal>
+#include <cstring>
 #include <cstdio>
 #include <cstdlib>
 #include <fcntl.h>
@@ -20,8 +23,16 @@
 #include <vector>
 
 #include "common.hpp"
+#include "output.hpp"
 
 namespace eci::figures {
+
+using cli::bad_input;
+using cli::interrupt_requested;
+using cli::register_child;
+using cli::run_failure;
+using cli::staging_dir;
+using cli::throw_if_interrupted;
 
 void csv_table::add(std::vector<double> row) {
     if (row.size() != columns.size()) throw std::logic_error("csv_table: row size does not match the columns");
@@ -29,6 +40,7 @@ void csv_table::add(std::vector<double> row) {
 }
 
 void csv_table::write(const std::filesystem::path& file) const {
+    throw_if_interrupted();
     std::ofstream out(file);
     if (!out) throw std::runtime_error("cannot write " + file.string());
     for (std::size_t i = 0; i < columns.size(); ++i) out << (i ? "," : "") << columns[i];
@@ -42,7 +54,8 @@ void csv_table::write(const std::filesystem::path& file) const {
         }
         out << '\n';
     }
-    if (!out) throw std::runtime_error("cannot write " + file.string());
+    out.close();  // a full disk shows up at the last flush
+    if (!out) throw run_failure("cannot write " + file.string() + ": " + std::strerror(errno));
 }
 
 std::string fill(std::string text, const std::vector<std::pair<std::string, std::string>>& values) {
@@ -97,12 +110,19 @@ std::string plotting_program() {
 }
 
 /// Runs `program arg` (PATH lookup, no shell), stdout to /dev/null if `quiet`; returns the exit status, or 127
-/// if the program could not be started.
+/// if the program could not be started. The child runs in its own process group, which an interrupt stops
+/// (here, or in the signal handler on a forced exit); the wait polls the interrupt flag.
 int run_program(const std::string& program, const std::string& arg, bool quiet) {
     std::cout.flush();
     const pid_t pid = fork();
     if (pid < 0) return 127;
     if (pid == 0) {
+        ::setpgid(0, 0);
+        // The parent's handlers are not the child's business: default dispositions, nothing blocked.
+        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGALRM}) std::signal(sig, SIG_DFL);
+        sigset_t none;
+        sigemptyset(&none);
+        ::sigprocmask(SIG_SETMASK, &none, nullptr);
         if (quiet) {
             const int null = open("/dev/null", O_WRONLY);
             if (null >= 0) {
@@ -114,9 +134,36 @@ int run_program(const std::string& program, const std::string& arg, bool quiet) 
         execvp(argv[0], const_cast<char* const*>(argv));
         _exit(127);
     }
+    ::setpgid(pid, pid);  // also here, so that the group exists before the first kill
+    register_child(pid);
     int status = 0;
-    if (waitpid(pid, &status, 0) < 0) return 127;
+    for (;;) {
+        const pid_t w = ::waitpid(pid, &status, WNOHANG);
+        if (w == pid) break;
+        if (w < 0 && errno != EINTR) {
+            register_child(0);
+            return 127;
+        }
+        if (interrupt_requested()) {
+            ::kill(-pid, SIGKILL);
+            ::waitpid(pid, &status, 0);
+            register_child(0);
+            throw_if_interrupted("while gnuplot was drawing");
+        }
+        ::usleep(10000);  // 10 ms: an interrupt is seen within that, at no measurable cost
+    }
+    register_child(0);
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
+/// Throws run_failure unless `file` exists and is not empty (a full disk can leave gnuplot's output empty
+/// with exit status 0).
+void require_nonempty(const std::filesystem::path& file, const std::string& made_by) {
+    std::error_code ec;
+    const auto size = std::filesystem::file_size(file, ec);
+    if (ec || size == 0)
+        throw run_failure(made_by + " left " + file.filename().string() + (ec ? " missing" : " empty") +
+                          " (disk full?)");
 }
 
 /// The figure producers, by number.
@@ -136,7 +183,7 @@ std::string quoted(const std::string& s) {
 
 void write_summary(const std::filesystem::path& file, const std::vector<figure_result>& results) {
     std::ofstream out(file);
-    if (!out) throw std::runtime_error("cannot write " + file.string());
+    if (!out) throw run_failure("cannot write " + file.string() + ": " + std::strerror(errno));
     out << "figure,key,value,description,paper\n";
     char buffer[32];
     for (const auto& r : results)
@@ -145,7 +192,8 @@ void write_summary(const std::filesystem::path& file, const std::vector<figure_r
             out << r.number << ',' << k.key << ',' << buffer << ',' << quoted(k.description) << ','
                 << quoted(k.paper) << '\n';
         }
-    if (!out) throw std::runtime_error("cannot write " + file.string());
+    out.close();
+    if (!out) throw run_failure("cannot write " + file.string() + ": " + std::strerror(errno));
 }
 
 void print_summary(const std::vector<figure_result>& results) {
@@ -161,25 +209,14 @@ void print_summary(const std::vector<figure_result>& results) {
 }  // namespace
 
 int run_figures(const options& options) {
-    if (options.only && (*options.only < 1 || *options.only > 9)) {
-        std::cerr << "eci figures: --only must be a figure number from 1 to 9, got " << *options.only << '\n';
-        return 2;
-    }
+    if (options.only && (*options.only < 1 || *options.only > 9))
+        throw bad_input("--only must be a figure number from 1 to 9, got " + std::to_string(*options.only));
     const std::filesystem::path& dir = options.out;
-    std::error_code ec;
-    if (dir.empty()) {
-        std::cerr << "eci figures: --out must not be empty\n";
-        return 2;
-    }
-    if (std::filesystem::exists(dir, ec) && !std::filesystem::is_directory(dir, ec)) {
-        std::cerr << "eci figures: --out " << dir.string() << " exists and is not a directory\n";
-        return 2;
-    }
-    std::filesystem::create_directories(dir, ec);
-    if (ec) {
-        std::cerr << "eci figures: cannot create directory " << dir.string() << ": " << ec.message() << '\n';
-        return 2;
-    }
+    if (dir.empty()) throw bad_input("--out must not be empty");
+    // Everything is written into a temporary directory and moved into `dir` at the end: a failure or an
+    // interrupt leaves `dir` as it was.
+    staging_dir staging(dir.string());
+    const std::filesystem::path work = staging.path();
 
     const std::string gnuplot = plotting_program();
     const bool have_gnuplot = run_program(gnuplot, "--version", true) == 0;
@@ -187,49 +224,45 @@ int run_figures(const options& options) {
     const auto start = std::chrono::steady_clock::now();
     std::vector<figure_result> results;
     std::vector<int> missing;
-    try {
-        for (int n = 1; n <= 9; ++n) {
-            if (options.only && *options.only != n) continue;
-            figure_result r = producers()[n - 1]();
-            if (!r.available) {
-                if (options.only) {
-                    std::cerr << "eci figures: figure " << n << " is not available: " << r.unavailable_reason << '\n';
-                    return 2;
-                }
-                std::cout << "fig" << n << ": NOT AVAILABLE: " << r.unavailable_reason << '\n';
-                missing.push_back(n);
-                continue;
-            }
-            for (const auto& [name, table] : r.csvs) table.write(dir / name);
-            const std::filesystem::path script = dir / ("fig" + std::to_string(n) + ".gp");
-            {
-                std::ofstream out(script);
-                out << r.script;
-                if (!out) throw std::runtime_error("cannot write " + script.string());
-            }
-            std::string files;
-            for (const auto& [name, table] : r.csvs) files += " " + name;
-            if (have_gnuplot) {
-                const int status = run_program(gnuplot, script.string(), false);
-                if (status != 0) {
-                    std::cerr << "eci figures: " << gnuplot << " failed on " << script.string() << " (exit status "
-                              << status << ")\n";
-                    return 2;
-                }
-                std::cout << "fig" << n << ": " << (dir / ("fig" + std::to_string(n))).string() << ".png .svg,"
-                          << files << ", fig" << n << ".gp\n";
-            } else {
-                std::cout << "fig" << n << ":" << files << ", fig" << n << ".gp (no picture, see below)\n";
-            }
-            results.push_back(std::move(r));
+    std::ostringstream report;  // printed once everything is committed
+    for (int n = 1; n <= 9; ++n) {
+        if (options.only && *options.only != n) continue;
+        throw_if_interrupted();
+        figure_result r = producers()[n - 1]();
+        if (!r.available) {
+            if (options.only) throw bad_input("figure " + std::to_string(n) + " is not available: " + r.unavailable_reason);
+            report << "fig" << n << ": NOT AVAILABLE: " << r.unavailable_reason << '\n';
+            missing.push_back(n);
+            continue;
         }
-        write_summary(dir / "summary.csv", results);
-    } catch (const std::exception& e) {
-        std::cerr << "eci figures: " << e.what() << '\n';
-        return 2;
+        for (const auto& [name, table] : r.csvs) table.write(work / name);
+        const std::string stem = "fig" + std::to_string(n);
+        const std::filesystem::path script = work / (stem + ".gp");
+        {
+            std::ofstream out(script);
+            out << r.script;
+            out.close();
+            if (!out) throw run_failure("cannot write " + script.string() + ": " + std::strerror(errno));
+        }
+        std::string files;
+        for (const auto& [name, table] : r.csvs) files += " " + name;
+        if (have_gnuplot) {
+            const int status = run_program(gnuplot, script.string(), false);
+            if (status != 0)
+                throw run_failure(gnuplot + " failed on " + stem + ".gp (exit status " + std::to_string(status) + ")");
+            require_nonempty(work / (stem + ".png"), gnuplot);
+            require_nonempty(work / (stem + ".svg"), gnuplot);
+            report << stem << ": " << (dir / stem).string() << ".png .svg," << files << ", " << stem << ".gp\n";
+        } else {
+            report << stem << ":" << files << ", " << stem << ".gp (no picture, see below)\n";
+        }
+        results.push_back(std::move(r));
     }
+    write_summary(work / "summary.csv", results);
+    staging.commit();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
+    std::cout << report.str();
     print_summary(results);
     std::cout << "\nwrote " << (dir / "summary.csv").string() << " in " << std::fixed << std::setprecision(1)
               << seconds << " s\n";
@@ -246,6 +279,8 @@ int run_figures(const options& options) {
                   << (dir / "figN.gp").string()
                   << " for each figure N (or set ECI_GNUPLOT to the gnuplot program).\n";
     }
+    std::cout.flush();
+    if (!std::cout) throw run_failure("cannot write the report to standard output");
     return 0;
 }
 

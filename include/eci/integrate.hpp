@@ -1,8 +1,11 @@
 // Drivers: fixed steps to a step count or an end time, an observer (x, t, i) or (x, t) every k steps, run statistics,
-// the model's quadratic invariants handed to the stepper's remedy, and the step reduction (step_with_reduction).
+// the model's quadratic invariants handed to the stepper's remedy, the step reduction (public: step_with_reduction)
+// that retries a failed step as two half steps, a bound on the work of one step, a non-finite check of every
+// step and a cancellation hook.
 #pragma once
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstddef>
 #include <concepts>
@@ -14,9 +17,11 @@
 #include <stdexcept>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "concepts.hpp"
 #include "steppers/radicand_remedy.hpp"
+#include "detail/state_ops.hpp"
 
 namespace eci {
 
@@ -37,6 +42,12 @@ struct run_options {
     /// false (a new run): the driver first calls the stepper's reset(); true: this run continues the trajectory
     /// the stepper is on (a run in segments), and its carried state (xi, residuals) is kept.
     bool resume = false;
+    /// Bound on the attempts (sub-steps, failed ones included) of one step of the grid: halving alone could
+    /// otherwise spend up to 2^max_halvings sub-steps on one step (a state drifting into subnormal numbers).
+    std::uint64_t max_substeps = std::uint64_t{1} << 16;
+    /// Polled before every sub-step and every right-hand-side evaluation: when it reads true the driver
+    /// throws eci::interrupted, leaving x at the last completed sub-step. Null: never cancelled.
+    const std::atomic<bool>* cancel = nullptr;
 };
 
 /// Adds the counts of `more` (a later part of the same run) to `stats`.
@@ -69,6 +80,58 @@ class step_size_underflow : public std::runtime_error {
     }
 };
 
+/// One step of the grid needed more than run_options::max_substeps attempts.
+class step_work_exceeded : public std::runtime_error {
+   public:
+    step_work_exceeded(double t, double dt, std::uint64_t attempts, double smallest)
+        : std::runtime_error(message(t, dt, attempts, smallest)), time(t), dt(dt), attempts(attempts) {}
+    double time;              ///< start of the step
+    double dt;                ///< its size
+    std::uint64_t attempts;   ///< sub-steps tried, failed ones included
+
+   private:
+    static std::string message(double t, double dt, std::uint64_t attempts, double smallest) {
+        std::ostringstream os;
+        os.precision(17);
+        os << "the step at t = " << t << " (dt = " << dt << ") took more than " << attempts
+           << " sub-steps (halved down to " << smallest << ") without finishing";
+        return os.str();
+    }
+};
+
+/// A stepper reported success but left a non-finite number in the state (a blow-up, or a stepper without a
+/// check of its own); the state is not a result.
+class non_finite_state : public std::runtime_error {
+   public:
+    non_finite_state(double t, std::size_t component)
+        : std::runtime_error(message(t, component)), time(t), component(component) {}
+    double time;            ///< end of the step that produced it
+    std::size_t component;  ///< first real unknown that is not finite
+
+   private:
+    static std::string message(double t, std::size_t component) {
+        std::ostringstream os;
+        os.precision(17);
+        os << "the state became non-finite at t = " << t << " in component " << component;
+        return os.str();
+    }
+};
+
+/// The run was cancelled through run_options::cancel.
+class interrupted : public std::runtime_error {
+   public:
+    explicit interrupted(double t) : std::runtime_error(message(t)), time(t) {}
+    double time;  ///< start of the sub-step that was not taken
+
+   private:
+    static std::string message(double t) {
+        std::ostringstream os;
+        os.precision(17);
+        os << "interrupted at t = " << t;
+        return os.str();
+    }
+};
+
 namespace detail {
 
 /// The drivers' view of a system: counts its evaluations, and exposes it (wrapped()) to steppers that need the
@@ -77,26 +140,80 @@ template <class F>
 struct counting_system {
     F& f;
     std::uint64_t& count;
+    const std::atomic<bool>* cancel = nullptr;  ///< polled before every evaluation (inside Newton iterations too)
 
     template <class S>
     void operator()(const S& x, S& dxdt, double t) const {
+        if (cancel && cancel->load(std::memory_order_relaxed)) throw interrupted(t);
         ++count;
         f(x, dxdt, t);
     }
     const F& wrapped() const { return f; }
 };
 
-/// A step, retried as two half steps on failure (recursively, halvings_left more times); eci::step_with_reduction
-/// is the public form.
-template <class St, class F, class S>
-void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, int halvings_left, run_stats& stats) {
-    const step_result r = stepper.step(f, x, t, dt);
-    if (r) return;
-    if (halvings_left == 0) throw step_size_underflow(t, r.component, dt, stats);
-    ++stats.step_reductions;
-    advance_with_reduction(stepper, f, x, t, 0.5 * dt, halvings_left - 1, stats);
-    advance_with_reduction(stepper, f, x, t + 0.5 * dt, 0.5 * dt, halvings_left - 1, stats);
+/// Whether every real unknown of x is finite: one pass over the exponent bits, vectorizable.
+template <state S>
+bool all_finite(const S& x) {
+    const auto r = reals(x);
+    return all_finite_reals(r.data(), r.size());
 }
+
+/// The first real unknown of x that is not finite (0 if all are).
+template <state S>
+std::size_t first_non_finite(const S& x) {
+    const auto r = reals(x);
+    return first_index(r.size(), [&](std::size_t i) { return !std::isfinite(r[i]); });
+}
+
+inline void poll_cancel(const run_options& opt, double t) {
+    if (opt.cancel && opt.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
+}
+
+/// One step of the grid from t to t + dt (eci::step_with_reduction is the public form). A failed attempt is replaced by two half steps, depth first and
+/// iteratively (an explicit stack of at most max_halvings + 1 depths): at most opt.max_substeps attempts.
+template <class St, class F, class S>
+void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const run_options& opt, run_stats& stats) {
+    poll_cancel(opt, t);
+    step_result r = stepper.step(f, x, t, dt);
+    if (r) {
+        if (!all_finite(x)) throw non_finite_state(t + dt, first_non_finite(x));
+        return;
+    }
+    if (opt.max_halvings <= 0) throw step_size_underflow(t, r.component, dt, stats);
+    ++stats.step_reductions;
+    std::vector<int> pending{1, 1};  // depths of the pieces still to take, the next one last
+    double offset = 0.0;             // sum of pieces taken: multiples of dt 2^-depth, exact
+    std::uint64_t attempts = 1;
+    double smallest = dt;
+    while (!pending.empty()) {
+        const int depth = pending.back();
+        pending.pop_back();
+        const double h = std::ldexp(dt, -depth);
+        smallest = std::min(smallest, h);
+        if (++attempts > opt.max_substeps) throw step_work_exceeded(t, dt, opt.max_substeps, smallest);
+        const double ts = t + offset;
+        poll_cancel(opt, ts);
+        r = stepper.step(f, x, ts, h);
+        if (r) {
+            if (!all_finite(x)) throw non_finite_state(ts + h, first_non_finite(x));
+            offset += h;
+            continue;
+        }
+        if (depth >= opt.max_halvings) throw step_size_underflow(ts, r.component, h, stats);
+        ++stats.step_reductions;
+        pending.push_back(depth + 1);
+        pending.push_back(depth + 1);
+    }
+}
+
+/// The same with the default bounds and `max_halvings` (the benchmarks' entry point).
+template <class St, class F, class S>
+void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, int max_halvings, run_stats& stats) {
+    run_options opt;
+    opt.max_halvings = max_halvings;
+    advance_with_reduction(stepper, f, x, t, dt, opt, stats);
+}
+
 
 template <class St>
 void collect_solver_stats(const St& stepper, run_stats& stats) {
@@ -151,13 +268,13 @@ template <class St, class F, class S, class Observer>
 run_stats run_n_steps(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t n, Observer& observe,
                       const run_options& opt) {
     run_stats stats;
-    const counting_system<F> counted{f, stats.rhs_evals};
+    const counting_system<F> counted{f, stats.rhs_evals, opt.cancel};
     attach_quadratic_invariants(stepper, f, x);
     const remedy_stats before = remedy_counters(stepper);
     notify(observe, std::as_const(x), t0, std::uint64_t{0});
     try {
         for (std::uint64_t i = 1; i <= n; ++i) {
-            advance_with_reduction(stepper, counted, x, t0 + double(i - 1) * dt, dt, opt.max_halvings, stats);
+            advance_with_reduction(stepper, counted, x, t0 + double(i - 1) * dt, dt, opt, stats);
             ++stats.steps;
             if (i % opt.every == 0 || i == n) notify(observe, std::as_const(x), t0 + double(i) * dt, i);
         }
@@ -187,7 +304,9 @@ void step_with_reduction(St& stepper, F&& f, S& x, double t, double dt, run_stat
                          int max_halvings = run_options{}.max_halvings) {
     const detail::counting_system<std::remove_reference_t<F>> counted{f, stats.rhs_evals};
     const remedy_stats before = detail::remedy_counters(stepper);
-    detail::advance_with_reduction(stepper, counted, x, t, dt, max_halvings, stats);
+    run_options opt;
+    opt.max_halvings = max_halvings;
+    detail::advance_with_reduction(stepper, counted, x, t, dt, opt, stats);
     ++stats.steps;
     detail::collect_remedy_stats(stepper, before, stats);
 }
@@ -210,11 +329,14 @@ run_stats integrate_n_steps(St& stepper, F&& f, S& x, double t0, double dt, std:
     return detail::run_n_steps(stepper, f, x, t0, dt, n, observe, opt);
 }
 
-/// The number of steps of size dt that reach t_end from t0; a last step that would overshoot by more than
-/// round-off is shortened (see integrate_to).
+/// The number of steps of size dt that reach t_end from t0: at least one whenever t_end > t0, however short
+/// the span (a shorter last step, see integrate_to). Only a remainder at round-off level, the few eps of q
+/// that (t_end - t0) / dt carries, is not a step of its own (3 * 0.1 reaches 0.3 in 3 steps).
 inline std::uint64_t steps_to_reach(double t0, double t_end, double dt) {
+    if (!(t_end > t0)) return 0;
     const double q = (t_end - t0) / dt;
-    return static_cast<std::uint64_t>(std::ceil(q - 1e-9 * std::max(1.0, q)));
+    const double slack = 8.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, q);
+    return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(q - slack)));
 }
 
 /// Step from t0 to t_end with steps of dt; the last step is shortened to land on t_end exactly. Observer,

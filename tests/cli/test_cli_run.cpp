@@ -285,17 +285,26 @@ TEST_F(cli, csv_and_json_to_the_same_file_fails) {
 }
 
 // ---------------------------------------------------------------------------------------------------------
-// A run that fails midway: a state that overflows makes every step fail, down to dt * 2^-40.
+// A run that fails midway: rates of 1e10 at dt 0.01 need more sub-steps than one step may take.
 
-TEST_F(cli, step_size_underflow_names_time_and_csv_column_and_leaves_nothing) {
+TEST_F(cli, a_step_that_needs_too_much_work_names_its_time_and_leaves_nothing) {
     std::ofstream(work("out.csv")) << "precious csv\n";
-    // psi_P psi_Q = 1e400 overflows: C-PC's predictor is infinite in psi_K, and only psi_Q's radicand,
-    // psi~_Q (psi_Q + dt S~_Q) = finite * (1e200 - inf), is negative, so psi_Q is the component that fails.
-    const run_result r = eci({"run", "three-wave", "--method", "c-pc", "--psi", "1,1e200,1e200", "--output",
+    const run_result r = eci({"run", "three-wave", "--method", "c-pc", "--M", "1e10,1e10,-2e10", "--output",
                               "out.csv", "--summary-json", "out.json"});
     expect_one_error_line(r, 1);
     EXPECT_NE(r.err.find("at t = 0 "), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find("component psi_Q"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("sub-steps"), std::string::npos) << r.err;
+    EXPECT_EQ(read_text(work("out.csv")), "precious csv\n");
+    EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
+}
+
+// A state whose products overflow (psi_P psi_Q = 1e400) is refused before the run, the old file kept.
+TEST_F(cli, an_initial_condition_that_overflows_is_bad_input_and_leaves_nothing) {
+    std::ofstream(work("out.csv")) << "precious csv\n";
+    const run_result r = eci({"run", "three-wave", "--method", "c-pc", "--psi", "1,1e200,1e200", "--output",
+                              "out.csv", "--summary-json", "out.json"});
+    expect_one_error_line(r, 2);
+    EXPECT_NE(r.err.find("overflows"), std::string::npos) << r.err;
     EXPECT_EQ(read_text(work("out.csv")), "precious csv\n");
     EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
 }
@@ -307,7 +316,7 @@ TEST_F(cli, interrupt_removes_partial_output_and_exits_130) {
                               "--summary-json", "out.json"},
                              "timeout -s INT --preserve-status 0.5");
     expect_one_error_line(r, 130);
-    EXPECT_NE(r.err.find("interrupted at t = "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("interrupted by SIGINT at t = "), std::string::npos) << r.err;
     EXPECT_EQ(read_text(work("out.csv")), "precious csv\n");
     EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
 }

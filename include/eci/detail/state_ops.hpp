@@ -2,7 +2,9 @@
 // std::complex<double> is layout-compatible with double[2] ([complex.numbers]), so complex modes become pairs.
 #pragma once
 
+#include <bit>
 #include <cstddef>
+#include <cstdint>
 #include <span>
 #include <vector>
 
@@ -31,6 +33,14 @@ void resize_like(S& buffer, const S& like) {
     if constexpr (requires { buffer.resize(std::ranges::size(like)); }) {
         if (std::ranges::size(buffer) != std::ranges::size(like)) buffer.resize(std::ranges::size(like));
     }
+}
+
+/// Whether all n values are finite: one pass over the exponent bits that the compiler vectorizes.
+inline bool all_finite_reals(const double* v, std::size_t n) {
+    constexpr std::uint64_t exponent = 0x7ff0000000000000ull;
+    std::uint64_t bad = 0;
+    for (std::size_t i = 0; i < n; ++i) bad |= (std::bit_cast<std::uint64_t>(v[i]) & exponent) == exponent;
+    return bad == 0;
 }
 
 /// Index of the first real unknown for which `bad(i)` holds; called only after a step has failed.

@@ -57,9 +57,9 @@ struct kepler {
 
     /// Throws std::invalid_argument unless m > 0, K > 0, ell != 0, all finite.
     void validate() const {
-        detail::require_finite(m, "Kepler m");
-        detail::require_finite(K, "Kepler K");
-        detail::require_finite(ell, "Kepler ell");
+        detail::require_normal(m, "Kepler m");
+        detail::require_normal(K, "Kepler K");
+        detail::require_normal(ell, "Kepler ell");
         if (!(m > 0.0)) throw std::invalid_argument("Kepler m must be positive, got " + detail::shortest_text(m));
         if (!(K > 0.0)) throw std::invalid_argument("Kepler K must be positive, got " + detail::shortest_text(K));
         if (ell == 0.0)
@@ -72,10 +72,27 @@ struct kepler {
         detail::require_finite(s[1], "Kepler v_r");
         detail::require_finite(s[2], "Kepler theta");
         if (!(s[0] > 0.0)) throw std::invalid_argument("Kepler r must be positive, got " + detail::shortest_text(s[0]));
+        // The terms of H, eq. (46), one by one: an overflow in one would make H inf - inf = NaN.
+        const double r = s[0];
+        detail::require_representable(0.5 * m * s[1] * s[1], "the kinetic energy m v_r^2 / 2", false);
+        detail::require_representable(ell * ell / (2.0 * m * r * r), "ell^2 / (2 m r^2) at r = " + detail::shortest_text(r));
+        detail::require_representable(K / r, "K / r at r = " + detail::shortest_text(r));
         const double h = hamiltonian(s);
         if (!(h < 0.0))
             throw std::invalid_argument("Kepler orbit is unbound (H = " + detail::shortest_text(h) +
                                         " >= 0); only bound orbits are supported");
+        // The orbit runs between the roots of H = ell^2 / (2 m r^2) - K / r; at its pericentre the rates (45b),
+        // (45c) and the transform's terms are largest, at its apocentre the smallest: all must be representable.
+        const double disc = std::max(0.0, K * K + 2.0 * h * ell * ell / m);
+        const double r_min = (ell * ell / m) / (K + std::sqrt(disc)), r_max = (K + std::sqrt(disc)) / (-2.0 * h);
+        const std::string where = " on this orbit (r from " + detail::shortest_text(r_min) + " to " +
+                                  detail::shortest_text(r_max) + ")";
+        detail::require_representable(r_min, "the pericentre" + where);
+        detail::require_representable(r_max, "the apocentre" + where);
+        detail::require_representable(ell * ell / (m * r_min * r_min * r_min * m), "the largest d v_r/dt" + where);
+        detail::require_representable(ell / (m * r_min * r_min), "the largest d theta/dt" + where);
+        detail::require_representable(ell / (m * r_max * r_max), "the smallest d theta/dt" + where);
+        detail::require_representable(K / (r_max * r_max), "the smallest force K / r^2" + where);
     }
 
     void operator()(const state_type& s, state_type& dsdt, double /*t*/) const {

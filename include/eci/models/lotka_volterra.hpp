@@ -102,7 +102,7 @@ struct lotka_volterra {
 
     /// Throws std::invalid_argument unless mu is positive and finite.
     void validate() const {
-        detail::require_finite(mu, "Lotka-Volterra mu");
+        detail::require_normal(mu, "Lotka-Volterra mu");
         if (!(mu > 0.0))
             throw std::invalid_argument("Lotka-Volterra mu must be positive, got " + detail::shortest_text(mu));
     }
@@ -114,6 +114,17 @@ struct lotka_volterra {
             throw std::invalid_argument("Lotka-Volterra x must be positive, got " + detail::shortest_text(s[0]));
         if (!(s[1] > 0.0))
             throw std::invalid_argument("Lotka-Volterra y must be positive, got " + detail::shortest_text(s[1]));
+        // The orbit is the level set g(x) + mu g(y) = c of H, eq. (37) (g(x) = x - 1 - log x): it reaches
+        // g(x) = c where y = 1, i.e. x ~ e^-(c+1), and g(y) = c / mu where x = 1. Beyond c ~ 700 those are
+        // below the smallest normal double (e^-708): the run could only stall in subnormal arithmetic.
+        const double c = g(s[0]) + mu * g(s[1]);
+        constexpr double limit = 700.0;
+        if (!(c <= limit) || !(c / mu <= limit))
+            throw std::invalid_argument(
+                "the Lotka-Volterra orbit through (" + detail::shortest_text(s[0]) + ", " + detail::shortest_text(s[1]) +
+                ") with mu = " + detail::shortest_text(mu) + " reaches " + (c / mu > c ? "y" : "x") + " ~ e^-" +
+                detail::shortest_text(std::floor(std::max(c, c / mu) + 1.0)) +
+                ", beyond double precision (e^-708); start closer to the equilibrium (1, 1)");
     }
 
     void operator()(const state_type& s, state_type& dsdt, double /*t*/) const {

@@ -56,6 +56,14 @@ struct n_wave {
             {"seed", "seed of the random system and initial condition", 0, &recipe::seed},
         }};
     }
+    /// About how many bytes a run of this recipe holds: the triads, the wavenumbers and eight states (the state,
+    /// a stepper's buffers, checks); 0 for a recipe random() rejects anyway. Throws std::invalid_argument if the
+    /// triad count overflows.
+    static double bytes_needed(const recipe& r) {
+        if (r.modes < 3 || (r.triads_per_mode == 1 && r.modes % 3 != 0)) return 0.0;
+        const double triads = double(triad_count(r.modes, r.triads_per_mode));
+        return triads * double(sizeof(triad)) + double(r.modes) * (double(sizeof(double)) + 8.0 * double(sizeof(T)));
+    }
     /// The system and initial state a recipe draws; throws std::invalid_argument as random() does.
     static std::pair<n_wave, state_type> generate(const recipe& r) {
         n_wave w = random(r.modes, r.triads_per_mode, r.seed);
@@ -74,19 +82,24 @@ struct n_wave {
     /// Throws std::invalid_argument for an out-of-range index or a triad violating eq. (2) or (3).
     void validate() const {
         const std::size_t n = size();
-        for (double k : wavenumber) detail::require_finite(k, "wavenumber");
+        for (double k : wavenumber) {
+            detail::require_normal(k, "wavenumber");
+            detail::require_representable(k * k, "a wavenumber's square", k != 0.0);
+        }
         for (std::size_t i = 0; i < triads.size(); ++i) {
             const triad& t = triads[i];
-            const std::string name = "triad " + std::to_string(i);
-            if (t.k >= n || t.p >= n || t.q >= n) throw std::invalid_argument(name + " refers to a missing mode");
-            if (t.k == t.p || t.p == t.q || t.q == t.k) throw std::invalid_argument(name + " repeats a mode");
-            for (double m : {t.Mk, t.Mp, t.Mq}) detail::require_finite(m, name + " coefficient");
+            const auto name = [i] { return "triad " + std::to_string(i); };  // built only for a message
+            if (t.k >= n || t.p >= n || t.q >= n) throw std::invalid_argument(name() + " refers to a missing mode");
+            if (t.k == t.p || t.p == t.q || t.q == t.k) throw std::invalid_argument(name() + " repeats a mode");
+            for (double m : {t.Mk, t.Mp, t.Mq}) detail::require_normal(m, [&] { return name() + " coefficient"; });
             detail::require_cancellation(t.Mk + t.Mp + t.Mq, std::abs(t.Mk) + std::abs(t.Mp) + std::abs(t.Mq),
-                                         name + ": M_k + M_p + M_q (eq. 2)");
+                                         [&] { return name() + ": M_k + M_p + M_q (eq. 2)"; });
             const double k2 = sq(wavenumber[t.k]), p2 = sq(wavenumber[t.p]), q2 = sq(wavenumber[t.q]);
+            for (double prod : {k2 * t.Mk, p2 * t.Mp, q2 * t.Mq})
+                detail::require_representable(prod, [&] { return name() + ": a product k^2 M_k"; }, false);
             detail::require_cancellation(k2 * t.Mk + p2 * t.Mp + q2 * t.Mq,
                                          std::abs(k2 * t.Mk) + std::abs(p2 * t.Mp) + std::abs(q2 * t.Mq),
-                                         name + ": k^2 M_k + p^2 M_p + q^2 M_q (eq. 3)");
+                                         [&] { return name() + ": k^2 M_k + p^2 M_p + q^2 M_q (eq. 3)"; });
         }
     }
 
@@ -145,11 +158,11 @@ struct n_wave {
         if (triads_per_mode == 0) throw std::invalid_argument("triads per mode must be at least 1");
         if (triads_per_mode == 1 && modes % 3 != 0)
             throw std::invalid_argument("independent triads need a number of modes divisible by 3");
+        const std::size_t count = triad_count(modes, triads_per_mode);
         splitmix rng{seed};
         n_wave w;
         w.wavenumber.resize(modes);
         for (double& k : w.wavenumber) k = 1.0 + 9.0 * rng.uniform();
-        const std::size_t count = triads_per_mode == 1 ? modes / 3 : modes * triads_per_mode / 3;
         w.triads.reserve(count);
         for (std::size_t i = 0; i < count; ++i) {
             std::uint32_t k, p, q;
@@ -167,6 +180,22 @@ struct n_wave {
             w.triads.push_back({k, p, q, scale * mk, scale * mp, scale * mq});
         }
         return w;
+    }
+
+    /// The number of triads random(modes, triads_per_mode, seed) builds: modes * triads_per_mode / 3 (modes / 3
+    /// for independent triads), computed without overflow; throws std::invalid_argument if it exceeds what a
+    /// std::vector<triad> can hold.
+    static std::size_t triad_count(std::size_t modes, std::size_t triads_per_mode) {
+        if (triads_per_mode == 1) return modes / 3;
+        // modes * tpm / 3 exactly: split modes = 3 q + r, then q tpm + r tpm / 3, each checked.
+        const std::size_t q = modes / 3, r = modes % 3;
+        std::size_t a = 0, count = 0;
+        if (__builtin_mul_overflow(q, triads_per_mode, &a) ||
+            __builtin_add_overflow(a, r * (triads_per_mode / 3) + (r * (triads_per_mode % 3)) / 3, &count) ||
+            count > std::vector<triad>().max_size())
+            throw std::invalid_argument(std::to_string(modes) + " modes with " + std::to_string(triads_per_mode) +
+                                        " triads per mode is more triads than memory can hold");
+        return count;
     }
 
     /// A random initial state, every real unknown uniform in [-1, 1].

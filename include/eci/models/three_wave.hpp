@@ -3,9 +3,11 @@
 // which make both invariants exact.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <stdexcept>
+#include <string>
 #include <string_view>
 
 #include "../steppers/radicand_remedy.hpp"
@@ -57,13 +59,34 @@ struct three_wave {
 
     /// Throws std::invalid_argument if eq. (2) or (3) fails beyond round-off or a parameter is not finite.
     void validate() const {
-        for (double v : {K, P, Q, M[0], M[1], M[2]}) detail::require_finite(v, "three-wave parameter");
+        const char* names[] = {"K", "P", "Q", "M_K", "M_P", "M_Q"};
+        const double values[] = {K, P, Q, M[0], M[1], M[2]};
+        for (int i = 0; i < 6; ++i) detail::require_normal(values[i], std::string("three-wave ") + names[i]);
         detail::require_cancellation(M[0] + M[1] + M[2], std::abs(M[0]) + std::abs(M[1]) + std::abs(M[2]),
                                      "M_K + M_P + M_Q (eq. 2)");
         const double k2 = K * K, p2 = P * P, q2 = Q * Q;
+        // Squares and their products with M must be representable, or eq. (3) would compare inf with inf.
+        detail::require_representable(k2, "K^2", K != 0.0);
+        detail::require_representable(p2, "P^2", P != 0.0);
+        detail::require_representable(q2, "Q^2", Q != 0.0);
+        detail::require_representable(k2 * M[0], "K^2 M_K", K != 0.0 && M[0] != 0.0);
+        detail::require_representable(p2 * M[1], "P^2 M_P", P != 0.0 && M[1] != 0.0);
+        detail::require_representable(q2 * M[2], "Q^2 M_Q", Q != 0.0 && M[2] != 0.0);
         detail::require_cancellation(k2 * M[0] + p2 * M[1] + q2 * M[2],
                                      std::abs(k2 * M[0]) + std::abs(p2 * M[1]) + std::abs(q2 * M[2]),
                                      "K^2 M_K + P^2 M_P + Q^2 M_Q (eq. 3)");
+    }
+
+    /// Throws std::invalid_argument if the state's scale is beyond double precision: energy (4) and enstrophy
+    /// (5) bound every |psi| for all time, so if they and the largest rate, max|M| 2E, are representable, the
+    /// whole run is; if a mode is nonzero but E underflows, the run could only produce zeros.
+    void validate_state(const state_type& x) const {
+        for (int i = 0; i < 3; ++i) detail::require_normal(x[i], std::string("three-wave ") + component_names[i]);
+        const bool moving = x[0] != 0.0 || x[1] != 0.0 || x[2] != 0.0;
+        detail::require_representable(energy(x), "the energy (4) of this initial condition", moving);
+        detail::require_representable(enstrophy(x), "the enstrophy (5) of this initial condition", false);
+        const double m = std::max({std::abs(M[0]), std::abs(M[1]), std::abs(M[2])});
+        detail::require_representable(m * 2.0 * energy(x), "the largest rate max|M| 2E", false);
     }
 
     void operator()(const state_type& x, state_type& dxdt, double /*t*/) const {

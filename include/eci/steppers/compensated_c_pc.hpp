@@ -120,6 +120,8 @@ class c_pc_compensated : public radicand_remedy {
         // Only steps with failures pay for the remedy; the failed unknowns are NaN in p.
         if (bad != 0.0 && !remedy_failures(p, k0, xr.data(), k1, r, dt, n))
             return step_result::failure(first_failure(n, [&](std::size_t i) { return !(p[i] == p[i]); }));
+        if (!detail::all_finite_reals(p, n))  // an overflow (inf) fails the step too
+            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(p[i]); }));
         using std::swap;
         swap(x, pred_);
         swap(res_, k0_);

@@ -43,7 +43,11 @@ class conservative_euler : public radicand_remedy {
             const double rad = xr[i] * (xr[i] + 2.0 * dt * k[i]);  // eq. (16): psi chi, chi = psi + 2 tau S
             // Near zero: Euler predicts a sign change within 2 tau (the paper's chi test), or the step would move
             // the mode by more than its own size, where (16)'s error in psi_k, O(tau^2 / psi_k), becomes O(tau).
-            near_zero += (rad > 0.0 && std::abs(xr[i]) > dt * std::abs(k[i])) ? 0.0 : 1.0;
+            // An overflowing radicand (rad > DBL_MAX) goes to the implicit step too, which fails it if it must.
+            near_zero += (rad > 0.0 && rad <= std::numeric_limits<double>::max() &&
+                          std::abs(xr[i]) > dt * std::abs(k[i]))
+                             ? 0.0
+                             : 1.0;
             y[i] = std::copysign(std::sqrt(rad), xr[i]);
         }
         // A few near-zero modes among many take Euler's own update, and the rescale of radicand_remedy.hpp makes

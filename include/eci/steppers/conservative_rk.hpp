@@ -57,6 +57,9 @@ class conservative_rk : public radicand_remedy {
         // Only steps with failures pay for the remedy; the failed unknowns are NaN in o.
         if (bad != 0.0 && !remedy_failures(o, xr.data(), dt, n))
             return step_result::failure(first_failure(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
+        // An overflow (inf) fails the step as well, never passes as a result.
+        if (!detail::all_finite_reals(o, n))
+            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); }));
         using std::swap;
         swap(x, out);
         return step_result::success();

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <cstddef>
 #include <utility>
 
@@ -88,7 +89,26 @@ class explicit_rk {
         std::array<const double*, T.stages> kp{};
         for (std::size_t j = 0; j < T.stages; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
         auto xr = detail::reals(x);
-        detail::combine_stages<T.b>(xr.data(), xr.data(), kp, dt, xr.size(), std::make_index_sequence<T.stages>{});
+        const std::size_t n = xr.size();
+        // A non-finite update (a blow-up) fails the step and leaves x as it was, like every other failure.
+        if constexpr (T.stages > 1) {
+            // The stage buffer is free once the stages are done: the update goes there, then swaps in.
+            double* o = detail::reals(st_.stage).data();
+            detail::combine_stages<T.b>(o, xr.data(), kp, dt, n, std::make_index_sequence<T.stages>{});
+            if (!detail::all_finite_reals(o, n))
+                return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); }));
+            using std::swap;
+            swap(x, st_.stage);
+        } else {
+            // Euler has no spare buffer: check x + dt b k (the same arithmetic) before writing it.
+            const double w = dt * T.b[0];
+            const double* k = kp[0];
+            auto bad_at = [&](std::size_t i) { return !std::isfinite(xr[i] + w * k[i]); };
+            double probe = 0.0;
+            for (std::size_t i = 0; i < n; ++i) probe += 0.0 * (xr[i] + w * k[i]);  // NaN iff one is not finite
+            if (!(probe == 0.0)) return step_result::failure(detail::first_index(n, bad_at));
+            detail::combine_stages<T.b>(xr.data(), xr.data(), kp, dt, n, std::make_index_sequence<T.stages>{});
+        }
         return step_result::success();
     }
 

@@ -74,7 +74,8 @@ class implicit_midpoint {
                 scale = std::max(scale, std::abs(next));
                 y[i] = next;
             }
-            if (!(change == change) || !(scale == scale)) break;  // NaN: no point iterating
+            // NaN or infinity: no point iterating, and an infinite scale would pass any test below.
+            if (!std::isfinite(change) || !std::isfinite(scale)) break;
             // Converged when the update is at round-off, or has stopped shrinking once close to it (the last
             // bits of a contraction can cycle instead of settling).
             const bool at_roundoff = change <= 2.0 * eps * scale;

@@ -67,6 +67,8 @@ class kahan {
             d[i] = dt * k[i];
         }
         if (!detail::solve_linear(M, d)) return step_result::failure(0);
+        for (std::size_t i = 0; i < n; ++i)  // a non-finite update fails the step, x untouched
+            if (!std::isfinite(x[i] + d[i])) return step_result::failure(i);
         for (std::size_t i = 0; i < n; ++i) x[i] += d[i];
         return step_result::success();
     }

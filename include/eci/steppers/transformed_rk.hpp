@@ -6,6 +6,7 @@
 #include <cmath>
 #include <concepts>
 #include <cstddef>
+#include <limits>
 #include <type_traits>
 #include <utility>
 
@@ -47,11 +48,11 @@ struct square_transform {
         const auto o = detail::reals(x);
         double bad = 0.0;
         for (std::size_t i = 0; i < q.size(); ++i) {
-            bad += q[i] >= 0.0 ? 0.0 : 1.0;
+            bad += q[i] >= 0.0 && q[i] <= std::numeric_limits<double>::max() ? 0.0 : 1.0;  // inf: overflow
             o[i] = std::copysign(std::sqrt(q[i]), h[i]);
         }
         if (bad != 0.0) return step_result::failure(detail::first_index(q.size(), [&](std::size_t i) {
-            return !(q[i] >= 0.0);
+            return !(q[i] >= 0.0 && q[i] <= std::numeric_limits<double>::max());
         }));
         return step_result::success();
     }

@@ -1,0 +1,307 @@
+// Property test of the whole CLI: random argument vectors (random models, methods, parameters, initial
+// conditions, step sizes, outputs, malformed and extreme numbers), each run bounded in time, against the
+// contract: exit 0 with finite numbers and conserved invariants kept to their round-off bound, or exit 1/2
+// with exactly one line on stderr; never a leftover or destroyed file, never a hang.
+// ECI_FUZZ_SECONDS (default 20) bounds the whole test, ECI_FUZZ_SEED (default 1) picks the sequence;
+// tests/fuzz/long_fuzz.sh runs it for minutes with a fresh seed.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <random>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include <eci/registry.hpp>
+
+#include "support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using eci::test_cli::lines_of;
+using eci::test_cli::read_text;
+using eci::test_cli::run_eci;
+using eci::test_cli::run_result;
+using eci::test_cli::scratch_dir;
+using eci::test_cli::shell_quote;
+
+constexpr double eps = std::numeric_limits<double>::epsilon();
+
+class generator {
+   public:
+    explicit generator(std::uint64_t seed) : rng_(seed) {}
+
+    double uniform(double a, double b) { return std::uniform_real_distribution<double>(a, b)(rng_); }
+    bool chance(double p) { return uniform(0.0, 1.0) < p; }
+    std::size_t below(std::size_t n) { return std::uniform_int_distribution<std::size_t>(0, n - 1)(rng_); }
+    template <class T>
+    const T& pick(const std::vector<T>& v) { return v[below(v.size())]; }
+
+    static std::string text(double v) {
+        std::ostringstream s;
+        s.precision(17);
+        s << v;
+        return s.str();
+    }
+
+    /// A number: mostly of a sensible scale around `typical`, sometimes extreme, sometimes malformed.
+    std::string number(double typical, bool positive) {
+        const double r = uniform(0.0, 1.0);
+        if (r < 0.70) {
+            const double v = typical * std::pow(10.0, uniform(-1.5, 1.5));
+            return text(positive || chance(0.7) ? v : -v);
+        }
+        if (r < 0.85)
+            return pick<std::string>({"0", "-0", "1e-320", "4.9e-324", "1e-300", "1e300", "1.7e308", "1e-160",
+                                      "1e160", "-1e300", "nan", "inf", "-inf", "1e400", "2.2250738585072014e-308"});
+        if (r < 0.93)
+            return pick<std::string>({"", "abc", "1,2", "0x1p3", " 1", "1e", "--", "1.5x", "18446744073709551616",
+                                      "-", "1..2", "+", "e5"});
+        return text(typical);
+    }
+
+    /// A count: mostly small, sometimes huge, negative or malformed.
+    std::string count(std::uint64_t typical) {
+        const double r = uniform(0.0, 1.0);
+        if (r < 0.8) return std::to_string(1 + below(static_cast<std::size_t>(typical)));
+        return pick<std::string>({"0", "-1", "", "1.5", "99999999999999999999", "18446744073709551615",
+                                  "18446744073709551616", "9999999999999999999", "abc", "1e3", "4294967297"});
+    }
+
+    std::mt19937_64& engine() { return rng_; }
+
+   private:
+    std::mt19937_64 rng_;
+};
+
+struct fuzz_case {
+    std::vector<std::string> args;
+    std::string model, method;
+    bool csv = false, json = false, csv_old = false, json_old = false;
+};
+
+fuzz_case make_case(generator& g) {
+    static const std::vector<std::string> models{"three-wave", "n-wave", "n-wave-complex", "lotka-volterra", "kepler"};
+    std::vector<std::string> methods;
+    for (const eci::method_info& m : eci::methods) methods.emplace_back(m.name);
+    fuzz_case c;
+    c.model = g.pick(models);
+    std::vector<std::pair<std::string, std::string>> options;  // (flag, value); value may hold commas
+    auto opt = [&](const std::string& flag, const std::string& value, double p = 0.5) {
+        if (g.chance(p)) options.emplace_back(flag, value);
+    };
+    if (c.model == "three-wave") {
+        // Half the time coefficients obeying eqs. (2)-(3) for random K, P, Q; otherwise whatever comes.
+        const double K = g.uniform(0.3, 5), P = g.uniform(0.3, 5), Q = g.uniform(0.3, 5);
+        if (g.chance(0.5)) {
+            opt("--K", generator::text(K), 1.0), opt("--P", generator::text(P), 1.0), opt("--Q", generator::text(Q), 1.0);
+            const double s = std::pow(10.0, g.uniform(-2, 2));
+            opt("--M", generator::text(s * (P * P - Q * Q)) + "," + generator::text(s * (Q * Q - K * K)) + "," +
+                           generator::text(s * (K * K - P * P)), 0.9);
+        } else {
+            opt("--K", g.number(1.7, true)), opt("--P", g.number(3, true)), opt("--Q", g.number(2.4, true));
+            opt("--M", g.number(1, false) + "," + g.number(1, false) + "," + g.number(2, false));
+        }
+        opt("--psi", g.number(1, false) + "," + g.number(1, false) + "," + g.number(1, false));
+    } else if (c.model == "lotka-volterra") {
+        opt("--mu", g.number(1.5, true)), opt("--x", g.number(1, true)), opt("--y", g.number(0.4, true));
+    } else if (c.model == "kepler") {
+        opt("--m", g.number(1, true)), opt("--K", g.number(1.5, true)), opt("--ell", g.number(1, false));
+        opt("--r", g.number(1, true)), opt("--v-r", g.number(0.3, false)), opt("--theta", g.number(1, false));
+    } else {
+        opt("--modes", g.count(60)), opt("--triads-per-mode", g.count(25));
+        opt("--seed", g.chance(0.8) ? std::to_string(g.engine()()) : g.count(1000));
+    }
+    c.method = g.chance(0.85) ? g.pick(methods) : g.pick<std::string>({"", "nope", "c-pc "});
+    if (!c.method.empty() || g.chance(0.5)) opt("--method", c.method, 0.85);
+    opt("--dt", g.chance(0.8) ? generator::text(std::pow(10.0, g.uniform(-3.5, 0.3))) : g.number(0.01, true), 0.7);
+    const double span = g.uniform(0.0, 1.0);
+    if (span < 0.45)
+        opt("--t-end", g.chance(0.85) ? generator::text(std::pow(10.0, g.uniform(-3, 2.5))) : g.number(10, true), 1.0);
+    else if (span < 0.9)
+        opt("--steps", g.chance(0.85) ? std::to_string(g.below(20000)) : g.count(1000), 1.0);
+    opt("--every", g.count(50), 0.2);
+    if (g.chance(0.5)) {
+        c.csv = true;
+        opt("--output", g.chance(0.9) ? "o.csv" : "-", 1.0);
+        if (options.back().second == "-") c.csv = false;
+        c.csv_old = c.csv && g.chance(0.3);
+    }
+    if (g.chance(0.35)) {
+        c.json = true;
+        c.json_old = g.chance(0.3);
+        opt("--summary-json", "s.json", 1.0);
+    }
+    if (g.chance(0.03)) options.emplace_back("--bogus", "1");
+    std::shuffle(options.begin(), options.end(), g.engine());
+    c.args = {"run"};
+    // Now and then an option before the model name, as `eci run --dt 0.1 three-wave` would have it.
+    if (!options.empty() && g.chance(0.05)) {
+        c.args.push_back(options.front().first), c.args.push_back(options.front().second);
+        options.erase(options.begin());
+    }
+    c.args.push_back(c.model);
+    for (const auto& [flag, value] : options) {
+        if (g.chance(0.2) && !value.empty() && value.find(',') == std::string::npos) {
+            c.args.push_back(flag + "=" + value);
+        } else {
+            c.args.push_back(flag);
+            c.args.push_back(value);
+        }
+    }
+    return c;
+}
+
+std::string describe(const fuzz_case& c) {
+    std::string s = "eci";
+    for (const std::string& a : c.args) s.append(" ").append(shell_quote(a));
+    return s;
+}
+
+/// The numbers of "  steps N, step reductions M, ..." and of each invariant row of the summary.
+struct summary_view {
+    double steps = -1, reductions = -1;
+    std::map<std::string, std::vector<std::string>> invariants;  // name -> initial, final, abs, rel
+};
+
+summary_view parse_summary(const std::string& err) {
+    summary_view v;
+    bool table = false;
+    for (const std::string& line : lines_of(err)) {
+        std::istringstream in(line);
+        std::vector<std::string> words;
+        for (std::string w; in >> w;) words.push_back(w);
+        if (words.size() >= 5 && words[0] == "steps" && words[2] == "step") {
+            v.steps = std::strtod(words[1].c_str(), nullptr);
+            v.reductions = std::strtod(words[4].c_str(), nullptr);
+        } else if (!words.empty() && words[0] == "invariant") {
+            table = true;
+        } else if (table && words.size() == 5) {
+            v.invariants[words[0]] = {words[1], words[2], words[3], words[4]};
+        } else {
+            table = false;
+        }
+    }
+    return v;
+}
+
+bool is_non_finite_token(std::string t) {
+    while (!t.empty() && (t.back() == ',' || t.back() == ')')) t.pop_back();
+    std::transform(t.begin(), t.end(), t.begin(), [](unsigned char ch) { return char(std::tolower(ch)); });
+    if (!t.empty() && (t[0] == '-' || t[0] == '+')) t.erase(0, 1);
+    return t == "inf" || t == "nan" || t == "infinity";
+}
+
+/// Checks one run against the contract; returns the failures (empty if none).
+std::vector<std::string> check(const fuzz_case& c, const run_result& r, const fs::path& work) {
+    std::vector<std::string> bad;
+    const auto err_lines = lines_of(r.err);
+    if (r.status == 137 || r.status == -1) bad.push_back("hang: killed after ignoring SIGINT");
+    if (r.status != 0 && r.status != 1 && r.status != 2 && r.status != 130)
+        bad.push_back("exit status " + std::to_string(r.status));
+    if (r.status != 0) {
+        if (err_lines.size() != 1 || r.err.rfind("eci: error: ", 0) != 0)
+            bad.push_back("a failure must print one line 'eci: error: ...', got:\n" + r.err);
+    } else {
+        std::istringstream in(r.err);
+        for (std::string w; in >> w;)
+            if (is_non_finite_token(w)) bad.push_back("non-finite number in the summary:\n" + r.err);
+        const summary_view s = parse_summary(r.err);
+        const auto method = eci::find_method(c.method.empty() ? "c-pc" : c.method);
+        // The invariants of these models are sums of non-negative terms, so |I(0)| is their scale and the
+        // relative drift of an exactly conservative method is a few eps per step, k eps (steps + reductions)
+        // at worst (rounding errors that do not cancel). The implicit midpoint rule stops its iteration within
+        // 1e3 eps of round-off (implicit_midpoint.hpp), so its per-step bound is that.
+        // Lotka-Volterra's H is not quadratic: there only the transformed methods (c-*) conserve it; the
+        // implicit midpoint rule conserves quadratic invariants only.
+        const bool sums_of_squares = c.model != "kepler";
+        const bool conserves_here =
+            method && method->conservative && (c.model != "lotka-volterra" || method->name.substr(0, 2) == "c-");
+        if (conserves_here && sums_of_squares && s.steps >= 0) {
+            const double per_step = method->name == "implicit-midpoint" ? 2048.0 : 64.0;
+            const double bound = per_step * eps * (s.steps + s.reductions + 1.0);
+            for (const auto& [name, v] : s.invariants) {
+                const double rel = v[3] == "n/a" ? 0.0 : std::strtod(v[3].c_str(), nullptr);
+                if (!(rel <= bound))
+                    bad.push_back(name + " drifted by " + v[3] + " relative, bound " + generator::text(bound));
+            }
+        }
+        for (std::string w : {"o.csv"})
+            if (c.csv && !fs::exists(work / w)) bad.push_back("exit 0 without " + w);
+        if (c.json && !fs::exists(work / "s.json")) bad.push_back("exit 0 without s.json");
+    }
+    // Files: on failure the old ones untouched and no new one; never a temporary.
+    std::set<std::string> expected;
+    if (c.csv_old || (r.status == 0 && c.csv)) expected.insert("o.csv");
+    if (c.json_old || (r.status == 0 && c.json)) expected.insert("s.json");
+    std::set<std::string> present;
+    for (const auto& e : fs::directory_iterator(work)) present.insert(e.path().filename().string());
+    if (present != expected) {
+        std::string list;
+        for (const auto& p : present) list += " " + p;
+        bad.push_back("files left:" + list);
+    }
+    if (r.status != 0) {
+        if (c.csv_old && read_text(work / "o.csv") != "old\n") bad.push_back("a failed run changed o.csv");
+        if (c.json_old && read_text(work / "s.json") != "old\n") bad.push_back("a failed run changed s.json");
+    }
+    return bad;
+}
+
+double env_number(const char* name, double fallback) {
+    const char* v = std::getenv(name);
+    return v && *v ? std::strtod(v, nullptr) : fallback;
+}
+
+TEST(fuzz, random_command_lines_keep_the_contract) {
+    const double budget = env_number("ECI_FUZZ_SECONDS", 20.0);
+    const auto seed = static_cast<std::uint64_t>(env_number("ECI_FUZZ_SEED", 1.0));
+    generator g(seed);
+    const scratch_dir scratch("fuzz");
+    const fs::path work = scratch.path() / "work", capture = scratch.path() / "capture";
+    fs::create_directory(work);
+    fs::create_directory(capture);
+    std::map<int, int> statuses;
+    int cases = 0, failures = 0;
+    const auto start = std::chrono::steady_clock::now();
+    while (std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() < budget) {
+        const fuzz_case c = make_case(g);
+        for (const auto& e : fs::directory_iterator(work)) fs::remove_all(e.path());
+        if (c.csv_old) std::ofstream(work / "o.csv") << "old\n";
+        if (c.json_old) std::ofstream(work / "s.json") << "old\n";
+        std::string args;
+        for (const std::string& a : c.args) args.append(" ").append(shell_quote(a));
+        // Each run gets 5 s, then SIGINT (which it must honour: 130), then SIGKILL 2 s later (a hang: 137).
+        const run_result r = run_eci(args, capture,
+                                     "cd " + shell_quote(work.string()) + " && timeout --preserve-status -s INT -k 2 5");
+        ++cases;
+        ++statuses[r.status];
+        const auto bad = check(c, r, work);
+        if (!bad.empty()) {
+            ++failures;
+            std::string all;
+            for (const auto& b : bad) all += "\n  " + b;
+            ADD_FAILURE() << "seed " << seed << ", case " << cases << ": " << describe(c) << all;
+            if (failures >= 10) break;
+        }
+    }
+    std::string histogram;
+    for (const auto& [status, n] : statuses) histogram += " exit " + std::to_string(status) + ": " + std::to_string(n) + ";";
+    std::printf("fuzz: seed %llu, %d cases in %.0f s;%s\n", static_cast<unsigned long long>(seed), cases,
+                std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count(), histogram.c_str());
+    ::testing::Test::RecordProperty("cases", cases);
+    EXPECT_GT(cases, 10);
+    EXPECT_GT(statuses[0], 0);  // the generator must also make valid runs, or it tests only the parser
+}
+
+}  // namespace

@@ -1,0 +1,476 @@
+// Reliability of `eci` through the real binary, one test per class of defect with several members each: no
+// input hangs it (work bound, up-front range checks, every signal honoured), no wrong result exits 0, no failure
+// leaves or destroys a file (special files, symlinks, modes, read-only files, full disks, outputs committed
+// together), and the messages say what is wrong.
+#include <gtest/gtest.h>
+
+#include <sys/mount.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "support.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+using eci::test_cli::lines_of;
+using eci::test_cli::read_text;
+using eci::test_cli::run_eci;
+using eci::test_cli::run_result;
+using eci::test_cli::scratch_dir;
+using eci::test_cli::shell_quote;
+using eci::test_cli::split;
+
+/// Every run here is bounded: SIGINT after `seconds`, SIGKILL 2 s later; --preserve-status keeps eci's own
+/// status (130 when it honoured the SIGINT, 137 when it had to be killed: a hang).
+std::string bounded(int seconds) {
+    return "timeout --preserve-status -s INT -k 2 " + std::to_string(seconds) + " ";
+}
+
+class reliability : public ::testing::Test {
+   protected:
+    void SetUp() override {
+        work_ = scratch_.path() / "work";
+        fs::create_directory(work_);
+        fs::create_directory(scratch_.path() / "capture");
+    }
+
+    /// Runs eci with args in work/, bounded to 20 s.
+    run_result eci(const std::vector<std::string>& args, int seconds = 20) const {
+        std::string prefix = "cd ";
+        prefix.append(shell_quote(work_.string())).append(" && ").append(bounded(seconds));
+        std::string quoted;
+        for (const std::string& a : args) quoted.append(" ").append(shell_quote(a));
+        return run_eci(quoted, scratch_.path() / "capture", prefix);
+    }
+
+    /// Runs a bash script in work/ with $ECI set to the binary; returns its exit status.
+    int bash(const std::string& script) const {
+        std::string cmd = "cd " + shell_quote(work_.string()) + " && ECI=" + shell_quote(ECI_CLI_PATH) +
+                          " bash -c " + shell_quote(script) + " >/dev/null 2>" +
+                          shell_quote((scratch_.path() / "capture" / "bash_err").string());
+        const int raw = std::system(cmd.c_str());
+        return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
+    }
+
+    /// The names of the files in work/ (hidden ones included), sorted.
+    std::set<std::string> work_files() const {
+        std::set<std::string> names;
+        for (const auto& e : fs::directory_iterator(work_)) names.insert(e.path().filename().string());
+        return names;
+    }
+
+    scratch_dir scratch_{"reliability"};
+    fs::path work_;
+};
+
+/// A failure as the contract wants it: the status, one line "eci: error: ..." on stderr naming `needle`.
+void expect_one_line_error(const run_result& r, int status, const std::string& needle, const std::string& what) {
+    EXPECT_EQ(r.status, status) << what << "\n" << r.err;
+    EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << what << "\n" << r.err;
+    EXPECT_EQ(r.err.rfind("eci: error: ", 0), 0u) << what << "\n" << r.err;
+    EXPECT_NE(r.err.find(needle), std::string::npos) << what << ": expected '" << needle << "' in\n" << r.err;
+}
+
+/// Every field of every data row of a CSV text is a finite number.
+bool all_rows_finite(const std::string& csv) {
+    const auto rows = lines_of(csv);
+    for (std::size_t i = 1; i < rows.size(); ++i)
+        for (const std::string& f : split(rows[i])) {
+            const double v = std::strtod(f.c_str(), nullptr);
+            if (!std::isfinite(v)) return false;
+        }
+    return rows.size() > 1;
+}
+
+// ---- Hangs and runaway work ----
+
+// Initial conditions and parameters whose runs could only stall in subnormal arithmetic or overflow are
+// rejected before any work, with a reason.
+TEST_F(reliability, inputs_beyond_double_precision_are_rejected_up_front) {
+    const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
+        {{"run", "lotka-volterra", "--y", "1e-300", "--t-end", "800"}, "double precision"},
+        {{"run", "lotka-volterra", "--x", "1e-320", "--y", "1e-320", "--t-end", "10"}, "double precision"},
+        {{"run", "lotka-volterra", "--x", "1e-310"}, "double precision"},
+        {{"run", "lotka-volterra", "--x", "900"}, "double precision"},
+        {{"run", "lotka-volterra", "--mu", "1e-320"}, "subnormal"},
+        {{"run", "kepler", "--r", "1e-320"}, "overflows"},
+        {{"run", "kepler", "--m", "4e-320"}, "subnormal"},
+        {{"run", "kepler", "--ell", "1e-200"}, "double precision"},
+        {{"run", "three-wave", "--psi", "1e-200,0,1e-200"}, "underflows"},
+        {{"run", "three-wave", "--psi", "1e160,0,1e160"}, "overflows"},
+        {{"run", "three-wave", "--psi", "1e-310,1,1"}, "subnormal"},
+        {{"run", "three-wave", "--M", "1e300,1e300,-2e300", "--psi", "1e10,1e10,1e10"}, "overflows"},
+    };
+    for (const auto& [args, needle] : cases) {
+        const auto start = std::chrono::steady_clock::now();
+        const run_result r = eci(args);
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        expect_one_line_error(r, 2, needle, args[1] + " " + args[2] + " " + args[3]);
+        EXPECT_LT(seconds, 5.0) << args[2];
+    }
+}
+
+// A step that needs ever more halvings stops with a clear error after a bounded amount of work.
+TEST_F(reliability, the_work_of_one_step_is_bounded) {
+    const std::vector<std::vector<std::string>> cases{
+        {"run", "three-wave", "--dt", "1e8", "--steps", "1"},
+        {"run", "three-wave", "--M", "1e10,1e10,-2e10"},
+        {"run", "n-wave", "--dt", "1e7", "--steps", "1"},
+        {"run", "n-wave-complex", "--method", "c-rk4", "--dt", "1e9", "--steps", "2"},
+        {"run", "lotka-volterra", "--dt", "1e9", "--steps", "1"},
+    };
+    for (const auto& args : cases) {
+        const auto start = std::chrono::steady_clock::now();
+        const run_result r = eci(args);
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        // Either the step is taken (the halvings reach a size that works within the bound) or it is refused.
+        if (r.status == 0) {
+            EXPECT_NE(r.err.find("steps"), std::string::npos) << args[1];
+        } else {
+            EXPECT_EQ(r.status, 1) << args[1] << " " << args[2] << "\n" << r.err;
+            EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
+        }
+        EXPECT_LT(seconds, 10.0) << args[1] << " " << args[2];
+    }
+}
+
+// SIGINT, SIGTERM, SIGHUP and SIGQUIT stop a run within a fraction of a second, with 128 + signal and no file.
+TEST_F(reliability, every_interrupt_signal_stops_the_run_and_leaves_no_file) {
+    for (const auto& [name, number] : std::vector<std::pair<std::string, int>>{
+             {"INT", SIGINT}, {"TERM", SIGTERM}, {"HUP", SIGHUP}, {"QUIT", SIGQUIT}}) {
+        const std::string script =
+            "$ECI run lotka-volterra --t-end 1e7 --output out.csv --summary-json out.json & p=$!; sleep 0.4; "
+            "start=$(date +%s%N); kill -" + name + " $p; wait $p; status=$?; end=$(date +%s%N); "
+            "[ $(( (end - start) / 1000000 )) -lt 1500 ] || exit 99; exit $status";
+        EXPECT_EQ(bash(script), 128 + number) << name << read_text(scratch_.path() / "capture" / "bash_err");
+        EXPECT_TRUE(work_files().empty()) << name << ": " << *work_files().begin();
+    }
+}
+
+// A reader that goes away (SIGPIPE) is an interrupt too: exit 141, no temporary of the JSON left.
+TEST_F(reliability, a_closed_pipe_stops_the_run_and_leaves_no_file) {
+    for (const std::string model : {"lotka-volterra", "kepler --t-end 1e6", "n-wave --t-end 1e4"}) {
+        const std::string script = "$ECI run " + model + " --output - --summary-json s.json | head -1 >/dev/null;"
+                                   " exit ${PIPESTATUS[0]}";
+        EXPECT_EQ(bash(script), 128 + SIGPIPE) << model;
+        EXPECT_TRUE(work_files().empty()) << model;
+    }
+}
+
+// Where the time goes inside one huge right-hand side, the watchdog still stops the run promptly.
+TEST_F(reliability, an_interrupt_during_a_long_right_hand_side_is_honoured) {
+    const std::string script =
+        "$ECI run n-wave --modes 600000 --output out.csv & p=$!; sleep 1.5; start=$(date +%s%N); kill -INT $p;"
+        " wait $p; status=$?; end=$(date +%s%N); [ $(( (end - start) / 1000000 )) -lt 1500 ] || exit 99;"
+        " exit $status";
+    EXPECT_EQ(bash(script), 130);
+    EXPECT_TRUE(work_files().empty());
+}
+
+// ---- Wrong results that exit 0 ----
+
+// A step that overflows is never a successful step, in any stepper: the run either recovers by halving (and
+// every number it reports is finite) or fails with exit 1 and no file.
+TEST_F(reliability, a_non_finite_state_is_never_a_result) {
+    const std::vector<std::vector<std::string>> cases{
+        {"--method", "implicit-midpoint", "--dt", "5", "--steps", "1"},
+        {"--method", "c-euler", "--dt", "1.5", "--steps", "1"},
+        {"--method", "euler", "--dt", "1e200", "--steps", "1"},
+        {"--method", "rk4", "--dt", "1e120", "--steps", "2"},
+        {"--method", "pc", "--dt", "1e160", "--steps", "1"},
+        {"--method", "c-rk4", "--dt", "1e200", "--steps", "1"},
+        {"--method", "c-pc-compensated", "--dt", "1e200", "--steps", "1"},
+    };
+    for (auto args : cases) {
+        args.insert(args.begin(), {"run", "three-wave"});
+        args.insert(args.end(), {"--output", "out.csv"});
+        const run_result r = eci(args);
+        if (r.status == 0) {
+            EXPECT_TRUE(all_rows_finite(read_text(work_ / "out.csv"))) << args[3];
+            EXPECT_EQ(r.err.find("inf"), std::string::npos) << args[3] << r.err;
+            EXPECT_EQ(r.err.find("nan"), std::string::npos) << args[3] << r.err;
+            fs::remove(work_ / "out.csv");
+        } else {
+            expect_one_line_error(r, 1, "t = ", args[3]);
+        }
+        EXPECT_TRUE(work_files().empty()) << args[3];
+    }
+    // Kepler's conventional methods step straight into r < 0 with a huge dt.
+    const run_result k = eci({"run", "kepler", "--method", "rk4", "--dt", "1e30", "--steps", "3", "--output", "k.csv"});
+    if (k.status == 0) {
+        EXPECT_TRUE(all_rows_finite(read_text(work_ / "k.csv")));
+    }
+}
+
+// An end time shorter than a step is reached by one short step, never by none.
+TEST_F(reliability, a_short_span_takes_a_step_or_is_refused) {
+    const std::vector<std::pair<std::string, std::string>> cases{
+        {"0.01", "1e-11"}, {"1e11", "10"}, {"0.01", "1e-300"}, {"1", "0.999999999"}, {"0.1", "0.30000000000000004"}};
+    for (const auto& [dt, t_end] : cases) {
+        const run_result r = eci({"run", "three-wave", "--dt", dt, "--t-end", t_end, "--output", "o.csv"});
+        ASSERT_EQ(r.status, 0) << dt << " " << t_end << r.err;
+        const auto rows = lines_of(read_text(work_ / "o.csv"));
+        ASSERT_GE(rows.size(), 3u) << dt << " " << t_end;  // header, t = 0, at least one step
+        EXPECT_EQ(std::strtod(split(rows.back())[0].c_str(), nullptr), std::strtod(t_end.c_str(), nullptr))
+            << dt << " " << t_end;
+        EXPECT_EQ(r.err.find("steps 0,"), std::string::npos) << r.err;
+    }
+}
+
+// Products and squares of parameters that overflow or wrap are rejected, not run.
+TEST_F(reliability, overflowing_parameter_products_are_rejected) {
+    const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
+        {{"run", "n-wave", "--modes", "3", "--triads-per-mode", "6148914691236517206"}, "triads"},
+        {{"run", "n-wave", "--modes", "6", "--triads-per-mode", "3074457345618258603"}, "triads"},
+        {{"run", "n-wave-complex", "--modes", "4294967296", "--triads-per-mode", "4294967297"}, "triads"},
+        {{"run", "three-wave", "--K", "1e200"}, "K^2"},
+        {{"run", "three-wave", "--P", "1.5e154"}, "P^2"},
+        {{"run", "three-wave", "--Q", "1e-170"}, "Q^2"},
+    };
+    for (const auto& [args, needle] : cases) expect_one_line_error(eci(args), 2, needle, args[1] + " " + args[3]);
+}
+
+// ---- Files ----
+
+// Devices and descriptors are written directly: the node stays a node, /dev/stdout reaches the redirection.
+TEST_F(reliability, special_files_are_written_directly) {
+    struct stat before {};
+    ASSERT_EQ(::stat("/dev/null", &before), 0);
+    for (const std::string flag : {"--output", "--summary-json"}) {
+        const run_result r = eci({"run", "three-wave", "--t-end", "0.1", flag, "/dev/null"});
+        EXPECT_EQ(r.status, 0) << r.err;
+        struct stat after {};
+        ASSERT_EQ(::stat("/dev/null", &after), 0);
+        EXPECT_TRUE(S_ISCHR(after.st_mode)) << flag;
+        EXPECT_EQ(after.st_rdev, before.st_rdev);
+    }
+    // /dev/stdout and /dev/fd/1 name wherever stdout goes: here the capture file.
+    for (const std::string path : {"/dev/stdout", "/dev/fd/1", "/proc/self/fd/1"}) {
+        const run_result r = eci({"run", "three-wave", "--t-end", "0.1", "--output", path});
+        EXPECT_EQ(r.status, 0) << path << r.err;
+        EXPECT_EQ(lines_of(r.out).size(), 12u) << path;
+        EXPECT_EQ(r.out.rfind("t,psi_K", 0), 0u) << path;
+    }
+    EXPECT_TRUE(work_files().empty());
+    // A FIFO without a reader is an error, not a hang; with one, it gets the CSV.
+    ASSERT_EQ(::mkfifo((work_ / "fifo").c_str(), 0600), 0);
+    expect_one_line_error(eci({"run", "three-wave", "--output", "fifo"}, 5), 2, "no reader", "fifo");
+    EXPECT_EQ(bash("cat fifo > got & $ECI run three-wave --t-end 0.1 --output fifo; s=$?; wait; exit $s"), 0);
+    EXPECT_EQ(lines_of(read_text(work_ / "got")).size(), 12u);
+    EXPECT_EQ(work_files(), (std::set<std::string>{"fifo", "got"}));
+}
+
+// A symlink is written through to its target, which is replaced beside itself; the link stays a link.
+TEST_F(reliability, symlinks_are_written_through) {
+    fs::create_directory(work_ / "real");
+    std::ofstream(work_ / "real" / "target.csv") << "old\n";
+    fs::create_symlink("real/target.csv", work_ / "link.csv");
+    fs::create_symlink("link.csv", work_ / "chain.csv");
+    fs::create_symlink("real/new.csv", work_ / "dangling.csv");
+    for (const std::string name : {"link.csv", "chain.csv", "dangling.csv"}) {
+        const run_result r = eci({"run", "three-wave", "--t-end", "0.1", "--output", name});
+        ASSERT_EQ(r.status, 0) << name << r.err;
+        EXPECT_TRUE(fs::is_symlink(work_ / name)) << name;
+        EXPECT_EQ(lines_of(read_text(work_ / name)).size(), 12u) << name;
+    }
+    EXPECT_TRUE(fs::is_regular_file(work_ / "real" / "new.csv"));
+    std::set<std::string> real;
+    for (const auto& e : fs::directory_iterator(work_ / "real")) real.insert(e.path().filename().string());
+    EXPECT_EQ(real, (std::set<std::string>{"new.csv", "target.csv"}));
+}
+
+// A read-only file is not replaced (even by root); a replaced file keeps its mode.
+TEST_F(reliability, read_only_files_are_kept_and_modes_are_kept) {
+    for (const auto mode : {fs::perms::owner_read, fs::perms::owner_read | fs::perms::group_read |
+                                                        fs::perms::others_read}) {
+        std::ofstream(work_ / "ro.csv") << "keep\n";
+        fs::permissions(work_ / "ro.csv", mode);
+        for (const std::string flag : {"--output", "--summary-json"})
+            expect_one_line_error(eci({"run", "three-wave", flag, "ro.csv"}), 2, "read-only", flag);
+        EXPECT_EQ(read_text(work_ / "ro.csv"), "keep\n");
+        fs::remove(work_ / "ro.csv");
+    }
+    for (const auto mode : {fs::perms(0640), fs::perms(0600), fs::perms(0664), fs::perms(0755)}) {
+        std::ofstream(work_ / "m.csv") << "old\n";
+        std::ofstream(work_ / "m.json") << "old\n";
+        fs::permissions(work_ / "m.csv", mode, fs::perm_options::replace);
+        fs::permissions(work_ / "m.json", mode, fs::perm_options::replace);
+        ASSERT_EQ(eci({"run", "three-wave", "--t-end", "0.1", "--output", "m.csv", "--summary-json", "m.json"}).status, 0);
+        EXPECT_EQ(fs::status(work_ / "m.csv").permissions(), mode);
+        EXPECT_EQ(fs::status(work_ / "m.json").permissions(), mode);
+        EXPECT_NE(read_text(work_ / "m.csv"), "old\n");
+    }
+}
+
+// Long but valid names work (the temporary's name is shortened); /proc and missing directories say why.
+TEST_F(reliability, file_names_and_places_get_the_right_answer) {
+    for (std::size_t length : {200u, 240u, 250u}) {  // 250 + ".json": NAME_MAX, the longest valid name
+        const std::string name = std::string(length, 'n') + ".csv";
+        const run_result r = eci({"run", "three-wave", "--t-end", "0.1", "--output", name, "--summary-json",
+                                  std::string(length, 'j') + ".json"});
+        EXPECT_EQ(r.status, 0) << length << r.err;
+        EXPECT_TRUE(fs::exists(work_ / name)) << length;
+    }
+    expect_one_line_error(eci({"run", "three-wave", "--output", "/proc/self/status"}), 2, "/proc", "status");
+    expect_one_line_error(eci({"run", "three-wave", "--summary-json", "/proc/self/x.json"}), 2, "/proc", "x");
+    expect_one_line_error(eci({"run", "three-wave", "--output", "no/such/dir.csv"}), 2, "does not exist", "dir");
+    expect_one_line_error(eci({"run", "three-wave", "--output", std::string(256, 'x')}), 2, "too long", "256");
+    for (const auto& name : work_files()) EXPECT_EQ(name.find(".eci-"), std::string::npos) << name;
+}
+
+/// A small tmpfs under `dir` for the test's lifetime, if this process may mount one (root in CI).
+class small_disk {
+   public:
+    small_disk(const fs::path& dir, const std::string& size) : dir_(dir) {
+        fs::create_directories(dir);
+        mounted_ = ::mount("tmpfs", dir.c_str(), "tmpfs", 0, ("size=" + size).c_str()) == 0;
+    }
+    ~small_disk() {
+        if (mounted_) ::umount2(dir_.c_str(), MNT_DETACH);
+    }
+    bool mounted() const { return mounted_; }
+
+   private:
+    fs::path dir_;
+    bool mounted_ = false;
+};
+
+std::set<std::string> files_in(const fs::path& dir) {
+    std::set<std::string> names;
+    for (const auto& e : fs::directory_iterator(dir)) names.insert(e.path().filename().string());
+    return names;
+}
+
+// On a full disk the outputs of one run are committed together or not at all, and an old file survives.
+TEST_F(reliability, a_full_disk_commits_nothing_and_destroys_nothing) {
+    const fs::path disk = work_ / "disk";
+    const small_disk mount(disk, "64k");
+    if (!mount.mounted()) GTEST_SKIP() << "cannot mount a tmpfs here (not root?)";
+    std::ofstream(disk / "old.csv") << "old\n";
+    const run_result big = eci({"run", "three-wave", "--t-end", "100", "--output", "disk/old.csv"});
+    expect_one_line_error(big, 1, "No space left", "big");
+    EXPECT_EQ(read_text(disk / "old.csv"), "old\n");
+    // Longer and longer runs: whenever CSV + JSON do not fit, neither appears, even where the CSV alone would.
+    bool csv_alone_fitted_where_both_failed = false;
+    for (int t = 1; t <= 8; ++t) {
+        const std::string t_end = std::to_string(0.5 * t);
+        const run_result both = eci({"run", "three-wave", "--t-end", t_end, "--output", "disk/a.csv",
+                                     "--summary-json", "disk/a.json"});
+        if (both.status == 0) {
+            EXPECT_TRUE(fs::exists(disk / "a.csv") && fs::exists(disk / "a.json"));
+            fs::remove(disk / "a.csv"), fs::remove(disk / "a.json");
+        } else {
+            expect_one_line_error(both, 1, "No space left", t_end);
+            EXPECT_FALSE(fs::exists(disk / "a.csv") || fs::exists(disk / "a.json")) << t_end;
+            const run_result alone = eci({"run", "three-wave", "--t-end", t_end, "--output", "disk/a.csv"});
+            if (alone.status == 0) csv_alone_fitted_where_both_failed = true;
+            fs::remove(disk / "a.csv");
+        }
+        // Fill the disk a little more each time, so that the boundary is crossed.
+        std::ofstream(disk / ("fill" + std::to_string(t))) << std::string(6000, 'x');
+        for (const auto& name : files_in(disk)) EXPECT_EQ(name.find(".eci-"), std::string::npos) << name;
+    }
+    EXPECT_TRUE(csv_alone_fitted_where_both_failed) << "the disk sizes never separated the CSV from the JSON";
+}
+
+// `eci figures` on a full disk: exit 1, one line, the output directory neither created nor changed.
+TEST_F(reliability, figures_on_a_full_disk_commit_nothing) {
+    const fs::path disk = work_ / "disk";
+    const small_disk mount(disk, "48k");
+    if (!mount.mounted()) GTEST_SKIP() << "cannot mount a tmpfs here (not root?)";
+    const run_result fresh = eci({"figures", "--only", "5", "--out", "disk/figs"}, 60);
+    expect_one_line_error(fresh, 1, "disk", "fresh");
+    EXPECT_TRUE(files_in(disk).empty());
+    fs::create_directory(disk / "figs");
+    std::ofstream(disk / "figs" / "fig5.csv") << "old\n";
+    const run_result existing = eci({"figures", "--only", "5", "--out", "disk/figs"}, 60);
+    EXPECT_EQ(existing.status, 1) << existing.err;
+    EXPECT_EQ(files_in(disk / "figs"), (std::set<std::string>{"fig5.csv"}));
+    EXPECT_EQ(read_text(disk / "figs" / "fig5.csv"), "old\n");
+}
+
+// A gnuplot that fails, or succeeds without drawing, fails the figures; an interrupt stops gnuplot too.
+TEST_F(reliability, figures_check_gnuplot_and_stop_it_on_interrupt) {
+    const fs::path fake = work_ / "fake-gnuplot";
+    // --version succeeds (so it counts as installed); drawing: exit 3 / write empty files / hang.
+    for (const std::string behaviour : {"exit 3", "touch fig5.png fig5.svg; exit 0"}) {
+        std::ofstream(fake) << "#!/bin/sh\n[ \"$1\" = --version ] && exit 0\ncd \"$(dirname \"$1\")\"\n"
+                            << behaviour << "\n";
+        fs::permissions(fake, fs::perms(0755), fs::perm_options::replace);
+        const run_result r =
+            run_eci("figures --only 5 --out figs", scratch_.path() / "capture",
+                    "cd " + shell_quote(work_.string()) + " && ECI_GNUPLOT=" + shell_quote(fake.string()) + " " +
+                        bounded(30));
+        expect_one_line_error(r, 1, "fig5", behaviour);
+        EXPECT_FALSE(fs::exists(work_ / "figs")) << behaviour;
+    }
+    std::ofstream(fake) << "#!/bin/sh\n[ \"$1\" = --version ] && exit 0\necho $$ > " << (work_ / "gnuplot.pid").string()
+                        << "\nexec sleep 30\n";
+    fs::permissions(fake, fs::perms(0755), fs::perm_options::replace);
+    const std::string script = "ECI_GNUPLOT=" + shell_quote(fake.string()) +
+                               " $ECI figures --only 5 --out figs & p=$!; for i in $(seq 100); do [ -s gnuplot.pid ]"
+                               " && break; sleep 0.1; done; kill -INT $p; wait $p";
+    EXPECT_EQ(bash(script), 130);
+    ASSERT_TRUE(fs::exists(work_ / "gnuplot.pid"));
+    const std::string pid = lines_of(read_text(work_ / "gnuplot.pid")).at(0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    EXPECT_FALSE(fs::exists("/proc/" + pid)) << "gnuplot child " << pid << " still running";
+    EXPECT_FALSE(fs::exists(work_ / "figs"));
+    for (const auto& name : work_files()) EXPECT_EQ(name.find(".eci-"), std::string::npos) << name;
+}
+
+}  // namespace
+
+namespace {
+
+// ---- Messages ----
+
+// An empty value is not 0, for every numeric option of every model.
+TEST_F(reliability, empty_values_are_rejected_not_read_as_zero) {
+    const std::vector<std::vector<std::string>> cases{
+        {"run", "three-wave", "--t-end", ""},     {"run", "three-wave", "--dt="},
+        {"run", "kepler", "--theta", ""},         {"run", "kepler", "--r="},
+        {"run", "lotka-volterra", "--mu", ""},    {"run", "n-wave", "--seed", ""},
+        {"run", "n-wave-complex", "--modes", ""}, {"run", "three-wave", "--M", ""},
+        {"run", "three-wave", "--output", ""},    {"run", "lotka-volterra", "--x", "", "--output", "o.csv"},
+    };
+    for (const auto& args : cases) expect_one_line_error(eci(args), 2, "empty", args[2] + " " + args[3 % args.size()]);
+    EXPECT_TRUE(work_files().empty());
+}
+
+// Numbers in messages read back as what was computed or typed; counts beyond 2^64 - 1 are "too large".
+TEST_F(reliability, messages_name_the_problem_exactly) {
+    const std::vector<std::pair<std::vector<std::string>, std::string>> cases{
+        {{"run", "three-wave", "--M", "1,1,-2.0000001"}, "-9.999999983634211e-08"},
+        {{"run", "three-wave", "--steps", "99999999999999999999"}, "too large"},
+        {{"run", "n-wave", "--seed", "18446744073709551616"}, "too large"},
+        {{"run", "n-wave", "--triads-per-mode", "9999999999999999999"}, "triads"},
+        {{"run", "kepler", "--r", "1e-320"}, "1e-320"},
+        {{"run", "--dt", "0.1", "three-wave"}, "'--dt 0.1'"},
+        {{"run", "three-wave", "one", "two"}, "one two"},
+    };
+    for (const auto& [args, needle] : cases) {
+        const run_result r = eci(args);
+        expect_one_line_error(r, 2, needle, args[1] + " " + args[2]);
+        EXPECT_EQ(r.err.find("-0.000000"), std::string::npos) << r.err;
+        EXPECT_EQ(r.err.find("nan"), std::string::npos) << r.err;
+        EXPECT_EQ(r.err.find("vector::"), std::string::npos) << r.err;
+    }
+    // The largest seed works.
+    EXPECT_EQ(eci({"run", "n-wave", "--seed", "18446744073709551615", "--t-end", "0.1"}).status, 0);
+}
+
+}  // namespace
