@@ -394,7 +394,6 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
                 w = w_prev;
                 model.set_rng_state(rng_prev);
                 save(i - 1);
-                if (out) csv.commit();
                 throw interrupted("interrupted at step " + std::to_string(i - 1) + ", t = " + num(double(i - 1) * dt) +
                                   "; checkpoint written to " + checkpoint_ + " (continue with --restart " +
                                   checkpoint_ + ")");
@@ -418,7 +417,6 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
             if (!std::isfinite(e1) || !std::isfinite(z1) ||
                 e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
                 progress.finish();
-                if (out) csv.commit();
                 throw run_failure("blow-up at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
                                   ": energy " + num(e1) + " (CFL " + num(model.cfl(w, dt)) +
                                   "); reduce --dt or --cfl" +
@@ -453,7 +451,6 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
             if (interrupt_requested()) {
                 progress.finish();
                 save(i);
-                if (out) csv.commit();
                 throw interrupted("interrupted at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
                                   "; checkpoint written to " + checkpoint_ + " (continue with --restart " +
                                   checkpoint_ + ")");
@@ -485,10 +482,11 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
                  {"max_enstrophy_budget_residual_per_step", run.max_enstrophy_residual},
                  {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(last, 1))},
                  {"final_cfl", model.cfl(w, dt)}};
-    csv.commit();
-    print_summary(stderr, s);
+    // Both outputs complete before either replaces anything (a failed or interrupted run keeps its checkpoint, not a
+    // partial time series).
     if (std::FILE* j = json.get()) write_summary_json(j, s);
-    json.commit();
+    commit_outputs({&csv, &json});
+    print_summary(stderr, s);
     return 0;
 }
 

@@ -51,8 +51,8 @@ TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     // Issue 12: multiple relaxation where there are two independent invariants, symplectic methods on a separable
     // Hamiltonian, and no C-RK on Kepler in Cartesian variables (H is not a sum of squares there).
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler_cartesian>()),
-              (strings{"euler", "pc", "rk2", "rk4", "implicit-midpoint", "rrk-rk4", "idt-rk4", "mrrk-rk4",
-                       "projected-rk4", "stormer-verlet", "sb3a"}));
+              (strings{"euler", "pc", "rk2", "rk4", "implicit-midpoint", "bs32", "ck54", "dp54", "f78", "rrk-rk4",
+                       "idt-rk4", "mrrk-rk4", "projected-rk4", "stormer-verlet", "sb3a"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::rigid_body>()), names_of(eci::methods_for<eci::three_wave>()));
     // A plain system on a state type: every method but the model-specific one and the six that need the model's
     // invariants or a separable Hamiltonian.
