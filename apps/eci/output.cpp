@@ -126,10 +126,14 @@ extern "C" void on_interrupt(int s) {
     if (!cancel.load()) {
         signal_number = s;
         cancel.store(true);
-        // The run stops at its next poll; if it has not within 0.3 s (a long right-hand side, a blocked
-        // write), the watchdog stops it here, cleaning up the same way.
+        // The run stops at its next poll; if it has not, the watchdog stops it here, cleaning up the same way:
+        // after 0.3 s of its own CPU time (a long right-hand side; CPU time, so that a process merely waiting
+        // for a busy machine's core still stops gracefully) or 1 s of wall time (a blocked write).
         itimerval watchdog{};
         watchdog.it_value.tv_usec = 300000;
+        ::setitimer(ITIMER_VIRTUAL, &watchdog, nullptr);
+        watchdog.it_value.tv_usec = 0;
+        watchdog.it_value.tv_sec = 1;
         ::setitimer(ITIMER_REAL, &watchdog, nullptr);
         return;
     }
@@ -145,6 +149,7 @@ sigset_t interrupt_set() {
     sigemptyset(&set);
     for (int s : handled_signals) sigaddset(&set, s);
     sigaddset(&set, SIGALRM);
+    sigaddset(&set, SIGVTALRM);
     return set;
 }
 
@@ -563,6 +568,7 @@ void install_interrupt_handler() {
     for (int s : handled_signals) ::sigaction(s, &sa, nullptr);
     sa.sa_handler = on_watchdog;
     ::sigaction(SIGALRM, &sa, nullptr);
+    ::sigaction(SIGVTALRM, &sa, nullptr);
 }
 
 bool interrupt_requested() { return cancel.load(std::memory_order_relaxed); }

@@ -107,8 +107,8 @@ void write_json_string(std::FILE* f, std::string_view s);
 
 /// Installs the handler of SIGINT, SIGTERM, SIGHUP, SIGQUIT and SIGPIPE: the first one sets the cancel flag
 /// (polled by the library's drivers and the CLI's loops) and arms a watchdog; if the program has not stopped
-/// 0.3 s later, or a second signal arrives, the handler removes the temporaries, stops child processes and
-/// exits with 128 + signal itself.
+/// after 0.3 s more of its own CPU time or 1 s of wall time, or a second signal arrives, the handler removes the
+/// temporaries, stops child processes and exits with 128 + signal itself.
 void install_interrupt_handler();
 
 /// Whether an interrupt has arrived since install_interrupt_handler().

@@ -119,7 +119,7 @@ int run_program(const std::string& program, const std::string& arg, bool quiet) 
     if (pid == 0) {
         ::setpgid(0, 0);
         // The parent's handlers are not the child's business: default dispositions, nothing blocked.
-        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGALRM}) std::signal(sig, SIG_DFL);
+        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGALRM, SIGVTALRM}) std::signal(sig, SIG_DFL);
         sigset_t none;
         sigemptyset(&none);
         ::sigprocmask(SIG_SETMASK, &none, nullptr);
