@@ -3,11 +3,13 @@
 // cleans up after itself. No numerics here.
 #include "output.hpp"
 
+#include <atomic>
 #include <charconv>
 #include <cerrno>
 #include <climits>
 #include <cmath>
 #include <csignal>
+#include <ctime>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -32,6 +34,15 @@ namespace {
 
 std::atomic<bool> cancel{false};
 volatile std::sig_atomic_t signal_number = 0;
+// When the first interrupt arrived (CLOCK_MONOTONIC, nanoseconds): a copy of the same signal within 0.2 s is the
+// same request (timeout(1) and a terminal's Ctrl-C signal both the process and its group), not a second one.
+std::atomic<long long> first_signal_ns{0};
+
+long long monotonic_ns() {
+    timespec ts{};
+    ::clock_gettime(CLOCK_MONOTONIC, &ts);  // async-signal-safe
+    return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
+}
 std::atomic<pid_t> child_pid{0};
 
 /// A path the handler removes on a forced exit: a file (kind 1) or a flat directory (kind 2).
@@ -125,6 +136,7 @@ void write_stderr(const char* s) {
 extern "C" void on_interrupt(int s) {
     if (!cancel.load()) {
         signal_number = s;
+        first_signal_ns.store(monotonic_ns());
         cancel.store(true);
         // The run stops at its next poll; if it has not, the watchdog stops it here, cleaning up the same way:
         // after 0.3 s of its own CPU time (a long right-hand side; CPU time, so that a process merely waiting
@@ -137,6 +149,7 @@ extern "C" void on_interrupt(int s) {
         ::setitimer(ITIMER_REAL, &watchdog, nullptr);
         return;
     }
+    if (s == signal_number && monotonic_ns() - first_signal_ns.load() < 200000000LL) return;  // the same request
     if (s != SIGPIPE) forced_exit();  // asked twice; repeated SIGPIPEs are just more failed writes
 }
 
