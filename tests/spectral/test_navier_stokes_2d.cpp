@@ -220,80 +220,142 @@ void check_inviscid(int n, int steps) {
     EXPECT_GT(std::max(rk4.energy, rk4.enstrophy), 1e3 * 8.0 * eps * std::sqrt(double(steps)));
 }
 
+// The same at N = 32 on every CI run (seconds).
 TEST(NavierStokes2d, InviscidConservativeMethodsKeepEnergyAndEnstrophyRk4Drifts) { check_inviscid(32, 10000); }
 
-// The size, N = 128 and 10^4 steps: minutes, so only with --gtest_also_run_disabled_tests (label long).
+// The size, N = 128 and 10^4 steps of each method: about a minute of CPU, three on a loaded machine, too
+// long for every CI run. DISABLED_ here; ctest runs it as spectral.long.* when configured with
+// -DECI_LONG_TESTS=ON (label "long"; scripts/soak.sh).
 TEST(NavierStokes2dLong, DISABLED_InviscidN128TenThousandSteps) { check_inviscid(128, 10000); }
 
 }  // namespace
 
 namespace {
 
-// Decaying turbulence at N = 64 to t = 0.1: the error, in the energy-weighted norm, against a tiny-step RK4
-// reference, fitted against dt. Each real unknown is sgn * sqrt(xi) with xi off by O(dt^(p+1)): one that passes
-// near zero at a step is off by up to sqrt of that, so the asymptotic slope is reached only at small steps (the
-// CFL numbers here are 0.02 to 0.2) and even there single crossings scatter the points.
-struct order_fixture {
-    eci::ns2d_params p = [] {
-        auto q = small(64);
-        q.nu = 2e-3;
-        return q;
-    }();
-    navier_stokes_2d m{p};
-    state w0 = m.random_field(4.0, 0.5, 5);
-    double t_end = 0.1;
+// A run from w0 to t_end in `steps` equal steps.
+template <class St>
+state run_steps(navier_stokes_2d& m, const state& w0, double t_end, int steps) {
+    St st;
+    state w = w0;
+    eci::ns2d_budget b;
+    eci::run_stats stats;
+    const double dt = t_end / steps;
+    for (int i = 0; i < steps; ++i) eci::ns2d_step(st, m, w, i * dt, dt, b, stats);
+    return w;
+}
+// The error of w against ref in the enstrophy norm, relative.
+double relative_error(const navier_stokes_2d& m, const state& w, const state& ref) {
+    double e = 0.0, norm = 0.0;
+    for (std::size_t i = 0; i < m.size(); ++i) {
+        e += m.weights()[i] * std::norm(w[i] - ref[i]);
+        norm += m.weights()[i] * std::norm(ref[i]);
+    }
+    return std::sqrt(e / norm);
+}
+// The least-squares slope of -log(error) against log(steps).
+double fitted_order(const std::vector<int>& counts, const std::vector<double>& errors) {
+    std::vector<double> x, y;
+    for (std::size_t i = 0; i < counts.size(); ++i) {
+        x.push_back(std::log(double(counts[i])));
+        y.push_back(std::log(errors[i]));
+    }
+    double mx = 0, my = 0, sxy = 0, sxx = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) mx += x[i] / double(x.size()), my += y[i] / double(x.size());
+    for (std::size_t i = 0; i < x.size(); ++i) sxy += (x[i] - mx) * (y[i] - my), sxx += (x[i] - mx) * (x[i] - mx);
+    return -sxy / sxx;
+}
 
-    template <class St>
-    state run(int steps) {
-        St st;
-        state w = w0;
+// C-RK4 is fourth order and C-PC second, on decaying turbulence at N = 64 (viscous, random field peaked at k = 4),
+// against a tiny-step RK4 reference, over a span in which no real unknown changes sign.
+//
+// Why that condition: each real unknown is sgn * sqrt(xi), xi integrated to O(dt^5) per step. An unknown that
+// passes zero at distance phi dt from a step (phi uniform in 0..1) is off there by min(delta / (phi |S| dt),
+// sqrt(delta)), delta = O(dt^5), and that error, fed to the other modes through the right-hand side, stays. With
+// thousands of unknowns rotating at up to k_max |u| the worst crossing of a run sets the error, and its 1/phi is
+// random from one dt to the next: on random phases over t = 0.1 (CRk4WithZeroCrossings below) the fitted slope
+// is 3.1-3.7 and single points are 10-60 times RK4's error. So the order test takes the same spectrum with every
+// mode's phase at pi/4 + n pi/2 (real and imaginary parts of equal size) and t = 0.02, shorter than the time any
+// unknown takes to reach zero, and checks that premise on the reference.
+TEST(NavierStokes2d, CRk4IsFourthOrderAndCPcSecond) {
+    auto p = small(64);
+    p.nu = 2e-3;
+    navier_stokes_2d m(p);
+    state w0 = m.random_field(4.0, 0.5, 5);
+    std::uint64_t s = 77;
+    for (std::size_t i = 0; i < m.size(); ++i) {
+        s = s * 6364136223846793005ull + 1442695040888963407ull;
+        w0[i] = std::polar(std::abs(w0[i]), std::numbers::pi / 4 + double(s >> 62) * std::numbers::pi / 2);
+    }
+    // the k_x = 0 and Nyquist columns hold k and -k: conjugates again (k = 0 and the truncated modes stay 0)
+    const std::size_t nc = std::size_t(m.columns());
+    const int n = m.n();
+    for (std::size_t col : {std::size_t(0), nc - 1})
+        for (int row = 1; row < n / 2; ++row) w0[std::size_t(n - row) * nc + col] = std::conj(w0[std::size_t(row) * nc + col]);
+    for (std::size_t i = 0; i < m.size(); ++i)
+        if (!m.retained(i)) w0[i] = 0.0;
+    const double t_end = 0.02;
+
+    // The reference, and the premise: no real unknown changes sign between t = 0 and t_end.
+    const int ref_steps = 1024;  // RK4's own error there ~1e-17, below the round-off of the state (~1e-16)
+    state ref = w0;
+    {
+        eci::rk4<state> st;
         eci::ns2d_budget b;
         eci::run_stats stats;
-        const double dt = t_end / steps;
-        for (int i = 0; i < steps; ++i) eci::ns2d_step(st, m, w, i * dt, dt, b, stats);
-        return w;
-    }
-
-    template <class St>
-    double slope(const std::vector<int>& counts) {
-        static const state ref = run<eci::rk4<state>>(4096);  // RK4's own error there is ~1e-16 relative
-        std::vector<double> x, y;
-        for (int steps : counts) {
-            const state w = run<St>(steps);
-            double e = 0.0, norm = 0.0;
-            for (std::size_t i = 0; i < m.size(); ++i) {
-                e += m.weights()[i] * std::norm(w[i] - ref[i]);
-                norm += m.weights()[i] * std::norm(ref[i]);
-            }
-            x.push_back(std::log(double(steps)));
-            y.push_back(std::log(std::sqrt(e / norm)));
-            std::printf("%d steps: relative error %.3g\n", steps, std::sqrt(e / norm));
+        const double dt = t_end / ref_steps;
+        const double* x0 = reinterpret_cast<const double*>(w0.data());
+        std::size_t sign_changes = 0;
+        for (int i = 0; i < ref_steps; ++i) {
+            eci::ns2d_step(st, m, ref, i * dt, dt, b, stats);
+            const double* x = reinterpret_cast<const double*>(ref.data());
+            for (std::size_t j = 0; j < 2 * m.size(); ++j) sign_changes += x0[j] * x[j] < 0.0 ? 1 : 0;
         }
-        double mx = 0, my = 0, sxy = 0, sxx = 0;
-        for (std::size_t i = 0; i < x.size(); ++i) mx += x[i] / double(x.size()), my += y[i] / double(x.size());
-        for (std::size_t i = 0; i < x.size(); ++i) sxy += (x[i] - mx) * (y[i] - my), sxx += (x[i] - mx) * (x[i] - mx);
-        return -sxy / sxx;
+        ASSERT_EQ(sign_changes, 0u);
     }
-};
 
-TEST(NavierStokes2d, CRk4IsFourthOrder) {
-    order_fixture f;
-    // Control: conventional RK4 on the same field and steps shows its order 4 cleanly.
-    const double rk4 = f.slope<eci::rk4<state>>({64, 128, 256, 512});
-    const double s = f.slope<eci::c_rk4<state>>({64, 128, 256, 512});
-    std::printf("RK4 slope %.3f, C-RK4 slope %.3f\n", rk4, s);
-    EXPECT_NEAR(rk4, 4.0, 0.2);
-    // C-RK4 is fourth order per component away from zero, but a real unknown that passes within sqrt(e) of zero
-    // at a step (e = O(dt^5), the error of its psi^2) is off by up to sqrt(e): here 1-2 such crossings scatter the
-    // points, and the fitted slope is 3.2-3.7 (measured; docs/turbulence.md). Order 3 or more, clearly above C-PC's.
-    EXPECT_GE(s, 3.0);
-    EXPECT_LE(s, 4.5);
+    const std::vector<int> counts{4, 8, 16, 32};  // CFL 0.13 down to 0.016
+    std::vector<double> e_crk4, e_rk4, e_cpc;
+    for (int steps : counts) {
+        e_crk4.push_back(relative_error(m, run_steps<eci::c_rk4<state>>(m, w0, t_end, steps), ref));
+        e_rk4.push_back(relative_error(m, run_steps<eci::rk4<state>>(m, w0, t_end, steps), ref));
+        e_cpc.push_back(relative_error(m, run_steps<eci::c_pc<state>>(m, w0, t_end, steps), ref));
+        std::printf("%d steps: relative error C-RK4 %.3g, RK4 %.3g, C-PC %.3g\n", steps, e_crk4.back(), e_rk4.back(),
+                    e_cpc.back());
+    }
+    const double crk4 = fitted_order(counts, e_crk4), rk4 = fitted_order(counts, e_rk4);
+    const double cpc = fitted_order(counts, e_cpc);
+    std::printf("fitted order: C-RK4 %.3f, RK4 %.3f, C-PC %.3f\n", crk4, rk4, cpc);
+    // Measured 4.01, 4.00 and 2.01: the smallest error (~1e-11) is far above round-off, and each halving of dt
+    // divides C-RK4's error by 16.0-16.3, so 0.1 leaves room only for a step or so of rounding in the slope.
+    EXPECT_NEAR(crk4, 4.0, 0.1);
+    EXPECT_NEAR(rk4, 4.0, 0.1);
+    EXPECT_NEAR(cpc, 2.0, 0.1);
+    // Conservation costs no accuracy here: C-RK4's error is within a factor 2 of RK4's at every step size.
+    for (std::size_t i = 0; i < counts.size(); ++i) EXPECT_LT(e_crk4[i], 2.0 * e_rk4[i]) << counts[i] << " steps";
 }
-TEST(NavierStokes2d, CPcIsSecondOrder) {
-    order_fixture f;
-    const double s = f.slope<eci::c_pc<state>>({128, 256, 512, 1024});
-    std::printf("C-PC slope %.3f\n", s);
-    EXPECT_NEAR(s, 2.0, 0.4);
+
+// The same spectrum with random phases to t = 0.1: thousands of real unknowns pass zero, and C-RK4's error is set
+// by the worst of those crossings (above). The fitted slope is 3.1-3.7 (measured), never the clean 4: this test
+// keeps that documented behaviour (docs/turbulence.md) from getting worse, and RK4 as the control.
+TEST(NavierStokes2d, CRk4WithZeroCrossings) {
+    auto p = small(64);
+    p.nu = 2e-3;
+    navier_stokes_2d m(p);
+    const state w0 = m.random_field(4.0, 0.5, 5);
+    const double t_end = 0.1;
+    const state ref = run_steps<eci::rk4<state>>(m, w0, t_end, 4096);  // RK4's own error there ~1e-16 relative
+    const std::vector<int> counts{64, 128, 256, 512};                   // CFL 0.05 down to 0.006
+    std::vector<double> e_crk4, e_rk4;
+    for (int steps : counts) {
+        e_crk4.push_back(relative_error(m, run_steps<eci::c_rk4<state>>(m, w0, t_end, steps), ref));
+        e_rk4.push_back(relative_error(m, run_steps<eci::rk4<state>>(m, w0, t_end, steps), ref));
+        std::printf("%d steps: relative error C-RK4 %.3g, RK4 %.3g\n", steps, e_crk4.back(), e_rk4.back());
+    }
+    const double crk4 = fitted_order(counts, e_crk4), rk4 = fitted_order(counts, e_rk4);
+    std::printf("fitted order with crossings: C-RK4 %.3f, RK4 %.3f\n", crk4, rk4);
+    EXPECT_NEAR(rk4, 4.0, 0.2);
+    EXPECT_GE(crk4, 3.0);
+    EXPECT_LE(crk4, 4.5);
 }
 
 // Forced and dissipative: per step, E(t + dt) - E(t) equals the injection minus dissipation integrated with the
