@@ -35,6 +35,12 @@ struct model_info {
     double default_dt = 0.0;
     double default_t_end = 0.0;
     std::vector<std::pair<std::string, std::string>> presets;  ///< name and one line of each preset
+    std::string default_dt_text;  ///< the default dt when it is no fixed number (e.g. "from CFL 0.5"); else empty
+
+    /// The default dt as `eci list` and --help print it.
+    std::string dt_text(std::string (*number)(double)) const {
+        return default_dt_text.empty() ? number(default_dt) : default_dt_text;
+    }
 };
 
 /// One model option of `eci run MODEL` (a parameter, a part of the initial state, a generator setting): main.cpp

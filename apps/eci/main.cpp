@@ -111,7 +111,7 @@ void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
         std::string methods;
         for (const std::string& n : i.methods) methods += (methods.empty() ? "" : " ") + n;
         std::printf("  %-15s methods: %s (default %s); default dt %s, t-end %s\n", "", methods.c_str(),
-                    i.default_method.c_str(), shortest(i.default_dt).c_str(), shortest(i.default_t_end).c_str());
+                    i.default_method.c_str(), i.dt_text(shortest).c_str(), shortest(i.default_t_end).c_str());
         std::string presets;
         for (const auto& p : i.presets) presets += (presets.empty() ? "" : " ") + p.first;
         std::printf("  %-15s presets (--preset): %s\n", "", presets.c_str());
@@ -141,7 +141,7 @@ int run_cli(int argc, char** argv) {
         const model_info& i = model->info();
         CLI::App* sub = run->add_subcommand(i.name, i.description);
         sub->add_option("--method", settings.method, "integrator, one of `eci list` (default " + i.default_method + ")");
-        sub->add_option("--dt", dt, "time step (default " + shortest(i.default_dt) + ")");
+        sub->add_option("--dt", dt, "time step (default " + i.dt_text(shortest) + ")");
         sub->add_option("--t-end", t_end, "end time, starting at t = 0 (default " + shortest(i.default_t_end) + ")");
         sub->add_option("--steps", steps, "number of steps instead of --t-end")->check(whole_number(0));
         sub->add_option("--every", settings.every, "write a CSV row every K steps; the first and last always "

@@ -132,7 +132,8 @@ class navier_stokes_2d_command final : public model_command {
                      0.0,  // none: dt comes from --cfl (0.5) unless --dt is given
                      10.0,
                      {{"default", "random field peaked at k = 8, inviscid, dt from CFL 0.5 (see --help for the "
-                                  "initial conditions, forcing and outputs)"}}};
+                                  "initial conditions, forcing and outputs)"}},
+                     "from --cfl 0.5: 0.5 dx / max|u| at t = 0"};
     std::vector<option_spec> specs_;
     std::vector<std::unique_ptr<std::vector<double>>> reals_;
     std::vector<std::unique_ptr<std::uint64_t>> wholes_;

@@ -175,6 +175,21 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
     }
 }
 
+// `eci list` and --help say where the default dt comes from (the CFL number), not "default dt 0".
+TEST(CliNavierStokes2d, ListAndHelpTellTheDefaultDt) {
+    scratch_dir dir("ns2d-list");
+    const auto list = run_eci("list", dir.path());
+    ASSERT_EQ(list.status, 0) << list.err;
+    const std::size_t at = list.out.find("navier-stokes-2d");
+    ASSERT_NE(at, std::string::npos);
+    const std::string entry = list.out.substr(at, list.out.find("presets", at) - at);
+    EXPECT_NE(entry.find("default dt from --cfl 0.5: 0.5 dx / max|u| at t = 0"), std::string::npos) << entry;
+    const auto help = run_eci("run navier-stokes-2d --help", dir.path());
+    ASSERT_EQ(help.status, 0) << help.err;
+    EXPECT_NE(help.out.find("time step (default from --cfl 0.5: 0.5 dx / max|u| at t = 0)"), std::string::npos);
+    EXPECT_EQ(help.out.find("time step (default 0)"), std::string::npos);
+}
+
 }  // namespace
 
 #endif  // ECI_CLI_PATH
