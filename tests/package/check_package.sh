@@ -9,9 +9,10 @@ trap 'rm -rf "$work"' EXIT
 generator=()
 command -v ninja >/dev/null 2>&1 && generator=(-G Ninja)
 
-# The library alone, installed without a build (the Python module needs one: tests/python/test_install.py).
+# The library alone, installed without a build (the Python module needs one: tests/python/test_install.py; the
+# compiled eci::spectral is checked below).
 cmake -S "$src" -B "$work/eci" "${generator[@]}" -DECI_BUILD_TESTS=OFF -DECI_BUILD_APPS=OFF -DECI_BUILD_PYTHON=OFF \
-      -DECI_BUILD_EXAMPLES=OFF -DCMAKE_INSTALL_PREFIX="$work/prefix" >/dev/null
+      -DECI_BUILD_EXAMPLES=OFF -DECI_BUILD_SPECTRAL=OFF -DCMAKE_INSTALL_PREFIX="$work/prefix" >/dev/null
 cmake --install "$work/eci" >/dev/null
 test -f "$work/prefix/include/eci/version.hpp"
 test -f "$work/prefix/share/cmake/eci/eci-config-version.cmake"
@@ -22,6 +23,31 @@ for consumer in find_package subdirectory; do
   cmake --build "$work/$consumer" >/dev/null
   "$work/$consumer/consumer"
 done
+
+# Without eci::spectral installed, asking for it must fail.
+mkdir -p "$work/no_spectral"
+cat >"$work/no_spectral/CMakeLists.txt" <<'CMAKE'
+cmake_minimum_required(VERSION 3.25)
+project(no_spectral LANGUAGES CXX)
+find_package(eci CONFIG REQUIRED COMPONENTS spectral)
+CMAKE
+if cmake -S "$work/no_spectral" -B "$work/no_spectral/build" -DCMAKE_PREFIX_PATH="$work/prefix" >/dev/null 2>&1; then
+  echo "find_package(eci COMPONENTS spectral) was accepted without eci::spectral installed" >&2
+  exit 1
+fi
+
+# eci::spectral (FFTW3): built, installed into its own prefix, found as a component by a consumer that runs it.
+if pkg-config --exists fftw3 2>/dev/null; then
+  cmake -S "$src" -B "$work/eci-spectral" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_TESTS=OFF \
+        -DECI_BUILD_APPS=OFF -DECI_BUILD_PYTHON=OFF -DECI_BUILD_EXAMPLES=OFF -DECI_BUILD_SPECTRAL=ON \
+        -DCMAKE_INSTALL_PREFIX="$work/prefix-spectral" >/dev/null
+  cmake --build "$work/eci-spectral" --target eci_spectral >/dev/null
+  cmake --install "$work/eci-spectral" >/dev/null
+  cmake -S "$src/tests/package/spectral_consumer" -B "$work/spectral" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release \
+        -DCMAKE_PREFIX_PATH="$work/prefix-spectral" >/dev/null
+  cmake --build "$work/spectral" >/dev/null
+  "$work/spectral/consumer"
+fi
 
 # A consumer that asks for an incompatible version must be refused.
 mkdir -p "$work/too_new"
