@@ -3,7 +3,8 @@
 # Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--long] [--json FILE] [--out DIR] [--build-dir DIR]
 #   --quick  smaller large systems and fewer repetitions (under two minutes)
 #   --smoke  every program for a token run (CI: keeps them compiling and running, under a minute); numbers meaningless
-#   --ns2d   also the 2-D Navier-Stokes benchmarks (N = 1024 steps, threads, N = 128..4096 scaling, NumPy; ~15 min)
+#   --ns2d   also the 2-D Navier-Stokes benchmarks (N = 1024 steps, threads, N = 128..4096 scaling x 3, radicands
+#            at N = 256 and 1024, NumPy; ~30 min)
 #   --long   also the 1e7-step round-off runs of compensated C-RK4 / C-DP54 (adaptive bench; minutes)
 set -euo pipefail
 
@@ -23,7 +24,7 @@ while [[ $# -gt 0 ]]; do
     --json) [[ $# -ge 2 ]] || { echo "run.sh: --json needs a file name" >&2; exit 2; }; json=$(realpath -m "$2"); shift ;;
     --out) [[ $# -ge 2 ]] || { echo "run.sh: --out needs a directory" >&2; exit 2; }; out=$(realpath -m "$2"); shift ;;
     --build-dir) [[ $# -ge 2 ]] || { echo "run.sh: --build-dir needs a directory" >&2; exit 2; }; build=$(realpath -m "$2"); shift ;;
-    -h|--help) sed -n '2,6p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
     *) echo "run.sh: unknown argument $1" >&2; exit 2 ;;
   esac
   shift
@@ -112,21 +113,24 @@ if [ $ns2d = 1 ]; then
   # 2-D Navier-Stokes (issue 11): every ratio measured side by side in one process; the wisdom file keeps plans.
   wisdom="$out/fftw-wisdom"
   case $mode in
-    full)  sizes="128 256 512 1024 2048 4096"; big=1024; reps=5; rad_steps=100 ;;
-    quick) sizes="128 256 512 1024"; big=1024; reps=3; rad_steps=20 ;;
-    smoke) sizes="32 64"; big=64; reps=1; rad_steps=2 ;;
+    full)  sizes="128 256 512 1024 2048 4096"; big=1024; reps=5; rad="256:100 1024:50"; scal_runs=3 ;;
+    quick) sizes="128 256 512 1024"; big=1024; reps=3; rad="256:20"; scal_runs=1 ;;
+    smoke) sizes="32 64"; big=64; reps=1; rad="64:2"; scal_runs=1 ;;
   esac
-  echo "== ns2d: per-step cost, N=$big, 1 and 2 threads" >&2
+  echo "== ns2d: per-step cost, N=$big, 1 thread (CPU time), and 2 threads against 1 (wall time, paired)" >&2
   : > "$out/ns2d_step.txt"
   for t in 1 2; do "$bin/eci_bench_ns2d_step" $big $t $reps "$wisdom" >> "$out/ns2d_step.txt"; done
-  echo "== ns2d: step time against N^2 log N (N = $sizes), peak memory" >&2
+  echo "== ns2d: step time against N^2 log N (N = $sizes, $scal_runs runs each), peak memory" >&2
   : > "$out/ns2d_scaling.txt"
-  for n in $sizes; do
-    /usr/bin/time -f "ns2d-memory N=$n peak_kib=%M" "$bin/eci_bench_ns2d_step" $n 1 $reps "$wisdom" \
-      >> "$out/ns2d_scaling.txt" 2>> "$out/ns2d_scaling.txt"
+  for ((run = 0; run < scal_runs; ++run)); do
+    for n in $sizes; do
+      /usr/bin/time -f "ns2d-memory N=$n peak_kib=%M" "$bin/eci_bench_ns2d_step" $n 1 $reps "$wisdom" \
+        >> "$out/ns2d_scaling.txt" 2>> "$out/ns2d_scaling.txt"
+    done
   done
-  echo "== ns2d: negative radicands at CFL 0.5, N=256" >&2
-  "$bin/eci_bench_ns2d_radicand" 256 $rad_steps > "$out/ns2d_radicand.txt"
+  echo "== ns2d: negative radicands at CFL 0.5 (N:steps = $rad)" >&2
+  : > "$out/ns2d_radicand.txt"
+  for r in $rad; do "$bin/eci_bench_ns2d_radicand" ${r%:*} ${r#*:} >> "$out/ns2d_radicand.txt"; done
   echo "== ns2d: independent NumPy solver" >&2
   {
     /usr/bin/python3 "$repo/bench/ns2d_numpy.py" check "$build/eci" || echo "ns2d-numpy check FAILED"
@@ -140,19 +144,26 @@ def fields(line):
 steps = [fields(l) for l in open(out + "/ns2d_step.txt") if l.startswith("ns2d-step")]
 print("\n2-D Navier-Stokes (targets in brackets)")
 for s in steps:
-    print("  N=%s threads=%s: C-RK4/RK4 %s [<= 1.03], C-PC/PC %s [<= 1.03], C-RK4 step / its FFTs %s [<= 1.3]"
-          % (s["N"], s["threads"], s["c_rk4/rk4"], s["c_pc/pc"], s["c_rk4/fft"]))
-if len(steps) == 2:
-    print("  2 threads vs 1 (C-RK4 step): %.2f [>= 1.6]" % (float(steps[0]["c_rk4"]) / float(steps[1]["c_rk4"])))
-import math
+    print("  N=%s threads=%s (%s time): C-RK4/RK4 %s [<= 1.03], C-PC/PC %s [<= 1.03], C-RK4 step / its FFTs %s [<= 1.3], "
+          "right-hand sides / their FFTs %s" % (s["N"], s["threads"], s["clock"], s["c_rk4/rk4"], s["c_pc/pc"], s["c_rk4/fft"],
+                                                s["rhs/fft"]))
+for l in open(out + "/ns2d_step.txt"):
+    if l.startswith("ns2d-threads"):
+        f = fields(l)
+        print("  2 threads vs 1 (C-RK4 step, paired, wall time): %s [>= 1.6]" % f["speedup"])
+import math, statistics
 scal = [fields(l) for l in open(out + "/ns2d_scaling.txt") if l.startswith("ns2d-step")]
 mem = {f["N"]: f["peak_kib"] for f in (fields(l) for l in open(out + "/ns2d_scaling.txt") if l.startswith("ns2d-memory"))}
+by_n = {}
+for s in scal: by_n.setdefault(int(s["N"]), []).append(s)
 with open(out + "/ns2d_scaling.csv", "w") as f:
-    f.write("N,c_rk4_step_seconds,per_N2logN,peak_kib\n")
-    for s in scal:
-        n = int(s["N"]); t = float(s["c_rk4"])
-        f.write("%d,%.6g,%.6g,%s\n" % (n, t, t / (n * n * math.log2(n)), mem.get(s["N"], "")))
-        print("  N=%5d: C-RK4 step %.4g s, per N^2 log2 N %.3g ns, peak memory %s KiB" % (n, t, 1e9 * t / (n * n * math.log2(n)), mem.get(s["N"], "?")))
+    f.write("N,c_rk4_step_seconds,per_N2logN,peak_kib,c_rk4_over_fft\n")
+    for n in sorted(by_n):
+        t = statistics.median(float(s["c_rk4"]) for s in by_n[n])
+        r = [float(s["c_rk4/fft"]) for s in by_n[n]]
+        f.write("%d,%.6g,%.6g,%s,%.4f\n" % (n, t, t / (n * n * math.log2(n)), mem.get(str(n), ""), statistics.median(r)))
+        print("  N=%5d: C-RK4 step %.4g s (median of %d runs, CPU), per N^2 log2 N %.3g ns, step / FFTs %.3f-%.3f, "
+              "peak memory %s KiB" % (n, t, len(r), 1e9 * t / (n * n * math.log2(n)), min(r), max(r), mem.get(str(n), "?")))
 for l in open(out + "/ns2d_numpy.txt"): print("  " + l.strip())
 for l in open(out + "/ns2d_radicand.txt"): print("  " + l.strip())
 PY
