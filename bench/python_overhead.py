@@ -79,7 +79,8 @@ def main():
               f"{ratio:6.3f}  {'met' if ratio <= 1.0 else 'MISSED'} ({e / s:.3f}; nfev eci {nfev['eci']}, "
               f"scipy {nfev['scipy']}); adaptive dp54 over {oa * 1e6:.2f}us, ratio {ratio_adaptive:.3f} "
               f"{'met' if ratio_adaptive <= 1.0 else 'MISSED'} (nfev {nfev['adaptive']})")
-    print("(eci: rk4, dt 0.01, and dp54 rtol 1e-8, atol 1e-10; SciPy: RK45 rtol 1e-8, atol 1e-10; t_eval=[t_end]; best of "
+    print("(eci: rk4, dt 0.01, and dp54 rtol 1e-8, atol 1e-10; SciPy: RK45 rtol 1e-8, atol 1e-10; "
+          "t_eval=[t_end]; best of "
           f"{args.reps} interleaved repetitions)")
     return 0 if ok else 1
 

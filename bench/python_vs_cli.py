@@ -2,12 +2,13 @@
 """A built-in model's integration through eci.solve against `eci run` of the same integration, side by side.
 
 Both run the same steps in C++ and measure every invariant after every step; the CLI writes no CSV and eci.solve
-keeps only the end point (t_eval=[t_end]). Each repetition runs the CLI (wall time of the whole process, and the
+keeps only the end point (t_eval=[t_end]; adaptive cases keep every accepted state, whose invariants both measure).
+Each repetition runs the CLI (wall time of the whole process, and the
 loop time it reports in --summary-json) and eci.solve in this process, in alternating order; the ratio reported is
 the median over the repetitions of each pair's ratio (load from other processes drifts slowly, so a pair sees about
 the same load), with the ratio of the fastest runs beside it. Target: eci.solve <= 1.05x the CLI's process.
 
-    PYTHONPATH=build/python /usr/bin/python3 bench/python_vs_cli.py [--cli build/eci] [--reps N] [--quick]
+    PYTHONPATH=build/python /usr/bin/python3 bench/python_vs_cli.py [--cli build/eci] [--reps N] [--quick | --smoke]
 """
 import argparse
 import json
@@ -36,7 +37,8 @@ def main():
     ap.add_argument("--cli", default=os.path.join(os.path.dirname(__file__), "..", "build", "eci"))
     ap.add_argument("--reps", type=int, default=5)
     ap.add_argument("--quick", action="store_true", help="runs 10x shorter (numbers noisier)")
-    ap.add_argument("--smoke", action="store_true", help="runs 1000x shorter (CI: keeps it running; numbers mean nothing)")
+    ap.add_argument("--smoke", action="store_true",
+                    help="runs 1000x shorter (CI: keeps it running; numbers mean nothing)")
     ap.add_argument("--only", help="only the cases of this model (CLI name)")
     args = ap.parse_args()
     scale = 1e-3 if args.smoke else 0.1 if args.quick else 1.0
@@ -67,7 +69,8 @@ def main():
                 if rtol is None:
                     r = eci.solve(model, (0.0, t_end), method=method, dt=dt, t_eval=[t_end])
                 else:
-                    r = eci.solve(model, (0.0, t_end), method=method, rtol=rtol, first_step=dt, t_eval=[t_end])
+                    # without t_eval, as the CLI, invariants at every accepted step (and every state kept)
+                    r = eci.solve(model, (0.0, t_end), method=method, rtol=rtol, first_step=dt)
                 return time.perf_counter() - start, r
 
             for rep in range(args.reps):

@@ -69,11 +69,14 @@ class Transform:
 class SolveResult(dict):
     """What eci.solve returns; like SciPy's OdeResult, a dict whose keys are also attributes.
 
-    t (m,), y (n, m) with y[:, i] at t[i]; stats: steps (on the dt grid), t_eval_steps (extra steps to t_eval points
-    between grid times), rejected_steps by cause (step_failed: negative radicand, non-invertible transform or
-    unconverged implicit solve; non_finite_fun; error_estimate: adaptive control), rhs_evals, solver_solves,
-    solver_iterations, solver_max_iterations; invariants: name -> initial, final, max_abs_drift, max_rel_drift,
-    measured after every step; method, order, conservative; and SciPy's nfev, status, message, success.
+    t (m,), y (n, m) with y[:, i] at t[i]; stats: steps (on the dt grid; adaptive: accepted steps), t_eval_steps
+    (extra steps to t_eval points between grid times), rejected_steps by cause (step_failed: negative radicand,
+    non-invertible transform or unconverged implicit solve; non_finite_fun; error_estimate: adaptive control),
+    rhs_evals, solver_solves, solver_iterations, solver_max_iterations, and with rtol/atol also adaptive (True),
+    dt_smallest, dt_largest, dense_points, landed_points, dense_fallbacks; invariants: name -> initial, final,
+    max_abs_drift, max_rel_drift, measured after every step (adaptive with t_eval: at the t_eval times); method,
+    order, conservative; NavierStokes2D runs also budget (energy and enstrophy injection and dissipation); and
+    SciPy's nfev, status, message, success.
     """
 
     def __getattr__(self, name):

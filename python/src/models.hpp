@@ -66,7 +66,8 @@ class model_base {
     virtual py::dict solve_adaptive(double t0, double t1, const py::object& y0, const std::string& method,
                                     double first_step, std::optional<std::vector<double>> t_eval,
                                     std::vector<py::object> invariants,
-                                    const std::vector<std::string>& invariant_names, const py::dict& adaptive) const = 0;
+                                    const std::vector<std::string>& invariant_names,
+                                    const py::dict& adaptive) const = 0;
 };
 
 /// A model of eci's library behind model_base. Dispatch(name, fn) calls fn with the stepper called name.

@@ -245,7 +245,8 @@ void init_ns2d(py::module_& m) {
                          const std::string& forcing, double forcing_k, double forcing_amplitude, double injection_rate,
                          long long forcing_seed, long long threads, bool fftw_measure) {
                  if (n < 0 || hyper_p < 0 || forcing_seed < 0 || threads < 1)
-                     throw std::invalid_argument("n, hyper_p and forcing_seed must be whole numbers >= 0, threads >= 1");
+                     throw std::invalid_argument(
+                         "n, hyper_p and forcing_seed must be whole numbers >= 0, threads >= 1");
                  ns2d_params p;
                  p.n = int(n), p.nu = nu, p.hyper_nu = hyper_nu, p.hyper_p = int(hyper_p), p.drag = drag;
                  p.forcing = forcing_named(forcing), p.forcing_k = forcing_k, p.forcing_amplitude = forcing_amplitude;

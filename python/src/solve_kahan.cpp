@@ -36,7 +36,8 @@ struct python_jacobian_system {
         const py::object r = jac(last_t, to_numpy(std::vector<double>(x.begin(), x.end())));
         const py::array a = py::module_::import("numpy").attr("asarray")(r);
         const auto J = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
-        if (!J || a.dtype().kind() == 'c' || J.ndim() != 2 || J.shape(0) != py::ssize_t(N) || J.shape(1) != py::ssize_t(N))
+        const auto n = py::ssize_t(N);
+        if (!J || a.dtype().kind() == 'c' || J.ndim() != 2 || J.shape(0) != n || J.shape(1) != n)
             throw py::value_error("jac(t, y) returned an array of shape " + shape_text(a) + ", expected (" +
                                   std::to_string(N) + ", " + std::to_string(N) + ") (rows: components of fun)");
         std::array<std::array<double, N>, N> out{};
