@@ -49,10 +49,12 @@ esac
 
 echo "== building ($build, Release, same flags for eci and Boost.Odeint)" >&2
 cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DECI_BUILD_TESTS=OFF \
-      -DECI_BUILD_APPS=$([ $ns2d = 1 ] && echo ON || echo OFF) -DECI_BUILD_EXAMPLES=OFF > "$out/cmake.log"
+      -DECI_BUILD_APPS=ON -DECI_BUILD_PYTHON=ON -DPython3_EXECUTABLE=/usr/bin/python3 -DECI_BUILD_EXAMPLES=OFF \
+      > "$out/cmake.log"
+# eci_cli and eci_python: the Python module against the CLI, both built here with the same flags
 cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
-      eci_bench_remedy eci_bench_adaptive eci_bench_compare_methods \
-      $([ $ns2d = 1 ] && echo eci_bench_ns2d_step eci_bench_ns2d_radicand eci_cli) >> "$out/cmake.log"
+      eci_bench_remedy eci_bench_adaptive eci_bench_compare_methods eci_cli eci_python \
+      $([ $ns2d = 1 ] && echo eci_bench_ns2d_step eci_bench_ns2d_radicand) >> "$out/cmake.log"
 bin="$build/bench"
 
 echo "== per-step cost ($reps interleaved repetitions, large systems N=$big and $big_real)" >&2
@@ -106,6 +108,25 @@ echo
 echo "negative radicands at the users' step sizes (realistic n-wave, 20 triads/mode; per step; cpu ratio = fastest"
 echo "paired steps (median of pair ratios)); targets C-PC/PC and C-RK4/RK4 <= 1.10 in rhs and cpu, no halvings:"
 tee -a "$out/table.txt" < "$out/remedy.txt"
+
+# Python (issue 13): a built-in model through eci.solve against `eci run` (target <= 1.05), and the overhead per
+# right-hand-side call of a Python fun against solve_ivp's (target <= 1); each side by side in one process.
+echo "== Python: eci.solve against eci run, and per-call overhead against solve_ivp" >&2
+case $mode in
+  full)  py_opts="--reps 7" ;;
+  quick) py_opts="--reps 5 --quick" ;;
+  smoke) py_opts="--reps 1 --smoke" ;;
+esac
+{
+  echo
+  echo "Python: a built-in model through eci.solve / eci run of the same integration (bench/python_vs_cli.py)"
+  PYTHONPATH="$build/python" /usr/bin/python3 "$repo/bench/python_vs_cli.py" --cli "$build/eci" $py_opts \
+    || echo "(python_vs_cli: a target MISSED)"
+  echo
+  echo "Python: overhead per fun call, eci.solve / solve_ivp RK45 (bench/python_overhead.py)"
+  PYTHONPATH="$build/python" /usr/bin/python3 "$repo/bench/python_overhead.py" $py_opts \
+    || echo "(python_overhead: a target MISSED)"
+} | tee -a "$out/table.txt" | tee "$out/python.txt"
 if [ "$mode" = smoke ]; then echo "(smoke run: every program ran once, at token sizes: the ratios above mean nothing)"; fi
 grep -h "^wp " "$out/work_precision.txt" | grep -v "lvk=" > "$out/work_precision_summary.txt" || true
 

@@ -19,10 +19,11 @@ from collections import namedtuple
 import numpy as np
 
 from . import _eci, models
-from ._errors import StepSizeUnderflow
+from ._errors import StepSizeUnderflow, TooManySteps
 from .models import Model
 
-__all__ = ["solve", "methods", "MethodInfo", "SolveResult", "Transform", "StepSizeUnderflow", "models"]
+__all__ = ["solve", "methods", "MethodInfo", "SolveResult", "Transform", "StepSizeUnderflow", "TooManySteps",
+           "models"]
 __version__ = "0.1.0"
 
 MethodInfo = namedtuple("MethodInfo", "name order conservative description")
@@ -32,7 +33,7 @@ MethodInfo.__doc__ = "A method of the registry: its name, global order, whether 
 def methods():
     """Every method eci has, as MethodInfo(name, order, conservative, description), in the registry's order.
 
-    A Python fun can use every method except "kahan" (which needs a model's Jacobian); a built-in model lists the
+    A Python fun can use every method ("kahan" with its Jacobian, jac=); a built-in model lists the
     methods it accepts in model.methods."""
     return [MethodInfo(*m) for m in _eci._methods()]
 
@@ -68,11 +69,14 @@ class Transform:
 class SolveResult(dict):
     """What eci.solve returns; like SciPy's OdeResult, a dict whose keys are also attributes.
 
-    t (m,), y (n, m) with y[:, i] at t[i]; stats: steps (on the dt grid), t_eval_steps (extra steps to t_eval points
-    between grid times), rejected_steps by cause (step_failed: negative radicand, non-invertible transform or
-    unconverged implicit solve; non_finite_fun; error_estimate: adaptive control), rhs_evals, solver_solves,
-    solver_iterations, solver_max_iterations; invariants: name -> initial, final, max_abs_drift, max_rel_drift,
-    measured after every step; method, order, conservative; and SciPy's nfev, status, message, success.
+    t (m,), y (n, m) with y[:, i] at t[i]; stats: steps (on the dt grid; adaptive: accepted steps), t_eval_steps
+    (extra steps to t_eval points between grid times), rejected_steps by cause (step_failed: negative radicand,
+    non-invertible transform or unconverged implicit solve; non_finite_fun; error_estimate: adaptive control),
+    rhs_evals, solver_solves, solver_iterations, solver_max_iterations, and with rtol/atol also adaptive (True),
+    dt_smallest, dt_largest, dense_points, landed_points, dense_fallbacks; invariants: name -> initial, final,
+    max_abs_drift, max_rel_drift, measured after every step (adaptive with t_eval: at the t_eval times); method,
+    order, conservative; NavierStokes2D runs also budget (energy and enstrophy injection and dissipation); and
+    SciPy's nfev, status, message, success.
     """
 
     def __getattr__(self, name):
@@ -88,10 +92,6 @@ class SolveResult(dict):
         drift = ", ".join(f"{k}: {v['max_rel_drift']:.3g}" for k, v in self["invariants"].items())
         return (f"SolveResult(method={self['method']!r}, {len(self['t'])} points, steps={self['stats']['steps']}, "
                 f"nfev={self['nfev']}" + (f", max relative drift {{{drift}}})" if drift else ")"))
-
-
-_ADAPTIVE_MISSING = ("adaptive step control (rtol, atol) is not available in this version of eci; "
-                     "give a fixed step dt")
 
 
 def _shortest(v):
@@ -161,32 +161,107 @@ def _initial_state(y0):
     return np.ascontiguousarray(a)
 
 
-def solve(fun, t_span, y0=None, method="c-rk4", dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
-          transform=None, max_halvings=40):
+# SciPy's solve_ivp defaults, used when a Python fun is given neither dt nor tolerances.
+_SCIPY_RTOL, _SCIPY_ATOL = 1e-3, 1e-6
+_DEFAULT_ADAPTIVE = "c-dp54"
+_T_EVAL_MODES = ("auto", "dense", "landing")
+
+
+def _tolerance(value, name, n):
+    """rtol or atol as (scalar, per-component list): a number >= 0 or one number >= 0 per component of y."""
+    a = np.asarray(value)
+    if a.dtype.kind not in "biuf":
+        raise TypeError(f"{name} must be a real number or an array of them, not {type(value).__name__}")
+    if a.ndim == 0:
+        v = float(a)
+        if not (v >= 0.0) or not math.isfinite(v):
+            raise ValueError(f"{name} must be a finite number >= 0, not {_shortest(v)}")
+        return v, []
+    if a.ndim != 1 or a.size != n:
+        raise ValueError(f"{name} has shape {a.shape}, expected a number or one value per component of y ({n},)")
+    for i, v in enumerate(a.astype(float)):
+        if not (v >= 0.0) or not math.isfinite(v):
+            raise ValueError(f"{name}[{i}] must be a finite number >= 0, not {_shortest(v)}")
+    return 0.0, [float(v) for v in a]
+
+
+def _first_step(fun, t0, t1, y0, order, rtol, atol):
+    """A first step for a Python fun, by Hairer, Norsett & Wanner's rule (I, II.4): the step whose error, estimated
+    from fun at y0 and after a small Euler step, is about the tolerance (two evaluations of fun). A fun that returns
+    something unusable gets a small step here; the run itself then reports the problem."""
+    span = t1 - t0
+    if span == 0.0:
+        return 1.0
+    fallback = 1e-6 * span
+
+    def rms(v):
+        return float(np.sqrt(np.mean(np.abs(v) ** 2)))
+
+    def evaluate(t, y):
+        f = np.asarray(fun(t, y))
+        ok = f.shape == y0.shape and f.dtype.kind in "biufc" and bool(np.all(np.isfinite(f)))
+        return f if ok else None
+
+    scale = atol + rtol * np.abs(y0)
+    if np.any(scale == 0.0):
+        return fallback
+    f0 = evaluate(t0, y0)
+    if f0 is None:
+        return fallback
+    d0, d1 = rms(y0 / scale), rms(f0 / scale)
+    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
+    h0 = min(h0, span)
+    f1 = evaluate(t0 + h0, y0 + h0 * f0)
+    if f1 is None:
+        return min(h0, span)
+    d2 = rms((f1 - f0) / scale) / h0
+    h1 = max(1e-6, 1e-3 * h0) if max(d1, d2) <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
+    return min(100.0 * h0, h1, span)
+
+
+def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
+          transform=None, max_halvings=40, first_step=None, min_step=0.0, max_step=math.inf, max_steps=None,
+          t_eval_mode="auto", jac=None):
     """Integrate dy/dt = fun(t, y) from t_span[0] to t_span[1], SciPy's solve_ivp conventions, eci's numerics.
 
     fun: a callable fun(t, y) -> dy/dt (y a real or complex 1-D array, as in SciPy), or a built-in model
         (eci.models.ThreeWave(), ...), which runs the whole integration in C++ without the GIL.
     t_span: (t0, t1), t1 >= t0.
     y0: the initial state; for a model, None means its default initial condition.
-    method: a name from eci.methods(); "c-rk4" (conservative classical Runge-Kutta) by default.
+    method: a name from eci.methods(). Default: "c-rk4" (conservative classical Runge-Kutta) with fixed steps,
+        "c-dp54" (conservative Dormand-Prince 5(4)) with adaptive control.
     dt: the fixed step. Steps land on t0 + i dt, the last one shortened to end at t1, exactly as `eci run`, so the
         states are the CLI's bit for bit. For a model, None means its default step (model.default_dt).
-    rtol, atol: adaptive step control, not available yet (NotImplementedError); dt is required meanwhile.
-    t_eval: times at which to store the solution (sorted, within t_span); by default every step is stored. A time
-        between two grid points is reached by one extra step from the earlier one, off the grid run.
-    invariants: callables of y whose drift is measured after every step: one, a list, or a dict name -> callable.
-        A model's own invariants are always measured.
-    transform: an eci.Transform in which the invariants are linear (methods c-pc, c-rk2, c-rk4).
-    max_halvings: how often a failed step may be halved before StepSizeUnderflow (default 40, as the CLI).
+    rtol, atol: adaptive step control (an embedded pair: bs32, ck54, dp54, f78 and their c- versions), each a
+        number or one number per component of y (a complex component's two parts share one). Giving one sets the
+        other to the same value, as `eci run --rtol`. A Python fun given neither dt nor tolerances is integrated
+        adaptively with SciPy's defaults, rtol=1e-3, atol=1e-6. dt and rtol/atol together are an error.
+    t_eval: times at which to store the solution (sorted, within t_span); by default every step is stored. Fixed
+        steps: a time between two grid points is reached by one extra step from the earlier one, off the grid run.
+        Adaptive: t_eval_mode "auto" (dense output where it is as accurate as the steps: bs32, dp54 and their c-
+        versions; conservative dense output keeps the invariants), "dense" or "landing" (a step lands on each time).
+    invariants: callables of y whose drift is measured after every step (adaptive with t_eval: at every t_eval
+        time, as `eci run --rtol --output-dt`): one, a list, or a dict name -> callable. A model's own invariants
+        are always measured.
+    transform: an eci.Transform in which the invariants are linear (methods c-pc, c-rk2, c-rk4; adaptive: the c-
+        pairs).
+    max_halvings: fixed steps: how often a failed step may be halved before StepSizeUnderflow (default 40).
+    first_step, min_step, max_step, max_steps: adaptive control: the first step (default: the model's default dt,
+        as `eci run --rtol`; for a Python fun, Hairer's estimate from two evaluations of fun), the smallest step
+        (default 0: 64 eps |t|), the largest (default inf) and the most attempts, accepted and rejected (default
+        50 000 000).
+    jac: the Jacobian of a Python fun for method "kahan" (Kahan's linearly implicit method, for quadratic fields):
+        jac(t, y) -> (n, n) array, rows the components of fun (SciPy's convention), or a constant (n, n) array;
+        real y of up to 8 unknowns. A built-in model uses its own.
 
     Returns a SolveResult (t, y, stats, invariants, ...). Raises ValueError or TypeError for bad input (the CLI's
-    messages), StepSizeUnderflow when a step fails at every size, and whatever fun raises; Ctrl-C interrupts.
+    messages), StepSizeUnderflow when a step fails at every size, TooManySteps when an adaptive run runs out of
+    max_steps, and whatever fun raises; Ctrl-C interrupts.
     """
     is_model = isinstance(fun, Model)
     if not is_model and not callable(fun):
         raise TypeError(f"fun must be a callable fun(t, y) or an eci.models model, not {type(fun).__name__}")
-    if not isinstance(method, str):
+    if method is not None and not isinstance(method, str):
         raise TypeError(f"method must be a string (see eci.methods()), not {type(method).__name__}")
     try:
         t0, t1 = t_span
@@ -197,46 +272,139 @@ def solve(fun, t_span, y0=None, method="c-rk4", dt=None, rtol=None, atol=None, t
         raise ValueError(f"t_span[0] must be a finite number, not {_shortest(t0)}")
     if not (t1 >= t0) or not math.isfinite(t1):
         raise ValueError(f"t_span[1] must be a finite number >= {_shortest(t0)}, not {_shortest(t1)}")
-    if rtol is not None or atol is not None:
-        if dt is not None:
-            raise ValueError("give either dt (fixed steps) or rtol/atol (adaptive step control), not both")
-        raise NotImplementedError(_ADAPTIVE_MISSING)
-    if dt is None:
-        if not is_model:
-            raise ValueError("dt is required: " + _ADAPTIVE_MISSING.split(";")[0] + " yet")
-        dt = fun.default_dt
-    dt = _number(dt, "dt")
-    if not (dt > 0.0) or not math.isfinite(dt):
-        raise ValueError(f"dt must be a positive finite number, not {_shortest(dt)}")
-    if (t1 - t0) / dt > 2.0 ** 53:  # beyond 2^53 steps the grid t0 + i dt is no longer exact
-        raise ValueError(f"t_span / dt is {_shortest((t1 - t0) / dt)} steps, too many")
+    adaptive = rtol is not None or atol is not None
+    if adaptive and dt is not None:
+        raise ValueError("give either dt (fixed steps) or rtol/atol (adaptive step control; first_step sets the "
+                         "first step), not both")
+    if not adaptive and dt is None and not is_model:
+        if method is None or method in _eci._adaptive_methods_real():
+            adaptive, rtol, atol = True, _SCIPY_RTOL, _SCIPY_ATOL
+        else:
+            raise ValueError(f"dt is required for method {method} (fixed steps); or give rtol/atol with an adaptive "
+                             f"method ({', '.join(_eci._adaptive_methods_real())})")
+    if method is None:
+        method = _DEFAULT_ADAPTIVE if adaptive else "c-rk4"
+    if not adaptive:
+        for name, value, default in (("first_step", first_step, None), ("min_step", min_step, 0.0),
+                                     ("max_step", max_step, math.inf), ("max_steps", max_steps, None),
+                                     ("t_eval_mode", t_eval_mode, "auto")):
+            if value != default:
+                raise ValueError(f"{name} is for adaptive step control: give rtol/atol (and no dt)")
+        if dt is None:  # NavierStokes2D: the CFL 0.5 step of the initial state, as `eci run navier-stokes-2d`
+            dt = fun.cfl_step(y0) if y0 is not None and hasattr(fun, "cfl_step") else fun.default_dt
+        dt = _number(dt, "dt")
+        if not (dt > 0.0) or not math.isfinite(dt):
+            raise ValueError(f"dt must be a positive finite number, not {_shortest(dt)}")
+        if (t1 - t0) / dt > 2.0 ** 53:  # beyond 2^53 steps the grid t0 + i dt is no longer exact
+            raise ValueError(f"t_span / dt is {_shortest((t1 - t0) / dt)} steps, too many")
     if isinstance(max_halvings, bool) or not isinstance(max_halvings, numbers.Integral) or not 0 <= max_halvings <= 60:
         raise ValueError(f"max_halvings must be a whole number from 0 to 60, not {max_halvings!r}")
     times = _t_eval_array(t_eval, t0, t1)
     functions, names = _invariant_list(invariants)
     if transform is not None and not isinstance(transform, Transform):
         raise TypeError(f"transform must be an eci.Transform, not {type(transform).__name__}")
-
+    if is_model and transform is not None:
+        raise ValueError(f"transform is for a Python fun; model {fun.name} uses its own")
+    if jac is not None and is_model:
+        raise ValueError(f"jac is for a Python fun; model {fun.name} has its own Jacobian")
+    if jac is not None and method != "kahan":
+        raise ValueError(f"jac is used by method kahan only, not {method}")
     if is_model:
-        if transform is not None:
-            raise ValueError(f"transform is for a Python fun; model {fun.name} uses its own")
-        raw = fun._solve(t0, t1, y0, method, dt, times, functions, names, int(max_halvings))
+        y = None if y0 is None else np.asarray(y0)
+        n = len(fun.default_y0) if y is None or y.ndim != 1 else len(y)
     else:
         if y0 is None:
             raise ValueError("y0 is required for a Python fun")
         y = _initial_state(y0)
-        if transform is not None:
-            if y.dtype.kind == "c":
-                raise ValueError("a transform needs a real y0")
-            raw = _eci._solve_transformed(fun, transform.forward, transform.inverse, transform.jacobian,
-                                          transform.rate, t0, t1, y, method, dt, times, functions, names,
-                                          int(max_halvings))
+        if transform is not None and y.dtype.kind == "c":
+            raise ValueError("a transform needs a real y0")
+        n = len(y)
+
+    if adaptive:
+        settings = _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps, t_eval_mode, t0, t1)
+        if is_model:
+            h = fun.default_dt if settings["first_step"] is None else settings["first_step"]
+            raw = fun._solve_adaptive(t0, t1, y0, method, h, times, functions, names, settings)
         else:
-            solver = _eci._solve_complex if y.dtype.kind == "c" else _eci._solve_real
-            raw = solver(fun, t0, t1, y, method, dt, times, functions, names, int(max_halvings))
+            h = settings["first_step"]
+            if h is None:
+                order = next((m.order for m in methods() if m.name == method), 4)
+                h = _first_step(fun, t0, t1, y, order, max(settings["rtol_each"] or [settings["rtol"]]),
+                                np.asarray(settings["atol_each"] or settings["atol"]))
+            if transform is not None:
+                raw = _eci._solve_adaptive_transformed(fun, transform.forward, transform.inverse, transform.jacobian,
+                                                       transform.rate, t0, t1, y, method, h, times, functions, names,
+                                                       settings)
+            else:
+                solver = _eci._solve_adaptive_complex if y.dtype.kind == "c" else _eci._solve_adaptive_real
+                raw = solver(fun, t0, t1, y, method, h, times, functions, names, settings)
+    elif is_model:
+        raw = fun._solve(t0, t1, y0, method, dt, times, functions, names, int(max_halvings))
+    elif transform is not None:
+        raw = _eci._solve_transformed(fun, transform.forward, transform.inverse, transform.jacobian, transform.rate,
+                                      t0, t1, y, method, dt, times, functions, names, int(max_halvings))
+    elif method == "kahan":
+        if transform is not None:
+            raise ValueError("method kahan does not take a transform")
+        jac = _jacobian(jac, y)
+        raw = _eci._solve_kahan(fun, jac, t0, t1, y, dt, times, functions, names, int(max_halvings))
+    else:
+        solver = _eci._solve_complex if y.dtype.kind == "c" else _eci._solve_real
+        raw = solver(fun, t0, t1, y, method, dt, times, functions, names, int(max_halvings))
     result = SolveResult(raw)
     result["nfev"] = result["stats"]["rhs_evals"]
     result["status"] = 0
     result["success"] = True
     result["message"] = "The solver successfully reached the end of the integration interval."
     return result
+
+
+def _jacobian(jac, y):
+    """jac for Kahan's method as a callable jac(t, y): the user's, or a constant matrix's."""
+    if jac is None:
+        raise ValueError("method kahan needs the Jacobian of fun: give jac=jac(t, y) (an (n, n) array, as "
+                         "solve_ivp's jac)")
+    if y.dtype.kind == "c":
+        raise ValueError("method kahan needs a real y0")
+    if callable(jac):
+        return jac
+    J = np.asarray(jac)
+    if J.dtype.kind not in "biuf" or J.shape != (len(y), len(y)):
+        raise ValueError(f"jac must be callable jac(t, y) or an array of shape ({len(y)}, {len(y)}), got "
+                         f"{J.dtype} array of shape {J.shape}")
+    J = J.astype(float)
+    return lambda t, y: J
+
+
+def _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps, t_eval_mode, t0, t1):
+    """The checked adaptive settings, as the dict the compiled solvers read. One tolerance missing takes the
+    other's value (as `eci run --rtol`)."""
+    r, r_each = _tolerance(atol if rtol is None else rtol, "atol" if rtol is None else "rtol", n)
+    a, a_each = _tolerance(rtol if atol is None else atol, "rtol" if atol is None else "atol", n)
+    if not r_each and not a_each and r == 0.0 and a == 0.0:
+        raise ValueError("rtol and atol cannot both be zero")
+    if r_each or a_each:  # the library takes per-component vectors for both or a scalar: expand the scalar
+        r_each = r_each or [r] * n
+        a_each = a_each or [a] * n
+        if not any(x + y > 0.0 for x, y in zip(r_each, a_each)):
+            raise ValueError("rtol and atol cannot both be zero")
+    if first_step is not None:
+        first_step = _number(first_step, "first_step")
+        if not (first_step > 0.0) or not math.isfinite(first_step):
+            raise ValueError(f"first_step must be a positive finite number, not {_shortest(first_step)}")
+    min_step = _number(min_step, "min_step")
+    if not (min_step >= 0.0) or not math.isfinite(min_step):
+        raise ValueError(f"min_step must be a finite number >= 0, not {_shortest(min_step)}")
+    max_step = _number(max_step, "max_step")
+    if not (max_step > 0.0):
+        raise ValueError(f"max_step must be positive, not {_shortest(max_step)}")
+    if min_step > max_step:
+        raise ValueError(f"min_step {_shortest(min_step)} is larger than max_step {_shortest(max_step)}")
+    if max_steps is None:
+        max_steps = 50_000_000
+    if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
+        raise ValueError(f"max_steps must be a whole number >= 1, not {max_steps!r}")
+    if t_eval_mode not in _T_EVAL_MODES:
+        raise ValueError(f"t_eval_mode must be one of {', '.join(_T_EVAL_MODES)}, not {t_eval_mode!r}")
+    return {"rtol": r, "atol": a, "rtol_each": r_each, "atol_each": a_each, "first_step": first_step,
+            "min_step": min_step, "max_step": max_step, "max_steps": int(max_steps), "t_eval_mode": t_eval_mode}

@@ -2,14 +2,60 @@
 
 Each is callable as model(t, y) (SciPy's fun, so it can be compared with scipy.integrate.solve_ivp directly),
 evaluates its invariants with model.invariants(y), and carries the CLI's defaults: default_y0, default_dt,
-default_t_end and the methods it accepts. Invalid parameters raise ValueError with the CLI's message.
+default_t_end and the methods it accepts. Invalid parameters raise ValueError with the CLI's message. The paper's
+set-ups are named presets: ThreeWave.preset("fig2").solve() is `eci run three-wave --preset fig2`.
 """
+
+from collections import namedtuple
 
 from ._eci import Kepler, LotkaVolterra, Model, ThreeWave
 from ._eci import NWave as _NWaveReal
 from ._eci import NWaveComplex as _NWaveComplex
 
-__all__ = ["Model", "ThreeWave", "NWave", "LotkaVolterra", "Kepler"]
+__all__ = ["Model", "Preset", "ThreeWave", "NWave", "LotkaVolterra", "Kepler"]
+
+try:  # built with eci::spectral (FFTW3) only
+    from ._eci import NavierStokes2D  # noqa: F401
+
+    __all__.append("NavierStokes2D")
+except ImportError:
+    pass
+
+
+class Preset(namedtuple("Preset", "name description model y0 method dt t_end")):
+    """A named set-up of a model (the paper's figures): the model with its parameters, the initial state y0, the
+    method, the step dt and the span [0, t_end], as `eci run MODEL --preset NAME` runs it."""
+
+    __slots__ = ()
+
+    def solve(self, **overrides):
+        """eci.solve on this set-up; keyword arguments (method, dt, t_eval, rtol, ...) override its settings."""
+        from . import solve
+
+        settings = {"method": self.method, "dt": self.dt}
+        if "rtol" in overrides or "atol" in overrides:
+            settings.pop("dt")
+        settings.update(overrides)
+        return solve(self.model, (0.0, self.t_end), self.y0, **settings)
+
+
+def _presets(cls):
+    """Every preset of the model class cls, in the CLI's order (the first is what `eci run MODEL` does)."""
+    return [Preset(*p) for p in cls._presets()]
+
+
+def _preset(cls, name):
+    """The preset of the model class cls called name; ValueError naming the presets there are."""
+    presets = _presets(cls)
+    for p in presets:
+        if p.name == name:
+            return p
+    raise ValueError(f"unknown preset {name!r} (presets: {', '.join(p.name for p in presets)})")
+
+
+for _cls in (ThreeWave, LotkaVolterra, Kepler, _NWaveReal, _NWaveComplex):
+    _cls.presets = classmethod(_presets)
+    _cls.preset = classmethod(_preset)
 
 
 def NWave(modes=30, triads_per_mode=20, seed=1, complex=False):
@@ -18,3 +64,7 @@ def NWave(modes=30, triads_per_mode=20, seed=1, complex=False):
     default initial condition are drawn from `seed` by a portable generator: the same as `eci run n-wave --seed`."""
     cls = _NWaveComplex if complex else _NWaveReal
     return cls(modes=modes, triads_per_mode=triads_per_mode, seed=seed)
+
+
+NWave.presets = lambda complex=False: _presets(_NWaveComplex if complex else _NWaveReal)
+NWave.preset = lambda name, complex=False: _preset(_NWaveComplex if complex else _NWaveReal, name)

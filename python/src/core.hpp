@@ -345,11 +345,17 @@ template <class S>
 py::dict result_dict(recorded_output<S>& out, std::size_t n, const run_report& report,
                      const std::vector<drift_record>& drift, const method_info& method) {
     using value_type = typename recorded_output<S>::value_type;
-    const std::size_t m = out.t.size();
-    py::array_t<double> t(static_cast<py::ssize_t>(m));
-    std::copy(out.t.begin(), out.t.end(), t.mutable_data());
-    py::array_t<value_type> rows({static_cast<py::ssize_t>(m), static_cast<py::ssize_t>(n)});
-    std::copy(out.y.begin(), out.y.end(), rows.mutable_data());
+    const auto m = static_cast<py::ssize_t>(out.t.size());
+    // The arrays take the recorded vectors over (no copy: a long run's output is most of its memory).
+    auto handed_over = [](auto&& v) {
+        using V = std::remove_cvref_t<decltype(v)>;
+        auto* owned = new V(std::move(v));
+        return std::pair{owned, py::capsule(owned, [](void* p) { delete static_cast<V*>(p); })};
+    };
+    auto [tv, t_owner] = handed_over(std::move(out.t));
+    auto [yv, y_owner] = handed_over(std::move(out.y));
+    const py::array_t<double> t({m}, tv->data(), t_owner);
+    const py::array_t<value_type> rows({m, static_cast<py::ssize_t>(n)}, yv->data(), y_owner);
     py::dict d;
     d["t"] = t;
     d["y"] = rows.attr("T");  // y[:, i] is the state at t[i]

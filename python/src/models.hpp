@@ -12,6 +12,7 @@
 
 #include <eci/models/invariant.hpp>
 
+#include "adaptive_core.hpp"
 #include "core.hpp"
 #include "python_system.hpp"
 
@@ -59,6 +60,14 @@ class model_base {
     virtual py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
                            std::optional<std::vector<double>> t_eval, std::vector<py::object> invariants,
                            const std::vector<std::string>& invariant_names, int max_halvings) const = 0;
+    /// The methods with an error estimate, for eci.solve(model, ..., rtol=...).
+    virtual std::vector<std::string> adaptive_methods() const = 0;
+    /// The adaptive integration behind eci.solve(model, ..., rtol=...): `eci run NAME --rtol`'s run.
+    virtual py::dict solve_adaptive(double t0, double t1, const py::object& y0, const std::string& method,
+                                    double first_step, std::optional<std::vector<double>> t_eval,
+                                    std::vector<py::object> invariants,
+                                    const std::vector<std::string>& invariant_names,
+                                    const py::dict& adaptive) const = 0;
 };
 
 /// A model of eci's library behind model_base. Dispatch(name, fn) calls fn with the stepper called name.
@@ -169,6 +178,45 @@ class model_object : public model_base {
         return result_dict(out, size(), report, drift, info);
     }
 
+    std::vector<std::string> adaptive_methods() const override { return adaptive_method_names<Model>(); }
+
+    py::dict solve_adaptive(double t0, double t1, const py::object& y0, const std::string& method, double first_step,
+                            std::optional<std::vector<double>> t_eval, std::vector<py::object> invariants,
+                            const std::vector<std::string>& invariant_names,
+                            const py::dict& adaptive) const override {
+        S x = y0.is_none() ? y0_ : to_state(y0);
+        check_initial(x);
+        const method_info info = resolve_adaptive_method(method, adaptive_methods(), "model " + meta_.name);
+        const adaptive_request req = adaptive_request_from(t0, t1, first_step, std::move(t_eval), adaptive);
+        constexpr auto model_invariants = Model::invariants();
+        std::vector<drift_record> drift;
+        for (const auto& inv : model_invariants) drift.push_back({inv.name});
+        for (const std::string& n : invariant_names) drift.push_back({n});
+        const python_invariants<value_type> user{std::move(invariants)};
+        const bool release = user.functions.empty();
+        const component_namer namer{meta_.columns, false};
+        recorded_output<S> out;
+        adaptive_outcome outcome;
+        {
+            std::optional<py::gil_scoped_release> unlocked;
+            if (release) unlocked.emplace();
+            interrupt_check interrupt(!release);
+            auto measure = [&](const S& s, bool first) {
+                for (std::size_t j = 0; j < model_invariants.size(); ++j)
+                    drift[j].update((model_.*model_invariants[j].value)(s), first);
+                if (!release) user.measure(to_vector(s), drift, model_invariants.size(), first);
+            };
+            // the model itself as the system, as `eci run --rtol` (run_adaptive) passes it: the same bits
+            with_adaptive_stepper<Model>(info.name, [&](auto stepper) {
+                outcome = run_adaptive_grid(stepper, model_, x, req, measure, interrupt, out, nullptr);
+            });
+        }
+        throw_if_failed(outcome, namer);
+        py::dict d = result_dict(out, size(), run_report{}, drift, info);
+        d["stats"] = adaptive_stats_dict(outcome.stats, outcome.monitor);
+        return d;
+    }
+
    private:
     std::size_t size() const { return std::ranges::size(y0_); }
 
@@ -232,6 +280,30 @@ inline std::vector<std::string> indexed_columns(const std::string& prefix, std::
         }
     }
     return c;
+}
+
+/// Adds the static `_presets()` to a model's class: the model's named set-ups (models/description.hpp) as tuples
+/// (name, description, model object, y0, method, dt, t_end), which eci.models wraps as Preset. columns(model)
+/// names a preset model's real unknowns.
+template <class Model, class Columns>
+void add_presets(py::module_& m, const char* class_name, Columns columns) {
+    auto c = py::reinterpret_borrow<py::class_<model_object<Model>, model_base>>(m.attr(class_name));
+    c.def_static(
+        "_presets",
+        [columns] {
+            using object = model_object<Model>;
+            py::list l;
+            for (const auto& p : Model::presets()) {
+                auto meta = describe<Model, typename object::meta>(columns(p.model));
+                const std::vector<std::ranges::range_value_t<typename Model::state_type>> y0(std::ranges::begin(p.x0),
+                                                                                          std::ranges::end(p.x0));
+                l.append(py::make_tuple(std::string(p.name), std::string(p.description),
+                                        object(p.model, std::move(meta), p.x0), to_numpy(y0), std::string(p.method),
+                                        p.dt, p.t_end));
+            }
+            return l;
+        },
+        "The model's named set-ups (the paper's figures) as tuples; see eci.models.Preset.");
 }
 
 /// Binds model_object<Model, Dispatch> as the Python class `name`, a subclass of eci._eci.Model.

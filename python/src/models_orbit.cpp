@@ -60,6 +60,9 @@ void init_orbit_models(py::module_& m) {
             return "Kepler(m=" + shortest_text(k.m) + ", K=" + shortest_text(k.K) + ", ell=" + shortest_text(k.ell) +
                    ")";
         });
+    add_presets<lotka_volterra>(m, "LotkaVolterra",
+                                [](const lotka_volterra&) { return component_columns<lotka_volterra>(); });
+    add_presets<kepler>(m, "Kepler", [](const kepler&) { return component_columns<kepler>(); });
 }
 
 }  // namespace eci::python

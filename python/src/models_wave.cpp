@@ -97,6 +97,12 @@ void init_wave_models(py::module_& m) {
         });
     bind_n_wave<double>(m, "NWave", "n-wave");
     bind_n_wave<std::complex<double>>(m, "NWaveComplex", "n-wave-complex");
+    add_presets<three_wave>(m, "ThreeWave", [](const three_wave&) { return component_columns<three_wave>(); });
+    add_presets<n_wave<double>>(
+        m, "NWave", [](const n_wave<double>& w) { return indexed_columns("psi_", w.size(), false); });
+    add_presets<n_wave<std::complex<double>>>(m, "NWaveComplex", [](const n_wave<std::complex<double>>& w) {
+        return indexed_columns("psi_", w.size(), true);
+    });
 }
 
 }  // namespace eci::python

@@ -60,13 +60,23 @@ py::array_t<T, py::array::c_style> as_vector(const py::object& r, std::size_t n,
     return exact::ensure(a);
 }
 
-/// fun(t, y) as an eci system over std::vector<T>; a non-finite value fails the step (see non_finite_rhs).
+/// Set by a Python fun that returned inf or nan, for adaptive runs: the value is passed on to the stepper (whose
+/// error estimate is then not finite, so the attempt is rejected) and the rejection counted as the fun's.
+struct non_finite_flag {
+    bool seen = false;
+    std::size_t component = 0;
+    double value = 0.0;
+};
+
+/// fun(t, y) as an eci system over std::vector<T>. A non-finite value fails the step (see non_finite_rhs), or,
+/// given a flag (adaptive runs), is passed on and flagged.
 template <class T>
 class python_rhs {
    public:
-    static constexpr bool checks_finite = true;  ///< throws non_finite_rhs
+    static constexpr bool checks_finite = true;  ///< throws non_finite_rhs (without a flag)
 
-    python_rhs(py::object fun, std::size_t n) : fun_(std::move(fun)), n_(n) {}
+    python_rhs(py::object fun, std::size_t n, non_finite_flag* flag = nullptr)
+        : fun_(std::move(fun)), n_(n), flag_(flag) {}
 
     void operator()(const std::vector<T>& x, std::vector<T>& dxdt, double t) const {
         py::array_t<T> y = to_numpy(x);
@@ -79,14 +89,20 @@ class python_rhs {
         const T* v = a.data();
         constexpr std::size_t per = sizeof(T) / sizeof(double);
         const double* d = reinterpret_cast<const double*>(v);
-        for (std::size_t i = 0; i < n_ * per; ++i)
-            if (!std::isfinite(d[i])) throw non_finite_rhs{i, d[i]};
+        for (std::size_t i = 0; i < n_ * per; ++i) {
+            if (std::isfinite(d[i])) [[likely]]
+                continue;
+            if (!flag_) throw non_finite_rhs{i, d[i]};
+            *flag_ = {true, i, d[i]};
+            break;
+        }
         std::memcpy(dxdt.data(), v, n_ * sizeof(T));
     }
 
    private:
     py::object fun_;
     std::size_t n_;
+    non_finite_flag* flag_;
 };
 
 /// Invariants given as Python callables of y, each returning a real number.
@@ -182,6 +198,18 @@ struct python_transform {
     static void copy_checked(const py::array_t<double, py::array::c_style>& a, xi_type& out, const char*) {
         out.assign(a.data(), a.data() + a.shape(0));
     }
+};
+
+/// fun(t, y) with a user's transform: the system transformed_rk and transformed_embedded_rk step (a model with a
+/// linearizing transform).
+struct python_transformed_system {
+    using state_type = std::vector<double>;
+    static constexpr bool checks_finite = true;  ///< throws non_finite_rhs
+    python_rhs<double> rhs;
+    python_transform transform;
+
+    void operator()(const state_type& x, state_type& dxdt, double t) const { rhs(x, dxdt, t); }
+    python_transform linearizing_transform() const { return transform; }
 };
 
 }  // namespace eci::python

@@ -9,17 +9,6 @@ namespace eci::python {
 
 namespace {
 
-/// fun(t, y) with a user's transform: the system transformed_rk steps, a model with a linearizing transform.
-struct python_transformed_system {
-    using state_type = std::vector<double>;
-    static constexpr bool checks_finite = true;  ///< throws non_finite_rhs
-    python_rhs<double> rhs;
-    python_transform transform;
-
-    void operator()(const state_type& x, state_type& dxdt, double t) const { rhs(x, dxdt, t); }
-    python_transform linearizing_transform() const { return transform; }
-};
-
 template <class T>
 using input_array = py::array_t<T, py::array::c_style | py::array::forcecast>;
 

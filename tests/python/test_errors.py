@@ -72,8 +72,8 @@ def test_invalid_run_settings_give_the_cli_message(cli, kwargs, cli_args, option
     assert message(e) == expected
 
 
-def test_kahan_needs_a_model_jacobian():
-    with pytest.raises(ValueError, match=r"method 'kahan' is not available for fun\(t, y\) \(available: euler"):
+def test_kahan_needs_a_jacobian():
+    with pytest.raises(ValueError, match=r"method kahan needs the Jacobian of fun: give jac=jac\(t, y\)"):
         eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0], method="kahan", dt=0.1)
 
 
@@ -89,8 +89,7 @@ def decay(t, y):
     (dict(y0=["a"]), TypeError, "y0 must be real or complex numbers, not dtype <U1"),
     (dict(y0=[1.0, np.inf]), ValueError, r"initial condition y\[1\] is not finite"),
     (dict(y0=None), ValueError, "y0 is required for a Python fun"),
-    (dict(dt=None), ValueError, "dt is required: adaptive step control"),
-    (dict(dt=None, rtol=1e-6), NotImplementedError, "adaptive step control .* is not available"),
+    (dict(dt=None, method="c-rk4"), ValueError, r"dt is required for method c-rk4 \(fixed steps\)"),
     (dict(rtol=1e-6), ValueError, "give either dt .* or rtol/atol"),
     (dict(dt="0.1"), TypeError, "dt must be a real number, not str"),
     (dict(t_span=(0.0,)), ValueError, r"t_span must be a pair \(t0, t1\)"),
@@ -232,6 +231,8 @@ INTERRUPTED = textwrap.dedent("""
     try:
         if kind == "model":   # the GIL is released: ~10^10 C++ steps, far longer than the test
             eci.solve(eci.models.ThreeWave(), (0.0, 1e8), method="c-rk4", dt=0.01, t_eval=[1e8])
+        elif kind == "adaptive":   # adaptive, GIL released, one output time: checked between attempts
+            eci.solve(eci.models.ThreeWave(), (0.0, 1e8), method="c-dp54", rtol=1e-12, t_eval=[1e8])
         else:
             eci.solve(lambda t, y: -y, (0.0, 1e8), np.ones(3), method="rk4", dt=0.01, t_eval=[1e8])
     except KeyboardInterrupt:
@@ -241,7 +242,7 @@ INTERRUPTED = textwrap.dedent("""
 """)
 
 
-@pytest.mark.parametrize("kind", ["model", "function"])
+@pytest.mark.parametrize("kind", ["model", "adaptive", "function"])
 def test_ctrl_c_interrupts_a_long_run(kind, tmp_path):
     script = tmp_path / "long_run.py"
     script.write_text(INTERRUPTED.format(path=str(BUILD / "python")))

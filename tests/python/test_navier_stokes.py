@@ -1,0 +1,76 @@
+# eci.models.NavierStokes2D: the FFTW vorticity model from Python, its diagnostics, and the inviscid conservative
+# run keeping E and Z to round-off where RK4 drifts.
+import math
+
+import numpy as np
+import pytest
+
+import eci
+from conftest import EPS
+
+NS = getattr(eci.models, "NavierStokes2D", None)
+pytestmark = pytest.mark.skipif(NS is None, reason="built without eci::spectral (FFTW3)")
+
+
+def test_state_diagnostics_and_fields():
+    m = NS(n=32)
+    assert m.size == 32 * 17 and m.kmax == 10 and m.invariant_names == ["energy", "enstrophy"]
+    w = m.random_field(k_peak=3.0, energy=0.5, seed=11)
+    assert w.dtype == np.complex128 and w.shape == (m.size,)
+    assert abs(m.energy(w) - 0.5) <= 1e3 * EPS  # scaled to the energy asked for
+    inv = m.invariants(w)
+    assert inv["energy"] == m.energy(w) and inv["enstrophy"] == m.enstrophy(w)
+    assert m.palinstrophy(w) > 0.0
+    # E(k) sums to E; the field on the grid has Z = <omega^2> / 2
+    assert abs(np.sum(m.energy_spectrum(w)) - m.energy(w)) <= 1e3 * EPS
+    field = m.to_physical(w)
+    assert field.shape == (32, 32)
+    assert abs(0.5 * np.mean(field ** 2) - m.enstrophy(w)) <= 1e3 * EPS * m.enstrophy(w)
+    assert np.max(np.abs(m.from_physical(field) - w)) <= 1e3 * EPS * np.max(np.abs(w))
+    assert m.cfl_step(w) == pytest.approx(0.5 * (2 * math.pi / 32) / m.max_velocity(w), rel=1e-15)
+    # the right-hand side as SciPy's fun(t, y) conserves E: sum over modes of conj(omega) N / |k|^2 = 0
+    assert m(0.0, w).shape == w.shape
+
+
+def test_inviscid_c_rk4_keeps_energy_and_enstrophy_where_rk4_drifts():
+    m = NS(n=32)
+    w = m.random_field(k_peak=3.0, energy=0.5, seed=11)
+    steps = 200
+    dt = m.cfl_step(w)
+    t_end = steps * dt
+    r = eci.solve(m, (0.0, t_end), w, method="c-rk4", dt=dt, t_eval=[t_end])
+    assert r.stats["steps"] == steps and r.y.shape == (m.size, 1)
+    # as tests/spectral: each step rounds every sum once and the nonlinear transfer is zero to a few eps;
+    # 8 eps sqrt(steps) relative, halvings counted as extra steps
+    tol = 8.0 * EPS * math.sqrt(steps + 2 * r.stats["rejected_steps"]["step_failed"])
+    for name in ("energy", "enstrophy"):
+        assert r.invariants[name]["max_rel_drift"] <= tol, (name, r.invariants[name])
+    rk4 = eci.solve(m, (0.0, t_end), w, method="rk4", dt=dt, t_eval=[t_end])
+    assert max(rk4.invariants[n]["max_rel_drift"] for n in ("energy", "enstrophy")) > 1e3 * tol
+    # the budget of an unforced inviscid run is zero
+    assert all(v == 0.0 for v in r.budget.values())
+
+
+def test_viscous_decay_budget_and_default_step():
+    m = NS(n=32, nu=0.01)
+    w = m.taylor_green(velocity=1.0)
+    r = eci.solve(m, (0.0, 0.5), w, method="c-rk4", t_eval=[0.0, 0.5])  # dt: CFL 0.5 of w
+    e0, e1 = r.invariants["energy"]["initial"], r.invariants["energy"]["final"]
+    # Taylor-Green decays as exp(-2 nu t) in velocity, exp(-4 nu t) in energy (|k|^2 = 2)
+    assert e1 / e0 == pytest.approx(math.exp(-4 * 0.01 * 0.5), rel=1e-6)
+    # the discrete budget accounts for the loss to round-off
+    assert abs(e0 - r.budget["energy_dissipation"] - e1) <= 1e3 * EPS * e0
+
+
+def test_bad_input():
+    with pytest.raises(ValueError, match="invalid navier-stokes-2d model"):
+        NS(n=7)
+    with pytest.raises(ValueError, match="forcing must be none, deterministic or stochastic"):
+        NS(n=32, forcing="wind")
+    m = NS(n=16)
+    with pytest.raises(ValueError, match=r"has shape \(3,\), expected \(144,\)"):
+        m.energy(np.zeros(3, dtype=complex))
+    with pytest.raises(ValueError, match="has no error estimate"):
+        eci.solve(m, (0.0, 1.0), method="c-dp54", rtol=1e-6)
+    with pytest.raises(ValueError, match="is not on the step grid"):
+        eci.solve(m, (0.0, 1.0), dt=0.1, t_eval=[0.15])
