@@ -13,7 +13,8 @@ M = eci.models
 
 def test_methods_are_the_registry_as_eci_list_shows_it(cli):
     listed = run_cli(cli, "list").stdout.split("Models")[0]
-    rows = re.findall(r"^  (\S+)\s+order (\d)\s+(conservative|conventional)\s+(.+)$", listed, re.M)
+    # name, order, conservative or not, family (how it is built), description
+    rows = re.findall(r"^  (\S+)\s+order (\d)\s+(conservative|conventional)\s+\S+\s+(.+)$", listed, re.M)
     assert [(m.name, m.order, m.conservative, m.description) for m in eci.methods()] == [
         (name, int(order), kind == "conservative", description.strip()) for name, order, kind, description in rows]
 
