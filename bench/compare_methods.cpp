@@ -159,6 +159,44 @@ void add_relaxation_and_projection(problem& p, const Model& model, typename Mode
                          }});
 }
 
+/// The fifth-order group (Dormand-Prince 5(4) underneath every method): DP54 itself, relaxation on its weights
+/// (one invariant), multiple relaxation along b and b - bhat (two), projection after it, and the transformation
+/// method on the same tableau, `Conservative` (the registry's c-dp54 on the model, or on `polar` for Kepler e = 0.5).
+template <class Model, class One, class All, class Conservative>
+void add_dp54_group(problem& p, const Model& model, typename Model::state_type x0, One one, All all, bool multiple,
+                    const std::function<vec(const vec&)>& err, const std::string& transformation,
+                    Conservative conservative) {
+    using S = typename Model::state_type;
+    const double T = p.t_end;
+    auto id = identity<Model>();
+    p.methods.push_back({"baseline", "dp54", [=](std::uint64_t n, bool o) {
+                             return run_stepper(eci::explicit_rk<eci::tableaus::dormand_prince_54, S>{}, model, x0, T,
+                                                n, o, id, err);
+                         }});
+    p.methods.push_back({"relaxation", "rrk-dp54", [=](std::uint64_t n, bool o) {
+                             return run_stepper(eci::rrk_dp54<S, One>(one), model, x0, T, n, o, id, err);
+                         }});
+    if (multiple)
+        p.methods.push_back({"relaxation", "mrrk-dp54", [=](std::uint64_t n, bool o) {
+                                 return run_stepper(eci::mrrk_dp54<S, All>(all), model, x0, T, n, o, id, err);
+                             }});
+    p.methods.push_back({"projection", "projected-dp54", [=](std::uint64_t n, bool o) {
+                             using base = eci::explicit_rk<eci::tableaus::dormand_prince_54, S>;
+                             return run_stepper(eci::orthogonal_projection<base, S, All>(all), model, x0, T, n, o, id,
+                                                err);
+                         }});
+    p.methods.push_back({"transformation", transformation, conservative});
+}
+
+/// The transformation method on DP54 for `model` itself, as the registry builds c-dp54 on it.
+template <class Model>
+auto c_dp54_on(const Model& model, typename Model::state_type x0, double T, const std::function<vec(const vec&)>& err) {
+    return [=](std::uint64_t n, bool o) {
+        return run_stepper(eci::stepper_for<eci::method_entries::c_dp54, Model>{}, model, x0, T, n, o,
+                           identity<Model>(), err);
+    };
+}
+
 // ---- the problems ----
 
 problem rigid_body_problem() {
@@ -176,6 +214,8 @@ problem rigid_body_problem() {
                              return run_stepper(eci::c_rk4<S>{}, model, x0, 100.0, n, o, identity<eci::rigid_body>(),
                                                 err);
                          }});
+    add_dp54_group(p, model, x0, eci::pick_invariants(inv, {0}), inv, true, err, "c-dp54",
+                   c_dp54_on(model, x0, 100.0, err));
     return p;
 }
 
@@ -196,6 +236,8 @@ problem three_wave_problem() {
                              return run_stepper(eci::c_rk4<S>{}, model, x0, 20.0, n, o, identity<eci::three_wave>(),
                                                 err);
                          }});
+    add_dp54_group(p, model, x0, eci::pick_invariants(inv, {0}), inv, true, err, "c-dp54",
+                   c_dp54_on(model, x0, 20.0, err));
     return p;
 }
 
@@ -214,6 +256,7 @@ problem oscillator_problem() {
                              return run_stepper(eci::c_rk4<S>{}, model, x0, 10.0, n, o,
                                                 identity<eci::nonlinear_oscillator>(), err);
                          }});
+    add_dp54_group(p, model, x0, inv, inv, false, err, "c-dp54", c_dp54_on(model, x0, 10.0, err));
     return p;
 }
 
@@ -232,6 +275,7 @@ problem entropy_problem() {
                              return run_stepper(eci::transformed_rk4<eci::exponential_entropy::transform>(), model, x0,
                                                 5.0, n, o, identity<eci::exponential_entropy>(), err);
                          }});
+    add_dp54_group(p, model, x0, inv, inv, false, err, "transformed-dp54", c_dp54_on(model, x0, 5.0, err));
     return p;
 }
 
@@ -253,6 +297,7 @@ problem lotka_volterra_problem() {
                              return run_stepper(eci::transformed_rk4<eci::lotka_volterra::transform>{},
                                                 model, x0, 20.0, n, o, identity<eci::lotka_volterra>(), err);
                          }});
+    add_dp54_group(p, model, x0, inv, inv, false, err, "transformed-dp54", c_dp54_on(model, x0, 20.0, err));
     return p;
 }
 
@@ -275,6 +320,8 @@ problem kepler_paper_problem() {
                              return run_stepper(eci::transformed_rk4<eci::kepler::transform>{},
                                                 model, x0, 10.0, n, o, identity<eci::kepler>(), err);
                          }});
+    add_dp54_group(p, model, x0, eci::pick_invariants(eci::invariants_of(model), {0}), inv, true, err,
+                   "transformed-dp54", c_dp54_on(model, x0, 10.0, err));
     return p;
 }
 
@@ -343,6 +390,16 @@ problem kepler_05_problem(bool quick) {
                                                 },
                                                 err);
                          }});
+    // Fifth order: multiple relaxation keeps H and L (two directions, b and b - bhat).
+    add_dp54_group(p, model, x0, eci::pick_invariants(all, {0}), eci::pick_invariants(all, {0, 1}), true, err,
+                   "transformed-dp54", [=](std::uint64_t n, bool o) {
+                       return run_stepper(eci::stepper_for<eci::method_entries::c_dp54, eci::kepler>{}, polar, polar0,
+                                          T, n, o,
+                                          [ell = polar.ell](const eci::kepler::state_type& s) {
+                                              return to_vec(eci::kepler_cartesian::from_polar(s, ell));
+                                          },
+                                          err);
+                   });
     return p;
 }
 

@@ -9,6 +9,8 @@
 #include <limits>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
+#include <optional>
 #include <span>
 #include <string>
 #include <string_view>
@@ -36,6 +38,8 @@ struct run_summary {
     std::vector<invariant_record> invariants;
     /// Model-specific figures of merit at the end of the run (e.g. Kepler's Runge-Lenz turn), name and value.
     std::vector<std::pair<std::string, double>> figures;
+    /// Relaxation RK: the last state's true time minus its grid time t_end (it reached t_end + time_lag).
+    std::optional<double> time_lag;
     bool adaptive = false;  ///< --rtol/--atol: adaptive step control (dt is then the first step)
     double rtol = 0.0, atol = 0.0;
     adaptive_stats adaptive_counts{};  ///< accepted and rejected steps, step sizes, dense outputs
@@ -99,6 +103,15 @@ void write_summary_json(std::FILE* f, const run_summary& s);
 std::string underflow_message(const step_size_underflow& e, const column_names& columns);
 
 namespace detail {
+
+/// Whether stepper St's states belong to a time other than their grid time (relaxation RK: t + time_lag()).
+template <class St>
+constexpr bool shifts_time() {
+    if constexpr (requires { St::shifts_time; })
+        return St::shifts_time;
+    else
+        return false;
+}
 
 template <class S, class Fn>
 void for_each_real(const S& x, Fn&& fn) {
@@ -247,12 +260,20 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     summary.rtol = tolerances.rtol;
     summary.atol = tolerances.atol;
 
+    // Relaxation RK's state at grid time t belongs to t + time_lag() (each step aims at the grid, so the lag is
+    // one step's O(dt^p), never accumulated): such a method's CSV gets a last column time_lag.
+    bool lagged = false;
+    if (!adaptive)
+        with_stepper<Model>(method.name, [&](auto st) { lagged = detail::shifts_time<decltype(st)>(); });
+    std::function<double()> time_lag;  // set to the running stepper's time_lag() when lagged
+
     std::FILE* out = csv.get();
     if (out) {
         std::fputs("t", out);
         for (std::size_t i = 0; i < columns.size(); ++i) std::fprintf(out, ",%s", columns[i].c_str());
         for (const auto& d : derived) std::fprintf(out, ",%s", d.name);
         for (const auto& inv : Model::invariants()) std::fprintf(out, ",%s", inv.name);
+        if (lagged) std::fputs(",time_lag", out);
         std::fputc('\n', out);
     }
 
@@ -263,6 +284,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         detail::for_each_real(state, [&](double v) { detail::write_csv_number(out, v); });
         for (const auto& d : derived) detail::write_csv_number(out, (model.*d.value)(state));
         for (double v : invariant_values) detail::write_csv_number(out, v);
+        if (time_lag) detail::write_csv_number(out, time_lag());
         std::fputc('\n', out);
     };
     // Finite at the start (checked): a finite state whose invariant overflows is no result.
@@ -332,7 +354,10 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     bool found = false;
     try {
         found = with_stepper<Model>(method.name, [&](auto stepper) {
+            if constexpr (detail::shifts_time<decltype(stepper)>()) time_lag = [&stepper] { return stepper.time_lag(); };
             report = eci::run(stepper, model, x, span, observe, opt);
+            if (time_lag) summary.time_lag = time_lag();
+            time_lag = nullptr;  // the stepper ends with this scope
         });
     } catch (const step_work_exceeded& e) {
         progress.finish();

@@ -116,6 +116,9 @@ void print_summary(std::FILE* f, const run_summary& s) {
                      static_cast<unsigned long long>(s.stats.step_reductions),
                      static_cast<unsigned long long>(s.stats.rhs_evals), s.wall_seconds);
     }
+    if (s.time_lag)  // relaxation RK: the state belongs to t + time lag (docs/comparison.md)
+        std::fprintf(f, "  time reached %s (relaxation: t_end + time lag %s)\n", number(s.t_end + *s.time_lag).c_str(),
+                     number(*s.time_lag).c_str());
     if (s.stats.remedied_steps > 0)  // negative radicands remedied without halving (docs/methods.md)
         std::fprintf(f, "  remedied steps %llu, components remedied %llu\n",
                      static_cast<unsigned long long>(s.stats.remedied_steps),
@@ -152,6 +155,10 @@ void write_summary_json(std::FILE* f, const run_summary& s) {
     key("components_remedied"),
         std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.components_remedied));
     key("wall_seconds"), write_json_number(f, s.wall_seconds), std::fputs(",\n", f);
+    if (s.time_lag) {
+        key("time_lag"), write_json_number(f, *s.time_lag), std::fputs(",\n", f);
+        key("t_reached"), write_json_number(f, s.t_end + *s.time_lag), std::fputs(",\n", f);
+    }
     if (s.adaptive) {
         const adaptive_stats& a = s.adaptive_counts;
         key("adaptive"), std::fputs("true,\n", f);

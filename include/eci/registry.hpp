@@ -201,6 +201,27 @@ struct c_f78 {
                                       "conservative Fehlberg 7(8), order 8 (adaptive with --rtol/--atol)"};
     static constexpr const auto& tableau = tableaus::fehlberg_78;
 };
+/// Relaxation on tableau T's weights b, keeping the model's first invariant (what every rrk-* entry shares).
+template <const auto& T>
+struct relaxation_on {
+    template <class M> using stepper = eci::relaxation_rk<T, typename M::state_type, first_model_invariant>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
+};
+/// Multiple relaxation on the embedded pair T (directions b and b - bhat), keeping the model's two invariants.
+template <const auto& T>
+struct multiple_relaxation_on {
+    template <class M> using stepper = eci::mrrk_pair<T, typename M::state_type, independent_model_invariants>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> == 2;
+};
+/// Tableau T's conventional step followed by the orthogonal projection onto the model's independent invariants.
+template <const auto& T>
+struct projection_after {
+    template <class M>
+    using stepper = eci::orthogonal_projection<eci::explicit_rk<T, typename M::state_type>, typename M::state_type,
+                                               independent_model_invariants>;
+    template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
+};
+
 /// Relaxation RK4 on the model's first invariant (issue 12).
 struct rrk_rk4 {
     static constexpr method_info info{"rrk-rk4", method_family::relaxation, 4, false,
@@ -230,6 +251,31 @@ struct projected_rk4 {
     using stepper = eci::orthogonal_projection<eci::rk4<typename M::state_type>, typename M::state_type,
                                                independent_model_invariants>;
     template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
+};
+/// Relaxation on Bogacki-Shampine 3(2)'s third-order weights.
+struct rrk_bs32 : relaxation_on<tableaus::bogacki_shampine_32> {
+    static constexpr method_info info{"rrk-bs32", method_family::relaxation, 3, false,
+                                      "relaxation on Bogacki-Shampine 3(2) keeping the model's first invariant"};
+};
+/// Relaxation on Dormand-Prince 5(4)'s fifth-order weights.
+struct rrk_dp54 : relaxation_on<tableaus::dormand_prince_54> {
+    static constexpr method_info info{"rrk-dp54", method_family::relaxation, 5, false,
+                                      "relaxation on Dormand-Prince 5(4) keeping the model's first invariant"};
+};
+/// Multiple relaxation on Bogacki-Shampine 3(2), directions b and b - bhat.
+struct mrrk_bs32 : multiple_relaxation_on<tableaus::bogacki_shampine_32> {
+    static constexpr method_info info{"mrrk-bs32", method_family::relaxation, 3, true,
+                                      "multiple relaxation on Bogacki-Shampine 3(2), directions b and b - bhat"};
+};
+/// Multiple relaxation on Dormand-Prince 5(4), directions b and b - bhat.
+struct mrrk_dp54 : multiple_relaxation_on<tableaus::dormand_prince_54> {
+    static constexpr method_info info{"mrrk-dp54", method_family::relaxation, 5, true,
+                                      "multiple relaxation on Dormand-Prince 5(4), directions b and b - bhat"};
+};
+/// Dormand-Prince 5(4) followed by the orthogonal projection.
+struct projected_dp54 : projection_after<tableaus::dormand_prince_54> {
+    static constexpr method_info info{"projected-dp54", method_family::projection, 5, true,
+                                      "Dormand-Prince 5(4) + orthogonal projection onto the invariants"};
 };
 /// Stormer-Verlet on a separable Hamiltonian model.
 struct stormer_verlet {
@@ -359,7 +405,9 @@ using method_entry_list =
                       method_entries::bs32, method_entries::c_bs32, method_entries::ck54, method_entries::c_ck54,
                       method_entries::dp54, method_entries::c_dp54, method_entries::f78, method_entries::c_f78,
                       method_entries::rrk_rk4, method_entries::idt_rk4, method_entries::mrrk_rk4,
-                      method_entries::projected_rk4, method_entries::stormer_verlet, method_entries::sb3a>;
+                      method_entries::projected_rk4, method_entries::rrk_bs32, method_entries::rrk_dp54,
+                      method_entries::mrrk_bs32, method_entries::mrrk_dp54, method_entries::projected_dp54,
+                      method_entries::stormer_verlet, method_entries::sb3a>;
 
 namespace detail {
 

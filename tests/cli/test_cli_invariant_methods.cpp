@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include <eci/models/rigid_body_exact.hpp>
 #include <eci/registry.hpp>
 
 #include "support.hpp"
@@ -59,11 +60,88 @@ TEST_F(CliInvariantMethods, ListOffersEachMethodWhereTheModelHasWhatItNeeds) {
     EXPECT_NE(methods_line(r.out, "lotka-volterra").find("rrk-rk4 idt-rk4 projected-rk4"), std::string::npos);
     EXPECT_EQ(methods_line(r.out, "lotka-volterra").find("mrrk-rk4"), std::string::npos);
     EXPECT_EQ(methods_line(r.out, "three-wave").find("sb3a"), std::string::npos);
-    EXPECT_NE(methods_line(r.out, "kepler-cartesian").find("projected-rk4 stormer-verlet sb3a"), std::string::npos);
+    EXPECT_NE(methods_line(r.out, "kepler-cartesian").find("projected-dp54 stormer-verlet sb3a"), std::string::npos);
     // H is not quadratic in Cartesian variables: no C-RK method on kepler-cartesian.
     EXPECT_EQ(methods_line(r.out, "kepler-cartesian").find("c-rk4"), std::string::npos);
     for (const char* model : {"rigid-body", "nonlinear-oscillator", "exp-entropy"})
         EXPECT_NE(methods_line(r.out, model).find("rrk-rk4"), std::string::npos) << model;
+    // Relaxation and projection on other tableaux: listed, and multiple relaxation only with two invariants.
+    for (const char* m : {"rrk-bs32", "rrk-dp54", "mrrk-bs32", "mrrk-dp54", "projected-dp54"})
+        EXPECT_NE(r.out.find(std::string("  ") + m + " "), std::string::npos) << m << "\n" << r.out;
+    EXPECT_NE(methods_line(r.out, "rigid-body").find("rrk-bs32 rrk-dp54 mrrk-bs32 mrrk-dp54 projected-dp54"),
+              std::string::npos);
+    EXPECT_NE(methods_line(r.out, "lotka-volterra").find("rrk-bs32 rrk-dp54 projected-dp54"), std::string::npos);
+    EXPECT_EQ(methods_line(r.out, "lotka-volterra").find("mrrk-dp54"), std::string::npos);
+}
+
+// Multiple relaxation on Dormand-Prince 5(4) (directions b and b - bhat) keeps both of the rigid body's
+// invariants over 10^4 steps, as on RK4's stages.
+TEST_F(CliInvariantMethods, RigidBodyMultipleRelaxationOnAnEmbeddedPair) {
+    const double bound = 16.0 * eps * std::sqrt(1e4);
+    for (const char* m : {"mrrk-dp54", "mrrk-bs32"}) {
+        const result r = eci(std::string("run rigid-body --method ") + m + " --summary-json -");
+        ASSERT_EQ(r.status, 0) << r.err;
+        EXPECT_LE(invariant_field(r.out, "g1", "max_rel_drift"), bound) << m << r.out;
+        EXPECT_LE(invariant_field(r.out, "g2", "max_rel_drift"), bound) << m << r.out;
+    }
+}
+
+/// The number after `"key": ` at the top level of the summary JSON (NaN if absent).
+double json_number(const std::string& json, const std::string& key) {
+    const std::string k = "\"" + key + "\": ";
+    const std::size_t v = json.find(k);
+    return v == std::string::npos ? std::nan("") : std::strtod(json.c_str() + v + k.size(), nullptr);
+}
+
+// RRK's state at grid time t belongs to t + time lag: the CSV's last column time_lag and the summary's t_reached
+// say so. Rigid body, rrk-bs32, 100 steps of 0.1: the lag is one step's (gamma - 1) tau = O(dt^3), never
+// accumulated. After one step the state is the exact solution at t + lag up to the local error O(dt^4), while at
+// t it is off by the lag itself (u' ~ 1): the column is the time the state belongs to.
+TEST_F(CliInvariantMethods, RelaxationReportsTheTimeActuallyReached) {
+    const fs::path csv = dir_ / "rrk.csv", json = dir_ / "rrk.json";
+    const result r = eci("run rigid-body --method rrk-bs32 --t-end 10 --output " + csv.string() + " --summary-json " +
+                         json.string());
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_NE(r.err.find("time reached"), std::string::npos) << r.err;
+    const auto lines = lines_of(eci::test_cli::read_text(csv));
+    ASSERT_EQ(lines.size(), 102u);  // header, t = 0 and 100 steps
+    const auto header = eci::test_cli::split(lines[0]);
+    ASSERT_EQ(header.back(), "time_lag");
+    double worst = 0.0;
+    for (std::size_t i = 1; i < lines.size(); ++i) {
+        const auto row = eci::test_cli::split(lines[i]);
+        ASSERT_EQ(row.size(), header.size());
+        const double lag = std::stod(row.back());
+        if (i == 1) {
+            EXPECT_EQ(lag, 0.0);  // the initial state is on its grid time
+        }
+        worst = std::max(worst, std::abs(lag));
+    }
+    EXPECT_GT(worst, 0.0);
+    EXPECT_LT(worst, 1e-3);  // (gamma - 1) tau with gamma - 1 = O(tau^2): measured ~1.3e-4
+    const auto last = eci::test_cli::split(lines.back());
+    const double lag_end = std::stod(last.back());
+    const std::string summary = eci::test_cli::read_text(json);
+    EXPECT_EQ(json_number(summary, "time_lag"), lag_end);
+    EXPECT_EQ(json_number(summary, "t_reached"), 10.0 + lag_end);
+    const auto first = eci::test_cli::split(lines[2]);
+    const double t = std::stod(first[0]), lag = std::stod(first.back());
+    const eci::rigid_body::state_type at_t = eci::rigid_body_exact(t), at_reached = eci::rigid_body_exact(t + lag);
+    double e_t = 0.0, e_reached = 0.0;
+    for (std::size_t k = 0; k < 3; ++k) {
+        const double u = std::stod(first[1 + k]);
+        e_t = std::max(e_t, std::abs(u - at_t[k]));
+        e_reached = std::max(e_reached, std::abs(u - at_reached[k]));
+    }
+    std::printf("  largest lag %.2e; after one step: error at t %.2e, at t + lag %.2e\n", worst, e_t, e_reached);
+    EXPECT_LT(e_reached, 0.1 * e_t);
+    // Methods on the grid (IDT, C-RK4) have no such column and no t_reached.
+    for (const char* m : {"idt-rk4", "c-rk4"}) {
+        const result g = eci(std::string("run rigid-body --steps 3 --method ") + m + " --output - ");
+        ASSERT_EQ(g.status, 0) << g.err;
+        EXPECT_EQ(g.out.find("time_lag"), std::string::npos) << m;
+        EXPECT_EQ(g.err.find("time reached"), std::string::npos) << m;
+    }
 }
 
 // Biswas & Ketcheson's rigid body, 10^4 steps: multiple relaxation keeps G1 and G2 to round-off (a few roundings

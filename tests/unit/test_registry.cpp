@@ -36,15 +36,16 @@ TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     EXPECT_EQ(names_of(eci::methods_for<eci::three_wave>()),
               (strings{"euler", "pc", "rk2", "rk4", "c-euler", "c-pc", "c-rk2", "c-rk4", "c-pc-compensated",
                        "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78",
-                       "rrk-rk4", "idt-rk4", "mrrk-rk4", "projected-rk4"}));
+                       "rrk-rk4", "idt-rk4", "mrrk-rk4", "projected-rk4", "rrk-bs32", "rrk-dp54", "mrrk-bs32", "mrrk-dp54",
+                       "projected-dp54"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::n_wave<std::complex<double>>>()),
               names_of(eci::methods_for<eci::three_wave>()));
     EXPECT_EQ(names_of(eci::methods_for<eci::lotka_volterra>()),
               (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "kahan", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78",
-                       "rrk-rk4", "idt-rk4", "projected-rk4"}));
+                       "rrk-rk4", "idt-rk4", "projected-rk4", "rrk-bs32", "rrk-dp54", "projected-dp54"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler>()),
               (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78",
-                       "rrk-rk4", "idt-rk4", "projected-rk4"}));
+                       "rrk-rk4", "idt-rk4", "projected-rk4", "rrk-bs32", "rrk-dp54", "projected-dp54"}));
     // Each with its family on the model: the transform is used on Kepler, the psi^2 engine on three-wave.
     EXPECT_EQ(eci::methods_for<eci::kepler>()[4].family, eci::method_family::transformed);
     EXPECT_EQ(eci::methods_for<eci::three_wave>()[5].family, eci::method_family::conservative);
@@ -52,11 +53,12 @@ TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     // Hamiltonian, and no C-RK on Kepler in Cartesian variables (H is not a sum of squares there).
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler_cartesian>()),
               (strings{"euler", "pc", "rk2", "rk4", "implicit-midpoint", "bs32", "ck54", "dp54", "f78", "rrk-rk4",
-                       "idt-rk4", "mrrk-rk4", "projected-rk4", "stormer-verlet", "sb3a"}));
+                       "idt-rk4", "mrrk-rk4", "projected-rk4", "rrk-bs32", "rrk-dp54", "mrrk-bs32", "mrrk-dp54",
+                       "projected-dp54", "stormer-verlet", "sb3a"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::rigid_body>()), names_of(eci::methods_for<eci::three_wave>()));
-    // A plain system on a state type: every method but the model-specific one and the six that need the model's
-    // invariants or a separable Hamiltonian.
-    EXPECT_EQ(eci::methods_for<std::vector<double>>().size(), eci::methods.size() - 7);
+    // A plain system on a state type: every method but the model-specific one and the eleven that need the
+    // model's invariants or a separable Hamiltonian.
+    EXPECT_EQ(eci::methods_for<std::vector<double>>().size(), eci::methods.size() - 12);
 }
 
 // The engine behind a name depends on the model: the transform where it has one, the fused psi^2 path otherwise.

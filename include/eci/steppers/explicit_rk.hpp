@@ -42,11 +42,13 @@ struct stage_storage {
         if constexpr (s > 1) resize_like(stage, x);
     }
 
-    template <class F, class OnStage>
+    /// Runs the first N stages (all by default; a caller that uses no later k_i may stop early).
+    template <std::size_t N = s, class F, class OnStage>
     void run_stages(F& f, const S& x, double t, double dt, OnStage&& on_stage) {
+        static_assert(N >= 1 && N <= s, "run between one stage and all of them");
         [&]<std::size_t... I>(std::index_sequence<I...>) {
             (run_stage<I>(f, x, t, dt, on_stage), ...);
-        }(std::make_index_sequence<s>{});
+        }(std::make_index_sequence<N>{});
     }
 
    private:

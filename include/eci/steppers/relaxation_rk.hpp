@@ -26,11 +26,26 @@ namespace eci {
 enum class relaxation_time { rrk, idt };
 
 /// Further search directions for multiple relaxation (Biswas & Ketcheson 2023): M weight vectors over the S
-/// stages of a tableau, each a consistent (sum 1) embedded method, d_j = tau sum_i w_ji k_i.
+/// stages of a tableau, d_j = tau sum_i w_ji k_i. Weights summing to 1 are an embedded method (a direction that
+/// advances time, as the main one does); weights summing to 0 are the difference of two methods, b - bhat (a
+/// correction that does not advance time).
 template <std::size_t S, std::size_t M>
 struct search_directions {
     std::array<std::array<double, S>, M> weights;
 };
+
+namespace detail {
+
+/// The direction of an embedded pair T: b - bhat, O(tau^(q+1)) with q the embedded order.
+template <const auto& T>
+constexpr auto pair_direction() {
+    constexpr std::size_t s = std::remove_cvref_t<decltype(T)>::stages;
+    search_directions<s, 1> d{};
+    for (std::size_t i = 0; i < s; ++i) d.weights[0][i] = T.b[i] - T.bhat[i];
+    return d;
+}
+
+}  // namespace detail
 
 namespace directions {
 
@@ -41,12 +56,15 @@ inline constexpr search_directions<S, 0> none{};
 inline constexpr search_directions<4, 1> rk4_midpoint{{{{0.0, 1.0, 0.0, 0.0}}}};
 /// Two further directions from RK4's stages: the midpoint rule and (1/6, 2/3, 0, 1/6) (second order).
 inline constexpr search_directions<4, 2> rk4_two{{{{0.0, 1.0, 0.0, 0.0}, {1.0 / 6.0, 2.0 / 3.0, 0.0, 1.0 / 6.0}}}};
+/// The further direction of an embedded pair T (Biswas & Ketcheson's choice), for two invariants: b - bhat.
+template <const auto& T>
+inline constexpr auto from_pair = detail::pair_direction<T>();
 
 }  // namespace directions
 
 /// Options of the relaxation stepper (ARKODE's defaults for the band).
 struct relaxation_options {
-    double gamma_min = 0.8;   ///< smallest acceptable gamma (sum of the gammas for multiple relaxation)
+    double gamma_min = 0.8;   ///< smallest acceptable gamma (the time factor for multiple relaxation)
     double gamma_max = 1.2;   ///< largest acceptable gamma
     int max_iterations = 20;  ///< Newton iterations of the root solve before the step is rejected
 };
@@ -54,13 +72,16 @@ struct relaxation_options {
 /// Relaxation Runge-Kutta on the tableau T for the invariants `Inv` of a system with state S.
 /// The new state is x + sum_j gamma_j d_j with d_0 = tau sum_i b_i k_i and d_j (j >= 1) from the search directions
 /// D; the gammas solve I_k(x_new) = I_k(x) for every invariant k (count() must be 1 + the number of directions).
+/// The state's time advances by gamma tau with gamma = sum_j gamma_j sigma_j, sigma_j the sum of direction j's
+/// weights (1 for the main direction and an embedded method's, 0 for a difference b - bhat).
 /// One quadratic invariant without further directions has Ketcheson's explicit gamma,
 ///   gamma = 2 sum_i b_i B(Y_i - x, k_i) tau / B(d, d);
 /// otherwise Newton's method solves for the gammas, starting at (1, 0, ..., 0). The targets are I(x) of the step's
 /// own start, as published: aiming at the run's first values instead would need gammas far from (1, 0) on small
 /// steps (the directions differ by O(tau^q)), from which the driver's step halving could never recover.
-/// gamma (the sum of the gammas) outside [gamma_min, gamma_max], or a solve that does not converge, rejects the
-/// step (x unchanged, counted).
+/// gamma outside [gamma_min, gamma_max], a correction along the difference directions larger than the band lets
+/// the main direction move (max|sum gamma_j d_j| > max(gamma_max - 1, 1 - gamma_min) max|d_0|, a sign that the
+/// solve found a far root), or a solve that does not converge, rejects the step (x unchanged, counted).
 ///
 /// With relaxation_time::rrk the relaxed state is at time t + gamma tau, off the driver's grid. To fit the
 /// fixed-step drivers, each step aims at the next grid point: a step from nominal t to t + dt starts at the true
@@ -74,12 +95,45 @@ class relaxation_rk {
     static constexpr std::size_t extra = std::tuple_size_v<decltype(D.weights)>;
     static_assert(std::tuple_size_v<std::remove_cvref_t<decltype(D.weights[0])>> == s || extra == 0,
                   "search directions must have one weight per stage of the tableau");
+    // The sums of the directions' weights, exactly 1 (a method) or 0 (a difference of two) up to their rounding.
+    static constexpr std::array<double, 1 + extra> weight_sums = [] {
+        std::array<double, 1 + extra> r{};
+        for (std::size_t i = 0; i < s; ++i) r[0] += T.b[i];
+        for (std::size_t j = 0; j < extra; ++j)
+            for (std::size_t i = 0; i < s; ++i) r[j + 1] += D.weights[j][i];
+        return r;
+    }();
+    static_assert([] {
+        for (double v : weight_sums)
+            if (!((v > 1.0 - 1e-12 && v < 1.0 + 1e-12) || (v > -1e-12 && v < 1e-12))) return false;
+        return true;
+    }(), "every direction's weights must sum to 1 (a method) or to 0 (a difference of two)");
+    // sigma_j: how far direction j advances time (1: a method; 0: a difference of two).
+    static constexpr std::array<double, 1 + extra> sigma = [] {
+        std::array<double, 1 + extra> r{};
+        for (std::size_t j = 0; j <= extra; ++j) r[j] = weight_sums[j] > 0.5 ? 1.0 : 0.0;
+        return r;
+    }();
+    // The stages any direction uses: the rest (an FSAL pair's last, with b = 0) are never evaluated.
+    static constexpr std::size_t used_stages = [] {
+        std::size_t n = 1;
+        for (std::size_t i = 0; i < s; ++i) {
+            bool used = T.b[i] != 0.0;
+            for (std::size_t j = 0; j < extra; ++j) used = used || D.weights[j][i] != 0.0;
+            if (used) n = i + 1;
+        }
+        return n;
+    }();
     template <class I>
     static constexpr bool explicit_gamma = quadratic_invariant_set<I, S> && extra == 0;
 
    public:
     /// RRK keeps the tableau's order; IDT loses one (Ranocha et al. 2020).
     static constexpr int order = R == relaxation_time::rrk ? T.order : T.order - 1;
+    /// Whether the state's true time differs from its grid time (RRK; see time_lag()).
+    static constexpr bool shifts_time = R == relaxation_time::rrk;
+    /// Right-hand-side evaluations per attempted step.
+    static constexpr std::size_t evaluations_per_step = used_stages;
 
     /// The stepper for the invariants `inv`; throws std::invalid_argument for a bad band or iteration limit.
     explicit relaxation_rk(Inv inv = {}, relaxation_options opt = {}) : inv_(std::move(inv)), opt_(opt) {
@@ -96,7 +150,7 @@ class relaxation_rk {
 
     /// The true time of the last state produced minus its grid time (0 for IDT or before the first step).
     double time_lag() const { return R == relaxation_time::rrk && have_last_ ? lag_ : 0.0; }
-    /// The last accepted gamma (the sum of the gammas for multiple relaxation).
+    /// The last accepted gamma: the time factor sum_j gamma_j sigma_j (gamma_0 for one invariant).
     double gamma() const { return last_gamma_; }
     /// Accepted and rejected steps, and the Newton iterations.
     const invariant_stats& statistics() const { return stats_; }
@@ -132,7 +186,7 @@ class relaxation_rk {
         detail::resize_like(g_, x);
         if constexpr (explicit_gamma<I>) detail::resize_like(diff_, x);
         double production = 0.0;  // sum_i b_i B(Y_i - x, k_i)
-        st_.run_stages(f, x, ta, tau, [&](std::size_t i, const S& y, const S& k) {
+        st_.template run_stages<used_stages>(f, x, ta, tau, [&](std::size_t i, const S& y, const S& k) {
             if constexpr (explicit_gamma<I>) {
                 if (T.b[i] == 0.0 || i == 0) return;  // Y_0 = x
                 const auto yr = detail::reals(y), xr = detail::reals(x);
@@ -155,9 +209,9 @@ class relaxation_rk {
             ++stats_.rejected_solver;
             return step_result::failure(0);
         }
-        double total = 0.0;
-        for (double g : gamma) total += g;
-        if (!(total >= opt_.gamma_min && total <= opt_.gamma_max)) {
+        double total = 0.0;  // the time factor: tau becomes total * tau
+        for (std::size_t j = 0; j <= extra; ++j) total += gamma[j] * sigma[j];
+        if (!(total >= opt_.gamma_min && total <= opt_.gamma_max) || !correction_within_band(gamma)) {
             ++stats_.rejected_band;
             return step_result::failure(0);
         }
@@ -184,6 +238,29 @@ class relaxation_rk {
             const auto k = detail::reals(std::as_const(st_.k[i]));
             const double c = tau * w[i];
             for (std::size_t j = 0; j < o.size(); ++j) o[j] += c * k[j];
+        }
+    }
+
+    // The correction along the difference directions, sum_j gamma_j d_j over sigma_j = 0, moves the state no
+    // further than the band lets the main direction move: max|correction| <= max(gamma_max - 1, 1 - gamma_min)
+    // max|d_0|. On a regular step it is O(tau^(p+1)), far inside.
+    bool correction_within_band(const std::array<double, 1 + extra>& gamma) const {
+        if constexpr (extra == 0) {
+            return true;
+        } else {
+            bool any = false;
+            for (std::size_t j = 1; j <= extra; ++j) any = any || sigma[j] == 0.0;
+            if (!any) return true;
+            const auto d0 = detail::reals(std::as_const(d_[0]));
+            double main = 0.0, corr = 0.0;
+            for (std::size_t i = 0; i < d0.size(); ++i) {
+                double c = 0.0;
+                for (std::size_t j = 1; j <= extra; ++j)
+                    if (sigma[j] == 0.0) c += gamma[j] * detail::reals(std::as_const(d_[j]))[i];
+                main = std::max(main, std::abs(d0[i]));
+                corr = std::max(corr, std::abs(c));
+            }
+            return corr <= std::max(opt_.gamma_max - 1.0, 1.0 - opt_.gamma_min) * main;
         }
     }
 
@@ -291,5 +368,21 @@ using mrrk4_2 = relaxation_rk<tableaus::rk4, S, Inv, relaxation_time::rrk, direc
 /// Multiple relaxation RK4 for three invariants.
 template <state S, class Inv>
 using mrrk4_3 = relaxation_rk<tableaus::rk4, S, Inv, relaxation_time::rrk, directions::rk4_two>;
+
+/// Multiple relaxation on the embedded pair T for two invariants (Biswas & Ketcheson): directions b and b - bhat.
+template <const auto& T, state S, class Inv>
+using mrrk_pair = relaxation_rk<T, S, Inv, relaxation_time::rrk, directions::from_pair<T>>;
+/// Relaxation on Dormand-Prince 5(4)'s fifth-order weights (one invariant; six evaluations, the FSAL stage unused).
+template <state S, class Inv>
+using rrk_dp54 = relaxation_rk<tableaus::dormand_prince_54, S, Inv, relaxation_time::rrk>;
+/// Relaxation on Bogacki-Shampine 3(2)'s third-order weights (one invariant; three evaluations).
+template <state S, class Inv>
+using rrk_bs32 = relaxation_rk<tableaus::bogacki_shampine_32, S, Inv, relaxation_time::rrk>;
+/// Multiple relaxation on Dormand-Prince 5(4) for two invariants (directions b and b - bhat; seven evaluations).
+template <state S, class Inv>
+using mrrk_dp54 = mrrk_pair<tableaus::dormand_prince_54, S, Inv>;
+/// Multiple relaxation on Bogacki-Shampine 3(2) for two invariants (directions b and b - bhat; four evaluations).
+template <state S, class Inv>
+using mrrk_bs32 = mrrk_pair<tableaus::bogacki_shampine_32, S, Inv>;
 
 }  // namespace eci
