@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <numbers>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <eci/adaptive.hpp>
@@ -208,7 +209,9 @@ void per_step_cost(std::size_t modes, int pairs) {
                 modes, ratios[ratios.size() / 2], ratios.front(), ratios.back(), pairs);
 }
 
-// Long-run round-off: fixed steps of 0.01 on the three-wave model, relative drift of E and Z at the end.
+// Long-run round-off: fixed steps of 0.01 on the three-wave model; the worst relative drift of the model's E and Z
+// (as a user measures them, in double: a few eps of that is the measurement) up to each decade of steps, and the
+// fitted growth exponent (0.5 = a random walk, 0 = bounded).
 template <class St>
 void long_run(const char* name, std::uint64_t steps) {
     const eci::three_wave m{};
@@ -216,12 +219,29 @@ void long_run(const char* name, std::uint64_t steps) {
     const double e0 = m.energy(x), z0 = m.enstrophy(x);
     St st;
     double worst = 0;
-    eci::integrate_n_steps(st, m, x, 0.0, 0.01, steps, [&](const auto& y, double, std::uint64_t) {
+    std::vector<std::pair<std::uint64_t, double>> decades;
+    std::uint64_t next = 1000;
+    eci::integrate_n_steps(st, m, x, 0.0, 0.01, steps, [&](const auto& y, double, std::uint64_t i) {
         worst = std::max({worst, std::abs(m.energy(y) - e0) / e0, std::abs(m.enstrophy(y) - z0) / z0});
-    }, eci::run_options{steps / 1000 + 1});
-    std::printf("long run %-20s %llu steps of 0.01: worst relative drift of E, Z (sampled 1000 times) %.2e "
-                "(target <= 1e-14)\n",
-                name, (unsigned long long)steps, worst);
+        if (i == next || i == steps) {
+            decades.push_back({i, worst});
+            next *= 10;
+        }
+    }, eci::run_options{std::max<std::uint64_t>(1, steps / 10000)});
+    std::string growth;
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (const auto& [n, w] : decades) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, " %.0e:%.1e", double(n), w);
+        growth += buf;
+        const double lx = std::log(double(n)), ly = std::log(std::max(w, 1e-300));
+        sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly;
+    }
+    const double k = double(decades.size());
+    const double slope = decades.size() > 1 ? (k * sxy - sx * sy) / (k * sxx - sx * sx) : NAN;
+    std::printf("long run %-20s %llu steps of 0.01: worst relative drift of E, Z %.2e (target <= 1e-14); by "
+                "steps%s; growth exponent %.2f\n",
+                name, (unsigned long long)steps, worst, growth.c_str(), slope);
 }
 
 }  // namespace
@@ -318,6 +338,7 @@ int main(int argc, char** argv) {
         long_run<eci::c_rk4_compensated<eci::three_wave::state_type>>("c-rk4 compensated", long_steps);
         long_run<eci::c_dp54_compensated<eci::three_wave::state_type>>("c-dp54 compensated", long_steps);
         long_run<eci::c_dp54<eci::three_wave::state_type>>("c-dp54 (plain)", long_steps);
+        long_run<eci::c_rk4<eci::three_wave::state_type>>("c-rk4 (plain)", long_steps);
     }
     return 0;
 }

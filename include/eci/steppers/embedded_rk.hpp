@@ -366,6 +366,34 @@ class embedded_rk {
         }
     }
 
+    // Compensated: stage J's term c_J Y_J k_J of the increment of xi, c_J = 2 dt b_J, added to (hi, lo) in
+    // double-double (the products Y_J k_J and c_J (Y_J k_J) error-free), and its rate for the error estimate in
+    // double. Conservation holds for any weights (sum_J c_J sum_k w_k Y_Jk S_k(Y_J) = 0 whatever c_J is), so the
+    // rounding of c_J does not matter; what this removes is the rounding of each product and sum, which in
+    // double would leave a random walk of a few eps |increment| per step.
+    template <std::size_t J>
+    static void add_rate_compensated(double p0, double x, const std::array<const double*, s>& k, std::size_t i,
+                                     double dt, const std::array<double, s>& c, double& hi, double& lo,
+                                     double& drate) {
+        constexpr double bj = T.b[J], dj = error_weights_of_tableau[J];
+        if constexpr (bj != 0.0 || dj != 0.0) {
+            double y;
+            if constexpr (J == 0)
+                y = p0;
+            else
+                y = stage_value<J>(x, k, i, dt);
+            if constexpr (bj != 0.0) {
+                double p, e, q, f, sum, g;
+                detail::two_product(y, k[J][i], p, e);
+                detail::two_product(c[J], p, q, f);
+                detail::two_sum(hi, q, sum, g);
+                hi = sum;
+                lo += g + (f + c[J] * e);
+            }
+            if constexpr (dj != 0.0) drate += dj * (2.0 * y * k[J][i]);
+        }
+    }
+
     // One pass over the unknowns: the new state, its error and the error norm's sums.
     template <bool Norm, bool Track, bool Each, std::size_t... J>
     static void finish(double* o, double* rn, const double* x, const double* p0, const double* r,
@@ -374,21 +402,23 @@ class embedded_rk {
         constexpr auto d = error_weights_of_tableau;
         (void)w, (void)rn, (void)r, (void)p0;
         const std::array<double, s> wb{(dt * T.b[J])...};
+        [[maybe_unused]] const std::array<double, s> c2{(2.0 * wb[J])...};  // c_J = 2 dt b_J (compensated)
         double bad = 0.0, sq = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
             double conv = x[i];  // the conventional update: the state, or the sign of the conservative one
             ((T.b[J] != 0.0 ? (conv += wb[J] * k[J][i], 0) : 0), ...);
             double next = conv, err = 0.0;
             if constexpr (conservative) {
-                double rate = 0.0, drate = 0.0;  // sum_j b_j 2 Y_j k_j and sum_j (b_j - bhat_j) 2 Y_j k_j
-                (add_rate<J>(p0[i], x[i], k, i, dt, rate, drate), ...);
-                const double inc = dt * rate;
+                double drate = 0.0;  // sum_j (b_j - bhat_j) 2 Y_j k_j
                 double xi;
                 if constexpr (compensated) {
+                    // xi = psi^2 + r + dt sum_j b_j 2 Y_j k_j, every term carried in double-double
+                    double inc_hi = 0.0, inc_lo = 0.0;
+                    (add_rate_compensated<J>(p0[i], x[i], k, i, dt, c2, inc_hi, inc_lo, drate), ...);
                     double sq0, sq_err, hi, lo;
                     detail::two_product(x[i], x[i], sq0, sq_err);
-                    detail::two_sum(sq0, inc, hi, lo);
-                    lo += sq_err + r[i];
+                    detail::two_sum(sq0, inc_hi, hi, lo);
+                    lo += (sq_err + r[i]) + inc_lo;
                     xi = hi + lo;  // renormalise (|lo| is below an ulp of hi)
                     lo -= xi - hi;
                     bad += xi >= 0.0 ? 0.0 : 1.0;
@@ -398,7 +428,9 @@ class embedded_rk {
                     rn[i] = ((xi - root_sq) - root_err) + lo;  // all the square root dropped
                     next = std::copysign(root, conv);
                 } else {
-                    xi = x[i] * x[i] + inc;  // errata item 9: the tableau applied to d(psi^2)/dt = 2 psi S
+                    double rate = 0.0;  // sum_j b_j 2 Y_j k_j
+                    (add_rate<J>(p0[i], x[i], k, i, dt, rate, drate), ...);
+                    xi = x[i] * x[i] + dt * rate;  // errata item 9: the tableau applied to d(psi^2)/dt = 2 psi S
                     bad += xi >= 0.0 ? 0.0 : 1.0;
                     next = std::copysign(std::sqrt(xi), conv);
                 }
