@@ -348,49 +348,41 @@ class embedded_rk {
         return acc;
     }
 
-    // Stage J's term of the two rates of xi, 2 Y_J k_J weighted by b_J and by b_J - bhat_J (Y_0 is the point the
-    // first derivative was taken at: x, or the FSAL point); terms with zero weights vanish at compile time.
+    // Stage J's term b_J 2 Y_J k_J of the rate of xi (Y_0 is the point the first derivative was taken at: x, or
+    // the FSAL point); terms with zero weight vanish at compile time.
     template <std::size_t J>
     static void add_rate(double p0, double x, const std::array<const double*, s>& k, std::size_t i, double dt,
-                         double& rate, double& drate) {
-        constexpr double bj = T.b[J], dj = error_weights_of_tableau[J];
-        if constexpr (bj != 0.0 || dj != 0.0) {
+                         double& rate) {
+        if constexpr (T.b[J] != 0.0) {
             double y;
             if constexpr (J == 0)
                 y = p0;
             else
                 y = stage_value<J>(x, k, i, dt);
-            const double yk = 2.0 * y * k[J][i];
-            if constexpr (bj != 0.0) rate += bj * yk;
-            if constexpr (dj != 0.0) drate += dj * yk;
+            rate += T.b[J] * (2.0 * y * k[J][i]);
         }
     }
 
     // Compensated: stage J's term c_J Y_J k_J of the increment of xi, c_J = 2 dt b_J, added to (hi, lo) in
-    // double-double (the products Y_J k_J and c_J (Y_J k_J) error-free), and its rate for the error estimate in
-    // double. Conservation holds for any weights (sum_J c_J sum_k w_k Y_Jk S_k(Y_J) = 0 whatever c_J is), so the
-    // rounding of c_J does not matter; what this removes is the rounding of each product and sum, which in
-    // double would leave a random walk of a few eps |increment| per step.
+    // double-double (the products Y_J k_J and c_J (Y_J k_J) error-free). Conservation holds for any weights
+    // (sum_J c_J sum_k w_k Y_Jk S_k(Y_J) = 0 whatever c_J is), so the rounding of c_J does not matter; what this
+    // removes is the rounding of each product and sum, which in double would leave a random walk of a few
+    // eps |increment| per step.
     template <std::size_t J>
     static void add_rate_compensated(double p0, double x, const std::array<const double*, s>& k, std::size_t i,
-                                     double dt, const std::array<double, s>& c, double& hi, double& lo,
-                                     double& drate) {
-        constexpr double bj = T.b[J], dj = error_weights_of_tableau[J];
-        if constexpr (bj != 0.0 || dj != 0.0) {
+                                     double dt, const std::array<double, s>& c, double& hi, double& lo) {
+        if constexpr (T.b[J] != 0.0) {
             double y;
             if constexpr (J == 0)
                 y = p0;
             else
                 y = stage_value<J>(x, k, i, dt);
-            if constexpr (bj != 0.0) {
-                double p, e, q, f, sum, g;
-                detail::two_product(y, k[J][i], p, e);
-                detail::two_product(c[J], p, q, f);
-                detail::two_sum(hi, q, sum, g);
-                hi = sum;
-                lo += g + (f + c[J] * e);
-            }
-            if constexpr (dj != 0.0) drate += dj * (2.0 * y * k[J][i]);
+            double p, e, q, f, sum, g;
+            detail::two_product(y, k[J][i], p, e);
+            detail::two_product(c[J], p, q, f);
+            detail::two_sum(hi, q, sum, g);
+            hi = sum;
+            lo += g + (f + c[J] * e);
         }
     }
 
@@ -409,12 +401,11 @@ class embedded_rk {
             ((T.b[J] != 0.0 ? (conv += wb[J] * k[J][i], 0) : 0), ...);
             double next = conv, err = 0.0;
             if constexpr (conservative) {
-                double drate = 0.0;  // sum_j (b_j - bhat_j) 2 Y_j k_j
                 double xi;
                 if constexpr (compensated) {
                     // xi = psi^2 + r + dt sum_j b_j 2 Y_j k_j, every term carried in double-double
                     double inc_hi = 0.0, inc_lo = 0.0;
-                    (add_rate_compensated<J>(p0[i], x[i], k, i, dt, c2, inc_hi, inc_lo, drate), ...);
+                    (add_rate_compensated<J>(p0[i], x[i], k, i, dt, c2, inc_hi, inc_lo), ...);
                     double sq0, sq_err, hi, lo;
                     detail::two_product(x[i], x[i], sq0, sq_err);
                     detail::two_sum(sq0, inc_hi, hi, lo);
@@ -429,18 +420,17 @@ class embedded_rk {
                     next = std::copysign(root, conv);
                 } else {
                     double rate = 0.0;  // sum_j b_j 2 Y_j k_j
-                    (add_rate<J>(p0[i], x[i], k, i, dt, rate, drate), ...);
+                    (add_rate<J>(p0[i], x[i], k, i, dt, rate), ...);
                     xi = x[i] * x[i] + dt * rate;  // errata item 9: the tableau applied to d(psi^2)/dt = 2 psi S
                     bad += xi >= 0.0 ? 0.0 : 1.0;
                     next = std::copysign(std::sqrt(xi), conv);
                 }
                 if constexpr (Norm && has_error_estimate) {
-                    // psi - psihat = (xi - xihat) / (sqrt(xi) + sqrt(xihat)), without cancellation. For xi, xihat >= 0
-                    // the denominator is >= sqrt|xi - xihat|; the max only acts where xihat < 0 (then the error is
-                    // taken as sqrt(xi - xihat)) or both are 0, and keeps the loop free of branches.
-                    const double dxi = dt * drate;
-                    const double den = std::abs(next) + std::sqrt(std::max(xi - dxi, 0.0));
-                    err = dxi / std::max(den, std::sqrt(std::abs(dxi)));
+                    // psi - psihat: the propagated (conservative) solution minus the pair's embedded solution
+                    // psihat = x + dt sum_j bhat_j k_j from the same stages (docs/methods.md, "The error estimate")
+                    double dconv = 0.0;
+                    ((d[J] != 0.0 ? (dconv += (dt * d[J]) * k[J][i], 0) : 0), ...);
+                    err = (next - conv) + dconv;
                 }
             } else if constexpr (Norm && has_error_estimate) {
                 ((d[J] != 0.0 ? (err += (dt * d[J]) * k[J][i], 0) : 0), ...);
