@@ -9,7 +9,8 @@ floor = 1e-17  # invariant errors of exactly 0 (or below) are drawn here
 pick(col, m) = (strcol(1) eq model && strcol(2) eq m) ? column(col) : NaN
 clip(v) = v < floor ? floor : v
 title_of(m) = m eq "three_wave" ? "three-wave model, t = 100" : m eq "lotka_volterra" ? "Lotka-Volterra, t = 100" : \
-              m eq "kepler_e0.9" ? "Kepler e = 0.9, 100 orbits" : m eq "rigid_body" ? "rigid body near its unstable axis, t = 100" : m
+              m eq "kepler_e0.9" ? "Kepler e = 0.9, 100 orbits" : m eq "rigid_body" ? "rigid body near its unstable axis, t = 100" : \
+              m eq "n_wave30" ? "random real n-wave, 30 modes, t = 20" : m
 set logscale xy
 set format x "10^{%T}"
 set format y "10^{%T}"

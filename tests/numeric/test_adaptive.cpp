@@ -124,17 +124,13 @@ double estimate_slope(const F& f, const S& x0, double dt_lo, double dt_hi, const
 TYPED_TEST(AdaptivePair, ErrorEstimateScalesAsDtToTheEmbeddedOrderPlusOne) {
     constexpr int q = TypeParam::q;
     using St3 = typename TypeParam::template stepper<state>;
-    // dt ranges where the estimate is asymptotic and above its own rounding (~1e-18 here).
+    // dt ranges where the estimate is asymptotic and above its own rounding (~1e-18 here). The conservative
+    // estimate forms psi - conv without the rounding of psi itself (embedded_rk::finish), or it would stop at
+    // ~eps |psi| and fail this at the small steps.
     const eci::three_wave_exact exact(model, figure5_ic);
     const double hi = q == 2 ? 0.025 : q == 4 ? 0.05 : 0.1;
     const double slope3 = estimate_slope<St3>(model, exact(1.0), hi / (q == 7 ? 4.0 : 8.0), hi, TypeParam::name);
-    // Fehlberg's b - bhat vanishes on quadratures (stages 1, 12 and 11, 13 share their nodes), and the rate of
-    // xi depends on psi only through the stages: on the three-wave model C-F78's xi estimate is not yet
-    // asymptotic where it meets its own rounding (measured slopes 12.6, 7.0, 6.9 per halving from dt = 0.2),
-    // so it is checked on the n-wave system only.
-    if (!(St3::is_conservative && q == 7)) {
-        EXPECT_NEAR(slope3, q + 1.0, 0.2);
-    }
+    EXPECT_NEAR(slope3, q + 1.0, 0.2);
     const auto nw = eci::n_wave<std::complex<double>>::random(30, 4, 7);
     const double hc = q == 2 ? 0.00625 : q == 4 ? 0.003125 : 0.05;  // |S| is larger on the n-wave system
     EXPECT_NEAR((estimate_slope<typename TypeParam::template stepper<cvec>>(nw, nw.random_state(8),
@@ -259,7 +255,7 @@ TYPED_TEST(ConservativePair, DenseOutputIsAsAccurateAsTheStepsWhereItIsTheDefaul
         const auto [dense, steps] = dense_and_step_error<St>(tol);
         std::printf("  %-20s tol %.0e: max error dense %.2e, at the steps %.2e\n", TypeParam::name, tol, dense, steps);
         dense_errors.push_back(dense);
-        // measured at most 2.1x (c-dp54 at 1e-12, where the steps' own error is least regular)
+        // measured at most 1.0x (c-bs32); c-dp54's continuous extension of xi, 1.5-9x, is not the default
         if (St::dense_matches_steps) {
             EXPECT_LE(dense, 3.0 * steps) << "tol " << tol;
         }
@@ -270,8 +266,9 @@ TYPED_TEST(ConservativePair, DenseOutputIsAsAccurateAsTheStepsWhereItIsTheDefaul
 }
 
 TEST(AdaptiveDense, AutomaticModeIsDenseOnlyWhereItMatchesTheSteps) {
-    static_assert(eci::c_dp54<state>::dense_matches_steps && eci::c_bs32<state>::dense_matches_steps);
-    static_assert(!eci::c_ck54<state>::dense_matches_steps && !eci::c_f78<state>::dense_matches_steps);
+    static_assert(eci::dp54<state>::dense_matches_steps && eci::c_bs32<state>::dense_matches_steps);
+    static_assert(!eci::c_dp54<state>::dense_matches_steps && !eci::c_ck54<state>::dense_matches_steps &&
+                  !eci::c_f78<state>::dense_matches_steps);
     const std::vector<double> times{0.5, 1.0, 1.5, 2.0};
     eci::adaptive_options o;
     o.rtol = o.atol = 1e-8;
@@ -279,21 +276,27 @@ TEST(AdaptiveDense, AutomaticModeIsDenseOnlyWhereItMatchesTheSteps) {
         state x = figure5_ic;
         return eci::integrate_adaptive_at(st, model, x, 0.0, times, 1e-3, o, [](const state&, double) {}, mode);
     };
-    EXPECT_EQ(count(eci::c_dp54<state>{}, eci::output_mode::automatic).dense_points, 3u);
+    EXPECT_EQ(count(eci::dp54<state>{}, eci::output_mode::automatic).dense_points, 3u);
+    EXPECT_EQ(count(eci::c_bs32<state>{}, eci::output_mode::automatic).dense_points, 3u);
+    EXPECT_EQ(count(eci::c_dp54<state>{}, eci::output_mode::automatic).landed_points, 4u);
+    EXPECT_EQ(count(eci::c_dp54<state>{}, eci::output_mode::dense).dense_points, 3u);
     EXPECT_EQ(count(eci::c_ck54<state>{}, eci::output_mode::automatic).landed_points, 4u);
     EXPECT_EQ(count(eci::c_ck54<state>{}, eci::output_mode::dense).dense_points, 3u);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// Tolerance proportionality: the global error at t = 10 against rtol = atol over four decades fits slope ~1
+// Tolerance proportionality: the global error at t = 10 against rtol = atol over six decades fits slope ~1
 // (a pair that propagates the higher order with an error-per-step controller: dt^(q+1) ~ tol, error ~ dt^p).
+// Six, not four: the conservative pairs' global error is uneven from one tolerance to the next (it depends on
+// where steps end near zero crossings, see docs/methods.md), so a four-decade fit is dominated by that
+// scatter (C-F78: 0.73 over 1e-5..1e-9, 0.85 over 1e-4..1e-10).
 
 TYPED_TEST(AdaptivePair, GlobalErrorIsProportionalToTheTolerance) {
     using St = typename TypeParam::template stepper<state>;
     const eci::three_wave_exact exact(model, figure5_ic);
     const state e = exact(10.0);
     std::vector<double> tols, errors;
-    for (int k = 5; k <= 9; ++k) {
+    for (int k = 4; k <= 10; ++k) {
         const double tol = std::pow(10.0, -k);
         St st;
         state x = figure5_ic;
@@ -306,7 +309,7 @@ TYPED_TEST(AdaptivePair, GlobalErrorIsProportionalToTheTolerance) {
         errors.push_back(err);
     }
     const double slope = log_log_slope(tols, errors);
-    std::printf("  %-20s error %.2e (tol 1e-5) .. %.2e (tol 1e-9), slope %.3f\n", TypeParam::name, errors.front(),
+    std::printf("  %-20s error %.2e (tol 1e-4) .. %.2e (tol 1e-10), slope %.3f\n", TypeParam::name, errors.front(),
                 errors.back(), slope);
     // BS32 propagates order 3 with a dt^3 estimate, so slope ~1; the higher pairs' slope is p/(q+1) ~ 1 too.
     EXPECT_GT(slope, 0.75);
