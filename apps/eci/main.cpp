@@ -99,11 +99,14 @@ void check_no_empty_values(int argc, char** argv) {
 }
 
 void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
-    std::printf("Methods (eci run MODEL --method NAME):\n");
-    for (const eci::method_info& m : eci::methods)
-        std::printf("  %-17s order %d  %-12s  %.*s\n", std::string(m.name).c_str(), m.order,
-                    m.conservative ? "conservative" : "conventional", static_cast<int>(m.description.size()),
-                    m.description.data());
+    std::printf("Methods (eci run MODEL --method NAME): name, order, whether it keeps every quadratic invariant\n"
+                "to round-off (conservative) or not (conventional), how it is built (family), one line\n");
+    for (const eci::method_info& m : eci::methods) {
+        const std::string family(eci::family_name(m.family));
+        std::printf("  %-17s order %d  %-12s  %-14s  %.*s\n", std::string(m.name).c_str(), m.order,
+                    m.conservative ? "conservative" : "conventional", family.c_str(),
+                    static_cast<int>(m.description.size()), m.description.data());
+    }
     std::printf("\nModels (eci run MODEL --help for options):\n");
     for (const auto& model : models) {
         const model_info& i = model->info();

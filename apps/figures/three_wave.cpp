@@ -154,6 +154,26 @@ do for [k = 1:3] {
 unset multiplot
 )gp";
 
+/// One method's curves in modes_body: its CSV column prefix, its name in the key, its gnuplot style.
+struct curve {
+    std::string column, name, style;
+};
+
+/// modes_body filled in: the exact solution from `exact_csv`, methods a (dashed) and b from `csv`.
+std::string mode_panels(const std::string& title, const std::string& exact_csv, const std::string& csv,
+                        const curve& a, const curve& b) {
+    return fill(modes_body, {{"TEND", format_number(t_end)},
+                             {"TITLE", title},
+                             {"EXACT", exact_csv},
+                             {"CSV", csv},
+                             {"A", a.column},
+                             {"ANAME", a.name},
+                             {"ASTYLE", a.style},
+                             {"B", b.column},
+                             {"BNAME", b.name},
+                             {"BSTYLE", b.style}});
+}
+
 }  // namespace
 
 figure_result make_figure_1() {
@@ -164,17 +184,9 @@ figure_result make_figure_1() {
     const double gain = relative_change_at_end(c.conventional.invariants[energy]);
     r.script = gnuplot_script(
         1, "three-wave psi_k(t): Euler, C-Euler and exact, dt = 0.02",
-        fill(modes_body, {{"TEND", format_number(t_end)},
-                          {"TITLE", "Fig. 1: three-wave model, {/Symbol t} = 0.02, Euler gains " +
-                                        format_number(100.0 * gain) + "% energy by t = " + format_number(t_end)},
-                          {"EXACT", "fig1.csv"},
-                          {"CSV", "fig1.csv"},
-                          {"A", "euler"},
-                          {"ANAME", "Euler"},
-                          {"ASTYLE", "lines"},
-                          {"B", "c_euler"},
-                          {"BNAME", "C-Euler"},
-                          {"BSTYLE", "lines"}}));
+        mode_panels("Fig. 1: three-wave model, {/Symbol t} = 0.02, Euler gains " + format_number(100.0 * gain) +
+                        "% energy by t = " + format_number(t_end),
+                    "fig1.csv", "fig1.csv", {"euler", "Euler", "lines"}, {"c_euler", "C-Euler", "lines"}));
     r.numbers = {
         {"euler_energy_gain_rel", "Euler: E(t_end)/E(0) - 1 (dt 0.02, t_end 10)", gain, "growth shown, no number"},
         {"c_euler_max_drift_E_rel", "C-Euler: max |E(t)-E(0)|/E(0)",
@@ -197,16 +209,8 @@ figure_result make_figure_2() {
     r.csvs.emplace_back("fig2_exact.csv", exact_table(c.model, c.psi0, t_end, 0.01));
     r.script = gnuplot_script(
         2, "three-wave psi_k(t): PC, C-PC and exact, dt = 0.2",
-        fill(modes_body, {{"TEND", format_number(t_end)},
-                          {"TITLE", "Fig. 2: three-wave model, predictor-corrector, {/Symbol t} = 0.2"},
-                          {"EXACT", "fig2_exact.csv"},
-                          {"CSV", "fig2.csv"},
-                          {"A", "pc"},
-                          {"ANAME", "PC"},
-                          {"ASTYLE", "linespoints pt 8 ps 0.9"},
-                          {"B", "c_pc"},
-                          {"BNAME", "C-PC"},
-                          {"BSTYLE", "linespoints pt 7 ps 0.6"}}));
+        mode_panels("Fig. 2: three-wave model, predictor-corrector, {/Symbol t} = 0.2", "fig2_exact.csv", "fig2.csv",
+                    {"pc", "PC", "linespoints pt 8 ps 0.9"}, {"c_pc", "C-PC", "linespoints pt 7 ps 0.6"}));
     const double steps = double(c.conservative.stats.steps);
     r.numbers = {
         {"c_pc_steps", "C-PC: steps of 0.2 to t = 10", steps, "-"},

@@ -70,6 +70,11 @@ void reset_carried_state(St& st) {
     if constexpr (carries_state<St>) st.reset();
 }
 
+/// A stepper that never reports success with a non-finite number in x (it fails the step instead) says so with
+/// `static constexpr bool checks_finite = true`; the drivers then skip their own pass over the state.
+template <class St>
+concept checks_finite = requires { requires St::checks_finite; };
+
 /// A system that wraps another (the drivers' evaluation counter, a user's adaptor) exposes it as `wrapped()`,
 /// so that a stepper reaches the model being integrated through any number of wrappers.
 template <class F>

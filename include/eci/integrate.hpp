@@ -165,6 +165,13 @@ std::size_t first_non_finite(const S& x) {
     return first_index(r.size(), [&](std::size_t i) { return !std::isfinite(r[i]); });
 }
 
+/// After a successful step to time t: a non-finite x stops the run, unless the stepper checked that itself.
+template <class St, state S>
+void check_finite_after(const S& x, double t) {
+    if constexpr (!checks_finite<St>)
+        if (!all_finite(x)) throw non_finite_state(t, first_non_finite(x));
+}
+
 inline void poll_cancel(const run_options& opt, double t) {
     if (opt.cancel && opt.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
 }
@@ -176,7 +183,7 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const 
     poll_cancel(opt, t);
     step_result r = stepper.step(f, x, t, dt);
     if (r) {
-        if (!all_finite(x)) throw non_finite_state(t + dt, first_non_finite(x));
+        check_finite_after<St>(x, t + dt);
         return;
     }
     if (opt.max_halvings <= 0) throw step_size_underflow(t, r.component, dt, stats);
@@ -195,7 +202,7 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const 
         poll_cancel(opt, ts);
         r = stepper.step(f, x, ts, h);
         if (r) {
-            if (!all_finite(x)) throw non_finite_state(ts + h, first_non_finite(x));
+            check_finite_after<St>(x, ts + h);
             offset += h;
             continue;
         }

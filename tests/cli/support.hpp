@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -97,6 +98,53 @@ class scratch_dir {
 
    private:
     fs::path path_;
+};
+
+/// A test's own tree: eci runs in work/ (where every output goes) and its stdout and stderr are captured in
+/// capture/, so work/ holds only what eci itself wrote. Removed with everything in it on destruction.
+class work_dir {
+   public:
+    explicit work_dir(const std::string& tag) : scratch_(tag), work_(scratch_.path() / "work") {
+        fs::create_directory(work_);
+        fs::create_directory(capture());
+    }
+
+    /// Runs `wrapper eci shell_args` in work/ (shell_args already quoted; wrapper a prefix such as timeout).
+    run_result run(const std::string& shell_args, const std::string& wrapper = "") const {
+        std::string prefix = "cd ";
+        prefix.append(shell_quote(work_.string())).append(" && ").append(wrapper);
+        return run_eci(shell_args, capture(), prefix);
+    }
+
+    /// Runs eci with each of `args` quoted as one word.
+    run_result run(const std::vector<std::string>& args, const std::string& wrapper = "") const {
+        std::string quoted;
+        for (const std::string& a : args) quoted.append(" ").append(shell_quote(a));
+        return run(quoted, wrapper);
+    }
+
+    /// work/ itself, and a file in it.
+    const fs::path& path() const { return work_; }
+    fs::path file(const std::string& name) const { return work_ / name; }
+
+    /// Where stdout and stderr (and any other capture) go.
+    fs::path capture() const { return scratch_.path() / "capture"; }
+
+    /// The names of the files in work/ (hidden ones included), sorted.
+    std::set<std::string> files() const {
+        std::set<std::string> names;
+        for (const auto& e : fs::directory_iterator(work_)) names.insert(e.path().filename().string());
+        return names;
+    }
+
+    /// Empties work/ (for a loop of runs in one tree).
+    void clear() const {
+        for (const auto& e : fs::directory_iterator(work_)) fs::remove_all(e.path());
+    }
+
+   private:
+    scratch_dir scratch_;
+    fs::path work_;
 };
 
 }  // namespace eci::test_cli

@@ -16,27 +16,17 @@ namespace {
 namespace fs = std::filesystem;
 using eci::test_cli::lines_of;
 using eci::test_cli::read_text;
-using eci::test_cli::run_eci;
 using eci::test_cli::run_result;
-using eci::test_cli::scratch_dir;
 using eci::test_cli::split;
 
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
-/// Each test runs eci in its own scratch work/ directory (where every output goes) and captures stdout and stderr
-/// in a sibling capture/ directory, so work/ holds only what eci itself wrote.
+/// Each test runs eci in its own scratch tree (see work_dir).
 class cli_adaptive : public ::testing::Test {
    protected:
-    void SetUp() override {
-        fs::create_directory(scratch_.path() / "work");
-        fs::create_directory(scratch_.path() / "capture");
-    }
-    run_result eci(const std::string& args) const {
-        return run_eci(args, scratch_.path() / "capture",
-                       "cd " + eci::test_cli::shell_quote((scratch_.path() / "work").string()) + " &&");
-    }
-    fs::path file(const std::string& name) const { return scratch_.path() / "work" / name; }
-    scratch_dir scratch_{"adaptive"};
+    run_result eci(const std::string& args) const { return dir_.run(args); }
+    fs::path file(const std::string& name) const { return dir_.file(name); }
+    eci::test_cli::work_dir dir_{"adaptive"};
 };
 
 /// The number after "key": in a JSON text (NaN if absent).

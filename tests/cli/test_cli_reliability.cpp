@@ -27,9 +27,7 @@ namespace {
 namespace fs = std::filesystem;
 using eci::test_cli::lines_of;
 using eci::test_cli::read_text;
-using eci::test_cli::run_eci;
 using eci::test_cli::run_result;
-using eci::test_cli::scratch_dir;
 using eci::test_cli::shell_quote;
 using eci::test_cli::split;
 
@@ -41,39 +39,25 @@ std::string bounded(int seconds) {
 
 class reliability : public ::testing::Test {
    protected:
-    void SetUp() override {
-        work_ = scratch_.path() / "work";
-        fs::create_directory(work_);
-        fs::create_directory(scratch_.path() / "capture");
-    }
-
     /// Runs eci with args in work/, bounded to 20 s.
     run_result eci(const std::vector<std::string>& args, int seconds = 20) const {
-        std::string prefix = "cd ";
-        prefix.append(shell_quote(work_.string())).append(" && ").append(bounded(seconds));
-        std::string quoted;
-        for (const std::string& a : args) quoted.append(" ").append(shell_quote(a));
-        return run_eci(quoted, scratch_.path() / "capture", prefix);
+        return dir_.run(args, bounded(seconds));
     }
 
     /// Runs a bash script in work/ with $ECI set to the binary; returns its exit status.
     int bash(const std::string& script) const {
         std::string cmd = "cd " + shell_quote(work_.string()) + " && ECI=" + shell_quote(ECI_CLI_PATH) +
                           " bash -c " + shell_quote(script) + " >/dev/null 2>" +
-                          shell_quote((scratch_.path() / "capture" / "bash_err").string());
+                          shell_quote((dir_.capture() / "bash_err").string());
         const int raw = std::system(cmd.c_str());
         return WIFEXITED(raw) ? WEXITSTATUS(raw) : -1;
     }
 
     /// The names of the files in work/ (hidden ones included), sorted.
-    std::set<std::string> work_files() const {
-        std::set<std::string> names;
-        for (const auto& e : fs::directory_iterator(work_)) names.insert(e.path().filename().string());
-        return names;
-    }
+    std::set<std::string> work_files() const { return dir_.files(); }
 
-    scratch_dir scratch_{"reliability"};
-    fs::path work_;
+    eci::test_cli::work_dir dir_{"reliability"};
+    const fs::path& work_ = dir_.path();
 };
 
 /// A failure as the contract wants it: the status, one line "eci: error: ..." on stderr naming `needle`.
@@ -155,7 +139,7 @@ TEST_F(reliability, every_interrupt_signal_stops_the_run_and_leaves_no_file) {
             "$ECI run lotka-volterra --t-end 1e7 --output out.csv --summary-json out.json & p=$!; sleep 0.4; "
             "start=$(date +%s%N); kill -" + name + " $p; wait $p; status=$?; end=$(date +%s%N); "
             "[ $(( (end - start) / 1000000 )) -lt 1500 ] || exit 99; exit $status";
-        EXPECT_EQ(bash(script), 128 + number) << name << read_text(scratch_.path() / "capture" / "bash_err");
+        EXPECT_EQ(bash(script), 128 + number) << name << read_text(dir_.capture() / "bash_err");
         EXPECT_TRUE(work_files().empty()) << name << ": " << *work_files().begin();
     }
 }
@@ -411,9 +395,7 @@ TEST_F(reliability, figures_check_gnuplot_and_stop_it_on_interrupt) {
                             << behaviour << "\n";
         fs::permissions(fake, fs::perms(0755), fs::perm_options::replace);
         const run_result r =
-            run_eci("figures --only 5 --out figs", scratch_.path() / "capture",
-                    "cd " + shell_quote(work_.string()) + " && ECI_GNUPLOT=" + shell_quote(fake.string()) + " " +
-                        bounded(30));
+            dir_.run("figures --only 5 --out figs", "ECI_GNUPLOT=" + shell_quote(fake.string()) + " " + bounded(30));
         expect_one_line_error(r, 1, "fig5", behaviour);
         EXPECT_FALSE(fs::exists(work_ / "figs")) << behaviour;
     }

@@ -26,46 +26,23 @@ namespace {
 namespace fs = std::filesystem;
 using eci::test_cli::lines_of;
 using eci::test_cli::read_text;
-using eci::test_cli::run_eci;
 using eci::test_cli::run_result;
-using eci::test_cli::scratch_dir;
-using eci::test_cli::shell_quote;
 using eci::test_cli::split;
 
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
-/// A test with its own directory tree under the system temp dir, removed at the end: the binary runs in
-/// work/ (where every output goes), its stdout and stderr are captured in capture/ so work/ holds only what
-/// eci itself wrote.
+/// A test with its own directory tree (see work_dir), removed at the end.
 class cli : public ::testing::Test {
    protected:
-    void SetUp() override {
-        work_ = scratch_.path() / "work";
-        fs::create_directory(work_);
-        fs::create_directory(scratch_.path() / "capture");
-    }
-
     /// Runs eci with args in work/; `wrapper` (a command prefix such as timeout) runs it, if given.
     run_result eci(const std::vector<std::string>& args, const std::string& wrapper = "") const {
-        std::string prefix = "cd ";
-        prefix.append(shell_quote(work_.string())).append(" && ").append(wrapper);
-        std::string quoted;
-        for (const std::string& a : args) quoted.append(" ").append(shell_quote(a));
-        return run_eci(quoted, scratch_.path() / "capture", prefix);
+        return dir_.run(args, wrapper);
     }
-
-    /// The names of the files in work/, sorted.
-    std::set<std::string> work_files() const {
-        std::set<std::string> names;
-        for (const auto& e : fs::directory_iterator(work_)) names.insert(e.path().filename().string());
-        return names;
-    }
-
-    fs::path work(const std::string& name) const { return work_ / name; }
+    std::set<std::string> work_files() const { return dir_.files(); }
+    fs::path work(const std::string& name) const { return dir_.file(name); }
 
    private:
-    scratch_dir scratch_{"cli-test"};
-    fs::path work_;
+    eci::test_cli::work_dir dir_{"cli-test"};
 };
 
 /// A CSV file: its header and its rows as numbers.
@@ -539,7 +516,8 @@ TEST_F(cli, list_shows_every_registered_method_with_its_order_and_every_model) {
     };
     for (const eci::method_info& m : eci::methods)
         EXPECT_TRUE(has_line_starting({std::string(m.name), "order", std::to_string(m.order),
-                                       m.conservative ? "conservative" : "conventional"}))
+                                       m.conservative ? "conservative" : "conventional",
+                                       std::string(eci::family_name(m.family))}))
             << m.name << "\n"
             << r.out;
     for (const std::string model : {"three-wave", "n-wave", "n-wave-complex"})

@@ -151,6 +151,34 @@ TEST(NonFiniteState, NoStepperReturnsOneAsAStep) {
     EXPECT_THROW(eci::integrate_n_steps(liar, rate_one{}, x, 0.0, 0.1, 3), eci::non_finite_state);
 }
 
+// The drivers trust a stepper that declares checks_finite and skip their own pass: each such stepper must fail
+// (not take) a step whose update overflows, and leave x as it was.
+template <class St>
+void expect_overflow_fails_the_step(const char* name) {
+    static_assert(eci::checks_finite<St>);
+    std::vector<double> x{1e300, 1.0, 1e300, 1.0};
+    const std::vector<double> before = x;
+    auto f = [](const std::vector<double>& a, std::vector<double>& d, double) {
+        d.resize(a.size());
+        for (std::size_t i = 0; i < a.size(); ++i) d[i] = (i % 2 == 0 ? 1.0 : -1.0) * a[(i + 1) % a.size()] * 1e8;
+    };
+    St st;
+    const eci::step_result r = st.step(f, x, 0.0, 1e10);
+    EXPECT_FALSE(r) << name;
+    EXPECT_EQ(x, before) << name;
+}
+
+TEST(NonFiniteState, SteppersThatCheckFinitenessFailAnOverflowingStep) {
+    using S = std::vector<double>;
+    expect_overflow_fails_the_step<eci::euler<S>>("euler");
+    expect_overflow_fails_the_step<eci::pc<S>>("pc");
+    expect_overflow_fails_the_step<eci::rk4<S>>("rk4");
+    expect_overflow_fails_the_step<eci::c_pc<S>>("c-pc");
+    expect_overflow_fails_the_step<eci::c_rk4<S>>("c-rk4");
+    expect_overflow_fails_the_step<eci::c_pc_compensated<S>>("c-pc-compensated");
+    static_assert(!eci::checks_finite<eci::implicit_midpoint<S>>);  // the driver checks its results
+}
+
 TEST(ModelRanges, OverflowingSquaresAndProductsAreRejected) {
     for (const auto& [K, P] : std::vector<std::pair<double, double>>{{1e200, 3.0}, {1.7, 1.5e154}, {1e-170, 3.0}}) {
         eci::three_wave w;

@@ -96,6 +96,7 @@ template <state S>
 class c_pc_compensated : public radicand_remedy {
    public:
     static constexpr int order = 2;
+    static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {

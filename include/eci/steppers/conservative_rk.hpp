@@ -34,6 +34,7 @@ class conservative_rk : public radicand_remedy {
 
    public:
     static constexpr int order = T.order;
+    static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {

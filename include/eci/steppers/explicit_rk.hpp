@@ -81,6 +81,7 @@ template <const auto& T, state S>
 class explicit_rk {
    public:
     static constexpr int order = T.order;
+    static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
