@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <numbers>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <eci/adaptive.hpp>
@@ -60,6 +61,9 @@ std::vector<double> invariants_of(const eci::lotka_volterra& m, const eci::lotka
     return {m.hamiltonian(x)};
 }
 std::vector<double> invariants_of(const rigid_body& m, const rigid_body::state_type& x) { return m.invariants(x); }
+std::vector<double> invariants_of(const eci::n_wave<double>& m, const std::vector<double>& x) {
+    return {m.energy(x), m.enstrophy(x)};
+}
 
 template <class Model>
 struct problem {
@@ -203,12 +207,15 @@ void per_step_cost(std::size_t modes, int pairs) {
         ratios.push_back(b / a2);
     }
     std::sort(ratios.begin(), ratios.end());
+    const std::size_t m = ratios.size();
     std::printf("cost n-wave N=%zu (20 triads/mode): C-DP54 / DP54 per step (attempt + accept + norm) median %.3f, "
-                "range %.3f..%.3f over %d pairs (target <= 1.05)\n",
-                modes, ratios[ratios.size() / 2], ratios.front(), ratios.back(), pairs);
+                "quartiles %.3f..%.3f, range %.3f..%.3f over %d pairs (target <= 1.05)\n",
+                modes, ratios[m / 2], ratios[m / 4], ratios[(3 * m) / 4], ratios.front(), ratios.back(), pairs);
 }
 
-// Long-run round-off: fixed steps of 0.01 on the three-wave model, relative drift of E and Z at the end.
+// Long-run round-off: fixed steps of 0.01 on the three-wave model; the worst relative drift of the model's E and Z
+// (as a user measures them, in double: a few eps of that is the measurement) up to each decade of steps, and the
+// fitted growth exponent (0.5 = a random walk, 0 = bounded).
 template <class St>
 void long_run(const char* name, std::uint64_t steps) {
     const eci::three_wave m{};
@@ -216,12 +223,29 @@ void long_run(const char* name, std::uint64_t steps) {
     const double e0 = m.energy(x), z0 = m.enstrophy(x);
     St st;
     double worst = 0;
-    eci::integrate_n_steps(st, m, x, 0.0, 0.01, steps, [&](const auto& y, double, std::uint64_t) {
+    std::vector<std::pair<std::uint64_t, double>> decades;
+    std::uint64_t next = 1000;
+    eci::integrate_n_steps(st, m, x, 0.0, 0.01, steps, [&](const auto& y, double, std::uint64_t i) {
         worst = std::max({worst, std::abs(m.energy(y) - e0) / e0, std::abs(m.enstrophy(y) - z0) / z0});
-    }, eci::run_options{steps / 1000 + 1});
-    std::printf("long run %-20s %llu steps of 0.01: worst relative drift of E, Z (sampled 1000 times) %.2e "
-                "(target <= 1e-14)\n",
-                name, (unsigned long long)steps, worst);
+        if (i == next || i == steps) {
+            decades.push_back({i, worst});
+            next *= 10;
+        }
+    }, eci::run_options{std::max<std::uint64_t>(1, steps / 10000)});
+    std::string growth;
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    for (const auto& [n, w] : decades) {
+        char buf[64];
+        std::snprintf(buf, sizeof buf, " %.0e:%.1e", double(n), w);
+        growth += buf;
+        const double lx = std::log(double(n)), ly = std::log(std::max(w, 1e-300));
+        sx += lx, sy += ly, sxx += lx * lx, sxy += lx * ly;
+    }
+    const double k = double(decades.size());
+    const double slope = decades.size() > 1 ? (k * sxy - sx * sy) / (k * sxx - sx * sx) : NAN;
+    std::printf("long run %-20s %llu steps of 0.01: worst relative drift of E, Z %.2e (target <= 1e-14); by "
+                "steps%s; growth exponent %.2f\n",
+                name, (unsigned long long)steps, worst, growth.c_str(), slope);
 }
 
 }  // namespace
@@ -302,22 +326,40 @@ int main(int argc, char** argv) {
         sweep_odeint<0>(p, "fehlberg78", odeint::runge_kutta_fehlberg78<S>(), min_cpu, pts);
     }
 
+    // A random real n-wave system (30 modes, 4 triads per mode) to t = 20 (reference: odeint Fehlberg 7(8) at
+    // 1e-14): many modes pass through zero, where the conservative method's psi = sqrt(xi) is least accurate.
+    {
+        problem<eci::n_wave<double>> p{"n_wave30", eci::n_wave<double>::random(30, 4, 7), {}, {}, 20.0};
+        p.x0 = p.model.random_state(3);
+        using S = std::vector<double>;
+        p.reference = p.x0;
+        odeint::integrate_adaptive(odeint::make_controlled(1e-14, 1e-14, odeint::runge_kutta_fehlberg78<S>()), p.model,
+                                   p.reference, 0.0, p.t_end, 1e-4);
+        sweep_eci(p, "c-dp54", [] { return eci::c_dp54<S>{}; }, min_cpu, pts);
+        sweep_eci(p, "dp54", [] { return eci::dp54<S>{}; }, min_cpu, pts);
+        sweep_eci(p, "c-f78", [] { return eci::c_f78<S>{}; }, min_cpu, pts);
+        sweep_odeint<0>(p, "dopri5", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
+        sweep_odeint<1>(p, "dopri5_dense", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
+        sweep_odeint<0>(p, "fehlberg78", odeint::runge_kutta_fehlberg78<S>(), min_cpu, pts);
+    }
+
     std::fprintf(csv, "model,method,tol,rhs_evals,cpu_seconds,state_error,invariant_error\n");
     for (const point& p : pts)
         std::fprintf(csv, "%s,%s,%.0e,%llu,%.6e,%.6e,%.6e\n", p.model.c_str(), p.method.c_str(), p.tol,
                      (unsigned long long)p.evals, p.cpu, p.state_error, p.invariant_error);
     std::fclose(csv);
-    for (const char* model : {"three_wave", "rigid_body", "kepler_e0.9", "lotka_volterra"}) {
+    for (const char* model : {"three_wave", "rigid_body", "kepler_e0.9", "lotka_volterra", "n_wave30"}) {
         compare(pts, model, "c-dp54", "dopri5");
         compare(pts, model, "c-dp54", "dopri5_dense");
         compare(pts, model, "c-dp54", "dp54");
         compare(pts, model, "c-f78", "fehlberg78");
     }
-    if (cost_modes > 0) per_step_cost(cost_modes - cost_modes % 3, quick ? 5 : 11);
+    if (cost_modes > 0) per_step_cost(cost_modes - cost_modes % 3, quick ? 5 : 15);
     if (long_steps > 0) {
         long_run<eci::c_rk4_compensated<eci::three_wave::state_type>>("c-rk4 compensated", long_steps);
         long_run<eci::c_dp54_compensated<eci::three_wave::state_type>>("c-dp54 compensated", long_steps);
         long_run<eci::c_dp54<eci::three_wave::state_type>>("c-dp54 (plain)", long_steps);
+        long_run<eci::c_rk4<eci::three_wave::state_type>>("c-rk4 (plain)", long_steps);
     }
     return 0;
 }

@@ -97,6 +97,9 @@ if command -v gnuplot > /dev/null; then
     gnuplot -e "csv='$out/work_precision.csv'; model='$model'; out='$out/wp_$model'" "$repo/bench/plot_work_precision.gp"
   done
   gnuplot -e "csv='$out/drift.csv'; out='$out/drift'" "$repo/bench/plot_drift.gp"
+  for model in $(tail -n +2 "$out/adaptive.csv" | cut -d, -f1 | sort -u); do
+    gnuplot -e "csv='$out/adaptive.csv'; model='$model'; out='$out/adaptive_$model'" "$repo/bench/plot_adaptive.gp"
+  done
 else
   echo "run.sh: gnuplot not found, figures skipped" >&2
 fi

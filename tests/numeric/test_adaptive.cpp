@@ -3,10 +3,12 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <cstdio>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <eci/adaptive.hpp>
@@ -122,17 +124,13 @@ double estimate_slope(const F& f, const S& x0, double dt_lo, double dt_hi, const
 TYPED_TEST(AdaptivePair, ErrorEstimateScalesAsDtToTheEmbeddedOrderPlusOne) {
     constexpr int q = TypeParam::q;
     using St3 = typename TypeParam::template stepper<state>;
-    // dt ranges where the estimate is asymptotic and above its own rounding (~1e-18 here).
+    // dt ranges where the estimate is asymptotic and above its own rounding (~1e-18 here). The conservative
+    // estimate forms psi - conv without the rounding of psi itself (embedded_rk::finish), or it would stop at
+    // ~eps |psi| and fail this at the small steps.
     const eci::three_wave_exact exact(model, figure5_ic);
     const double hi = q == 2 ? 0.025 : q == 4 ? 0.05 : 0.1;
     const double slope3 = estimate_slope<St3>(model, exact(1.0), hi / (q == 7 ? 4.0 : 8.0), hi, TypeParam::name);
-    // Fehlberg's b - bhat vanishes on quadratures (stages 1, 12 and 11, 13 share their nodes), and the rate of
-    // xi depends on psi only through the stages: on the three-wave model C-F78's xi estimate is not yet
-    // asymptotic where it meets its own rounding (measured slopes 12.6, 7.0, 6.9 per halving from dt = 0.2),
-    // so it is checked on the n-wave system only.
-    if (!(St3::is_conservative && q == 7)) {
-        EXPECT_NEAR(slope3, q + 1.0, 0.2);
-    }
+    EXPECT_NEAR(slope3, q + 1.0, 0.2);
     const auto nw = eci::n_wave<std::complex<double>>::random(30, 4, 7);
     const double hc = q == 2 ? 0.00625 : q == 4 ? 0.003125 : 0.05;  // |S| is larger on the n-wave system
     EXPECT_NEAR((estimate_slope<typename TypeParam::template stepper<cvec>>(nw, nw.random_state(8),
@@ -257,7 +255,7 @@ TYPED_TEST(ConservativePair, DenseOutputIsAsAccurateAsTheStepsWhereItIsTheDefaul
         const auto [dense, steps] = dense_and_step_error<St>(tol);
         std::printf("  %-20s tol %.0e: max error dense %.2e, at the steps %.2e\n", TypeParam::name, tol, dense, steps);
         dense_errors.push_back(dense);
-        // measured at most 2.1x (c-dp54 at 1e-12, where the steps' own error is least regular)
+        // measured at most 1.0x (c-bs32); c-dp54's continuous extension of xi, 1.5-9x, is not the default
         if (St::dense_matches_steps) {
             EXPECT_LE(dense, 3.0 * steps) << "tol " << tol;
         }
@@ -268,8 +266,9 @@ TYPED_TEST(ConservativePair, DenseOutputIsAsAccurateAsTheStepsWhereItIsTheDefaul
 }
 
 TEST(AdaptiveDense, AutomaticModeIsDenseOnlyWhereItMatchesTheSteps) {
-    static_assert(eci::c_dp54<state>::dense_matches_steps && eci::c_bs32<state>::dense_matches_steps);
-    static_assert(!eci::c_ck54<state>::dense_matches_steps && !eci::c_f78<state>::dense_matches_steps);
+    static_assert(eci::dp54<state>::dense_matches_steps && eci::c_bs32<state>::dense_matches_steps);
+    static_assert(!eci::c_dp54<state>::dense_matches_steps && !eci::c_ck54<state>::dense_matches_steps &&
+                  !eci::c_f78<state>::dense_matches_steps);
     const std::vector<double> times{0.5, 1.0, 1.5, 2.0};
     eci::adaptive_options o;
     o.rtol = o.atol = 1e-8;
@@ -277,21 +276,27 @@ TEST(AdaptiveDense, AutomaticModeIsDenseOnlyWhereItMatchesTheSteps) {
         state x = figure5_ic;
         return eci::integrate_adaptive_at(st, model, x, 0.0, times, 1e-3, o, [](const state&, double) {}, mode);
     };
-    EXPECT_EQ(count(eci::c_dp54<state>{}, eci::output_mode::automatic).dense_points, 3u);
+    EXPECT_EQ(count(eci::dp54<state>{}, eci::output_mode::automatic).dense_points, 3u);
+    EXPECT_EQ(count(eci::c_bs32<state>{}, eci::output_mode::automatic).dense_points, 3u);
+    EXPECT_EQ(count(eci::c_dp54<state>{}, eci::output_mode::automatic).landed_points, 4u);
+    EXPECT_EQ(count(eci::c_dp54<state>{}, eci::output_mode::dense).dense_points, 3u);
     EXPECT_EQ(count(eci::c_ck54<state>{}, eci::output_mode::automatic).landed_points, 4u);
     EXPECT_EQ(count(eci::c_ck54<state>{}, eci::output_mode::dense).dense_points, 3u);
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// Tolerance proportionality: the global error at t = 10 against rtol = atol over four decades fits slope ~1
+// Tolerance proportionality: the global error at t = 10 against rtol = atol over six decades fits slope ~1
 // (a pair that propagates the higher order with an error-per-step controller: dt^(q+1) ~ tol, error ~ dt^p).
+// Six, not four: the conservative pairs' global error is uneven from one tolerance to the next (it depends on
+// where steps end near zero crossings, see docs/methods.md), so a four-decade fit is dominated by that
+// scatter (C-F78: 0.73 over 1e-5..1e-9, 0.85 over 1e-4..1e-10).
 
 TYPED_TEST(AdaptivePair, GlobalErrorIsProportionalToTheTolerance) {
     using St = typename TypeParam::template stepper<state>;
     const eci::three_wave_exact exact(model, figure5_ic);
     const state e = exact(10.0);
     std::vector<double> tols, errors;
-    for (int k = 5; k <= 9; ++k) {
+    for (int k = 4; k <= 10; ++k) {
         const double tol = std::pow(10.0, -k);
         St st;
         state x = figure5_ic;
@@ -304,7 +309,7 @@ TYPED_TEST(AdaptivePair, GlobalErrorIsProportionalToTheTolerance) {
         errors.push_back(err);
     }
     const double slope = log_log_slope(tols, errors);
-    std::printf("  %-20s error %.2e (tol 1e-5) .. %.2e (tol 1e-9), slope %.3f\n", TypeParam::name, errors.front(),
+    std::printf("  %-20s error %.2e (tol 1e-4) .. %.2e (tol 1e-10), slope %.3f\n", TypeParam::name, errors.front(),
                 errors.back(), slope);
     // BS32 propagates order 3 with a dt^3 estimate, so slope ~1; the higher pairs' slope is p/(q+1) ~ 1 too.
     EXPECT_GT(slope, 0.75);
@@ -452,33 +457,102 @@ TEST(AdaptiveOptions, PiControlAlsoConservesAndReachesTheEnd) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// Compensated xi, a policy of the same engine: over a long fixed-step run the invariants do not random-walk with
-// sqrt(steps). The bound is that of compensated C-PC (tests/numeric/test_compensated_c_pc.cpp): rounding of the
-// increments only, 4 eps (1 + 2 dt sqrt(n)); plain C-RK4 over the same run walks several times above it.
+// Compensated xi, a policy of the same engine: over a long fixed-step run the invariants do not random-walk by one
+// rounding of psi^2 per step. The invariants are measured exactly (double-double) with the weights the flow keeps
+// exactly: energy w = (1, 1, 1) and enstrophy w = (3, 9, 6) (K^2, P^2, Q^2 as integers; sum_k w_k M_k = 0
+// exactly, which the model's rounded K*K, Q*Q are not), so what is measured is the state's own drift.
 
-struct comp_rk4_m {
-    template <class S>
-    using stepper = eci::c_rk4_compensated<S>;
-};
+/// sum_k w_k x_k^2 in double-double (error below eps^2 of the sum): (hi, lo).
+std::pair<double, double> exact_invariant(const state& x, const std::array<double, 3>& w) {
+    double hi = 0.0, lo = 0.0;
+    for (std::size_t k = 0; k < 3; ++k) {
+        double p, e, q, f, s, g;
+        eci::detail::two_product(x[k], x[k], p, e);
+        eci::detail::two_product(w[k], p, q, f);
+        eci::detail::two_sum(hi, q, s, g);
+        hi = s;
+        lo += g + f + w[k] * e;
+    }
+    return {hi, lo};
+}
 
-TEST(CompensatedXi, RK4AndDP54CarryXiWithoutARandomWalk) {
-    constexpr std::uint64_t steps = 200000;
-    const double dt = 0.01;
-    const drift_result plain = measure_drift<c_rk4_m>(model, figure5_ic, dt, steps);
-    const drift_result rk4 = measure_drift<comp_rk4_m>(model, figure5_ic, dt, steps);
-    const drift_result dp54 = measure_drift<c_dp54_comp_m>(model, figure5_ic, dt, steps);
-    const double bound = 4.0 * eps * (1.0 + 2.0 * dt * std::sqrt(double(steps)));
-    // DP54's increment sums six stage terms where RK4's sums four and C-PC's two: sqrt(6) times the walk.
-    const double bound_dp54 = 4.0 * eps * (1.0 + 2.0 * std::sqrt(6.0) * dt * std::sqrt(double(steps)));
-    const drift_result plain_dp54 = measure_drift<c_dp54_m>(model, figure5_ic, dt, steps);
-    std::printf("  relative drift over %llu steps: c-rk4 %.2e, compensated c-rk4 %.2e, compensated c-dp54 %.2e "
-                "(bounds %.2e, %.2e), c-dp54 %.2e\n",
-                (unsigned long long)steps, plain.worst(), rk4.worst(), dp54.worst(), bound, bound_dp54,
-                plain_dp54.worst());
-    EXPECT_LE(rk4.worst(), bound);
-    EXPECT_LE(dp54.worst(), bound_dp54);
-    EXPECT_GT(plain.worst(), rk4.worst());
-    EXPECT_GT(plain_dp54.worst(), dp54.worst());
+/// The worst relative change of the two exact invariants over n fixed steps of dt through eci::run's driver
+/// (times t0 + i dt, as a user's run passes them), checked after every step.
+template <class St>
+double exact_drift(double dt, std::uint64_t n) {
+    constexpr std::array<double, 3> we{1.0, 1.0, 1.0}, wz{3.0, 9.0, 6.0};
+    state x = figure5_ic;
+    const auto e0 = exact_invariant(x, we), z0 = exact_invariant(x, wz);
+    double worst = 0.0;
+    auto change = [](std::pair<double, double> a, std::pair<double, double> b) {
+        return std::abs((a.first - b.first) + (a.second - b.second)) / b.first;
+    };
+    St st;
+    eci::integrate_n_steps(st, model, x, 0.0, dt, n, [&](const state& y, double, std::uint64_t) {
+        worst = std::max({worst, change(exact_invariant(y, we), e0), change(exact_invariant(y, wz), z0)});
+    });
+    return worst;
+}
+
+/// sum_j |b_j| of a tableau.
+template <const auto& T>
+constexpr double sum_abs_b() {
+    double s = 0.0;
+    for (double b : T.b) s += b < 0.0 ? -b : b;
+    return s;
+}
+
+// What compensation leaves: (a) the rounding of psi = sqrt(xi) at the end, |psi^2 - xi| <= eps xi, which does not
+// accumulate (psi0 is exact); (b) the rounding of the right-hand side, S_k = M_k Y_P Y_Q carries one rounding
+// (M_k = 1, -2 multiply exactly), so stage j adds dt 2 b_j sum_k w_k Y_k S_k (eps/2) to the invariant, at most
+// eps dt |b_j| sum_k w_k |Y_k S_k| = eps dt |b_j| |Y1 Y2 Y3| sum_k w_k |M_k|; on this orbit |Y1 Y2 Y3| <=
+// (2E/3)^(3/2) = 1.54 and sum_k w_k |M_k| / sum_k w_k psi_k^2 <= 24 / 22.5, so at most 2 eps dt sum|b_j| I per
+// step. Those roundings have no preferred sign: their sum over n steps walks, and its largest excursion stays
+// below 4 times the per-step bound times sqrt(n). Every product and sum forming the increment is error-free
+// (double-double), so nothing else is left. Plain xi walks by one rounding of psi^2 per step, about
+// 0.3 eps sqrt(n) (docs/benchmarks.md): at dt = 1e-3 that is ~15 times the bound, at dt = 0.01 (the CLI's
+// default step) ~3 times.
+template <const auto& T>
+double compensated_bound(double dt, std::uint64_t n) {
+    return eps + 4.0 * 2.0 * eps * dt * sum_abs_b<T>() * std::sqrt(double(n));
+}
+
+TEST(CompensatedXi, RK4AndDP54DoNotRandomWalk) {
+    constexpr std::uint64_t n = 100000;
+    for (double dt : {1e-3, 1e-2}) {
+        const double rk4 = exact_drift<eci::c_rk4_compensated<state>>(dt, n);
+        const double dp54 = exact_drift<eci::c_dp54_compensated<state>>(dt, n);
+        const double plain_rk4 = exact_drift<eci::c_rk4<state>>(dt, n);
+        const double plain_dp54 = exact_drift<eci::c_dp54<state>>(dt, n);
+        const double b_rk4 = compensated_bound<eci::tableaus::rk4>(dt, n);
+        const double b_dp54 = compensated_bound<eci::tableaus::dormand_prince_54>(dt, n);
+        std::printf("  dt %g, %llu steps, drift / eps: compensated c-rk4 %.2f (bound %.1f), compensated c-dp54 %.2f "
+                    "(bound %.1f); plain c-rk4 %.1f, plain c-dp54 %.1f\n",
+                    dt, (unsigned long long)n, rk4 / eps, b_rk4 / eps, dp54 / eps, b_dp54 / eps, plain_rk4 / eps,
+                    plain_dp54 / eps);
+        EXPECT_LE(rk4, b_rk4) << "dt " << dt;
+        EXPECT_LE(dp54, b_dp54) << "dt " << dt;
+        if (dt == 1e-3) {  // the bounds tell compensated from plain xi (a lost carry would fail them)
+            EXPECT_GT(plain_rk4, b_rk4);
+            EXPECT_GT(plain_dp54, b_dp54);
+        }
+    }
+}
+
+TEST(CompensatedXi, CarryIsKeptWhenStepTimesDoNotChain) {
+    // step() restarts (drops the residual) only when x is not the state it produced; times that do not chain
+    // exactly (t + dt != next t in floating point, as every driver's t0 + i dt) must not restart it. Same run,
+    // once with chained times and once with t0 + i dt: bitwise the same states.
+    eci::c_dp54_compensated<state> a, b;
+    eci::three_wave f = model;
+    state xa = figure5_ic, xb = figure5_ic;
+    double ta = 0.0;
+    for (int i = 0; i < 1000; ++i) {
+        ASSERT_TRUE(a.step(f, xa, ta, 0.1).ok);
+        ta += 0.1;
+        ASSERT_TRUE(b.step(f, xb, 0.1 * double(i) + 1e-3 * double(i % 2), 0.1).ok);
+    }
+    EXPECT_EQ(xa, xb);
 }
 
 }  // namespace

@@ -1,5 +1,6 @@
 // Adaptive conservative Runge-Kutta through an invariant-linearizing transform xi = T(x) (Lotka-Volterra, Kepler):
-// conventional stages in x, xi advanced by b and by bhat, both inverted; their difference is the error estimate.
+// conventional stages in x, xi advanced by b and by bhat, both inverted; their difference is the error estimate;
+// conservative dense output by interpolating xi and inverting at each output point.
 #pragma once
 
 #include <algorithm>
@@ -24,7 +25,7 @@ namespace eci {
 /// A non-invertible xi (or xihat) rejects the step, like a negative radicand. FSAL as in embedded_rk: the carried
 /// derivative is paired, in the rate of xi, with the conventional point it was taken at.
 /// The transform comes from the model behind the f passed to attempt (model_of(f).linearizing_transform()).
-/// Protocol as embedded_rk (attempt / accept / reset / step); no dense output.
+/// Protocol as embedded_rk (attempt / accept / reset / step / prepare_dense / interpolate).
 template <const auto& T, invariant_transform Tr>
 class transformed_embedded_rk {
     static constexpr std::size_t s = std::remove_cvref_t<decltype(T)>::stages;
@@ -39,31 +40,45 @@ class transformed_embedded_rk {
     static constexpr int embedded_order = T.embedded_order;
     static constexpr bool is_conservative = true;
     static constexpr bool first_same_as_last = fsal;
+    /// Whether the dense output is the pair's own continuous extension (else a cubic Hermite interpolant).
+    static constexpr bool has_continuous_extension = detail::with_continuous_extension<std::remove_cvref_t<decltype(T)>> && fsal;
+    /// Whether the dense output is as accurate as the steps (as embedded_rk: a continuous extension, or order <= 3).
+    static constexpr bool dense_matches_steps = has_continuous_extension || T.order <= 3;
 
     template <system<S> F>
     attempt_result attempt(F& f, const S& x, double t, double dt, const error_weights* w = nullptr,
                            bool track_worst = false) {
         // The transform is the system's own, taken from the model behind f at every attempt (as transformed_rk).
-        const Tr tr = transformed_rk<T, Tr>::transform_of(model_of(f));
+        tr_ = transformed_rk<T, Tr>::transform_of(model_of(f));
+        const Tr& tr = tr_;
         for (auto& ki : k_) detail::resize_like(ki, x);
-        for (S* b : {&stage_, &conv_, &conv_hat_, &x_new_, &x_hat_, &first_point_}) detail::resize_like(*b, x);
+        for (S* b : {&stage_, &conv_, &conv_hat_, &x_new_, &x_hat_, &first_point_, &k_end_}) detail::resize_like(*b, x);
         if (!have_xi_) {
             tr.to_xi(x, xi_);
             have_xi_ = true;
         }
+        if (pending_first_) {  // f at this x, evaluated by prepare_dense for the step before
+            using std::swap;
+            swap(k_[0], k_end_);
+            first_point_ = x;
+            have_first_ = true;
+        }
+        pending_first_ = false;
         if (!have_first_) {
             f(x, k_[0], t);
             first_point_ = x;
             have_first_ = true;
         }
-        for (X* b : {&rate_, &acc_, &acc_hat_, &xi_new_, &xi_hat_}) detail::resize_like(*b, xi_);
+        dense_ready_ = false;
+        for (X* b : {&acc_, &acc_hat_, &xi_new_, &xi_hat_, &rate_end_}) detail::resize_like(*b, xi_);
+        for (X& b : rates_) detail::resize_like(b, xi_);
         auto acc = detail::reals(acc_), acc_hat = detail::reals(acc_hat_);
         std::fill(acc.begin(), acc.end(), 0.0);
         std::fill(acc_hat.begin(), acc_hat.end(), 0.0);
         auto add_rate = [&](std::size_t i, const S& y, const S& k) {
+            tr.xi_rate(y, k, rates_[i]);  // every stage's rate is kept for the dense output
             if (T.b[i] == 0.0 && T.bhat[i] == 0.0) return;
-            tr.xi_rate(y, k, rate_);
-            const auto r = detail::reals(std::as_const(rate_));
+            const auto r = detail::reals(std::as_const(rates_[i]));
             for (std::size_t m = 0; m < acc.size(); ++m) acc[m] += T.b[i] * r[m], acc_hat[m] += T.bhat[i] * r[m];
         };
         add_rate(0, first_point_, k_[0]);
@@ -82,6 +97,7 @@ class transformed_embedded_rk {
         attempt_result res;
         const step_result r = tr.from_xi(std::as_const(xi_new_), std::as_const(conv_), x_new_, stats_);
         if (!r) return {false, r.component, 0.0};
+        last_dt_ = dt;
         if (w == nullptr) return res;
         const step_result rh = tr.from_xi(std::as_const(xi_hat_), std::as_const(conv_hat_), x_hat_, stats_);
         if (!rh) return {true, rh.component, std::numeric_limits<double>::infinity()};
@@ -95,23 +111,100 @@ class transformed_embedded_rk {
             if (track_worst && !(std::abs(ratio) <= worst)) worst = std::abs(ratio), res.component = i;
         }
         res.error = std::sqrt(sq / double(a.size()));
+        last_dt_ = dt;
         return res;
     }
 
+    /// Make the candidate of the last successful attempt the state x.
     void accept(S& x) {
         using std::swap;
-        swap(x, x_new_);
-        swap(xi_, xi_new_);
+        swap(x, x_new_);    // x_new_ now holds the step's start, for the dense output
+        swap(xi_, xi_new_);  // and xi_new_ the start's xi
+        p1_ = stage_;        // the conventional update (FSAL: where k_{s-1} was taken)
         if constexpr (fsal) {
             swap(k_[0], k_[s - 1]);
             first_point_ = stage_;  // the conventional update, where k_[0] was taken
+            rate_end_ = rates_[s - 1];
+            dense_ready_ = true;
         } else {
             have_first_ = false;
+            dense_ready_ = false;
         }
     }
 
+    /// Make the dense output of the accepted step available (x the new state, t its time): a non-FSAL pair needs
+    /// f at x, evaluated once here and kept as the next attempt's first stage.
+    template <system<S> F>
+    void prepare_dense(F& f, const S& x, double t) {
+        if (dense_ready_) return;
+        f(x, k_end_, t);
+        tr_.xi_rate(x, k_end_, rate_end_);
+        p1_ = x;
+        pending_first_ = true;
+        dense_ready_ = true;
+    }
+
+    /// The dense output at t0 + theta dt of the accepted step (x the current state; call prepare_dense first).
+    /// xi is interpolated with the rates of xi at the stages (DP54's continuous extension, else the cubic Hermite
+    /// interpolant with the end rates), then inverted on the branch of the same interpolant applied to x with the
+    /// stage derivatives. Each interpolated xi is xi0 + c (xi1 - xi0) + dt sum_i beta_i rate_i: xi0 and xi1 have
+    /// equal invariants and every rate keeps them (they are linear in xi), so each point keeps the invariants of
+    /// the step's ends up to rounding. A non-invertible interpolated xi fails (the driver lands a step instead).
+    step_result interpolate(const S& x, double theta, S& out) const {
+        detail::resize_like(out, x);
+        detail::resize_like(xi_dense_, xi_);
+        detail::resize_like(hint_, x);
+        const double h = last_dt_;
+        auto interpolant = [&](double y0, double y1, double f0, double f1, double fd) {
+            if constexpr (has_continuous_extension) {
+                const double dy = y1 - y0, c3 = h * f0 - dy, c4 = dy - h * f1 - c3;
+                return y0 + theta * (dy + (1.0 - theta) * (c3 + theta * (c4 + (1.0 - theta) * h * fd)));
+            } else {
+                (void)fd;
+                const double h00 = (1.0 + 2.0 * theta) * (1.0 - theta) * (1.0 - theta);
+                const double h10 = theta * (1.0 - theta) * (1.0 - theta);
+                const double h01 = theta * theta * (3.0 - 2.0 * theta), h11 = theta * theta * (theta - 1.0);
+                return (h00 * y0 + h01 * y1) + h * (h10 * f0 + h11 * f1);
+            }
+        };
+        // the stage derivatives in stage order (an FSAL accept rotated k_0 and k_{s-1})
+        std::array<const double*, s> k{};
+        for (std::size_t j = 0; j < s; ++j) k[j] = detail::reals(std::as_const(k_[j])).data();
+        if constexpr (fsal) std::swap(k[0], k[s - 1]);
+        const double* k_end = fsal ? k[s - 1] : detail::reals(std::as_const(k_end_)).data();
+        {  // the branch hint: the conventional interpolant of x, from the start to the conventional update
+            const double* x0 = detail::reals(std::as_const(x_new_)).data();
+            const double* x1 = detail::reals(std::as_const(p1_)).data();
+            double* o = detail::reals(hint_).data();
+            for (std::size_t i = 0; i < detail::reals(std::as_const(hint_)).size(); ++i) {
+                double kd = 0.0;
+                if constexpr (has_continuous_extension)
+                    for (std::size_t j = 0; j < s; ++j) kd += T.d[j] * k[j][i];
+                o[i] = interpolant(x0[i], x1[i], k[0][i], k_end[i], kd);
+            }
+        }
+        {  // xi
+            const auto xi0 = detail::reals(std::as_const(xi_new_)), xi1 = detail::reals(std::as_const(xi_));
+            const double* r0 = detail::reals(std::as_const(rates_[0])).data();
+            const double* r1 = detail::reals(std::as_const(rate_end_)).data();
+            double* o = detail::reals(xi_dense_).data();
+            for (std::size_t m = 0; m < xi0.size(); ++m) {
+                double rd = 0.0;
+                if constexpr (has_continuous_extension)
+                    for (std::size_t j = 0; j < s; ++j) rd += T.d[j] * detail::reals(std::as_const(rates_[j]))[m];
+                o[m] = interpolant(xi0[m], xi1[m], r0[m], r1[m], rd);
+            }
+        }
+        return tr_.from_xi(std::as_const(xi_dense_), std::as_const(hint_), out, stats_);
+    }
+
+    /// The state at the start of the accepted step (valid from accept() to the next attempt).
+    const S& step_start() const { return x_new_; }
+    /// The size of the last attempted step.
+    double last_step_size() const { return last_dt_; }
+
     /// Forget the carried xi and derivative: the next attempt recomputes them from its x.
-    void reset() { have_xi_ = have_first_ = false; }
+    void reset() { have_xi_ = have_first_ = pending_first_ = dense_ready_ = false; }
 
     /// The fixed-step face.
     template <system<S> F>
@@ -146,10 +239,15 @@ class transformed_embedded_rk {
     }
 
     std::array<S, s> k_{};
-    S stage_{}, conv_{}, conv_hat_{}, x_new_{}, x_hat_{}, first_point_{}, last_x_{};
-    X xi_{}, xi_new_{}, xi_hat_{}, rate_{}, acc_{}, acc_hat_{};
-    bool have_xi_ = false, have_first_ = false, stepped_ = false;
-    solver_stats stats_{};
+    S stage_{}, conv_{}, conv_hat_{}, x_new_{}, x_hat_{}, first_point_{}, last_x_{}, k_end_{}, p1_{};
+    mutable S hint_{};
+    X xi_{}, xi_new_{}, xi_hat_{}, acc_{}, acc_hat_{}, rate_end_{};
+    mutable X xi_dense_{};
+    std::array<X, s> rates_{};  // dxi/dt at every stage of the last attempt
+    Tr tr_{};
+    bool have_xi_ = false, have_first_ = false, stepped_ = false, pending_first_ = false, dense_ready_ = false;
+    double last_dt_ = 0.0;
+    mutable solver_stats stats_{};  // the dense output's inverses count too
 };
 
 /// Conservative Dormand-Prince 5(4) through a transform.
