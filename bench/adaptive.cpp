@@ -216,6 +216,18 @@ void per_step_cost(std::size_t modes, int pairs) {
 // Long-run round-off: fixed steps of 0.01 on the three-wave model; the worst relative drift of the model's E and Z
 // (as a user measures them, in double: a few eps of that is the measurement) up to each decade of steps, and the
 // fitted growth exponent (0.5 = a random walk, 0 = bounded).
+/// The same sweeps on every problem: eci's C-DP54 (through the transform where the model has one), DP54 and
+/// C-F78 against odeint's controlled and dense dopri5 and its Fehlberg 7(8).
+template <class S, class Model, class MakeCdp54, class MakeCf78>
+void sweep_all(const problem<Model>& p, MakeCdp54 c_dp54, MakeCf78 c_f78, double min_cpu, std::vector<point>& pts) {
+    sweep_eci(p, "c-dp54", c_dp54, min_cpu, pts);
+    sweep_eci(p, "dp54", [] { return eci::dp54<S>{}; }, min_cpu, pts);
+    sweep_eci(p, "c-f78", c_f78, min_cpu, pts);
+    sweep_odeint<0>(p, "dopri5", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
+    sweep_odeint<1>(p, "dopri5_dense", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
+    sweep_odeint<0>(p, "fehlberg78", odeint::runge_kutta_fehlberg78<S>(), min_cpu, pts);
+}
+
 template <class St>
 void long_run(const char* name, std::uint64_t steps) {
     const eci::three_wave m{};
@@ -271,12 +283,7 @@ int main(int argc, char** argv) {
         problem<eci::three_wave> p{"three_wave", {}, {std::sqrt(1.5), 1.0, std::sqrt(1.5)}, {}, 100.0};
         p.reference = eci::three_wave_exact(p.model, p.x0)(p.t_end);
         using S = eci::three_wave::state_type;
-        sweep_eci(p, "c-dp54", [] { return eci::c_dp54<S>{}; }, min_cpu, pts);
-        sweep_eci(p, "dp54", [] { return eci::dp54<S>{}; }, min_cpu, pts);
-        sweep_eci(p, "c-f78", [] { return eci::c_f78<S>{}; }, min_cpu, pts);
-        sweep_odeint<0>(p, "dopri5", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<1>(p, "dopri5_dense", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<0>(p, "fehlberg78", odeint::runge_kutta_fehlberg78<S>(), min_cpu, pts);
+        sweep_all<S>(p, [] { return eci::c_dp54<S>{}; }, [] { return eci::c_f78<S>{}; }, min_cpu, pts);
     }
     // Rigid body near its unstable axis to t = 100 (reference: odeint Fehlberg 7(8) at 1e-15).
     {
@@ -285,12 +292,7 @@ int main(int argc, char** argv) {
         p.reference = p.x0;
         odeint::integrate_adaptive(odeint::make_controlled(1e-15, 1e-15, odeint::runge_kutta_fehlberg78<S>()), p.model,
                                    p.reference, 0.0, p.t_end, 1e-4);
-        sweep_eci(p, "c-dp54", [] { return eci::c_dp54<S>{}; }, min_cpu, pts);
-        sweep_eci(p, "dp54", [] { return eci::dp54<S>{}; }, min_cpu, pts);
-        sweep_eci(p, "c-f78", [] { return eci::c_f78<S>{}; }, min_cpu, pts);
-        sweep_odeint<0>(p, "dopri5", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<1>(p, "dopri5_dense", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<0>(p, "fehlberg78", odeint::runge_kutta_fehlberg78<S>(), min_cpu, pts);
+        sweep_all<S>(p, [] { return eci::c_dp54<S>{}; }, [] { return eci::c_f78<S>{}; }, min_cpu, pts);
     }
     // Kepler, e = 0.9 from perihelion, 100 orbits (exact solution), through the transform (50).
     {
@@ -301,13 +303,9 @@ int main(int argc, char** argv) {
         p.reference = eci::kepler_exact(p.model, p.x0)(p.t_end);
         using S = eci::kepler::state_type;
         using Tr = eci::kepler::transform;
-        sweep_eci(p, "c-dp54", [] { return eci::transformed_dp54<Tr>{}; }, min_cpu, pts);
-        sweep_eci(p, "dp54", [] { return eci::dp54<S>{}; }, min_cpu, pts);
-        sweep_eci(p, "c-f78", [] { return eci::transformed_embedded_rk<eci::tableaus::fehlberg_78, Tr>{}; }, min_cpu,
-                  pts);
-        sweep_odeint<0>(p, "dopri5", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<1>(p, "dopri5_dense", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<0>(p, "fehlberg78", odeint::runge_kutta_fehlberg78<S>(), min_cpu, pts);
+        sweep_all<S>(
+            p, [] { return eci::transformed_dp54<Tr>{}; },
+            [] { return eci::transformed_embedded_rk<eci::tableaus::fehlberg_78, Tr>{}; }, min_cpu, pts);
     }
     // Lotka-Volterra, the paper's mu = 1.5 from (1, 0.4), to t = 100 (reference: odeint Fehlberg 7(8) at 1e-15).
     {
@@ -317,13 +315,9 @@ int main(int argc, char** argv) {
         p.reference = p.x0;
         odeint::integrate_adaptive(odeint::make_controlled(1e-15, 1e-15, odeint::runge_kutta_fehlberg78<S>()), p.model,
                                    p.reference, 0.0, p.t_end, 1e-4);
-        sweep_eci(p, "c-dp54", [] { return eci::transformed_dp54<Tr>{}; }, min_cpu, pts);
-        sweep_eci(p, "dp54", [] { return eci::dp54<S>{}; }, min_cpu, pts);
-        sweep_eci(p, "c-f78", [] { return eci::transformed_embedded_rk<eci::tableaus::fehlberg_78, Tr>{}; }, min_cpu,
-                  pts);
-        sweep_odeint<0>(p, "dopri5", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<1>(p, "dopri5_dense", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<0>(p, "fehlberg78", odeint::runge_kutta_fehlberg78<S>(), min_cpu, pts);
+        sweep_all<S>(
+            p, [] { return eci::transformed_dp54<Tr>{}; },
+            [] { return eci::transformed_embedded_rk<eci::tableaus::fehlberg_78, Tr>{}; }, min_cpu, pts);
     }
 
     // A random real n-wave system (30 modes, 4 triads per mode) to t = 20 (reference: odeint Fehlberg 7(8) at
@@ -335,12 +329,7 @@ int main(int argc, char** argv) {
         p.reference = p.x0;
         odeint::integrate_adaptive(odeint::make_controlled(1e-14, 1e-14, odeint::runge_kutta_fehlberg78<S>()), p.model,
                                    p.reference, 0.0, p.t_end, 1e-4);
-        sweep_eci(p, "c-dp54", [] { return eci::c_dp54<S>{}; }, min_cpu, pts);
-        sweep_eci(p, "dp54", [] { return eci::dp54<S>{}; }, min_cpu, pts);
-        sweep_eci(p, "c-f78", [] { return eci::c_f78<S>{}; }, min_cpu, pts);
-        sweep_odeint<0>(p, "dopri5", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<1>(p, "dopri5_dense", odeint::runge_kutta_dopri5<S>(), min_cpu, pts);
-        sweep_odeint<0>(p, "fehlberg78", odeint::runge_kutta_fehlberg78<S>(), min_cpu, pts);
+        sweep_all<S>(p, [] { return eci::c_dp54<S>{}; }, [] { return eci::c_f78<S>{}; }, min_cpu, pts);
     }
 
     std::fprintf(csv, "model,method,tol,rhs_evals,cpu_seconds,state_error,invariant_error\n");

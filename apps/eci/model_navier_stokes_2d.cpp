@@ -30,19 +30,6 @@ namespace {
 
 using state = navier_stokes_2d::state_type;
 
-// The Runge-Kutta methods whose stages the budget can weigh (ns2d_step needs the stepper's tableau).
-template <class Fn>
-bool with_rk_method(const std::string& name, Fn&& fn) {
-    if (name == "c-pc") return fn(c_pc<state>{}), true;
-    if (name == "c-rk2") return fn(c_rk2<state>{}), true;
-    if (name == "c-rk4") return fn(c_rk4<state>{}), true;
-    if (name == "pc") return fn(pc<state>{}), true;
-    if (name == "rk2") return fn(rk2<state>{}), true;
-    if (name == "rk4") return fn(rk4<state>{}), true;
-    if (name == "euler") return fn(euler<state>{}), true;
-    return false;
-}
-
 std::string num(double v) {
     char b[32];
     return std::string(format_double(v, b));
@@ -127,8 +114,8 @@ class navier_stokes_2d_command final : public model_command {
     model_info info_{"navier-stokes-2d",
                      "2-D incompressible Navier-Stokes/Euler vorticity on [0,2pi)^2, dealiased pseudo-spectral "
                      "(FFTW); invariants energy, enstrophy; docs/turbulence.md",
-                     {"c-rk4", "c-pc", "c-rk2", "rk4", "pc", "rk2", "euler"},
-                     "c-rk4",
+                     ns2d_methods(),
+                     ns2d_methods().front(),
                      0.0,  // none: dt comes from --cfl (0.5) unless --dt is given
                      10.0,
                      {{"default", "random field peaked at k = 8, inviscid, dt from CFL 0.5 (see --help for the "
@@ -379,7 +366,7 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
     const auto start = std::chrono::steady_clock::now();
     std::uint64_t good_checkpoint = restart ? first : std::numeric_limits<std::uint64_t>::max();
     state w_prev;
-    const bool found = with_rk_method(method, [&](auto stepper) {
+    const bool found = with_ns2d_method(method, [&](auto stepper) {
         if (out) row(first);
         if (snapshot_every_ > 0 && !restart) snapshot(first);
         for (std::uint64_t i = first + 1; i <= last; ++i) {

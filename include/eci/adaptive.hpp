@@ -148,7 +148,8 @@ template <class St, class F, class S>
 class adaptive_loop {
    public:
     adaptive_loop(St& st, F& f, S& x, double t0, double dt0, const adaptive_options& o, adaptive_stats& stats)
-        : st_(st), f_(f), x_(x), t_(t0), dt_(dt0), o_(o), stats_(stats) {
+        : st_(st), f_(f), x_(x), t_(t0), dt_(std::max(dt0, o.dt_min)), o_(o), stats_(stats) {
+        // A step the user set a floor for (dt_min > 0) starts at it at least, and never goes below it but to land.
         const std::size_t n = reals(std::as_const(x)).size();
         const std::size_t per = std::ranges::size(x) ? n / std::ranges::size(x) : 1;
         auto expand = [&](const std::vector<double>& each, std::vector<double>& out) {
@@ -194,6 +195,7 @@ class adaptive_loop {
                 just_rejected_ = false;
                 // A step cut short to land keeps the controller's proposal for the next one.
                 dt_ = landing && dt < dt_ ? std::max(dt_, dt * factor) : dt * factor;
+                dt_ = std::max(dt_, o_.dt_min);  // below it only a rejection goes, and that stops the run
                 on_accept(t_prev, t_);
                 continue;
             }

@@ -238,8 +238,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         adaptively with SciPy's defaults, rtol=1e-3, atol=1e-6. dt and rtol/atol together are an error.
     t_eval: times at which to store the solution (sorted, within t_span); by default every step is stored. Fixed
         steps: a time between two grid points is reached by one extra step from the earlier one, off the grid run.
-        Adaptive: t_eval_mode "auto" (dense output where it is as accurate as the steps: bs32, dp54 and their c-
-        versions; conservative dense output keeps the invariants), "dense" or "landing" (a step lands on each time).
+        Adaptive: t_eval_mode "auto" (dense output where it is as accurate as the steps: bs32, dp54, c-bs32 and
+        c-dp54 through a transform; c-dp54 on a plain system lands steps), "dense" (conservative dense output
+        interpolates xi and keeps the invariants) or "landing" (a step lands on each time).
     invariants: callables of y whose drift is measured after every step (adaptive with t_eval: at every t_eval
         time, as `eci run --rtol --output-dt`): one, a list, or a dict name -> callable. A model's own invariants
         are always measured.

@@ -18,21 +18,6 @@ namespace {
 using state = navier_stokes_2d::state_type;
 using cplx = std::complex<double>;
 
-const std::vector<std::string> ns2d_methods{"c-rk4", "c-pc", "c-rk2", "rk4", "pc", "rk2", "euler"};
-
-// The Runge-Kutta steppers ns2d_step can weigh the budget of (the CLI's list).
-template <class Fn>
-bool with_ns2d_method(const std::string& name, Fn&& fn) {
-    if (name == "c-pc") return fn(c_pc<state>{}), true;
-    if (name == "c-rk2") return fn(c_rk2<state>{}), true;
-    if (name == "c-rk4") return fn(c_rk4<state>{}), true;
-    if (name == "pc") return fn(pc<state>{}), true;
-    if (name == "rk2") return fn(rk2<state>{}), true;
-    if (name == "rk4") return fn(rk4<state>{}), true;
-    if (name == "euler") return fn(euler<state>{}), true;
-    return false;
-}
-
 // Ctrl-C between the halvings of a failed step: ns2d_step's stop() is a plain function, so the flag is per thread.
 thread_local bool gil_released_in_run = false;
 thread_local bool interrupt_pending = false;
@@ -61,10 +46,10 @@ class ns2d_object final : public model_base {
     }
 
     std::string name() const override { return "navier-stokes-2d"; }
-    std::vector<std::string> methods() const override { return ns2d_methods; }
+    std::vector<std::string> methods() const override { return eci::ns2d_methods(); }
     py::dict method_families() const override {
         py::dict d;
-        for (const std::string& m : ns2d_methods) d[py::str(m)] = std::string(family_name(find_method(m)->family));
+        for (const std::string& m : eci::ns2d_methods()) d[py::str(m)] = std::string(family_name(find_method(m)->family));
         return d;
     }
     double default_dt() const override { return default_dt_; }
@@ -118,7 +103,7 @@ class ns2d_object final : public model_base {
         for (const cplx& v : x)
             if (!std::isfinite(v.real()) || !std::isfinite(v.imag()))
                 throw std::invalid_argument("initial condition is not finite");
-        const method_info info = resolve_method(method, ns2d_methods, "model navier-stokes-2d");
+        const method_info info = resolve_method(method, eci::ns2d_methods(), "model navier-stokes-2d");
         const std::uint64_t n = steps_to_reach(t0, t1, dt);
         const double last = n ? t1 - (t0 + double(n - 1) * dt) : 0.0;
         const bool full_last = std::abs(last - dt) <= 1e-12 * dt;  // as integrate_to decides

@@ -383,6 +383,38 @@ TEST(AdaptiveRejections, MinimumStepStopsWithTimeAndComponent) {
     }
 }
 
+// A floor the user sets (dt_min > 0) holds for every step but one landing on the end: a first step below it is
+// raised to it, a tolerance the floor cannot meet stops the run rather than taking smaller accepted steps.
+TEST(AdaptiveRejections, UserMinimumStepIsAFloorForEveryStep) {
+    for (double dt_min : {0.01, 0.02}) {
+        eci::c_dp54<state> st;
+        state x = figure5_ic;
+        eci::adaptive_options o;
+        o.rtol = o.atol = 1e-4;
+        o.dt_min = dt_min;
+        std::vector<double> times;
+        eci::integrate_adaptive(st, model, x, 0.0, 10.0, 1e-3, o,  // first step 1e-3 < dt_min
+                                [&](const state&, double t) { times.push_back(t); });
+        ASSERT_GT(times.size(), 3u);
+        EXPECT_EQ(times.back(), 10.0);
+        for (std::size_t i = 1; i + 1 < times.size(); ++i)  // the last one lands on t = 10 and may be shorter
+            EXPECT_GE(times[i] - times[i - 1], dt_min * (1.0 - 1e-12)) << "step " << i << " at t = " << times[i];
+    }
+    eci::c_dp54<state> st;
+    state x = figure5_ic;
+    eci::adaptive_options o;
+    o.rtol = o.atol = 1e-12;
+    o.dt_min = 0.1;  // at 1e-12 c-dp54 needs steps near 0.01 on this orbit
+    try {
+        eci::integrate_adaptive(st, model, x, 0.0, 10.0, 1e-3, o);
+        ADD_FAILURE() << "a tolerance the floor cannot meet must stop the run";
+    } catch (const eci::adaptive_failure& e) {
+        EXPECT_EQ(e.why, eci::adaptive_failure::reason::step_too_small);
+        EXPECT_LT(e.dt, 0.1);
+        EXPECT_GE(e.stats.rejected_error, 1u);
+    }
+}
+
 TEST(AdaptiveRejections, MaximumStepsStopsTheRun) {
     eci::c_dp54<state> st;
     state x = figure5_ic;

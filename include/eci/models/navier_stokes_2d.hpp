@@ -242,4 +242,26 @@ void ns2d_step(St& stepper, navier_stokes_2d& m, navier_stokes_2d::state_type& x
     ++stats.steps;
 }
 
+/// The methods ns2d_step can step the vorticity equation with (Runge-Kutta steppers, whose stages and weights the
+/// budget is integrated with), default first: the CLI's and the Python module's one list.
+inline const std::vector<std::string>& ns2d_methods() {
+    static const std::vector<std::string> names{"c-rk4", "c-pc", "c-rk2", "rk4", "pc", "rk2", "euler"};
+    return names;
+}
+
+/// Calls fn(stepper) with a default-constructed stepper of the method `name` (one of ns2d_methods()); false if it
+/// is not one of them.
+template <class Fn>
+bool with_ns2d_method(const std::string& name, Fn&& fn) {
+    using S = navier_stokes_2d::state_type;
+    if (name == "c-pc") return fn(c_pc<S>{}), true;
+    if (name == "c-rk2") return fn(c_rk2<S>{}), true;
+    if (name == "c-rk4") return fn(c_rk4<S>{}), true;
+    if (name == "pc") return fn(pc<S>{}), true;
+    if (name == "rk2") return fn(rk2<S>{}), true;
+    if (name == "rk4") return fn(rk4<S>{}), true;
+    if (name == "euler") return fn(euler<S>{}), true;
+    return false;
+}
+
 }  // namespace eci
