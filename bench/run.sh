@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # Builds the benchmarks in Release, runs them all and prints one table of side-by-side ratios with their targets.
-# Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--long] [--json FILE] [--out DIR] [--build-dir DIR]
+# Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--long] [--json FILE] [--out DIR] [--build-dir DIR] [--apps-from DIR]
 #   --quick  smaller large systems and fewer repetitions (under two minutes)
 #   --smoke  every program for a token run (CI: keeps them compiling and running, under a minute); numbers meaningless
 #   --ns2d   also the 2-D Navier-Stokes benchmarks (N = 1024 steps, threads, N = 128..4096 scaling x 3, radicands
 #            at N = 256 and 1024, NumPy; ~30 min)
 #   --long   also the 1e7-step round-off runs of compensated C-RK4 / C-DP54 (adaptive bench; minutes)
+#   --apps-from DIR  take the CLI (DIR/eci) and the Python module (DIR/python) from a Release build DIR instead of
+#            building them here (CI's smoke run, after scripts/test.sh's own Release build)
 set -euo pipefail
 
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -15,6 +17,7 @@ out=""
 build="$repo/build-bench-release"
 ns2d=0
 long=0
+apps=""
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --quick) mode=quick ;;
@@ -24,7 +27,8 @@ while [[ $# -gt 0 ]]; do
     --json) [[ $# -ge 2 ]] || { echo "run.sh: --json needs a file name" >&2; exit 2; }; json=$(realpath -m "$2"); shift ;;
     --out) [[ $# -ge 2 ]] || { echo "run.sh: --out needs a directory" >&2; exit 2; }; out=$(realpath -m "$2"); shift ;;
     --build-dir) [[ $# -ge 2 ]] || { echo "run.sh: --build-dir needs a directory" >&2; exit 2; }; build=$(realpath -m "$2"); shift ;;
-    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    --apps-from) [[ $# -ge 2 ]] || { echo "run.sh: --apps-from needs a directory" >&2; exit 2; }; apps=$(realpath -m "$2"); shift ;;
+    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
     *) echo "run.sh: unknown argument $1" >&2; exit 2 ;;
   esac
   shift
@@ -51,11 +55,13 @@ echo "== building ($build, Release, same flags for eci and Boost.Odeint)" >&2
 cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DECI_BUILD_TESTS=OFF \
       -DECI_BUILD_APPS=ON -DECI_BUILD_PYTHON=ON -DPython3_EXECUTABLE=/usr/bin/python3 -DECI_BUILD_EXAMPLES=OFF \
       > "$out/cmake.log"
-# eci_cli and eci_python: the Python module against the CLI, both built here with the same flags
+# eci_cli and eci_python: the Python module against the CLI, both built here with the same flags (or taken from
+# --apps-from's build)
 cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
-      eci_bench_remedy eci_bench_adaptive eci_bench_compare_methods eci_cli eci_python \
+      eci_bench_remedy eci_bench_adaptive eci_bench_compare_methods $([ -z "$apps" ] && echo eci_cli eci_python) \
       $([ $ns2d = 1 ] && echo eci_bench_ns2d_step eci_bench_ns2d_radicand) >> "$out/cmake.log"
 bin="$build/bench"
+apps=${apps:-$build}
 
 echo "== per-step cost ($reps interleaved repetitions, large systems N=$big and $big_real)" >&2
 "$bin/eci_bench_step" --eci_big=$big --eci_big_realistic=$big_real --eci_big_realistic_pairs=$big_pairs \
@@ -123,11 +129,11 @@ esac
 {
   echo
   echo "Python: a built-in model through eci.solve / eci run of the same integration (bench/python_vs_cli.py)"
-  PYTHONPATH="$build/python" /usr/bin/python3 "$repo/bench/python_vs_cli.py" --cli "$build/eci" $py_opts \
+  PYTHONPATH="$apps/python" /usr/bin/python3 "$repo/bench/python_vs_cli.py" --cli "$apps/eci" $py_opts \
     || echo "(python_vs_cli: a target MISSED)"
   echo
   echo "Python: overhead per fun call, eci.solve / solve_ivp RK45 (bench/python_overhead.py)"
-  PYTHONPATH="$build/python" /usr/bin/python3 "$repo/bench/python_overhead.py" $py_opts \
+  PYTHONPATH="$apps/python" /usr/bin/python3 "$repo/bench/python_overhead.py" $py_opts \
     || echo "(python_overhead: a target MISSED)"
 } | tee -a "$out/table.txt" | tee "$out/python.txt"
 if [ "$mode" = smoke ]; then echo "(smoke run: every program ran once, at token sizes: the ratios above mean nothing)"; fi
@@ -157,8 +163,8 @@ if [ $ns2d = 1 ]; then
   for r in $rad; do "$bin/eci_bench_ns2d_radicand" ${r%:*} ${r#*:} >> "$out/ns2d_radicand.txt"; done
   echo "== ns2d: independent NumPy solver" >&2
   {
-    /usr/bin/python3 "$repo/bench/ns2d_numpy.py" check "$build/eci" || echo "ns2d-numpy check FAILED"
-    [ "$mode" = smoke ] || /usr/bin/python3 "$repo/bench/ns2d_numpy.py" time "$build/eci"
+    /usr/bin/python3 "$repo/bench/ns2d_numpy.py" check "$apps/eci" || echo "ns2d-numpy check FAILED"
+    [ "$mode" = smoke ] || /usr/bin/python3 "$repo/bench/ns2d_numpy.py" time "$apps/eci"
   } > "$out/ns2d_numpy.txt"
   python3 - "$out" <<'PY'
 import re, sys

@@ -20,11 +20,14 @@ ECI_BUILD_DIR="$PWD/build" "$python" -m pytest -q -p no:cacheprovider tests/pyth
 echo "== AddressSanitizer + UndefinedBehaviorSanitizer"
 # The library's unit and numeric tests and the CLI's tests (the tool itself under the sanitizers); the spectral
 # model (FFTW's own threads), the package consumers and the Python module are covered by the Release pass above.
-cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DECI_WERROR=ON -DECI_SANITIZE=ON >/dev/null
+# -O1 -g1 and no -Werror: the Release pass above holds the warnings (GCC's flow warnings differ under the
+# sanitizers' instrumentation); this pass is for memory and UB errors, and compiles in about half the time.
+cmake -S . -B build-sanitize -DCMAKE_BUILD_TYPE=RelWithDebInfo -DCMAKE_CXX_FLAGS_RELWITHDEBINFO="-O1 -g1 -DNDEBUG" \
+      -DECI_SANITIZE=ON >/dev/null
 cmake --build build-sanitize -j$jobs --target eci_unit_tests eci_numeric_tests eci_cli_tests eci_cli
 ctest --test-dir build-sanitize --output-on-failure -j$jobs -L 'unit|numeric|cli'
 
 if [ -x bench/run.sh ]; then
   echo "== Benchmarks: build and one token iteration each"
-  bench/run.sh --smoke
+  bench/run.sh --smoke --apps-from build  # the CLI and the module of the Release build above
 fi
