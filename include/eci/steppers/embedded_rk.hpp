@@ -61,6 +61,23 @@ constexpr bool tableau_is_fsal() {
         return false;
 }
 
+/// The value at theta in [0, 1] of a step of size h from y0 to y1 with end rates f0, f1: the continuous
+/// extension's form (fd = sum_i d_i rate_i) or, without one, the cubic Hermite interpolant. Linear in its data,
+/// so data with equal linear invariants give a value with the same invariants (the conservative dense output).
+template <bool continuous_extension>
+double dense_value(double theta, double h, double y0, double y1, double f0, double f1, double fd) {
+    if constexpr (continuous_extension) {
+        const double dy = y1 - y0, c3 = h * f0 - dy, c4 = dy - h * f1 - c3;
+        return y0 + theta * (dy + (1.0 - theta) * (c3 + theta * (c4 + (1.0 - theta) * h * fd)));
+    } else {
+        (void)fd;
+        const double h00 = (1.0 + 2.0 * theta) * (1.0 - theta) * (1.0 - theta);
+        const double h10 = theta * (1.0 - theta) * (1.0 - theta);
+        const double h01 = theta * theta * (3.0 - 2.0 * theta), h11 = theta * theta * (theta - 1.0);
+        return (h00 * y0 + h01 * y1) + h * (h10 * f0 + h11 * f1);
+    }
+}
+
 }  // namespace detail
 
 /// The Runge-Kutta engine over the tableau T (an embedded_tableau or a butcher_tableau) for states S.
@@ -216,16 +233,7 @@ class embedded_rk {
         const double* r1 = compensated ? detail::reals(std::as_const(res_)).data() : nullptr;
         // One interpolant, given the end values, the end rates and (continuous extension) sum_i d_i rate_i.
         auto interpolant = [&](double y0, double y1, double f0, double f1, double fd) {
-            if constexpr (has_continuous_extension) {
-                const double dy = y1 - y0, c3 = h * f0 - dy, c4 = dy - h * f1 - c3;
-                return y0 + theta * (dy + (1.0 - theta) * (c3 + theta * (c4 + (1.0 - theta) * h * fd)));
-            } else {
-                (void)fd;
-                const double h00 = (1.0 + 2.0 * theta) * (1.0 - theta) * (1.0 - theta);
-                const double h10 = theta * (1.0 - theta) * (1.0 - theta);
-                const double h01 = theta * theta * (3.0 - 2.0 * theta), h11 = theta * theta * (theta - 1.0);
-                return (h00 * y0 + h01 * y1) + h * (h10 * f0 + h11 * f1);
-            }
+            return detail::dense_value<has_continuous_extension>(theta, h, y0, y1, f0, f1, fd);
         };
         double bad = 0.0;
         for (std::size_t i = 0; i < n; ++i) {

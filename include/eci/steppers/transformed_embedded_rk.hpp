@@ -156,16 +156,7 @@ class transformed_embedded_rk {
         detail::resize_like(hint_, x);
         const double h = last_dt_;
         auto interpolant = [&](double y0, double y1, double f0, double f1, double fd) {
-            if constexpr (has_continuous_extension) {
-                const double dy = y1 - y0, c3 = h * f0 - dy, c4 = dy - h * f1 - c3;
-                return y0 + theta * (dy + (1.0 - theta) * (c3 + theta * (c4 + (1.0 - theta) * h * fd)));
-            } else {
-                (void)fd;
-                const double h00 = (1.0 + 2.0 * theta) * (1.0 - theta) * (1.0 - theta);
-                const double h10 = theta * (1.0 - theta) * (1.0 - theta);
-                const double h01 = theta * theta * (3.0 - 2.0 * theta), h11 = theta * theta * (theta - 1.0);
-                return (h00 * y0 + h01 * y1) + h * (h10 * f0 + h11 * f1);
-            }
+            return detail::dense_value<has_continuous_extension>(theta, h, y0, y1, f0, f1, fd);
         };
         // the stage derivatives in stage order (an FSAL accept rotated k_0 and k_{s-1})
         std::array<const double*, s> k{};
