@@ -358,6 +358,16 @@ class embedded_rk {
         return acc;
     }
 
+    // Stage J's value at unknown i: the step's start point p0 for J = 0, else recomputed (stage_value).
+    template <std::size_t J>
+    static double stage_or_start(double p0, double x, const std::array<const double*, s>& k, std::size_t i,
+                                 double dt) {
+        if constexpr (J == 0)
+            return p0;
+        else
+            return stage_value<J>(x, k, i, dt);
+    }
+
     // Stage J's term b_J 2 Y_J k_J of the rate of xi (Y_0 is the point the first derivative was taken at: x, or
     // the FSAL point); terms with zero weight vanish at compile time. With Est, also dt b_J k_J (Y_J - x) for the
     // error estimate (see finish).
@@ -366,11 +376,7 @@ class embedded_rk {
                          const std::array<double, s>& wb, double& rate, double& a_acc) {
         (void)wb, (void)a_acc;
         if constexpr (T.b[J] != 0.0) {
-            double y;
-            if constexpr (J == 0)
-                y = p0;
-            else
-                y = stage_value<J>(x, k, i, dt);
+            const double y = stage_or_start<J>(p0, x, k, i, dt);
             rate += T.b[J] * (2.0 * y * k[J][i]);
             if constexpr (Est) a_acc += wb[J] * k[J][i] * (y - x);
         }
@@ -387,11 +393,7 @@ class embedded_rk {
                                      double& hi, double& lo, double& a_acc) {
         (void)wb, (void)a_acc;
         if constexpr (T.b[J] != 0.0) {
-            double y;
-            if constexpr (J == 0)
-                y = p0;
-            else
-                y = stage_value<J>(x, k, i, dt);
+            const double y = stage_or_start<J>(p0, x, k, i, dt);
             double p, e, q, f, sum, g;
             detail::two_product(y, k[J][i], p, e);
             detail::two_product(c[J], p, q, f);
