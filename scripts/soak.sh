@@ -6,4 +6,4 @@ repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build=${1:-"$repo/build-soak"}
 cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_WERROR=ON -DECI_LONG_TESTS=ON > /dev/null
 cmake --build "$build" -j2 --target eci_spectral_tests
-ctest --test-dir "$build" --output-on-failure -V -L long
+ctest --test-dir "$build" --output-on-failure --no-tests=error -V -L long
