@@ -66,7 +66,7 @@ class model_command {
     /// The model's own options, bound to storage inside this object.
     virtual std::vector<option_spec>& options() = 0;
     /// Builds the model from the preset and the options given, and runs it; returns the exit status. Throws
-    /// bad_input, run_failure or interrupted (output.hpp).
+    /// bad_input, run_error or interrupted (output.hpp).
     virtual int run(const run_settings& settings) = 0;
 };
 

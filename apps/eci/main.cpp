@@ -259,7 +259,7 @@ int main(int argc, char** argv) {
     } catch (const std::invalid_argument& e) {
         print_error(e.what());
         return 2;
-    } catch (const run_failure& e) {
+    } catch (const run_error& e) {
         print_error(e.what());
         return 1;
     } catch (const interrupted& e) {

@@ -387,7 +387,7 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
                                   checkpoint_ + ")");
             } catch (const step_size_underflow& e) {
                 progress.finish();
-                throw run_failure("step " + std::to_string(i) + " failed at t = " + num(e.time) +
+                throw run_error("step " + std::to_string(i) + " failed at t = " + num(e.time) +
                                   " even with the step halved 40 times (non-finite state?)" +
                                   (good_checkpoint != std::numeric_limits<std::uint64_t>::max()
                                        ? "; last good checkpoint: " + checkpoint_ + " (step " +
@@ -405,7 +405,7 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
             if (!std::isfinite(e1) || !std::isfinite(z1) ||
                 e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
                 progress.finish();
-                throw run_failure("blow-up at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
+                throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
                                   ": energy " + num(e1) + " (CFL " + num(model.cfl(w, dt)) +
                                   "); reduce --dt or --cfl" +
                                   (good_checkpoint != std::numeric_limits<std::uint64_t>::max()

@@ -3,6 +3,7 @@
 // cleans up after itself. No numerics here.
 #include "output.hpp"
 
+#include <algorithm>
 #include <atomic>
 #include <charconv>
 #include <cerrno>
@@ -378,7 +379,7 @@ void output_file::finish() {
     finished_ = true;
     if (!owns_stream_) {
         if (std::fflush(file_) != 0 || std::ferror(file_))
-            throw run_failure(message({"cannot write ", what_, " to standard output: ", errno_text()}));
+            throw run_error(message({"cannot write ", what_, " to standard output: ", errno_text()}));
         return;
     }
     const bool write_failed = std::ferror(file_) != 0;
@@ -392,7 +393,7 @@ void output_file::finish() {
     if (close_failed && !flush_failed && !sync_failed) e = errno;
     if (write_failed || flush_failed || sync_failed || close_failed) {
         discard();
-        throw run_failure(message({"cannot write ", what_, " '", path_, "': ", errno_text(e)}));
+        throw run_error(message({"cannot write ", what_, " '", path_, "': ", errno_text(e)}));
     }
 }
 
@@ -440,7 +441,7 @@ void commit_outputs(std::initializer_list<output_file*> outputs) {
                 roll_back();
                 for (const replaced& d : done)
                     if (!d.backup.empty()) ::unlink(d.backup.c_str());
-                throw run_failure(message({"cannot write ", o->what_, " '", o->path_, "': ", errno_text(e)}));
+                throw run_error(message({"cannot write ", o->what_, " '", o->path_, "': ", errno_text(e)}));
             }
             unregister_cleanup(o->temp_slot_);
             o->temp_slot_ = -1;
@@ -501,7 +502,7 @@ void staging_dir::commit() {
             ::umask(mask);
             ::chmod(path_.c_str(), 0777 & ~mask);
             if (::rename(path_.c_str(), final_.c_str()) != 0)
-                throw run_failure(message({"cannot create output directory '", final_, "': ", errno_text()}));
+                throw run_error(message({"cannot create output directory '", final_, "': ", errno_text()}));
         } else {
             std::vector<std::pair<std::string, std::string>> moved;  // (target, backup or "")
             std::vector<std::string> created;
@@ -523,13 +524,13 @@ void staging_dir::commit() {
                 if (::rename(entry.path().c_str(), target.c_str()) != 0) {
                     const int e = errno;
                     roll_back();
-                    throw run_failure(message({"cannot write '", target, "': ", errno_text(e)}));
+                    throw run_error(message({"cannot write '", target, "': ", errno_text(e)}));
                 }
                 if (!existed) created.push_back(target);
             }
             if (ec) {
                 roll_back();
-                throw run_failure(message({"cannot read '", path_, "': ", ec.message()}));
+                throw run_error(message({"cannot read '", path_, "': ", ec.message()}));
             }
             std::filesystem::remove_all(path_, ec);
         }
@@ -606,9 +607,10 @@ void register_child(pid_t pid) { child_pid.store(pid); }
 
 // ---- progress bar ----
 
-progress_bar::progress_bar(std::uint64_t total, std::uint64_t check_every)
+progress_bar::progress_bar(std::uint64_t total, std::uint64_t check_every, double t_end)
     : total_(total),
       check_every_(check_every == 0 ? 1 : check_every),
+      t_end_(t_end),
       enabled_(::isatty(STDERR_FILENO) == 1),
       start_(std::chrono::steady_clock::now()) {}
 
@@ -624,7 +626,7 @@ bool progress_bar::due() {
 void progress_bar::draw(std::uint64_t i, double t, const std::string& detail) {
     using namespace std::chrono;
     shown_ = true;
-    const double fraction = total_ ? double(i) / double(total_) : 1.0;
+    const double fraction = total_ ? double(i) / double(total_) : t_end_ > 0.0 ? std::clamp(t / t_end_, 0.0, 1.0) : 1.0;
     constexpr int width = 40;
     const int filled = static_cast<int>(fraction * width);
     char bar[width + 1];

@@ -22,7 +22,7 @@ class bad_input : public std::runtime_error {
 };
 
 /// A run that started but could not finish (a step that failed at every step size): exit status 1.
-class run_failure : public std::runtime_error {
+class run_error : public std::runtime_error {
    public:
     using std::runtime_error::runtime_error;
 };
@@ -133,8 +133,9 @@ void register_child(pid_t pid);
 /// second. update() is cheap: it looks at the clock once every 4096 calls.
 class progress_bar {
    public:
-    /// A bar for a run of `total` steps; the clock is read every `check_every` updates (1 for slow steps).
-    explicit progress_bar(std::uint64_t total, std::uint64_t check_every = 4096);
+    /// A bar for a run of `total` steps; the clock is read every `check_every` updates (1 for slow steps). A run
+    /// of unknown step count (adaptive: total 0) shows the fraction of its span [0, t_end] instead.
+    explicit progress_bar(std::uint64_t total, std::uint64_t check_every = 4096, double t_end = 0.0);
     ~progress_bar() { finish(); }
     progress_bar(const progress_bar&) = delete;
     progress_bar& operator=(const progress_bar&) = delete;
@@ -157,6 +158,7 @@ class progress_bar {
 
     std::uint64_t total_;
     std::uint64_t check_every_;
+    double t_end_;
     std::uint64_t calls_ = 0;
     bool enabled_;
     bool shown_ = false;

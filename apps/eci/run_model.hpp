@@ -1,5 +1,5 @@
-// The one run every model goes through: checks the settings, picks the stepper through the registry, runs it
-// with the library's eci::run (which monitors every invariant at every step) and writes CSV and summary.
+// `eci run MODEL` as a sink of the library's run: turns the options into an eci::run_config, runs eci::solve
+// (which checks, steps, lands on output times and monitors every invariant) and formats CSV rows and the summary.
 #pragma once
 
 #include <array>
@@ -18,9 +18,7 @@
 #include <utility>
 #include <vector>
 
-#include <eci/adaptive.hpp>
-#include <eci/registry.hpp>
-#include <eci/run.hpp>
+#include <eci/solve.hpp>
 
 #include "command.hpp"
 #include "output.hpp"
@@ -104,15 +102,6 @@ std::string underflow_message(const step_size_underflow& e, const column_names& 
 
 namespace detail {
 
-/// Whether stepper St's states belong to a time other than their grid time (relaxation RK: t + time_lag()).
-template <class St>
-constexpr bool shifts_time() {
-    if constexpr (requires { St::shifts_time; })
-        return St::shifts_time;
-    else
-        return false;
-}
-
 template <class S, class Fn>
 void for_each_real(const S& x, Fn&& fn) {
     for (const auto& v : x) {
@@ -134,35 +123,8 @@ inline void write_csv_number(std::FILE* out, double v) {
 
 }  // namespace detail
 
-/// Rejects (bad_input) an initial state whose arithmetic is beyond double precision from the start: a
-/// subnormal component, an invariant or a rate that is not finite. (Each model's validate_state checks what
-/// its dynamics will reach; this is the part every model shares.)
-template <class Model>
-void check_arithmetic_range(const Model& model, const typename Model::state_type& x, const column_names& columns) {
-    std::size_t i = 0;
-    char buffer[32];
-    detail::for_each_real(x, [&](double v) {
-        if (v != 0.0 && std::abs(v) < std::numeric_limits<double>::min())
-            throw bad_input("initial condition " + columns[i] + " = " + std::string(format_double(v, buffer)) +
-                            " is subnormal (below 2.2e-308): its products underflow to 0");
-        ++i;
-    });
-    for (const auto& inv : Model::invariants()) {
-        const double v = (model.*inv.value)(x);
-        if (!std::isfinite(v))
-            throw bad_input(std::string("the initial ") + inv.name + " is " + std::string(format_double(v, buffer)) +
-                            ": the initial condition and parameters are beyond double precision");
-    }
-    typename Model::state_type dxdt = x;
-    model(x, dxdt, 0.0);
-    if (!eci::detail::all_finite(dxdt))
-        throw bad_input("the rate of " + columns[eci::detail::first_non_finite(dxdt)] +
-                        " overflows at the initial condition: the parameters and initial condition are beyond "
-                        "double precision");
-}
-
 /// Runs `model` from x (at t = 0) with `method` over `plan`; `columns` names the real unknowns (CSV header and
-/// error messages). Returns the exit status (0); throws bad_input, run_failure or interrupted, in which case no
+/// error messages). Returns the exit status (0); throws bad_input, run_error or interrupted, in which case no
 /// output file is left behind.
 template <class Model>
 int run_model(const model_info& info, const Model& model, typename Model::state_type x,
@@ -177,64 +139,57 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     } catch (const std::invalid_argument& e) {
         throw bad_input("invalid " + info.name + " model: " + e.what());
     }
-    {
-        std::size_t i = 0;
-        detail::for_each_real(x, [&](double v) {
-            if (!std::isfinite(v)) throw bad_input("initial condition " + columns.at(i) + " is not finite");
-            ++i;
-        });
+    run_config cfg;
+    cfg.component_name = [&columns](std::size_t i) { return columns[i]; };
+    try {
+        check_initial_state(model, x, cfg.component_name);
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(e.what());
     }
-    if constexpr (requires { model.validate_state(x); }) {  // a domain, e.g. Lotka-Volterra's x, y > 0
-        try {
-            model.validate_state(x);
-        } catch (const std::invalid_argument& e) {
-            throw bad_input(std::string("invalid initial condition: ") + e.what());
-        }
-    }
-    check_arithmetic_range(model, x, columns);
     check_distinct_outputs(settings);
 
-    // Adaptive control (--rtol/--atol) and output times (--output-dt): checked before any file is opened.
+    // The run: fixed steps of --dt, or adaptive control (--rtol/--atol) starting from it; rows every --every
+    // steps or at the --output-dt times. Checked before any file is opened.
     const bool adaptive = settings.rtol.has_value() || settings.atol.has_value();
-    adaptive_options tolerances;
+    cfg.dt = plan.dt;
+    cfg.t_end = plan.t_end;
+    if (plan.fixed_steps) cfg.steps = plan.steps;
+    cfg.every = settings.every;
+    cfg.cancel = cancel_flag();  // polled between sub-steps and right-hand-side evaluations
     if (adaptive) {
         if (plan.fixed_steps) throw bad_input("--steps counts fixed steps; an adaptive run (--rtol/--atol) ends at --t-end");
+        adaptive_options tolerances;
         tolerances.rtol = settings.rtol.value_or(*settings.atol);
         tolerances.atol = settings.atol.value_or(*settings.rtol);
         try {
-            eci::detail::check_options(tolerances, std::ranges::size(x));
+            check_adaptive_options(tolerances, std::ranges::size(x));
         } catch (const std::invalid_argument& e) {
             throw bad_input(std::string("--rtol/--atol: ") + e.what());
         }
-        bool found = false;
-        std::string names;
-        for (const method_info& m : adaptive_methods_for<Model>()) {
-            found = found || m.name == method.name;
-            names += (names.empty() ? "" : ", ") + std::string(m.name);
-        }
-        if (!found)
-            throw bad_input("method " + std::string(method.name) + " has no error estimate for --rtol/--atol; adaptive "
-                            "methods for " + info.name + ": " + names);
+        cfg.adaptive = tolerances;
     }
-    std::vector<double> output_times;
-    std::uint64_t every = settings.every;
     if (settings.output_dt) {
         const double h = *settings.output_dt;
         if (!(h > 0.0) || !std::isfinite(h))
             throw bad_input("--output-dt must be a positive finite number, not " + shortest(h));
         if (plan.t_end / h > 1e9) throw bad_input("--output-dt " + shortest(h) + " asks for too many rows");
         if (adaptive) {
-            output_times.push_back(0.0);  // the initial state, as fixed-step runs write it
-            for (std::uint64_t k = 1; double(k) * h < plan.t_end * (1.0 - 1e-12); ++k) output_times.push_back(double(k) * h);
-            output_times.push_back(plan.t_end);
+            cfg.times.push_back(0.0);  // the initial state, as fixed-step runs write it
+            for (std::uint64_t k = 1; double(k) * h < plan.t_end * (1.0 - 1e-12); ++k) cfg.times.push_back(double(k) * h);
+            cfg.times.push_back(plan.t_end);
         } else {
             // fixed steps: rows every k steps, so --output-dt must be a whole number of --dt
             const double k = std::round(h / plan.dt);
             if (!(k >= 1.0) || std::abs(h / plan.dt - k) > 1e-9 * k)
                 throw bad_input("--output-dt " + shortest(h) + " is not a multiple of --dt " + shortest(plan.dt) +
                                 " (with fixed steps; --rtol/--atol lifts that)");
-            every = std::uint64_t(k);
+            cfg.every = std::uint64_t(k);
         }
+    }
+    try {
+        resolve_method_for<Model>(method.name, adaptive, "model " + info.name);
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(e.what());
     }
 
     // Open both outputs before running: an unwritable path is bad input, reported before any work.
@@ -257,15 +212,12 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     summary.dt = plan.dt;
     summary.t_end = plan.t_end;
     summary.adaptive = adaptive;
-    summary.rtol = tolerances.rtol;
-    summary.atol = tolerances.atol;
+    summary.rtol = adaptive ? cfg.adaptive->rtol : 0.0;
+    summary.atol = adaptive ? cfg.adaptive->atol : 0.0;
 
-    // Relaxation RK's state at grid time t belongs to t + time_lag() (each step aims at the grid, so the lag is
+    // Relaxation RK's state at grid time t belongs to t + time_lag (each step aims at the grid, so the lag is
     // one step's O(dt^p), never accumulated): such a method's CSV gets a last column time_lag.
-    bool lagged = false;
-    if (!adaptive)
-        with_stepper<Model>(method.name, [&](auto st) { lagged = detail::shifts_time<decltype(st)>(); });
-    std::function<double()> time_lag;  // set to the running stepper's time_lag() when lagged
+    const bool lagged = !adaptive && method_shifts_time<Model>(method.name);
 
     std::FILE* out = csv.get();
     if (out) {
@@ -277,108 +229,67 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         std::fputc('\n', out);
     }
 
-    auto write_row = [&](const S& state, double t, std::span<const double> invariant_values) {
-        char buffer[32];
-        const std::string_view s = format_double(t, buffer);
-        std::fwrite(s.data(), 1, s.size(), out);
-        detail::for_each_real(state, [&](double v) { detail::write_csv_number(out, v); });
-        for (const auto& d : derived) detail::write_csv_number(out, (model.*d.value)(state));
-        for (double v : invariant_values) detail::write_csv_number(out, v);
-        if (time_lag) detail::write_csv_number(out, time_lag());
-        std::fputc('\n', out);
-    };
-    // Finite at the start (checked): a finite state whose invariant overflows is no result.
-    auto require_finite_invariants = [&](double t, const invariant_monitor<Model>& monitor) {
-        for (std::size_t j = 0; j < monitor.values().size(); ++j) {
-            if (std::isfinite(monitor.values()[j])) continue;
+    // The CLI's sink: CSV rows, the progress bar, Ctrl-C between steps.
+    struct csv_sink {
+        std::FILE* out;
+        const Model& model;
+        const decltype(derived)& columns_derived;
+        progress_bar bar;
+        void output(const S& state, const output_point& p) {
+            if (!out) return;
             char buffer[32];
-            throw run_failure(std::string("the invariant ") + monitor.records()[j].name + " overflowed at t = " +
-                              std::string(format_double(t, buffer)) + ": the solution blew up; try a smaller --dt");
+            const std::string_view s = format_double(p.t, buffer);
+            std::fwrite(s.data(), 1, s.size(), out);
+            detail::for_each_real(state, [&](double v) { detail::write_csv_number(out, v); });
+            for (const auto& d : columns_derived) detail::write_csv_number(out, (model.*d.value)(state));
+            for (double v : p.invariants) detail::write_csv_number(out, v);
+            if (p.time_lag) detail::write_csv_number(out, *p.time_lag);
+            std::fputc('\n', out);
         }
-    };
-    if (adaptive) {
-        // Rows at every `every` accepted steps (and the end), or at the --output-dt times.
-        auto observe = [&](const S& state, double t, std::uint64_t i, const invariant_monitor<Model>& monitor) {
-            require_finite_invariants(t, monitor);
-            if (out && (!output_times.empty() || i % every == 0 || t == plan.t_end)) write_row(state, t, monitor.values());
+        void progress(double t, std::uint64_t i) {
+            bar.update(i, t);
             if (interrupt_requested()) {
                 char buffer[32];
                 throw_if_interrupted("at t = " + std::string(format_double(t, buffer)));
             }
-        };
-        const auto start = std::chrono::steady_clock::now();
-        adaptive_report report;
-        with_adaptive_stepper<Model>(method.name, [&](auto stepper) {
-            report = run_adaptive(stepper, model, x, 0.0, plan.t_end, plan.dt, tolerances, output_times, observe);
-        });
-        if (report.failure) {
-            const std::size_t c = report.failure->component;
-            throw run_failure(std::string(report.failure->what()) + " [component " +
-                              (c < columns.size() ? columns[c] : std::string("?")) + "]");
         }
-        summary.adaptive_counts = report.stats;
-        summary.stats.steps = report.stats.accepted;
-        summary.stats.step_reductions = report.stats.rejected_radicand;
-        summary.stats.rhs_evals = report.stats.rhs_evals;
-        summary.invariants = report.invariants;
-        summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        if constexpr (requires { model.end_of_run_figures(x0, x); })
-            for (const auto& [name, value] : model.end_of_run_figures(x0, x)) summary.figures.emplace_back(name, value);
-        // Both outputs complete before either replaces anything: committed together, or neither.
-        if (std::FILE* j = json.get()) write_summary_json(j, summary);
-        commit_outputs({&csv, &json});
-        print_summary(stderr, summary);
-        return 0;
-    }
+    } sink{out, model, derived, progress_bar(adaptive ? 0 : plan.steps, 4096, plan.t_end)};
 
-    progress_bar progress(plan.steps);
-    const std::uint64_t last = plan.steps;
-    // eci::run observes every step (opt.every = 1): the CSV rows are thinned here, keeping the first and the
-    // last, so that Ctrl-C and the progress bar are looked at every step whatever --every is.
-    auto observe = [&](const S& state, double t, std::uint64_t i, const invariant_monitor<Model>& monitor) {
-        require_finite_invariants(t, monitor);
-        if (out && (i % every == 0 || i == last)) write_row(state, t, monitor.values());
-        progress.update(i, t);
-        if (interrupt_requested()) {
-            char buffer[32];
-            throw_if_interrupted("at t = " + std::string(format_double(t, buffer)));
-        }
-    };
-
-    const run_span span =
-        plan.fixed_steps ? run_span::n_steps(plan.steps, plan.dt) : run_span::until(plan.t_end, plan.dt);
     const auto start = std::chrono::steady_clock::now();
-    run_report report;
-    run_options opt;
-    opt.cancel = cancel_flag();  // polled between sub-steps and right-hand-side evaluations
-    bool found = false;
+    solve_report report;
     try {
-        found = with_stepper<Model>(method.name, [&](auto stepper) {
-            if constexpr (detail::shifts_time<decltype(stepper)>()) time_lag = [&stepper] { return stepper.time_lag(); };
-            report = eci::run(stepper, model, x, span, observe, opt);
-            if (time_lag) summary.time_lag = time_lag();
-            time_lag = nullptr;  // the stepper ends with this scope
-        });
-    } catch (const step_work_exceeded& e) {
-        progress.finish();
-        throw run_failure(std::string(e.what()) +
-                          ": the solution needs ever smaller steps here (a singularity, or numbers too small or "
-                          "large for double precision); try a smaller --dt");
-    } catch (const non_finite_state& e) {
-        progress.finish();
-        char t[32];
-        throw run_failure("the state became non-finite (" + columns[e.component] + ") at t = " +
-                          std::string(format_double(e.time, t)) + ": the solution blew up; try a smaller --dt");
+        report = solve<Model>(model, x, method.name, cfg, sink, {}, "model " + info.name);
     } catch (const eci::interrupted& e) {
-        progress.finish();
+        sink.bar.finish();
         char t[32];
         throw_if_interrupted("at t = " + std::string(format_double(e.time, t)));
         throw interrupted(e.what());
+    } catch (const std::invalid_argument& e) {
+        sink.bar.finish();
+        throw bad_input(e.what());
     }
-    progress.finish();
-    if (!found) throw bad_input("method '" + summary.method + "' has no stepper for model " + info.name);
-    if (report.failure) throw run_failure(underflow_message(*report.failure, columns));
+    sink.bar.finish();
+    if (report.failure) {
+        const eci::run_failure& f = *report.failure;
+        switch (f.kind) {
+            case run_failure_kind::step_too_small:
+            case run_failure_kind::too_many_steps:
+                throw run_error(f.message + " [component " + columns[f.component] + "]");
+            case run_failure_kind::work_exceeded:
+                throw run_error(f.message +
+                                  ": the solution needs ever smaller steps here (a singularity, or numbers too small or "
+                                  "large for double precision); try a smaller --dt");
+            case run_failure_kind::non_finite_state:
+            case run_failure_kind::invariant_overflow:
+                throw run_error(f.message + (f.kind == run_failure_kind::non_finite_state ? ": the solution blew up" : "") +
+                                  "; try a smaller --dt");
+            case run_failure_kind::step_failed:
+                throw run_error(f.message);
+        }
+    }
     summary.stats = report.stats;
+    if (report.adaptive) summary.adaptive_counts = *report.adaptive;
+    summary.time_lag = report.time_lag;
     summary.invariants = report.invariants;
     summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if constexpr (requires { model.end_of_run_figures(x0, x); })

@@ -30,7 +30,7 @@ namespace eci::figures {
 using cli::bad_input;
 using cli::interrupt_requested;
 using cli::register_child;
-using cli::run_failure;
+using cli::run_error;
 using cli::staging_dir;
 using cli::throw_if_interrupted;
 
@@ -55,7 +55,7 @@ void csv_table::write(const std::filesystem::path& file) const {
         out << '\n';
     }
     out.close();  // a full disk shows up at the last flush
-    if (!out) throw run_failure("cannot write " + file.string() + ": " + std::strerror(errno));
+    if (!out) throw run_error("cannot write " + file.string() + ": " + std::strerror(errno));
 }
 
 std::string fill(std::string text, const std::vector<std::pair<std::string, std::string>>& values) {
@@ -156,13 +156,13 @@ int run_program(const std::string& program, const std::string& arg, bool quiet) 
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
 }
 
-/// Throws run_failure unless `file` exists and is not empty (a full disk can leave gnuplot's output empty
+/// Throws run_error unless `file` exists and is not empty (a full disk can leave gnuplot's output empty
 /// with exit status 0).
 void require_nonempty(const std::filesystem::path& file, const std::string& made_by) {
     std::error_code ec;
     const auto size = std::filesystem::file_size(file, ec);
     if (ec || size == 0)
-        throw run_failure(made_by + " left " + file.filename().string() + (ec ? " missing" : " empty") +
+        throw run_error(made_by + " left " + file.filename().string() + (ec ? " missing" : " empty") +
                           " (disk full?)");
 }
 
@@ -183,7 +183,7 @@ std::string quoted(const std::string& s) {
 
 void write_summary(const std::filesystem::path& file, const std::vector<figure_result>& results) {
     std::ofstream out(file);
-    if (!out) throw run_failure("cannot write " + file.string() + ": " + std::strerror(errno));
+    if (!out) throw run_error("cannot write " + file.string() + ": " + std::strerror(errno));
     out << "figure,key,value,description,paper\n";
     char buffer[32];
     for (const auto& r : results)
@@ -193,7 +193,7 @@ void write_summary(const std::filesystem::path& file, const std::vector<figure_r
                 << quoted(k.paper) << '\n';
         }
     out.close();
-    if (!out) throw run_failure("cannot write " + file.string() + ": " + std::strerror(errno));
+    if (!out) throw run_error("cannot write " + file.string() + ": " + std::strerror(errno));
 }
 
 void print_summary(const std::vector<figure_result>& results) {
@@ -242,14 +242,14 @@ int run_figures(const options& options) {
             std::ofstream out(script);
             out << r.script;
             out.close();
-            if (!out) throw run_failure("cannot write " + script.string() + ": " + std::strerror(errno));
+            if (!out) throw run_error("cannot write " + script.string() + ": " + std::strerror(errno));
         }
         std::string files;
         for (const auto& [name, table] : r.csvs) files += " " + name;
         if (have_gnuplot) {
             const int status = run_program(gnuplot, script.string(), false);
             if (status != 0)
-                throw run_failure(gnuplot + " failed on " + stem + ".gp (exit status " + std::to_string(status) + ")");
+                throw run_error(gnuplot + " failed on " + stem + ".gp (exit status " + std::to_string(status) + ")");
             require_nonempty(work / (stem + ".png"), gnuplot);
             require_nonempty(work / (stem + ".svg"), gnuplot);
             report << stem << ": " << (dir / stem).string() << ".png .svg," << files << ", " << stem << ".gp\n";
@@ -280,7 +280,7 @@ int run_figures(const options& options) {
                   << " for each figure N (or set ECI_GNUPLOT to the gnuplot program).\n";
     }
     std::cout.flush();
-    if (!std::cout) throw run_failure("cannot write the report to standard output");
+    if (!std::cout) throw run_error("cannot write the report to standard output");
     return 0;
 }
 

@@ -46,6 +46,8 @@ struct adaptive_stats {
     std::uint64_t accepted = 0;           ///< accepted steps
     std::uint64_t rejected_error = 0;     ///< steps rejected because the error estimate exceeded the tolerance
     std::uint64_t rejected_radicand = 0;  ///< steps rejected for a negative radicand (or non-finite error)
+    /// Of rejected_radicand, the attempts the system stopped by reporting a non-finite rate (eci::non_finite_rate)
+    std::uint64_t rejected_non_finite_rate = 0;
     std::uint64_t rhs_evals = 0;          ///< right-hand-side evaluations, rejected steps included
     double dt_smallest = std::numeric_limits<double>::infinity();  ///< smallest accepted step
     double dt_largest = 0.0;                                       ///< largest accepted step
@@ -53,6 +55,13 @@ struct adaptive_stats {
     std::uint64_t landed_points = 0;      ///< outputs computed by a step landing on them
     std::uint64_t dense_fallbacks = 0;    ///< dense outputs refused (negative interpolated xi) and landed instead
     std::uint64_t rejected() const { return rejected_error + rejected_radicand; }
+};
+
+/// Why an adaptive attempt was rejected.
+enum class rejection {
+    error_estimate,   ///< the error estimate exceeded the tolerance
+    step_failed,      ///< a negative radicand, a non-invertible transform or a non-finite error
+    non_finite_rate,  ///< the system reported a non-finite rate (eci::non_finite_rate)
 };
 
 /// An adaptive run stopped: the step fell below the minimum (naming the time and the component that forced it),
@@ -68,6 +77,7 @@ class adaptive_failure : public std::runtime_error {
     std::size_t component;  ///< the real unknown with the largest error or the negative radicand
     double dt;              ///< the step size that was refused
     adaptive_stats stats;   ///< the run's statistics until then
+    rejection last_rejection = rejection::error_estimate;  ///< the cause of the last rejected attempt
 
    private:
     static std::string message(reason why, double t, std::size_t component, double dt, const adaptive_stats& s) {
@@ -101,9 +111,8 @@ concept adaptive_stepper = system<F, S> && St::has_error_estimate && St::embedde
                                st.reset();
                            };
 
-namespace detail {
-
-inline void check_options(const adaptive_options& o, std::size_t elements) {
+/// Checks adaptive settings for a state of `elements` elements; std::invalid_argument naming the bad one.
+inline void check_adaptive_options(const adaptive_options& o, std::size_t elements) {
     auto non_negative_finite = [](double v) { return v >= 0.0 && std::isfinite(v); };
     if (!non_negative_finite(o.rtol)) throw std::invalid_argument("rtol must be a finite number >= 0");
     if (!non_negative_finite(o.atol)) throw std::invalid_argument("atol must be a finite number >= 0");
@@ -127,12 +136,17 @@ inline void check_options(const adaptive_options& o, std::size_t elements) {
     if (o.max_attempts == 0) throw std::invalid_argument("max_attempts must be at least 1");
 }
 
+namespace detail {
+
+inline void check_options(const adaptive_options& o, std::size_t elements) { check_adaptive_options(o, elements); }
+
 /// The adaptive drivers' view of a system: counts its evaluations and exposes it as wrapped(), so that a stepper
 /// that needs the model behind f (a transform) still reaches it.
 template <class F>
 struct counted_system {
     F* f;
     std::uint64_t* count;
+    static constexpr bool reports_non_finite_rate = eci::reports_non_finite_rate<F>;
     template <class S>
     void operator()(const S& x, S& dxdt, double t) const {
         ++*count;
@@ -140,6 +154,27 @@ struct counted_system {
     }
     const F& wrapped() const { return *f; }
 };
+
+/// One attempt; a non-finite rate reported by the system is a failed attempt (`rate_failed` set).
+template <class St, class F, class S>
+attempt_result attempt_checked(St& st, F& f, const S& x, double t, double dt, const error_weights* w, bool worst,
+                               bool& rate_failed) {
+    rate_failed = false;
+    if constexpr (reports_non_finite_rate<F>) {
+        try {
+            return st.attempt(f, x, t, dt, w, worst);
+        } catch (const non_finite_rate& e) {
+            rate_failed = true;
+            attempt_result r;
+            r.ok = true;  // as a non-finite error estimate: the step shrinks by min_factor
+            r.error = std::numeric_limits<double>::quiet_NaN();
+            r.component = e.component;
+            return r;
+        }
+    } else {
+        return st.attempt(f, x, t, dt, w, worst);
+    }
+}
 
 
 /// The controller and the loop shared by all adaptive drivers. `advance(t_target, on_accept)` steps x from t to
@@ -175,7 +210,8 @@ class adaptive_loop {
             if (landing) dt = t_target - t_;
             if (stats_.accepted + stats_.rejected() >= o_.max_attempts)
                 throw adaptive_failure(adaptive_failure::reason::too_many_steps, t_, 0, dt, stats_);
-            const attempt_result r = st_.attempt(f_, std::as_const(x_), t_, dt, &w_, false);
+            bool rate_failed = false;
+            const attempt_result r = attempt_checked(st_, f_, std::as_const(x_), t_, dt, &w_, false, rate_failed);
             const bool finite = r.ok && std::isfinite(r.error);
             if (finite && r.error <= 1.0) {
                 st_.accept(x_);
@@ -201,12 +237,16 @@ class adaptive_loop {
             }
             if (!r.ok) {
                 ++stats_.rejected_radicand;
+                last_ = rejection::step_failed;
                 dt_ = dt * o_.radicand_factor;
             } else if (!finite) {
                 ++stats_.rejected_radicand;  // a non-finite error: the state or f blew up, as for a radicand
+                if (rate_failed) ++stats_.rejected_non_finite_rate;
+                last_ = rate_failed ? rejection::non_finite_rate : rejection::step_failed;
                 dt_ = dt * o_.min_factor;
             } else {
                 ++stats_.rejected_error;
+                last_ = rejection::error_estimate;
                 dt_ = dt * std::max(o_.min_factor, o_.safety * std::pow(r.error, -1.0 / q1));
             }
             just_rejected_ = true;
@@ -216,9 +256,14 @@ class adaptive_loop {
                                                                   std::numeric_limits<double>::min()});
             if (dt_ < dt_min) {
                 std::size_t component = r.component;
-                if (r.ok) component = st_.attempt(f_, std::as_const(x_), t_, dt, &w_, true).component;
+                if (r.ok && !rate_failed) {
+                    bool again = false;
+                    component = attempt_checked(st_, f_, std::as_const(x_), t_, dt, &w_, true, again).component;
+                }
                 st_.reset();
-                throw adaptive_failure(adaptive_failure::reason::step_too_small, t_, component, dt_, stats_);
+                adaptive_failure e(adaptive_failure::reason::step_too_small, t_, component, dt_, stats_);
+                e.last_rejection = last_;
+                throw e;
             }
         }
     }
@@ -234,6 +279,7 @@ class adaptive_loop {
     error_weights w_{};
     double previous_error_ = 1.0;
     bool just_rejected_ = false;
+    rejection last_ = rejection::error_estimate;
 };
 
 template <class F, class S>

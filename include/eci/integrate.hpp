@@ -11,6 +11,7 @@
 #include <concepts>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <ranges>
 #include <type_traits>
 #include <sstream>
@@ -33,7 +34,23 @@ struct run_stats {
     solver_stats solver{};              ///< iterative solves (Newton inverses, implicit fallbacks), if any
     std::uint64_t remedied_steps = 0;       ///< steps whose negative radicands were remedied without a halving
     std::uint64_t components_remedied = 0;  ///< real unknowns given the remedy, summed over those steps
+    /// Of the step_reductions, those whose attempt the system stopped by reporting a non-finite rate
+    /// (eci::non_finite_rate: a user's function returning inf or nan).
+    std::uint64_t non_finite_rate_reductions = 0;
 };
+
+/// Thrown by a system that cannot give a finite rate at a state (a user's function returned inf or nan) and says
+/// so with `static constexpr bool reports_non_finite_rate = true`. The drivers treat it as a failed attempt:
+/// retried smaller (fixed steps) or rejected (adaptive), counted apart from negative radicands.
+struct non_finite_rate {
+    std::size_t component;  ///< the real unknown whose rate was not finite
+    double value;           ///< that value (inf or nan)
+};
+
+/// Whether a system may throw eci::non_finite_rate (the drivers then catch it around each attempt; a system that
+/// never does pays for no handler).
+template <class F>
+concept reports_non_finite_rate = requires { requires std::remove_cvref_t<F>::reports_non_finite_rate; };
 
 /// Options of the fixed-step drivers.
 struct run_options {
@@ -57,6 +74,7 @@ inline void accumulate(run_stats& stats, const run_stats& more) {
     stats.rhs_evals += more.rhs_evals;
     stats.remedied_steps += more.remedied_steps;
     stats.components_remedied += more.components_remedied;
+    stats.non_finite_rate_reductions += more.non_finite_rate_reductions;
 }
 
 /// A step could not be completed even at the smallest allowed size. `stats` holds what the run did until then
@@ -69,6 +87,8 @@ class step_size_underflow : public std::runtime_error {
     std::size_t component;
     double dt;
     run_stats stats;  ///< the run's statistics up to the failure
+    /// Set when the last attempt failed because the system reported a non-finite rate (its value).
+    std::optional<double> non_finite_rate_value;
 
    private:
     static std::string message(double t, std::size_t component, double dt) {
@@ -141,6 +161,7 @@ struct counting_system {
     F& f;
     std::uint64_t& count;
     const std::atomic<bool>* cancel = nullptr;  ///< polled before every evaluation (inside Newton iterations too)
+    static constexpr bool reports_non_finite_rate = eci::reports_non_finite_rate<F>;
 
     template <class S>
     void operator()(const S& x, S& dxdt, double t) const {
@@ -176,18 +197,45 @@ inline void poll_cancel(const run_options& opt, double t) {
     if (opt.cancel && opt.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
 }
 
+/// One attempt of stepper.step; a non-finite rate reported by the system (eci::non_finite_rate) is a failed
+/// attempt whose value is kept in `rate` (left as is otherwise).
+template <class St, class F, class S>
+step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
+    if constexpr (reports_non_finite_rate<F>) {
+        try {
+            return stepper.step(f, x, t, dt);
+        } catch (const non_finite_rate& e) {
+            rate = e.value;
+            return step_result::failure(e.component);
+        }
+    } else {
+        return stepper.step(f, x, t, dt);
+    }
+}
+
 /// One step of the grid from t to t + dt (eci::step_with_reduction is the public form). A failed attempt is replaced by two half steps, depth first and
 /// iteratively (an explicit stack of at most max_halvings + 1 depths): at most opt.max_substeps attempts.
 template <class St, class F, class S>
 void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const run_options& opt, run_stats& stats) {
     poll_cancel(opt, t);
-    step_result r = stepper.step(f, x, t, dt);
+    std::optional<double> rate;  // the non-finite rate that failed the last attempt, if that was the cause
+    step_result r = attempt_step(stepper, f, x, t, dt, rate);
     if (r) {
         check_finite_after<St>(x, t + dt);
         return;
     }
-    if (opt.max_halvings <= 0) throw step_size_underflow(t, r.component, dt, stats);
-    ++stats.step_reductions;
+    auto underflow = [&](double ts, double h) {
+        step_size_underflow e(ts, r.component, h, stats);
+        e.non_finite_rate_value = rate;
+        return e;
+    };
+    auto count_reduction = [&] {
+        ++stats.step_reductions;
+        if (rate) ++stats.non_finite_rate_reductions;
+        rate.reset();
+    };
+    if (opt.max_halvings <= 0) throw underflow(t, dt);
+    count_reduction();
     std::vector<int> pending{1, 1};  // depths of the pieces still to take, the next one last
     double offset = 0.0;             // sum of pieces taken: multiples of dt 2^-depth, exact
     std::uint64_t attempts = 1;
@@ -200,14 +248,14 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const 
         if (++attempts > opt.max_substeps) throw step_work_exceeded(t, dt, opt.max_substeps, smallest);
         const double ts = t + offset;
         poll_cancel(opt, ts);
-        r = stepper.step(f, x, ts, h);
+        r = attempt_step(stepper, f, x, ts, h, rate);
         if (r) {
             check_finite_after<St>(x, ts + h);
             offset += h;
             continue;
         }
-        if (depth >= opt.max_halvings) throw step_size_underflow(ts, r.component, h, stats);
-        ++stats.step_reductions;
+        if (depth >= opt.max_halvings) throw underflow(ts, h);
+        count_reduction();
         pending.push_back(depth + 1);
         pending.push_back(depth + 1);
     }

@@ -19,11 +19,11 @@ from collections import namedtuple
 import numpy as np
 
 from . import _eci, models
-from ._errors import StepSizeUnderflow, TooManySteps
+from ._errors import NonFiniteSolution, StepSizeUnderflow, TooManySteps
 from .models import Model
 
 __all__ = ["solve", "methods", "MethodInfo", "SolveResult", "Transform", "StepSizeUnderflow", "TooManySteps",
-           "models"]
+           "NonFiniteSolution", "models"]
 __version__ = "0.1.0"
 
 MethodInfo = namedtuple("MethodInfo", "name order conservative description")
@@ -321,37 +321,28 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             raise ValueError("a transform needs a real y0")
         n = len(y)
 
+    settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None}
     if adaptive:
-        settings = _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps, t_eval_mode, t0, t1)
-        if is_model:
-            h = fun.default_dt if settings["first_step"] is None else settings["first_step"]
-            raw = fun._solve_adaptive(t0, t1, y0, method, h, times, functions, names, settings)
-        else:
-            h = settings["first_step"]
-            if h is None:
-                order = next((m.order for m in methods() if m.name == method), 4)
-                h = _first_step(fun, t0, t1, y, order, max(settings["rtol_each"] or [settings["rtol"]]),
-                                np.asarray(settings["atol_each"] or settings["atol"]))
-            if transform is not None:
-                raw = _eci._solve_adaptive_transformed(fun, transform.forward, transform.inverse, transform.jacobian,
-                                                       transform.rate, t0, t1, y, method, h, times, functions, names,
-                                                       settings)
-            else:
-                solver = _eci._solve_adaptive_complex if y.dtype.kind == "c" else _eci._solve_adaptive_real
-                raw = solver(fun, t0, t1, y, method, h, times, functions, names, settings)
-    elif is_model:
-        raw = fun._solve(t0, t1, y0, method, dt, times, functions, names, int(max_halvings))
-    elif transform is not None:
-        raw = _eci._solve_transformed(fun, transform.forward, transform.inverse, transform.jacobian, transform.rate,
-                                      t0, t1, y, method, dt, times, functions, names, int(max_halvings))
-    elif method == "kahan":
-        if transform is not None:
-            raise ValueError("method kahan does not take a transform")
-        jac = _jacobian(jac, y)
-        raw = _eci._solve_kahan(fun, jac, t0, t1, y, dt, times, functions, names, int(max_halvings))
+        settings["adaptive"] = _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps,
+                                                  t_eval_mode, t0, t1)
+        h = settings["adaptive"]["first_step"]
+        if h is None and is_model:
+            h = fun.default_dt
+        elif h is None:
+            order = next((m.order for m in methods() if m.name == method), 4)
+            a = settings["adaptive"]
+            h = _first_step(fun, t0, t1, y, order, max(a["rtol_each"] or [a["rtol"]]), np.asarray(a["atol_each"] or a["atol"]))
+        dt = h
+    if is_model:
+        raw = fun._solve(t0, t1, y0, method, dt, settings, functions, names)
     else:
-        solver = _eci._solve_complex if y.dtype.kind == "c" else _eci._solve_real
-        raw = solver(fun, t0, t1, y, method, dt, times, functions, names, int(max_halvings))
+        if method == "kahan":
+            if transform is not None:
+                raise ValueError("method kahan does not take a transform")
+            jac = _jacobian(jac, y)
+        parts = None if transform is None else (transform.forward, transform.inverse, transform.jacobian,
+                                                transform.rate)
+        raw = _eci._solve_function(fun, t0, t1, y, method, dt, settings, functions, names, parts, jac)
     result = SolveResult(raw)
     result["nfev"] = result["stats"]["rhs_evals"]
     result["status"] = 0

@@ -38,3 +38,11 @@ class TooManySteps(_RunFailure):
 
     Attributes as StepSizeUnderflow (cause "too_many_steps").
     """
+
+
+class NonFiniteSolution(_RunFailure):
+    """The solution blew up: a step left a non-finite state (cause "non_finite_state"), or an invariant that was
+    finite at the start became inf or nan (cause "invariant_overflow"), as `eci run` stops on them.
+
+    Attributes as StepSizeUnderflow (component: the real unknown, or for invariant_overflow the invariant's index).
+    """

@@ -1,5 +1,5 @@
-// The integration loop behind eci.solve, shared by the Python functions and the built-in models: fixed steps on the
-// CLI's time grid with step reduction, output at every step or at t_eval, invariant drift, statistics and Ctrl-C.
+// What the Python side of a run shares: numbers as the CLI prints them, component names, Ctrl-C polling, the
+// recorded output and its hand-over to NumPy.
 #pragma once
 
 #include <pybind11/numpy.h>
@@ -43,12 +43,8 @@ inline std::string shortest_text(double v) {
     return std::string(buffer, r.ptr);
 }
 
-/// fun(t, y) returned a non-finite value: thrown out of the stepper, which leaves x untouched, and turned into a
-/// failed step (retried smaller, like a negative radicand) by advance().
-struct non_finite_rhs {
-    std::size_t component;  ///< the real unknown
-    double value;
-};
+// NavierStokes2D's fixed-step loop (models_ns2d.cpp) still counts and fails with these; every other run goes through
+// eci::solve (solve.hpp) and its solve_report.
 
 /// Steps rejected, by cause.
 struct rejections {
@@ -57,7 +53,7 @@ struct rejections {
 };
 
 /// Everything a run counts.
-struct run_report {
+struct step_counts {
     run_stats stats{};
     rejections rejected{};
     std::uint64_t t_eval_steps = 0;  ///< extra steps from the grid to t_eval points between grid times
@@ -66,7 +62,7 @@ struct run_report {
 /// A step failed even at the smallest step size: eci.StepSizeUnderflow in Python, with the statistics so far.
 struct underflow_error : std::runtime_error {
     underflow_error(const std::string& what, double t, std::size_t component, std::string component_name, double dt,
-                    bool non_finite, run_report report)
+                    bool non_finite, step_counts report)
         : std::runtime_error(what), t(t), component(component), component_name(std::move(component_name)), dt(dt),
           non_finite(non_finite), report(report) {}
     double t;
@@ -74,7 +70,7 @@ struct underflow_error : std::runtime_error {
     std::string component_name;
     double dt;
     bool non_finite;
-    run_report report;
+    step_counts report;
 };
 
 /// Names the real unknowns of a state in messages: the model's component names, or y[i] / re y[i], im y[i].
@@ -151,140 +147,8 @@ struct recorded_output {
     }
 };
 
-/// What a run is asked to do. t_eval is sorted and inside [t0, t1]; without it every grid time is output.
-struct run_request {
-    double t0 = 0.0, t1 = 0.0, dt = 0.0;
-    std::optional<std::vector<double>> t_eval;
-    int max_halvings = run_options{}.max_halvings;
-};
-
-/// A system whose evaluation may throw non_finite_rhs (a Python fun); the built-in models never do, and their
-/// steps then run without an exception handler around them.
-template <class F>
-concept checks_finite = requires { requires F::checks_finite; };
-
-/// One attempt at a step: its result, and whether it failed on a non-finite value returned by fun.
-struct attempt {
-    step_result result;
-    bool non_finite = false;
-    double value = 0.0;
-};
-
-template <class St, class F, class S>
-inline attempt try_step(St& stepper, F& f, S& x, double t, double h) {
-    if constexpr (checks_finite<std::remove_cvref_t<F>>) {
-        try {
-            return {stepper.step(f, x, t, h)};
-        } catch (const non_finite_rhs& e) {
-            return {step_result::failure(e.component), true, e.value};
-        }
-    } else {
-        return {stepper.step(f, x, t, h)};
-    }
-}
-
-/// Retries the failed attempt `a` from (x, t) as two half steps, and so on until each part succeeds or has been
-/// halved `left` times, as eci's drivers do; out of line, so that the successful step stays lean.
-template <class St, class F, class S>
-[[gnu::noinline]] void reduce(St& stepper, F& f, S& x, double t, double h, int left, attempt a, run_report& report,
-                              const component_namer& name, int max_halvings) {
-    if (left == 0) {
-        detail::collect_solver_stats(stepper, report.stats);
-        const std::size_t c = a.result.component;
-        const std::string cause = a.non_finite ? "fun(t, y) returned " + full_text(a.value) + " in component " + name(c)
-                                               : "negative radicand, non-invertible transform or non-finite state";
-        throw underflow_error("step failed at t = " + full_text(t) + " in component " + name(c) +
-                                  " even with the step halved " + std::to_string(max_halvings) + " times (dt = " +
-                                  full_text(h) + "): " + cause,
-                              t, c, name(c), h, a.non_finite, report);
-    }
-    ++(a.non_finite ? report.rejected.non_finite_fun : report.rejected.step_failed);
-    ++report.stats.step_reductions;
-    for (const double start : {t, t + 0.5 * h}) {
-        const attempt half = try_step(stepper, f, x, start, 0.5 * h);
-        if (!half.result) reduce(stepper, f, x, start, 0.5 * h, left - 1, half, report, name, max_halvings);
-    }
-}
-
-/// Advances x by h; a failed step (reported by the stepper, or a non-finite value returned by a Python fun) is
-/// retried smaller by reduce().
-template <class St, class F, class S>
-inline void advance(St& stepper, F& f, S& x, double t, double h, int max_halvings, run_report& report,
-                    const component_namer& name) {
-    const attempt a = try_step(stepper, f, x, t, h);
-    if (!a.result) [[unlikely]]
-        reduce(stepper, f, x, t, h, max_halvings, a, report, name, max_halvings);
-}
-
-/// The system the steppers see: f, with its evaluations counted. Steppers that need the model itself (its
-/// transform, its Jacobian) reach it through wrapped().
-template <class F>
-struct counted_system {
-    const F& f;
-    run_report& report;
-    static constexpr bool checks_finite = eci::python::checks_finite<F>;
-
-    template <class S>
-    void operator()(const S& x, S& dxdt, double t) const {
-        ++report.stats.rhs_evals;
-        f(x, dxdt, t);
-    }
-    const F& wrapped() const { return f; }
-};
-
-/// Integrates from (x, t0) to t1 on the grid of `eci run`: times t0 + i dt, the last step shortened to land on t1
-/// exactly (integrate_to's arithmetic, so the states are bit for bit the CLI's). measure(x, first) runs at the start
-/// and after every step; out records every grid state, or, with t_eval, the states at those times (a point between
-/// two grid times is reached by one extra step from the earlier one, with a copy of the stepper, leaving the grid
-/// run untouched).
-template <class S, class F, class St, class Measure>
-void run_grid(St& stepper, F& f, S& x, const run_request& req, Measure&& measure, interrupt_check& interrupt,
-              recorded_output<S>& out, run_report& report, const component_namer& name) {
-    counted_system<std::remove_cvref_t<F>> counted{f, report};
-    // As eci's drivers: a model's declared quadratic invariants go to the stepper's negative-radicand remedy, so
-    // the states stay bit for bit the CLI's.
-    detail::attach_quadratic_invariants(stepper, f, x);
-    const remedy_stats remedy_before = detail::remedy_counters(stepper);
-    // Without t_eval every grid time is output; with it, `next` is the next output time (infinity after the last).
-    constexpr double never = std::numeric_limits<double>::infinity();
-    const bool every_step = !req.t_eval;
-    const std::vector<double> empty;
-    const std::vector<double>& te = req.t_eval ? *req.t_eval : empty;
-    std::size_t k = 0;
-    double next = te.empty() ? never : te[0];
-    auto emit = [&](double t) {
-        if (every_step) return out.record(t, x);
-        for (; next == t; next = ++k < te.size() ? te[k] : never) out.record(t, x);
-    };
-    measure(std::as_const(x), true);
-    emit(req.t0);
-    const std::uint64_t n = steps_to_reach(req.t0, req.t1, req.dt);
-    const double last = n ? req.t1 - (req.t0 + double(n - 1) * req.dt) : 0.0;
-    const bool full_last = std::abs(last - req.dt) <= 1e-12 * req.dt;  // as integrate_to decides
-    for (std::uint64_t i = 1; i <= n; ++i) {
-        interrupt();
-        const double start = req.t0 + double(i - 1) * req.dt;
-        const double h = (i < n || full_last) ? req.dt : last;
-        const double end = i == n ? req.t1 : req.t0 + double(i) * req.dt;
-        for (; next < end; next = ++k < te.size() ? te[k] : never) {
-            St side = stepper;
-            S xs = x;
-            advance(side, counted, xs, start, next - start, req.max_halvings, report, name);
-            ++report.t_eval_steps;
-            measure(std::as_const(xs), false);
-            out.record(next, xs);
-        }
-        advance(stepper, counted, x, start, h, req.max_halvings, report, name);
-        ++report.stats.steps;
-        measure(std::as_const(x), false);
-        if (every_step || next == end) emit(end);
-    }
-    detail::collect_solver_stats(stepper, report.stats);
-    detail::collect_remedy_stats(stepper, remedy_before, report.stats);
-}
-
-/// The statistics as the Python dict `result.stats`.
-inline py::dict stats_dict(const run_report& r) {
+/// NavierStokes2D's statistics as the Python dict `result.stats`.
+inline py::dict stats_dict(const step_counts& r) {
     py::dict rejected;
     rejected["step_failed"] = r.rejected.step_failed;
     rejected["non_finite_fun"] = r.rejected.non_finite_fun;
@@ -317,36 +181,33 @@ inline py::dict drift_dict(const std::vector<drift_record>& records) {
     return d;
 }
 
-/// The registry's entry for `name`, or ValueError with the CLI's message.
-inline method_info resolve_method(const std::string& name, const std::vector<std::string>& available,
-                                  const std::string& what) {
-    const auto m = find_method(name);
+/// The registry's entry for `name` among `available`, or ValueError with the library's message
+/// (eci::resolve_method_for's, for a list of names).
+template <class Names>
+method_info resolve_named_method(const std::string& name, const Names& available, const std::string& what) {
     auto joined = [](const auto& names) {
         std::string s;
-        for (const auto& n : names) s += (s.empty() ? "" : ", ") + std::string(n);
+        for (const auto& n : names) s.append(s.empty() ? "" : ", ").append(std::string_view(n));
         return s;
     };
+    const auto m = find_method(name);
     if (!m) {
         std::vector<std::string_view> all;
         for (const method_info& i : eci::methods) all.push_back(i.name);
         throw std::invalid_argument("unknown method '" + name + "' (methods: " + joined(all) + ")");
     }
-    bool found = false;
-    for (const std::string& a : available) found = found || a == name;
-    if (!found)
-        throw std::invalid_argument("method '" + name + "' is not available for " + what + " (available: " +
-                                    joined(available) + ")");
-    return *m;
+    for (const auto& a : available)
+        if (std::string_view(a) == name) return *m;
+    throw std::invalid_argument("method '" + name + "' is not available for " + what + " (available: " +
+                                joined(available) + ")");
 }
 
-/// The result of a run as the dict eci.solve turns into a SolveResult: t, y (n x m, SciPy's layout), stats,
-/// invariants and the method's registry entry.
+/// The recorded output as the arrays (t, and y: n x m, SciPy's layout), taking the recorded vectors over (no copy:
+/// a long run's output is most of its memory).
 template <class S>
-py::dict result_dict(recorded_output<S>& out, std::size_t n, const run_report& report,
-                     const std::vector<drift_record>& drift, const method_info& method) {
+void add_arrays(py::dict& d, recorded_output<S>& out, std::size_t n) {
     using value_type = typename recorded_output<S>::value_type;
     const auto m = static_cast<py::ssize_t>(out.t.size());
-    // The arrays take the recorded vectors over (no copy: a long run's output is most of its memory).
     auto handed_over = [](auto&& v) {
         using V = std::remove_cvref_t<decltype(v)>;
         auto* owned = new V(std::move(v));
@@ -356,14 +217,26 @@ py::dict result_dict(recorded_output<S>& out, std::size_t n, const run_report& r
     auto [yv, y_owner] = handed_over(std::move(out.y));
     const py::array_t<double> t({m}, tv->data(), t_owner);
     const py::array_t<value_type> rows({m, static_cast<py::ssize_t>(n)}, yv->data(), y_owner);
-    py::dict d;
     d["t"] = t;
     d["y"] = rows.attr("T");  // y[:, i] is the state at t[i]
-    d["stats"] = stats_dict(report);
-    d["invariants"] = drift_dict(drift);
+}
+
+/// The method's registry entry into the result dict.
+inline void add_method(py::dict& d, const method_info& method) {
     d["method"] = std::string(method.name);
     d["order"] = method.order;
     d["conservative"] = method.conservative;
+}
+
+/// NavierStokes2D's result as the dict eci.solve turns into a SolveResult.
+template <class S>
+py::dict result_dict(recorded_output<S>& out, std::size_t n, const step_counts& report,
+                     const std::vector<drift_record>& drift, const method_info& method) {
+    py::dict d;
+    add_arrays(d, out, n);
+    d["stats"] = stats_dict(report);
+    d["invariants"] = drift_dict(drift);
+    add_method(d, method);
     return d;
 }
 

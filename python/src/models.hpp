@@ -12,20 +12,11 @@
 
 #include <eci/models/invariant.hpp>
 
-#include "adaptive_core.hpp"
 #include "core.hpp"
 #include "python_system.hpp"
+#include "solve.hpp"
 
 namespace eci::python {
-
-/// Dispatches a method name through the registry, which builds the stepper the model supports (the transformed
-/// engine where the model has a linearizing transform, Kahan's method where it has a Jacobian, ...).
-struct registry_dispatch {
-    template <class Model, class Fn>
-    bool operator()(const Model&, std::string_view name, Fn&& fn) const {
-        return with_stepper<Model>(name, std::forward<Fn>(fn));
-    }
-};
 
 /// The methods the registry runs on Model, as strings (computed, the list `eci list` shows).
 template <class Model>
@@ -56,22 +47,16 @@ class model_base {
     virtual py::array call(double t, const py::object& y) const = 0;
     /// Each invariant at y (one-dimensional) or at every column of y (n x m, SciPy's layout).
     virtual py::dict invariants(const py::object& y) const = 0;
-    /// The integration behind eci.solve(model, ...).
+    /// The integration behind eci.solve(model, ...): fixed steps of dt, or adaptive control from a first step dt.
     virtual py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
-                           std::optional<std::vector<double>> t_eval, std::vector<py::object> invariants,
-                           const std::vector<std::string>& invariant_names, int max_halvings) const = 0;
+                           const py::dict& settings, std::vector<py::object> invariants,
+                           const std::vector<std::string>& invariant_names) const = 0;
     /// The methods with an error estimate, for eci.solve(model, ..., rtol=...).
     virtual std::vector<std::string> adaptive_methods() const = 0;
-    /// The adaptive integration behind eci.solve(model, ..., rtol=...): `eci run NAME --rtol`'s run.
-    virtual py::dict solve_adaptive(double t0, double t1, const py::object& y0, const std::string& method,
-                                    double first_step, std::optional<std::vector<double>> t_eval,
-                                    std::vector<py::object> invariants,
-                                    const std::vector<std::string>& invariant_names,
-                                    const py::dict& adaptive) const = 0;
 };
 
-/// A model of eci's library behind model_base. Dispatch(name, fn) calls fn with the stepper called name.
-template <class Model, class Dispatch = registry_dispatch>
+/// A model of eci's library behind model_base; the registry builds the stepper each method is on it.
+template <class Model>
 class model_object : public model_base {
    public:
     using S = typename Model::state_type;
@@ -144,77 +129,22 @@ class model_object : public model_base {
     }
 
     py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
-                   std::optional<std::vector<double>> t_eval, std::vector<py::object> invariants,
-                   const std::vector<std::string>& invariant_names, int max_halvings) const override {
+                   const py::dict& settings, std::vector<py::object> invariants,
+                   const std::vector<std::string>& invariant_names) const override {
         S x = y0.is_none() ? y0_ : to_state(y0);
-        check_initial(x);
-        const method_info info = resolve_method(method, meta_.methods, "model " + meta_.name);
-        constexpr auto model_invariants = Model::invariants();
-        std::vector<drift_record> drift;
-        for (const auto& inv : model_invariants) drift.push_back({inv.name});
-        for (const std::string& n : invariant_names) drift.push_back({n});
-        const python_invariants<value_type> user{std::move(invariants)};
-        const bool release = user.functions.empty();  // Python invariants need the GIL at every step
-        const run_request req{t0, t1, dt, std::move(t_eval), max_halvings};
         const component_namer namer{meta_.columns, false};
-        recorded_output<S> out;
-        run_report report;
-        bool found = false;
-        {
-            std::optional<py::gil_scoped_release> unlocked;
-            if (release) unlocked.emplace();
-            interrupt_check interrupt(!release);
-            // inlined into the step loop, as the CLI's observer is
-            auto measure = [&](const S& s, bool first) __attribute__((always_inline)) {
-                for (std::size_t j = 0; j < model_invariants.size(); ++j)
-                    drift[j].update((model_.*model_invariants[j].value)(s), first);
-                if (!release) user.measure(to_vector(s), drift, model_invariants.size(), first);
-            };
-            found = dispatch_(model_, method, [&](auto stepper) {
-                run_grid(stepper, model_, x, req, measure, interrupt, out, report, namer);
-            });
-        }
-        if (!found) throw std::invalid_argument("method '" + method + "' has no stepper for model " + meta_.name);
-        return result_dict(out, size(), report, drift, info);
+        check_initial_state(model_, x, std::function<std::string(std::size_t)>(namer));
+        const bool release = invariants.empty();  // Python invariants need the GIL at every step
+        // the model itself as the system, as `eci run` passes it: the same bits
+        return run_python<Model>(model_, x, method, request_from(t0, t1, dt, settings),
+                                 python_extra_invariants<S>(std::move(invariants), invariant_names), namer,
+                                 "model " + meta_.name, release);
     }
 
-    std::vector<std::string> adaptive_methods() const override { return adaptive_method_names<Model>(); }
-
-    py::dict solve_adaptive(double t0, double t1, const py::object& y0, const std::string& method, double first_step,
-                            std::optional<std::vector<double>> t_eval, std::vector<py::object> invariants,
-                            const std::vector<std::string>& invariant_names,
-                            const py::dict& adaptive) const override {
-        S x = y0.is_none() ? y0_ : to_state(y0);
-        check_initial(x);
-        const method_info info = resolve_adaptive_method(method, adaptive_methods(), "model " + meta_.name);
-        const adaptive_request req = adaptive_request_from(t0, t1, first_step, std::move(t_eval), adaptive);
-        constexpr auto model_invariants = Model::invariants();
-        std::vector<drift_record> drift;
-        for (const auto& inv : model_invariants) drift.push_back({inv.name});
-        for (const std::string& n : invariant_names) drift.push_back({n});
-        const python_invariants<value_type> user{std::move(invariants)};
-        const bool release = user.functions.empty();
-        const component_namer namer{meta_.columns, false};
-        recorded_output<S> out;
-        adaptive_outcome outcome;
-        {
-            std::optional<py::gil_scoped_release> unlocked;
-            if (release) unlocked.emplace();
-            interrupt_check interrupt(!release);
-            auto measure = [&](const S& s, bool first) {
-                for (std::size_t j = 0; j < model_invariants.size(); ++j)
-                    drift[j].update((model_.*model_invariants[j].value)(s), first);
-                if (!release) user.measure(to_vector(s), drift, model_invariants.size(), first);
-            };
-            // the model itself as the system, as `eci run --rtol` (run_adaptive) passes it: the same bits
-            with_adaptive_stepper<Model>(info.name, [&](auto stepper) {
-                outcome = run_adaptive_grid(stepper, model_, x, req, measure, interrupt, out, nullptr);
-            });
-        }
-        throw_if_failed(outcome, namer);
-        py::dict d = result_dict(out, size(), run_report{}, drift, info);
-        d["stats"] = adaptive_stats_dict(outcome.stats, outcome.monitor);
-        return d;
+    std::vector<std::string> adaptive_methods() const override {
+        std::vector<std::string> v;
+        for (const method_info& m : adaptive_methods_for<Model>()) v.emplace_back(m.name);
+        return v;
     }
 
    private:
@@ -232,25 +162,9 @@ class model_object : public model_base {
         return x;
     }
 
-    // The CLI's checks and messages: every real unknown finite, then the model's domain.
-    void check_initial(const S& x) const {
-        const auto r = detail::reals(x);
-        for (std::size_t i = 0; i < r.size(); ++i)
-            if (!std::isfinite(r[i]))
-                throw std::invalid_argument("initial condition " + meta_.columns.at(i) + " is not finite");
-        if constexpr (requires { model_.validate_state(x); }) {
-            try {
-                model_.validate_state(x);
-            } catch (const std::invalid_argument& e) {
-                throw std::invalid_argument(std::string("invalid initial condition: ") + e.what());
-            }
-        }
-    }
-
     Model model_;
     meta meta_;
     S y0_;
-    Dispatch dispatch_{};
 };
 
 /// What eci.solve and the CLI take from a model's own description: its name, the methods that run on it, and
@@ -306,7 +220,7 @@ void add_presets(py::module_& m, const char* class_name, Columns columns) {
         "The model's named set-ups (the paper's figures) as tuples; see eci.models.Preset.");
 }
 
-/// Binds model_object<Model, Dispatch> as the Python class `name`, a subclass of eci._eci.Model.
+/// Binds model_object<Model> as the Python class `name`, a subclass of eci._eci.Model.
 template <class Model>
 py::class_<model_object<Model>, model_base> bind_model(py::module_& m, const char* name, const char* doc) {
     return py::class_<model_object<Model>, model_base>(m, name, doc);

@@ -88,22 +88,21 @@ class ns2d_object final : public model_base {
     }
 
     std::vector<std::string> adaptive_methods() const override { return {}; }
-    py::dict solve_adaptive(double, double, const py::object&, const std::string& method, double,
-                            std::optional<std::vector<double>>, std::vector<py::object>,
-                            const std::vector<std::string>&, const py::dict&) const override {
-        throw std::invalid_argument("method " + method + " has no error estimate for rtol/atol; navier-stokes-2d "
-                                    "runs fixed steps (give dt, or none for the CFL 0.5 step)");
-    }
-
     /// Fixed steps t0 + i dt (the last one shortened to land on t1), each by ns2d_step as the CLI takes them.
     py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
-                   std::optional<std::vector<double>> t_eval, std::vector<py::object> invariants,
-                   const std::vector<std::string>& invariant_names, int max_halvings) const override {
+                   const py::dict& settings, std::vector<py::object> invariants,
+                   const std::vector<std::string>& invariant_names) const override {
+        if (!settings["adaptive"].is_none())
+            throw std::invalid_argument("method " + method + " has no error estimate for rtol/atol; navier-stokes-2d "
+                                        "runs fixed steps (give dt, or none for the CFL 0.5 step)");
+        std::optional<std::vector<double>> t_eval;
+        if (!settings["t_eval"].is_none()) t_eval = settings["t_eval"].cast<std::vector<double>>();
+        const int max_halvings = settings["max_halvings"].cast<int>();
         state x = y0.is_none() ? y0_ : to_state(y0);
         for (const cplx& v : x)
             if (!std::isfinite(v.real()) || !std::isfinite(v.imag()))
                 throw std::invalid_argument("initial condition is not finite");
-        const method_info info = resolve_method(method, eci::ns2d_methods(), "model navier-stokes-2d");
+        const method_info info = resolve_named_method(method, eci::ns2d_methods(), "model navier-stokes-2d");
         const std::uint64_t n = steps_to_reach(t0, t1, dt);
         const double last = n ? t1 - (t0 + double(n - 1) * dt) : 0.0;
         const bool full_last = std::abs(last - dt) <= 1e-12 * dt;  // as integrate_to decides
@@ -120,7 +119,7 @@ class ns2d_object final : public model_base {
         const python_invariants<cplx> user{std::move(invariants)};
         const bool release = user.functions.empty();
         recorded_output<state> out;
-        run_report report;
+        step_counts report;
         ns2d_budget budget;
         const auto lock_ = lock();
         navier_stokes_2d& m = *model_;

@@ -3,7 +3,6 @@
 
 #include <eci/registry.hpp>
 
-#include "adaptive_core.hpp"
 #include "core.hpp"
 #include "models.hpp"
 #include "module.hpp"
@@ -28,14 +27,11 @@ void bind_model_base(py::module_& m) {
         .def("invariants", &model_base::invariants, py::arg("y"),
              "each invariant at the state y, or at every column of y (n x m, SciPy's layout), by name")
         .def("_solve", &model_base::solve, py::arg("t0"), py::arg("t1"), py::arg("y0"), py::arg("method"),
-             py::arg("dt"), py::arg("t_eval"), py::arg("invariants"), py::arg("invariant_names"),
-             py::arg("max_halvings"), "The integration behind eci.solve(model, ...).")
+             py::arg("dt"), py::arg("settings"), py::arg("invariants"), py::arg("invariant_names"),
+             "The integration behind eci.solve(model, ...): fixed steps of dt, or adaptive control from a first "
+             "step dt (settings['adaptive']).")
         .def_property_readonly("adaptive_methods", &model_base::adaptive_methods,
-                               "the methods with an error estimate, for eci.solve(model, ..., rtol=...)")
-        .def("_solve_adaptive", &model_base::solve_adaptive, py::arg("t0"), py::arg("t1"), py::arg("y0"),
-             py::arg("method"), py::arg("first_step"), py::arg("t_eval"), py::arg("invariants"),
-             py::arg("invariant_names"), py::arg("adaptive"),
-             "The adaptive integration behind eci.solve(model, ..., rtol=...).");
+                               "the methods with an error estimate, for eci.solve(model, ..., rtol=...)");
 }
 
 py::list method_list() {
@@ -57,8 +53,6 @@ PYBIND11_MODULE(_eci, m) {
     init_wave_models(m);
     init_orbit_models(m);
     init_functions(m);
-    init_adaptive_functions(m);
-    init_kahan(m);
 #ifdef ECI_PYTHON_SPECTRAL
     init_ns2d(m);
 #endif
@@ -69,11 +63,6 @@ PYBIND11_MODULE(_eci, m) {
             const py::object cls = py::module_::import("eci._errors").attr("StepSizeUnderflow");
             const py::object exc = cls(e.what(), e.t, e.component, e.component_name, e.dt,
                                        e.non_finite ? "non_finite_fun" : "step_failed", stats_dict(e.report));
-            PyErr_SetObject(cls.ptr(), exc.ptr());
-        } catch (const adaptive_error& e) {
-            const py::object cls =
-                py::module_::import("eci._errors").attr(e.too_many ? "TooManySteps" : "StepSizeUnderflow");
-            const py::object exc = cls(e.what(), e.t, e.component, e.component_name, e.dt, e.cause, e.stats);
             PyErr_SetObject(cls.ptr(), exc.ptr());
         }
     });

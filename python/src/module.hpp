@@ -5,12 +5,8 @@
 
 namespace eci::python {
 
-/// _solve_real, _solve_complex, _solve_transformed: eci.solve with a Python fun.
+/// _solve_function: eci.solve with a Python fun (fixed or adaptive, real or complex, a transform, Kahan's method).
 void init_functions(pybind11::module_& m);
-/// _solve_adaptive_real, _solve_adaptive_complex, _solve_adaptive_transformed: eci.solve with rtol/atol.
-void init_adaptive_functions(pybind11::module_& m);
-/// _solve_kahan: Kahan's method on a Python fun with its Jacobian.
-void init_kahan(pybind11::module_& m);
 /// NavierStokes2D (built with eci::spectral only).
 void init_ns2d(pybind11::module_& m);
 /// The model base class and ThreeWave, NWave, NWaveComplex.

@@ -10,6 +10,8 @@
 #include <string_view>
 #include <vector>
 
+#include <eci/integrate.hpp>
+
 #include "core.hpp"
 
 namespace eci::python {
@@ -60,23 +62,14 @@ py::array_t<T, py::array::c_style> as_vector(const py::object& r, std::size_t n,
     return exact::ensure(a);
 }
 
-/// Set by a Python fun that returned inf or nan, for adaptive runs: the value is passed on to the stepper (whose
-/// error estimate is then not finite, so the attempt is rejected) and the rejection counted as the fun's.
-struct non_finite_flag {
-    bool seen = false;
-    std::size_t component = 0;
-    double value = 0.0;
-};
-
-/// fun(t, y) as an eci system over std::vector<T>. A non-finite value fails the step (see non_finite_rhs), or,
-/// given a flag (adaptive runs), is passed on and flagged.
+/// fun(t, y) as an eci system over std::vector<T>. A non-finite value is reported as eci::non_finite_rate: the
+/// run's drivers fail that attempt (retried smaller, or rejected) and count it as the fun's.
 template <class T>
 class python_rhs {
    public:
-    static constexpr bool checks_finite = true;  ///< throws non_finite_rhs (without a flag)
+    static constexpr bool reports_non_finite_rate = true;
 
-    python_rhs(py::object fun, std::size_t n, non_finite_flag* flag = nullptr)
-        : fun_(std::move(fun)), n_(n), flag_(flag) {}
+    python_rhs(py::object fun, std::size_t n) : fun_(std::move(fun)), n_(n) {}
 
     void operator()(const std::vector<T>& x, std::vector<T>& dxdt, double t) const {
         py::array_t<T> y = to_numpy(x);
@@ -89,20 +82,15 @@ class python_rhs {
         const T* v = a.data();
         constexpr std::size_t per = sizeof(T) / sizeof(double);
         const double* d = reinterpret_cast<const double*>(v);
-        for (std::size_t i = 0; i < n_ * per; ++i) {
-            if (std::isfinite(d[i])) [[likely]]
-                continue;
-            if (!flag_) throw non_finite_rhs{i, d[i]};
-            *flag_ = {true, i, d[i]};
-            break;
-        }
+        for (std::size_t i = 0; i < n_ * per; ++i)
+            if (!std::isfinite(d[i])) [[unlikely]]
+                throw non_finite_rate{i, d[i]};
         std::memcpy(dxdt.data(), v, n_ * sizeof(T));
     }
 
    private:
     py::object fun_;
     std::size_t n_;
-    non_finite_flag* flag_;
 };
 
 /// Invariants given as Python callables of y, each returning a real number.
@@ -204,7 +192,7 @@ struct python_transform {
 /// linearizing transform).
 struct python_transformed_system {
     using state_type = std::vector<double>;
-    static constexpr bool checks_finite = true;  ///< throws non_finite_rhs
+    static constexpr bool reports_non_finite_rate = true;
     python_rhs<double> rhs;
     python_transform transform;
 

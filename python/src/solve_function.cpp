@@ -1,9 +1,12 @@
-// eci.solve with a Python fun(t, y): every registry method that runs on any state, for real and complex y, and the
-// transformed engine (C-PC, C-RK2, C-RK4) through a transform given as Python functions.
+// eci.solve with a Python fun(t, y): every registry method that runs on any state, fixed steps or adaptive control,
+// real or complex y, through a user's transform (the transformed engines), or Kahan's method with jac(t, y). All
+// through eci::solve (solve.hpp).
+#include <eci/steppers/transformed_embedded_rk.hpp>
 #include <eci/steppers/transformed_rk.hpp>
 
 #include "module.hpp"
 #include "python_system.hpp"
+#include "solve.hpp"
 
 namespace eci::python {
 
@@ -12,79 +15,127 @@ namespace {
 template <class T>
 using input_array = py::array_t<T, py::array::c_style | py::array::forcecast>;
 
-template <class T>
-std::vector<drift_record> named_records(const std::vector<std::string>& names) {
-    std::vector<drift_record> r;
-    for (const std::string& n : names) r.push_back({n});
-    return r;
+constexpr std::size_t kahan_max_unknowns = 8;
+
+/// fun(t, y) and jac(t, y) on a fixed-size state: the model Kahan's stepper reaches through model_of. jac sees the
+/// time of the evaluation of fun just before it (the step's start, where Kahan's method takes J).
+template <std::size_t N>
+struct python_jacobian_system {
+    using state_type = std::array<double, N>;
+    static constexpr bool reports_non_finite_rate = true;
+    python_rhs<double> rhs;
+    py::object jac;
+    mutable double last_t = 0.0;
+
+    void operator()(const state_type& x, state_type& dxdt, double t) const {
+        last_t = t;
+        const std::vector<double> y(x.begin(), x.end());
+        std::vector<double> d(N);
+        rhs(y, d, t);
+        std::copy(d.begin(), d.end(), dxdt.begin());
+    }
+
+    std::array<std::array<double, N>, N> jacobian(const state_type& x) const {
+        const py::object r = jac(last_t, to_numpy(std::vector<double>(x.begin(), x.end())));
+        const py::array a = py::module_::import("numpy").attr("asarray")(r);
+        const auto J = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(a);
+        const auto n = py::ssize_t(N);
+        if (!J || a.dtype().kind() == 'c' || J.ndim() != 2 || J.shape(0) != n || J.shape(1) != n)
+            throw py::value_error("jac(t, y) returned an array of shape " + shape_text(a) + ", expected (" +
+                                  std::to_string(N) + ", " + std::to_string(N) + ") (rows: components of fun)");
+        std::array<std::array<double, N>, N> out{};
+        for (std::size_t i = 0; i < N; ++i)
+            for (std::size_t j = 0; j < N; ++j) out[i][j] = J.data()[i * N + j];  // non-finite: the solve fails
+        return out;
+    }
+};
+
+template <std::size_t N>
+py::dict solve_kahan_n(py::object fun, py::object jac, const input_array<double>& y0, const std::string& method,
+                       const python_request& req, std::vector<py::object> invariants,
+                       const std::vector<std::string>& names) {
+    using S = std::array<double, N>;
+    S x{};
+    std::copy(y0.data(), y0.data() + N, x.begin());
+    const python_jacobian_system<N> f{python_rhs<double>(std::move(fun), N), std::move(jac)};
+    return run_python<python_jacobian_system<N>>(f, x, method, req, python_extra_invariants<S>(std::move(invariants), names),
+                                                 component_namer{}, "fun(t, y) with jac", false);
+}
+
+template <std::size_t... I>
+constexpr auto kahan_table(std::index_sequence<I...>) {
+    return std::array{&solve_kahan_n<I + 1>...};
 }
 
 template <class T>
-py::dict solve_function(py::object fun, double t0, double t1, const input_array<T>& y0, const std::string& method,
-                        double dt, std::optional<std::vector<double>> t_eval, std::vector<py::object> invariants,
-                        const std::vector<std::string>& invariant_names, int max_halvings) {
+py::dict solve_plain(py::object fun, const input_array<T>& y0, const std::string& method, const python_request& req,
+                     std::vector<py::object> invariants, const std::vector<std::string>& names) {
     using S = std::vector<T>;
     const std::size_t n = static_cast<std::size_t>(y0.shape(0));
     S x(y0.data(), y0.data() + n);
-    std::vector<std::string> available;
-    for (std::string_view name : method_names_for<S>()) available.emplace_back(name);
-    const method_info info = resolve_method(method, available, "fun(t, y)");
     const python_rhs<T> f(std::move(fun), n);
-    const python_invariants<T> invs{std::move(invariants)};
-    std::vector<drift_record> drift = named_records<T>(invariant_names);
-    const run_request req{t0, t1, dt, std::move(t_eval), max_halvings};
     const component_namer namer{{}, std::is_same_v<T, std::complex<double>>};
-    interrupt_check interrupt(true);
-    recorded_output<S> out;
-    run_report report;
-    auto measure = [&](const S& s, bool first) { invs.measure(s, drift, 0, first); };
-    with_method<S>(method, [&](auto stepper) { run_grid(stepper, f, x, req, measure, interrupt, out, report, namer); });
-    return result_dict(out, n, report, drift, info);
+    return run_python<S>(f, x, method, req, python_extra_invariants<S>(std::move(invariants), names), namer,
+                         "fun(t, y)", false);
 }
 
-py::dict solve_transformed(py::object fun, py::object forward, py::object inverse, py::object jacobian,
-                           py::object rate, double t0, double t1, const input_array<double>& y0,
-                           const std::string& method, double dt, std::optional<std::vector<double>> t_eval,
-                           std::vector<py::object> invariants, const std::vector<std::string>& invariant_names,
-                           int max_halvings) {
-    using S = std::vector<double>;
+/// eci.solve(fun, ...): the one entry point for a Python fun. `transform` is None or (forward, inverse, jacobian,
+/// rate); `jac` is Kahan's Jacobian (method kahan) or None.
+py::dict solve_function(py::object fun, double t0, double t1, const py::array& y0, const std::string& method,
+                        double dt, const py::dict& settings, std::vector<py::object> invariants,
+                        const std::vector<std::string>& names, py::object transform, py::object jac) {
+    const python_request req = request_from(t0, t1, dt, settings);
     const std::size_t n = static_cast<std::size_t>(y0.shape(0));
-    S x(y0.data(), y0.data() + n);
-    // the conservative tableaux, which the registry runs through the system's transform
-    std::vector<std::string> available;
-    for (const method_info& m : methods_for<python_transformed_system>())
-        if (m.family == method_family::transformed) available.emplace_back(m.name);
-    const method_info info = resolve_method(method, available, "a transform");
-    python_transform tr{std::move(forward), std::move(inverse), std::move(jacobian), std::move(rate), n};
-    tr.measure_xi(x);
-    const python_transformed_system f{python_rhs<double>(std::move(fun), n), tr};
-    const python_invariants<double> invs{std::move(invariants)};
-    std::vector<drift_record> drift = named_records<double>(invariant_names);
-    const run_request req{t0, t1, dt, std::move(t_eval), max_halvings};
-    const component_namer namer{};
-    interrupt_check interrupt(true);
-    recorded_output<S> out;
-    run_report report;
-    auto measure = [&](const S& s, bool first) { invs.measure(s, drift, 0, first); };
-    with_stepper<python_transformed_system>(
-        method, [&](auto stepper) { run_grid(stepper, f, x, req, measure, interrupt, out, report, namer); });
-    return result_dict(out, n, report, drift, info);
+    if (!jac.is_none()) {
+        if (n == 0 || n > kahan_max_unknowns)
+            throw std::invalid_argument("method kahan with a Python fun takes up to " +
+                                        std::to_string(kahan_max_unknowns) +
+                                        " unknowns (a fixed-size linear solve), not " + std::to_string(n));
+        static constexpr auto table = kahan_table(std::make_index_sequence<kahan_max_unknowns>{});
+        return table[n - 1](std::move(fun), std::move(jac), input_array<double>::ensure(y0), method, req,
+                            std::move(invariants), names);
+    }
+    if (!transform.is_none()) {
+        using S = std::vector<double>;
+        if (!req.config.adaptive) {  // fixed steps: the methods that run through the transform
+            std::vector<std::string> available;
+            for (const method_info& m : methods_for<python_transformed_system>())
+                if (m.family == method_family::transformed) available.emplace_back(m.name);
+            resolve_named_method(method, available, "a transform");
+        }
+        const auto y = input_array<double>::ensure(y0);
+        S x(y.data(), y.data() + n);
+        const py::tuple t = transform.cast<py::tuple>();
+        python_transform tr{t[0], t[1], t[2], t[3], n};
+        tr.measure_xi(x);
+        const python_transformed_system f{python_rhs<double>(std::move(fun), n), tr};
+        return run_python<python_transformed_system>(f, x, method, req,
+                                                     python_extra_invariants<S>(std::move(invariants), names),
+                                                     component_namer{}, "a transform", false);
+    }
+    if (y0.dtype().kind() == 'c')
+        return solve_plain<std::complex<double>>(std::move(fun), input_array<std::complex<double>>::ensure(y0), method,
+                                                 req, std::move(invariants), names);
+    return solve_plain<double>(std::move(fun), input_array<double>::ensure(y0), method, req, std::move(invariants),
+                               names);
+}
+
+std::vector<std::string> names_of(const std::vector<method_info>& list) {
+    std::vector<std::string> v;
+    for (const method_info& m : list) v.emplace_back(m.name);
+    return v;
 }
 
 }  // namespace
 
 void init_functions(py::module_& m) {
-    m.def("_solve_real", &solve_function<double>, py::arg("fun"), py::arg("t0"), py::arg("t1"), py::arg("y0"),
-          py::arg("method"), py::arg("dt"), py::arg("t_eval"), py::arg("invariants"), py::arg("invariant_names"),
-          py::arg("max_halvings"), "Integrate a real fun(t, y) on the fixed grid (used by eci.solve).");
-    m.def("_solve_complex", &solve_function<std::complex<double>>, py::arg("fun"), py::arg("t0"), py::arg("t1"),
-          py::arg("y0"), py::arg("method"), py::arg("dt"), py::arg("t_eval"), py::arg("invariants"),
-          py::arg("invariant_names"), py::arg("max_halvings"),
-          "Integrate a complex fun(t, y) on the fixed grid (used by eci.solve).");
-    m.def("_solve_transformed", &solve_transformed, py::arg("fun"), py::arg("forward"), py::arg("inverse"),
-          py::arg("jacobian"), py::arg("rate"), py::arg("t0"), py::arg("t1"), py::arg("y0"), py::arg("method"),
-          py::arg("dt"), py::arg("t_eval"), py::arg("invariants"), py::arg("invariant_names"),
-          py::arg("max_halvings"), "Integrate fun(t, y) through a user's transform (used by eci.solve).");
+    m.def("_solve_function", &solve_function, py::arg("fun"), py::arg("t0"), py::arg("t1"), py::arg("y0"),
+          py::arg("method"), py::arg("dt"), py::arg("settings"), py::arg("invariants"), py::arg("invariant_names"),
+          py::arg("transform"), py::arg("jac"), "Integrate a Python fun(t, y) (used by eci.solve).");
+    m.def("_adaptive_methods_real", [] { return names_of(adaptive_methods_for<std::vector<double>>()); });
+    m.def("_adaptive_methods_complex", [] { return names_of(adaptive_methods_for<std::vector<std::complex<double>>>()); });
+    m.def("_adaptive_methods_transformed", [] { return names_of(adaptive_methods_for<python_transformed_system>()); });
+    m.attr("_kahan_max_unknowns") = kahan_max_unknowns;
 }
 
 }  // namespace eci::python

@@ -111,3 +111,38 @@ def test_n_wave_remedy_matches_cli_issue_9(cli, tmp_path):
     assert r.stats["remedied_steps"] == summary["remedied_steps"]
     assert r.stats["components_remedied"] == summary["components_remedied"]
     assert_same_run(r, t, columns, summary, [f"psi_{i}" for i in range(1000)])
+
+
+# The initial checks are the library's (eci::check_initial_state): the CLI and Python refuse the same initial states
+# with the same one-line message, for every model (Python's models used to check finiteness and the domain only).
+@pytest.mark.parametrize("model, option, values, y0", [
+    ("three-wave", "--psi", "1e-310,1,1", None),             # subnormal
+    ("three-wave", "--psi", "1e200,1,1", None),              # the energy overflows
+    ("lotka-volterra", "--x", "-1", [-1.0, 0.4]),            # outside the model's domain
+])
+def test_cli_and_python_refuse_the_same_initial_states(cli, model, option, values, y0):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", model, option, values, "--t-end", 1)
+    cls = {"three-wave": eci.models.ThreeWave, "lotka-volterra": eci.models.LotkaVolterra}[model]
+    y = y0 if y0 is not None else [float(v) for v in values.split(",")]
+    with pytest.raises(ValueError) as e:
+        eci.solve(cls(), (0.0, 1.0), y, dt=0.1)
+    assert str(e.value) == message
+
+
+def test_cli_and_python_name_the_same_adaptive_methods(cli):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", "kepler", "--method", "c-rk4", "--rtol", "1e-8")
+    with pytest.raises(ValueError) as e:
+        eci.solve(eci.models.Kepler(), (0.0, 1.0), method="c-rk4", rtol=1e-8)
+    assert str(e.value) == message
+
+
+@pytest.mark.parametrize("rtol", [1e-6, 1e-9])
+def test_adaptive_kepler_and_lotka_volterra_match_cli(cli, tmp_path, rtol):
+    # adaptive runs through the same eci::solve: the same accepted steps, states and drifts
+    t, columns, summary = cli_run(cli, tmp_path, "kepler", "c-dp54", 0.01, 20.0, "--rtol", rtol)
+    r = eci.solve(eci.models.Kepler(), (0.0, 20.0), method="c-dp54", rtol=rtol, atol=rtol, first_step=0.01)
+    assert_same_run(r, t, columns, summary, ["r", "v_r", "theta"])

@@ -3,8 +3,10 @@
 #pragma once
 
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
 #include <utility>
 
 #include "../concepts.hpp"
@@ -25,6 +27,23 @@ void combine_stages(double* out, const double* x, const std::array<const double*
         ((a[J] != 0.0 ? (acc += w[J] * k[J][i], 0) : 0), ...);
         out[i] = acc;
     }
+}
+
+/// combine_stages that also reports whether every result is finite, in the same pass (an OR over the exponent
+/// bits, which vectorizes): the conventional step's blow-up check costs no second pass over the state.
+template <auto a, std::size_t... J>
+bool combine_stages_finite(double* out, const double* x, const std::array<const double*, sizeof...(J)>& k, double dt,
+                           std::size_t n, std::index_sequence<J...>) {
+    constexpr std::uint64_t exponent = 0x7ff0000000000000ull;
+    const std::array<double, sizeof...(J)> w{(dt * a[J])...};
+    std::uint64_t bad = 0;
+    for (std::size_t i = 0; i < n; ++i) {
+        double acc = x[i];
+        ((a[J] != 0.0 ? (acc += w[J] * k[J][i], 0) : 0), ...);
+        out[i] = acc;
+        bad |= (std::bit_cast<std::uint64_t>(acc) & exponent) == exponent;
+    }
+    return bad == 0;
 }
 
 /// The stage buffers of an explicit tableau, and the computation of every stage's derivative.
@@ -93,25 +112,15 @@ class explicit_rk {
         for (std::size_t j = 0; j < T.stages; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
         auto xr = detail::reals(x);
         const std::size_t n = xr.size();
-        // A non-finite update (a blow-up) fails the step and leaves x as it was, like every other failure.
-        if constexpr (T.stages > 1) {
-            // The stage buffer is free once the stages are done: the update goes there, then swaps in.
-            double* o = detail::reals(st_.stage).data();
-            detail::combine_stages<T.b>(o, xr.data(), kp, dt, n, std::make_index_sequence<T.stages>{});
-            if (!detail::all_finite_reals(o, n))
-                return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); }));
-            using std::swap;
-            swap(x, st_.stage);
-        } else {
-            // Euler has no spare buffer: check x + dt b k (the same arithmetic) before writing it.
-            const double w = dt * T.b[0];
-            const double* k = kp[0];
-            auto bad_at = [&](std::size_t i) { return !std::isfinite(xr[i] + w * k[i]); };
-            double probe = 0.0;
-            for (std::size_t i = 0; i < n; ++i) probe += 0.0 * (xr[i] + w * k[i]);  // NaN iff one is not finite
-            if (!(probe == 0.0)) return step_result::failure(detail::first_index(n, bad_at));
-            detail::combine_stages<T.b>(xr.data(), xr.data(), kp, dt, n, std::make_index_sequence<T.stages>{});
-        }
+        // A non-finite update (a blow-up) fails the step and leaves x as it was, like every other failure. The
+        // update goes to a buffer that is free once the stages are done (the stage value; Euler's k_0, which its
+        // own update reads element by element before overwriting it), is checked in the same pass, then swaps in.
+        S& spare = T.stages > 1 ? st_.stage : st_.k[0];
+        double* o = detail::reals(spare).data();
+        if (!detail::combine_stages_finite<T.b>(o, xr.data(), kp, dt, n, std::make_index_sequence<T.stages>{}))
+            return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); }));
+        using std::swap;
+        swap(x, spare);
         return step_result::success();
     }
 

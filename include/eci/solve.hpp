@@ -1,0 +1,461 @@
+// The one run: a model (or a plain system), a method name and one run configuration -- the span, a fixed step or
+// a step controller, output times, checks, limits, a cancel flag -- in; one report out. Front ends attach a sink
+// (CSV rows, NumPy arrays, a timer) and decide nothing about stepping, output times or defaults.
+#pragma once
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <concepts>
+#include <cstddef>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+#include "adaptive.hpp"
+#include "detail/format.hpp"
+#include "integrate.hpp"
+#include "registry.hpp"
+#include "run.hpp"
+
+namespace eci {
+
+/// Everything a run is asked to do.
+struct run_config {
+    double t0 = 0.0;     ///< start time
+    double t_end = 0.0;  ///< end time (fixed steps: the last step is shortened to land on it)
+    /// Fixed steps only: take exactly this many steps of dt from t0 (t_end is then t0 + steps * dt).
+    std::optional<std::uint64_t> steps;
+    double dt = 0.0;  ///< the fixed step, or an adaptive run's first step
+    /// A step controller around the method's embedded pair (rtol, atol, limits); none: fixed steps of dt.
+    std::optional<adaptive_options> adaptive;
+
+    /// Without `times`: output every `every` steps (adaptive: accepted steps), and always the first and the last.
+    std::uint64_t every = 1;
+    /// Output at these times instead (sorted, within [t0, t_end]); the run still goes on to t_end. Fixed steps
+    /// reach a time between two grid points by a side step from the earlier one (the grid run is untouched);
+    /// adaptive runs land a step on it or interpolate, as `mode` says.
+    std::vector<double> times;
+    output_mode mode = output_mode::automatic;  ///< adaptive runs with `times`
+
+    int max_halvings = run_options{}.max_halvings;      ///< fixed steps: halvings of one failed step
+    std::uint64_t max_substeps = run_options{}.max_substeps;  ///< fixed steps: attempts for one step of the grid
+    /// A monitored invariant that becomes non-finite ends the run (invariant_overflow): the solution blew up.
+    bool stop_on_invariant_overflow = true;
+    /// Polled between steps and right-hand-side evaluations; when it reads true the run throws eci::interrupted.
+    const std::atomic<bool>* cancel = nullptr;
+    /// Names real unknown i in messages (a CSV column, "y[i]"); empty: "x[i]" (re/im for complex states).
+    std::function<std::string(std::size_t)> component_name;
+
+    /// Whether the run is adaptive.
+    bool is_adaptive() const { return adaptive.has_value(); }
+    /// The end time the run reaches.
+    double end_time() const { return steps ? t0 + double(*steps) * dt : t_end; }
+};
+
+/// Why a run stopped before its end.
+enum class run_failure_kind {
+    step_failed,         ///< a step failed at every size (negative radicand, non-invertible transform, rate)
+    step_too_small,      ///< adaptive: the step fell below the minimum
+    too_many_steps,      ///< adaptive: the attempt budget ran out
+    work_exceeded,       ///< fixed steps: one step of the grid took more than max_substeps attempts
+    non_finite_state,    ///< a step left a non-finite state
+    invariant_overflow,  ///< a monitored invariant became non-finite
+};
+
+/// A run that stopped before its end: what, where, and the library's one-line message.
+struct run_failure {
+    run_failure_kind kind;
+    double t = 0.0;              ///< where the run could not go on
+    std::size_t component = 0;   ///< the real unknown (or, for invariant_overflow, the invariant) responsible
+    double dt = 0.0;             ///< the step that was refused
+    std::string message;         ///< one line, naming the component by run_config::component_name
+    /// step_failed / step_too_small: the last attempt failed on a non-finite rate (its value), or the adaptive
+    /// controller's last rejection.
+    std::optional<double> non_finite_rate_value;
+    rejection last_rejection = rejection::step_failed;
+};
+
+/// What a run reports, also when it stopped early.
+struct solve_report {
+    method_info method{};                      ///< the registry's entry of the method that ran
+    run_stats stats{};                         ///< steps (adaptive: accepted), reductions, evaluations, solves
+    std::optional<adaptive_stats> adaptive;    ///< the controller's statistics, for adaptive runs
+    std::uint64_t side_steps = 0;              ///< fixed steps: extra steps to output times between grid points
+    std::vector<invariant_record> invariants;  ///< each monitored invariant (the model's, then the extra ones)
+    double t = 0.0;                            ///< the time of the last state reached
+    std::optional<double> time_lag;            ///< relaxation RK: the last state belongs to t + time_lag
+    std::optional<run_failure> failure;        ///< why the run stopped early
+    bool completed() const { return !failure.has_value(); }
+};
+
+/// One output of a run, as a sink sees it.
+struct output_point {
+    double t;                             ///< the time of the state
+    std::uint64_t index;                  ///< step index (fixed: on the grid; adaptive: accepted steps) or time index
+    std::span<const double> invariants;   ///< the monitored invariants' values at this state
+    std::optional<double> time_lag;       ///< relaxation RK: the state belongs to t + time_lag
+};
+
+/// An invariant given as a function of the state (a Python callable), monitored after the model's own.
+template <class S>
+struct extra_invariant {
+    std::string name;
+    std::function<double(const S&)> value;
+};
+
+/// A sink: output(x, point) at every output; optionally progress(t, steps) after every step (adaptive: before
+/// every attempt), which may throw to stop the run (Ctrl-C).
+template <class K, class S>
+concept run_sink = requires(K& k, const S& x, const output_point& p) { k.output(x, p); };
+
+/// A sink that keeps nothing.
+struct no_sink {
+    template <class S>
+    void output(const S&, const output_point&) {}
+};
+
+/// The registry entry of `method` among those that run on Dispatch (fixed or adaptive), or std::invalid_argument
+/// naming what is available: "unknown method 'x' (methods: ...)", "method 'x' is not available for WHAT
+/// (available: ...)", "method x has no error estimate for rtol/atol; adaptive methods for WHAT: ...".
+template <class Dispatch>
+method_info resolve_method_for(std::string_view method, bool adaptive, std::string_view what) {
+    auto joined = [](const auto& names) {
+        std::string s;
+        for (const auto& n : names) s.append(s.empty() ? "" : ", ").append(std::string_view(n));
+        return s;
+    };
+    const std::optional<method_info> m = find_method(method);
+    if (!m) {
+        std::vector<std::string_view> all;
+        for (const method_info& i : eci::methods) all.push_back(i.name);
+        throw std::invalid_argument("unknown method '" + std::string(method) + "' (methods: " + joined(all) + ")");
+    }
+    std::vector<std::string_view> fixed;
+    for (const method_info& i : methods_for<Dispatch>()) fixed.push_back(i.name);
+    if (std::ranges::find(fixed, method) == fixed.end())
+        throw std::invalid_argument("method '" + std::string(method) + "' is not available for " + std::string(what) +
+                                    " (available: " + joined(fixed) + ")");
+    if (adaptive) {
+        std::vector<std::string_view> pairs;
+        for (const method_info& i : adaptive_methods_for<Dispatch>()) pairs.push_back(i.name);
+        if (std::ranges::find(pairs, method) == pairs.end())
+            throw std::invalid_argument("method " + std::string(method) +
+                                        " has no error estimate for rtol/atol; adaptive methods for " +
+                                        std::string(what) + ": " + joined(pairs));
+    }
+    return *m;
+}
+
+namespace detail {
+
+/// "x[i]", or "re x[i]" / "im x[i]" for a complex state's parts.
+template <class S>
+std::string default_component_name(std::size_t i) {
+    if constexpr (std::is_same_v<std::ranges::range_value_t<S>, std::complex<double>>)
+        return std::string(i % 2 ? "im" : "re") + " x[" + std::to_string(i / 2) + "]";
+    else
+        return "x[" + std::to_string(i) + "]";
+}
+
+template <class S>
+std::string name_of(const run_config& cfg, std::size_t i) {
+    return cfg.component_name ? cfg.component_name(i) : default_component_name<S>(i);
+}
+
+/// Whether stepper St's states belong to a time other than their grid time (relaxation RK: t + time_lag()).
+template <class St>
+constexpr bool stepper_shifts_time() {
+    if constexpr (requires { St::shifts_time; })
+        return St::shifts_time;
+    else
+        return false;
+}
+
+/// The span's checks, with the messages every front end shows.
+inline void check_config(const run_config& c) {
+    if (!std::isfinite(c.t0)) throw std::invalid_argument("start time must be finite");
+    if (c.adaptive) {
+        if (c.steps) throw std::invalid_argument("a step count is for fixed steps; an adaptive run ends at its end time");
+        if (!(c.dt > 0.0) || !std::isfinite(c.dt))
+            throw std::invalid_argument("initial step must be a positive finite number");
+    } else {
+        check_step(c.dt);
+    }
+    if (!c.steps && (!(c.t_end >= c.t0) || !std::isfinite(c.t_end)))
+        throw std::invalid_argument("end time must be finite and >= start");
+    if (c.every == 0) throw std::invalid_argument("output interval must be at least 1");
+    const double t_end = c.end_time();
+    for (std::size_t i = 0; i < c.times.size(); ++i)
+        if (!std::isfinite(c.times[i]) || c.times[i] < c.t0 || c.times[i] > t_end ||
+            (i > 0 && c.times[i] < c.times[i - 1]))
+            throw std::invalid_argument("output times must be finite, sorted and within the span");
+}
+
+/// The monitor of a run: the model's named invariants (if it has them) and the extra ones, with one vector of
+/// current values (the model's first) and one of records.
+template <class Model, class S>
+class run_monitor {
+   public:
+    run_monitor(const Model& model, std::vector<extra_invariant<S>> extra) : model_(model), extra_(std::move(extra)) {
+        if constexpr (has_named_invariants<Model>)
+            for (const auto& inv : Model::invariants()) records_.push_back({inv.name});
+        for (const auto& e : extra_) records_.push_back({e.name});
+        values_.resize(records_.size());
+    }
+    void record(const S& x) {
+        std::size_t j = 0;
+        if constexpr (has_named_invariants<Model>)
+            for (const auto& inv : Model::invariants()) update(j++, (model_.*inv.value)(x));
+        for (const auto& e : extra_) update(j++, e.value(x));
+        started_ = true;
+    }
+    std::span<const double> values() const { return values_; }
+    const std::vector<invariant_record>& records() const { return records_; }
+    /// The first invariant that is not finite now but was at the start, or none.
+    std::optional<std::size_t> overflowed() const {
+        for (std::size_t j = 0; j < values_.size(); ++j)
+            if (!std::isfinite(values_[j]) && std::isfinite(records_[j].initial)) return j;
+        return std::nullopt;
+    }
+
+   private:
+    void update(std::size_t j, double v) {
+        values_[j] = v;
+        invariant_record& r = records_[j];
+        if (!started_) r.initial = v;
+        r.final = v;
+        const double d = std::abs(v - r.initial);
+        if (d > r.max_abs_drift || std::isnan(d)) r.max_abs_drift = d;
+    }
+
+    const Model& model_;
+    std::vector<extra_invariant<S>> extra_;
+    std::vector<invariant_record> records_;
+    std::vector<double> values_;
+    bool started_ = false;
+};
+
+/// Thrown inside a run when a monitored invariant overflowed (caught by solve, reported as a failure).
+struct invariant_overflowed {
+    double t;
+    std::size_t index;
+};
+
+/// Adaptive stepper St that lets the sink poll between attempts (Ctrl-C, a cancel flag). The numerics are St's.
+template <class St, class Poll>
+struct polled_stepper : St {
+    Poll* poll = nullptr;  ///< null for the dense output's default-constructed fallback, which never attempts
+
+    template <class F, class S>
+    attempt_result attempt(F& f, const S& x, double t, double dt, const error_weights* w = nullptr,
+                           bool track_worst = false) {
+        if (poll && !track_worst) (*poll)(t);
+        return St::attempt(f, x, t, dt, w, track_worst);
+    }
+};
+
+}  // namespace detail
+
+/// Whether the registered method `name` on Dispatch gives states that belong to a later time than their grid time
+/// (relaxation RK: t + time_lag), so that an output has a time_lag to show.
+template <class Dispatch>
+bool method_shifts_time(std::string_view name) {
+    bool shifts = false;
+    with_stepper<Dispatch>(name, [&](auto st) { shifts = detail::stepper_shifts_time<decltype(st)>(); });
+    return shifts;
+}
+
+/// Rejects an initial state whose arithmetic is beyond double precision from the start, with one line naming the
+/// component: a non-finite or subnormal component, the model's own domain (validate_state), an invariant or a
+/// rate that is not finite. std::invalid_argument.
+template <class Model, class S>
+void check_initial_state(const Model& model, const S& x, const std::function<std::string(std::size_t)>& name) {
+    auto named = [&](std::size_t i) { return name ? name(i) : detail::default_component_name<S>(i); };
+    const auto r = detail::reals(x);
+    for (std::size_t i = 0; i < r.size(); ++i)
+        if (!std::isfinite(r[i])) throw std::invalid_argument("initial condition " + named(i) + " is not finite");
+    if constexpr (requires { model.validate_state(x); }) {  // a domain, e.g. Lotka-Volterra's x, y > 0
+        try {
+            model.validate_state(x);
+        } catch (const std::invalid_argument& e) {
+            throw std::invalid_argument(std::string("invalid initial condition: ") + e.what());
+        }
+    }
+    char buffer[32];
+    for (std::size_t i = 0; i < r.size(); ++i)
+        if (r[i] != 0.0 && std::abs(r[i]) < std::numeric_limits<double>::min())
+            throw std::invalid_argument("initial condition " + named(i) + " = " +
+                                        std::string(detail::format_double(r[i], buffer)) +
+                                        " is subnormal (below 2.2e-308): its products underflow to 0");
+    if constexpr (has_named_invariants<Model>) {
+        for (const auto& inv : Model::invariants()) {
+            const double v = (model.*inv.value)(x);
+            if (!std::isfinite(v))
+                throw std::invalid_argument(std::string("the initial ") + inv.name + " is " +
+                                            std::string(detail::format_double(v, buffer)) +
+                                            ": the initial condition and parameters are beyond double precision");
+        }
+        S dxdt = x;
+        model(x, dxdt, 0.0);
+        if (!detail::all_finite(dxdt))
+            throw std::invalid_argument("the rate of " + named(detail::first_non_finite(dxdt)) +
+                                        " overflows at the initial condition: the parameters and initial condition "
+                                        "are beyond double precision");
+    }
+}
+
+/// Runs `method` (a registry name) on the system f from x over `cfg`, monitoring the model's invariants (and
+/// `extra`) at every step, and hands every output to `sink`. Dispatch is the type the registry builds steppers
+/// for (the model; for a plain function, its state type). Bad settings throw std::invalid_argument before any
+/// step; a run that cannot go on returns with `failure` set and x at the last state reached; a cancelled run
+/// throws eci::interrupted; whatever the sink throws propagates.
+template <class Dispatch, class F, class S, class Sink>
+solve_report solve(const F& f, S& x, std::string_view method, const run_config& cfg, Sink&& sink,
+                   std::vector<extra_invariant<S>> extra = {}, std::string_view what = "this system") {
+    detail::check_config(cfg);
+    solve_report report;
+    report.method = resolve_method_for<Dispatch>(method, cfg.is_adaptive(), what);
+    report.t = cfg.t0;
+    detail::run_monitor<F, S> monitor(f, std::move(extra));
+    const double t_end = cfg.end_time();
+    constexpr bool has_progress = requires(double t, std::uint64_t i) { sink.progress(t, i); };
+    auto fail = [&](run_failure_kind kind, double t, std::size_t component, double dt, std::string message) {
+        report.failure = run_failure{kind, t, component, dt, std::move(message), std::nullopt, rejection::step_failed};
+    };
+    auto check_overflow = [&](double t) {
+        if (!cfg.stop_on_invariant_overflow) return;
+        if (const auto j = monitor.overflowed()) throw detail::invariant_overflowed{t, *j};
+    };
+    try {
+        if (cfg.adaptive) {
+            // Output times: the requested ones, then t_end (run to, not output) if they stop short of it.
+            std::vector<double> times = cfg.times;
+            const std::size_t wanted = times.size();
+            if (!times.empty() && times.back() < t_end) times.push_back(t_end);
+            auto observe = [&](const S& s, double t, std::uint64_t i) {
+                monitor.record(s);
+                report.t = t;
+                check_overflow(t);
+                const bool out = times.empty() ? (i % cfg.every == 0 || t == t_end) : i < wanted;
+                if (out) sink.output(s, output_point{t, i, monitor.values(), std::nullopt});
+            };
+            auto poll = [&](double t) {
+                if (cfg.cancel && cfg.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
+                if constexpr (has_progress) sink.progress(t, report.adaptive ? report.adaptive->accepted : 0);
+            };
+            with_adaptive_stepper<Dispatch>(report.method.name, [&](auto stepper) {
+                detail::polled_stepper<decltype(stepper), decltype(poll)> st;
+                st.poll = &poll;
+                adaptive_stats stats;
+                try {
+                    stats = times.empty()
+                                ? integrate_adaptive(st, f, x, cfg.t0, t_end, cfg.dt, *cfg.adaptive, observe)
+                                : integrate_adaptive_at(st, f, x, cfg.t0, times, cfg.dt, *cfg.adaptive, observe,
+                                                        cfg.mode);
+                } catch (const adaptive_failure& e) {
+                    stats = e.stats;
+                    const bool too_many = e.why == adaptive_failure::reason::too_many_steps;
+                    fail(too_many ? run_failure_kind::too_many_steps : run_failure_kind::step_too_small, e.time,
+                         e.component, e.dt, e.what());
+                    report.failure->last_rejection = e.last_rejection;
+                }
+                report.adaptive = stats;
+                report.stats.steps = stats.accepted;
+                report.stats.step_reductions = stats.rejected_radicand;
+                report.stats.non_finite_rate_reductions = stats.rejected_non_finite_rate;
+                report.stats.rhs_evals = stats.rhs_evals;
+            });
+        } else {
+            const run_span span = cfg.steps ? run_span::n_steps(*cfg.steps, cfg.dt, cfg.t0)
+                                            : run_span::until(cfg.t_end, cfg.dt, cfg.t0);
+            run_options opt;
+            opt.max_halvings = cfg.max_halvings;
+            opt.max_substeps = cfg.max_substeps;
+            opt.cancel = cfg.cancel;
+            const bool found = with_stepper<Dispatch>(report.method.name, [&](auto stepper) {
+                using St = decltype(stepper);
+                std::function<std::optional<double>()> lag = [] { return std::optional<double>{}; };
+                if constexpr (detail::stepper_shifts_time<St>())
+                    lag = [&stepper] { return std::optional<double>(stepper.time_lag()); };
+                // Output times between grid points: a side step from the earlier grid state, with copies of the
+                // stepper and the state, so that the grid run is untouched.
+                run_stats side{};
+                const detail::counting_system<const F> side_f{f, side.rhs_evals, cfg.cancel};
+                std::size_t next = 0;
+                const std::uint64_t last = span.steps;
+                auto grid_time = [&](std::uint64_t i) { return i >= last ? span.t_end : span.t0 + double(i) * span.dt; };
+                auto observe = [&](const S& s, double t, std::uint64_t i) {
+                    monitor.record(s);
+                    report.t = t;
+                    check_overflow(t);
+                    if (cfg.times.empty()) {
+                        if (i % cfg.every == 0 || i == last) sink.output(s, output_point{t, i, monitor.values(), lag()});
+                    } else {
+                        for (; next < cfg.times.size() && cfg.times[next] == t; ++next)
+                            sink.output(s, output_point{t, next, monitor.values(), lag()});
+                        const double t_next = grid_time(i + 1);
+                        for (; i < last && next < cfg.times.size() && cfg.times[next] < t_next; ++next) {
+                            St side_stepper = stepper;
+                            S xs = s;
+                            detail::advance_with_reduction(side_stepper, side_f, xs, t, cfg.times[next] - t, opt, side);
+                            ++report.side_steps;
+                            monitor.record(xs);
+                            check_overflow(cfg.times[next]);
+                            sink.output(std::as_const(xs),
+                                        output_point{cfg.times[next], next, monitor.values(), std::nullopt});
+                        }
+                    }
+                    if constexpr (has_progress) sink.progress(t, i);
+                };
+                opt.every = 1;  // the monitor sees every step; the sink's cadence is decided above
+                try {
+                    report.stats = span.to_end_time
+                                       ? integrate_to(stepper, f, x, span.t0, span.t_end, span.dt, observe, opt)
+                                       : integrate_n_steps(stepper, f, x, span.t0, span.dt, span.steps, observe, opt);
+                } catch (const step_size_underflow& e) {
+                    report.stats = e.stats;
+                    const std::string name = detail::name_of<S>(cfg, e.component);
+                    const std::string cause = e.non_finite_rate_value
+                                                  ? "the rate of " + name + " is " + detail::full_text(*e.non_finite_rate_value)
+                                                  : std::string("negative radicand, non-invertible transform or non-finite state");
+                    fail(run_failure_kind::step_failed, e.time, e.component, e.dt,
+                         "step failed at t = " + detail::full_text(e.time) + " in component " + name +
+                             " even with the step halved " + std::to_string(cfg.max_halvings) + " times (dt = " +
+                             detail::full_text(e.dt) + "): " + cause);
+                    report.failure->non_finite_rate_value = e.non_finite_rate_value;
+                } catch (const step_work_exceeded& e) {
+                    fail(run_failure_kind::work_exceeded, e.time, 0, e.dt, e.what());
+                } catch (const non_finite_state& e) {
+                    fail(run_failure_kind::non_finite_state, e.time, e.component, 0.0,
+                         "the state became non-finite (" + detail::name_of<S>(cfg, e.component) + ") at t = " +
+                             detail::full_text(e.time));
+                }
+                // Side steps add their evaluations, reductions and solves, not steps of the grid.
+                report.stats.rhs_evals += side.rhs_evals;
+                report.stats.step_reductions += side.step_reductions;
+                report.stats.non_finite_rate_reductions += side.non_finite_rate_reductions;
+                if constexpr (detail::stepper_shifts_time<St>()) report.time_lag = stepper.time_lag();
+            });
+            if (!found)
+                throw std::invalid_argument("method '" + std::string(method) + "' has no stepper for " +
+                                            std::string(what));
+        }
+    } catch (const detail::invariant_overflowed& e) {
+        fail(run_failure_kind::invariant_overflow, e.t, e.index, 0.0,
+             "the invariant " + monitor.records()[e.index].name + " overflowed at t = " + detail::full_text(e.t) +
+                 ": the solution blew up");
+    }
+    report.invariants = monitor.records();
+    return report;
+}
+
+}  // namespace eci

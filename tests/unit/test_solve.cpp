@@ -1,0 +1,285 @@
+// Unit tests of the one run, eci::solve (solve.hpp): it gives the drivers' bits for fixed and adaptive runs, side
+// steps to output times between grid points, a failure report for every way a run can stop, rates a system reports
+// as non-finite counted apart, the initial checks' messages, the method resolver's messages, and cancellation.
+#include <gtest/gtest.h>
+
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include <eci/eci.hpp>
+#include <eci/models/three_wave.hpp>
+
+namespace {
+
+using tw_state = eci::three_wave::state_type;
+const tw_state fig5{std::sqrt(1.5), 1.0, std::sqrt(1.5)};
+
+/// Keeps every output.
+template <class S>
+struct keep_all {
+    std::vector<double> t;
+    std::vector<S> x;
+    std::vector<std::vector<double>> invariants;
+    void output(const S& s, const eci::output_point& p) {
+        t.push_back(p.t);
+        x.push_back(s);
+        invariants.emplace_back(p.invariants.begin(), p.invariants.end());
+    }
+};
+
+using vec = std::vector<double>;
+
+/// x' = -x, with a rate that turns NaN in component 1 for t >= 0.5 (a user's function that fails there).
+struct nan_after_half {
+    static constexpr bool reports_non_finite_rate = true;
+    void operator()(const vec& x, vec& d, double t) const {
+        for (std::size_t i = 0; i < x.size(); ++i) d[i] = -x[i];
+        if (t >= 0.5) throw eci::non_finite_rate{1, std::numeric_limits<double>::quiet_NaN()};
+    }
+};
+
+}  // namespace
+
+TEST(Solve, FixedStepsGiveTheDriversBitsAndTheirReport) {
+    const eci::three_wave model;
+    tw_state a = fig5, b = fig5;
+    eci::run_config cfg;
+    cfg.t_end = 10.0;
+    cfg.dt = 0.2;  // Fig. 2's step: C-PC halves some steps
+    keep_all<tw_state> sink;
+    const eci::solve_report r = eci::solve<eci::three_wave>(model, a, "c-pc", cfg, sink);
+    eci::c_pc<tw_state> st;
+    std::vector<tw_state> seen;
+    const eci::run_report ref = eci::run(st, model, b, eci::run_span::until(10.0, 0.2),
+                                         [&](const tw_state& s, double, std::uint64_t) { seen.push_back(s); });
+    ASSERT_TRUE(r.completed());
+    EXPECT_EQ(a, b);
+    EXPECT_EQ(sink.x, seen);
+    EXPECT_EQ(sink.t.back(), 10.0);
+    EXPECT_EQ(r.stats.steps, ref.stats.steps);
+    EXPECT_GT(r.stats.step_reductions, 0u);
+    EXPECT_EQ(r.stats.step_reductions, ref.stats.step_reductions);
+    EXPECT_EQ(r.stats.rhs_evals, ref.stats.rhs_evals);
+    ASSERT_EQ(r.invariants.size(), ref.invariants.size());
+    for (std::size_t j = 0; j < r.invariants.size(); ++j)
+        EXPECT_EQ(r.invariants[j].max_abs_drift, ref.invariants[j].max_abs_drift);
+    EXPECT_EQ(r.method.name, "c-pc");
+    EXPECT_FALSE(r.adaptive);
+}
+
+TEST(Solve, EveryKStepsKeepsTheFirstAndTheLast) {
+    const eci::three_wave model;
+    tw_state x = fig5;
+    eci::run_config cfg;
+    cfg.steps = 10;
+    cfg.dt = 0.01;
+    cfg.every = 4;
+    keep_all<tw_state> sink;
+    const auto r = eci::solve<eci::three_wave>(model, x, "rk4", cfg, sink);
+    ASSERT_TRUE(r.completed());
+    EXPECT_EQ(sink.t, (std::vector<double>{0.0, 0.04, 0.08, 0.1}));
+    EXPECT_EQ(sink.invariants[0].size(), 2u);  // energy and enstrophy at every output
+}
+
+TEST(Solve, OutputTimesBetweenGridPointsAreSideStepsFromTheEarlierOne) {
+    const eci::three_wave model;
+    tw_state x = fig5;
+    eci::run_config cfg;
+    cfg.t_end = 1.0;
+    cfg.dt = 0.25;
+    cfg.times = {0.0, 0.25, 0.3, 1.0};
+    keep_all<tw_state> sink;
+    const auto r = eci::solve<eci::three_wave>(model, x, "rk4", cfg, sink);
+    ASSERT_TRUE(r.completed());
+    EXPECT_EQ(sink.t, cfg.times);
+    EXPECT_EQ(r.side_steps, 1u);
+    // The point at 0.3: one step of 0.05 from the grid state at 0.25.
+    tw_state g = fig5;
+    eci::rk4<tw_state> st;
+    eci::integrate_n_steps(st, model, g, 0.0, 0.25, 1);
+    tw_state side = g;
+    eci::rk4<tw_state> st2;
+    eci::integrate_n_steps(st2, model, side, 0.25, 0.3 - 0.25, 1);
+    EXPECT_EQ(sink.x[1], g);
+    EXPECT_EQ(sink.x[2], side);
+    // The grid run is untouched by the side step: 4 steps, 16 + 4 evaluations.
+    EXPECT_EQ(r.stats.steps, 4u);
+    EXPECT_EQ(r.stats.rhs_evals, 20u);
+}
+
+TEST(Solve, AdaptiveRunsGiveRunAdaptivesBits) {
+    const eci::three_wave model;
+    tw_state a = fig5, b = fig5;
+    eci::run_config cfg;
+    cfg.t_end = 5.0;
+    cfg.dt = 0.01;
+    cfg.adaptive = eci::adaptive_options{.rtol = 1e-8, .atol = 1e-8};
+    cfg.times = {0.0, 1.0, 2.5};  // stops short of t_end: the run still goes there
+    keep_all<tw_state> sink;
+    const auto r = eci::solve<eci::three_wave>(model, a, "c-dp54", cfg, sink);
+    ASSERT_TRUE(r.completed());
+    ASSERT_TRUE(r.adaptive);
+    std::vector<tw_state> seen;
+    std::vector<double> times = cfg.times;
+    times.push_back(5.0);
+    eci::adaptive_report ref;
+    eci::with_adaptive_stepper<eci::three_wave>("c-dp54", [&](auto st) {
+        ref = eci::run_adaptive(st, model, b, 0.0, 5.0, 0.01, *cfg.adaptive, times,
+                                [&](const tw_state& s, double, std::uint64_t) { seen.push_back(s); });
+    });
+    EXPECT_EQ(a, b);
+    EXPECT_EQ(sink.t, cfg.times);
+    ASSERT_EQ(sink.x.size(), 3u);
+    for (std::size_t i = 0; i < 3; ++i) EXPECT_EQ(sink.x[i], seen[i]);
+    EXPECT_EQ(r.adaptive->accepted, ref.stats.accepted);
+    EXPECT_EQ(r.stats.steps, ref.stats.accepted);
+    EXPECT_EQ(r.stats.rhs_evals, ref.stats.rhs_evals);
+}
+
+TEST(Solve, ANonFiniteRateFailsTheAttemptAndIsCountedApart) {
+    // dt = 0.3: the step from 0.3 evaluates at t >= 0.5 and fails at every size down to 2^-3 dt.
+    vec x{1.0, 2.0};
+    eci::run_config cfg;
+    cfg.t_end = 1.0;
+    cfg.dt = 0.3;
+    cfg.max_halvings = 3;
+    const auto r = eci::solve<vec>(nan_after_half{}, x, "rk4", cfg, eci::no_sink{});
+    ASSERT_FALSE(r.completed());
+    EXPECT_EQ(r.failure->kind, eci::run_failure_kind::step_failed);
+    ASSERT_TRUE(r.failure->non_finite_rate_value);
+    EXPECT_TRUE(std::isnan(*r.failure->non_finite_rate_value));
+    EXPECT_EQ(r.failure->component, 1u);
+    EXPECT_EQ(r.stats.steps, 1u);
+    EXPECT_GT(r.stats.non_finite_rate_reductions, 0u);
+    EXPECT_EQ(r.stats.non_finite_rate_reductions, r.stats.step_reductions);
+    EXPECT_NE(r.failure->message.find("in component x[1] even with the step halved 3 times"), std::string::npos)
+        << r.failure->message;
+    // x is the last state reached: after the one step, finite.
+    EXPECT_TRUE(std::isfinite(x[0]) && std::isfinite(x[1]));
+}
+
+TEST(Solve, AdaptiveRejectsANonFiniteRateAndNamesItTheLastRejection) {
+    vec x{1.0, 2.0};
+    eci::run_config cfg;
+    cfg.t_end = 1.0;
+    cfg.dt = 0.01;
+    cfg.adaptive = eci::adaptive_options{.rtol = 1e-6, .atol = 1e-6};
+    const auto r = eci::solve<vec>(nan_after_half{}, x, "dp54", cfg, eci::no_sink{});
+    ASSERT_FALSE(r.completed());
+    EXPECT_EQ(r.failure->kind, eci::run_failure_kind::step_too_small);
+    EXPECT_EQ(r.failure->last_rejection, eci::rejection::non_finite_rate);
+    EXPECT_GT(r.adaptive->rejected_non_finite_rate, 0u);
+    EXPECT_LT(r.failure->t, 0.5);
+}
+
+TEST(Solve, AnInvariantThatOverflowsEndsTheRun) {
+    // x' = x^2 from x = 1 blows up at t = 1; its "energy" x^2 overflows before the state does.
+    struct blow_up {
+        using state_type = std::array<double, 1>;
+        void operator()(const state_type& x, state_type& d, double) const { d[0] = x[0] * x[0]; }
+        double energy(const state_type& x) const { return x[0] * x[0] * x[0] * x[0] * x[0] * x[0] * x[0] * x[0]; }
+        static constexpr auto invariants() {
+            return std::array<eci::named_invariant<blow_up>, 1>{{{"energy", &blow_up::energy}}};
+        }
+    };
+    blow_up::state_type x{1.0};
+    eci::run_config cfg;
+    cfg.t_end = 2.0;
+    cfg.dt = 1e-3;
+    const auto r = eci::solve<blow_up>(blow_up{}, x, "rk4", cfg, eci::no_sink{});
+    ASSERT_FALSE(r.completed());
+    EXPECT_EQ(r.failure->kind, eci::run_failure_kind::invariant_overflow);
+    EXPECT_EQ(r.failure->message.rfind("the invariant energy overflowed at t = ", 0), 0u) << r.failure->message;
+    EXPECT_LT(r.failure->t, 1.01);     // at the blow-up time 1 (RK4 overshoots it by a few steps)
+    EXPECT_TRUE(std::isfinite(x[0]));  // before the state itself overflowed
+}
+
+TEST(Solve, BadSettingsAreRefusedBeforeAnyStep) {
+    const eci::three_wave model;
+    tw_state x = fig5;
+    auto message = [&](eci::run_config cfg, const char* method = "rk4") {
+        tw_state y = x;
+        try {
+            eci::solve<eci::three_wave>(model, y, method, cfg, eci::no_sink{}, {}, "model three-wave");
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    eci::run_config ok;
+    ok.t_end = 1.0;
+    ok.dt = 0.1;
+    EXPECT_EQ(message(ok), "accepted");
+    EXPECT_EQ(message(ok, "rk5").rfind("unknown method 'rk5' (methods: ", 0), 0u);
+    EXPECT_EQ(message(ok, "kahan").rfind("method 'kahan' is not available for model three-wave (available: euler, ", 0),
+              0u);
+    eci::run_config a = ok;
+    a.adaptive = eci::adaptive_options{};
+    EXPECT_EQ(message(a, "c-rk4").rfind("method c-rk4 has no error estimate for rtol/atol; adaptive methods for "
+                                        "model three-wave: ", 0),
+              0u);
+    eci::run_config zero = ok;
+    zero.dt = 0.0;
+    EXPECT_EQ(message(zero), "time step must be a positive finite number");
+    eci::run_config times = ok;
+    times.times = {0.5, 0.2};
+    EXPECT_EQ(message(times), "output times must be finite, sorted and within the span");
+    EXPECT_EQ(x, fig5);
+}
+
+TEST(Solve, InitialStatesBeyondDoublePrecisionAreRefusedNamingTheComponent) {
+    // A model with no domain check of its own (three-wave's validate_state catches subnormal values first).
+    struct product {
+        using state_type = std::array<double, 2>;
+        void operator()(const state_type& x, state_type& d, double) const { d[0] = x[1] * x[1] * x[1], d[1] = -x[0]; }
+        double energy(const state_type& x) const { return x[0] * x[0] + x[1] * x[1]; }
+        static constexpr auto invariants() {
+            return std::array<eci::named_invariant<product>, 1>{{{"energy", &product::energy}}};
+        }
+    };
+    auto message = [&](product::state_type x) {
+        try {
+            eci::check_initial_state(product{}, x, [](std::size_t i) {
+                std::string name = "u";  // appended: GCC 12 warns falsely (-Wrestrict) on "u" + std::to_string(i)
+                return name.append(std::to_string(i));
+            });
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    EXPECT_EQ(message({1.0, 2.0}), "accepted");
+    EXPECT_EQ(message({1.0, std::nan("")}), "initial condition u1 is not finite");
+    const std::string subnormal = message({1.0, 1e-310});
+    EXPECT_EQ(subnormal.rfind("initial condition u1 = ", 0), 0u) << subnormal;
+    EXPECT_NE(subnormal.find(" is subnormal (below 2.2e-308)"), std::string::npos) << subnormal;
+    EXPECT_EQ(message({1e200, 1.0}).rfind("the initial energy is inf", 0), 0u);
+    // the energy is finite, the rate u1^3 is not
+    EXPECT_EQ(message({1.0, 1e103}).rfind("the rate of u0 overflows at the initial condition", 0), 0u)
+        << message({1.0, 1e103});
+    // without names: x[i]
+    EXPECT_THROW(eci::check_initial_state(product{}, product::state_type{1.0, 1e-310}, {}), std::invalid_argument);
+}
+
+TEST(Solve, ACancelFlagStopsTheRunBetweenSteps) {
+    const eci::three_wave model;
+    tw_state x = fig5;
+    std::atomic<bool> cancel{false};
+    eci::run_config cfg;
+    cfg.t_end = 100.0;
+    cfg.dt = 0.01;
+    cfg.cancel = &cancel;
+    struct stop_after_10 {
+        std::atomic<bool>* flag;
+        void output(const tw_state&, const eci::output_point&) {}
+        void progress(double, std::uint64_t i) {
+            if (i == 10) flag->store(true);
+        }
+    };
+    EXPECT_THROW(eci::solve<eci::three_wave>(model, x, "rk4", cfg, stop_after_10{&cancel}), eci::interrupted);
+}
