@@ -26,6 +26,13 @@ __all__ = ["solve", "methods", "MethodInfo", "SolveResult", "Transform", "StepSi
            "models"]
 __version__ = "0.1.0"
 
+
+def __getattr__(name):  # eci.scipy (SciPy's solve_ivp with eci's pairs) is imported on first use: SciPy is heavy
+    if name == "scipy":
+        import importlib
+        return importlib.import_module(".scipy", __name__)
+    raise AttributeError(f"module 'eci' has no attribute {name!r}")
+
 MethodInfo = namedtuple("MethodInfo", "name order conservative description")
 MethodInfo.__doc__ = "A method of the registry: its name, global order, whether it is exactly conservative, one line."
 

@@ -59,6 +59,7 @@ PYBIND11_MODULE(_eci, m) {
     init_functions(m);
     init_adaptive_functions(m);
     init_kahan(m);
+    init_scipy_stepper(m);
 #ifdef ECI_PYTHON_SPECTRAL
     init_ns2d(m);
 #endif
