@@ -24,7 +24,7 @@ from .models import Model
 
 __all__ = ["solve", "methods", "MethodInfo", "SolveResult", "Transform", "StepSizeUnderflow", "TooManySteps",
            "models"]
-__version__ = "0.1.0"
+__version__ = _eci.__version__  # project(eci VERSION ...) in CMakeLists.txt
 
 
 def __getattr__(name):  # eci.scipy (SciPy's solve_ivp with eci's pairs) is imported on first use: SciPy is heavy
