@@ -46,8 +46,15 @@ class EciDenseOutput(DenseOutput):
         return self._step(t)
 
     @property
+    def landed(self):
+        """Points where the conservative interpolant's psi^2 came out negative in some component (an interpolation
+        error near a zero of psi): a step of the engine from the step's start landed on them instead (exactly
+        conservative, as accurate as the steps; its calls of fun count in the solver's nfev)."""
+        return self._step.landed
+
+    @property
     def clamped(self):
-        """How many interpolated points had a negative psi^2 in some component, set to psi = 0 there."""
+        """Points where that landing step failed too (rare): psi = 0 where psi^2 < 0, off the invariants by that."""
         return self._step.clamped
 
 
@@ -83,11 +90,22 @@ class EmbeddedPair(OdeSolver):
         self.error_exponent = -1 / (self.error_estimator_order + 1)
         self.h_previous = None
         self._weights = self._invariant_weights(invariant_weights, f0)
-        # The engine calls fun itself (not through self.fun) and counts the calls; nfev adds them after each step.
+        # The engine calls fun itself (not through self.fun) and counts the calls: nfev adds them (property below).
         engine_fun = self.fun_single if vectorized else fun
         self._engine = _eci._embedded_stepper(self.eci_method, engine_fun, float(self.t), self.y, f0, self.rtol,
                                               self.atol)
-        self._calls_seen = 0
+
+    # Every call of fun: SciPy's self.fun increments nfev (the initial-step rule), the engine counts its own
+    # (steps, and dense outputs that land a step), also the ones made inside solve_ivp's event location.
+    @property
+    def nfev(self):
+        engine = self.__dict__.get("_engine")
+        return self._nfev_python + (engine.calls if engine is not None else 0)
+
+    @nfev.setter
+    def nfev(self, value):
+        engine = self.__dict__.get("_engine")
+        self._nfev_python = value - (engine.calls if engine is not None else 0)
 
     def _invariant_weights(self, weights, f0):
         if weights is None:
@@ -131,35 +149,32 @@ class EmbeddedPair(OdeSolver):
         step_accepted = False
         step_rejected = False
         engine = self._engine
-        try:
-            while not step_accepted:
-                if h_abs < min_step:
-                    return False, self.TOO_SMALL_STEP
-                h = h_abs * self.direction
-                t_new = t + h
-                if self.direction * (t_new - self.t_bound) > 0:
-                    t_new = self.t_bound
-                h = t_new - t
-                h_abs = np.abs(h)
+        while not step_accepted:
+            if h_abs < min_step:
+                return False, self.TOO_SMALL_STEP
+            h = h_abs * self.direction
+            t_new = t + h
+            if self.direction * (t_new - self.t_bound) > 0:
+                t_new = self.t_bound
+            h = t_new - t
+            h_abs = np.abs(h)
 
-                ok, error_norm, _ = engine.attempt(t, h)
-                if not ok:  # a negative psi^2: the conservative candidate does not exist
-                    h_abs *= RADICAND_FACTOR
-                    step_rejected = True
-                elif error_norm < 1:
-                    if error_norm == 0:
-                        factor = MAX_FACTOR
-                    else:
-                        factor = min(MAX_FACTOR, SAFETY * error_norm ** self.error_exponent)
-                    if step_rejected:
-                        factor = min(1, factor)
-                    h_abs *= factor
-                    step_accepted = True
+            ok, error_norm, _ = engine.attempt(t, h)
+            if not ok:  # a negative psi^2: the conservative candidate does not exist
+                h_abs *= RADICAND_FACTOR
+                step_rejected = True
+            elif error_norm < 1:
+                if error_norm == 0:
+                    factor = MAX_FACTOR
                 else:
-                    h_abs *= max(MIN_FACTOR, SAFETY * error_norm ** self.error_exponent)
-                    step_rejected = True
-        finally:
-            self._count_calls()
+                    factor = min(MAX_FACTOR, SAFETY * error_norm ** self.error_exponent)
+                if step_rejected:
+                    factor = min(1, factor)
+                h_abs *= factor
+                step_accepted = True
+            else:
+                h_abs *= max(MIN_FACTOR, SAFETY * error_norm ** self.error_exponent)
+                step_rejected = True
 
         self.h_previous = h
         self.y_old = self.y
@@ -168,17 +183,9 @@ class EmbeddedPair(OdeSolver):
         self.h_abs = h_abs
         return True, None
 
-    def _count_calls(self):
-        calls = self._engine.calls
-        self.nfev += calls - self._calls_seen
-        self._calls_seen = calls
-
     def _dense_output_impl(self):
-        try:
-            step = self._engine.dense(self.t_old, self.t)
-        finally:
-            self._count_calls()  # a pair without FSAL evaluates fun at the new state (its next step reuses it)
-        return EciDenseOutput(self.t_old, self.t, step)
+        # (a pair without FSAL evaluates fun at the new state here, and its next step reuses it)
+        return EciDenseOutput(self.t_old, self.t, self._engine.dense(self.t_old, self.t))
 
 
 def _class_name(method):

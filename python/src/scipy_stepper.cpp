@@ -72,7 +72,7 @@ void copy_returned(const py::object& r, std::size_t n, T* out) {
 template <class T>
 struct counted_rhs {
     py::object fun;
-    std::uint64_t* calls;
+    std::shared_ptr<std::uint64_t> calls;  // shared with the dense outputs, which may outlive the solver
     bool have_seed = false;
     double seed_t = 0.0;
     std::vector<T> seed_x, seed_f;
@@ -119,21 +119,29 @@ tolerance tolerance_from(const py::object& v, std::size_t n, std::size_t per, co
 }
 
 /// The dense output of one accepted step: a copy of the engine as it was after the step (the stages and the
-/// step's start are in it) and the step's end state.
+/// step's start are in it), the step's end state, and fun (for the points the interpolant cannot give).
 class dense_step_base {
    public:
     virtual ~dense_step_base() = default;
-    virtual py::array evaluate(const py::array_t<double, py::array::forcecast>& t) const = 0;
-    virtual std::uint64_t clamped() const = 0;
+    virtual py::array evaluate(const py::array_t<double, py::array::forcecast>& t) = 0;
+    std::uint64_t landed = 0;   ///< points given by a step from the step's start instead (see evaluate)
+    std::uint64_t clamped = 0;  ///< points where that step failed too, a negative psi^2 set to 0
 };
 
 template <class St, class T>
 class dense_step : public dense_step_base {
    public:
-    dense_step(const St& stepper, const std::vector<T>& x1, double t0, double h)
-        : stepper_(stepper), x1_(x1), t0_(t0), h_(h) {}
+    dense_step(const St& stepper, const std::vector<T>& x1, double t0, double h, const counted_rhs<T>& f)
+        : stepper_(stepper), x1_(x1), t0_(t0), h_(h) {
+        f_.fun = f.fun;
+        f_.calls = f.calls;  // not the seed: that was for the first step only
+    }
 
-    py::array evaluate(const py::array_t<double, py::array::forcecast>& t) const override {
+    // A conservative interpolant whose psi^2 comes out negative in some component (an interpolation error near a
+    // zero of psi) cannot give that point; as eci's own driver does, a step of the engine lands on it instead: from
+    // the step's start, exactly conservative and as accurate as the steps (it is shorter), at the cost of its
+    // stages (calls of fun, counted in nfev).
+    py::array evaluate(const py::array_t<double, py::array::forcecast>& t) override {
         const std::size_t n = x1_.size();
         const std::size_t m = static_cast<std::size_t>(t.size());
         if (t.ndim() > 1) throw py::value_error("`t` must be a float or a 1-D array.");
@@ -144,27 +152,34 @@ class dense_step : public dense_step_base {
         for (std::size_t j = 0; j < m; ++j) {
             const double theta = (t.data()[j] - t0_) / h_;
             const step_result r = stepper_.interpolate(x1_, theta, point);
-            if (!r.ok) clamp(point);
+            if (!r.ok) land(t.data()[j] - t0_, point);
             for (std::size_t i = 0; i < n; ++i) o[i * m + j] = point[i];  // column j (m == 1 for a scalar t)
         }
         return out;
     }
 
-    std::uint64_t clamped() const override { return clamped_; }
-
    private:
-    // A negative interpolated xi = psi^2 (an interpolation error near a zero of psi): the nearest point with
-    // xi >= 0, psi = 0, the engine's NaN replaced. The invariants are then off by that negative excess only.
-    void clamp(std::vector<T>& point) const {
+    void land(double dt, std::vector<T>& point) {
+        St fresh = stepper_;
+        fresh.reset();  // its carried first stage belongs to the step's end, not its start
+        std::vector<T> y = stepper_.step_start();
+        if (dt != 0.0 && fresh.attempt(f_, y, t0_, dt).ok) {
+            fresh.accept(y);
+            point = std::move(y);
+            ++landed;
+            return;
+        }
+        // Not even that (a shorter step can fail where the longer one did not): the nearest point with psi^2 >= 0,
+        // psi = 0 in the failed components, off the invariants by the negative excess only.
         for (double& v : detail::reals(point))
             if (!(v == v)) v = 0.0;
-        ++clamped_;
+        ++clamped;
     }
 
     St stepper_;
     std::vector<T> x1_;
     double t0_, h_;
-    mutable std::uint64_t clamped_ = 0;
+    counted_rhs<T> f_;
 };
 
 class stepper_base {
@@ -174,7 +189,10 @@ class stepper_base {
     virtual py::array accept() = 0;
     virtual std::unique_ptr<dense_step_base> dense(double t_old, double t) = 0;
     virtual py::array state() const = 0;
-    std::uint64_t calls = 0;
+    std::uint64_t calls() const { return *calls_; }
+
+   protected:
+    std::shared_ptr<std::uint64_t> calls_ = std::make_shared<std::uint64_t>(0);
 };
 
 template <class St, class T>
@@ -193,7 +211,7 @@ class stepper_impl : public stepper_base {
         weights_.rtol_each = rtol_.each.empty() ? nullptr : rtol_.each.data();
         weights_.atol_each = atol_.each.empty() ? nullptr : atol_.each.data();
         f_.fun = std::move(fun);
-        f_.calls = &calls;
+        f_.calls = calls_;
         if (!f0.is_none()) {
             f_.seed_x = x_;
             f_.seed_t = t0;
@@ -217,7 +235,7 @@ class stepper_impl : public stepper_base {
 
     std::unique_ptr<dense_step_base> dense(double t_old, double t) override {
         stepper_.prepare_dense(f_, x_, t);  // non-FSAL pairs: f at the new state, reused by the next attempt
-        return std::make_unique<dense_step<St, T>>(stepper_, x_, t_old, t - t_old);
+        return std::make_unique<dense_step<St, T>>(stepper_, x_, t_old, t - t_old, f_);
     }
 
     py::array state() const override { return fresh_array(x_); }
@@ -309,8 +327,10 @@ void init_scipy_stepper(py::module_& m) {
     py::class_<dense_step_base>(m, "_DenseStep", "The dense output of one accepted step (eci.scipy).")
         .def("__call__", &dense_step_base::evaluate, py::arg("t"),
              "y at the times t (a number: shape (n,); a 1-D array: (n, len(t)))")
-        .def_property_readonly("clamped", &dense_step_base::clamped,
-                               "points where a conservative interpolant's psi^2 came out negative and was set to 0");
+        .def_readonly("landed", &dense_step_base::landed,
+                      "points where a conservative interpolant's psi^2 came out negative: a step landed on them")
+        .def_readonly("clamped", &dense_step_base::clamped,
+                      "points where that step failed too: the negative psi^2 set to 0");
     py::class_<stepper_base>(m, "_EmbeddedStepper", "An embedded pair step by step (eci.scipy's solvers).")
         .def("attempt", &stepper_base::attempt, py::arg("t"), py::arg("h"),
              "Attempt a step of h from the state at t: (ok, error norm, component). The state is not changed.")
@@ -318,7 +338,7 @@ void init_scipy_stepper(py::module_& m) {
         .def("dense", &stepper_base::dense, py::arg("t_old"), py::arg("t"),
              "The dense output of the accepted step from t_old to t.")
         .def_property_readonly("y", &stepper_base::state, "the current state (a copy)")
-        .def_readonly("calls", &stepper_base::calls, "calls of fun so far");
+        .def_property_readonly("calls", &stepper_base::calls, "calls of fun so far (dense outputs' included)");
     m.def("_embedded_stepper", &make_stepper, py::arg("method"), py::arg("fun"), py::arg("t0"), py::arg("y0"),
           py::arg("f0"), py::arg("rtol"), py::arg("atol"),
           "The engine of eci's embedded pair `method` on fun(t, y) from y0 at t0 (f0 = fun(t0, y0) or None).");
