@@ -143,7 +143,7 @@ for variant, mapping in VARIANTS.items():
 def test_scipy_version_is_the_one_the_counts_are_for():
     # docs/python.md reports the counts for SciPy 1.10.1 (Debian 12); another SciPy has other tests.
     assert scipy.__version__ == "1.10.1"
-    # 46 cases per variant: test_ivp's 37 (13 test functions x their explicit methods; 4 of them SciPy's default,
+    # 46 cases per variant: test_ivp's 37 (15 test functions x their explicit methods; 4 of them SciPy's default,
     # RK45, only) and test_rk's 9
     assert len(CASES) == 92
 
