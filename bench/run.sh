@@ -135,6 +135,9 @@ esac
   echo "Python: overhead per fun call, eci.solve / solve_ivp RK45 (bench/python_overhead.py)"
   PYTHONPATH="$apps/python" /usr/bin/python3 "$repo/bench/python_overhead.py" $py_opts \
     || echo "(python_overhead: a target MISSED)"
+  echo
+  echo "Python: eci's pairs as SciPy solvers, cost per step against RK45 (bench/scipy_overhead.py)"
+  PYTHONPATH="$apps/python" /usr/bin/python3 "$repo/bench/scipy_overhead.py" $py_opts
 } | tee -a "$out/table.txt" | tee "$out/python.txt"
 if [ "$mode" = smoke ]; then echo "(smoke run: every program ran once, at token sizes: the ratios above mean nothing)"; fi
 grep -h "^wp " "$out/work_precision.txt" | grep -v "lvk=" > "$out/work_precision_summary.txt" || true

@@ -24,7 +24,14 @@ from .models import Model
 
 __all__ = ["solve", "methods", "MethodInfo", "SolveResult", "Transform", "StepSizeUnderflow", "TooManySteps",
            "NonFiniteSolution", "models"]
-__version__ = "0.1.0"
+__version__ = _eci.__version__  # project(eci VERSION ...) in CMakeLists.txt
+
+
+def __getattr__(name):  # eci.scipy (SciPy's solve_ivp with eci's pairs) is imported on first use: SciPy is heavy
+    if name == "scipy":
+        import importlib
+        return importlib.import_module(".scipy", __name__)
+    raise AttributeError(f"module 'eci' has no attribute {name!r}")
 
 MethodInfo = namedtuple("MethodInfo", "name order conservative description")
 MethodInfo.__doc__ = "A method of the registry: its name, global order, whether it is exactly conservative, one line."

@@ -2,6 +2,7 @@
 // behind eci.solve, and the translation of a step-size underflow into eci.StepSizeUnderflow.
 
 #include <eci/registry.hpp>
+#include <eci/version.hpp>
 
 #include "core.hpp"
 #include "models.hpp"
@@ -48,11 +49,13 @@ py::list method_list() {
 PYBIND11_MODULE(_eci, m) {
     using namespace eci::python;
     m.doc() = "The compiled part of eci (use the package eci: eci.solve, eci.models, eci.methods).";
+    m.attr("__version__") = ECI_VERSION_STRING;  // project(eci VERSION ...), the one version source
     m.def("_methods", &method_list, "Every registered method as (name, order, conservative, description).");
     bind_model_base(m);
     init_wave_models(m);
     init_orbit_models(m);
     init_functions(m);
+    init_scipy_stepper(m);
 #ifdef ECI_PYTHON_SPECTRAL
     init_ns2d(m);
 #endif

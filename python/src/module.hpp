@@ -13,5 +13,7 @@ void init_ns2d(pybind11::module_& m);
 void init_wave_models(pybind11::module_& m);
 /// LotkaVolterra and Kepler.
 void init_orbit_models(pybind11::module_& m);
+/// _EmbeddedStepper, _embedded_pairs: the engine behind eci.scipy's OdeSolver classes.
+void init_scipy_stepper(pybind11::module_& m);
 
 }  // namespace eci::python
