@@ -133,9 +133,9 @@ class conservative_rk : public radicand_remedy {
     // itself, |o|^2 = |c|^2 instead of xi, keeping the conventional modulus' offset from xi, which has one sign from
     // step to step (DP54 at small steps drifted E and Z by ~eps / 40 per step, 8 eps sqrt(n) over 10^5 steps). There
     // each part is c_p (1 + g), g = sqrt(xi / |c|^2) - 1 from an error-free |c|^2, rounded stochastically to one of
-    // its two neighbouring doubles with a uniform number hashed from the element and xi's bits: unbiased, and
+    // its two neighbouring doubles with a uniform number hashed from xi's and |c_p|'s bits: unbiased, and
     // deterministic (a restart from the same state gives the same bits).
-    static void modulus_update(double* o, const std::array<double, per>& c, double xi, double c2, std::size_t e) {
+    static void modulus_update(double* o, const std::array<double, per>& c, double xi, double c2) {
         if (!(std::abs(xi - c2) <= 0x1p-46 * xi)) {
             const double root = std::sqrt(xi), r = std::sqrt(c2);
             for (std::size_t p = 0; p < per; ++p) o[p] = root * (c[p] / r);
@@ -157,7 +157,12 @@ class conservative_rk : public radicand_remedy {
             if (delta == 0.0) continue;
             const double next = std::nextafter(c[p], delta > 0.0 ? HUGE_VAL : -HUGE_VAL);
             const double frac = delta / (next - c[p]);  // in [0, 1) for |delta| below an ulp, else more
-            std::uint64_t h = bits ^ (0x9E3779B97F4A7C15ull * (2 * e + p + 1));  // splitmix64
+            // hashed from xi and |c_p| (not the element's index): mirror-image modes (k and -k of a real field)
+            // get mirror-image values
+            const double mag = std::abs(c[p]);
+            std::uint64_t cb;
+            std::memcpy(&cb, &mag, sizeof cb);
+            std::uint64_t h = bits ^ (cb * 0x9E3779B97F4A7C15ull) ^ (p + 1);  // splitmix64
             h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
             h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
             h ^= h >> 31;
@@ -198,7 +203,7 @@ class conservative_rk : public radicand_remedy {
                     if (xi > 0.0) neg_.push_back(e);
                     continue;
                 }
-                modulus_update(o + e * per, c, xi, c2, e);
+                modulus_update(o + e * per, c, xi, c2);
             }
             // Ill-conditioned, and the conventional update differs from it beyond round-off (2^-40 relative): where
             // the two agree to a few ulps the swap gains nothing, and its defect (then of the order of eps times

@@ -176,6 +176,11 @@ class radicand_remedy {
         // All of cond_, then its worst quarter, its worst sixteenth, none: the caps decide how many.
         too_small_ = false;
         for (std::size_t take = cond_.size();; take /= 4) {
+            // Never cut between equal ratios: elements that are mirror images of each other (a real field's k and
+            // -k, both stored on Navier-Stokes' k_x = 0 column) have equal ratios and must be treated alike, or
+            // the state stops being Hermitian and the model's rates (and its budget) see another field.
+            while (take > 0 && take < cond_.size() && cond_ratio_[order_[take]] == cond_ratio_[order_[take - 1]])
+                ++take;
             if (attempt_elements<Per>(o, x, n, conv, take)) return true;
             ++stats_.conditioning_declined;
             for (std::size_t j = 0; j < take; ++j)
