@@ -229,9 +229,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     t_span: (t0, t1), t1 >= t0.
     y0: the initial state; for a model, None means its default initial condition.
     method: a name from eci.methods(). Default: "c-rk4" (conservative classical Runge-Kutta) with fixed steps,
-        "c-dp54" (conservative Dormand-Prince 5(4)) with adaptive control; for a Python fun that declares no
-        invariant (neither invariants nor transform) adaptive control uses "dp54", which is as accurate per
-        evaluation on a system that has nothing for the conservative pair to keep.
+        "c-dp54" (conservative Dormand-Prince 5(4)) with adaptive control.
     dt: the fixed step. Steps land on t0 + i dt, the last one shortened to end at t1, exactly as `eci run`, so the
         states are the CLI's bit for bit. For a model, None means its default step (model.default_dt).
     rtol, atol: adaptive step control (an embedded pair: bs32, ck54, dp54, f78 and their c- versions), each a
@@ -286,10 +284,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             raise ValueError(f"dt is required for method {method} (fixed steps); or give rtol/atol with an adaptive "
                              f"method ({', '.join(_eci._adaptive_methods_real())})")
     if method is None:
-        # A Python fun that declares no invariant (no invariants=, no transform=) has nothing for a conservative pair
-        # to keep: the conventional pair is the honest default for it (issue 19).
-        plain = not is_model and invariants is None and transform is None
-        method = ("dp54" if plain else _DEFAULT_ADAPTIVE) if adaptive else "c-rk4"
+        method = _DEFAULT_ADAPTIVE if adaptive else "c-rk4"
     if not adaptive:
         for name, value, default in (("first_step", first_step, None), ("min_step", min_step, 0.0),
                                      ("max_step", max_step, math.inf), ("max_steps", max_steps, None),
