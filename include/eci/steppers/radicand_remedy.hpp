@@ -159,6 +159,10 @@ class radicand_remedy {
     // refused too, false (the step fails and is halved).
     template <std::size_t Per, class Conv>
     bool remedy_elements(double* o, const double* x, std::size_t n, Conv&& conv) {
+        // Negative radicands must be taken: if they alone hold too large a share, or are not finite (a step far
+        // too large), every set fails; decline at once rather than try the cascade (a step of 1e7 on n-wave would
+        // otherwise try it in each of 2^16 attempts).
+        if (!neg_.empty() && !negatives_can_be_taken<Per>(o, x, n)) return decline();
         // The worst-conditioned first (smallest xi / |change of xi|), so that a refused set can be cut to its worst.
         if (!cond_.empty()) {
             order_.resize(cond_.size());
@@ -191,6 +195,28 @@ class radicand_remedy {
         }
         --stats_.conditioning_declined;  // the last refusal (no ill-conditioned element taken) is a decline
         return decline();
+    }
+
+    // One pass: whether neg_ alone (o holds their conventional update) holds at most max_share of every invariant.
+    template <std::size_t Per>
+    bool negatives_can_be_taken(const double* o, const double* x, std::size_t n) const {
+        constexpr std::size_t shift = Per == 2 ? 1 : 0;
+        const std::size_t m = weights_.size();
+        std::array<double, max_invariants> held{}, mag{};
+        for (std::size_t e : neg_) {
+            double x2 = 0.0, c2 = 0.0;
+            for (std::size_t p = 0; p < Per; ++p)
+                x2 += x[e * Per + p] * x[e * Per + p], c2 += o[e * Per + p] * o[e * Per + p];
+            if (!std::isfinite(c2)) return false;
+            for (std::size_t j = 0; j < m; ++j) held[j] += std::abs(weights_[j][e]) * std::max(x2, c2);
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+            const double xi = o[i] * o[i];
+            for (std::size_t j = 0; j < m; ++j) mag[j] += std::abs(weights_[j][i >> shift]) * xi;
+        }
+        for (std::size_t j = 0; j < m; ++j)
+            if (!(held[j] <= remedy.max_share * mag[j])) return false;
+        return true;
     }
 
     // The first negative radicand's real unknown after remedy_elements refused.
