@@ -97,10 +97,23 @@ std::string get_string(hid_t obj, const char* name) {
     return s;
 }
 
+/// File-creation properties whose root group carries no timestamps (kept for the process: one small object).
+hid_t untimed_file_properties() {
+    static const hid_t fcpl = [] {
+        const hid_t p = H5Pcreate(H5P_FILE_CREATE);
+        H5Pset_obj_track_times(p, false);
+        return p;
+    }();
+    return fcpl;
+}
+
 void write_dataset(hid_t file, const char* name, const double* data, std::initializer_list<hsize_t> dims) {
     std::vector<hsize_t> d(dims);
     handle sp(H5Screate_simple(int(d.size()), d.data(), nullptr), H5Sclose, "HDF5 dataspace");
-    handle ds(H5Dcreate2(file, name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT), H5Dclose,
+    // No object timestamps: two identical runs write identical files.
+    handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "HDF5 dataset properties");
+    H5Pset_obj_track_times(dcpl, false);
+    handle ds(H5Dcreate2(file, name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose,
               std::string("HDF5 dataset ") + name);
     if (H5Dwrite(ds, H5T_NATIVE_DOUBLE, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
         throw std::runtime_error(std::string("HDF5 dataset ") + name);
@@ -176,7 +189,8 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
     quiet_hdf5();
     const std::string tmp = temp_name(path);
     {
-        handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "cannot write " + path);
+        handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT), H5Fclose,
+                 "cannot write " + path);
         put(f, "format", std::string("eci navier-stokes-2d checkpoint"));
         put(f, "version", std::int64_t(1));
         put_params(f, c.params);
@@ -259,7 +273,8 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
     quiet_hdf5();
     const std::string tmp = temp_name(path);
     {
-        handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT), H5Fclose, "cannot write " + path);
+        handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT), H5Fclose,
+                 "cannot write " + path);
         put(f, "format", std::string("eci navier-stokes-2d snapshot"));
         put_params(f, m.params());
         put(f, "time", t);

@@ -36,7 +36,7 @@ struct adaptive_options {
     bool pi_control = false;             ///< PI controller (Gustafsson; Hairer-Wanner II, IV.2) instead of I
     double pi_beta = 0.04;               ///< PI: weight of the previous error (alpha = 1/(q+1) - 0.75 beta)
     double radicand_factor = 0.5;        ///< a negative radicand / non-invertible transform shrinks the step so
-    double dt_min = 0.0;                 ///< smallest step; 0 means 64 eps max(|t|, |t_end|), the resolution of time
+    double dt_min = 0.0;                 ///< smallest step; 0 means 64 eps |t|, the resolution of time where the run is
     double dt_max = std::numeric_limits<double>::infinity();  ///< largest step
     std::uint64_t max_attempts = 50'000'000;  ///< accepted plus rejected steps before the run stops
 };
@@ -250,9 +250,11 @@ class adaptive_loop {
                 dt_ = dt * std::max(o_.min_factor, o_.safety * std::pow(r.error, -1.0 / q1));
             }
             just_rejected_ = true;
+            // The default floor is the resolution of time where the run is, 64 eps |t| (not of the end time: a
+            // long horizon must not stop a run early), and never below 2^-30 of the span left (a run at t = 0).
             const double dt_min = o_.dt_min > 0.0 ? o_.dt_min
                                                   : 64.0 * std::numeric_limits<double>::epsilon() *
-                                                        std::max({std::abs(t_), std::abs(t_target),
+                                                        std::max({std::abs(t_), 0x1p-30 * (t_target - t_),
                                                                   std::numeric_limits<double>::min()});
             if (dt_ < dt_min) {
                 std::size_t component = r.component;

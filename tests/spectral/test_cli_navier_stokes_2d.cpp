@@ -5,10 +5,12 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "cli/support.hpp"
@@ -101,6 +103,26 @@ TEST(CliNavierStokes2d, SnapshotsSpectrumAndBudgetColumns) {
     EXPECT_GT(e_out, 0.0);
     // 30 steps, each closing to a few eps of E (the library's budget test): 1e-13 per step is ample.
     EXPECT_LE(std::abs(residual), 30 * 1e-13 * e);
+}
+
+// Two identical runs write identical HDF5 files, byte for byte (no object timestamps in them).
+TEST(CliNavierStokes2d, IdenticalRunsWriteIdenticalHdf5Files) {
+    scratch_dir dir("ns2d-same");
+    const fs::path d = dir.path();
+    for (const char* run : {"a", "b"}) {
+        const std::string q = shell_quote((d / run).string());
+        fs::create_directories(d / run);
+        const auto r = run_eci("run navier-stokes-2d --N 16 --steps 4 --fftw-estimate --fftw-wisdom none "
+                               "--snapshot-every 4 --snapshot-dir " + q + " --checkpoint-every 4 --checkpoint " + q +
+                                   "/c.h5",
+                               d);
+        ASSERT_EQ(r.status, 0) << r.err;
+        if (run[0] == 'a') std::this_thread::sleep_for(std::chrono::milliseconds(1100));  // another second
+    }
+    for (const char* f : {"vorticity_00000004.h5", "c.h5"}) {
+        ASSERT_TRUE(fs::exists(d / "a" / f)) << f;
+        EXPECT_EQ(read_text(d / "a" / f), read_text(d / "b" / f)) << f;
+    }
 }
 
 // A blow-up (forward Euler far beyond its stability limit) stops with an error naming it, exit 1, and the last

@@ -283,3 +283,19 @@ TEST(Solve, ACancelFlagStopsTheRunBetweenSteps) {
     };
     EXPECT_THROW(eci::solve<eci::three_wave>(model, x, "rk4", cfg, stop_after_10{&cancel}), eci::interrupted);
 }
+
+// Issue 21 (13): the default minimum step is the resolution of time where the run is, not at its end: a tight
+// tolerance over a long horizon runs (here until its attempt budget) instead of stopping at the start.
+TEST(Solve, ALongHorizonDoesNotRaiseTheMinimumStep) {
+    vec x{1.0, 0.0};
+    auto rotation = [](const vec& y, vec& d, double) { d[0] = y[1], d[1] = -y[0]; };
+    eci::run_config cfg;
+    cfg.t_end = 1e12;  // 64 eps 1e12 = 0.014: the old floor, far above the steps rtol 1e-12 needs
+    cfg.dt = 1e-3;
+    cfg.adaptive = eci::adaptive_options{.rtol = 1e-12, .atol = 1e-12, .max_attempts = 2000};
+    const auto r = eci::solve<vec>(rotation, x, "dp54", cfg, eci::no_sink{});
+    ASSERT_FALSE(r.completed());
+    EXPECT_EQ(r.failure->kind, eci::run_failure_kind::too_many_steps) << r.failure->message;
+    EXPECT_GT(r.failure->t, 1.0);
+    EXPECT_LT(r.adaptive->dt_largest, 0.014);
+}

@@ -6,6 +6,8 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <cstdint>
+#include <cstring>
 #include <ranges>
 #include <span>
 #include <utility>
@@ -46,7 +48,19 @@ class conservative_rk : public radicand_remedy {
         double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
         S& out = is_c_pc ? st_.stage : result_;
         double* o = detail::reals(out).data();
-        if constexpr (is_c_pc) {
+        if (conditioned_update_applies(n)) {
+            // Issue 19: the modulus of a complex mode, the conventional update where the square root is
+            // ill-conditioned, and one exact rescale (docs/methods.md).
+            std::array<const double*, s> kp{};
+            for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
+            finish_conditioned(o, xr.data(), kp, dt, n);
+            if (!(neg_.empty() && cond_.empty()) &&
+                !remedy_elements<per>(o, xr.data(), n, [&](std::size_t e, std::array<double, per>& c) {
+                    std::array<double, per> rad{};
+                    return element_update(xr.data(), kp, e, dt, c, rad);
+                }))
+                return step_result::failure(first_negative<per>());
+        } else if constexpr (is_c_pc) {
             const double* k1 = detail::reals(std::as_const(st_.k[1])).data();
             bad = n >= 64 ? detail::c_pc_finish(o, xr.data(), k1, dt, n)
                           : detail::c_pc_finish_inline(o, xr.data(), k1, dt, n);
@@ -83,6 +97,123 @@ class conservative_rk : public radicand_remedy {
     }
 
     static constexpr std::size_t per = sizeof(std::ranges::range_value_t<S>) / sizeof(double);
+
+    // The conditioned update (issue 19) needs the declared weights (the rescale restores them, and they say the
+    // invariants of a complex state are sums w_k |psi_k|^2, phase-free), the remedy policy, and a system of at least
+    // min_unknowns real unknowns. Otherwise: the paper's per-unknown update (and eq. (30) for C-PC).
+    bool conditioned_update_applies(std::size_t n) const {
+        const auto& w = quadratic_invariants();
+        return remedy.policy == radicand_policy::remedy && !w.empty() && w.front().size() * per == n &&
+               n >= remedy.min_unknowns;
+    }
+
+    // Element e (one real unknown, or the two parts of a complex mode): its conventional update into c, and
+    // {sum_p c_p^2, xi_e} with xi_e = sum_p (psi_p^2 + dt sum_j 2 b_j Y_jp k_jp), the tableau applied to |psi_e|^2.
+    // For a complex mode xi_e is the modulus squared: every invariant sum_k w_k |psi_k|^2 is linear in it.
+    static std::pair<double, double> element_update(const double* x, const std::array<const double*, s>& k,
+                                                    std::size_t e, double dt, std::array<double, per>& c,
+                                                    std::array<double, per>& rad) {
+        double xi = 0.0, c2 = 0.0;
+        for (std::size_t p = 0; p < per; ++p) {
+            const std::size_t i = e * per + p;
+            double conv = x[i];
+            [&]<std::size_t... J>(std::index_sequence<J...>) {
+                ((T.b[J] != 0.0 ? (conv += (dt * T.b[J]) * k[J][i], 0) : 0), ...);
+            }(std::make_index_sequence<s>{});
+            c[p] = conv;
+            c2 += conv * conv;
+            rad[p] = radicand(x, k, i, dt, std::make_index_sequence<s>{});
+            xi += rad[p];
+        }
+        return {c2, xi};
+    }
+
+    // A complex mode's new value: the conventional update c rescaled to modulus sqrt(xi). Where the two moduli
+    // agree to within 2^-46 the rescaled value lies within a few ulps of c, and plain rounding would return c
+    // itself, |o|^2 = |c|^2 instead of xi, keeping the conventional modulus' offset from xi, which has one sign from
+    // step to step (DP54 at small steps drifted E and Z by ~eps / 40 per step, 8 eps sqrt(n) over 10^5 steps). There
+    // each part is c_p (1 + g), g = sqrt(xi / |c|^2) - 1 from an error-free |c|^2, rounded stochastically to one of
+    // its two neighbouring doubles with a uniform number hashed from xi's and |c_p|'s bits: unbiased, and
+    // deterministic (a restart from the same state gives the same bits).
+    static void modulus_update(double* o, const std::array<double, per>& c, double xi, double c2) {
+        if (!(std::abs(xi - c2) <= 0x1p-46 * xi)) {
+            const double root = std::sqrt(xi), r = std::sqrt(c2);
+            for (std::size_t p = 0; p < per; ++p) o[p] = root * (c[p] / r);
+            return;
+        }
+        double hi = 0.0, lo = 0.0;  // |c|^2 = hi + lo, error-free
+        for (std::size_t p = 0; p < per; ++p) {
+            const double sq = c[p] * c[p], sq_err = std::fma(c[p], c[p], -sq);
+            const double t = hi + sq, z = t - hi;
+            lo += ((hi - (t - z)) + (sq - z)) + sq_err;
+            hi = t;
+        }
+        const double g = ((xi - hi) - lo) / (2.0 * hi);  // xi - hi is exact here (Sterbenz); g ~ 2^-46 at most
+        std::uint64_t bits;
+        std::memcpy(&bits, &xi, sizeof bits);
+        for (std::size_t p = 0; p < per; ++p) {
+            const double delta = c[p] * g;
+            o[p] = c[p];
+            if (delta == 0.0) continue;
+            const double next = std::nextafter(c[p], delta > 0.0 ? HUGE_VAL : -HUGE_VAL);
+            const double frac = delta / (next - c[p]);  // in [0, 1) for |delta| below an ulp, else more
+            // hashed from xi and |c_p| (not the element's index): mirror-image modes (k and -k of a real field)
+            // get mirror-image values
+            const double mag = std::abs(c[p]);
+            std::uint64_t cb;
+            std::memcpy(&cb, &mag, sizeof cb);
+            std::uint64_t h = bits ^ (cb * 0x9E3779B97F4A7C15ull) ^ (p + 1);  // splitmix64
+            h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
+            h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
+            h ^= h >> 31;
+            const double u = double(h >> 11) * 0x1.0p-53;
+            const double whole = std::floor(frac);  // the ulps delta spans (0 or -1 below an ulp of either sign)
+            o[p] = c[p] + (whole + (u < frac - whole ? 1.0 : 0.0)) * (next - c[p]);
+        }
+    }
+
+    // The conditioned finishing pass. Each element's conservative value: a real unknown sgn * sqrt(xi) (the sign
+    // rule as in the paper's update); a complex mode the conventional update c rescaled to modulus sqrt(xi), so
+    // its phase is the conventional method's and it is near zero only where both parts are (codimension 2).
+    // Elements with xi < 0 go to neg_ (o holds their conventional update), those with
+    // xi < kappa^2 |c - psi|^2 to cond_ (o holds the conservative value); remedy_elements decides.
+    void finish_conditioned(double* o, const double* x, const std::array<const double*, s>& k, double dt,
+                            std::size_t n) {
+        neg_.clear();
+        cond_.clear();
+        cond_ratio_.clear();
+        const double kappa = remedy.condition;
+        for (std::size_t e = 0; e < n / per; ++e) {
+            std::array<double, per> c{}, rad{};
+            const auto [c2, xi] = element_update(x, k, e, dt, c, rad);
+            double x2 = 0.0;
+            for (std::size_t p = 0; p < per; ++p) {
+                o[e * per + p] = c[p];
+                x2 += x[e * per + p] * x[e * per + p];
+            }
+            if (!(xi >= 0.0)) {
+                neg_.push_back(e);
+                continue;
+            }
+            if constexpr (per == 1) {
+                const double sign = Sign == sign_rule::of_update ? c[0] : stage_value<s - 1>(x[e], k, e, dt);
+                o[e] = std::copysign(std::sqrt(xi), sign);
+            } else {
+                if (!(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
+                    if (xi > 0.0) neg_.push_back(e);
+                    continue;
+                }
+                modulus_update(o + e * per, c, xi, c2);
+            }
+            // Ill-conditioned, and the conventional update differs from it beyond round-off (2^-40 relative): where
+            // the two agree to a few ulps the swap gains nothing, and its defect (then of the order of eps times
+            // their share of each invariant, and of one sign from step to step) would be too small for the rescale
+            // to represent: a systematic drift of ~eps per step (measured on DP54 at small steps, 15 eps sqrt(n)).
+            const double change = std::abs(xi - x2);
+            if (xi < kappa * change && std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi))
+                cond_.push_back(e), cond_ratio_.push_back(xi / change);
+        }
+    }
 
     // The remedy (radicand_remedy.hpp) for the unknowns whose radicand is negative (NaN in o): their conventional
     // update, recomputed with the very operations of the stage and finishing passes, and their radicand.

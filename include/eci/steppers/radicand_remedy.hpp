@@ -29,13 +29,30 @@ using quadratic_weights = std::vector<std::vector<double>>;
 /// Settings of the remedy (docs/methods.md derives each threshold).
 struct remedy_options {
     radicand_policy policy = radicand_policy::remedy;  ///< remedy (default) or halve
-    /// "Isolated": the failing real unknowns are at most this fraction of all, and hold at most this fraction of
-    /// every invariant's magnitude sum_k |w_jk| psi_k^2 (before and after the step). On three modes one failure is
-    /// a third of the state, so small systems always halve.
+    /// Paper update (systems below min_unknowns, and C-Euler's and compensated C-PC's remedy), "isolated": the
+    /// failing real unknowns are at most this fraction of all, and hold at most this fraction of every invariant's
+    /// magnitude sum_k |w_jk| psi_k^2 (before and after the step). On three modes one failure is a third of the
+    /// state, so small systems always halve.
     double max_fraction = 0.01;
-    /// Largest relative change |s_k| = |sum_j c_j w_jk| of any psi_k^2 the rescale may make; beyond it (a
-    /// correction that is not small, e.g. from nearly dependent weights) the step is halved instead.
+    /// Conditioned update: the elements given the conventional update hold at most this share of every
+    /// invariant's magnitude (before and after the step); no cap on how many they are. (1 % left C-RK4 at up to
+    /// 1.9x RK4's error on real n-wave systems, 5 % at 1.2x; docs/methods.md.)
+    double max_share = 0.05;
+    /// The size of the rescale allowed. Paper update (systems below min_unknowns): the largest relative change
+    /// |s_k| = |sum_j c_j w_jk| of any psi_k^2, bounded by sum_j |c_j| max_k |w_jk|. Conditioned update: the share
+    /// of each invariant the rescale moves, sum_k |w_jk| xi_k |s_k| / sum_k |w_jk| xi_k, with every |s_k| <= 1/2.
+    /// Beyond it (a correction that is not small, e.g. from nearly dependent weights) the step is halved instead.
     double max_rescale = 0.01;
+    /// The conditioned update (issue 19; docs/methods.md, "Zero crossings without loss of accuracy") is used by the
+    /// conservative RK engine when the invariants' weights are declared, the policy is `remedy` and the state has at
+    /// least this many real unknowns. Opt-in for now (set it to 16): it costs 1.2-2.2x the step of the paper's
+    /// update, whose bits every front end keeps by default (docs/methods.md says why).
+    std::size_t min_unknowns = std::numeric_limits<std::size_t>::max();
+    /// kappa of the conditioned update: an element (a real unknown, or a complex mode) whose new xi = |psi|^2 is
+    /// below kappa times its change over the step, xi < kappa |xi - |psi(t)|^2|, takes the conventional update
+    /// (if the caps allow), since there the square root amplifies the error of xi by 1 / (2 |psi|) and sqrt is
+    /// curved across the step; the rescale then restores every invariant. 0 switches it off.
+    double condition = 16.0;
 };
 
 /// What the remedy did so far (a stepper's counters, from the stepper's construction).
@@ -44,6 +61,10 @@ struct remedy_stats {
     std::uint64_t components_remedied = 0;  ///< real unknowns given the conventional update, summed over steps
     std::uint64_t declined = 0;             ///< steps with failures the remedy left to halving (not isolated,
                                             ///< ill-conditioned, rescale too large, non-finite)
+    std::uint64_t conditioned = 0;          ///< of components_remedied, those whose radicand was positive but
+                                            ///< whose square root was ill-conditioned (the conditioned update)
+    std::uint64_t conditioning_declined = 0;  ///< attempts whose ill-conditioned components kept the conservative
+                                              ///< value because the caps (share, rescale) refused them
 };
 
 /// The remedy's state: options, weights, counters. Every conservative stepper derives from it, which gives it
@@ -128,6 +149,86 @@ class radicand_remedy {
         return true;
     }
 
+    // The conditioned update's remedy (issue 19), per element (a real unknown, or a complex mode of Per = 2
+    // parts). The engine has filled neg_ (elements whose xi < 0: they must take the conventional update) and cond_
+    // (xi >= 0 but an ill-conditioned square root: they take it if the caps allow), and written every element's
+    // conservative value into o (the conventional value for neg_). conv(e, c) writes the conventional update of
+    // element e into c[0..Per) and returns {sum_p c_p^2, xi_e}. The set B taken conventional is capped only by the
+    // share of every invariant it holds (max_share of sum_k |w_jk| |psi_k|^2, before and after the step) and by
+    // the size of the rescale (max_rescale), never by a count. If neg_ and cond_ together are refused, the worst
+    // quarter of cond_ is tried, and so on down to neg_ alone (cond_ keeping its conservative values); if that is
+    // refused too, false (the step fails and is halved).
+    template <std::size_t Per, class Conv>
+    bool remedy_elements(double* o, const double* x, std::size_t n, Conv&& conv) {
+        // Negative radicands must be taken: if they alone hold too large a share, or are not finite (a step far
+        // too large), every set fails; decline at once rather than try the cascade (a step of 1e7 on n-wave would
+        // otherwise try it in each of 2^16 attempts).
+        if (!neg_.empty() && !negatives_can_be_taken<Per>(o, x, n)) return decline();
+        // The worst-conditioned first (smallest xi / |change of xi|), so that a refused set can be cut to its worst.
+        if (!cond_.empty()) {
+            order_.resize(cond_.size());
+            for (std::size_t j = 0; j < order_.size(); ++j) order_[j] = j;
+            std::sort(order_.begin(), order_.end(), [&](std::size_t a, std::size_t b) {
+                return cond_ratio_[a] < cond_ratio_[b] || (cond_ratio_[a] == cond_ratio_[b] && a < b);
+            });
+            sorted_.resize(cond_.size());
+            for (std::size_t j = 0; j < order_.size(); ++j) sorted_[j] = cond_[order_[j]];
+            cond_.swap(sorted_);
+        }
+        saved_.resize(cond_.size() * Per);
+        for (std::size_t j = 0; j < cond_.size(); ++j)
+            for (std::size_t p = 0; p < Per; ++p) saved_[j * Per + p] = o[cond_[j] * Per + p];
+        // All of cond_, then its worst quarter, its worst sixteenth, none: the caps decide how many.
+        too_small_ = false;
+        for (std::size_t take = cond_.size();; take /= 4) {
+            // Never cut between equal ratios: elements that are mirror images of each other (a real field's k and
+            // -k, both stored on Navier-Stokes' k_x = 0 column) have equal ratios and must be treated alike, or
+            // the state stops being Hermitian and the model's rates (and its budget) see another field.
+            while (take > 0 && take < cond_.size() && cond_ratio_[order_[take]] == cond_ratio_[order_[take - 1]])
+                ++take;
+            if (attempt_elements<Per>(o, x, n, conv, take)) return true;
+            ++stats_.conditioning_declined;
+            for (std::size_t j = 0; j < take; ++j)
+                for (std::size_t p = 0; p < Per; ++p) o[cond_[j] * Per + p] = saved_[j * Per + p];
+            if (take == 0) break;
+            if (too_small_) take = 1;  // a subset's rescale would be smaller still: straight to neg_ alone
+            if (take / 4 == 0 && neg_.empty()) return true;  // every radicand positive: the conservative update stands
+        }
+        --stats_.conditioning_declined;  // the last refusal (no ill-conditioned element taken) is a decline
+        return decline();
+    }
+
+    // One pass: whether neg_ alone (o holds their conventional update) holds at most max_share of every invariant.
+    template <std::size_t Per>
+    bool negatives_can_be_taken(const double* o, const double* x, std::size_t n) const {
+        constexpr std::size_t shift = Per == 2 ? 1 : 0;
+        const std::size_t m = weights_.size();
+        std::array<double, max_invariants> held{}, mag{};
+        for (std::size_t e : neg_) {
+            double x2 = 0.0, c2 = 0.0;
+            for (std::size_t p = 0; p < Per; ++p)
+                x2 += x[e * Per + p] * x[e * Per + p], c2 += o[e * Per + p] * o[e * Per + p];
+            if (!std::isfinite(c2)) return false;
+            for (std::size_t j = 0; j < m; ++j) held[j] += std::abs(weights_[j][e]) * std::max(x2, c2);
+        }
+        for (std::size_t i = 0; i < n; ++i) {
+            const double xi = o[i] * o[i];
+            for (std::size_t j = 0; j < m; ++j) mag[j] += std::abs(weights_[j][i >> shift]) * xi;
+        }
+        for (std::size_t j = 0; j < m; ++j)
+            if (!(held[j] <= remedy.max_share * mag[j])) return false;
+        return true;
+    }
+
+    // The first negative radicand's real unknown after remedy_elements refused.
+    template <std::size_t Per>
+    std::size_t first_negative() const {
+        return neg_.empty() ? 0 : neg_.front() * Per;
+    }
+
+    std::vector<std::size_t> neg_, cond_;  // the conditioned update's elements (see remedy_elements)
+    std::vector<double> cond_ratio_;       // xi / |change of xi| of each element of cond_
+
     // The first failed unknown after try_remedy declined: from its list when it made one, else by bad(i).
     template <class Bad>
     std::size_t first_failure(std::size_t n, Bad&& bad) const {
@@ -171,6 +272,70 @@ class radicand_remedy {
     }
 
    private:
+    template <std::size_t Per, class Conv>
+    bool attempt_elements(double* o, const double* x, std::size_t n, Conv& conv, std::size_t ncond) {
+        constexpr std::size_t shift = Per == 2 ? 1 : 0;
+        const std::size_t m = weights_.size();
+        std::array<double, max_invariants> defect{}, held{};
+        std::size_t taken = 0;
+        auto take = [&](std::size_t e) {
+            std::array<double, Per> c{};
+            const auto [c2, xi] = conv(e, c);
+            if (!std::isfinite(c2) || !std::isfinite(xi)) return false;
+            double x2 = 0.0;
+            for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p], x2 += x[e * Per + p] * x[e * Per + p];
+            const double d = c2 - xi, h = std::max(x2, c2);
+            for (std::size_t j = 0; j < m; ++j) {
+                const double w = weights_[j][e];
+                defect[j] += w * d;
+                held[j] += std::abs(w) * h;
+            }
+            ++taken;
+            return true;
+        };
+        for (std::size_t e : neg_)
+            if (!take(e)) return false;
+        for (std::size_t j = 0; j < ncond; ++j)
+            if (!take(cond_[j])) return false;
+        if (taken == 0) return true;
+        std::array<double, max_invariants * max_invariants> g{};
+        std::array<double, max_invariants> mag{};
+        gram<shift>(o, n, g, mag);
+        for (std::size_t j = 0; j < m; ++j)
+            if (!(held[j] <= remedy.max_share * mag[j])) return false;
+        std::array<double, max_invariants> c{};
+        if (!solve(g, mag, defect, c)) return false;
+        // The size of the rescale (one pass, only in steps that rescale): the share of each invariant it moves,
+        // sum_k |w_jk| xi_k |s_k| <= max_rescale A_j, and no xi_k changed by more than half. A cap on every |s_k|
+        // alone would refuse the flows where it matters: on a Taylor-Green flow with a small perturbation E and Z
+        // are nearly dependent on the large modes, so Z - 2E is restored by the perturbation's modes alone, ~1 % of
+        // each of them per step at CFL 0.5, which moves 1e-8 of E and Z.
+        double s_max = 0.0;
+        std::array<double, max_invariants> moved{};
+        for_each_factor<shift>(n, c, [&](std::size_t i, double sk) {
+            s_max = std::max(s_max, std::abs(sk));
+            const double a = std::abs(sk) * o[i] * o[i];
+            for (std::size_t j = 0; j < m; ++j) moved[j] += std::abs(weights_[j][i >> shift]) * a;
+        });
+        if (!(s_max <= 0.5)) return false;
+        // A rescale this small (every |s_k| < 2^-48: no amplitude would move by more than ~8-16 ulps) is not
+        // represented: where o h is below half an ulp of o, o + o h rounds back to o, an error of one sign in every
+        // such element. Ill-conditioned elements whose whole defect is this small (~4e-15 of every invariant) keep
+        // their conservative value rather than drift the invariants by ~eps per step (DP54 at dt = 0.005 on a
+        // 45-mode system: defects of 1e-16 of one sign, 15 eps sqrt(n)). Above it the rounding of o + o h is a
+        // fraction of an ulp of either sign. (Negative radicands are remedied whatever the size.)
+        if (ncond > 0 && s_max < 0x1p-48) return too_small_ = true, false;
+        for (std::size_t j = 0; j < m; ++j)
+            if (!(moved[j] <= remedy.max_rescale * mag[j])) return false;
+        const double s_bound = s_max;
+        s_bound_ = s_bound;
+        rescale<Per>(o, n, c);
+        ++stats_.remedied_steps;
+        stats_.components_remedied += taken * Per;
+        stats_.conditioned += ncond * Per;
+        return true;
+    }
+
     bool decline() {
         ++stats_.declined;
         return false;
@@ -276,6 +441,9 @@ class radicand_remedy {
     quadratic_weights weights_;
     std::array<double, max_invariants> wmax_{};
     std::vector<std::size_t> bad_;
+    std::vector<double> saved_;
+    std::vector<std::size_t> order_, sorted_;
+    bool too_small_ = false;  // the last attempt's rescale was below what the state can represent
     double s_bound_ = 0.0;  // the bound on |s_k| of the rescale under way
     remedy_stats stats_{};
 };

@@ -1,0 +1,246 @@
+// Issue 19: the conservative methods at the conventional method's error and order on turbulence (many modes
+// passing near zero), and no halvings on smooth fields at CFL 0.5, with E and Z exact. What makes it so is the
+// conditioned update of the conservative engine (conservative_rk.hpp, docs/methods.md "Zero crossings without loss
+// of accuracy"): a complex mode's modulus is transformed, not its real and imaginary parts, and a mode whose square
+// root is ill-conditioned takes the conventional update, one exact rescale restoring E and Z.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <vector>
+
+#include <eci/eci.hpp>
+#include <eci/models/navier_stokes_2d.hpp>
+
+namespace {
+
+using eci::navier_stokes_2d;
+using state = navier_stokes_2d::state_type;
+constexpr double eps = std::numeric_limits<double>::epsilon();
+
+eci::ns2d_params params(int n, double nu) {
+    eci::ns2d_params p;
+    p.n = n;
+    p.nu = nu;
+    p.measure = false;  // FFTW_ESTIMATE: no planning time, the same plans from run to run
+    return p;
+}
+
+struct outcome {
+    state w;
+    eci::run_stats stats;
+};
+
+// A run of `steps` steps of dt. paper_update: the conservative engine's update before issue 19 (each real and
+// imaginary part its own square root; the issue-9 remedy for at most 1 % of the unknowns, else halving), kept
+// for systems smaller than remedy.min_unknowns; used here only to print the "before" column of docs/benchmarks.md.
+template <class St>
+outcome run_steps(navier_stokes_2d& m, const state& w0, double dt, int steps, bool paper_update = false) {
+    St st;
+    if constexpr (requires { st.remedy; })  // the conditioned update is opt-in (radicand_remedy.hpp)
+        st.remedy.min_unknowns = paper_update ? std::numeric_limits<std::size_t>::max() : 16;
+    outcome r{w0, {}};
+    eci::ns2d_budget b;
+    for (int i = 0; i < steps; ++i) eci::ns2d_step(st, m, r.w, i * dt, dt, b, r.stats);
+    if constexpr (requires { st.remedy_statistics(); }) {
+        r.stats.remedied_steps = st.remedy_statistics().remedied_steps;
+        r.stats.components_remedied = st.remedy_statistics().components_remedied;
+    }
+    return r;
+}
+
+// The error of w against ref in the enstrophy norm, relative (an RMS over the modes, as a researcher measures a
+// field's error).
+double relative_error(const navier_stokes_2d& m, const state& w, const state& ref) {
+    double e = 0.0, norm = 0.0;
+    for (std::size_t i = 0; i < m.size(); ++i) {
+        e += m.weights()[i] * std::norm(w[i] - ref[i]);
+        norm += m.weights()[i] * std::norm(ref[i]);
+    }
+    return std::sqrt(e / norm);
+}
+
+// The least-squares slope of -log(error) against log(steps).
+double fitted_order(const std::vector<int>& counts, const std::vector<double>& errors) {
+    double mx = 0, my = 0, sxy = 0, sxx = 0;
+    const double n = double(counts.size());
+    for (std::size_t i = 0; i < counts.size(); ++i) mx += std::log(double(counts[i])) / n, my += std::log(errors[i]) / n;
+    for (std::size_t i = 0; i < counts.size(); ++i) {
+        const double x = std::log(double(counts[i])) - mx;
+        sxy += x * (std::log(errors[i]) - my), sxx += x * x;
+    }
+    return -sxy / sxx;
+}
+
+// N = 64, decaying turbulence from the random field (k_peak 8 as the CLI's default, and 4), to t = 0.1 with 64 ...
+// 512 steps against a 4096-step RK4 reference: with random phases thousands of real unknowns pass zero in the span
+// (the paper's per-part update lost up to 8x RK4's error there, and fitted slopes of 2.5-3.8).
+void check_turbulence(double k_peak, std::uint64_t seed, bool report_before = false) {
+    navier_stokes_2d m(params(64, 2e-3));
+    const state w0 = m.random_field(k_peak, 0.5, seed);
+    const double t_end = 0.1;
+    const state ref = run_steps<eci::rk4<state>>(m, w0, t_end / 4096, 4096).w;  // RK4's own error ~1e-16
+    const std::vector<int> counts{64, 128, 256, 512};
+    std::vector<double> e_crk4, e_rk4, e_cpc, e_pc;
+    std::uint64_t halvings = 0;
+    for (int steps : counts) {
+        const double dt = t_end / steps;
+        const outcome crk4 = run_steps<eci::c_rk4<state>>(m, w0, dt, steps);
+        const outcome cpc = run_steps<eci::c_pc<state>>(m, w0, dt, steps);
+        e_crk4.push_back(relative_error(m, crk4.w, ref));
+        e_rk4.push_back(relative_error(m, run_steps<eci::rk4<state>>(m, w0, dt, steps).w, ref));
+        e_cpc.push_back(relative_error(m, cpc.w, ref));
+        e_pc.push_back(relative_error(m, run_steps<eci::pc<state>>(m, w0, dt, steps).w, ref));
+        halvings += crk4.stats.step_reductions + cpc.stats.step_reductions;
+        const double before_crk4 =
+            report_before ? relative_error(m, run_steps<eci::c_rk4<state>>(m, w0, dt, steps, true).w, ref) : 0.0;
+        const double before_cpc =
+            report_before ? relative_error(m, run_steps<eci::c_pc<state>>(m, w0, dt, steps, true).w, ref) : 0.0;
+        std::printf("k_peak %g seed %llu, %3d steps (CFL %.3f): C-RK4 %.3e RK4 %.3e ratio %.3f (before %.3f; %llu "
+                    "remedied steps)  C-PC %.3e PC %.3e ratio %.3f (before %.3f)\n",
+                    k_peak, static_cast<unsigned long long>(seed), steps, m.cfl(w0, dt), e_crk4.back(), e_rk4.back(),
+                    e_crk4.back() / e_rk4.back(), before_crk4 / e_rk4.back(),
+                    static_cast<unsigned long long>(crk4.stats.remedied_steps), e_cpc.back(), e_pc.back(),
+                    e_cpc.back() / e_pc.back(), before_cpc / e_pc.back());
+    }
+    const double p_crk4 = fitted_order(counts, e_crk4), p_rk4 = fitted_order(counts, e_rk4);
+    const double p_cpc = fitted_order(counts, e_cpc), p_pc = fitted_order(counts, e_pc);
+    std::printf("fitted order: C-RK4 %.3f RK4 %.3f C-PC %.3f PC %.3f\n", p_crk4, p_rk4, p_cpc, p_pc);
+    EXPECT_GE(p_crk4, 3.9);
+    EXPECT_GE(p_cpc, 1.9);
+    EXPECT_EQ(halvings, 0u);
+    for (std::size_t i = 0; i < counts.size(); ++i) {
+        EXPECT_LE(e_crk4[i], 1.5 * e_rk4[i]) << counts[i] << " steps";
+        EXPECT_LE(e_cpc[i], 1.5 * e_pc[i]) << counts[i] << " steps";
+    }
+}
+
+TEST(Ns2dConditioned, TurbulenceCRk4AndCPcAtTheConventionalErrorSeed3) { check_turbulence(8.0, 3); }
+TEST(Ns2dConditioned, TurbulenceCRk4AndCPcAtTheConventionalErrorSeed5) { check_turbulence(4.0, 5); }
+TEST(Ns2dConditioned, TurbulenceCRk4AndCPcAtTheConventionalErrorSeed11) { check_turbulence(8.0, 11); }
+// The same with the paper's update's error printed beside ("before"), for docs/benchmarks.md.
+TEST(Ns2dConditionedLong, DISABLED_TurbulenceBeforeAndAfter) {
+    check_turbulence(8.0, 3, true);
+    check_turbulence(4.0, 5, true);
+    check_turbulence(8.0, 11, true);
+}
+
+// Smooth fields a user loads with --ic FILE, whose tails are round-off: there the right-hand side is noise of
+// random sign and many radicands are negative in every step, while those modes hold a negligible share of E and Z.
+enum class smooth { gaussian_vortices, exponential_spectrum, taylor_green_perturbed };
+
+state smooth_field(navier_stokes_2d& m, smooth kind) {
+    const int n = m.n();
+    const double h = 2.0 * std::numbers::pi / n;
+    std::vector<double> f(std::size_t(n) * std::size_t(n));
+    switch (kind) {
+        case smooth::gaussian_vortices: {
+            // two co-rotating Gaussian vortices of radius 0.3, centred on grid points, peak vorticity 10
+            const int ia = n / 2 - n / 10, ib = n / 2 + n / 10, jc = n / 2;
+            const double r2 = 0.3 * 0.3;
+            for (int j = 0; j < n; ++j)
+                for (int i = 0; i < n; ++i) {
+                    auto bump = [&](int ic) {
+                        double dx = (i - ic) * h, dy = (j - jc) * h;
+                        return 10.0 * std::exp(-(dx * dx + dy * dy) / r2);
+                    };
+                    f[std::size_t(j) * std::size_t(n) + std::size_t(i)] = bump(ia) + bump(ib);
+                }
+            return m.from_physical(f);
+        }
+        case smooth::exponential_spectrum: {
+            // |omega_k| = exp(-|k| / 3) with random phases: below 1e-16 of the peak well inside the retained modes
+            state w = m.random_field(4.0, 0.5, 17);
+            for (std::size_t i = 0; i < m.size(); ++i) {
+                if (!m.retained(i) || std::abs(w[i]) == 0.0) continue;
+                const double k = std::hypot(double(m.kx(i)), double(m.ky(i)));
+                w[i] *= std::exp(-k / 3.0) / std::abs(w[i]);
+            }
+            return w;
+        }
+        case smooth::taylor_green_perturbed: {
+            state w = m.taylor_green(1.0);
+            const state noise = m.random_field(8.0, 1e-6, 23);
+            for (std::size_t i = 0; i < m.size(); ++i) w[i] += noise[i];
+            return w;
+        }
+    }
+    return {};
+}
+
+const char* name_of(smooth kind) {
+    return kind == smooth::gaussian_vortices      ? "Gaussian vortices"
+           : kind == smooth::exponential_spectrum ? "exponential spectrum"
+                                                  : "Taylor-Green + 1e-6 perturbation";
+}
+
+// Inviscid (so E and Z are invariants), CFL 0.5 from the initial field: no halvings, exactly the conventional
+// method's right-hand-side evaluations, E and Z to round-off. Each step rounds every |omega_k|^2 a few times
+// with no preferred sign, and a remedied step adds one rounding per mode and leaves at most 4 eps of defect
+// (radicand_remedy.hpp): a random walk bounded by 8 eps sqrt(steps) relative, as in the other conservation tests.
+template <class St, class Conventional>
+void check_smooth(int n, smooth kind, int steps) {
+    navier_stokes_2d m(params(n, 0.0));
+    const state w0 = smooth_field(m, kind);
+    const double dt = 0.5 * (2.0 * std::numbers::pi / n) / m.max_velocity(w0);
+    const double e0 = m.energy(w0), z0 = m.enstrophy(w0);
+    St st;
+    if constexpr (requires { st.remedy; }) st.remedy.min_unknowns = 16;  // opt-in (radicand_remedy.hpp)
+    state w = w0;
+    eci::ns2d_budget b;
+    eci::run_stats stats;
+    double drift = 0.0;
+    for (int i = 0; i < steps; ++i) {
+        eci::ns2d_step(st, m, w, i * dt, dt, b, stats);
+        drift = std::max({drift, std::abs(m.energy(w) - e0) / e0, std::abs(m.enstrophy(w) - z0) / z0});
+    }
+    // The conventional method's evaluations: one per stage and step (inviscid at CFL 0.5, PC itself goes unstable
+    // over 10^3 steps, so it is not run for the count).
+    const std::uint64_t conventional_rhs = std::uint64_t(steps) * eci::detail::tableau_of<Conventional>::value.stages;
+    const outcome before = run_steps<St>(m, w0, dt, steps, true);
+    const eci::remedy_stats& rs = st.remedy_statistics();
+    std::printf("N = %d %s, %s %d steps at CFL 0.5 (dt %.4g): %llu halvings, %llu rhs (conventional %llu; before "
+                "issue 19 %llu halvings, %llu rhs), %llu remedied steps, %llu components "
+                "(%llu ill-conditioned); drift %.2f eps sqrt(steps)\n",
+                n, name_of(kind), St::order == 4 ? "C-RK4" : "C-PC", steps, dt,
+                static_cast<unsigned long long>(stats.step_reductions),
+                static_cast<unsigned long long>(stats.rhs_evals), static_cast<unsigned long long>(conventional_rhs),
+                static_cast<unsigned long long>(before.stats.step_reductions),
+                static_cast<unsigned long long>(before.stats.rhs_evals),
+                static_cast<unsigned long long>(rs.remedied_steps),
+                static_cast<unsigned long long>(rs.components_remedied),
+                static_cast<unsigned long long>(rs.conditioned), drift / (eps * std::sqrt(double(steps))));
+    EXPECT_EQ(stats.step_reductions, 0u);
+    EXPECT_EQ(stats.rhs_evals, conventional_rhs);
+    EXPECT_LE(drift, 8.0 * eps * std::sqrt(double(steps)));
+}
+
+// The CI size: N = 128, 100 steps (the full case, N = 256 over 10^3 steps, is the "long" test below and
+// docs/benchmarks.md).
+TEST(Ns2dConditioned, SmoothGaussianVorticesNoHalvings) {
+    check_smooth<eci::c_pc<state>, eci::pc<state>>(128, smooth::gaussian_vortices, 100);
+    check_smooth<eci::c_rk4<state>, eci::rk4<state>>(128, smooth::gaussian_vortices, 100);
+}
+TEST(Ns2dConditioned, SmoothExponentialSpectrumNoHalvings) {
+    check_smooth<eci::c_pc<state>, eci::pc<state>>(128, smooth::exponential_spectrum, 100);
+    check_smooth<eci::c_rk4<state>, eci::rk4<state>>(128, smooth::exponential_spectrum, 100);
+}
+TEST(Ns2dConditioned, SmoothTaylorGreenPerturbedNoHalvings) {
+    check_smooth<eci::c_pc<state>, eci::pc<state>>(128, smooth::taylor_green_perturbed, 100);
+    check_smooth<eci::c_rk4<state>, eci::rk4<state>>(128, smooth::taylor_green_perturbed, 100);
+}
+
+// C-RK4 only: inviscid at CFL 0.5 the fields develop a cascade to the grid scale within a few hundred steps, PC
+// blows up (steps 115-265) and C-PC then halves (from steps 179-390; docs/benchmarks.md); and C-PC on the
+// perturbed Taylor-Green flow at N = 256 drifts beyond the bound (an open defect, docs/methods.md).
+TEST(Ns2dConditionedLong, DISABLED_SmoothFieldsN256ThousandSteps) {
+    for (smooth kind : {smooth::gaussian_vortices, smooth::exponential_spectrum, smooth::taylor_green_perturbed})
+        check_smooth<eci::c_rk4<state>, eci::rk4<state>>(256, kind, 1000);
+}
+
+}  // namespace
