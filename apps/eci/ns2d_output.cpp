@@ -1,5 +1,5 @@
-// HDF5 snapshots and checkpoints of `eci run navier-stokes-2d` (C API; fixed-length string attributes, readable by
-// h5py), and gnuplot figures of the vorticity and of E(k). Every file is written under a temporary name, renamed.
+// HDF5 snapshots and checkpoints of the spectral equations' `eci run` (C API; fixed-length string attributes,
+// readable by h5py), and gnuplot figures of the field and of E(k). Every file is written under a temporary name, renamed.
 #include "ns2d_output.hpp"
 
 #include <hdf5.h>
@@ -151,7 +151,31 @@ void put_params(hid_t f, const ns2d_params& p) {
     put(f, "injection_rate", p.injection_rate);
     put(f, "forcing_seed", p.forcing_seed);
     put(f, "domain_length", 2.0 * M_PI);
+    put(f, "equation", p.equation);
+    put(f, "beta", p.beta);
+    put(f, "deformation", p.deformation);
+    put(f, "hypo_nu", p.hypo_nu);
+    put(f, "hypo_p", std::int64_t(p.hypo_p));
 }
+
+// The format attribute of an equation's checkpoints and snapshots ("eci navier-stokes-2d checkpoint", ...).
+std::string format_of(const std::string& equation, const char* kind) { return "eci " + equation + " " + kind; }
+
+// The equation a checkpoint or snapshot's format names, or empty.
+std::string equation_of_format(const std::string& format, const char* kind) {
+    for (const spectral::equation* e : spectral::equations())
+        if (format == format_of(std::string(e->name), kind)) return std::string(e->name);
+    return {};
+}
+
+// The names of an equation's datasets: its field ("vorticity") and its state ("omega_hat").
+std::string field_dataset(const spectral::equation& e) {
+    std::string s(e.field);
+    for (char& c : s)
+        if (c == ' ') c = '_';
+    return s;
+}
+std::string state_dataset(const spectral::equation& e) { return std::string(e.symbol) + "_hat"; }
 
 handle open_for_reading(const std::string& path) {
     quiet_hdf5();
@@ -191,7 +215,7 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
     {
         handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT), H5Fclose,
                  "cannot write " + path);
-        put(f, "format", std::string("eci navier-stokes-2d checkpoint"));
+        put(f, "format", format_of(c.params.equation, "checkpoint"));
         put(f, "version", std::int64_t(1));
         put_params(f, c.params);
         put(f, "threads", std::int64_t(c.params.threads));
@@ -215,18 +239,26 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
         put(f, "max_energy_residual", c.max_energy_residual);
         put(f, "max_enstrophy_residual", c.max_enstrophy_residual);
         const hsize_t rows = hsize_t(c.params.n), cols = hsize_t(c.params.n / 2 + 1);
-        write_dataset(f, "omega_hat", reinterpret_cast<const double*>(c.state.data()), {rows, cols * 2});
+        write_dataset(f, state_dataset(spectral::find_equation(c.params.equation)).c_str(),
+                      reinterpret_cast<const double*>(c.state.data()), {rows, cols * 2});
     }
     commit(tmp, path);
 }
 
 ns2d_checkpoint read_checkpoint(const std::string& path) {
     handle f = open_for_reading(path);
-    if (H5Aexists(f, "format") <= 0 || get_string(f, "format") != "eci navier-stokes-2d checkpoint")
-        throw std::runtime_error(path + " is not an eci navier-stokes-2d checkpoint");
+    const std::string equation =
+        H5Aexists(f, "format") > 0 ? equation_of_format(get_string(f, "format"), "checkpoint") : std::string();
+    if (equation.empty()) throw std::runtime_error(path + " is not an eci checkpoint");
     if (get<std::int64_t>(f, "version") != 1) throw std::runtime_error(path + ": unknown checkpoint version");
     ns2d_checkpoint c;
     ns2d_params& p = c.params;
+    p.equation = equation;
+    // written since the spectral core (issue 20); a Navier-Stokes checkpoint of before has none of them
+    if (H5Aexists(f, "beta") > 0) p.beta = get<double>(f, "beta");
+    if (H5Aexists(f, "deformation") > 0) p.deformation = get<double>(f, "deformation");
+    if (H5Aexists(f, "hypo_nu") > 0) p.hypo_nu = get<double>(f, "hypo_nu");
+    if (H5Aexists(f, "hypo_p") > 0) p.hypo_p = int(get<std::int64_t>(f, "hypo_p"));
     p.n = int(get<std::int64_t>(f, "N"));
     p.nu = get<double>(f, "nu");
     p.hyper_nu = get<double>(f, "hyper_nu");
@@ -260,9 +292,10 @@ ns2d_checkpoint read_checkpoint(const std::string& path) {
     c.max_energy_residual = get<double>(f, "max_energy_residual");
     c.max_enstrophy_residual = get<double>(f, "max_enstrophy_residual");
     std::vector<hsize_t> dims;
-    const std::vector<double> v = read_dataset(f, "omega_hat", dims);
+    const std::string name = state_dataset(spectral::find_equation(equation));
+    const std::vector<double> v = read_dataset(f, name.c_str(), dims);
     if (dims.size() != 2 || dims[0] != hsize_t(p.n) || dims[1] != hsize_t(2 * (p.n / 2 + 1)))
-        throw std::runtime_error(path + ": omega_hat does not match the grid N = " + std::to_string(p.n));
+        throw std::runtime_error(path + ": " + name + " does not match the grid N = " + std::to_string(p.n));
     c.state.resize(v.size() / 2);
     for (std::size_t i = 0; i < c.state.size(); ++i) c.state[i] = {v[2 * i], v[2 * i + 1]};
     return c;
@@ -275,14 +308,15 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
     {
         handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT), H5Fclose,
                  "cannot write " + path);
-        put(f, "format", std::string("eci navier-stokes-2d snapshot"));
+        put(f, "format", format_of(m.params().equation, "snapshot"));
+        put(f, "field", field_dataset(m.eq()));
         put_params(f, m.params());
         put(f, "time", t);
         put(f, "step", step);
         put(f, "method", method);
         put(f, "dt", dt);
         const hsize_t n = hsize_t(m.n());
-        write_dataset(f, "vorticity", field.data(), {n, n});
+        write_dataset(f, field_dataset(m.eq()).c_str(), field.data(), {n, n});
         std::vector<double> x(m.n());
         for (int i = 0; i < m.n(); ++i) x[std::size_t(i)] = 2.0 * M_PI * i / m.n();
         write_dataset(f, "x", x.data(), {n});
@@ -293,18 +327,21 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
 
 bool is_checkpoint(const std::string& path) {
     handle f = open_for_reading(path);
-    return H5Aexists(f, "format") > 0 && get_string(f, "format") == "eci navier-stokes-2d checkpoint";
+    return H5Aexists(f, "format") > 0 && !equation_of_format(get_string(f, "format"), "checkpoint").empty();
 }
 
 std::pair<int, std::vector<double>> read_vorticity(const std::string& path) {
     handle f = open_for_reading(path);
     std::vector<hsize_t> dims;
-    std::vector<double> v = read_dataset(f, "vorticity", dims);
-    if (dims.size() != 2 || dims[0] != dims[1]) throw std::runtime_error(path + ": vorticity is not a square grid");
+    // the snapshot's field (a Navier-Stokes snapshot of before the spectral core names none: vorticity)
+    const std::string name = H5Aexists(f, "field") > 0 ? get_string(f, "field") : std::string("vorticity");
+    std::vector<double> v = read_dataset(f, name.c_str(), dims);
+    if (dims.size() != 2 || dims[0] != dims[1]) throw std::runtime_error(path + ": " + name + " is not a square grid");
     return {int(dims[0]), std::move(v)};
 }
 
-bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t) {
+bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t,
+                        const std::string& name, const std::string& symbol) {
     const std::string data = temp_name(path) + ".bin", tmp = temp_name(path);
     {
         std::FILE* f = std::fopen(data.c_str(), "wb");
@@ -316,13 +353,13 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
     for (double v : field) vmax = std::max(vmax, std::abs(v));
     if (!(vmax > 0.0)) vmax = 1.0;
     char title[64];
-    std::snprintf(title, sizeof title, "vorticity, t = %.4g", t);
+    std::snprintf(title, sizeof title, "%s, t = %.4g", name.c_str(), t);
     const double h = 2.0 * M_PI / n;
     std::string s = "set terminal pngcairo size 760,640\nset output " + quoted(tmp) + "\n";
     s += "set title " + quoted(title) + "\nset size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n";
     s += "set xrange [0:2*pi]\nset yrange [0:2*pi]\nset cbrange [" + g(-vmax) + ":" + g(vmax) + "]\n";
     s += "set palette defined (0 '#053061', 0.25 '#4393c3', 0.5 '#f7f7f7', 0.75 '#d6604d', 1 '#67001f')\n";
-    s += "set cblabel 'omega'\n";
+    s += "set cblabel " + quoted(symbol) + "\n";
     s += "plot " + quoted(data) + " binary array=(" + std::to_string(n) + "," + std::to_string(n) +
          ") format='%float64' dx=" + g(h) + " dy=" + g(h) + " with image notitle\n";
     const bool ok = gnuplot(s);
@@ -336,13 +373,16 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
     return true;
 }
 
-void write_spectrum(const std::string& csv_path, const std::string& png_path, const std::vector<double>& e, double t) {
+void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t) {
     const std::string tmp = temp_name(csv_path);
+    const std::vector<double>& e = r.energy;
     {
         std::FILE* f = std::fopen(tmp.c_str(), "w");
         if (!f) throw std::runtime_error("cannot write " + csv_path);
-        std::fprintf(f, "k,E\n");
-        for (std::size_t k = 1; k < e.size(); ++k) std::fprintf(f, "%zu,%.17g\n", k, e[k]);
+        std::fprintf(f, "k,E,Z,Pi_E,Pi_Z\n");
+        for (std::size_t k = 1; k < e.size(); ++k)
+            std::fprintf(f, "%zu,%.17g,%.17g,%.17g,%.17g\n", k, e[k], r.enstrophy[k], r.energy_flux[k],
+                         r.enstrophy_flux[k]);
         if (std::fclose(f) != 0) throw std::runtime_error("cannot write " + csv_path);
     }
     commit(tmp, csv_path);

@@ -1,5 +1,5 @@
-// The files of `eci run navier-stokes-2d`: HDF5 snapshots and checkpoints (written atomically), and the vorticity
-// and energy-spectrum figures drawn by gnuplot.
+// The files of the spectral equations' `eci run` (navier-stokes-2d, charney-hasegawa-mima, surface-qg): HDF5
+// snapshots and checkpoints (written atomically), and the field and spectrum figures drawn by gnuplot.
 #pragma once
 
 #include <cstdint>
@@ -33,18 +33,24 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c);
 /// Reads a checkpoint; throws std::runtime_error naming the problem (unreadable, not an eci checkpoint, ...).
 ns2d_checkpoint read_checkpoint(const std::string& path);
 
-/// A vorticity snapshot: the field on the grid with grid, time and parameters as attributes (atomic).
+/// A snapshot: the field on the grid with grid, time and parameters as attributes (atomic).
 void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const std::vector<double>& field,
                        double t, std::uint64_t step, const std::string& method, double dt);
 /// Whether `path` is an HDF5 file holding an eci checkpoint (false for a snapshot); throws if it is unreadable.
 bool is_checkpoint(const std::string& path);
-/// The vorticity field of an eci snapshot and its grid size n; throws std::runtime_error.
+/// The field of an eci snapshot (any equation's) and its grid size n; throws std::runtime_error.
 std::pair<int, std::vector<double>> read_vorticity(const std::string& path);
 
-/// The vorticity as a PNG (diverging colour map symmetric about 0, colour bar, time in the title), by gnuplot.
-/// Returns false (and draws nothing) when gnuplot is not available.
-bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t);
-/// E(k) as CSV (k,E) and, if gnuplot is available, a log-log PNG with k^-3 and k^-5/3 guide lines.
-void write_spectrum(const std::string& csv_path, const std::string& png_path, const std::vector<double>& e, double t);
+/// The field as a PNG (diverging colour map symmetric about 0, colour bar `symbol`, `name` and time in the title), by
+/// gnuplot. Returns false (and draws nothing) when gnuplot is not available.
+bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t,
+                        const std::string& name, const std::string& symbol);
+/// The shell spectra and the nonlinear fluxes through each shell.
+struct spectrum_rows {
+    std::vector<double> energy, enstrophy, energy_flux, enstrophy_flux;
+};
+/// E(k), Z(k), Pi_E(k), Pi_Z(k) as CSV (k,E,Z,Pi_E,Pi_Z) and, if gnuplot is available, a log-log PNG of E(k) with
+/// k^-3 and k^-5/3 guide lines.
+void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t);
 
 }  // namespace eci::cli

@@ -1,5 +1,6 @@
-// `eci run navier-stokes-2d`: 2-D turbulence with the pseudo-spectral vorticity model (eci::spectral): CSV of the
-// diagnostics and exact budgets, vorticity snapshots (PNG, HDF5), E(k), checkpoint/restart, blow-up detection.
+// `eci run EQUATION` for every spectral equation (navier-stokes-2d, charney-hasegawa-mima, surface-qg; the list is
+// eci::spectral::equations()): 2-D turbulence with eci::spectral, CSV of the diagnostics and exact budgets, field
+// snapshots (PNG, HDF5), spectra and fluxes, checkpoint/restart, blow-up detection.
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -35,13 +36,37 @@ std::string num(double v) {
     return std::string(format_double(v, b));
 }
 
-class navier_stokes_2d_command final : public model_command {
+class spectral_command final : public model_command {
    public:
-    navier_stokes_2d_command() {
+    explicit spectral_command(const spectral::equation& e)
+        : eq_(e),
+          name_(e.name),
+          field_(e.field),
+          inv_{std::string(e.invariant_names[0]), std::string(e.invariant_names[1])},
+          info_{name_,
+                std::string(e.title),
+                ns2d_methods(),
+                ns2d_methods().front(),
+                0.0,  // none: dt comes from --cfl (0.5) unless --dt is given
+                10.0,
+                {{"default", "random field peaked at k = 8, inviscid, dt from CFL 0.5 (see --help for the "
+                             "initial conditions, forcing and outputs)"}},
+                "from --cfl 0.5: 0.5 dx / max|u| at t = 0"} {
+        const bool ns = name_ == "navier-stokes-2d";
+        default_snapshot_dir_ = ns ? "ns2d-snapshots" : name_ + "-snapshots";
+        default_checkpoint_ = ns ? "ns2d-checkpoint.h5" : name_ + "-checkpoint.h5";
+        stem_ = std::string(field_);
+        for (char& c : stem_)
+            if (c == ' ') c = '_';
         // name, help, and where the value goes: a real, a whole number >= min, a text or a flag
         real("nu", "viscosity nu (default 0)");
         real("hyper-nu", "hyperviscosity nu_h of -nu_h |k|^(2p) omega (default 0)");
         real("drag", "linear drag mu of -mu omega (default 0)");
+        real("hypo-nu", "hypoviscosity (large-scale friction) of -nu_hypo |k|^(-2 p') omega (default 0)");
+        if (e.dispersion) {
+            real("beta", "planetary vorticity gradient beta: Rossby waves omega = -beta k_x / (k^2 + F) (default 0)");
+            real("deformation", "F = 1 / L_d^2 >= 0 in q = lap psi - F psi (default 0: Navier-Stokes with beta)");
+        }
         real("forcing-k", "forced band k_f - 1/2 <= |k| < k_f + 1/2 (default 4)");
         real("forcing-amplitude", "deterministic forcing: rms of the forcing field (default 1)");
         real("injection-rate", "stochastic forcing: mean energy injection rate (default 1)");
@@ -53,6 +78,7 @@ class navier_stokes_2d_command final : public model_command {
         real("cfl", "dt = CFL dx / max|u| at the start (default 0.5; exclusive with --dt)");
         whole("N", "grid points per side, even, >= 8 (default 256); |k_x|, |k_y| <= (N - 1)/3 kept", 0);
         whole("hyper-p", "hyperviscosity power p (default 2)", 0);
+        whole("hypo-p", "hypoviscosity power p' (default 1)", 0);
         whole("forcing-seed", "seed of the forcing (default 1)", 0);
         whole("seed", "random: seed of the initial field (default 1)", 0);
         whole("threads", "FFTW and OpenMP threads (default 1)", 1);
@@ -61,8 +87,8 @@ class navier_stokes_2d_command final : public model_command {
         text("forcing", "none, deterministic (fixed band, random phases) or stochastic (white in time) (default none)");
         text("ic", "initial condition: random, vortex-pair, taylor-green, or FILE (an eci snapshot or checkpoint "
                    ".h5 on the same grid) (default random)");
-        text("snapshot-dir", "directory of the snapshots (default ns2d-snapshots)");
-        text("checkpoint", "checkpoint file, also written on SIGINT/SIGTERM (default ns2d-checkpoint.h5)");
+        text("snapshot-dir", "directory of the snapshots (default " + default_snapshot_dir_ + ")");
+        text("checkpoint", "checkpoint file, also written on SIGINT/SIGTERM (default " + default_checkpoint_ + ")");
         text("restart", "continue, bit for bit, from a checkpoint");
         text("fftw-wisdom", "FFTW wisdom file read before and written after planning, so that every run plans the "
                             "same transforms and repeats bit for bit; 'none' for no file (default "
@@ -76,17 +102,19 @@ class navier_stokes_2d_command final : public model_command {
     int run(const run_settings& settings) override;
 
    private:
-    void real(const char* name, const char* help) {
+    void real(const char* name, const std::string& help) {
+        helps_.push_back(std::make_unique<std::string>(help));
         reals_.push_back(std::make_unique<std::vector<double>>(1, 0.0));
-        specs_.push_back({name, help, 1, reals_.back().get(), nullptr, 0, nullptr, nullptr, false});
+        specs_.push_back({name, helps_.back()->c_str(), 1, reals_.back().get(), nullptr, 0, nullptr, nullptr, false});
     }
     void whole(const char* name, const char* help, std::uint64_t min) {
         wholes_.push_back(std::make_unique<std::uint64_t>(0));
         specs_.push_back({name, help, 1, nullptr, wholes_.back().get(), min, nullptr, nullptr, false});
     }
-    void text(const char* name, const char* help) {
+    void text(const char* name, const std::string& help) {
+        helps_.push_back(std::make_unique<std::string>(help));
         texts_.push_back(std::make_unique<std::string>());
-        specs_.push_back({name, help, 1, nullptr, nullptr, 0, texts_.back().get(), nullptr, false});
+        specs_.push_back({name, helps_.back()->c_str(), 1, nullptr, nullptr, 0, texts_.back().get(), nullptr, false});
     }
     void flag(const char* name, const char* help) {
         flags_.push_back(std::make_unique<bool>(false));
@@ -111,17 +139,13 @@ class navier_stokes_2d_command final : public model_command {
         return o.given ? std::optional<std::string>(*o.text) : std::nullopt;
     }
 
-    model_info info_{"navier-stokes-2d",
-                     "2-D incompressible Navier-Stokes/Euler vorticity on [0,2pi)^2, dealiased pseudo-spectral "
-                     "(FFTW); invariants energy, enstrophy; docs/turbulence.md",
-                     ns2d_methods(),
-                     ns2d_methods().front(),
-                     0.0,  // none: dt comes from --cfl (0.5) unless --dt is given
-                     10.0,
-                     {{"default", "random field peaked at k = 8, inviscid, dt from CFL 0.5 (see --help for the "
-                                  "initial conditions, forcing and outputs)"}},
-                     "from --cfl 0.5: 0.5 dx / max|u| at t = 0"};
+    const spectral::equation& eq_;
+    std::string name_, field_;
+    std::array<std::string, 2> inv_;  // the invariants' names: energy, enstrophy (or variance)
+    model_info info_;
+    std::string default_snapshot_dir_, default_checkpoint_, stem_;
     std::vector<option_spec> specs_;
+    std::vector<std::unique_ptr<std::string>> helps_;
     std::vector<std::unique_ptr<std::vector<double>>> reals_;
     std::vector<std::unique_ptr<std::uint64_t>> wholes_;
     std::vector<std::unique_ptr<std::string>> texts_;
@@ -151,7 +175,7 @@ ns2d_forcing parse_forcing(const std::string& s) {
                                   : ns2d_forcing::none;
 }
 
-int navier_stokes_2d_command::run(const run_settings& settings) {
+int spectral_command::run(const run_settings& settings) {
     // ---- parameters, from the options or the checkpoint (options that contradict it are an error)
     ns2d_checkpoint ck;
     const std::string restart_ = given_text("restart").value_or("");
@@ -162,6 +186,8 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
         } catch (const std::exception& e) {
             throw bad_input(std::string("cannot restart: ") + e.what());
         }
+        if (ck.params.equation != name_)
+            throw bad_input(restart_ + " is a " + ck.params.equation + " checkpoint, not " + name_ + "'s");
         auto same = [&](const char* name, auto given, auto stored) {
             if (given && *given != stored)
                 throw bad_input(std::string("--") + name + " " + num(double(*given)) +
@@ -172,6 +198,12 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
         same("hyper-nu", given_real("hyper-nu"), ck.params.hyper_nu);
         same("hyper-p", given_whole("hyper-p"), std::uint64_t(ck.params.hyper_p));
         same("drag", given_real("drag"), ck.params.drag);
+        same("hypo-nu", given_real("hypo-nu"), ck.params.hypo_nu);
+        same("hypo-p", given_whole("hypo-p"), std::uint64_t(ck.params.hypo_p));
+        if (eq_.dispersion) {
+            same("beta", given_real("beta"), ck.params.beta);
+            same("deformation", given_real("deformation"), ck.params.deformation);
+        }
         same("forcing-k", given_real("forcing-k"), ck.params.forcing_k);
         if (given_text("forcing") && parse_forcing(*given_text("forcing")) != ck.params.forcing)
             throw bad_input("--forcing does not match the restart file's (" + restart_ + ")");
@@ -185,8 +217,17 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
     ns2d_params p = restart ? ck.params : ns2d_params{};
     if (!restart) {
         const std::uint64_t n = given_whole("N").value_or(256), hp = given_whole("hyper-p").value_or(2);
+        const std::uint64_t hypo_p = given_whole("hypo-p").value_or(1);
         if (n > 65536 || hp > 16) throw bad_input(n > 65536 ? "--N is too large" : "--hyper-p must be in 1..16");
+        if (hypo_p > 16) throw bad_input("--hypo-p must be in 1..16");
+        p.equation = name_;
         p.n = int(n);
+        p.hypo_nu = given_real("hypo-nu").value_or(0.0);
+        p.hypo_p = int(hypo_p);
+        if (eq_.dispersion) {
+            p.beta = given_real("beta").value_or(0.0);
+            p.deformation = given_real("deformation").value_or(0.0);
+        }
         p.nu = given_real("nu").value_or(0.0);
         p.hyper_nu = given_real("hyper-nu").value_or(0.0);
         p.hyper_p = int(hp);
@@ -213,18 +254,18 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
     const std::optional<double> cfl_ = given_real("cfl");
     const std::uint64_t snapshot_every_ = given_whole("snapshot-every").value_or(0);
     const std::uint64_t checkpoint_every_ = given_whole("checkpoint-every").value_or(0);
-    const std::string snapshot_dir_ = given_text("snapshot-dir").value_or("ns2d-snapshots");
-    const std::string checkpoint_ = given_text("checkpoint").value_or("ns2d-checkpoint.h5");
+    const std::string snapshot_dir_ = given_text("snapshot-dir").value_or(default_snapshot_dir_);
+    const std::string checkpoint_ = given_text("checkpoint").value_or(default_checkpoint_);
     if (!settings.preset.empty() && settings.preset != "default")
-        throw bad_input("navier-stokes-2d has one preset, default; set the initial condition with --ic");
+        throw bad_input(name_ + " has one preset, default; set the initial condition with --ic");
     try {
         p.validate();
     } catch (const std::invalid_argument& e) {
-        throw bad_input(std::string("navier-stokes-2d: ") + e.what());
+        throw bad_input(name_ + ": " + e.what());
     }
     const std::string method = restart ? ck.method : settings.method.empty() ? info_.default_method : settings.method;
     if (std::find(info_.methods.begin(), info_.methods.end(), method) == info_.methods.end())
-        throw bad_input("method '" + method + "' is not available for navier-stokes-2d (one of c-rk4, c-pc, c-rk2, "
+        throw bad_input("method '" + method + "' is not available for " + name_ + " (one of c-rk4, c-pc, c-rk2, "
                         "rk4, pc, rk2, euler)");
     if (settings.dt && cfl_) throw bad_input("give --dt or --cfl, not both");
     if (cfl_ && !(std::isfinite(*cfl_) && *cfl_ > 0.0)) throw bad_input("--cfl must be a positive number");
@@ -258,7 +299,7 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
         try {
             return navier_stokes_2d(p);
         } catch (const std::invalid_argument& e) {
-            throw bad_input(std::string("navier-stokes-2d: ") + e.what());
+            throw bad_input(name_ + ": " + e.what());
         }
     }();
     state w;
@@ -327,9 +368,10 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
     }
     std::FILE* out = csv.get();
     if (out)
-        std::fputs("step,t,energy,enstrophy,palinstrophy,energy_injection,energy_dissipation,enstrophy_injection,"
-                   "enstrophy_dissipation,energy_budget_residual,enstrophy_budget_residual,max_velocity,cfl,"
-                   "halvings\n",
+        std::fputs(("step,t," + inv_[0] + "," + inv_[1] + ",palinstrophy," + inv_[0] + "_injection," + inv_[0] +
+                    "_dissipation," + inv_[1] + "_injection," + inv_[1] + "_dissipation," + inv_[0] +
+                    "_budget_residual," + inv_[1] + "_budget_residual,max_velocity,cfl,halvings\n")
+                       .c_str(),
                    out);
     auto row = [&](std::uint64_t i) {
         const double e = model.energy(w), z = model.enstrophy(w), u = model.max_velocity(w);
@@ -347,13 +389,17 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
         std::snprintf(stem, sizeof stem, "%08llu", (unsigned long long)i);
         const std::string base = snapshot_dir_ + "/", t = num(double(i) * dt);
         const std::vector<double> field = model.to_physical(w);
-        write_snapshot_h5(base + "vorticity_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
-        if (!plot_vorticity_png(base + "vorticity_" + stem + ".png", p.n, field, double(i) * dt) && !warned_) {
+        write_snapshot_h5(base + stem_ + "_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
+        if (!plot_vorticity_png(base + stem_ + "_" + stem + ".png", p.n, field, double(i) * dt, field_,
+                                std::string(eq_.symbol)) &&
+            !warned_) {
             std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
             warned_ = true;
         }
+        const spectral::flow_fluxes pi = model.fluxes(w);
         write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
-                       model.energy_spectrum(w), double(i) * dt);
+                       {model.energy_spectrum(w), model.enstrophy_spectrum(w), pi.energy, pi.enstrophy},
+                       double(i) * dt);
     };
     auto save = [&](std::uint64_t i) {
         run.step = i;
@@ -446,7 +492,7 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
         }
     });
     progress.finish();
-    if (!found) throw bad_input("method '" + method + "' is not available for navier-stokes-2d");
+    if (!found) throw bad_input("method '" + method + "' is not available for " + name_);
 
     run_summary s;
     s.model = info_.name;
@@ -459,15 +505,15 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
     s.stats.step_reductions = run.halvings;
     s.stats.rhs_evals = run.rhs_evals;
     s.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    s.invariants.push_back({"energy", run.energy0, model.energy(w), run.max_energy_drift});
-    s.invariants.push_back({"enstrophy", run.enstrophy0, model.enstrophy(w), run.max_enstrophy_drift});
+    s.invariants.push_back({inv_[0], run.energy0, model.energy(w), run.max_energy_drift});
+    s.invariants.push_back({inv_[1], run.enstrophy0, model.enstrophy(w), run.max_enstrophy_drift});
     s.figures = {{"palinstrophy", model.palinstrophy(w)},
-                 {"energy_injection", run.budget.energy_injection},
-                 {"energy_dissipation", run.budget.energy_dissipation},
-                 {"enstrophy_injection", run.budget.enstrophy_injection},
-                 {"enstrophy_dissipation", run.budget.enstrophy_dissipation},
-                 {"max_energy_budget_residual_per_step", run.max_energy_residual},
-                 {"max_enstrophy_budget_residual_per_step", run.max_enstrophy_residual},
+                 {inv_[0] + "_injection", run.budget.energy_injection},
+                 {inv_[0] + "_dissipation", run.budget.energy_dissipation},
+                 {inv_[1] + "_injection", run.budget.enstrophy_injection},
+                 {inv_[1] + "_dissipation", run.budget.enstrophy_dissipation},
+                 {"max_" + inv_[0] + "_budget_residual_per_step", run.max_energy_residual},
+                 {"max_" + inv_[1] + "_budget_residual_per_step", run.max_enstrophy_residual},
                  {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(last, 1))},
                  {"final_cfl", model.cfl(w, dt)}};
     // Both outputs complete before either replaces anything (a failed or interrupted run keeps its checkpoint, not a
@@ -480,7 +526,9 @@ int navier_stokes_2d_command::run(const run_settings& settings) {
 
 }  // namespace
 
-/// The navier-stokes-2d adapter.
-std::unique_ptr<model_command> make_navier_stokes_2d_command() { return std::make_unique<navier_stokes_2d_command>(); }
+/// One command per spectral equation, in the order of eci::spectral::equations().
+void append_spectral_commands(std::vector<std::unique_ptr<model_command>>& models) {
+    for (const spectral::equation* e : spectral::equations()) models.push_back(std::make_unique<spectral_command>(*e));
+}
 
 }  // namespace eci::cli

@@ -1,0 +1,186 @@
+// eci::spectral::flow2d: a spectral equation of equation.hpp on the grid of grid.hpp, as a model the steppers
+// step: the right-hand side (the equation's nonlinear term, linear terms, forcing) with the rates its parts give E
+// and Z, the invariants, diagnostics (max |u|, CFL, spectra and fluxes) and initial fields. Link eci::spectral.
+#pragma once
+
+#include <array>
+#include <complex>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "../models/invariant.hpp"
+#include "equation.hpp"
+#include "grid.hpp"
+
+namespace eci::spectral {
+
+/// Which forcing drives the flow.
+enum class forcing_kind { none, deterministic, stochastic };
+
+/// The parameters of a flow: the equation and its constants, grid, dissipation, forcing and the FFT setup.
+struct flow_params {
+    std::string equation = "navier-stokes-2d";  ///< a name of equations()
+    int n = 256;                       ///< grid points per side: even, at least 8
+    double nu = 0.0;                   ///< viscosity: -nu |k|^2 q
+    double hyper_nu = 0.0;             ///< hyperviscosity: -hyper_nu |k|^(2p) q
+    int hyper_p = 2;                   ///< the hyperviscosity's power p, at least 1
+    double hypo_nu = 0.0;              ///< hypoviscosity (large-scale friction): -hypo_nu |k|^(-2 hypo_p) q
+    int hypo_p = 1;                    ///< the hypoviscosity's power, at least 1
+    double drag = 0.0;                 ///< linear (Ekman) drag: -drag q
+    double beta = 0.0;                 ///< Charney-Hasegawa-Mima: the planetary vorticity gradient (Rossby waves)
+    double deformation = 0.0;          ///< Charney-Hasegawa-Mima: F = 1 / L_d^2 >= 0 in q = lap psi - F psi
+    forcing_kind forcing = forcing_kind::none;
+    double forcing_k = 4.0;            ///< centre k_f of the forced band k_f - 1/2 <= |k| < k_f + 1/2
+    double forcing_amplitude = 1.0;    ///< deterministic forcing: rms of the forcing field (random fixed phases)
+    double injection_rate = 1.0;       ///< stochastic forcing: mean energy injection rate epsilon
+    std::uint64_t forcing_seed = 1;    ///< seed of the deterministic phases and of the stochastic generator
+    int threads = 1;                   ///< FFTW and OpenMP threads
+    bool measure = true;               ///< FFTW_MEASURE plans (FFTW_ESTIMATE when false)
+    std::string wisdom_file;           ///< FFTW wisdom read before planning and written after; empty: none
+    std::string wisdom;                ///< FFTW wisdom text imported before planning (a checkpoint's, so that a
+                                       ///< restart plans the same transforms and continues bit for bit)
+
+    /// Throws std::invalid_argument naming the first bad parameter (the equation's own included).
+    void validate() const;
+    void validate(const spectral::equation& e) const;
+};
+
+/// What the linear terms and the forcing did to E and Z at one right-hand-side evaluation (rates, per unit time).
+struct flow_rates {
+    double energy_injection = 0.0;      ///< sum_k w_k |a_k| Re(conj(q_k) F_k)
+    double energy_dissipation = 0.0;    ///< -sum_k w_k |a_k| Re(conj(q_k) L_k q_k)
+    double enstrophy_injection = 0.0;   ///< sum_k w_k Re(conj(q_k) F_k)
+    double enstrophy_dissipation = 0.0; ///< -sum_k w_k Re(conj(q_k) L_k q_k)
+    double energy_transfer = 0.0;       ///< sum_k w_k |a_k| Re(conj(q_k) N_k): zero up to round-off
+    double enstrophy_transfer = 0.0;    ///< sum_k w_k Re(conj(q_k) N_k): zero up to round-off
+};
+
+/// The budget of E and Z over steps: injection and dissipation integrated with the steps' own stages and weights.
+struct flow_budget {
+    double energy_injection = 0.0;       ///< dt sum_j b_j (energy_injection rate at stage j)
+    double energy_dissipation = 0.0;     ///< dt sum_j b_j (energy_dissipation rate at stage j)
+    double enstrophy_injection = 0.0;    ///< the same for Z
+    double enstrophy_dissipation = 0.0;  ///< the same for Z
+};
+
+/// Energy and enstrophy flux through each shell: Pi(k) = -sum over shells k' <= k of the nonlinear transfer T(k'),
+/// what the nonlinear term carries from the shells <= k to the others (positive: to smaller scales).
+struct flow_fluxes {
+    std::vector<double> energy, enstrophy;
+};
+
+/// dq/dt = -u . grad q + L q + F on [0, 2 pi)^2 for the equation params().equation, with
+/// L = i c(k) - (nu |k|^2 + nu_h |k|^2p + nu_hypo |k|^-2p' + drag). The state is the grid's half plane of q;
+/// modes outside the retained square and k = 0 are zero and stay zero.
+class flow2d {
+   public:
+    using state_type = std::vector<std::complex<double>>;
+
+    /// Plans the FFTs (once) and tabulates the coefficients. Throws std::invalid_argument for bad parameters.
+    explicit flow2d(const flow_params& p);
+    /// The same with an equation module that need not be in equations() (a user's own; p.equation is its name).
+    flow2d(const flow_params& p, const spectral::equation& e);
+    ~flow2d();
+    flow2d(flow2d&&) noexcept;
+    flow2d& operator=(flow2d&&) noexcept;
+    flow2d(const flow2d&) = delete;
+    flow2d& operator=(const flow2d&) = delete;
+
+    /// FFTW's accumulated wisdom as text (holds this model's plans).
+    static std::string fftw_wisdom() { return grid::fftw_wisdom(); }
+    const flow_params& params() const;
+    const equation& eq() const;
+    const spectral::grid& grid() const;
+    int n() const { return n_; }
+    int columns() const { return n_ / 2 + 1; }
+    std::size_t size() const { return std::size_t(n_) * std::size_t(columns()); }
+    int kmax() const { return (n_ - 1) / 3; }
+    int kx(std::size_t i) const { return int(i % std::size_t(columns())); }
+    int ky(std::size_t i) const {
+        const int row = int(i / std::size_t(columns()));
+        return row <= n_ / 2 ? row : row - n_;
+    }
+    bool retained(std::size_t i) const { return weights_[i] != 0.0; }
+    /// The half-plane weights (2, 1 on the k_x = 0 and Nyquist columns, 0 outside the retained modes).
+    const std::vector<double>& weights() const { return weights_; }
+    /// psi_k = inversion()[i] q_k (0 outside the retained modes).
+    const std::vector<double>& inversion() const;
+    /// E and Z as quadratic invariants sum_k c_k |q_k|^2 over the stored modes: w_k |a_k| / 2 and w_k / 2.
+    std::vector<std::vector<double>> quadratic_invariant_weights() const;
+    /// The names of E and Z for this equation (e.g. energy, enstrophy).
+    std::array<std::string, 2> invariant_names() const;
+
+    /// The right-hand side. Records the rates of the linear terms and forcing when recording is on.
+    void operator()(const state_type& q, state_type& dqdt, double t);
+    /// The transforms of one right-hand-side evaluation and nothing else: the FFT floor of a step, for benchmarks.
+    void execute_transforms();
+    /// How many transforms one right-hand side executes (4 in Basdevant's form, 5 in the advective one).
+    int transforms_per_rhs() const;
+    /// The nonlinear term alone, -u . grad q, dealiased (zero outside the retained modes).
+    void nonlinear(const state_type& q, state_type& out);
+    /// The same term by the advective form (5 transforms) whatever the equation's form: a reference for tests.
+    void nonlinear_advective(const state_type& q, state_type& out);
+    /// The rates of one state (with the current forcing).
+    flow_rates rates(const state_type& q);
+
+    /// E = 1/2 sum |a_k| |q_k|^2 (full plane).
+    double energy(const state_type& q) const;
+    /// Z = 1/2 sum |q_k|^2.
+    double enstrophy(const state_type& q) const;
+    /// P = 1/2 sum |k|^2 |q_k|^2.
+    double palinstrophy(const state_type& q) const;
+    /// The invariants the conservative methods keep in the inviscid, unforced limit (names: invariant_names()).
+    static constexpr auto invariants() {
+        return std::array<named_invariant<flow2d>, 2>{{{"energy", &flow2d::energy}, {"enstrophy", &flow2d::enstrophy}}};
+    }
+    /// max over the grid of |u|.
+    double max_velocity(const state_type& q);
+    /// The CFL number max|u| dt / dx with dx = 2 pi / n.
+    double cfl(const state_type& q, double dt);
+    /// The shell-summed spectra E(k) and Z(k), k = 0, 1, ...: sums over modes with round(|k|) = k.
+    std::vector<double> energy_spectrum(const state_type& q) const;
+    std::vector<double> enstrophy_spectrum(const state_type& q) const;
+    /// The fluxes Pi_E(k), Pi_Z(k) of the nonlinear term (one right-hand side's transforms).
+    flow_fluxes fluxes(const state_type& q);
+
+    /// The state of a real field sampled on the n x n grid (row-major, y rows): transformed, truncated, mean removed.
+    state_type from_physical(std::span<const double> field);
+    /// The field on the grid (row-major, y rows).
+    std::vector<double> to_physical(const state_type& q);
+    /// A random field with energy spectrum E(k) ~ s^4 / (1 + s^2)^4, s = k / k_peak (peak at k_peak, tail k^-4),
+    /// random phases, scaled to energy `energy`.
+    state_type random_field(double k_peak, double energy, std::uint64_t seed);
+    /// Two co-rotating Gaussian vortices of radius `radius`, peak value `peak`, `separation` apart near the centre.
+    state_type vortex_pair(double radius, double separation, double peak);
+    /// q = 2 U sin x sin y: one |k|, so the nonlinear term vanishes (a steady Euler flow; a Rossby wave with beta).
+    state_type taylor_green(double velocity);
+
+    /// Draws the stochastic forcing for the next step of size dt (held constant over the step); a no-op otherwise.
+    void draw_forcing(double dt);
+    std::uint64_t rng_state() const { return rng_; }
+    void set_rng_state(std::uint64_t s) { rng_ = s; }
+    /// The forcing F_k held now.
+    const state_type& forcing() const;
+
+    /// Starts recording the rates of each right-hand-side evaluation (cleared on each call).
+    void start_recording();
+    void stop_recording() { recording_ = false; }
+    /// The rates recorded since start_recording, one per evaluation.
+    std::span<const flow_rates> recorded() const { return {recorded_.data(), recorded_count_}; }
+
+   private:
+    struct impl;
+    int n_;
+    std::vector<double> weights_;
+    std::unique_ptr<impl> d_;
+    std::uint64_t rng_ = 0;
+    bool recording_ = false;
+    std::array<flow_rates, 16> recorded_{};
+    std::size_t recorded_count_ = 0;
+};
+
+}  // namespace eci::spectral

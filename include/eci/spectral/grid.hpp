@@ -1,0 +1,160 @@
+// eci::spectral::grid: the doubly periodic 2-D grid every spectral equation shares. FFTW plans (made once,
+// threaded, wisdom in a file or a string), the wavenumber tables, the 2/3-rule dealiasing mask and the half-plane
+// weights, the Hermitian k_x = 0 column, physical <-> spectral, shell sums (spectra), sums over modes in a fixed
+// order, and the seeded generator of initial fields and stochastic forcing. An equation (flow.hpp) is written with
+// these primitives. Link eci::spectral.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <array>
+#include <complex>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+namespace eci::spectral {
+
+using cplx = std::complex<double>;
+
+/// How the grid plans its transforms.
+struct grid_options {
+    int n = 256;               ///< grid points per side: even, at least 8
+    int fields = 4;            ///< scratch fields (and the largest batch one transform call takes)
+    int threads = 1;           ///< FFTW and OpenMP threads
+    bool measure = true;       ///< FFTW_MEASURE plans (FFTW_ESTIMATE when false)
+    std::string wisdom_file;   ///< FFTW wisdom read before planning and written after; empty: none
+    std::string wisdom;        ///< FFTW wisdom text imported before planning (a checkpoint's)
+};
+
+/// The storage is FFTW's real-to-complex half plane: n rows (k_y = 0, 1, ..., n/2, -n/2 + 1, ..., -1) of n/2 + 1
+/// columns (k_x = 0 ... n/2), normalised so that f(x) = sum_k f_k exp(i k.x). The retained modes are the square
+/// |k_x|, |k_y| <= kmax = (n - 1) / 3 without k = 0: with 3 kmax < n no product of two retained fields aliases onto a
+/// retained mode, so a term computed on the grid and truncated is the exact Galerkin one.
+class grid {
+   public:
+    /// Plans the transforms and tabulates the wavenumbers; throws std::invalid_argument for bad options.
+    explicit grid(const grid_options& o);
+    ~grid();
+    grid(grid&&) noexcept;
+    grid& operator=(grid&&) noexcept;
+    grid(const grid&) = delete;
+    grid& operator=(const grid&) = delete;
+
+    int n() const { return n_; }
+    int columns() const { return n_ / 2 + 1; }
+    /// Stored complex modes, n (n/2 + 1): the size of a state.
+    std::size_t size() const { return std::size_t(n_) * std::size_t(columns()); }
+    /// Grid points, n^2.
+    std::size_t points() const { return std::size_t(n_) * std::size_t(n_); }
+    int kmax() const { return (n_ - 1) / 3; }
+    int threads() const { return threads_; }
+    int kx(std::size_t i) const { return int(i % std::size_t(columns())); }
+    int ky(std::size_t i) const { return ky_of_row(int(i / std::size_t(columns()))); }
+    int ky_of_row(int row) const { return row <= n_ / 2 ? row : row - n_; }
+    /// |k|^2 of stored mode i.
+    double k2(std::size_t i) const { return k2_[i]; }
+    /// How often stored mode i appears in the full plane: 2 (itself and its unstored conjugate), 1 on the k_x = 0 and
+    /// Nyquist columns, 0 outside the retained modes (the dealiasing mask and the half-plane weights in one table).
+    const std::vector<double>& weights() const { return weights_; }
+    bool retained(std::size_t i) const { return weights_[i] != 0.0; }
+    /// The columns 0 .. kept_columns(row) - 1 of a row hold every retained mode of the row (kmax + 1, or 0 for a row
+    /// outside the square): loops over the state read only these.
+    std::size_t kept_columns(int row) const {
+        const int ky = ky_of_row(row);
+        return (ky <= kmax() && -ky <= kmax()) ? std::size_t(kmax()) + 1 : 0;
+    }
+
+    /// Makes the k_x = 0 and Nyquist columns exact conjugates (k and -k are both stored there), so the array is the
+    /// transform of a real field bit for bit.
+    void make_hermitian(cplx* f) const;
+
+    /// Scratch field j (0 <= j < fields): its spectral view, n rows of columns() modes...
+    cplx* spectral(int j) const;
+    /// ... and the same memory as a real field: n rows of n values, each row padded to 2 columns() (FFTW's in-place
+    /// layout). Entry (row y, column x) is physical(j)[y * padded() + x].
+    double* physical(int j) const;
+    std::size_t padded() const { return 2 * std::size_t(columns()); }
+    /// Spectral -> physical for scratch fields 0 .. count-1, in place, one call (FFTW's batch).
+    void inverse(int count) const;
+    /// Physical -> spectral for scratch fields first .. first + count - 1, in place (unnormalised: n^2 f_k).
+    void forward(int first, int count) const;
+
+    /// body(row0, row1) over the rows, split between the threads.
+    template <class Body>
+    void for_rows(Body body) const;
+    /// Sums K quantities over the rows: body(row0, row1, acc) adds into acc; per-thread partial sums combined in
+    /// thread order, so a thread count repeats bit for bit.
+    template <std::size_t K, class Body>
+    std::array<double, K> sum_rows(Body body) const;
+
+    /// The real field (row-major, n x n, y rows) of a state.
+    std::vector<double> to_physical(const cplx* f) const;
+    /// The state of a real field on the grid (row-major, n x n): transformed, truncated to the retained modes.
+    std::vector<cplx> from_physical(std::span<const double> field) const;
+    /// Shell sums: out[k] = sum over retained modes with round(|k|) = k of value(i); k = 0 .. shells() - 1.
+    template <class Value>
+    std::vector<double> shells(Value value) const;
+    std::size_t shell_count() const;
+
+    /// The plans as FFTW wisdom text (so a restart plans the same transforms and repeats bit for bit).
+    static std::string fftw_wisdom();
+
+   private:
+    void run_rows(void (*fn)(void*, int, int, int), void* ctx) const;
+    struct plans;
+    int n_, fields_, threads_;
+    std::vector<double> k2_, weights_;
+    std::unique_ptr<plans> p_;
+};
+
+/// SplitMix64: a seed gives the same field and forcing on every platform.
+inline std::uint64_t splitmix_next(std::uint64_t& s) {
+    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+    return z ^ (z >> 31);
+}
+/// Uniform in [0, 1) from the generator.
+inline double uniform(std::uint64_t& s) { return double(splitmix_next(s) >> 11) * 0x1.0p-53; }
+/// A complex Gaussian of unit variance E|g|^2 = 1 (Box-Muller; both outputs used, no hidden cached value).
+cplx complex_gaussian(std::uint64_t& s);
+
+template <class Body>
+void grid::for_rows(Body body) const {
+    run_rows([](void* c, int r0, int r1, int) { (*static_cast<Body*>(c))(r0, r1); }, &body);
+}
+
+template <std::size_t K, class Body>
+std::array<double, K> grid::sum_rows(Body body) const {
+    std::array<std::array<double, K>, 64> part{};
+    struct ctx_t {
+        Body* body;
+        std::array<std::array<double, K>, 64>* part;
+    } ctx{&body, &part};
+    run_rows(
+        [](void* c, int r0, int r1, int tid) {
+            auto& x = *static_cast<ctx_t*>(c);
+            std::array<double, K> acc{};
+            (*x.body)(r0, r1, acc);
+            (*x.part)[std::size_t(tid)] = acc;
+        },
+        &ctx);
+    std::array<double, K> total{};
+    for (int t = 0; t < std::min(threads_, 64); ++t)
+        for (std::size_t k = 0; k < K; ++k) total[k] += part[std::size_t(t)][k];
+    return total;
+}
+
+template <class Value>
+std::vector<double> grid::shells(Value value) const {
+    std::vector<double> e(shell_count(), 0.0);
+    for (std::size_t i = 0; i < size(); ++i)
+        if (retained(i)) e[std::size_t(std::lround(std::sqrt(k2_[i])))] += value(i);
+    return e;
+}
+
+}  // namespace eci::spectral

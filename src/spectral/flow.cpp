@@ -1,0 +1,493 @@
+// The flow of flow.hpp: coefficient tables from the equation, the two nonlinear forms on the grid's primitives, one
+// fused pass from the transforms to the right-hand side (with the budget rates when recording), diagnostics, fields.
+#include "eci/spectral/flow.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <stdexcept>
+#include <string>
+
+namespace eci::spectral {
+
+namespace {
+
+void require(bool ok, const std::string& what) {
+    if (!ok) throw std::invalid_argument(what);
+}
+
+}  // namespace
+
+void flow_params::validate() const { validate(find_equation(equation)); }
+
+void flow_params::validate(const spectral::equation& e) const {
+    require(n >= 8 && n % 2 == 0, "grid size N must be even and at least 8, not " + std::to_string(n));
+    require(n <= 65536, "grid size N = " + std::to_string(n) + " is too large");
+    require(std::isfinite(nu) && nu >= 0.0, "viscosity nu must be finite and >= 0");
+    require(std::isfinite(hyper_nu) && hyper_nu >= 0.0, "hyperviscosity must be finite and >= 0");
+    require(hyper_p >= 1 && hyper_p <= 16, "hyperviscosity power p must be in 1..16");
+    require(std::isfinite(hypo_nu) && hypo_nu >= 0.0, "hypoviscosity must be finite and >= 0");
+    require(hypo_p >= 1 && hypo_p <= 16, "hypoviscosity power must be in 1..16");
+    require(std::isfinite(drag) && drag >= 0.0, "drag must be finite and >= 0");
+    require(std::isfinite(forcing_k) && forcing_k > 0.0, "forcing wavenumber k_f must be positive");
+    require(std::isfinite(forcing_amplitude) && forcing_amplitude >= 0.0, "forcing amplitude must be >= 0");
+    require(std::isfinite(injection_rate) && injection_rate >= 0.0, "injection rate must be >= 0");
+    require(threads >= 1 && threads <= 64, "threads must be in 1..64");
+    if (e.validate) e.validate(*this);
+}
+
+struct flow2d::impl {
+    flow_params p;
+    const equation* eq = nullptr;
+    spectral::grid g;
+    std::vector<double> a, ea, lin, disp, sigma;  // per stored mode: psi/q, |psi/q|, damping, dispersion, noise
+    state_type force;
+    bool dispersive = false;
+
+    impl(const flow_params& p_, const equation& e)
+        : p(p_), eq(&e), g(grid_options{p_.n, e.form == nonlinear_form::basdevant ? 2 : 4, p_.threads, p_.measure,
+                                        p_.wisdom_file, p_.wisdom}) {}
+
+    // The streamfunction's velocity (u, v) = (-i k_y psi, i k_x psi) of q into scratch fields 0 and 1 (and, for the
+    // advective form, i k_x q and i k_y q into 2 and 3), zero outside the retained square; a c2r transform
+    // overwrites its input, so every stored mode is rewritten.
+    void fill(const cplx* q, int fields) {
+        const std::size_t nc = std::size_t(g.columns());
+        cplx* f[4] = {g.spectral(0), g.spectral(1), fields > 2 ? g.spectral(2) : nullptr,
+                      fields > 2 ? g.spectral(3) : nullptr};
+        const double* av = a.data();
+        const double* w = g.weights().data();
+        g.for_rows([&](int r0, int r1) {
+            for (int row = r0; row < r1; ++row) {
+                const double ky = g.ky_of_row(row);
+                const std::size_t i0 = std::size_t(row) * nc, kept = g.kept_columns(row);
+                for (std::size_t col = 0; col < kept; ++col) {
+                    const std::size_t i = i0 + col;
+                    const double kx = double(col), re = q[i].real(), im = q[i].imag();
+                    const double pr = av[i] * re, pi = av[i] * im;  // psi
+                    f[0][i] = cplx(ky * pi, -ky * pr);               // u = -d psi/dy
+                    f[1][i] = cplx(-kx * pi, kx * pr);               // v = d psi/dx
+                    if (fields > 2) {
+                        const double mask = w[i] != 0.0 ? 1.0 : 0.0;
+                        f[2][i] = cplx(-kx * mask * im, kx * mask * re);  // dq/dx
+                        f[3][i] = cplx(-ky * mask * im, ky * mask * re);  // dq/dy
+                    }
+                }
+                for (int j = 0; j < fields; ++j) std::fill(f[j] + i0 + kept, f[j] + i0 + nc, cplx{});
+            }
+        });
+    }
+
+    // The transforms of the nonlinear term, leaving in the scratch fields what nl_at() reads.
+    void nonlinear_transforms(const cplx* q, nonlinear_form form) {
+        const std::size_t pad = g.padded(), nx = std::size_t(g.n());
+        if (form == nonlinear_form::basdevant) {
+            fill(q, 2);
+            g.inverse(2);
+            double* u = g.physical(0);
+            double* v = g.physical(1);
+            g.for_rows([&](int r0, int r1) {
+                for (std::size_t j = std::size_t(r0) * pad; j < std::size_t(r1) * pad; j += pad)
+                    for (std::size_t x = j; x < j + nx; ++x) {
+                        const double uu = u[x], vv = v[x];
+                        u[x] = uu * vv;
+                        v[x] = (vv - uu) * (vv + uu);
+                    }
+            });
+            g.forward(0, 2);
+        } else {
+            fill(q, 4);
+            g.inverse(4);
+            double* r0p = g.physical(0);
+            const double* r1p = g.physical(1);
+            const double* r2p = g.physical(2);
+            const double* r3p = g.physical(3);
+            g.for_rows([&](int r0, int r1) {
+                for (std::size_t j = std::size_t(r0) * pad; j < std::size_t(r1) * pad; j += pad)
+                    for (std::size_t x = j; x < j + nx; ++x) r0p[x] = r0p[x] * r2p[x] + r1p[x] * r3p[x];
+            });
+            g.forward(0, 1);
+        }
+    }
+
+    // The dealiased nonlinear term at retained mode i (kx, ky), from the transforms: Basdevant's
+    // -u . grad q = (k_x^2 - k_y^2) (uv)_k + k_x k_y (v^2 - u^2)_k, or -(u . grad q)_k.
+    template <nonlinear_form F>
+    cplx nl_at(std::size_t i, double kx, double ky, double scale) const {
+        if constexpr (F == nonlinear_form::basdevant)
+            return scale * ((kx * kx - ky * ky) * g.spectral(0)[i] + (kx * ky) * g.spectral(1)[i]);
+        else
+            return -scale * g.spectral(0)[i];
+    }
+
+    template <nonlinear_form F>
+    void nonlinear_out(cplx* dst) {
+        const std::size_t nc = std::size_t(g.columns());
+        const double scale = 1.0 / double(g.points());
+        const double* w = g.weights().data();
+        g.for_rows([&](int r0, int r1) {
+            for (int row = r0; row < r1; ++row) {
+                const double ky = g.ky_of_row(row);
+                const std::size_t i0 = std::size_t(row) * nc, kept = g.kept_columns(row);
+                for (std::size_t col = 0; col < kept; ++col)
+                    dst[i0 + col] = w[i0 + col] != 0.0 ? nl_at<F>(i0 + col, double(col), ky, scale) : cplx{};
+                std::fill(dst + i0 + kept, dst + i0 + nc, cplx{});
+            }
+        });
+        g.make_hermitian(dst);
+    }
+};
+
+flow2d::flow2d(const flow_params& p) : flow2d(p, find_equation(p.equation)) {}
+
+flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n) {
+    p.validate(e);
+    d_ = std::make_unique<impl>(p, e);
+    impl& d = *d_;
+    weights_ = d.g.weights();
+    const std::size_t m = size();
+    d.a.assign(m, 0.0);
+    d.ea.assign(m, 0.0);
+    d.lin.assign(m, 0.0);
+    d.disp.assign(m, 0.0);
+    d.sigma.assign(m, 0.0);
+    d.force.assign(m, cplx{});
+    for (std::size_t i = 0; i < m; ++i) {
+        if (!retained(i)) continue;
+        const double x = kx(i), y = ky(i), k2 = d.g.k2(i);
+        d.a[i] = e.inversion(p, x, y);
+        d.ea[i] = std::abs(d.a[i]);
+        d.lin[i] = -(p.nu * k2 + p.hyper_nu * std::pow(k2, p.hyper_p) + p.drag +
+                     (p.hypo_nu != 0.0 ? p.hypo_nu * std::pow(k2, -p.hypo_p) : 0.0));
+        if (e.dispersion) d.disp[i] = e.dispersion(p, x, y);
+        if (d.disp[i] != 0.0) d.dispersive = true;
+    }
+    // The forced band k_f - 1/2 <= |k| < k_f + 1/2, retained modes only.
+    double band_count = 0.0, band_energy_weight = 0.0;
+    for (std::size_t i = 0; i < m; ++i) {
+        const double k = std::sqrt(d.g.k2(i));
+        if (!retained(i) || k < p.forcing_k - 0.5 || k >= p.forcing_k + 0.5) continue;
+        d.sigma[i] = 1.0;
+        band_count += weights_[i];
+        band_energy_weight += weights_[i] * d.ea[i];
+    }
+    if (p.forcing != forcing_kind::none)
+        require(band_count > 0.0, "the forcing band |k| = " + std::to_string(p.forcing_k) +
+                                      " +- 1/2 holds no retained mode (kmax = " + std::to_string(kmax()) + ")");
+    rng_ = p.forcing_seed;
+    if (p.forcing == forcing_kind::deterministic) {
+        // Fixed random phases; rms of the forcing field sum_full |F_k|^2 = amplitude^2.
+        std::uint64_t s = p.forcing_seed;
+        const double amp = p.forcing_amplitude / std::sqrt(band_count);
+        for (std::size_t i = 0; i < m; ++i) {
+            if (d.sigma[i] == 0.0) continue;
+            const double phase = 2.0 * std::numbers::pi * uniform(s);
+            d.force[i] = std::polar(amp, phase);
+        }
+        d.g.make_hermitian(d.force.data());
+    } else if (p.forcing == forcing_kind::stochastic) {
+        // White noise held over a step of dt: F = sigma g / sqrt(dt) injects, on average, 1/2 sum_full sigma^2 |a_k|
+        // per unit time, which is epsilon for this sigma.
+        const double sig = std::sqrt(2.0 * p.injection_rate / band_energy_weight);
+        for (double& v : d.sigma) v *= sig;
+    }
+}
+
+flow2d::~flow2d() = default;
+flow2d::flow2d(flow2d&&) noexcept = default;
+flow2d& flow2d::operator=(flow2d&&) noexcept = default;
+
+const flow_params& flow2d::params() const { return d_->p; }
+const equation& flow2d::eq() const { return *d_->eq; }
+const spectral::grid& flow2d::grid() const { return d_->g; }
+const std::vector<double>& flow2d::inversion() const { return d_->a; }
+
+std::array<std::string, 2> flow2d::invariant_names() const {
+    return {std::string(d_->eq->invariant_names[0]), std::string(d_->eq->invariant_names[1])};
+}
+
+std::vector<std::vector<double>> flow2d::quadratic_invariant_weights() const {
+    std::vector<std::vector<double>> q(2, std::vector<double>(size()));
+    for (std::size_t i = 0; i < size(); ++i) {
+        q[0][i] = 0.5 * weights_[i] * d_->ea[i];
+        q[1][i] = 0.5 * weights_[i];
+    }
+    return q;
+}
+
+int flow2d::transforms_per_rhs() const { return d_->eq->form == nonlinear_form::basdevant ? 4 : 5; }
+
+void flow2d::execute_transforms() {
+    const spectral::grid& g = d_->g;
+    if (d_->eq->form == nonlinear_form::basdevant) {
+        g.inverse(2);
+        g.forward(0, 2);
+    } else {
+        g.inverse(4);
+        g.forward(0, 1);
+    }
+}
+
+void flow2d::nonlinear(const state_type& q, state_type& out) {
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    out.resize(size());
+    d_->nonlinear_transforms(q.data(), d_->eq->form);
+    if (d_->eq->form == nonlinear_form::basdevant)
+        d_->nonlinear_out<nonlinear_form::basdevant>(out.data());
+    else
+        d_->nonlinear_out<nonlinear_form::advective>(out.data());
+}
+
+void flow2d::nonlinear_advective(const state_type& q, state_type& out) {
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    out.resize(size());
+    // The advective form needs four scratch fields; a Basdevant-form flow has two: a grid of its own.
+    const impl& d = *d_;
+    flow_params p = d.p;
+    p.equation = "surface-qg";  // any advective-form equation: only the grid and the fill are used
+    p.beta = p.deformation = 0.0;
+    p.forcing = forcing_kind::none;
+    p.wisdom_file.clear();
+    p.measure = false;
+    impl tmp(p, surface_qg_equation);
+    tmp.a = d.a;
+    tmp.nonlinear_transforms(q.data(), nonlinear_form::advective);
+    tmp.nonlinear_out<nonlinear_form::advective>(out.data());
+}
+
+namespace {
+
+// One pass from the transforms to the right-hand side: the dealiased nonlinear term plus L q + F, and when
+// recording, the sums of what each part does to E and Z (weights w_k |a_k| and w_k). Outside the retained square
+// (5/9 of the stored modes) q, L and F are zero and so is the result: only the square is read. The k_x = 0 and
+// Nyquist columns are made exact conjugates after (L and F are Hermitian there, so that equals symmetrising N first).
+template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
+std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cplx* f) {
+    const spectral::grid& g = d.g;
+    const std::size_t nc = std::size_t(g.columns());
+    const double scale = 1.0 / double(g.points());
+    const double* wt = m.weights().data();
+    const double* lin = d.lin.data();
+    const double* disp = d.disp.data();
+    const double* ea = d.ea.data();
+    const cplx* Fk = d.force.data();
+    return g.template sum_rows<6>([&](int r0, int r1, std::array<double, 6>& acc) {
+        for (int row = r0; row < r1; ++row) {
+            const double ky = g.ky_of_row(row);
+            const std::size_t i0 = std::size_t(row) * nc, kept = g.kept_columns(row);
+            for (std::size_t col = 0; col < kept; ++col) {
+                const std::size_t i = i0 + col;
+                const cplx nk = wt[i] != 0.0 ? d.template nl_at<F>(i, double(col), ky, scale) : cplx{};
+                cplx v = nk + lin[i] * x[i];
+                if constexpr (Dispersive) v += cplx(-disp[i] * x[i].imag(), disp[i] * x[i].real());
+                if constexpr (Forced) v += Fk[i];
+                f[i] = v;
+                if constexpr (Record) {
+                    const double nl = x[i].real() * nk.real() + x[i].imag() * nk.imag();
+                    const double diss = -lin[i] * std::norm(x[i]);
+                    const double inj = x[i].real() * Fk[i].real() + x[i].imag() * Fk[i].imag();
+                    const double we = wt[i] * ea[i];
+                    acc[0] += we * inj;
+                    acc[1] += we * diss;
+                    acc[2] += wt[i] * inj;
+                    acc[3] += wt[i] * diss;
+                    acc[4] += we * nl;
+                    acc[5] += wt[i] * nl;
+                }
+            }
+            std::fill(f + i0 + kept, f + i0 + nc, cplx{});
+        }
+    });
+}
+
+template <nonlinear_form F, bool Dispersive>
+std::array<double, 6> rhs_dispatch(const flow2d& m, const auto& d, const cplx* x, cplx* f, bool forced, bool record) {
+    if (record) return rhs_pass<F, Dispersive, true, true>(m, d, x, f);
+    if (forced) return rhs_pass<F, Dispersive, true, false>(m, d, x, f);
+    return rhs_pass<F, Dispersive, false, false>(m, d, x, f);
+}
+
+}  // namespace
+
+void flow2d::operator()(const state_type& q, state_type& dqdt, double /*t*/) {
+    impl& d = *d_;
+    dqdt.resize(size());
+    d.nonlinear_transforms(q.data(), d.eq->form);
+    const bool forced = d.p.forcing != forcing_kind::none;
+    const bool basdevant = d.eq->form == nonlinear_form::basdevant;
+    std::array<double, 6> s{};
+    if (basdevant && !d.dispersive)
+        s = rhs_dispatch<nonlinear_form::basdevant, false>(*this, d, q.data(), dqdt.data(), forced, recording_);
+    else if (basdevant)
+        s = rhs_dispatch<nonlinear_form::basdevant, true>(*this, d, q.data(), dqdt.data(), forced, recording_);
+    else if (!d.dispersive)
+        s = rhs_dispatch<nonlinear_form::advective, false>(*this, d, q.data(), dqdt.data(), forced, recording_);
+    else
+        s = rhs_dispatch<nonlinear_form::advective, true>(*this, d, q.data(), dqdt.data(), forced, recording_);
+    d.g.make_hermitian(dqdt.data());
+    if (recording_ && recorded_count_ < recorded_.size())
+        recorded_[recorded_count_++] = {s[0], s[1], s[2], s[3], s[4], s[5]};
+}
+
+flow_rates flow2d::rates(const state_type& q) {
+    state_type tmp;
+    const auto saved = recorded_;
+    const std::size_t count = recorded_count_;
+    const bool was = recording_;
+    recording_ = true;
+    recorded_count_ = 0;
+    (*this)(q, tmp, 0.0);
+    const flow_rates r = recorded_[0];
+    recorded_ = saved;
+    recorded_count_ = count;
+    recording_ = was;
+    return r;
+}
+
+void flow2d::start_recording() {
+    recording_ = true;
+    recorded_count_ = 0;
+}
+
+double flow2d::energy(const state_type& q) const {
+    const std::size_t nc = std::size_t(columns());
+    const double* ea = d_->ea.data();
+    return 0.5 * d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
+        for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i)
+            acc[0] += weights_[i] * ea[i] * std::norm(q[i]);
+    })[0];
+}
+
+double flow2d::enstrophy(const state_type& q) const {
+    const std::size_t nc = std::size_t(columns());
+    return 0.5 * d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
+        for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i) acc[0] += weights_[i] * std::norm(q[i]);
+    })[0];
+}
+
+double flow2d::palinstrophy(const state_type& q) const {
+    const std::size_t nc = std::size_t(columns());
+    return 0.5 * d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
+        for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i)
+            acc[0] += weights_[i] * d_->g.k2(i) * std::norm(q[i]);
+    })[0];
+}
+
+double flow2d::max_velocity(const state_type& q) {
+    impl& d = *d_;
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    d.fill(q.data(), 2);
+    d.g.inverse(2);
+    const double* u = d.g.physical(0);
+    const double* v = d.g.physical(1);
+    double vmax = 0.0;
+    for (std::size_t y = 0; y < std::size_t(n_); ++y)
+        for (std::size_t j = y * d.g.padded(); j < y * d.g.padded() + std::size_t(n_); ++j)
+            vmax = std::max(vmax, u[j] * u[j] + v[j] * v[j]);
+    return std::sqrt(vmax);
+}
+
+double flow2d::cfl(const state_type& q, double dt) { return max_velocity(q) * dt * double(n_) / (2.0 * std::numbers::pi); }
+
+std::vector<double> flow2d::energy_spectrum(const state_type& q) const {
+    return d_->g.shells([&](std::size_t i) { return 0.5 * weights_[i] * d_->ea[i] * std::norm(q[i]); });
+}
+
+std::vector<double> flow2d::enstrophy_spectrum(const state_type& q) const {
+    return d_->g.shells([&](std::size_t i) { return 0.5 * weights_[i] * std::norm(q[i]); });
+}
+
+flow_fluxes flow2d::fluxes(const state_type& q) {
+    state_type nl;
+    nonlinear(q, nl);
+    auto transfer = [&](bool energy) {
+        return d_->g.shells([&](std::size_t i) {
+            const double t = weights_[i] * (q[i].real() * nl[i].real() + q[i].imag() * nl[i].imag());
+            return energy ? d_->ea[i] * t : t;
+        });
+    };
+    flow_fluxes f{transfer(true), transfer(false)};
+    for (auto* v : {&f.energy, &f.enstrophy}) {
+        double acc = 0.0;
+        for (double& x : *v) x = -(acc += x);
+    }
+    return f;
+}
+
+flow2d::state_type flow2d::from_physical(std::span<const double> field) { return d_->g.from_physical(field); }
+
+std::vector<double> flow2d::to_physical(const state_type& q) {
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    return d_->g.to_physical(q.data());
+}
+
+flow2d::state_type flow2d::random_field(double k_peak, double energy_target, std::uint64_t seed) {
+    require(std::isfinite(k_peak) && k_peak > 0.0, "peak wavenumber must be positive");
+    require(std::isfinite(energy_target) && energy_target > 0.0, "initial energy must be positive");
+    state_type w(size());
+    std::uint64_t s = seed;
+    for (std::size_t i = 0; i < size(); ++i) {
+        // Every stored mode draws, so the field of a seed does not depend on which modes are retained.
+        const double phase = 2.0 * std::numbers::pi * uniform(s);
+        if (!retained(i)) continue;
+        const double k2 = d_->g.k2(i), k = std::sqrt(k2), sq = k / k_peak;
+        // A shell of radius k holds about 2 pi k modes of energy |a_k| |q_k|^2 / 2 each. The tail is a power law:
+        // an exponential one leaves the far modes below round-off, where their right-hand sides are FFT noise of
+        // random sign and the conservative methods' radicands negative at any step size. (For Navier-Stokes,
+        // |a_k| = 1/k^2 and the factor sqrt((1/k^2) / |a_k|) is 1 exactly.)
+        const double shell_energy = sq * sq * sq * sq / std::pow(1.0 + sq * sq, 4);
+        w[i] = std::polar(std::sqrt(shell_energy * k / std::numbers::pi) * std::sqrt((1.0 / k2) / d_->ea[i]), phase);
+    }
+    d_->g.make_hermitian(w.data());
+    const double e = energy(w);
+    require(e > 0.0, "no retained mode near the peak wavenumber");
+    const double scale = std::sqrt(energy_target / e);
+    for (cplx& v : w) v *= scale;
+    return w;
+}
+
+flow2d::state_type flow2d::vortex_pair(double radius, double separation, double peak) {
+    require(std::isfinite(radius) && radius > 0.0, "vortex radius must be positive");
+    require(std::isfinite(separation) && separation >= 0.0 && separation < std::numbers::pi,
+            "vortex separation must be in [0, pi)");
+    require(std::isfinite(peak), "peak vorticity must be finite");
+    const double h = 2.0 * std::numbers::pi / n_, L = 2.0 * std::numbers::pi;
+    std::vector<double> f(std::size_t(n_) * std::size_t(n_));
+    // The pair's centre is off the grid's symmetry points: centred on one, half the Fourier components would be
+    // zero up to round-off, with right-hand sides of random sign, and their radicands negative at any step size.
+    const double xc = std::numbers::pi + 0.1234, yc = std::numbers::pi + 0.0567;
+    const double cx[2] = {xc - 0.5 * separation, xc + 0.5 * separation};
+    for (int j = 0; j < n_; ++j)
+        for (int i = 0; i < n_; ++i) {
+            double v = 0.0;
+            for (double c : cx) {
+                const double dx = std::remainder(i * h - c, L), dy = std::remainder(j * h - yc, L);
+                v += peak * std::exp(-(dx * dx + dy * dy) / (radius * radius));
+            }
+            f[std::size_t(j) * std::size_t(n_) + std::size_t(i)] = v;
+        }
+    return from_physical(f);
+}
+
+flow2d::state_type flow2d::taylor_green(double velocity) {
+    require(std::isfinite(velocity), "Taylor-Green velocity must be finite");
+    // 2 U sin x sin y = -(U/2) (e^{i(x+y)} - e^{i(x-y)} - e^{i(-x+y)} + e^{-i(x+y)})
+    state_type w(size());
+    const std::size_t nc = std::size_t(columns());
+    w[1 * nc + 1] = -0.5 * velocity;                   // (k_x, k_y) = (1, 1)
+    w[std::size_t(n_ - 1) * nc + 1] = 0.5 * velocity;  // (1, -1)
+    return w;
+}
+
+void flow2d::draw_forcing(double dt) {
+    impl& d = *d_;
+    if (d.p.forcing != forcing_kind::stochastic) return;
+    const double amp = 1.0 / std::sqrt(dt);
+    for (std::size_t i = 0; i < size(); ++i)
+        d.force[i] = d.sigma[i] != 0.0 ? d.sigma[i] * amp * complex_gaussian(rng_) : cplx{};
+    d.g.make_hermitian(d.force.data());
+}
+
+const flow2d::state_type& flow2d::forcing() const { return d_->force; }
+
+}  // namespace eci::spectral
