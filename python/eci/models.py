@@ -15,9 +15,9 @@ from ._eci import NWaveComplex as _NWaveComplex
 __all__ = ["Model", "Preset", "ThreeWave", "NWave", "LotkaVolterra", "Kepler"]
 
 try:  # built with eci::spectral (FFTW3) only
-    from ._eci import NavierStokes2D  # noqa: F401
+    from ._eci import CharneyHasegawaMima, NavierStokes2D, SurfaceQG  # noqa: F401
 
-    __all__.append("NavierStokes2D")
+    __all__ += ["NavierStokes2D", "CharneyHasegawaMima", "SurfaceQG"]
 except ImportError:
     pass
 

@@ -1,5 +1,5 @@
-// eci.models.NavierStokes2D: the pseudo-spectral 2-D vorticity equation of eci::spectral (FFTW), stepped by
-// ns2d_step as `eci run navier-stokes-2d` steps it, with its diagnostics (E, Z, P, spectrum, fields) from Python.
+// eci.models.NavierStokes2D, CharneyHasegawaMima, SurfaceQG: the spectral equations of eci::spectral (FFTW), stepped
+// by ns2d_step as `eci run EQUATION` steps them, with their diagnostics (E, Z, P, spectra, fluxes, fields).
 #include <cmath>
 #include <complex>
 #include <mutex>
@@ -28,10 +28,10 @@ bool python_interrupt_requested() {
     return interrupt_pending = check();
 }
 
-/// The model object: one navier_stokes_2d (its FFT plans and scratch) used by one call at a time.
-class ns2d_object final : public model_base {
+/// The model object: one spectral flow (its FFT plans and scratch) used by one call at a time.
+class ns2d_object : public model_base {
    public:
-    ns2d_object(const ns2d_params& p) : model_(make(p)) {
+    ns2d_object(const ns2d_params& p) : model_(make(p)), names_(model_->invariant_names()) {
         y0_ = model_->random_field(8.0, 0.5, 1);  // the CLI's default initial condition
         default_dt_ = cfl_step(y0_, 0.5);
     }
@@ -41,11 +41,11 @@ class ns2d_object final : public model_base {
     /// thread is using it.
     std::unique_lock<std::mutex> lock() const {
         std::unique_lock<std::mutex> l(*mutex_, std::try_to_lock);
-        if (!l.owns_lock()) throw std::runtime_error("this NavierStokes2D is in use by another thread's call");
+        if (!l.owns_lock()) throw std::runtime_error("this " + name() + " model is in use by another thread's call");
         return l;
     }
 
-    std::string name() const override { return "navier-stokes-2d"; }
+    std::string name() const override { return model_->params().equation; }
     std::vector<std::string> methods() const override { return eci::ns2d_methods(); }
     py::dict method_families() const override {
         py::dict d;
@@ -55,7 +55,7 @@ class ns2d_object final : public model_base {
     double default_dt() const override { return default_dt_; }
     double default_t_end() const override { return 10.0; }
     py::array default_y0() const override { return to_numpy(y0_); }
-    std::vector<std::string> invariant_names() const override { return {"energy", "enstrophy"}; }
+    std::vector<std::string> invariant_names() const override { return {names_[0], names_[1]}; }
 
     py::array call(double t, const py::object& y) const override {
         const state x = to_state(y);
@@ -79,11 +79,11 @@ class ns2d_object final : public model_base {
                 e.mutable_data()[j] = model_->energy(x);
                 z.mutable_data()[j] = model_->enstrophy(x);
             }
-            d["energy"] = e, d["enstrophy"] = z;
+            d[py::str(names_[0])] = e, d[py::str(names_[1])] = z;
             return d;
         }
         const state x = to_state(y);
-        d["energy"] = model_->energy(x), d["enstrophy"] = model_->enstrophy(x);
+        d[py::str(names_[0])] = model_->energy(x), d[py::str(names_[1])] = model_->enstrophy(x);
         return d;
     }
 
@@ -93,8 +93,8 @@ class ns2d_object final : public model_base {
                    const py::dict& settings, std::vector<py::object> invariants,
                    const std::vector<std::string>& invariant_names) const override {
         if (!settings["adaptive"].is_none())
-            throw std::invalid_argument("method " + method + " has no error estimate for rtol/atol; navier-stokes-2d "
-                                        "runs fixed steps (give dt, or none for the CFL 0.5 step)");
+            throw std::invalid_argument("method " + method + " has no error estimate for rtol/atol; " + name() +
+                                        " runs fixed steps (give dt, or none for the CFL 0.5 step)");
         std::optional<std::vector<double>> t_eval;
         if (!settings["t_eval"].is_none()) t_eval = settings["t_eval"].cast<std::vector<double>>();
         const int max_halvings = settings["max_halvings"].cast<int>();
@@ -102,7 +102,7 @@ class ns2d_object final : public model_base {
         for (const cplx& v : x)
             if (!std::isfinite(v.real()) || !std::isfinite(v.imag()))
                 throw std::invalid_argument("initial condition is not finite");
-        const method_info info = resolve_named_method(method, eci::ns2d_methods(), "model navier-stokes-2d");
+        const method_info info = resolve_named_method(method, eci::ns2d_methods(), "model " + name());
         const std::uint64_t n = steps_to_reach(t0, t1, dt);
         const double last = n ? t1 - (t0 + double(n - 1) * dt) : 0.0;
         const bool full_last = std::abs(last - dt) <= 1e-12 * dt;  // as integrate_to decides
@@ -112,9 +112,9 @@ class ns2d_object final : public model_base {
                 const double k = std::round((te - t0) / dt);
                 if (te != t1 && (k < 0 || double(k) > double(n) || grid_time(std::uint64_t(k)) != te))
                     throw std::invalid_argument("t_eval time " + full_text(te) + " is not on the step grid t0 + i dt "
-                                                "(navier-stokes-2d outputs whole steps)");
+                                                "(" + name() + " outputs whole steps)");
             }
-        std::vector<drift_record> drift{{"energy"}, {"enstrophy"}};
+        std::vector<drift_record> drift{{names_[0]}, {names_[1]}};
         for (const std::string& nm : invariant_names) drift.push_back({nm});
         const python_invariants<cplx> user{std::move(invariants)};
         const bool release = user.functions.empty();
@@ -174,10 +174,10 @@ class ns2d_object final : public model_base {
         report.rejected.step_failed = report.stats.step_reductions;
         py::dict d = result_dict(out, m.size(), report, drift, info);
         py::dict b;
-        b["energy_injection"] = budget.energy_injection;
-        b["energy_dissipation"] = budget.energy_dissipation;
-        b["enstrophy_injection"] = budget.enstrophy_injection;
-        b["enstrophy_dissipation"] = budget.enstrophy_dissipation;
+        b[py::str(names_[0] + "_injection")] = budget.energy_injection;
+        b[py::str(names_[0] + "_dissipation")] = budget.energy_dissipation;
+        b[py::str(names_[1] + "_injection")] = budget.enstrophy_injection;
+        b[py::str(names_[1] + "_dissipation")] = budget.enstrophy_dissipation;
         d["budget"] = b;
         return d;
     }
@@ -190,7 +190,7 @@ class ns2d_object final : public model_base {
     }
 
     state to_state(const py::object& y) const {
-        const auto a = as_vector<cplx>(y, model_->size(), "y", false, "the navier-stokes-2d state (n (n/2 + 1) modes)");
+        const auto a = as_vector<cplx>(y, model_->size(), "y", false, "the " + name() + " state (n (n/2 + 1) modes)");
         return {a.data(), a.data() + a.shape(0)};
     }
 
@@ -199,11 +199,12 @@ class ns2d_object final : public model_base {
         try {
             return std::make_unique<navier_stokes_2d>(p);
         } catch (const std::invalid_argument& e) {
-            throw std::invalid_argument(std::string("invalid navier-stokes-2d model: ") + e.what());
+            throw std::invalid_argument("invalid " + p.equation + " model: " + e.what());
         }
     }
 
     std::unique_ptr<navier_stokes_2d> model_;
+    std::array<std::string, 2> names_;
     std::unique_ptr<std::mutex> mutex_ = std::make_unique<std::mutex>();
     state y0_;
     double default_dt_ = 0.0;
@@ -216,32 +217,11 @@ ns2d_forcing forcing_named(const std::string& s) {
     throw std::invalid_argument("forcing must be none, deterministic or stochastic, not '" + s + "'");
 }
 
-}  // namespace
-
-void init_ns2d(py::module_& m) {
-    using o = ns2d_object;
-    py::class_<o, model_base>(
-        m, "NavierStokes2D",
-        "The 2-D incompressible vorticity equation on [0, 2pi)^2, pseudo-spectral (FFTW), dealiased by the 2/3 rule "
-        "so that every triad keeps energy and enstrophy (the paper's section III at scale); the state is FFTW's "
-        "half plane of omega_k, n rows of n/2 + 1 complex modes. Invariants energy, enstrophy (inviscid, unforced).")
-        .def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double drag,
-                         const std::string& forcing, double forcing_k, double forcing_amplitude, double injection_rate,
-                         long long forcing_seed, long long threads, bool fftw_measure) {
-                 if (n < 0 || hyper_p < 0 || forcing_seed < 0 || threads < 1)
-                     throw std::invalid_argument(
-                         "n, hyper_p and forcing_seed must be whole numbers >= 0, threads >= 1");
-                 ns2d_params p;
-                 p.n = int(n), p.nu = nu, p.hyper_nu = hyper_nu, p.hyper_p = int(hyper_p), p.drag = drag;
-                 p.forcing = forcing_named(forcing), p.forcing_k = forcing_k, p.forcing_amplitude = forcing_amplitude;
-                 p.injection_rate = injection_rate, p.forcing_seed = std::uint64_t(forcing_seed);
-                 p.threads = int(threads), p.measure = fftw_measure;
-                 return std::make_unique<o>(p);
-             }),
-             py::arg("n") = 256, py::arg("nu") = 0.0, py::arg("hyper_nu") = 0.0, py::arg("hyper_p") = 2,
-             py::arg("drag") = 0.0, py::arg("forcing") = "none", py::arg("forcing_k") = 4.0,
-             py::arg("forcing_amplitude") = 1.0, py::arg("injection_rate") = 1.0, py::arg("forcing_seed") = 1,
-             py::arg("threads") = 1, py::arg("fftw_measure") = false)
+// The methods and properties every spectral equation's class has.
+template <class Class>
+void add_flow_methods(Class& c) {
+    using o = typename Class::type;
+    c
         .def_property_readonly("n", [](const o& s) { return s.model().n(); }, "grid points per side")
         .def_property_readonly("kmax", [](const o& s) { return s.model().kmax(); }, "largest retained |k_x|, |k_y|")
         .def_property_readonly("size", [](const o& s) { return s.model().size(); }, "stored complex modes")
@@ -262,9 +242,9 @@ void init_ns2d(py::module_& m) {
             },
             "k_y of each stored mode")
         .def("energy", [](const o& s, const py::object& w) { return s.model().energy(s.to_state(w)); },
-             py::arg("w"), "E = 1/2 <|u|^2>")
+             py::arg("w"), "E = 1/2 sum |a_k| |q_k|^2 (psi_k = a_k q_k; for Navier-Stokes 1/2 <|u|^2>)")
         .def("enstrophy", [](const o& s, const py::object& w) { return s.model().enstrophy(s.to_state(w)); },
-             py::arg("w"), "Z = 1/2 <omega^2>")
+             py::arg("w"), "Z = 1/2 sum |q_k|^2 (enstrophy; surface QG calls it variance)")
         .def("palinstrophy", [](const o& s, const py::object& w) { return s.model().palinstrophy(s.to_state(w)); },
              py::arg("w"), "P = 1/2 <|grad omega|^2>")
         .def("energy_spectrum",
@@ -323,10 +303,121 @@ void init_ns2d(py::module_& m) {
                  return to_numpy(s.model().taylor_green(velocity));
              },
              py::arg("velocity") = 1.0, "omega = 2 U sin x sin y, steady for Euler, damped as exp(-2 nu t)")
+        .def("enstrophy_spectrum",
+             [](const o& s, const py::object& w) { return to_numpy(s.model().enstrophy_spectrum(s.to_state(w))); },
+             py::arg("w"), "shell-summed Z(k) (the second invariant's spectrum), k = 0, 1, ...")
+        .def("fluxes",
+             [](const o& s, const py::object& w) {
+                 const state x = s.to_state(w);
+                 const auto lock = s.lock();
+                 const auto f = s.model().fluxes(x);
+                 return py::make_tuple(to_numpy(f.energy), to_numpy(f.enstrophy));
+             },
+             py::arg("w"), "(Pi_E(k), Pi_Z(k)): the nonlinear term's flux of E and Z out of the shells <= k")
+        .def_property_readonly("equation", [](const o& s) { return s.model().params().equation; },
+                               "the equation's name (as `eci run` calls it)")
         .def("__repr__", [](const o& s) {
             const ns2d_params& p = s.model().params();
-            return "NavierStokes2D(n=" + std::to_string(p.n) + ", nu=" + shortest_text(p.nu) + ")";
+            std::string r = s.model().params().equation + "(n=" + std::to_string(p.n) + ", nu=" + shortest_text(p.nu);
+            if (p.beta != 0.0 || p.deformation != 0.0)
+                r += ", beta=" + shortest_text(p.beta) + ", deformation=" + shortest_text(p.deformation);
+            return r + ")";
         });
 }
+
+ns2d_params flow_params_from(const std::string& equation, long long n, double nu, double hyper_nu, long long hyper_p,
+                             double hypo_nu, long long hypo_p, double drag, const std::string& forcing,
+                             double forcing_k, double forcing_amplitude, double injection_rate,
+                             long long forcing_seed, long long threads, bool fftw_measure) {
+    // Python ints are unbounded: a value that does not fit is an error, not a wrapped or truncated grid
+    auto fits = [&](long long v, long long lo, long long hi, const char* what) {
+        if (v < lo || v > hi)
+            throw std::invalid_argument("invalid " + equation + " model: " + what + " must be in " + std::to_string(lo) + ".." +
+                                        std::to_string(hi) + ", not " + std::to_string(v));
+    };
+    fits(n, 8, 65536, "n");
+    fits(hyper_p, 1, 16, "hyper_p");
+    fits(hypo_p, 1, 16, "hypo_p");
+    fits(threads, 1, 64, "threads");
+    if (forcing_seed < 0)
+        throw std::invalid_argument("invalid " + equation + " model: forcing_seed must be a whole number >= 0");
+    ns2d_params p;
+    p.equation = equation;
+    p.n = int(n), p.nu = nu, p.hyper_nu = hyper_nu, p.hyper_p = int(hyper_p), p.drag = drag;
+    p.hypo_nu = hypo_nu, p.hypo_p = int(hypo_p);
+    p.forcing = forcing_named(forcing), p.forcing_k = forcing_k, p.forcing_amplitude = forcing_amplitude;
+    p.injection_rate = injection_rate, p.forcing_seed = std::uint64_t(forcing_seed);
+    p.threads = int(threads), p.measure = fftw_measure;
+    return p;
+}
+
+// The keywords every equation's constructor takes after its own.
+#define ECI_FLOW_KEYWORDS                                                                                        \
+    py::arg("n") = 256, py::arg("nu") = 0.0, py::arg("hyper_nu") = 0.0, py::arg("hyper_p") = 2,                \
+        py::arg("hypo_nu") = 0.0, py::arg("hypo_p") = 1, py::arg("drag") = 0.0, py::arg("forcing") = "none",   \
+        py::arg("forcing_k") = 4.0, py::arg("forcing_amplitude") = 1.0, py::arg("injection_rate") = 1.0,        \
+        py::arg("forcing_seed") = 1, py::arg("threads") = 1, py::arg("fftw_measure") = false
+
+// One C++ type per Python class (pybind11 registers a type once).
+struct chm_object final : ns2d_object {
+    using ns2d_object::ns2d_object;
+};
+struct sqg_object final : ns2d_object {
+    using ns2d_object::ns2d_object;
+};
+
+}  // namespace
+
+void init_ns2d(py::module_& m) {
+    using o = ns2d_object;
+    py::class_<o, model_base> ns(
+        m, "NavierStokes2D",
+        "The 2-D incompressible vorticity equation on [0, 2pi)^2, pseudo-spectral (FFTW), dealiased by the 2/3 rule "
+        "so that every triad keeps energy and enstrophy (the paper's section III at scale); the state is FFTW's "
+        "half plane of omega_k, n rows of n/2 + 1 complex modes. Invariants energy, enstrophy (inviscid, unforced).");
+    ns.def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double hypo_nu, long long hypo_p,
+                       double drag, const std::string& forcing, double forcing_k, double forcing_amplitude,
+                       double injection_rate, long long forcing_seed, long long threads, bool fftw_measure) {
+               return std::make_unique<o>(flow_params_from("navier-stokes-2d", n, nu, hyper_nu, hyper_p, hypo_nu,
+                                                           hypo_p, drag, forcing, forcing_k, forcing_amplitude,
+                                                           injection_rate, forcing_seed, threads, fftw_measure));
+           }),
+           ECI_FLOW_KEYWORDS);
+    add_flow_methods(ns);
+
+    py::class_<chm_object, model_base> chm(
+        m, "CharneyHasegawaMima",
+        "Quasi-geostrophic potential vorticity on a beta-plane (Charney-Hasegawa-Mima): dq/dt + J(psi, q) + beta "
+        "dpsi/dx = forcing - dissipation, q = lap psi - F psi with F = deformation = 1/L_d^2 >= 0. Rossby waves "
+        "omega = -beta k_x / (k^2 + F). Invariants energy 1/2 sum |q_k|^2 / (k^2 + F), enstrophy 1/2 sum |q_k|^2.");
+    chm.def(py::init([](double beta, double deformation, long long n, double nu, double hyper_nu, long long hyper_p,
+                        double hypo_nu, long long hypo_p, double drag, const std::string& forcing, double forcing_k,
+                        double forcing_amplitude, double injection_rate, long long forcing_seed, long long threads,
+                        bool fftw_measure) {
+                ns2d_params p = flow_params_from("charney-hasegawa-mima", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
+                                                 drag, forcing, forcing_k, forcing_amplitude, injection_rate,
+                                                 forcing_seed, threads, fftw_measure);
+                p.beta = beta, p.deformation = deformation;
+                return std::make_unique<chm_object>(p);
+            }),
+            py::arg("beta") = 0.0, py::arg("deformation") = 0.0, ECI_FLOW_KEYWORDS);
+    add_flow_methods(chm);
+
+    py::class_<sqg_object, model_base> sqg(
+        m, "SurfaceQG",
+        "Surface quasi-geostrophy: d theta/dt + u . grad theta = forcing - dissipation with psi_k = theta_k / |k|. "
+        "Invariants energy 1/2 sum |theta_k|^2 / |k| and variance 1/2 sum |theta_k|^2.");
+    sqg.def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double hypo_nu, long long hypo_p,
+                        double drag, const std::string& forcing, double forcing_k, double forcing_amplitude,
+                        double injection_rate, long long forcing_seed, long long threads, bool fftw_measure) {
+                return std::make_unique<sqg_object>(flow_params_from("surface-qg", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
+                                                            drag, forcing, forcing_k, forcing_amplitude,
+                                                            injection_rate, forcing_seed, threads, fftw_measure));
+            }),
+            ECI_FLOW_KEYWORDS);
+    add_flow_methods(sqg);
+}
+
+#undef ECI_FLOW_KEYWORDS
 
 }  // namespace eci::python

@@ -1,0 +1,89 @@
+# The spectral core's other equations from Python: Charney-Hasegawa-Mima and surface QG keep both of their invariants
+# under the conservative methods, report their budgets under their own names, agree with `eci run` bit for bit, and
+# refuse bad parameters with the CLI's messages.
+import json
+import math
+
+import numpy as np
+import pytest
+
+import eci
+from conftest import EPS, cli_error, run_cli
+
+CHM = getattr(eci.models, "CharneyHasegawaMima", None)
+SQG = getattr(eci.models, "SurfaceQG", None)
+pytestmark = pytest.mark.skipif(CHM is None, reason="built without eci::spectral (FFTW3)")
+
+
+def models():
+    return [("charney-hasegawa-mima", CHM(beta=10.0, deformation=1.0, n=32), ["energy", "enstrophy"]),
+            ("surface-qg", SQG(n=32), ["energy", "variance"])]
+
+
+@pytest.mark.parametrize("index", [0, 1])
+def test_inviscid_conservative_methods_keep_both_invariants(index):
+    name, m, names = models()[index]
+    assert m.equation == name and m.invariant_names == names
+    w = m.random_field(k_peak=3.0, energy=0.5, seed=5)
+    steps = 200
+    dt = m.cfl_step(w)
+    for method in ("c-rk4", "c-pc"):
+        r = eci.solve(m, (0.0, steps * dt), w, method=method, dt=dt, t_eval=[steps * dt])
+        # each step rounds every sum once and the nonlinear transfer is zero to a few eps: 8 eps sqrt(steps)
+        tol = 8.0 * EPS * math.sqrt(steps + 2 * r.stats["rejected_steps"]["step_failed"])
+        for n in names:
+            assert r.invariants[n]["max_rel_drift"] <= tol, (method, n, r.invariants[n])
+    rk4 = eci.solve(m, (0.0, steps * dt), w, method="rk4", dt=dt, t_eval=[steps * dt])
+    assert max(rk4.invariants[n]["max_rel_drift"] for n in names) > 1e3 * 8.0 * EPS * math.sqrt(steps)
+
+
+@pytest.mark.parametrize("index", [0, 1])
+def test_spectra_fluxes_and_budget_names(index):
+    name, m, names = models()[index]
+    w = m.random_field(k_peak=4.0, energy=0.5, seed=2)
+    assert abs(np.sum(m.energy_spectrum(w)) - m.energy(w)) <= 64 * EPS * m.energy(w)
+    assert abs(np.sum(m.enstrophy_spectrum(w)) - m.enstrophy(w)) <= 64 * EPS * m.enstrophy(w)
+    pe, pz = m.fluxes(w)
+    # the transfer conserves both invariants: no flux leaves the last shell
+    assert abs(pe[-1]) <= 1e3 * EPS * np.max(np.abs(pe)) and abs(pz[-1]) <= 1e3 * EPS * np.max(np.abs(pz))
+    r = eci.solve(m, (0.0, 0.05), w, method="c-rk4", dt=0.01)
+    assert sorted(r.budget) == sorted(f"{n}_{k}" for n in names for k in ("injection", "dissipation"))
+
+
+def test_rossby_wave_frequency_from_python():
+    m = CHM(beta=10.0, deformation=1.0, n=32)
+    q = np.zeros(m.size, dtype=complex)
+    kx, ky = m.kx, m.ky
+    q[(kx == 3) & (ky == 4)] = 0.3 - 0.1j  # one Rossby wave of |k|^2 = 25
+    dq = m(0.0, q)
+    # dq/dt = -i omega q with omega = -beta k_x / (k^2 + F), to round-off
+    omega = -10.0 * 3 / (25.0 + 1.0)
+    i = np.flatnonzero((kx == 3) & (ky == 4))[0]
+    assert abs(dq[i] - (-1j * omega) * q[i]) <= 64 * EPS * abs(omega * q[i])
+    assert np.max(np.abs(np.delete(dq, i))) <= 64 * EPS * abs(omega * q[i])
+
+
+@pytest.mark.parametrize("name,args", [("charney-hasegawa-mima", ["--beta", "10", "--deformation", "1"]),
+                                       ("surface-qg", [])])
+def test_python_and_cli_run_the_same_steps(cli, tmp_path, name, args):
+    summary = tmp_path / "s.json"
+    run_cli(cli, "run", name, "--N", 32, "--steps", 20, "--fftw-wisdom", "none", "--fftw-estimate",
+            "--summary-json", summary, *args)
+    s = json.loads(summary.read_text())
+    m = CHM(beta=10.0, deformation=1.0, n=32) if name == "charney-hasegawa-mima" else SQG(n=32)
+    dt = m.default_dt
+    r = eci.solve(m, (0.0, 20 * dt), method="c-rk4", dt=dt)
+    assert sorted(s["invariants"]) == sorted(m.invariant_names)
+    for n, inv in s["invariants"].items():
+        assert r.invariants[n]["final"] == inv["final"], (n, inv)
+
+
+def test_bad_parameters(cli):
+    with pytest.raises(ValueError, match="deformation"):
+        CHM(deformation=-1.0, n=16)
+    with pytest.raises(ValueError, match="n must be in 8..65536"):
+        SQG(n=2 ** 32 + 16)
+    assert "deformation" in cli_error(cli, "run", "charney-hasegawa-mima", "--N", 16, "--deformation", "-1",
+                                      "--fftw-wisdom", "none")
+    msg = cli_error(cli, "run", "surface-qg", "--N", 16, "--beta", "1", "--fftw-wisdom", "none")
+    assert "beta" in msg

@@ -1,0 +1,316 @@
+// Tests of the spectral core's equations (Navier-Stokes, Charney-Hasegawa-Mima, surface QG) on one grid: both
+// invariants kept by the nonlinear term and by the conservative methods, Basdevant's form against the advective one,
+// the Rossby-wave dispersion relation, closed budgets and bit-identical restart, for every equation.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdint>
+#include <limits>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include <eci/eci.hpp>
+#include <eci/models/navier_stokes_2d.hpp>
+
+namespace {
+
+using eci::spectral::flow2d;
+using eci::spectral::flow_params;
+using state = flow2d::state_type;
+using cplx = std::complex<double>;
+constexpr double eps = std::numeric_limits<double>::epsilon();
+
+flow_params params(const std::string& equation, int n) {
+    flow_params p;
+    p.equation = equation;
+    p.n = n;
+    p.measure = false;  // FFTW_ESTIMATE: no planning time, the same plans every run
+    if (equation == "charney-hasegawa-mima") {
+        p.beta = 10.0;
+        p.deformation = 1.0;
+    }
+    return p;
+}
+
+std::vector<std::string> all_equations() {
+    std::vector<std::string> v;
+    for (const auto* e : eci::spectral::equations()) v.emplace_back(e->name);
+    return v;
+}
+
+double max_abs(const state& a) {
+    double m = 0.0;
+    for (const cplx& v : a) m = std::max(m, std::abs(v));
+    return m;
+}
+
+class Equation : public ::testing::TestWithParam<std::string> {};
+
+INSTANTIATE_TEST_SUITE_P(Spectral, Equation, ::testing::ValuesIn(all_equations()),
+                         [](const auto& info) {
+                             std::string s = info.param;
+                             std::replace(s.begin(), s.end(), '-', '_');
+                             return s;
+                         });
+
+// Every triad of the dealiased term conserves E = 1/2 sum |a_k| |q_k|^2 and Z = 1/2 sum |q_k|^2: the rates
+// sum w |a| Re(conj(q) N) and sum w Re(conj(q) N) vanish to the round-off of sums of n^2 products, ~ eps times the
+// Cauchy-Schwarz scale sqrt(sum w |a| |q|^2) sqrt(sum w |a| |N|^2); not vacuous: each weighted sum of |Re(conj(q) N)|
+// is far larger.
+TEST_P(Equation, NonlinearTermConservesBothInvariants) {
+    flow2d m(params(GetParam(), 64));
+    const state q = m.random_field(6.0, 0.5, 7);
+    state nl;
+    m.nonlinear(q, nl);
+    for (bool energy : {true, false}) {
+        double dot = 0.0, abs_sum = 0.0, nq = 0.0, nn = 0.0;
+        for (std::size_t i = 0; i < m.size(); ++i) {
+            const double w = m.weights()[i] * (energy ? std::abs(m.inversion()[i]) : 1.0);
+            const double t = q[i].real() * nl[i].real() + q[i].imag() * nl[i].imag();
+            dot += w * t;
+            abs_sum += w * std::abs(t);
+            nq += w * std::norm(q[i]);
+            nn += w * std::norm(nl[i]);
+        }
+        const double scale = std::sqrt(nq * nn);
+        EXPECT_LE(std::abs(dot), 64.0 * eps * scale) << (energy ? "energy" : "enstrophy");
+        EXPECT_GE(abs_sum, 1e6 * 64.0 * eps * scale) << "the identity is vacuous";
+    }
+}
+
+// Basdevant's 4 transforms equal the advective form's 5 up to the transforms' round-off: both are the exact Galerkin
+// term of the same alias-free products; the bound, 8 eps log2(n^2) max|N|, is measured at ~0.5 of it.
+TEST_P(Equation, NonlinearFormsAgree) {
+    if (eci::spectral::find_equation(GetParam()).form != eci::spectral::nonlinear_form::basdevant)
+        GTEST_SKIP() << GetParam() << " computes the advective form itself";
+    for (int n : {32, 96}) {
+        flow2d m(params(GetParam(), n));
+        const state q = m.random_field(5.0, 0.5, 3);
+        state a, b;
+        m.nonlinear(q, a);
+        m.nonlinear_advective(q, b);
+        double diff = 0.0;
+        for (std::size_t i = 0; i < m.size(); ++i) diff = std::max(diff, std::abs(a[i] - b[i]));
+        EXPECT_LE(diff, 8.0 * eps * std::log2(double(n) * n) * max_abs(b)) << "n = " << n;
+        EXPECT_GT(max_abs(b), 0.0);
+    }
+}
+
+// Inviscid and unforced, C-RK4 and C-PC keep E and Z to round-off per step (a random walk: k eps sqrt(steps) with
+// k = 8 for the per-step error of a sum of n^2/2 terms), while RK4 at the same step drifts far beyond it.
+TEST_P(Equation, ConservativeMethodsKeepBothInvariantsRk4Drifts) {
+    flow2d m(params(GetParam(), 32));
+    const state q0 = m.random_field(4.0, 0.5, 11);
+    const double dt = 0.5 * (2.0 * std::numbers::pi / 32) / m.max_velocity(q0);
+    const int steps = 400;
+    const double e0 = m.energy(q0), z0 = m.enstrophy(q0);
+    auto drift = [&](auto stepper) {
+        state q = q0;
+        eci::ns2d_budget b;
+        eci::run_stats s;
+        double de = 0.0, dz = 0.0;
+        for (int i = 0; i < steps; ++i) {
+            eci::ns2d_step(stepper, m, q, i * dt, dt, b, s);
+            de = std::max(de, std::abs(m.energy(q) - e0) / e0);
+            dz = std::max(dz, std::abs(m.enstrophy(q) - z0) / z0);
+        }
+        return std::pair{de, dz};
+    };
+    const double bound = 8.0 * eps * std::sqrt(double(steps));
+    for (auto [de, dz] : {drift(eci::c_rk4<state>{}), drift(eci::c_pc<state>{})}) {
+        EXPECT_LE(de, bound);
+        EXPECT_LE(dz, bound);
+    }
+    const auto [de, dz] = drift(eci::rk4<state>{});
+    EXPECT_GT(std::max(de, dz), 100.0 * bound) << "RK4 drifts no more than the bound: the test cannot fail";
+}
+
+// With every linear term and stochastic forcing, E and Z change over each step by exactly the injection minus the
+// dissipation integrated with the stepper's stages and weights (errata item 9): the residual is the round-off of the
+// sums, k eps (E + the step's terms) with k = 64.
+TEST_P(Equation, BudgetClosesPerStep) {
+    flow_params p = params(GetParam(), 32);
+    p.nu = 1e-2;
+    p.hyper_nu = 1e-7;
+    p.hypo_nu = 0.05;
+    p.drag = 0.1;
+    p.forcing = eci::ns2d_forcing::stochastic;
+    p.forcing_k = 3.0;
+    p.injection_rate = 0.3;
+    flow2d m(p);
+    state q = m.random_field(4.0, 0.5, 5);
+    const double dt = 0.4 * (2.0 * std::numbers::pi / 32) / m.max_velocity(q);
+    eci::c_rk4<state> st;
+    eci::run_stats s;
+    double worst_e = 0.0, worst_z = 0.0, moved = 0.0;
+    for (int i = 0; i < 100; ++i) {
+        const double e0 = m.energy(q), z0 = m.enstrophy(q);
+        eci::ns2d_budget b;
+        eci::ns2d_step(st, m, q, i * dt, dt, b, s);
+        const double de = b.energy_injection - b.energy_dissipation, dz = b.enstrophy_injection - b.enstrophy_dissipation;
+        worst_e = std::max(worst_e, std::abs(m.energy(q) - e0 - de) /
+                                        (e0 + b.energy_injection + b.energy_dissipation));
+        worst_z = std::max(worst_z, std::abs(m.enstrophy(q) - z0 - dz) /
+                                        (z0 + b.enstrophy_injection + b.enstrophy_dissipation));
+        moved = std::max(moved, std::abs(de) / e0);
+    }
+    EXPECT_LE(worst_e, 64.0 * eps);
+    EXPECT_LE(worst_z, 64.0 * eps);
+    EXPECT_GT(moved, 1e-6) << "the terms do nothing: the budget is vacuous";
+    EXPECT_EQ(s.step_reductions, 0u);
+}
+
+// A run continued from its state and generator on a fresh model repeats the uninterrupted run bit for bit.
+TEST_P(Equation, RestartFromStateAndGeneratorIsBitIdentical) {
+    flow_params p = params(GetParam(), 32);
+    p.nu = 1e-3;
+    p.forcing = eci::ns2d_forcing::stochastic;
+    flow2d a(p);
+    state q = a.random_field(4.0, 0.5, 9);
+    const double dt = 1e-3;
+    eci::c_rk4<state> st;
+    eci::ns2d_budget b;
+    eci::run_stats s;
+    for (int i = 0; i < 10; ++i) eci::ns2d_step(st, a, q, i * dt, dt, b, s);
+    state r = q;
+    const std::uint64_t rng = a.rng_state();
+    for (int i = 10; i < 20; ++i) eci::ns2d_step(st, a, q, i * dt, dt, b, s);
+    flow2d c(p);
+    c.set_rng_state(rng);
+    eci::c_rk4<state> st2;
+    for (int i = 10; i < 20; ++i) eci::ns2d_step(st2, c, r, i * dt, dt, b, s);
+    ASSERT_EQ(q.size(), r.size());
+    for (std::size_t i = 0; i < q.size(); ++i) ASSERT_EQ(q[i], r[i]) << "mode " << i;
+}
+
+// The spectra sum to the invariants, and the fluxes of the nonlinear term vanish beyond the last shell (the transfer
+// conserves both), to the round-off of the sums.
+TEST_P(Equation, SpectraSumToInvariantsAndFluxesClose) {
+    flow2d m(params(GetParam(), 64));
+    const state q = m.random_field(6.0, 0.5, 4);
+    double se = 0.0, sz = 0.0;
+    for (double v : m.energy_spectrum(q)) se += v;
+    for (double v : m.enstrophy_spectrum(q)) sz += v;
+    EXPECT_NEAR(se, m.energy(q), 64.0 * eps * m.energy(q));
+    EXPECT_NEAR(sz, m.enstrophy(q), 64.0 * eps * m.enstrophy(q));
+    const auto f = m.fluxes(q);
+    double pe = 0.0, pz = 0.0;
+    for (double v : f.energy) pe = std::max(pe, std::abs(v));
+    for (double v : f.enstrophy) pz = std::max(pz, std::abs(v));
+    EXPECT_GT(pe, 0.0);
+    EXPECT_LE(std::abs(f.energy.back()), 1e3 * eps * pe);
+    EXPECT_LE(std::abs(f.enstrophy.back()), 1e3 * eps * pz);
+}
+
+// Navier-Stokes in Basdevant's form continues the advective form's run (the form of before issue 20) to round-off:
+// 100 RK4 steps at CFL 0.5 from the same random field at N = 64 differ by at most 1e3 eps max|omega| (measured:
+// ~1e-14 relative; the difference grows with the flow's sensitivity, not with the step count alone).
+TEST(SpectralNavierStokes, BasdevantContinuesTheAdvectiveFormsRun) {
+    eci::spectral::equation advective = eci::spectral::navier_stokes_2d_equation;
+    advective.form = eci::spectral::nonlinear_form::advective;
+    const flow_params p = params("navier-stokes-2d", 64);
+    flow2d a(p), b(p, advective);
+    EXPECT_EQ(a.transforms_per_rhs(), 4);
+    EXPECT_EQ(b.transforms_per_rhs(), 5);
+    state qa = a.random_field(8.0, 0.5, 1), qb = qa;
+    const double dt = 0.5 * (2.0 * std::numbers::pi / 64) / a.max_velocity(qa);
+    eci::rk4<state> sa, sb;
+    eci::ns2d_budget bud;
+    eci::run_stats s;
+    for (int i = 0; i < 100; ++i) {
+        eci::ns2d_step(sa, a, qa, i * dt, dt, bud, s);
+        eci::ns2d_step(sb, b, qb, i * dt, dt, bud, s);
+    }
+    double diff = 0.0;
+    for (std::size_t i = 0; i < qa.size(); ++i) diff = std::max(diff, std::abs(qa[i] - qb[i]));
+    EXPECT_LE(diff, 1e3 * eps * max_abs(qb));
+    EXPECT_GT(diff, 0.0) << "the two forms are the same code: the test compares nothing";
+}
+
+// Any superposition of Rossby waves of one |k| is an exact nonlinear solution of Charney-Hasegawa-Mima (q is a
+// multiple of psi, so J(psi, q) = 0) with omega = -beta k_x / (k^2 + F): the right-hand side is i c(k) q_k with
+// c = -omega, to round-off, at any amplitude. The round-off scale is the linear term's plus the nonlinear products'
+// (each ~ K^4 A^2 / (K^2 + F)^2 before cancelling), times 64 eps.
+TEST(SpectralCharneyHasegawaMima, RossbyWavesOfOneWavenumberAreExactWithTheirDispersion) {
+    flow_params p = params("charney-hasegawa-mima", 32);
+    flow2d m(p);
+    // |k|^2 = 25: (3, 4), (4, 3), (5, 0), (0, 5), (3, -4), (4, -3), with random complex amplitudes
+    const int modes[][2] = {{3, 4}, {4, 3}, {5, 0}, {0, 5}, {3, -4}, {4, -3}};
+    const double K2 = 25.0, F = p.deformation;
+    std::uint64_t seed = 42;
+    for (double amplitude : {1e-3, 1.0, 1e3}) {
+        state q(m.size());
+        for (const auto& k : modes) {
+            const std::size_t row = std::size_t(k[1] >= 0 ? k[1] : 32 + k[1]);
+            q[row * std::size_t(m.columns()) + std::size_t(k[0])] =
+                amplitude * cplx(eci::spectral::uniform(seed) - 0.5, eci::spectral::uniform(seed) - 0.5);
+        }
+        // the k_x = 0 mode (0, 5) and its conjugate (0, -5) are both stored: make the field real
+        state h = q;
+        m.grid().make_hermitian(h.data());
+        q = h;
+        state dq;
+        m(q, dq, 0.0);
+        const double scale = 64.0 * eps *
+                             (p.beta * 5.0 / (K2 + F) * amplitude + K2 * K2 * amplitude * amplitude / ((K2 + F) * (K2 + F)));
+        double worst = 0.0, moved = 0.0;
+        for (std::size_t i = 0; i < m.size(); ++i) {
+            const double kx = m.kx(i), omega = -p.beta * kx / (K2 + F);
+            const cplx expected = cplx(0.0, -omega) * q[i];
+            worst = std::max(worst, std::abs(dq[i] - expected));
+            moved = std::max(moved, std::abs(expected));
+        }
+        EXPECT_LE(worst, scale) << "amplitude " << amplitude;
+        EXPECT_GT(moved, 100.0 * scale) << "amplitude " << amplitude;
+    }
+}
+
+// With the waves' frequencies, RK4 steps each mode by its stability polynomial R(i c dt): after n steps the state is
+// R^n q0 to the round-off of n steps (k eps n |q0| with k = 16; the rounding of each step's phase adds up).
+TEST(SpectralCharneyHasegawaMima, RossbyWavesStepByTheStabilityPolynomial) {
+    const flow_params p = params("charney-hasegawa-mima", 32);
+    flow2d m(p);
+    state q0(m.size());
+    const std::size_t nc = std::size_t(m.columns());
+    q0[4 * nc + 3] = cplx(0.3, -0.2);          // (3, 4)
+    q0[std::size_t(32 - 4) * nc + 3] = 0.25;  // (3, -4)
+    q0[3 * nc + 4] = cplx(-0.1, 0.4);          // (4, 3)
+    state q = q0;
+    const double dt = 0.05;
+    const int steps = 200;
+    eci::rk4<state> st;
+    eci::ns2d_budget b;
+    eci::run_stats s;
+    for (int i = 0; i < steps; ++i) eci::ns2d_step(st, m, q, i * dt, dt, b, s);
+    double worst = 0.0;
+    for (std::size_t i = 0; i < m.size(); ++i) {
+        const double c = p.beta * m.kx(i) / (25.0 + p.deformation);
+        const cplx z(0.0, c * dt);
+        const cplx R = 1.0 + z + z * z / 2.0 + z * z * z / 6.0 + z * z * z * z / 24.0;
+        worst = std::max(worst, std::abs(q[i] - std::pow(R, steps) * q0[i]));
+    }
+    EXPECT_LE(worst, 16.0 * eps * steps * max_abs(q0));
+}
+
+TEST(SpectralEquations, UnknownNamesAndForeignParametersAreRefused) {
+    try {
+        eci::spectral::find_equation("navier-stokes-3d");
+        FAIL();
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("charney-hasegawa-mima"), std::string::npos) << e.what();
+    }
+    flow_params p = params("navier-stokes-2d", 16);
+    p.beta = 1.0;
+    EXPECT_THROW(flow2d{p}, std::invalid_argument);
+    p = params("charney-hasegawa-mima", 16);
+    p.deformation = -1.0;
+    EXPECT_THROW(flow2d{p}, std::invalid_argument);
+    p = params("surface-qg", 16);
+    p.hypo_p = 0;
+    EXPECT_THROW(flow2d{p}, std::invalid_argument);
+}
+
+}  // namespace
