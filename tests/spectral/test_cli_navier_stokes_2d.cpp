@@ -212,6 +212,56 @@ TEST(CliNavierStokes2d, ListAndHelpTellTheDefaultDt) {
     EXPECT_EQ(help.out.find("time step (default 0)"), std::string::npos);
 }
 
+
+// Every spectral equation of `eci list` runs through the same command: a checkpoint restarts bit for bit, snapshots
+// hold the equation's field, the spectrum CSV has E, Z and both fluxes, and a checkpoint of one equation is refused
+// by another's command.
+TEST(CliSpectralEquations, EachEquationRestartsSnapshotsAndRefusesAnothersCheckpoint) {
+    struct eq {
+        const char* name;
+        const char* args;
+        const char* field;
+        const char* state;
+        const char* second;  // the second invariant's CSV column
+    };
+    for (const eq& e : {eq{"charney-hasegawa-mima", "--beta 10 --deformation 1 ", "potential_vorticity", "q_hat",
+                           "enstrophy"},
+                        eq{"surface-qg", "", "buoyancy", "theta_hat", "variance"}}) {
+        scratch_dir dir(std::string("spectral-") + e.name);
+        const fs::path d = dir.path();
+        const std::string q = shell_quote(d.string());
+        const std::string run = std::string("run ") + e.name + " " + e.args + "--N 32 --nu 1e-3 --forcing stochastic "
+                                "--injection-rate 0.2 --dt 0.01 --every 1 --fftw-wisdom " + q + "/wisdom ";
+        auto r = run_eci(run + "--steps 20 --checkpoint-every 20 --checkpoint " + q + "/full.h5 --output " + q +
+                             "/full.csv --snapshot-every 20 --snapshot-dir " + q + "/snaps",
+                         d);
+        ASSERT_EQ(r.status, 0) << r.err;
+        r = run_eci(run + "--steps 10 --checkpoint-every 10 --checkpoint " + q + "/half.h5", d);
+        ASSERT_EQ(r.status, 0) << r.err;
+        r = run_eci(std::string("run ") + e.name + " --fftw-wisdom " + q + "/wisdom --restart " + q +
+                        "/half.h5 --steps 20 --checkpoint-every 20 --checkpoint " + q + "/rest.h5",
+                    d);
+        ASSERT_EQ(r.status, 0) << r.err;
+        const auto full = read_doubles(d / "full.h5", e.state), rest = read_doubles(d / "rest.h5", e.state);
+        ASSERT_EQ(full.size(), 32u * 17u * 2u) << e.name;
+        ASSERT_EQ(full.size(), rest.size());
+        EXPECT_EQ(0, std::memcmp(full.data(), rest.data(), full.size() * sizeof(double))) << e.name;
+        EXPECT_EQ(read_doubles(d / "snaps" / (std::string(e.field) + "_00000020.h5"), e.field).size(), 32u * 32u);
+        const auto spectrum = lines_of(read_text(d / "snaps" / "spectrum_00000020.csv"));
+        ASSERT_FALSE(spectrum.empty());
+        EXPECT_EQ(spectrum[0], "k,E,Z,Pi_E,Pi_Z");
+        const auto head = split(lines_of(read_text(d / "full.csv"))[0]);
+        EXPECT_EQ(head[3], e.second) << e.name;
+        // another equation's command refuses this checkpoint; nothing is written
+        r = run_eci("run navier-stokes-2d --fftw-wisdom none --restart " + q + "/half.h5 --checkpoint " + q +
+                        "/other.h5",
+                    d);
+        EXPECT_EQ(r.status, 2) << r.err;
+        EXPECT_NE(r.err.find(std::string("is a ") + e.name + " checkpoint"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(d / "other.h5"));
+    }
+}
+
 }  // namespace
 
 #endif  // ECI_CLI_PATH
