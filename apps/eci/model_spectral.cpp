@@ -305,7 +305,7 @@ int spectral_command::run(const run_settings& settings) {
     state w;
     try {
         if (restart) {
-            w = ck.state;
+            w = model.from_half_plane(ck.state);
             model.set_rng_state(ck.rng_state);
         } else if (ic_ == "random") {
             w = model.random_field(k_peak_, energy_, seed_);
@@ -314,7 +314,7 @@ int spectral_command::run(const run_settings& settings) {
         } else if (ic_ == "taylor-green") {
             w = model.taylor_green(vortex_peak_);
         } else if (ic_checkpoint) {
-            w = ic_checkpoint->state;
+            w = model.from_half_plane(ic_checkpoint->state);
         } else {
             w = model.from_physical(ic_field->second);
         }
@@ -403,7 +403,7 @@ int spectral_command::run(const run_settings& settings) {
     };
     auto save = [&](std::uint64_t i) {
         run.step = i;
-        run.state = w;
+        run.state = model.to_half_plane(w);
         run.rng_state = model.rng_state();
         write_checkpoint(checkpoint_, run);
     };

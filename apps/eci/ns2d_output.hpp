@@ -19,7 +19,7 @@ struct ns2d_checkpoint {
     std::uint64_t step = 0;           ///< steps done; t = step * dt
     std::uint64_t total_steps = 0;    ///< steps the run was asked for
     std::uint64_t rng_state = 0;
-    navier_stokes_2d::state_type state;
+    navier_stokes_2d::state_type state;  ///< FFTW's half plane (flow2d::to_half_plane), the file's layout
     // statistics
     std::uint64_t halvings = 0, rhs_evals = 0;
     ns2d_budget budget;               ///< cumulative since step 0

@@ -190,7 +190,7 @@ class ns2d_object : public model_base {
     }
 
     state to_state(const py::object& y) const {
-        const auto a = as_vector<cplx>(y, model_->size(), "y", false, "the " + name() + " state (n (n/2 + 1) modes)");
+        const auto a = as_vector<cplx>(y, model_->size(), "y", false, "the " + name() + " state ((2 kmax + 1) (kmax + 1) modes)");
         return {a.data(), a.data() + a.shape(0)};
     }
 
@@ -374,7 +374,9 @@ void init_ns2d(py::module_& m) {
         m, "NavierStokes2D",
         "The 2-D incompressible vorticity equation on [0, 2pi)^2, pseudo-spectral (FFTW), dealiased by the 2/3 rule "
         "so that every triad keeps energy and enstrophy (the paper's section III at scale); the state is FFTW's "
-        "half plane of omega_k, n rows of n/2 + 1 complex modes. Invariants energy, enstrophy (inviscid, unforced).");
+        "retained modes omega_k, 2 kmax + 1 rows (k_y = 0 .. kmax, -kmax .. -1) of kmax + 1 (k_x = 0 .. kmax), "
+        "kmax = (n - 1) // 3; the kx and ky properties give each mode's wavenumber. Invariants energy, enstrophy "
+        "(inviscid, unforced).");
     ns.def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double hypo_nu, long long hypo_p,
                        double drag, const std::string& forcing, double forcing_k, double forcing_amplitude,
                        double injection_rate, long long forcing_seed, long long threads, bool fftw_measure) {

@@ -44,97 +44,109 @@ struct flow2d::impl {
     state_type force;
     bool dispersive = false;
 
+    int kmax = 0, rows = 0;
+    std::size_t kept = 0, nc = 0;  // the state's row length kmax + 1, the grid's n/2 + 1
+
+    // The grid's row of the state's row r.
+    std::size_t full_row(int r) const { return std::size_t(r <= kmax ? r : r + g.n() - rows); }
+    double ky_of(int r) const { return r <= kmax ? r : r - rows; }
+
+    // k and -k on the k_x = 0 column exact conjugates (a real field's transform is so only up to round-off), so the
+    // state stays the transform of a real field bit for bit.
+    void hermitian(cplx* q) const {
+        for (int r = 1; r <= kmax; ++r) q[std::size_t(rows - r) * kept] = std::conj(q[std::size_t(r) * kept]);
+        q[0] = q[0].real();
+    }
+
     impl(const flow_params& p_, const equation& e)
         : p(p_), eq(&e), g(grid_options{p_.n, e.form == nonlinear_form::basdevant ? 2 : 4, p_.threads, p_.measure,
-                                        p_.wisdom_file, p_.wisdom}) {}
+                                        p_.pruned_transforms, p_.wisdom_file, p_.wisdom}),
+          kmax(g.kmax()),
+          rows(2 * g.kmax() + 1),
+          kept(std::size_t(g.kmax()) + 1),
+          nc(std::size_t(g.columns())) {}
 
     // The streamfunction's velocity (u, v) = (-i k_y psi, i k_x psi) of q into scratch fields 0 and 1 (and, for the
-    // advective form, i k_x q and i k_y q into 2 and 3), zero outside the retained square; a c2r transform
-    // overwrites its input, so every stored mode is rewritten.
-    void fill(const cplx* q, int fields) {
-        const std::size_t nc = std::size_t(g.columns());
+    // advective form, i k_x q and i k_y q into 2 and 3), zero outside the retained square; a transform overwrites
+    // its input, so every mode the transforms read is rewritten: the columns k_x <= kmax (transform_product takes
+    // the rest as zero), every column for the plain inverse transforms.
+    void fill(const cplx* q, int fields, bool all_columns = false) {
         cplx* f[4] = {g.spectral(0), g.spectral(1), fields > 2 ? g.spectral(2) : nullptr,
                       fields > 2 ? g.spectral(3) : nullptr};
         const double* av = a.data();
-        const double* w = g.weights().data();
+        const std::size_t end = all_columns || !g.pruned() ? nc : kept;
+        const int n = g.n();
         g.for_rows([&](int r0, int r1) {
             for (int row = r0; row < r1; ++row) {
-                const double ky = g.ky_of_row(row);
-                const std::size_t i0 = std::size_t(row) * nc, kept = g.kept_columns(row);
-                for (std::size_t col = 0; col < kept; ++col) {
-                    const std::size_t i = i0 + col;
-                    const double kx = double(col), re = q[i].real(), im = q[i].imag();
-                    const double pr = av[i] * re, pi = av[i] * im;  // psi
-                    f[0][i] = cplx(ky * pi, -ky * pr);               // u = -d psi/dy
-                    f[1][i] = cplx(-kx * pi, kx * pr);               // v = d psi/dx
-                    if (fields > 2) {
-                        const double mask = w[i] != 0.0 ? 1.0 : 0.0;
-                        f[2][i] = cplx(-kx * mask * im, kx * mask * re);  // dq/dx
-                        f[3][i] = cplx(-ky * mask * im, ky * mask * re);  // dq/dy
+                // the grid's row: a row of the state (k_y = ky_of(r)) or a row of zeros
+                const int ky_i = g.ky_of_row(row);
+                const bool in = ky_i <= kmax && -ky_i <= kmax;
+                const std::size_t i0 = std::size_t(row) * nc;
+                if (in) {
+                    const double ky = ky_i;
+                    const cplx* qr = q + std::size_t(ky_i >= 0 ? ky_i : ky_i + rows) * kept;
+                    const double* ar = av + (qr - q);
+                    for (std::size_t col = 0; col < kept; ++col) {
+                        const std::size_t i = i0 + col;
+                        const double kx = double(col), re = qr[col].real(), im = qr[col].imag();
+                        const double pr = ar[col] * re, pi = ar[col] * im;  // psi
+                        f[0][i] = cplx(ky * pi, -ky * pr);                   // u = -d psi/dy
+                        f[1][i] = cplx(-kx * pi, kx * pr);                   // v = d psi/dx
+                        if (fields > 2) {  // k = 0 is zero in the state
+                            f[2][i] = cplx(-kx * im, kx * re);  // dq/dx
+                            f[3][i] = cplx(-ky * im, ky * re);  // dq/dy
+                        }
                     }
                 }
-                for (int j = 0; j < fields; ++j) std::fill(f[j] + i0 + kept, f[j] + i0 + nc, cplx{});
+                for (int j = 0; j < fields; ++j) std::fill(f[j] + i0 + (in ? kept : 0), f[j] + i0 + end, cplx{});
             }
-        });
+        }, n);
     }
 
     // The transforms of the nonlinear term, leaving in the scratch fields what nl_at() reads.
     void nonlinear_transforms(const cplx* q, nonlinear_form form) {
-        const std::size_t pad = g.padded(), nx = std::size_t(g.n());
         if (form == nonlinear_form::basdevant) {
             fill(q, 2);
-            g.inverse(2);
-            double* u = g.physical(0);
-            double* v = g.physical(1);
-            g.for_rows([&](int r0, int r1) {
-                for (std::size_t j = std::size_t(r0) * pad; j < std::size_t(r1) * pad; j += pad)
-                    for (std::size_t x = j; x < j + nx; ++x) {
-                        const double uu = u[x], vv = v[x];
-                        u[x] = uu * vv;
-                        v[x] = (vv - uu) * (vv + uu);
-                    }
+            g.transform_product(2, 2, [](double* const* f, std::size_t nx) {
+                double* u = f[0];
+                double* v = f[1];
+                for (std::size_t x = 0; x < nx; ++x) {
+                    const double uu = u[x], vv = v[x];
+                    u[x] = uu * vv;
+                    v[x] = (vv - uu) * (vv + uu);
+                }
             });
-            g.forward(0, 2);
         } else {
             fill(q, 4);
-            g.inverse(4);
-            double* r0p = g.physical(0);
-            const double* r1p = g.physical(1);
-            const double* r2p = g.physical(2);
-            const double* r3p = g.physical(3);
-            g.for_rows([&](int r0, int r1) {
-                for (std::size_t j = std::size_t(r0) * pad; j < std::size_t(r1) * pad; j += pad)
-                    for (std::size_t x = j; x < j + nx; ++x) r0p[x] = r0p[x] * r2p[x] + r1p[x] * r3p[x];
+            g.transform_product(4, 1, [](double* const* f, std::size_t nx) {
+                for (std::size_t x = 0; x < nx; ++x) f[0][x] = f[0][x] * f[2][x] + f[1][x] * f[3][x];
             });
-            g.forward(0, 1);
         }
     }
 
     // The dealiased nonlinear term at retained mode i (kx, ky), from the transforms: Basdevant's
     // -u . grad q = (k_x^2 - k_y^2) (uv)_k + k_x k_y (v^2 - u^2)_k, or -(u . grad q)_k.
+    // (j is the grid's index of the mode.)
     template <nonlinear_form F>
-    cplx nl_at(std::size_t i, double kx, double ky, double scale) const {
+    cplx nl_at(std::size_t j, double kx, double ky, double scale) const {
         if constexpr (F == nonlinear_form::basdevant)
-            return scale * ((kx * kx - ky * ky) * g.spectral(0)[i] + (kx * ky) * g.spectral(1)[i]);
+            return scale * ((kx * kx - ky * ky) * g.spectral(0)[j] + (kx * ky) * g.spectral(1)[j]);
         else
-            return -scale * g.spectral(0)[i];
+            return -scale * g.spectral(0)[j];
     }
 
     template <nonlinear_form F>
     void nonlinear_out(cplx* dst) {
-        const std::size_t nc = std::size_t(g.columns());
         const double scale = 1.0 / double(g.points());
-        const double* w = g.weights().data();
         g.for_rows([&](int r0, int r1) {
-            for (int row = r0; row < r1; ++row) {
-                const double ky = g.ky_of_row(row);
-                const std::size_t i0 = std::size_t(row) * nc, kept = g.kept_columns(row);
-                for (std::size_t col = 0; col < kept; ++col)
-                    dst[i0 + col] = w[i0 + col] != 0.0 ? nl_at<F>(i0 + col, double(col), ky, scale) : cplx{};
-                std::fill(dst + i0 + kept, dst + i0 + nc, cplx{});
+            for (int r = r0; r < r1; ++r) {
+                const double ky = ky_of(r);
+                const std::size_t j0 = full_row(r) * nc, i0 = std::size_t(r) * kept;
+                for (std::size_t col = 0; col < kept; ++col) dst[i0 + col] = nl_at<F>(j0 + col, double(col), ky, scale);
             }
-        });
-        g.make_hermitian(dst);
+        }, rows);
+        dst[0] = 0.0;  // k = 0
+        hermitian(dst);
     }
 };
 
@@ -144,8 +156,9 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n) {
     p.validate(e);
     d_ = std::make_unique<impl>(p, e);
     impl& d = *d_;
-    weights_ = d.g.weights();
     const std::size_t m = size();
+    weights_.assign(m, 0.0);
+    for (std::size_t i = 1; i < m; ++i) weights_[i] = kx(i) == 0 ? 1.0 : 2.0;
     d.a.assign(m, 0.0);
     d.ea.assign(m, 0.0);
     d.lin.assign(m, 0.0);
@@ -154,7 +167,7 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n) {
     d.force.assign(m, cplx{});
     for (std::size_t i = 0; i < m; ++i) {
         if (!retained(i)) continue;
-        const double x = kx(i), y = ky(i), k2 = d.g.k2(i);
+        const double x = kx(i), y = ky(i), k2 = x * x + y * y;
         d.a[i] = e.inversion(p, x, y);
         d.ea[i] = std::abs(d.a[i]);
         d.lin[i] = -(p.nu * k2 + p.hyper_nu * std::pow(k2, p.hyper_p) + p.drag +
@@ -165,7 +178,7 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n) {
     // The forced band k_f - 1/2 <= |k| < k_f + 1/2, retained modes only.
     double band_count = 0.0, band_energy_weight = 0.0;
     for (std::size_t i = 0; i < m; ++i) {
-        const double k = std::sqrt(d.g.k2(i));
+        const double k = std::sqrt(double(kx(i)) * kx(i) + double(ky(i)) * ky(i));
         if (!retained(i) || k < p.forcing_k - 0.5 || k >= p.forcing_k + 0.5) continue;
         d.sigma[i] = 1.0;
         band_count += weights_[i];
@@ -184,7 +197,7 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n) {
             const double phase = 2.0 * std::numbers::pi * uniform(s);
             d.force[i] = std::polar(amp, phase);
         }
-        d.g.make_hermitian(d.force.data());
+        d.hermitian(d.force.data());
     } else if (p.forcing == forcing_kind::stochastic) {
         // White noise held over a step of dt: F = sigma g / sqrt(dt) injects, on average, 1/2 sum_full sigma^2 |a_k|
         // per unit time, which is epsilon for this sigma.
@@ -264,7 +277,7 @@ namespace {
 template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
 std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cplx* f) {
     const spectral::grid& g = d.g;
-    const std::size_t nc = std::size_t(g.columns());
+    const std::size_t nc = d.nc, kept = d.kept;
     const double scale = 1.0 / double(g.points());
     const double* wt = m.weights().data();
     const double* lin = d.lin.data();
@@ -272,12 +285,12 @@ std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cp
     const double* ea = d.ea.data();
     const cplx* Fk = d.force.data();
     return g.template sum_rows<6>([&](int r0, int r1, std::array<double, 6>& acc) {
-        for (int row = r0; row < r1; ++row) {
-            const double ky = g.ky_of_row(row);
-            const std::size_t i0 = std::size_t(row) * nc, kept = g.kept_columns(row);
+        for (int r = r0; r < r1; ++r) {
+            const double ky = d.ky_of(r);
+            const std::size_t j0 = d.full_row(r) * nc, i0 = std::size_t(r) * kept;
             for (std::size_t col = 0; col < kept; ++col) {
                 const std::size_t i = i0 + col;
-                const cplx nk = wt[i] != 0.0 ? d.template nl_at<F>(i, double(col), ky, scale) : cplx{};
+                const cplx nk = wt[i] != 0.0 ? d.template nl_at<F>(j0 + col, double(col), ky, scale) : cplx{};
                 cplx v = nk + lin[i] * x[i];
                 if constexpr (Dispersive) v += cplx(-disp[i] * x[i].imag(), disp[i] * x[i].real());
                 if constexpr (Forced) v += Fk[i];
@@ -295,9 +308,8 @@ std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cp
                     acc[5] += wt[i] * nl;
                 }
             }
-            std::fill(f + i0 + kept, f + i0 + nc, cplx{});
         }
-    });
+    }, d.rows);
 }
 
 template <nonlinear_form F, bool Dispersive>
@@ -324,7 +336,7 @@ void flow2d::operator()(const state_type& q, state_type& dqdt, double /*t*/) {
         s = rhs_dispatch<nonlinear_form::advective, false>(*this, d, q.data(), dqdt.data(), forced, recording_);
     else
         s = rhs_dispatch<nonlinear_form::advective, true>(*this, d, q.data(), dqdt.data(), forced, recording_);
-    d.g.make_hermitian(dqdt.data());
+    d.hermitian(dqdt.data());
     if (recording_ && recorded_count_ < recorded_.size())
         recorded_[recorded_count_++] = {s[0], s[1], s[2], s[3], s[4], s[5]};
 }
@@ -355,28 +367,30 @@ double flow2d::energy(const state_type& q) const {
     return 0.5 * d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
         for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i)
             acc[0] += weights_[i] * ea[i] * std::norm(q[i]);
-    })[0];
+    }, rows())[0];
 }
 
 double flow2d::enstrophy(const state_type& q) const {
     const std::size_t nc = std::size_t(columns());
     return 0.5 * d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
         for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i) acc[0] += weights_[i] * std::norm(q[i]);
-    })[0];
+    }, rows())[0];
 }
 
 double flow2d::palinstrophy(const state_type& q) const {
     const std::size_t nc = std::size_t(columns());
     return 0.5 * d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
-        for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i)
-            acc[0] += weights_[i] * d_->g.k2(i) * std::norm(q[i]);
-    })[0];
+        for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i) {
+            const double x = kx(i), y = ky(i);
+            acc[0] += weights_[i] * (x * x + y * y) * std::norm(q[i]);
+        }
+    }, rows())[0];
 }
 
 double flow2d::max_velocity(const state_type& q) {
     impl& d = *d_;
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
-    d.fill(q.data(), 2);
+    d.fill(q.data(), 2, true);
     d.g.inverse(2);
     const double* u = d.g.physical(0);
     const double* v = d.g.physical(1);
@@ -389,19 +403,27 @@ double flow2d::max_velocity(const state_type& q) {
 
 double flow2d::cfl(const state_type& q, double dt) { return max_velocity(q) * dt * double(n_) / (2.0 * std::numbers::pi); }
 
+template <class Value>
+std::vector<double> flow2d::shells(Value value) const {
+    std::vector<double> e(d_->g.shell_count(), 0.0);
+    for (std::size_t i = 1; i < size(); ++i)
+        e[std::size_t(std::lround(std::hypot(double(kx(i)), double(ky(i)))))] += value(i);
+    return e;
+}
+
 std::vector<double> flow2d::energy_spectrum(const state_type& q) const {
-    return d_->g.shells([&](std::size_t i) { return 0.5 * weights_[i] * d_->ea[i] * std::norm(q[i]); });
+    return shells([&](std::size_t i) { return 0.5 * weights_[i] * d_->ea[i] * std::norm(q[i]); });
 }
 
 std::vector<double> flow2d::enstrophy_spectrum(const state_type& q) const {
-    return d_->g.shells([&](std::size_t i) { return 0.5 * weights_[i] * std::norm(q[i]); });
+    return shells([&](std::size_t i) { return 0.5 * weights_[i] * std::norm(q[i]); });
 }
 
 flow_fluxes flow2d::fluxes(const state_type& q) {
     state_type nl;
     nonlinear(q, nl);
     auto transfer = [&](bool energy) {
-        return d_->g.shells([&](std::size_t i) {
+        return shells([&](std::size_t i) {
             const double t = weights_[i] * (q[i].real() * nl[i].real() + q[i].imag() * nl[i].imag());
             return energy ? d_->ea[i] * t : t;
         });
@@ -414,11 +436,40 @@ flow_fluxes flow2d::fluxes(const state_type& q) {
     return f;
 }
 
-flow2d::state_type flow2d::from_physical(std::span<const double> field) { return d_->g.from_physical(field); }
+flow2d::state_type flow2d::from_physical(std::span<const double> field) {
+    return from_half_plane(d_->g.from_physical(field));
+}
 
 std::vector<double> flow2d::to_physical(const state_type& q) {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
-    return d_->g.to_physical(q.data());
+    return d_->g.to_physical(to_half_plane(q).data());
+}
+
+flow2d::state_type flow2d::to_half_plane(const state_type& q) const {
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    state_type h(d_->g.size());
+    for (int r = 0; r < rows(); ++r)
+        std::copy_n(q.begin() + std::ptrdiff_t(r) * columns(), columns(),
+                    h.begin() + std::ptrdiff_t(d_->full_row(r) * d_->nc));
+    return h;
+}
+
+flow2d::state_type flow2d::from_half_plane(const state_type& h) const {
+    if (h.size() != d_->g.size())
+        throw std::invalid_argument("half plane has " + std::to_string(h.size()) + " modes, the grid " +
+                                    std::to_string(d_->g.size()));
+    state_type q(size());
+    for (int r = 0; r < rows(); ++r)
+        std::copy_n(h.begin() + std::ptrdiff_t(d_->full_row(r) * d_->nc), columns(),
+                    q.begin() + std::ptrdiff_t(r) * columns());
+    q[0] = 0.0;
+    d_->hermitian(q.data());
+    return q;
+}
+
+void flow2d::make_hermitian(state_type& q) const {
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    d_->hermitian(q.data());
 }
 
 flow2d::state_type flow2d::random_field(double k_peak, double energy_target, std::uint64_t seed) {
@@ -426,11 +477,14 @@ flow2d::state_type flow2d::random_field(double k_peak, double energy_target, std
     require(std::isfinite(energy_target) && energy_target > 0.0, "initial energy must be positive");
     state_type w(size());
     std::uint64_t s = seed;
-    for (std::size_t i = 0; i < size(); ++i) {
-        // Every stored mode draws, so the field of a seed does not depend on which modes are retained.
+    const spectral::grid& g = d_->g;
+    for (std::size_t j = 0; j < g.size(); ++j) {
+        // Every mode of the half plane draws, in its order, so the field of a seed does not depend on which modes
+        // are retained (nor on the state's layout).
         const double phase = 2.0 * std::numbers::pi * uniform(s);
-        if (!retained(i)) continue;
-        const double k2 = d_->g.k2(i), k = std::sqrt(k2), sq = k / k_peak;
+        if (!g.retained(j)) continue;
+        const std::size_t i = index(g.kx(j), g.ky(j));
+        const double k2 = g.k2(j), k = std::sqrt(k2), sq = k / k_peak;
         // A shell of radius k holds about 2 pi k modes of energy |a_k| |q_k|^2 / 2 each. The tail is a power law:
         // an exponential one leaves the far modes below round-off, where their right-hand sides are FFT noise of
         // random sign and the conservative methods' radicands negative at any step size. (For Navier-Stokes,
@@ -438,7 +492,7 @@ flow2d::state_type flow2d::random_field(double k_peak, double energy_target, std
         const double shell_energy = sq * sq * sq * sq / std::pow(1.0 + sq * sq, 4);
         w[i] = std::polar(std::sqrt(shell_energy * k / std::numbers::pi) * std::sqrt((1.0 / k2) / d_->ea[i]), phase);
     }
-    d_->g.make_hermitian(w.data());
+    d_->hermitian(w.data());
     const double e = energy(w);
     require(e > 0.0, "no retained mode near the peak wavenumber");
     const double scale = std::sqrt(energy_target / e);
@@ -473,9 +527,8 @@ flow2d::state_type flow2d::taylor_green(double velocity) {
     require(std::isfinite(velocity), "Taylor-Green velocity must be finite");
     // 2 U sin x sin y = -(U/2) (e^{i(x+y)} - e^{i(x-y)} - e^{i(-x+y)} + e^{-i(x+y)})
     state_type w(size());
-    const std::size_t nc = std::size_t(columns());
-    w[1 * nc + 1] = -0.5 * velocity;                   // (k_x, k_y) = (1, 1)
-    w[std::size_t(n_ - 1) * nc + 1] = 0.5 * velocity;  // (1, -1)
+    w[index(1, 1)] = -0.5 * velocity;
+    w[index(1, -1)] = 0.5 * velocity;
     return w;
 }
 
@@ -485,7 +538,7 @@ void flow2d::draw_forcing(double dt) {
     const double amp = 1.0 / std::sqrt(dt);
     for (std::size_t i = 0; i < size(); ++i)
         d.force[i] = d.sigma[i] != 0.0 ? d.sigma[i] * amp * complex_gaussian(rng_) : cplx{};
-    d.g.make_hermitian(d.force.data());
+    d.hermitian(d.force.data());
 }
 
 const flow2d::state_type& flow2d::forcing() const { return d_->force; }

@@ -6,6 +6,7 @@
 #include <omp.h>
 
 #include <cstdio>
+#include <cstdlib>
 #include <mutex>
 #include <new>
 #include <numbers>
@@ -16,6 +17,16 @@ namespace eci::spectral {
 namespace {
 
 std::once_flag fftw_threads_once;
+
+// f(row0, row1, thread) on each thread's share of the rows.
+template <class F>
+void omp_rows(int threads, int rows, F f) {
+#pragma omp parallel num_threads(std::min(threads, 64))
+    {
+        const int tid = omp_get_thread_num(), nth = omp_get_num_threads();
+        f(rows * tid / nth, rows * (tid + 1) / nth, tid);
+    }
+}
 
 void require(bool ok, const std::string& what) {
     if (!ok) throw std::invalid_argument(what);
@@ -31,11 +42,21 @@ cplx complex_gaussian(std::uint64_t& s) {
 
 struct grid::plans {
     cplx* buf = nullptr;  // `fields` in-place fields of size() complex values (2 size() doubles) each
-    std::vector<fftw_plan> inverse, forward;  // inverse[c]: fields 0..c; forward[c]: c + 1 fields from field 0
+    // inverse[c]: fields 0..c; forward[c]: c + 1 fields from field 0. Pruned: the column (k_y) transforms of the
+    // kmax + 1 retained columns and the row (k_x) transforms of every row, two plans each way.
+    std::vector<fftw_plan> inverse, forward, inverse_rows, forward_columns;
+    bool pruned = false;
+    // The fused pass: per thread, `fields` rows of 2 columns() doubles (aligned as the plans were made on them),
+    // and one row's 1-D c2r and r2c, in place.
+    std::vector<double*> rows;
+    fftw_plan row_c2r = nullptr, row_r2c = nullptr;
     ~plans() {
-        for (auto* v : {&inverse, &forward})
+        for (auto* v : {&inverse, &forward, &inverse_rows, &forward_columns})
             for (fftw_plan p : *v)
                 if (p) fftw_destroy_plan(p);
+        for (fftw_plan p : {row_c2r, row_r2c})
+            if (p) fftw_destroy_plan(p);
+        for (double* r : rows) fftw_free(r);
         fftw_free(buf);
     }
 };
@@ -70,11 +91,45 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
     auto* c = reinterpret_cast<fftw_complex*>(p_->buf);
     auto* r = reinterpret_cast<double*>(p_->buf);
     // MEASURE overwrites the arrays it plans on: plan before anything is stored in them.
+    p_->pruned = o.pruned;
+    const int nc = columns(), kept = kmax() + 1;
     for (int k = 1; k <= fields_; ++k) {
-        p_->inverse.push_back(fftw_plan_many_dft_c2r(2, dims, k, c, embed_c, 1, int(m), r, embed_r, 1, int(2 * m), flags));
-        p_->forward.push_back(fftw_plan_many_dft_r2c(2, dims, k, r, embed_r, 1, int(2 * m), c, embed_c, 1, int(m), flags));
-        if (!p_->inverse.back() || !p_->forward.back()) throw std::runtime_error("FFTW could not plan the transforms");
+        if (!o.pruned) {
+            p_->inverse.push_back(
+                fftw_plan_many_dft_c2r(2, dims, k, c, embed_c, 1, int(m), r, embed_r, 1, int(2 * m), flags));
+            p_->forward.push_back(
+                fftw_plan_many_dft_r2c(2, dims, k, r, embed_r, 1, int(2 * m), c, embed_c, 1, int(m), flags));
+            if (!p_->inverse.back() || !p_->forward.back())
+                throw std::runtime_error("FFTW could not plan the transforms");
+            continue;
+        }
+        // A 2-D transform is n transforms along y of each column and n along x of each row. Only the columns
+        // k_x <= kmax hold retained modes (2/3 of the n/2 + 1): transform those along y alone, into and out of the
+        // spectral side; every row along x. The columns beyond stay zero going in and are not read coming out.
+        const fftw_iodim column{n_, nc, nc};  // along y, within a column
+        const fftw_iodim by_column[2] = {{k, int(m), int(m)}, {kept, 1, 1}};
+        const fftw_iodim row{n_, 1, 1};
+        const fftw_iodim by_row_c2r[2] = {{k, int(m), int(2 * m)}, {n_, nc, 2 * nc}};  // complex in, real out
+        const fftw_iodim by_row_r2c[2] = {{k, int(2 * m), int(m)}, {n_, 2 * nc, nc}};  // real in, complex out
+        p_->inverse.push_back(fftw_plan_guru_dft(1, &column, 2, by_column, c, c, FFTW_BACKWARD, flags));
+        p_->inverse_rows.push_back(fftw_plan_guru_dft_c2r(1, &row, 2, by_row_c2r, c, r, flags));
+        p_->forward.push_back(fftw_plan_guru_dft_r2c(1, &row, 2, by_row_r2c, r, c, flags));
+        p_->forward_columns.push_back(fftw_plan_guru_dft(1, &column, 2, by_column, c, c, FFTW_FORWARD, flags));
+        if (!p_->inverse.back() || !p_->inverse_rows.back() || !p_->forward.back() || !p_->forward_columns.back())
+            throw std::runtime_error("FFTW could not plan the transforms");
     }
+    // The fused pass's row transforms: one thread each (the rows are split between the threads), planned on the
+    // first thread's rows; every thread's rows are allocated alike, so have the same alignment.
+    fftw_plan_with_nthreads(1);
+    for (int t = 0; t < threads_; ++t) {
+        p_->rows.push_back(fftw_alloc_real(std::size_t(fields_) * padded()));
+        if (!p_->rows.back()) throw std::bad_alloc();
+    }
+    double* r0 = p_->rows[0];
+    p_->row_c2r = fftw_plan_dft_c2r_1d(n_, reinterpret_cast<fftw_complex*>(r0), r0, flags);
+    p_->row_r2c = fftw_plan_dft_r2c_1d(n_, r0, reinterpret_cast<fftw_complex*>(r0), flags);
+    if (!p_->row_c2r || !p_->row_r2c) throw std::runtime_error("FFTW could not plan the transforms");
+    fftw_plan_with_nthreads(o.threads);
     std::fill(p_->buf, p_->buf + std::size_t(fields_) * m, cplx{});
     if (!o.wisdom_file.empty()) {
         // temporary + rename, so a concurrent reader never sees half a file
@@ -98,23 +153,70 @@ std::string grid::fftw_wisdom() {
 cplx* grid::spectral(int j) const { return p_->buf + std::size_t(j) * size(); }
 double* grid::physical(int j) const { return reinterpret_cast<double*>(spectral(j)); }
 
-void grid::inverse(int count) const { fftw_execute(p_->inverse.at(std::size_t(count - 1))); }
+bool grid::pruned() const { return p_->pruned; }
 
-void grid::forward(int first, int count) const {
-    if (first == 0) return fftw_execute(p_->forward.at(std::size_t(count - 1)));
-    // a batch that does not start at field 0: the new-array interface on the same layout (alignment is the same,
-    // every field starts on a multiple of size() complex values)
-    fftw_execute_dft_r2c(p_->forward.at(std::size_t(count - 1)), physical(first),
-                         reinterpret_cast<fftw_complex*>(spectral(first)));
+void grid::inverse(int count) const {
+    fftw_execute(p_->inverse.at(std::size_t(count - 1)));
+    if (p_->pruned) fftw_execute(p_->inverse_rows[std::size_t(count - 1)]);
 }
 
-void grid::run_rows(void (*fn)(void*, int, int, int), void* ctx) const {
-    const int nt = std::min(threads_, 64), rows = n_;
-#pragma omp parallel num_threads(nt)
-    {
-        const int tid = omp_get_thread_num(), nth = omp_get_num_threads();
-        fn(ctx, rows * tid / nth, rows * (tid + 1) / nth, tid);
+void grid::forward(int first, int count) const {
+    const std::size_t k = std::size_t(count - 1);
+    auto* c = reinterpret_cast<fftw_complex*>(spectral(first));
+    // a batch that does not start at field 0: the new-array interface on the same layout (alignment is the same,
+    // every field starts on a multiple of size() complex values)
+    if (first == 0)
+        fftw_execute(p_->forward.at(k));
+    else
+        fftw_execute_dft_r2c(p_->forward.at(k), physical(first), c);
+    if (!p_->pruned) return;
+    if (first == 0)
+        fftw_execute(p_->forward_columns[k]);
+    else
+        fftw_execute_dft(p_->forward_columns[k], c, c);
+}
+
+void grid::run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const {
+    omp_rows(threads_, rows, [&](int r0, int r1, int tid) { fn(ctx, r0, r1, tid); });
+}
+
+void grid::product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const {
+    const std::size_t nc = std::size_t(columns()), pad = padded();
+    if (!p_->pruned) {  // FFTW's 2-D transforms and a pass over the fields between them
+        inverse(in);
+        omp_rows(threads_, n_, [&](int r0, int r1, int) {
+            double* g[8];
+            for (int y = r0; y < r1; ++y) {
+                for (int j = 0; j < in; ++j) g[j] = physical(j) + std::size_t(y) * pad;
+                fn(ctx, g, std::size_t(n_));
+            }
+        });
+        return forward(0, out);
     }
+    // Along y, the retained columns; then each row, in a thread's own buffer: c2r, fn, r2c (the row stays in cache
+    // from one to the next, and the fields are read and written once); along y again, the retained columns.
+    const std::size_t kept = std::size_t(kmax()) + 1;
+    fftw_execute(p_->inverse.at(std::size_t(in - 1)));
+    omp_rows(threads_, n_, [&](int r0, int r1, int tid) {
+        double* b[8];
+        for (int j = 0; j < in; ++j) b[j] = p_->rows[std::size_t(tid)] + std::size_t(j) * pad;
+        for (int y = r0; y < r1; ++y) {
+            for (int j = 0; j < in; ++j) {
+                // the columns beyond kmax are zero: written here, in cache, not read from the field
+                const cplx* src = spectral(j) + std::size_t(y) * nc;
+                std::copy(src, src + kept, reinterpret_cast<cplx*>(b[j]));
+                std::fill(reinterpret_cast<cplx*>(b[j]) + kept, reinterpret_cast<cplx*>(b[j]) + nc, cplx{});
+                fftw_execute_dft_c2r(p_->row_c2r, reinterpret_cast<fftw_complex*>(b[j]), b[j]);
+            }
+            fn(ctx, b, std::size_t(n_));
+            for (int j = 0; j < out; ++j) {
+                fftw_execute_dft_r2c(p_->row_r2c, b[j], reinterpret_cast<fftw_complex*>(b[j]));
+                const cplx* row = reinterpret_cast<const cplx*>(b[j]);
+                std::copy(row, row + kept, spectral(j) + std::size_t(y) * nc);  // the columns the next pass reads
+            }
+        }
+    });
+    fftw_execute(p_->forward_columns.at(std::size_t(out - 1)));
 }
 
 void grid::make_hermitian(cplx* w) const {

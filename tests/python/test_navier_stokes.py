@@ -14,7 +14,7 @@ pytestmark = pytest.mark.skipif(NS is None, reason="built without eci::spectral 
 
 def test_state_diagnostics_and_fields():
     m = NS(n=32)
-    assert m.size == 32 * 17 and m.kmax == 10 and m.invariant_names == ["energy", "enstrophy"]
+    assert m.size == 21 * 11 and m.kmax == 10  # the retained modes: 2 kmax + 1 rows of kmax + 1 and m.invariant_names == ["energy", "enstrophy"]
     w = m.random_field(k_peak=3.0, energy=0.5, seed=11)
     assert w.dtype == np.complex128 and w.shape == (m.size,)
     assert abs(m.energy(w) - 0.5) <= 1e3 * EPS  # scaled to the energy asked for

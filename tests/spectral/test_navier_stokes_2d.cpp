@@ -91,21 +91,28 @@ TEST(NavierStokes2d, HalfPlaneWeightsReproduceFullPlaneSums) {
     }
 }
 
-// The stored modes on the k_x = 0 column are exact conjugate pairs, and the truncated modes and k = 0 are zero.
+// The state is the retained modes alone (4/9 of FFTW's half plane); the modes on the k_x = 0 column are exact
+// conjugate pairs, k = 0 is zero, and the half plane of the state is zero beyond them.
 TEST(NavierStokes2d, StateIsHermitianAndTruncated) {
     navier_stokes_2d m(small(24));
+    EXPECT_EQ(m.size(), std::size_t(2 * m.kmax() + 1) * std::size_t(m.kmax() + 1));
     const state w = m.random_field(4.0, 0.5, 3);
-    const std::size_t nc = std::size_t(m.columns());
-    for (int row = 1; row < m.n() / 2; ++row)
-        EXPECT_EQ(w[std::size_t(row) * nc], std::conj(w[std::size_t(m.n() - row) * nc]));
-    for (std::size_t i = 0; i < m.size(); ++i)
-        if (!m.retained(i)) {
-            EXPECT_EQ(w[i], std::complex<double>{}) << i;
-        }
+    for (int ky = 1; ky <= m.kmax(); ++ky) EXPECT_EQ(w[m.index(0, ky)], std::conj(w[m.index(0, -ky)]));
+    EXPECT_EQ(w[m.index(0, 0)], std::complex<double>{});
+    for (std::size_t i = 0; i < m.size(); ++i) EXPECT_EQ(m.index(m.kx(i), m.ky(i)), i);
     state nl;
     m.nonlinear(w, nl);
-    for (int row = 1; row < m.n() / 2; ++row)
-        EXPECT_EQ(nl[std::size_t(row) * nc], std::conj(nl[std::size_t(m.n() - row) * nc]));
+    for (int ky = 1; ky <= m.kmax(); ++ky) EXPECT_EQ(nl[m.index(0, ky)], std::conj(nl[m.index(0, -ky)]));
+    const state h = m.to_half_plane(w);
+    ASSERT_EQ(h.size(), std::size_t(24 * 13));
+    for (std::size_t j = 0; j < h.size(); ++j) {
+        const int kx = int(j % 13), row = int(j / 13), ky = row <= 12 ? row : row - 24;
+        if (kx > m.kmax() || std::abs(ky) > m.kmax())
+            EXPECT_EQ(h[j], std::complex<double>{}) << j;
+        else
+            EXPECT_EQ(h[j], w[m.index(kx, ky)]) << j;
+    }
+    EXPECT_EQ(m.from_half_plane(h), w);
 }
 
 // Dealiasing is exact: for random band-limited fields, sum w_k Re(conj(omega_k) N_k) vanishes to round-off for
@@ -289,13 +296,8 @@ TEST(NavierStokes2d, CRk4IsFourthOrderAndCPcSecond) {
         s = s * 6364136223846793005ull + 1442695040888963407ull;
         w0[i] = std::polar(std::abs(w0[i]), std::numbers::pi / 4 + double(s >> 62) * std::numbers::pi / 2);
     }
-    // the k_x = 0 and Nyquist columns hold k and -k: conjugates again (k = 0 and the truncated modes stay 0)
-    const std::size_t nc = std::size_t(m.columns());
-    const int n = m.n();
-    for (std::size_t col : {std::size_t(0), nc - 1})
-        for (int row = 1; row < n / 2; ++row) w0[std::size_t(n - row) * nc + col] = std::conj(w0[std::size_t(row) * nc + col]);
-    for (std::size_t i = 0; i < m.size(); ++i)
-        if (!m.retained(i)) w0[i] = 0.0;
+    // the k_x = 0 column holds k and -k: conjugates again (k = 0 stays 0)
+    m.make_hermitian(w0);
     const double t_end = 0.02;
 
     // The reference, and the premise: no real unknown changes sign between t = 0 and t_end.
