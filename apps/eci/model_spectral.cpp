@@ -515,6 +515,7 @@ int spectral_command::run(const run_settings& settings) {
                  {"max_" + inv_[0] + "_budget_residual_per_step", run.max_energy_residual},
                  {"max_" + inv_[1] + "_budget_residual_per_step", run.max_enstrophy_residual},
                  {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(last, 1))},
+                 {"advective_form_retries", double(model.form_retries())},
                  {"final_cfl", model.cfl(w, dt)}};
     // Both outputs complete before either replaces anything (a failed or interrupted run keeps its checkpoint, not a
     // partial time series).

@@ -59,7 +59,7 @@ struct flow2d::impl {
     }
 
     impl(const flow_params& p_, const equation& e)
-        : p(p_), eq(&e), g(grid_options{p_.n, e.form == nonlinear_form::basdevant ? 2 : 4, p_.threads, p_.measure,
+        : p(p_), eq(&e), g(grid_options{p_.n, 4, p_.threads, p_.measure,
                                         p_.pruned_transforms, p_.wisdom_file, p_.wisdom}),
           kmax(g.kmax()),
           rows(2 * g.kmax() + 1),
@@ -152,7 +152,7 @@ struct flow2d::impl {
 
 flow2d::flow2d(const flow_params& p) : flow2d(p, find_equation(p.equation)) {}
 
-flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n) {
+flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form) {
     p.validate(e);
     d_ = std::make_unique<impl>(p, e);
     impl& d = *d_;
@@ -228,11 +228,17 @@ std::vector<std::vector<double>> flow2d::quadratic_invariant_weights() const {
     return q;
 }
 
-int flow2d::transforms_per_rhs() const { return d_->eq->form == nonlinear_form::basdevant ? 4 : 5; }
+int flow2d::transforms_per_rhs() const { return form_ == nonlinear_form::basdevant ? 4 : 5; }
+
+void flow2d::set_form(nonlinear_form f) {
+    if (f == nonlinear_form::basdevant && d_->eq->form != nonlinear_form::basdevant)
+        throw std::invalid_argument(std::string(d_->eq->name) + " has no Basdevant form");
+    form_ = f;
+}
 
 void flow2d::execute_transforms() {
     const spectral::grid& g = d_->g;
-    if (d_->eq->form == nonlinear_form::basdevant) {
+    if (form_ == nonlinear_form::basdevant) {
         g.inverse(2);
         g.forward(0, 2);
     } else {
@@ -244,8 +250,8 @@ void flow2d::execute_transforms() {
 void flow2d::nonlinear(const state_type& q, state_type& out) {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
     out.resize(size());
-    d_->nonlinear_transforms(q.data(), d_->eq->form);
-    if (d_->eq->form == nonlinear_form::basdevant)
+    d_->nonlinear_transforms(q.data(), form_);
+    if (form_ == nonlinear_form::basdevant)
         d_->nonlinear_out<nonlinear_form::basdevant>(out.data());
     else
         d_->nonlinear_out<nonlinear_form::advective>(out.data());
@@ -254,26 +260,15 @@ void flow2d::nonlinear(const state_type& q, state_type& out) {
 void flow2d::nonlinear_advective(const state_type& q, state_type& out) {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
     out.resize(size());
-    // The advective form needs four scratch fields; a Basdevant-form flow has two: a grid of its own.
-    const impl& d = *d_;
-    flow_params p = d.p;
-    p.equation = "surface-qg";  // any advective-form equation: only the grid and the fill are used
-    p.beta = p.deformation = 0.0;
-    p.forcing = forcing_kind::none;
-    p.wisdom_file.clear();
-    p.measure = false;
-    impl tmp(p, surface_qg_equation);
-    tmp.a = d.a;
-    tmp.nonlinear_transforms(q.data(), nonlinear_form::advective);
-    tmp.nonlinear_out<nonlinear_form::advective>(out.data());
+    d_->nonlinear_transforms(q.data(), nonlinear_form::advective);
+    d_->nonlinear_out<nonlinear_form::advective>(out.data());
 }
 
 namespace {
 
 // One pass from the transforms to the right-hand side: the dealiased nonlinear term plus L q + F, and when
-// recording, the sums of what each part does to E and Z (weights w_k |a_k| and w_k). Outside the retained square
-// (5/9 of the stored modes) q, L and F are zero and so is the result: only the square is read. The k_x = 0 and
-// Nyquist columns are made exact conjugates after (L and F are Hermitian there, so that equals symmetrising N first).
+// recording, the sums of what each part does to E and Z (weights w_k |a_k| and w_k). The k_x = 0 column is made
+// exact conjugates after (L and F are Hermitian there, so that equals symmetrising N first).
 template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
 std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cplx* f) {
     const spectral::grid& g = d.g;
@@ -324,9 +319,9 @@ std::array<double, 6> rhs_dispatch(const flow2d& m, const auto& d, const cplx* x
 void flow2d::operator()(const state_type& q, state_type& dqdt, double /*t*/) {
     impl& d = *d_;
     dqdt.resize(size());
-    d.nonlinear_transforms(q.data(), d.eq->form);
+    d.nonlinear_transforms(q.data(), form_);
     const bool forced = d.p.forcing != forcing_kind::none;
-    const bool basdevant = d.eq->form == nonlinear_form::basdevant;
+    const bool basdevant = form_ == nonlinear_form::basdevant;
     std::array<double, 6> s{};
     if (basdevant && !d.dispersive)
         s = rhs_dispatch<nonlinear_form::basdevant, false>(*this, d, q.data(), dqdt.data(), forced, recording_);

@@ -68,7 +68,7 @@ def test_bad_input():
     with pytest.raises(ValueError, match="forcing must be none, deterministic or stochastic"):
         NS(n=32, forcing="wind")
     m = NS(n=16)
-    with pytest.raises(ValueError, match=r"has shape \(3,\), expected \(144,\)"):
+    with pytest.raises(ValueError, match=r"has shape \(3,\), expected \(66,\)"):
         m.energy(np.zeros(3, dtype=complex))
     with pytest.raises(ValueError, match="has no error estimate"):
         eci.solve(m, (0.0, 1.0), method="c-dp54", rtol=1e-6)

@@ -142,9 +142,16 @@ class flow2d {
     void execute_transforms();
     /// How many transforms one right-hand side executes (4 in Basdevant's form, 5 in the advective one).
     int transforms_per_rhs() const;
+    /// The form the right-hand side computes the nonlinear term in now: the equation's, or the advective form
+    /// (which every equation allows) for a step retried in it.
+    nonlinear_form form() const { return form_; }
+    void set_form(nonlinear_form f);
+    /// Attempts retried in the advective form (ns2d_step), since construction.
+    std::uint64_t form_retries() const { return form_retries_; }
+    void count_form_retry() { ++form_retries_; }
     /// The nonlinear term alone, -u . grad q, dealiased (zero outside the retained modes).
     void nonlinear(const state_type& q, state_type& out);
-    /// The same term by the advective form (5 transforms) whatever the equation's form: a reference for tests.
+    /// The same term by the advective form (5 transforms) whatever the equation's form.
     void nonlinear_advective(const state_type& q, state_type& out);
     /// The rates of one state (with the current forcing).
     flow_rates rates(const state_type& q);
@@ -203,6 +210,8 @@ class flow2d {
     std::unique_ptr<impl> d_;
     std::uint64_t rng_ = 0;
     bool recording_ = false;
+    nonlinear_form form_ = nonlinear_form::advective;
+    std::uint64_t form_retries_ = 0;
     std::array<flow_rates, 16> recorded_{};
     std::size_t recorded_count_ = 0;
 };
