@@ -1,8 +1,8 @@
 // Per-step cost of eci's 2-D Navier-Stokes model, side by side in one run: conservative vs conventional methods,
 // a step vs the FFTs and right-hand sides it performs, threads, and sizes.
 // Usage: eci_bench_ns2d_step N [threads] [reps] [wisdom file]
-// The ns2d-step row also gives the time of one n x n transform (fft_one: the mean of one r2c and one c2r, planned
-// like eci's, FFTW_MEASURE with the same threads and wisdom) and the FFT floor in units of it per right-hand side
+// The ns2d-step row also gives the time of one n x n transform (fft_one: the mean of four c2r and four r2c on four
+// fields in turn, planned like eci's, FFTW_MEASURE with the same threads and wisdom) and the FFT floor in units of it per right-hand side
 // (fft_equiv_per_rhs: 5 for 4 inverse + 1 forward transforms, 4 for Basdevant's form; batched transforms may come
 // out a little below their count), so a table can say how many transforms eci performs without reading its code.
 #include <algorithm>
