@@ -153,7 +153,7 @@ def check(a):
         # roundings of ~eps max|omega| add up like a random walk, ~eps sqrt(steps). The Basdevant form rounds other
         # products than eci's, so its bits differ from the first step. Turbulence then amplifies any difference
         # exponentially: at CFL 0.5 we measure <= 7 eps sqrt(steps) up to 100 steps (N = 32..512), 23 at 200 and
-        # ~500 at 400 steps. So the bound, 100 eps sqrt(steps), is for runs of at most 100 steps.
+        # 230-670 at 400 steps. So the bound, 100 eps sqrt(steps), is for runs of at most 100 steps.
         tol = 100 * EPS * np.sqrt(a.steps)
         ok &= diff <= tol
         print("ns2d-pyfftw check N=%d steps=%d dt=%.4g form=%s: max|omega - omega_eci| / max|omega_eci| = %.3e "
