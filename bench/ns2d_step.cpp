@@ -1,14 +1,21 @@
 // Per-step cost of eci's 2-D Navier-Stokes model, side by side in one run: conservative vs conventional methods,
 // a step vs the FFTs and right-hand sides it performs, threads, and sizes.
 // Usage: eci_bench_ns2d_step N [threads] [reps] [wisdom file]
+// The ns2d-step row also gives the time of one n x n transform (fft_one: the mean of four c2r and four r2c on four
+// fields in turn, planned like eci's, FFTW_MEASURE with the same threads and wisdom) and the FFT floor in units of it per right-hand side
+// (fft_equiv_per_rhs: 5 for 4 inverse + 1 forward transforms, 4 for Basdevant's form; batched transforms may come
+// out a little below their count), so a table can say how many transforms eci performs without reading its code.
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <numbers>
 #include <string>
 
 #include <ctime>
+
+#include <fftw3.h>
 
 #include <eci/eci.hpp>
 #include <eci/models/navier_stokes_2d.hpp>
@@ -83,10 +90,41 @@ int main(int argc, char** argv) {
             t_rhs = std::min(t_rhs, seconds_since(t));
         }
     }
+    // One transform of each direction, on arrays of their own, planned as eci plans its own (the model imported
+    // the wisdom file and set the threads). Four real and four complex fields, each transformed in turn (new-array
+    // execute), so that the data come from memory as in a right-hand side's four inverse transforms: one transform
+    // repeated on the same field would stay in the caches and time below what it costs in a step.
+    double t_one = 1e300;
+    {
+        const std::size_t nr = std::size_t(p.n) * std::size_t(p.n), nc = std::size_t(p.n) * std::size_t(p.n / 2 + 1);
+        double* rr = fftw_alloc_real(4 * nr);
+        fftw_complex* cc = fftw_alloc_complex(4 * nc);
+        fftw_plan_with_nthreads(p.threads);
+        fftw_plan fwd = fftw_plan_dft_r2c_2d(p.n, p.n, rr, cc, FFTW_MEASURE);
+        fftw_plan inv = fftw_plan_dft_c2r_2d(p.n, p.n, cc, rr, FFTW_MEASURE);
+        for (std::size_t j = 0; j < 4 * nr; ++j) rr[j] = std::sin(0.001 * double(j));
+        for (int f = 0; f < 4; ++f) fftw_execute_dft_r2c(fwd, rr + f * nr, cc + f * nc);
+        for (int round = 0; round < 3 * reps; ++round) {
+            const double t = now();
+            for (int f = 0; f < 4; ++f) fftw_execute_dft_c2r(inv, cc + f * nc, rr + f * nr);
+            for (int f = 0; f < 4; ++f) fftw_execute_dft_r2c(fwd, rr + f * nr, cc + f * nc);
+            t_one = std::min(t_one, seconds_since(t) / 8.0);
+            // c2r then r2c scales by n^2: keep the values bounded
+            for (std::size_t j = 0; j < 4 * nc; ++j) {
+                cc[j][0] /= double(nr);
+                cc[j][1] /= double(nr);
+            }
+        }
+        fftw_destroy_plan(fwd);
+        fftw_destroy_plan(inv);
+        fftw_free(rr);
+        fftw_free(cc);
+    }
     std::printf("ns2d-step N=%d threads=%d clock=%s rk4=%.6g c_rk4=%.6g pc=%.6g c_pc=%.6g fft_rk4_step=%.6g "
-                "rhs_rk4_step=%.6g c_rk4/rk4=%.4f c_pc/pc=%.4f c_rk4/fft=%.4f rhs/fft=%.4f\n",
+                "rhs_rk4_step=%.6g c_rk4/rk4=%.4f c_pc/pc=%.4f c_rk4/fft=%.4f rhs/fft=%.4f dt=%.6g fft_one=%.6g "
+                "fft_equiv_per_rhs=%.2f\n",
                 p.n, p.threads, use_cpu_clock ? "cpu" : "wall", t_rk4, t_crk4, t_pc, t_cpc, t_fft, t_rhs,
-                t_crk4 / t_rk4, t_cpc / t_pc, t_crk4 / t_fft, t_rhs / t_fft);
+                t_crk4 / t_rk4, t_cpc / t_pc, t_crk4 / t_fft, t_rhs / t_fft, dt, t_one, t_fft / 4.0 / t_one);
     if (p.threads == 1) return 0;
     // Threads: a one-thread model beside this one, C-RK4 steps alternating between them in wall time, so load from
     // other processes hits both alike (on a shared machine it takes cores from the threaded one first).

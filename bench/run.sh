@@ -1,10 +1,13 @@
 #!/usr/bin/env bash
 # Builds the benchmarks in Release, runs them all and prints one table of side-by-side ratios with their targets.
-# Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--long] [--json FILE] [--out DIR] [--build-dir DIR] [--apps-from DIR]
+# Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--pyfftw-sizes LIST] [--long] [--json FILE] [--out DIR]
+#                     [--build-dir DIR] [--apps-from DIR]
 #   --quick  smaller large systems and fewer repetitions (under two minutes)
 #   --smoke  every program for a token run (CI: keeps them compiling and running, under a minute); numbers meaningless
 #   --ns2d   also the 2-D Navier-Stokes benchmarks (N = 1024 steps, threads, N = 128..4096 scaling x 3, radicands
-#            at N = 256 and 1024, NumPy; ~30 min)
+#            at N = 256 and 1024, NumPy; ~30 min) and eci against the pyFFTW script (issue 20: N = 256..4096, 1 and 2
+#            threads; --quick 256..1024; --smoke only its check at N = 32; skipped if python3-pyfftw is missing)
+#   --pyfftw-sizes LIST  the N of the pyFFTW comparison, e.g. 256,512,1024
 #   --long   also the 1e7-step round-off runs of compensated C-RK4 / C-DP54 (adaptive bench; minutes)
 #   --apps-from DIR  take the CLI (DIR/eci) and the Python module (DIR/python) from a Release build DIR instead of
 #            building them here (CI's smoke run, after scripts/test.sh's own Release build)
@@ -18,17 +21,19 @@ build="$repo/build-bench-release"
 ns2d=0
 long=0
 apps=""
+pyfftw_sizes=""
 while [[ $# -gt 0 ]]; do
   case "$1" in
     --quick) mode=quick ;;
     --smoke) mode=smoke ;;
     --ns2d) ns2d=1 ;;
     --long) long=1 ;;
+    --pyfftw-sizes) [[ $# -ge 2 ]] || { echo "run.sh: --pyfftw-sizes needs a list" >&2; exit 2; }; pyfftw_sizes=$2; shift ;;
     --json) [[ $# -ge 2 ]] || { echo "run.sh: --json needs a file name" >&2; exit 2; }; json=$(realpath -m "$2"); shift ;;
     --out) [[ $# -ge 2 ]] || { echo "run.sh: --out needs a directory" >&2; exit 2; }; out=$(realpath -m "$2"); shift ;;
     --build-dir) [[ $# -ge 2 ]] || { echo "run.sh: --build-dir needs a directory" >&2; exit 2; }; build=$(realpath -m "$2"); shift ;;
     --apps-from) [[ $# -ge 2 ]] || { echo "run.sh: --apps-from needs a directory" >&2; exit 2; }; apps=$(realpath -m "$2"); shift ;;
-    -h|--help) sed -n '2,10p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
     *) echo "run.sh: unknown argument $1" >&2; exit 2 ;;
   esac
   shift
@@ -169,6 +174,29 @@ if [ $ns2d = 1 ]; then
     /usr/bin/python3 "$repo/bench/ns2d_numpy.py" check "$apps/eci" || echo "ns2d-numpy check FAILED"
     [ "$mode" = smoke ] || /usr/bin/python3 "$repo/bench/ns2d_numpy.py" time "$apps/eci"
   } > "$out/ns2d_numpy.txt"
+  # Issue 20: a careful pyFFTW script (both forms of the nonlinear term) against eci, side by side; its check runs
+  # in every mode, the timing outside --smoke. Without python3-pyfftw a line says so and nothing fails.
+  case $mode in
+    full)  pf_sizes=256,512,1024,2048,4096; pf_rounds=3; pf_reps=5; pf_check="--n 128 --steps 100" ;;
+    quick) pf_sizes=256,512,1024;           pf_rounds=3; pf_reps=3; pf_check="--n 128 --steps 100" ;;
+    smoke) pf_sizes="";                     pf_rounds=1; pf_reps=1; pf_check="--n 32 --steps 20" ;;
+  esac
+  pf_sizes=${pyfftw_sizes:-$pf_sizes}
+  {
+    if /usr/bin/python3 -c "import pyfftw, h5py" 2> /dev/null; then
+      echo "== ns2d: against a pyFFTW script (N = ${pf_sizes:-none, check only})" >&2
+      /usr/bin/python3 "$repo/bench/ns2d_pyfftw.py" check "$apps/eci" $pf_check || echo "ns2d-pyfftw check FAILED"
+      if [ -n "$pf_sizes" ]; then
+        uptime
+        /usr/bin/python3 "$repo/bench/ns2d_vs_pyfftw.py" --bench "$bin/eci_bench_ns2d_step" --eci "$apps/eci" \
+          --sizes "$pf_sizes" --rounds $pf_rounds --reps $pf_reps --out "$out/pyfftw" 2> "$out/ns2d_pyfftw_rows.txt" \
+          || echo "ns2d-vs-pyfftw FAILED (rows so far in $out/ns2d_pyfftw_rows.txt)"
+        uptime
+      fi
+    else
+      echo "ns2d-pyfftw: SKIPPED, python3-pyfftw (or h5py) is not installed for /usr/bin/python3 (scripts/setup.sh)"
+    fi
+  } > "$out/ns2d_pyfftw.txt"
   python3 - "$out" <<'PY'
 import re, sys
 out = sys.argv[1]
@@ -199,6 +227,9 @@ with open(out + "/ns2d_scaling.csv", "w") as f:
               "peak memory %s KiB" % (n, t, len(r), 1e9 * t / (n * n * math.log2(n)), min(r), max(r), mem.get(str(n), "?")))
 for l in open(out + "/ns2d_numpy.txt"): print("  " + l.strip())
 for l in open(out + "/ns2d_radicand.txt"): print("  " + l.strip())
+print("\n2-D Navier-Stokes against the pyFFTW script (targets at N = 1024: C-RK4 / script <= 0.7 on 1 thread, "
+      "<= 0.6 on 2; C-RK4 / FFTs <= 1.15; C-RK4 / RK4 <= 1.03)")
+for l in open(out + "/ns2d_pyfftw.txt"): print("  " + l.rstrip())
 PY
   if command -v gnuplot > /dev/null; then
     gnuplot -e "set terminal pngcairo size 640,480; set output '$out/ns2d_scaling.png'; set datafile separator ','; \
