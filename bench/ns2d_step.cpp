@@ -122,9 +122,10 @@ int main(int argc, char** argv) {
     }
     std::printf("ns2d-step N=%d threads=%d clock=%s rk4=%.6g c_rk4=%.6g pc=%.6g c_pc=%.6g fft_rk4_step=%.6g "
                 "rhs_rk4_step=%.6g c_rk4/rk4=%.4f c_pc/pc=%.4f c_rk4/fft=%.4f rhs/fft=%.4f dt=%.6g fft_one=%.6g "
-                "fft_equiv_per_rhs=%.2f\n",
+                "fft_equiv_per_rhs=%.2f transforms_per_rhs=%d\n",
                 p.n, p.threads, use_cpu_clock ? "cpu" : "wall", t_rk4, t_crk4, t_pc, t_cpc, t_fft, t_rhs,
-                t_crk4 / t_rk4, t_cpc / t_pc, t_crk4 / t_fft, t_rhs / t_fft, dt, t_one, t_fft / 4.0 / t_one);
+                t_crk4 / t_rk4, t_cpc / t_pc, t_crk4 / t_fft, t_rhs / t_fft, dt, t_one, t_fft / 4.0 / t_one,
+                m.transforms_per_rhs());
     if (p.threads == 1) return 0;
     // Threads: a one-thread model beside this one, C-RK4 steps alternating between them in wall time, so load from
     // other processes hits both alike (on a shared machine it takes cores from the threaded one first).
