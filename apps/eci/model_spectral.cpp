@@ -176,6 +176,12 @@ ns2d_forcing parse_forcing(const std::string& s) {
 }
 
 int spectral_command::run(const run_settings& settings) {
+    // ---- options this command has no use for are refused, not ignored (issue 21, defect 10)
+    if (settings.rtol || settings.atol)
+        throw bad_input(name_ + " runs fixed steps (the spectral methods have no error estimate): --rtol and --atol "
+                                "do not apply; give --dt or --cfl");
+    if (settings.output_dt)
+        throw bad_input(name_ + " writes a CSV row every --every steps: --output-dt does not apply");
     // ---- parameters, from the options or the checkpoint (options that contradict it are an error)
     ns2d_checkpoint ck;
     const std::string restart_ = given_text("restart").value_or("");
@@ -211,8 +217,20 @@ int spectral_command::run(const run_settings& settings) {
             throw bad_input("--method " + settings.method + " does not match the restart file's " + ck.method);
         if (settings.dt && *settings.dt != ck.dt)
             throw bad_input("--dt does not match the restart file's " + num(ck.dt));
+        same("forcing-amplitude", given_real("forcing-amplitude"), ck.params.forcing_amplitude);
+        same("injection-rate", given_real("injection-rate"), ck.params.injection_rate);
+        same("forcing-seed", given_whole("forcing-seed"), ck.params.forcing_seed);
+        // bit-identity needs the plans and the thread count that wrote the checkpoint (its sums are per thread)
+        same("threads", given_whole("threads"), std::uint64_t(ck.params.threads));
+        if (*spec("fftw-estimate").flag && ck.params.measure)
+            throw bad_input("--fftw-estimate does not match the restart file's FFTW_MEASURE plans (" + restart_ +
+                            "; the run continues bit for bit only with the plans it started with)");
         if (given_real("cfl")) throw bad_input("--cfl cannot be combined with --restart (the time step is the checkpoint's)");
         if (given_text("ic")) throw bad_input("--ic cannot be combined with --restart");
+        for (const char* o : {"seed", "energy", "k-peak", "vortex-radius", "vortex-separation", "vortex-peak"})
+            if (spec(o).given)
+                throw bad_input(std::string("--") + o + " sets the initial condition; a restart continues from " +
+                                restart_ + "'s state");
     }
     ns2d_params p = restart ? ck.params : ns2d_params{};
     if (!restart) {
@@ -242,7 +260,7 @@ int spectral_command::run(const run_settings& settings) {
         p.forcing_seed = given_whole("forcing-seed").value_or(1);
     }
     if (given_whole("threads")) p.threads = int(std::min<std::uint64_t>(*given_whole("threads"), 1000));
-    p.measure = !*spec("fftw-estimate").flag;
+    p.measure = restart ? ck.params.measure : !*spec("fftw-estimate").flag;
     const std::string wisdom_file = given_text("fftw-wisdom").value_or("");
     p.wisdom_file = wisdom_file == "none" ? std::string() : wisdom_file.empty() ? default_wisdom_file() : wisdom_file;
     const std::string ic_ = given_text("ic").value_or("random");
@@ -323,6 +341,15 @@ int spectral_command::run(const run_settings& settings) {
     }
     for (const auto& v : w)
         if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) throw bad_input("initial condition is not finite");
+    {
+        // E and Z below the smallest normal double lose their precision to subnormal arithmetic (and squares of
+        // the modes underflow): refuse, as the other models' initial-state check does (issue 21, defect 14)
+        const double e = model.energy(w), z = model.enstrophy(w);
+        if ((e != 0.0 && !std::isnormal(e)) || (z != 0.0 && !std::isnormal(z)) || !std::isfinite(e) ||
+            !std::isfinite(z))
+            throw bad_input("initial condition: " + inv_[0] + " " + num(e) + " and " + inv_[1] + " " + num(z) +
+                            " must be finite normal numbers");
+    }
 
     // ---- time step and span
     const double dx = 2.0 * std::numbers::pi / p.n;

@@ -156,6 +156,7 @@ void put_params(hid_t f, const ns2d_params& p) {
     put(f, "deformation", p.deformation);
     put(f, "hypo_nu", p.hypo_nu);
     put(f, "hypo_p", std::int64_t(p.hypo_p));
+    put(f, "fftw_measure", std::int64_t(p.measure ? 1 : 0));
 }
 
 // The format attribute of an equation's checkpoints and snapshots ("eci navier-stokes-2d checkpoint", ...).
@@ -254,17 +255,29 @@ ns2d_checkpoint read_checkpoint(const std::string& path) {
     ns2d_checkpoint c;
     ns2d_params& p = c.params;
     p.equation = equation;
+    // Whole numbers are checked before they are narrowed: N = 2^32 + 16 is not 16 (issue 21, defect 9).
+    auto whole = [&](const char* name, std::int64_t lo, std::int64_t hi) {
+        const std::int64_t v = get<std::int64_t>(f, name);
+        if (v < lo || v > hi)
+            throw std::runtime_error(path + ": " + name + " = " + std::to_string(v) + " is not in " +
+                                     std::to_string(lo) + ".." + std::to_string(hi));
+        return int(v);
+    };
     // written since the spectral core (issue 20); a Navier-Stokes checkpoint of before has none of them
     if (H5Aexists(f, "beta") > 0) p.beta = get<double>(f, "beta");
     if (H5Aexists(f, "deformation") > 0) p.deformation = get<double>(f, "deformation");
     if (H5Aexists(f, "hypo_nu") > 0) p.hypo_nu = get<double>(f, "hypo_nu");
-    if (H5Aexists(f, "hypo_p") > 0) p.hypo_p = int(get<std::int64_t>(f, "hypo_p"));
-    p.n = int(get<std::int64_t>(f, "N"));
+    if (H5Aexists(f, "hypo_p") > 0) p.hypo_p = whole("hypo_p", 1, 16);
+    // how the run planned its transforms (before issue 20 always FFTW_MEASURE unless --fftw-estimate, not recorded)
+    if (H5Aexists(f, "fftw_measure") > 0) p.measure = whole("fftw_measure", 0, 1) == 1;
+    p.n = whole("N", 8, 65536);
     p.nu = get<double>(f, "nu");
     p.hyper_nu = get<double>(f, "hyper_nu");
-    p.hyper_p = int(get<std::int64_t>(f, "hyper_p"));
+    p.hyper_p = whole("hyper_p", 1, 16);
     p.drag = get<double>(f, "drag");
     const std::string forcing = get_string(f, "forcing");
+    if (forcing != "none" && forcing != "deterministic" && forcing != "stochastic")
+        throw std::runtime_error(path + ": unknown forcing '" + forcing + "'");
     p.forcing = forcing == "stochastic"      ? ns2d_forcing::stochastic
                 : forcing == "deterministic" ? ns2d_forcing::deterministic
                                              : ns2d_forcing::none;
@@ -272,7 +285,7 @@ ns2d_checkpoint read_checkpoint(const std::string& path) {
     p.forcing_amplitude = get<double>(f, "forcing_amplitude");
     p.injection_rate = get<double>(f, "injection_rate");
     p.forcing_seed = get<std::uint64_t>(f, "forcing_seed");
-    p.threads = int(get<std::int64_t>(f, "threads"));
+    p.threads = whole("threads", 1, 64);
     p.wisdom = get_string(f, "fftw_wisdom");
     c.method = get_string(f, "method");
     c.dt = get<double>(f, "dt");
@@ -291,13 +304,32 @@ ns2d_checkpoint read_checkpoint(const std::string& path) {
     c.max_enstrophy_drift = get<double>(f, "max_enstrophy_drift");
     c.max_energy_residual = get<double>(f, "max_energy_residual");
     c.max_enstrophy_residual = get<double>(f, "max_enstrophy_residual");
+    // The numbers a continued run computes with: a frozen or backward clock, or a non-finite budget, is a corrupt
+    // file, not a run (issue 21, defect 9).
+    if (!(std::isfinite(c.dt) && c.dt > 0.0)) throw std::runtime_error(path + ": dt must be a positive number");
+    if (c.step > c.total_steps) throw std::runtime_error(path + ": step is beyond total_steps");
+    for (const auto& [name, v] : {std::pair<const char*, double>{"energy0", c.energy0},
+                                  {"enstrophy0", c.enstrophy0},
+                                  {"energy_injection", c.budget.energy_injection},
+                                  {"energy_dissipation", c.budget.energy_dissipation},
+                                  {"enstrophy_injection", c.budget.enstrophy_injection},
+                                  {"enstrophy_dissipation", c.budget.enstrophy_dissipation},
+                                  {"max_energy_drift", c.max_energy_drift},
+                                  {"max_enstrophy_drift", c.max_enstrophy_drift},
+                                  {"max_energy_residual", c.max_energy_residual},
+                                  {"max_enstrophy_residual", c.max_enstrophy_residual}})
+        if (!std::isfinite(v)) throw std::runtime_error(path + ": " + name + " is not finite");
     std::vector<hsize_t> dims;
     const std::string name = state_dataset(spectral::find_equation(equation));
     const std::vector<double> v = read_dataset(f, name.c_str(), dims);
     if (dims.size() != 2 || dims[0] != hsize_t(p.n) || dims[1] != hsize_t(2 * (p.n / 2 + 1)))
         throw std::runtime_error(path + ": " + name + " does not match the grid N = " + std::to_string(p.n));
     c.state.resize(v.size() / 2);
-    for (std::size_t i = 0; i < c.state.size(); ++i) c.state[i] = {v[2 * i], v[2 * i + 1]};
+    for (std::size_t i = 0; i < c.state.size(); ++i) {
+        if (!std::isfinite(v[2 * i]) || !std::isfinite(v[2 * i + 1]))
+            throw std::runtime_error(path + ": " + name + " holds a non-finite value");
+        c.state[i] = {v[2 * i], v[2 * i + 1]};
+    }
     return c;
 }
 

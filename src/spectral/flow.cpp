@@ -174,6 +174,11 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
                      (p.hypo_nu != 0.0 ? p.hypo_nu * std::pow(k2, -p.hypo_p) : 0.0));
         if (e.dispersion) d.disp[i] = e.dispersion(p, x, y);
         if (d.disp[i] != 0.0) d.dispersive = true;
+        // a coefficient that overflows is a parameter too large for this grid, not a failed step (issue 21, 14)
+        require(std::isfinite(d.lin[i]) && std::isfinite(d.disp[i]) && std::isfinite(d.a[i]),
+                "the linear terms overflow at k = (" + std::to_string(kx(i)) + ", " + std::to_string(ky(i)) + ")" +
+                    " (viscosity, hyperviscosity, hypoviscosity, drag or beta too large for N = " +
+                    std::to_string(p.n) + ")");
     }
     // The forced band k_f - 1/2 <= |k| < k_f + 1/2, retained modes only.
     double band_count = 0.0, band_energy_weight = 0.0;

@@ -87,3 +87,34 @@ def test_bad_parameters(cli):
                                       "--fftw-wisdom", "none")
     msg = cli_error(cli, "run", "surface-qg", "--N", 16, "--beta", "1", "--fftw-wisdom", "none")
     assert "beta" in msg
+
+
+@pytest.mark.parametrize("attribute,value,needle", [
+    ("dt", 0.0, "dt must be a positive number"),
+    ("dt", -0.01, "dt must be a positive number"),
+    ("energy0", float("nan"), "energy0 is not finite"),
+    ("energy_injection", float("inf"), "energy_injection is not finite"),
+    ("N", 2 ** 32 + 16, "N = 4294967312 is not in 8..65536"),
+    ("threads", 0, "threads = 0 is not in 1..64"),
+    ("forcing", "wind", "unknown forcing 'wind'"),
+])
+def test_corrupt_checkpoint_fields_are_refused(cli, tmp_path, attribute, value, needle):
+    """issue 21, defect 9: a checkpoint whose numbers a continued run would compute with is checked, not trusted."""
+    import h5py
+
+    ck = tmp_path / "ck.h5"
+    run_cli(cli, "run", "surface-qg", "--N", 16, "--steps", 2, "--fftw-wisdom", "none", "--fftw-estimate",
+            "--checkpoint", ck, "--checkpoint-every", 2)
+    with h5py.File(ck, "r+") as f:
+        if isinstance(value, str):
+            del f.attrs[attribute]
+            f.attrs.create(attribute, np.bytes_(value))
+        else:
+            dtype = f.attrs[attribute].dtype
+            del f.attrs[attribute]
+            f.attrs.create(attribute, value, dtype=dtype)
+    before = ck.read_bytes()
+    msg = cli_error(cli, "run", "surface-qg", "--restart", ck, "--fftw-wisdom", "none", "--steps", 4,
+                    "--checkpoint", ck)
+    assert needle in msg, msg
+    assert ck.read_bytes() == before  # nothing replaced

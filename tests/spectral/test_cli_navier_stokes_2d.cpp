@@ -183,6 +183,17 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--ic " + q + "/ok.h5 --N 32", "grid"},
         {"--dt 0.1 --cfl 0.5", "not both"},
         {"--method c-euler", "not available"},
+        // issue 21: overflowing parameters, subnormal fields, options that do not apply, a restart's contradictions
+        {"--nu 1e308", "overflow"},
+        {"--hyper-nu 1e300 --hyper-p 16", "overflow"},
+        {"--energy 1e-310", "normal"},
+        {"--rtol nan", "do not apply"},
+        {"--atol 1e-6", "do not apply"},
+        {"--output-dt 0", "does not apply"},
+        {"--restart " + q + "/ok.h5 --threads 2", "does not match"},
+        {"--restart " + q + "/ok.h5 --injection-rate 3", "does not match"},
+        {"--restart " + q + "/ok.h5 --seed 4", "initial condition"},
+        {"--restart " + q + "/ok.h5 --energy 2", "initial condition"},
     };
     for (const auto& [args, needle] : cases) {
         for (const char* out : {"new.csv", "keep.csv"}) {
