@@ -162,7 +162,7 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
     d.a.assign(m, 0.0);
     d.ea.assign(m, 0.0);
     d.lin.assign(m, 0.0);
-    d.disp.assign(m, 0.0);
+    if (e.dispersion) d.disp.assign(m, 0.0);  // (only an equation with waves holds the table)
     d.sigma.assign(m, 0.0);
     d.force.assign(m, cplx{});
     for (std::size_t i = 0; i < m; ++i) {
@@ -172,10 +172,10 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
         d.ea[i] = std::abs(d.a[i]);
         d.lin[i] = -(p.nu * k2 + p.hyper_nu * std::pow(k2, p.hyper_p) + p.drag +
                      (p.hypo_nu != 0.0 ? p.hypo_nu * std::pow(k2, -p.hypo_p) : 0.0));
-        if (e.dispersion) d.disp[i] = e.dispersion(p, x, y);
-        if (d.disp[i] != 0.0) d.dispersive = true;
+        const double c = e.dispersion ? (d.disp[i] = e.dispersion(p, x, y)) : 0.0;
+        if (c != 0.0) d.dispersive = true;
         // a coefficient that overflows is a parameter too large for this grid, not a failed step (issue 21, 14)
-        require(std::isfinite(d.lin[i]) && std::isfinite(d.disp[i]) && std::isfinite(d.a[i]),
+        require(std::isfinite(d.lin[i]) && std::isfinite(c) && std::isfinite(d.a[i]),
                 "the linear terms overflow at k = (" + std::to_string(kx(i)) + ", " + std::to_string(ky(i)) + ")" +
                     " (viscosity, hyperviscosity, hypoviscosity, drag or beta too large for N = " +
                     std::to_string(p.n) + ")");

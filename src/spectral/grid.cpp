@@ -67,14 +67,6 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
     require(o.threads >= 1 && o.threads <= 64, "threads must be in 1..64");
     require(o.fields >= 1 && o.fields <= 8, "scratch fields must be in 1..8");
     const std::size_t m = size();
-    k2_.assign(m, 0.0);
-    weights_.assign(m, 0.0);
-    for (std::size_t i = 0; i < m; ++i) {
-        const int x = kx(i), y = ky(i);
-        k2_[i] = double(x) * x + double(y) * y;
-        if (k2_[i] == 0.0 || x > kmax() || std::abs(y) > kmax()) continue;
-        weights_[i] = (x == 0 || x == n_ / 2) ? 1.0 : 2.0;
-    }
     std::call_once(fftw_threads_once, [] { fftw_init_threads(); });
     if (!o.wisdom_file.empty()) fftw_import_wisdom_from_filename(o.wisdom_file.c_str());
     if (!o.wisdom.empty() && !fftw_import_wisdom_from_string(o.wisdom.c_str()))

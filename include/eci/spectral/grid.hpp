@@ -65,11 +65,18 @@ class grid {
     int ky(std::size_t i) const { return ky_of_row(int(i / std::size_t(columns()))); }
     int ky_of_row(int row) const { return row <= n_ / 2 ? row : row - n_; }
     /// |k|^2 of stored mode i.
-    double k2(std::size_t i) const { return k2_[i]; }
+    double k2(std::size_t i) const {
+        const double x = kx(i), y = ky(i);
+        return x * x + y * y;
+    }
     /// How often stored mode i appears in the full plane: 2 (itself and its unstored conjugate), 1 on the k_x = 0 and
     /// Nyquist columns, 0 outside the retained modes (the dealiasing mask and the half-plane weights in one table).
-    const std::vector<double>& weights() const { return weights_; }
-    bool retained(std::size_t i) const { return weights_[i] != 0.0; }
+    /// (Computed, not tabulated: a table of the half plane would be another state's worth of memory.)
+    double weight(std::size_t i) const { return retained(i) ? (kx(i) == 0 || kx(i) == n_ / 2 ? 1.0 : 2.0) : 0.0; }
+    bool retained(std::size_t i) const {
+        const int x = kx(i), y = ky(i);
+        return x <= kmax() && y <= kmax() && -y <= kmax() && (x != 0 || y != 0);
+    }
     /// The columns 0 .. kept_columns(row) - 1 of a row hold every retained mode of the row (kmax + 1, or 0 for a row
     /// outside the square): loops over the state read only these.
     std::size_t kept_columns(int row) const {
@@ -115,9 +122,7 @@ class grid {
     std::vector<double> to_physical(const cplx* f) const;
     /// The state of a real field on the grid (row-major, n x n): transformed, truncated to the retained modes.
     std::vector<cplx> from_physical(std::span<const double> field) const;
-    /// Shell sums: out[k] = sum over retained modes with round(|k|) = k of value(i); k = 0 .. shells() - 1.
-    template <class Value>
-    std::vector<double> shells(Value value) const;
+    /// Shells k = round(|k|) = 0 .. shell_count() - 1 hold every retained mode (spectra).
     std::size_t shell_count() const;
 
     /// The plans as FFTW wisdom text (so a restart plans the same transforms and repeats bit for bit).
@@ -128,7 +133,6 @@ class grid {
     void product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const;
     struct plans;
     int n_, fields_, threads_;
-    std::vector<double> k2_, weights_;
     std::unique_ptr<plans> p_;
 };
 
@@ -169,14 +173,6 @@ std::array<double, K> grid::sum_rows(Body body, int rows) const {
     for (int t = 0; t < std::min(threads_, 64); ++t)
         for (std::size_t k = 0; k < K; ++k) total[k] += part[std::size_t(t)][k];
     return total;
-}
-
-template <class Value>
-std::vector<double> grid::shells(Value value) const {
-    std::vector<double> e(shell_count(), 0.0);
-    for (std::size_t i = 0; i < size(); ++i)
-        if (retained(i)) e[std::size_t(std::lround(std::sqrt(k2_[i])))] += value(i);
-    return e;
 }
 
 }  // namespace eci::spectral
