@@ -90,7 +90,7 @@ struct fuzz_case {
 
 std::vector<std::string> fuzzed_models() {
     return {"three-wave", "n-wave", "n-wave-complex", "lotka-volterra", "kepler", "rigid-body", "kepler-cartesian",
-            "nonlinear-oscillator", "exp-entropy", "navier-stokes-2d"};
+            "nonlinear-oscillator", "exp-entropy", "navier-stokes-2d", "charney-hasegawa-mima", "surface-qg"};
 }
 
 fuzz_case make_case(generator& g) {
@@ -132,8 +132,10 @@ fuzz_case make_case(generator& g) {
         opt("--u", g.number(1, false) + "," + g.number(0.2, false));
     } else if (c.model == "exp-entropy") {
         opt("--uv", g.number(1, false) + "," + g.number(0.5, false));
-    } else if (c.model == "navier-stokes-2d") {
+    } else if (c.model == "navier-stokes-2d" || c.model == "charney-hasegawa-mima" || c.model == "surface-qg") {
         // Small grids (odd and tiny ones are bad input); no wisdom file outside the scratch directory.
+        if (c.model == "charney-hasegawa-mima")
+            opt("--beta", g.number(10, false), 0.6), opt("--deformation", g.number(1, true), 0.6);
         opt("--N", g.chance(0.9) ? std::to_string(2 * (4 + g.below(13))) : g.count(40), 1.0);
         opt("--fftw-wisdom", "none", 1.0), opt("--fftw-estimate", "", 1.0);
         opt("--nu", g.number(0.01, true), 0.3), opt("--cfl", g.number(0.5, true), 0.3);
@@ -277,8 +279,9 @@ std::vector<std::string> check(const fuzz_case& c, const run_result& r, const fs
     if (c.csv_old || (r.status == 0 && c.csv)) expected.insert("o.csv");
     if (c.json_old || (r.status == 0 && c.json)) expected.insert("s.json");
     // An interrupted or failed Navier-Stokes run keeps its state in a checkpoint (that is its contract).
-    if (c.model == "navier-stokes-2d" && r.status != 0 && r.status != 2 && fs::exists(work / "ns2d-checkpoint.h5"))
-        expected.insert("ns2d-checkpoint.h5");
+    // a spectral run stopped by a failure keeps its checkpoint
+    const std::string checkpoint = c.model == "navier-stokes-2d" ? "ns2d-checkpoint.h5" : c.model + "-checkpoint.h5";
+    if (r.status != 0 && r.status != 2 && fs::exists(work / checkpoint)) expected.insert(checkpoint);
     std::set<std::string> present;
     for (const auto& e : fs::directory_iterator(work)) present.insert(e.path().filename().string());
     if (present != expected) {
