@@ -1,5 +1,6 @@
 // The list of spectral equations: one line per module of equations/.
 #include "eci/spectral/equation.hpp"
+#include "eci/spectral/flow.hpp"
 
 #include <stdexcept>
 #include <string>
@@ -19,6 +20,11 @@ const equation& find_equation(std::string_view name) {
         names += (names.empty() ? "" : ", ") + std::string(e->name);
     }
     throw std::invalid_argument("no spectral equation '" + std::string(name) + "' (one of " + names + ")");
+}
+
+void refuse_wave_parameters(const flow_params& p, std::string_view equation) {
+    if (p.beta != 0.0 || p.deformation != 0.0)
+        throw std::invalid_argument(std::string(equation) + " has no beta or deformation (charney-hasegawa-mima has)");
 }
 
 }  // namespace eci::spectral

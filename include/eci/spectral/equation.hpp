@@ -48,6 +48,9 @@ struct equation {
 const std::vector<const equation*>& equations();
 /// The equation of that name; throws std::invalid_argument listing the names when there is none.
 const equation& find_equation(std::string_view name);
+/// For an equation's validate: throws std::invalid_argument when beta or the deformation F is set, which
+/// `equation` (the name in the message) does not read.
+void refuse_wave_parameters(const flow_params& p, std::string_view equation);
 
 // The modules (src/spectral/equations/*.cpp).
 extern const equation navier_stokes_2d_equation;

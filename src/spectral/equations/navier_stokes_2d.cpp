@@ -1,7 +1,5 @@
 // Navier-Stokes (2-D incompressible, vorticity form): d omega/dt + J(psi, omega) = F - D, omega = lap psi.
 // E = 1/2 <|u|^2> = 1/2 sum |omega_k|^2 / k^2 and Z = 1/2 <omega^2>; Basdevant's 4 transforms.
-#include <stdexcept>
-
 #include "eci/spectral/equation.hpp"
 #include "eci/spectral/flow.hpp"
 
@@ -17,10 +15,7 @@ const equation navier_stokes_2d_equation{
     [](const flow_params&, double kx, double ky) { return -1.0 / (kx * kx + ky * ky); },  // omega_k = -k^2 psi_k
     nullptr,
     nonlinear_form::basdevant,
-    [](const flow_params& p) {
-        if (p.beta != 0.0 || p.deformation != 0.0)
-            throw std::invalid_argument("navier-stokes-2d has no beta or deformation (charney-hasegawa-mima has)");
-    },
+    [](const flow_params& p) { refuse_wave_parameters(p, "navier-stokes-2d"); },
     "docs/turbulence.md",
 };
 

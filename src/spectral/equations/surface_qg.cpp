@@ -3,8 +3,6 @@
 // so the nonlinear term takes the advective form's 5 transforms.
 #include <cmath>
 
-#include <stdexcept>
-
 #include "eci/spectral/equation.hpp"
 #include "eci/spectral/flow.hpp"
 
@@ -20,10 +18,7 @@ const equation surface_qg_equation{
     [](const flow_params&, double kx, double ky) { return 1.0 / std::sqrt(kx * kx + ky * ky); },
     nullptr,
     nonlinear_form::advective,
-    [](const flow_params& p) {
-        if (p.beta != 0.0 || p.deformation != 0.0)
-            throw std::invalid_argument("surface-qg has no beta or deformation (charney-hasegawa-mima has)");
-    },
+    [](const flow_params& p) { refuse_wave_parameters(p, "surface-qg"); },
     "docs/turbulence.md",
 };
 
