@@ -441,9 +441,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             event_list = [((lambda e: lambda t, y: e(t, y, *args))(e), term, d) for e, term, d in event_list]
     if vectorized and not is_model:  # SciPy's explicit methods call a vectorized fun with one column
         fun = (lambda f: lambda t, y: np.asarray(f(t, y[:, None])).reshape(-1))(fun)
+    if jac is not None and is_model:
+        raise ValueError(f"jac is for a Python fun; model {fun.name} has its own Jacobian")
     if jac is not None and method != "kahan":
-        if is_model:
-            raise ValueError(f"jac is for a Python fun; model {fun.name} has its own Jacobian")
         ignored.insert(0, "jac")
         jac = None
     if ignored:

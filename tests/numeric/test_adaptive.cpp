@@ -450,7 +450,7 @@ TEST(AdaptiveOptions, BadInputIsRefusedWithAClearMessage) {
     o.atol = std::nan("");
     EXPECT_THROW(run(o), std::invalid_argument);
     EXPECT_THROW(run({}, 0.0), std::invalid_argument);
-    EXPECT_THROW(run({}, 1e-3, -1.0), std::invalid_argument);
+    EXPECT_THROW(run({}, 1e-3, std::nan("")), std::invalid_argument);  // an end time before the start runs backward
     EXPECT_EQ(x, figure5_ic);
 }
 
@@ -644,8 +644,14 @@ TYPED_TEST(AdaptivePair, StepsDriverStopsOnTheDenseOutputInEitherDirection) {
             });
         EXPECT_EQ(seen, s.accepted);
         EXPECT_EQ(x, at_stop);
+        // Where the dense output is as accurate as the steps, within what the tolerance buys; else (the cubic
+        // Hermite interpolant on the long steps of ck54's and f78's pairs) within its own, coarser reach, which
+        // the conservative ones' interpolation in psi^2 makes coarser still near a small component (an error d of
+        // psi^2 is d / (2 |psi|) in psi: 5e-3 measured for c-f78 at psi = 0.04)
+        using St = typename TypeParam::template stepper<state>;
+        const double reach = St::dense_matches_steps ? 1e-6 : 1e-2;
         const state e = exact(stop);
-        for (std::size_t k = 0; k < 3; ++k) EXPECT_NEAR(x[k], e[k], 1e-6) << TypeParam::name << " from " << t0;
+        for (std::size_t k = 0; k < 3; ++k) EXPECT_NEAR(x[k], e[k], reach) << TypeParam::name << " from " << t0;
     }
 }
 
