@@ -200,23 +200,28 @@ class adaptive_loop {
 
     double time() const { return t_; }
 
+    /// Steps x from the current time to t_target, forward or (t_target < time()) backward in time: the
+    /// controller works on the step's size, the stepper gets it signed (every eci stepper takes a negative dt).
     template <class OnAccept>
     void advance(double t_target, OnAccept&& on_accept) {
         constexpr double q1 = double(St::embedded_order + 1);
-        while (t_ < t_target) {
+        const bool forward = !(t_target < t_);
+        const double dir = forward ? 1.0 : -1.0;
+        while (forward ? t_ < t_target : t_ > t_target) {
             // Land on the target when the proposed step would (nearly) reach it: no sliver of a last step.
-            double dt = std::min({dt_, o_.dt_max});
-            const bool landing = t_ + 1.01 * dt >= t_target;
-            if (landing) dt = t_target - t_;
+            double dt = std::min({dt_, o_.dt_max});  // the step's size
+            const bool landing = forward ? t_ + 1.01 * dt >= t_target : t_ - 1.01 * dt <= t_target;
+            if (landing) dt = forward ? t_target - t_ : t_ - t_target;
             if (stats_.accepted + stats_.rejected() >= o_.max_attempts)
-                throw adaptive_failure(adaptive_failure::reason::too_many_steps, t_, 0, dt, stats_);
+                throw adaptive_failure(adaptive_failure::reason::too_many_steps, t_, 0, dir * dt, stats_);
             bool rate_failed = false;
-            const attempt_result r = attempt_checked(st_, f_, std::as_const(x_), t_, dt, &w_, false, rate_failed);
+            const attempt_result r =
+                attempt_checked(st_, f_, std::as_const(x_), t_, dir * dt, &w_, false, rate_failed);
             const bool finite = r.ok && std::isfinite(r.error);
             if (finite && r.error <= 1.0) {
                 st_.accept(x_);
                 const double t_prev = t_;
-                t_ = landing ? t_target : t_ + dt;
+                t_ = landing ? t_target : t_ + dir * dt;
                 ++stats_.accepted;
                 stats_.dt_smallest = std::min(stats_.dt_smallest, dt);
                 stats_.dt_largest = std::max(stats_.dt_largest, dt);
@@ -254,16 +259,17 @@ class adaptive_loop {
             // long horizon must not stop a run early), and never below 2^-30 of the span left (a run at t = 0).
             const double dt_min = o_.dt_min > 0.0 ? o_.dt_min
                                                   : 64.0 * std::numeric_limits<double>::epsilon() *
-                                                        std::max({std::abs(t_), 0x1p-30 * (t_target - t_),
+                                                        std::max({std::abs(t_), 0x1p-30 * dir * (t_target - t_),
                                                                   std::numeric_limits<double>::min()});
             if (dt_ < dt_min) {
                 std::size_t component = r.component;
                 if (r.ok && !rate_failed) {
                     bool again = false;
-                    component = attempt_checked(st_, f_, std::as_const(x_), t_, dt, &w_, true, again).component;
+                    component =
+                        attempt_checked(st_, f_, std::as_const(x_), t_, dir * dt, &w_, true, again).component;
                 }
                 st_.reset();
-                adaptive_failure e(adaptive_failure::reason::step_too_small, t_, component, dt_, stats_);
+                adaptive_failure e(adaptive_failure::reason::step_too_small, t_, component, dir * dt_, stats_);
                 e.last_rejection = last_;
                 throw e;
             }
@@ -284,10 +290,12 @@ class adaptive_loop {
     rejection last_ = rejection::error_estimate;
 };
 
+/// Whether b is at or beyond a in the direction of the run (forward: b >= a).
+inline bool reached(double a, double b, bool forward) { return forward ? b >= a : b <= a; }
+
 template <class F, class S>
 void check_run(const S& x, double t0, double t_end, double dt0, const adaptive_options& o) {
-    if (!std::isfinite(t0) || !std::isfinite(t_end) || !(t_end >= t0))
-        throw std::invalid_argument("end time must be finite and >= start");
+    if (!std::isfinite(t0) || !std::isfinite(t_end)) throw std::invalid_argument("end time must be finite");
     if (!(dt0 > 0.0) || !std::isfinite(dt0)) throw std::invalid_argument("initial step must be a positive finite number");
     check_options(o, std::ranges::size(x));
 }
@@ -295,14 +303,14 @@ void check_run(const S& x, double t0, double t_end, double dt0, const adaptive_o
 /// The dense-output half of integrate_adaptive_at: interpolate every output time inside each accepted step.
 template <class St, class F, class S, class Loop, class Observer, class Emit>
 void dense_run(St& stepper, F& counted, S& x, const std::vector<double>& times, Loop& loop, std::size_t& next,
-               Observer& observe, Emit& emit_until, adaptive_stats& stats) {
+               Observer& observe, Emit& emit_until, adaptive_stats& stats, bool forward) {
     S scratch{}, start{};
     St fallback{};
     loop.advance(times.back(), [&](double t_prev, double t_new) {
-        if (next >= times.size() || times[next] >= t_new) return emit_until(t_new);
+        if (next >= times.size() || reached(t_new, times[next], forward)) return emit_until(t_new);
         stepper.prepare_dense(counted, std::as_const(x), t_new);
         const double h = t_new - t_prev;
-        while (next < times.size() && times[next] < t_new) {
+        while (next < times.size() && !reached(t_new, times[next], forward)) {
             const double theta = (times[next] - t_prev) / h;
             if (stepper.interpolate(std::as_const(x), theta, scratch)) {
                 ++stats.dense_points;
@@ -311,7 +319,13 @@ void dense_run(St& stepper, F& counted, S& x, const std::vector<double>& times, 
                 ++stats.dense_fallbacks;
                 start = stepper.step_start();
                 fallback.reset();
-                integrate_to(fallback, counted, start, t_prev, times[next], times[next] - t_prev);
+                if (forward) {
+                    integrate_to(fallback, counted, start, t_prev, times[next], times[next] - t_prev);
+                } else {  // integrate_to runs forward only; the same one step with halving, backward
+                    run_stats ignored;  // its evaluations are counted by `counted`
+                    advance_with_reduction(fallback, counted, start, t_prev, times[next] - t_prev, run_options{},
+                                           ignored);
+                }
                 scratch = start;
             }
             detail::notify(observe, std::as_const(scratch), times[next], next);
@@ -323,8 +337,8 @@ void dense_run(St& stepper, F& counted, S& x, const std::vector<double>& times, 
 
 }  // namespace detail
 
-/// Integrate x from t0 to t_end with adaptive steps starting from dt0. The observer sees (x, t) (or (x, t, i))
-/// at t0 and after every accepted step; the last step lands on t_end. Throws adaptive_failure if the step falls
+/// Integrate x from t0 to t_end (forward, or backward if t_end < t0) with adaptive steps starting from dt0 (a
+/// size). The observer sees (x, t) (or (x, t, i)) at t0 and after every accepted step; the last step lands on t_end. Throws adaptive_failure if the step falls
 /// below options.dt_min or the run exceeds options.max_attempts.
 template <state S, system<S> F, class St, class Observer = no_observer>
     requires adaptive_stepper<St, F, S>
@@ -339,8 +353,9 @@ adaptive_stats integrate_adaptive(St& stepper, F&& f, S& x, double t0, double t_
     return stats;
 }
 
-/// Integrate x from t0 through the increasing output times `times` (all >= t0), calling the observer at each
-/// with the state there, by landing steps on them or by dense output. x ends at the last time.
+/// Integrate x from t0 through the output times `times` (increasing and >= t0, or for a backward run decreasing
+/// and <= t0), calling the observer at each with the state there, by landing steps on them or by dense output. x
+/// ends at the last time. The direction is that of times.back() from t0.
 template <state S, system<S> F, class St, class Observer>
     requires adaptive_stepper<St, F, S>
 adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const std::vector<double>& times,
@@ -348,15 +363,19 @@ adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const 
                                      output_mode mode = output_mode::automatic) {
     const double t_end = times.empty() ? t0 : times.back();
     detail::check_run<F>(x, t0, t_end, dt0, options);
+    const bool forward = !(t_end < t0);
     for (std::size_t i = 0; i < times.size(); ++i)
-        if (!std::isfinite(times[i]) || times[i] < t0 || (i > 0 && !(times[i] >= times[i - 1])))
-            throw std::invalid_argument("output times must be finite, >= the start time and non-decreasing");
+        if (!std::isfinite(times[i]) || !detail::reached(t0, times[i], forward) ||
+            (i > 0 && !detail::reached(times[i - 1], times[i], forward)))
+            throw std::invalid_argument(forward ? "output times must be finite, >= the start time and non-decreasing"
+                                                : "output times of a backward run must be finite, <= the start time "
+                                                  "and non-increasing");
     adaptive_stats stats;
     const detail::counted_system<std::remove_reference_t<F>> counted{&f, &stats.rhs_evals};
     detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
     std::size_t next = 0;
     auto emit_until = [&](double t) {  // outputs at or before the current time t that equal it
-        while (next < times.size() && times[next] <= t) {
+        while (next < times.size() && detail::reached(times[next], t, forward)) {
             detail::notify(observe, std::as_const(x), times[next], next);
             ++next;
         }
@@ -384,7 +403,103 @@ adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const 
         }
         return stats;
     }
-    if constexpr (has_dense) detail::dense_run(stepper, counted, x, times, loop, next, observe, emit_until, stats);
+    if constexpr (has_dense)
+        detail::dense_run(stepper, counted, x, times, loop, next, observe, emit_until, stats, forward);
+    return stats;
+}
+
+
+/// Whether adaptive stepper St has a dense output on states S (prepare_dense / interpolate / step_start).
+template <class St, class F, class S>
+concept dense_stepper = requires(const St& c, St& m, F& f, const S& y, S& out, double th) {
+    { c.interpolate(y, th, out) } -> std::same_as<step_result>;
+    m.prepare_dense(f, y, th);
+    c.step_start();
+};
+
+/// The step an adaptive run has just accepted, as integrate_adaptive_steps shows it: its two ends and its dense
+/// output anywhere between them (valid only during the call that shows it).
+template <class St, class F, class S>
+class accepted_step {
+   public:
+    using stepper_type = St;
+    accepted_step(St& st, F& f, const S& x, double t_start, double t_end, adaptive_stats& stats)
+        : st_(st), f_(f), x_(x), t_start_(t_start), t_end_(t_end), stats_(stats) {}
+    double t_start() const { return t_start_; }
+    double t_end() const { return t_end_; }
+    const S& start_state() const { return st_.step_start(); }
+    const S& end_state() const { return x_; }
+    /// The state at time t of the step (between its ends, either direction): the ends themselves, else the
+    /// stepper's dense output (for a conservative pair the interpolant of xi that keeps every invariant); where
+    /// that interpolant fails (a negative interpolated xi) a step from the step's start lands on t instead. With
+    /// `conventional`, also the conventional interpolant whose sign a conservative one takes (else: out itself).
+    void at(double t, S& out, S* conventional = nullptr) {
+        if (t == t_end_ || t == t_start_) {
+            out = t == t_end_ ? x_ : st_.step_start();
+            if (conventional) *conventional = out;
+            return;
+        }
+        if (!prepared_) st_.prepare_dense(f_, x_, t_end_);
+        prepared_ = true;
+        const double theta = (t - t_start_) / (t_end_ - t_start_);
+        bool ok = false;
+        if constexpr (requires { st_.interpolate(x_, theta, out, conventional); }) {
+            ok = bool(st_.interpolate(x_, theta, out, conventional));
+        } else {  // the transformed engine: its interpolant of xi, inverted
+            ok = bool(st_.interpolate(x_, theta, out));
+            if (conventional) *conventional = out;
+        }
+        if (ok) {
+            ++stats_.dense_points;
+            return;
+        }
+        ++stats_.dense_fallbacks;
+        out = st_.step_start();
+        St fallback{};
+        run_stats ignored;  // its evaluations are counted by f_
+        detail::advance_with_reduction(fallback, f_, out, t_start_, t - t_start_, run_options{}, ignored);
+        if (conventional) *conventional = out;
+    }
+
+   private:
+    St& st_;
+    F& f_;
+    const S& x_;
+    double t_start_, t_end_;
+    adaptive_stats& stats_;
+    bool prepared_ = false;
+};
+
+namespace detail {
+struct stop_requested {};
+}  // namespace detail
+
+/// Integrate x from t0 to t_end (either direction) with adaptive steps, showing every accepted step with its
+/// dense output to on_step(accepted_step&), which returns the time within that step at which the run is to stop
+/// (an event), or std::nullopt to go on. x ends at t_end, or at that time (the dense output there). The run's
+/// first state is not shown: the caller has it.
+template <state S, system<S> F, class St, class OnStep>
+    requires adaptive_stepper<St, F, S>
+adaptive_stats integrate_adaptive_steps(St& stepper, F&& f, S& x, double t0, double t_end, double dt0,
+                                        const adaptive_options& options, OnStep&& on_step) {
+    detail::check_run<F>(x, t0, t_end, dt0, options);
+    adaptive_stats stats;
+    using counted_t = const detail::counted_system<std::remove_reference_t<F>>;
+    counted_t counted{&f, &stats.rhs_evals};
+    static_assert(dense_stepper<St, counted_t, S>, "integrate_adaptive_steps needs a stepper with dense output");
+    detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
+    S stop_state{};
+    try {
+        loop.advance(t_end, [&](double t_prev, double t_new) {
+            accepted_step<St, counted_t, S> step(stepper, counted, std::as_const(x), t_prev, t_new, stats);
+            const std::optional<double> t_stop = on_step(step);
+            if (!t_stop) return;
+            step.at(*t_stop, stop_state);
+            throw detail::stop_requested{};
+        });
+    } catch (const detail::stop_requested&) {
+        x = stop_state;
+    }
     return stats;
 }
 

@@ -31,7 +31,9 @@ namespace eci {
 /// Everything a run is asked to do.
 struct run_config {
     double t0 = 0.0;     ///< start time
-    double t_end = 0.0;  ///< end time (fixed steps: the last step is shortened to land on it)
+    /// End time (fixed steps: the last step is shortened to land on it). Adaptive runs go backward in time when
+    /// it is before t0 (dt, dt_min and dt_max are then sizes); fixed steps run forward only.
+    double t_end = 0.0;
     /// Fixed steps only: take exactly this many steps of dt from t0 (t_end is then t0 + steps * dt).
     std::optional<std::uint64_t> steps;
     double dt = 0.0;  ///< the fixed step, or an adaptive run's first step
@@ -40,7 +42,8 @@ struct run_config {
 
     /// Without `times`: output every `every` steps (adaptive: accepted steps), and always the first and the last.
     std::uint64_t every = 1;
-    /// Output at these times instead (sorted, within [t0, t_end]); the run still goes on to t_end. Fixed steps
+    /// Output at these times instead (sorted in the run's direction, within the span); the run still goes on to
+    /// t_end (or to where the sink's step() stops it). Fixed steps
     /// reach a time between two grid points by a side step from the earlier one (the grid run is untouched);
     /// adaptive runs land a step on it or interpolate, as `mode` says.
     std::vector<double> times;
@@ -94,6 +97,8 @@ struct solve_report {
     double t = 0.0;                            ///< the time of the last state reached
     std::optional<double> time_lag;            ///< relaxation RK: the last state belongs to t + time_lag
     std::optional<run_failure> failure;        ///< why the run stopped early
+    /// The time at which the sink's step() stopped the run (a terminal event), if it did.
+    std::optional<double> stopped_at;
     bool completed() const { return !failure.has_value(); }
 };
 
@@ -113,7 +118,10 @@ struct extra_invariant {
 };
 
 /// A sink: output(x, point) at every output; optionally progress(t, steps) after every step (adaptive: before
-/// every attempt), which may throw to stop the run (Ctrl-C).
+/// every attempt), which may throw to stop the run (Ctrl-C). An adaptive run also shows every accepted step with
+/// its dense output (eci::accepted_step) to a sink whose observes_steps() is true, through step(s) ->
+/// std::optional<double>: a time within that step at which to stop the run (an event), or none. Output times are
+/// then taken from the dense output of the steps (as SciPy's solve_ivp does), whatever cfg.mode says.
 template <class K, class S>
 concept run_sink = requires(K& k, const S& x, const output_point& p) { k.output(x, p); };
 
@@ -187,17 +195,24 @@ inline void check_config(const run_config& c) {
         if (c.steps) throw std::invalid_argument("a step count is for fixed steps; an adaptive run ends at its end time");
         if (!(c.dt > 0.0) || !std::isfinite(c.dt))
             throw std::invalid_argument("initial step must be a positive finite number");
+        if (!std::isfinite(c.t_end)) throw std::invalid_argument("end time must be finite");
     } else {
         check_step(c.dt);
+        if (!c.steps && std::isfinite(c.t_end) && c.t_end < c.t0)
+            throw std::invalid_argument("end time is before the start: fixed steps run forward only (an adaptive "
+                                        "run goes backward)");
+        if (!c.steps && (!(c.t_end >= c.t0) || !std::isfinite(c.t_end)))
+            throw std::invalid_argument("end time must be finite and >= start");
     }
-    if (!c.steps && (!(c.t_end >= c.t0) || !std::isfinite(c.t_end)))
-        throw std::invalid_argument("end time must be finite and >= start");
     if (c.every == 0) throw std::invalid_argument("output interval must be at least 1");
     const double t_end = c.end_time();
+    const bool forward = !(t_end < c.t0);
+    const double lo = forward ? c.t0 : t_end, hi = forward ? t_end : c.t0;
     for (std::size_t i = 0; i < c.times.size(); ++i)
-        if (!std::isfinite(c.times[i]) || c.times[i] < c.t0 || c.times[i] > t_end ||
-            (i > 0 && c.times[i] < c.times[i - 1]))
-            throw std::invalid_argument("output times must be finite, sorted and within the span");
+        if (!std::isfinite(c.times[i]) || c.times[i] < lo || c.times[i] > hi ||
+            (i > 0 && (forward ? c.times[i] < c.times[i - 1] : c.times[i] > c.times[i - 1])))
+            throw std::invalid_argument("output times must be finite, sorted in the direction of the run and "
+                                        "within the span");
 }
 
 /// The monitor of a run: the model's named invariants (if it has them) and the extra ones, with one vector of
@@ -262,6 +277,51 @@ struct polled_stepper : St {
         return St::attempt(f, x, t, dt, w, track_worst);
     }
 };
+
+/// An adaptive run whose sink sees every accepted step (sink.step, events) and whose outputs at times come from
+/// the steps' dense output. The monitor sees every step's end and every output.
+template <class St, class F, class S, class Monitor, class Sink, class Check>
+adaptive_stats run_steps_seen(St& st, const F& f, S& x, const run_config& cfg, const std::vector<double>& times,
+                              std::size_t wanted, Monitor& monitor, solve_report& report, Sink& sink,
+                              Check& check_overflow) {
+    const double t_end = cfg.end_time();
+    const bool forward = !(t_end < cfg.t0);
+    std::size_t next = 0;
+    std::uint64_t accepted = 0;
+    S tmp = x;
+    auto emit = [&](const S& s, double t, std::uint64_t i) {
+        monitor.record(s);
+        check_overflow(t);
+        sink.output(s, output_point{t, i, monitor.values(), std::nullopt});
+    };
+    report.t = cfg.t0;
+    if (times.empty()) emit(x, cfg.t0, 0);
+    monitor.record(x);
+    for (; next < wanted && times[next] == cfg.t0; ++next) emit(x, cfg.t0, next);
+    auto on_step = [&](auto& step) -> std::optional<double> {
+        ++accepted;
+        const std::optional<double> stop = sink.step(step);
+        const double t_last = stop ? *stop : step.t_end();
+        for (; next < wanted && reached(times[next], t_last, forward); ++next) {
+            step.at(times[next], tmp);
+            emit(std::as_const(tmp), times[next], next);
+        }
+        if (stop) {
+            step.at(*stop, tmp);
+            if (times.empty()) emit(std::as_const(tmp), *stop, accepted);
+            report.t = *stop;
+            report.stopped_at = *stop;
+        } else {
+            report.t = step.t_end();
+            if (times.empty() && (accepted % cfg.every == 0 || step.t_end() == t_end))
+                emit(step.end_state(), step.t_end(), accepted);
+            else
+                monitor.record(step.end_state()), check_overflow(step.t_end());
+        }
+        return stop;
+    };
+    return integrate_adaptive_steps(st, f, x, cfg.t0, t_end, cfg.dt, *cfg.adaptive, on_step);
+}
 
 }  // namespace detail
 
@@ -340,7 +400,8 @@ solve_report solve(const F& f, S& x, std::string_view method, const run_config& 
             // Output times: the requested ones, then t_end (run to, not output) if they stop short of it.
             std::vector<double> times = cfg.times;
             const std::size_t wanted = times.size();
-            if (!times.empty() && times.back() < t_end) times.push_back(t_end);
+            const bool forward = !(t_end < cfg.t0);
+            if (!times.empty() && (forward ? times.back() < t_end : times.back() > t_end)) times.push_back(t_end);
             auto observe = [&](const S& s, double t, std::uint64_t i) {
                 monitor.record(s);
                 report.t = t;
@@ -352,15 +413,24 @@ solve_report solve(const F& f, S& x, std::string_view method, const run_config& 
                 if (cfg.cancel && cfg.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
                 if constexpr (has_progress) sink.progress(t, report.adaptive ? report.adaptive->accepted : 0);
             };
+            bool steps_seen = false;
+            if constexpr (requires { sink.observes_steps(); }) steps_seen = sink.observes_steps();
             with_adaptive_stepper<Dispatch>(report.method.name, [&](auto stepper) {
                 detail::polled_stepper<decltype(stepper), decltype(poll)> st;
                 st.poll = &poll;
                 adaptive_stats stats;
+                auto run = [&]() -> adaptive_stats {
+                    if constexpr (requires { sink.observes_steps(); })
+                        if (steps_seen)
+                            return detail::run_steps_seen(st, f, x, cfg, times, wanted, monitor, report, sink,
+                                                          check_overflow);
+                    return times.empty()
+                               ? integrate_adaptive(st, f, x, cfg.t0, t_end, cfg.dt, *cfg.adaptive, observe)
+                               : integrate_adaptive_at(st, f, x, cfg.t0, times, cfg.dt, *cfg.adaptive, observe,
+                                                       cfg.mode);
+                };
                 try {
-                    stats = times.empty()
-                                ? integrate_adaptive(st, f, x, cfg.t0, t_end, cfg.dt, *cfg.adaptive, observe)
-                                : integrate_adaptive_at(st, f, x, cfg.t0, times, cfg.dt, *cfg.adaptive, observe,
-                                                        cfg.mode);
+                    stats = run();
                 } catch (const adaptive_failure& e) {
                     stats = e.stats;
                     const bool too_many = e.why == adaptive_failure::reason::too_many_steps;

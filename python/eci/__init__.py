@@ -14,6 +14,7 @@ The numerics are the C++ library's: the same steps give the same bits as `eci ru
 
 import math
 import numbers
+import warnings
 from collections import namedtuple
 
 import numpy as np
@@ -22,8 +23,8 @@ from . import _eci, models
 from ._errors import NonFiniteSolution, StepSizeUnderflow, TooManySteps
 from .models import Model
 
-__all__ = ["solve", "methods", "MethodInfo", "SolveResult", "Transform", "StepSizeUnderflow", "TooManySteps",
-           "NonFiniteSolution", "models"]
+__all__ = ["solve", "methods", "MethodInfo", "SolveResult", "DenseSolution", "Transform", "StepSizeUnderflow",
+           "TooManySteps", "NonFiniteSolution", "models"]
 __version__ = _eci.__version__  # project(eci VERSION ...) in CMakeLists.txt
 
 
@@ -140,10 +141,13 @@ def _t_eval_array(t_eval, t0, t1):
         raise ValueError(f"t_eval must be one-dimensional, got shape {a.shape}")
     if not np.all(np.isfinite(a)):
         raise ValueError("t_eval must be finite")
-    if a.size and (a[0] < t0 or a[-1] > t1 or a.min() < t0 or a.max() > t1):
+    lo, hi = min(t0, t1), max(t0, t1)
+    if a.size and (a.min() < lo or a.max() > hi):
         raise ValueError(f"t_eval values must lie within t_span [{t0!r}, {t1!r}]")
-    if np.any(np.diff(a) < 0):
+    if t1 >= t0 and np.any(np.diff(a) < 0):
         raise ValueError("t_eval must be sorted in increasing order")
+    if t1 < t0 and np.any(np.diff(a) > 0):
+        raise ValueError("t_eval must be sorted in decreasing order for a backward t_span (t1 < t0)")
     return [float(v) for v in a]
 
 
@@ -160,8 +164,6 @@ def _initial_state(y0):
         raise TypeError(f"y0 must be real or complex numbers, not dtype {a.dtype}")
     if a.ndim != 1:
         raise ValueError(f"y0 must be one-dimensional, got shape {a.shape}")
-    if a.size == 0:
-        raise ValueError("y0 is empty")
     for i, v in enumerate(a):
         if not np.isfinite(v):
             raise ValueError(f"initial condition y[{i}] is not finite")
@@ -195,16 +197,28 @@ def _tolerance(value, name, n):
 def _first_step(fun, t0, t1, y0, order, rtol, atol):
     """A first step for a Python fun, by Hairer, Norsett & Wanner's rule (I, II.4): the step whose error, estimated
     from fun at y0 and after a small Euler step, is about the tolerance (two evaluations of fun). A fun that returns
-    something unusable gets a small step here; the run itself then reports the problem."""
-    span = t1 - t0
+    something unusable gets a small step here; the run itself then reports the problem. Returns the step's size
+    and how often fun was called. The rule is SciPy's (select_initial_step); for a backward span (t1 < t0) the
+    Euler step goes backward."""
+    calls = [0]
+    result = _first_step_size(fun, t0, t1, y0, order, rtol, atol, calls)
+    return result, calls[0]
+
+
+def _first_step_size(fun, t0, t1, y0, order, rtol, atol, calls):
+    span = abs(t1 - t0)
+    direction = 1.0 if t1 >= t0 else -1.0
     if span == 0.0:
         return 1.0
+    if y0.size == 0:
+        return span
     fallback = 1e-6 * span
 
     def rms(v):
         return float(np.sqrt(np.mean(np.abs(v) ** 2)))
 
     def evaluate(t, y):
+        calls[0] += 1
         f = np.asarray(fun(t, y))
         ok = f.shape == y0.shape and f.dtype.kind in "biufc" and bool(np.all(np.isfinite(f)))
         return f if ok else None
@@ -218,7 +232,7 @@ def _first_step(fun, t0, t1, y0, order, rtol, atol):
     d0, d1 = rms(y0 / scale), rms(f0 / scale)
     h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
     h0 = min(h0, span)
-    f1 = evaluate(t0 + h0, y0 + h0 * f0)
+    f1 = evaluate(t0 + direction * h0, y0 + direction * h0 * f0)
     if f1 is None:
         return min(h0, span)
     d2 = rms((f1 - f0) / scale) / h0
@@ -226,51 +240,182 @@ def _first_step(fun, t0, t1, y0, order, rtol, atol):
     return min(100.0 * h0, h1, span)
 
 
+class DenseSolution:
+    """result.sol of eci.solve(..., dense_output=True): the solution between every two accepted steps, like SciPy's
+    OdeSolution: sol(t) for a number gives y at t (shape (n,)), for an array of times y at each (shape (n, len(t))).
+
+    Each step's dense output is the stepper's own interpolant (DP54's continuous extension, else the cubic Hermite
+    interpolant), stored as its values at five points of the step, which determine it (degree <= 4). For a
+    conservative pair the interpolant is of xi = y**2 and each y takes the conventional interpolant's sign: every
+    sum_k w_k y_k**2 the method keeps is kept at every t, to rounding (the five stored points keep it, and the
+    interpolant is a combination of them whose weights sum to 1); the sign is that of the conventional interpolant,
+    stored at the same five points, as the library takes it. Through a transform (transform=, or a model the
+    library integrates in its linearizing variables) the stored points are the engine's dense output and sol is
+    the polynomial through them, not invariant-exact. Outside [t_min, t_max] the first or last step's interpolant
+    is extrapolated, as OdeSolution does.
+    """
+
+    def __init__(self, t_start, t_end, nodes, samples, signs, sign_nodes, squared, y0, t0):
+        forward = len(t_start) == 0 or t_end[0] >= t_start[0]
+        order = slice(None) if forward else slice(None, None, -1)
+        self._t_start, self._t_end = np.asarray(t_start)[order], np.asarray(t_end)[order]
+        self._samples = np.asarray(samples)[order]
+        self._signs = np.asarray(signs)[order] if squared else None
+        self._nodes = np.asarray(nodes, dtype=float)
+        self._sign_nodes = np.asarray(sign_nodes, dtype=float)
+        self._squared = squared
+        self._y0 = np.asarray(y0)
+        lo = np.minimum(self._t_start, self._t_end)
+        self.ts = np.append(lo, max(self._t_start[-1], self._t_end[-1])) if len(lo) else np.array([t0])
+        if not forward:
+            self.ts = self.ts[::-1]
+        self.t_min, self.t_max = (float(min(self.ts[0], self.ts[-1])), float(max(self.ts[0], self.ts[-1])))
+        self.n_segments = len(self._t_start)
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        tt = np.atleast_1d(t).ravel()
+        n = self._y0.size
+        if self.n_segments == 0:  # no step taken (t_span of length 0): the initial state everywhere
+            y = np.repeat(self._y0[:, None], tt.size, axis=1)
+            return y[:, 0] if t.ndim == 0 else y
+        bounds = np.minimum(self._t_start, self._t_end)
+        i = np.clip(np.searchsorted(bounds, tt, side="right") - 1, 0, self.n_segments - 1)
+        a, b = self._t_start[i], self._t_end[i]
+        theta = (tt - a) / (b - a)
+        weights = self._lagrange(theta, self._nodes)
+        samples = self._samples[i]  # (len(t), nodes, n)
+        complex_state = samples.dtype.kind == "c"
+        if complex_state:  # real and imaginary parts are unknowns of their own
+            samples = samples.view(np.float64)
+        psi = np.einsum("kj,kjn->kn", weights, samples)
+        if self._squared:  # xi's interpolant, and the sign of the conventional one, as the library's interpolate
+            xi = np.einsum("kj,kjn->kn", weights, samples * samples)
+            signs = self._signs[i]
+            conventional = np.einsum("kj,kjn->kn", self._lagrange(theta, self._sign_nodes),
+                                     signs.view(np.float64) if complex_state else signs)
+            psi = np.copysign(np.sqrt(np.maximum(xi, 0.0)), conventional)
+        if complex_state:
+            psi = np.ascontiguousarray(psi).view(np.complex128)
+        y = psi.T.reshape(n, tt.size)
+        return y[:, 0] if t.ndim == 0 else y
+
+    @staticmethod
+    def _lagrange(theta, x):
+        """Lagrange's basis of the nodes x at each theta: exactly 1 and 0s at a node."""
+        weights = np.ones((theta.size, x.size))
+        for j in range(x.size):
+            for m in range(x.size):
+                if m != j:
+                    weights[:, j] *= (theta - x[m]) / (x[j] - x[m])
+        return weights
+
+    def __repr__(self):
+        return f"DenseSolution({self.n_segments} steps on [{self.t_min!r}, {self.t_max!r}])"
+
+
+# The options SciPy's solve_ivp passes to its implicit solvers; an explicit method ignores them, with SciPy's warning.
+_IMPLICIT_ONLY = ("jac_sparsity", "lband", "uband")
+_SUCCESS = "The solver successfully reached the end of the integration interval."
+_TERMINATED = "A termination event occurred."
+
+
+def _no_effect(names):
+    warnings.warn("The following arguments have no effect for a chosen solver: " +
+                  ", ".join(f"`{n}`" for n in names) + ".", UserWarning, stacklevel=3)
+
+
+def _event_list(events):
+    """SciPy's events: one callable or a sequence, each with optional attributes terminal and direction."""
+    if events is None:
+        return None
+    if callable(events):
+        events = [events]
+    out = []
+    for i, e in enumerate(events):
+        if not callable(e):
+            raise TypeError(f"event {i} is not callable: events are functions event(t, y) -> float")
+        terminal = getattr(e, "terminal", False)
+        direction = getattr(e, "direction", 0)
+        if isinstance(terminal, bool) or terminal in (0, 1):
+            terminal = bool(terminal)
+        else:
+            raise ValueError(f"event {i}: terminal must be True or False, not {terminal!r}")
+        direction = _number(direction, f"event {i}'s direction")
+        out.append((e, terminal, float(np.sign(direction))))
+    return out
+
+
 def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
           transform=None, max_halvings=40, first_step=None, min_step=0.0, max_step=math.inf, max_steps=None,
-          t_eval_mode="auto", jac=None):
+          t_eval_mode="auto", jac=None, dense_output=False, events=None, vectorized=False, args=None, **options):
     """Integrate dy/dt = fun(t, y) from t_span[0] to t_span[1], SciPy's solve_ivp conventions, eci's numerics.
 
     fun: a callable fun(t, y) -> dy/dt (y a real or complex 1-D array, as in SciPy), or a built-in model
-        (eci.models.ThreeWave(), ...), which runs the whole integration in C++ without the GIL.
-    t_span: (t0, t1), t1 >= t0.
-    y0: the initial state; for a model, None means its default initial condition.
+        (eci.models.ThreeWave(), ...), which runs the whole integration in C++ without the GIL (unless Python
+        invariants, events or dense output need it).
+    t_span: (t0, t1). t1 < t0 integrates backward in time (adaptive control only: fixed steps run forward).
+    y0: the initial state (may be empty); for a model, None means its default initial condition.
     method: a name from eci.methods(). Default: "c-rk4" (conservative classical Runge-Kutta) with fixed steps,
         "c-dp54" (conservative Dormand-Prince 5(4)) with adaptive control.
     dt: the fixed step. Steps land on t0 + i dt, the last one shortened to end at t1, exactly as `eci run`, so the
         states are the CLI's bit for bit. For a model, None means its default step (model.default_dt).
     rtol, atol: adaptive step control (an embedded pair: bs32, ck54, dp54, f78 and their c- versions), each a
-        number or one number per component of y (a complex component's two parts share one). Giving one sets the
-        other to the same value, as `eci run --rtol`. A Python fun given neither dt nor tolerances is integrated
-        adaptively with SciPy's defaults, rtol=1e-3, atol=1e-6. dt and rtol/atol together are an error.
-    t_eval: times at which to store the solution (sorted, within t_span); by default every step is stored. Fixed
-        steps: a time between two grid points is reached by one extra step from the earlier one, off the grid run.
-        Adaptive: t_eval_mode "auto" (dense output where it is as accurate as the steps: bs32, dp54, c-bs32 and
-        c-dp54 through a transform; c-dp54 on a plain system lands steps), "dense" (conservative dense output
-        interpolates xi and keeps the invariants) or "landing" (a step lands on each time).
+        number or one number per component of y (a complex component's two parts share one). SciPy's defaults:
+        one not given is rtol=1e-3 or atol=1e-6; an rtol below 100 eps is raised to it with SciPy's warning. A
+        Python fun given neither dt nor tolerances is integrated adaptively with both defaults. dt and rtol/atol
+        together are an error.
+    t_eval: times at which to store the solution (sorted in the direction of t_span, within it); by default every
+        step is stored. Fixed steps: a time between two grid points is reached by one extra step from the earlier
+        one, off the grid run. Adaptive: t_eval_mode "auto" (dense output where it is as accurate as the steps:
+        bs32, dp54, c-bs32 and c-dp54 through a transform; c-dp54 on a plain system lands steps), "dense"
+        (conservative dense output interpolates xi and keeps the invariants) or "landing" (a step lands on each
+        time). With dense_output or events, t_eval comes from the dense output, as in SciPy.
+    dense_output: also return result.sol, a DenseSolution (callable like SciPy's OdeSolution) built from every
+        step's dense output; for a conservative pair it keeps the invariants at every t. Adaptive runs only.
+    events: a callable event(t, y) -> float, or a sequence of them, each optionally with attributes terminal
+        (stop the run at its first zero) and direction (count only increasing (> 0) or decreasing (< 0) zeros), as
+        SciPy's. Zeros are located to round-off on each step's dense output (Brent's method in C++, 4 eps);
+        result.t_events[i] and result.y_events[i] hold event i's times and states; a terminal one ends the run
+        with status 1. Adaptive runs only.
+    args: extra arguments: fun(t, y, *args), and so jac and every event (SciPy's `args`).
+    vectorized: fun accepts y of shape (n, k) and returns (n, k) (SciPy's `vectorized`); eci calls it with one
+        column, as SciPy's explicit methods do.
     invariants: callables of y whose drift is measured after every step (adaptive with t_eval: at every t_eval
         time, as `eci run --rtol --output-dt`): one, a list, or a dict name -> callable. A model's own invariants
         are always measured.
     transform: an eci.Transform in which the invariants are linear (methods c-pc, c-rk2, c-rk4; adaptive: the c-
         pairs).
-    max_halvings: fixed steps: how often a failed step may be halved before StepSizeUnderflow (default 40).
-    first_step, min_step, max_step, max_steps: adaptive control: the first step (default: the model's default dt,
-        as `eci run --rtol`; for a Python fun, Hairer's estimate from two evaluations of fun), the smallest step
-        (default 0: 64 eps |t|), the largest (default inf) and the most attempts, accepted and rejected (default
-        50 000 000).
+    max_halvings: fixed steps: how often a failed step may be halved before the run stops (default 40).
+    first_step, min_step, max_step, max_steps: adaptive control: the first step (no larger than the span;
+        default: the model's default dt, as `eci run --rtol`; for a Python fun, SciPy's rule from two evaluations
+        of fun, counted in nfev), the smallest step (default 0: 64 eps |t|), the largest (default inf) and the most
+        attempts, accepted and rejected (default 50 000 000).
     jac: the Jacobian of a Python fun for method "kahan" (Kahan's linearly implicit method, for quadratic fields):
         jac(t, y) -> (n, n) array, rows the components of fun (SciPy's convention), or a constant (n, n) array;
-        real y of up to 8 unknowns. A built-in model uses its own.
+        real y of up to 8 unknowns. Every other method is explicit and ignores it, with SciPy's warning, as it
+        does jac_sparsity, lband and uband.
 
-    Returns a SolveResult (t, y, stats, invariants, ...). Raises ValueError or TypeError for bad input (the CLI's
-    messages), StepSizeUnderflow when a step fails at every size, TooManySteps when an adaptive run runs out of
-    max_steps, and whatever fun raises; Ctrl-C interrupts.
+    Returns a SolveResult (t, y, stats, invariants, nfev, njev, nlu, status, message, success, sol, t_events,
+    y_events, ...). As SciPy: a run that cannot go on (a step that fails at every size, the step budget, a state
+    that blows up) is no exception but status -1, success False and a message, with the solution up to there and
+    result.failure, the exception that describes it (StepSizeUnderflow, TooManySteps or NonFiniteSolution, with
+    t, component, component_name, dt, cause and stats), not raised; result.failure is None otherwise; a terminal event
+    gives status 1. Bad input raises ValueError or TypeError (the CLI's messages); whatever fun raises propagates;
+    Ctrl-C interrupts.
     """
     is_model = isinstance(fun, Model)
     if not is_model and not callable(fun):
         raise TypeError(f"fun must be a callable fun(t, y) or an eci.models model, not {type(fun).__name__}")
     if method is not None and not isinstance(method, str):
         raise TypeError(f"method must be a string (see eci.methods()), not {type(method).__name__}")
+    names = [m.name for m in methods()]
+    if method is not None and method not in names:
+        raise ValueError(f"unknown method '{method}' (methods: {', '.join(names)})")  # the library's, as the CLI
+    unknown = [k for k in options if k not in _IMPLICIT_ONLY]
+    if unknown:
+        raise TypeError(f"solve() got an unexpected keyword argument {unknown[0]!r}")
+    ignored = [k for k in _IMPLICIT_ONLY if k in options]
     try:
         t0, t1 = t_span
     except (TypeError, ValueError):
@@ -278,26 +423,56 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     t0, t1 = _number(t0, "t_span[0]"), _number(t1, "t_span[1]")
     if not math.isfinite(t0):
         raise ValueError(f"t_span[0] must be a finite number, not {_shortest(t0)}")
-    if not (t1 >= t0) or not math.isfinite(t1):
-        raise ValueError(f"t_span[1] must be a finite number >= {_shortest(t0)}, not {_shortest(t1)}")
+    if not math.isfinite(t1):
+        raise ValueError(f"t_span[1] must be a finite number, not {_shortest(t1)}")
+    event_list = _event_list(events)
+    if args is not None:
+        try:
+            args = tuple(args)
+        except TypeError:
+            raise TypeError("Supplied 'args' cannot be unpacked. Please supply `args` as a tuple "
+                            "(e.g. `args=(arg,)`)") from None
+        if is_model:
+            raise ValueError(f"args is for a Python fun; model {fun.name} takes its parameters when built")
+        fun = (lambda f: lambda t, y: f(t, y, *args))(fun)
+        if callable(jac):
+            jac = (lambda j: lambda t, y: j(t, y, *args))(jac)
+        if event_list:
+            event_list = [((lambda e: lambda t, y: e(t, y, *args))(e), term, d) for e, term, d in event_list]
+    if vectorized and not is_model:  # SciPy's explicit methods call a vectorized fun with one column
+        fun = (lambda f: lambda t, y: np.asarray(f(t, y[:, None])).reshape(-1))(fun)
+    if jac is not None and is_model:
+        raise ValueError(f"jac is for a Python fun; model {fun.name} has its own Jacobian")
+    if jac is not None and method != "kahan":
+        ignored.insert(0, "jac")
+        jac = None
+    if ignored:
+        _no_effect(ignored)
     adaptive = rtol is not None or atol is not None
     if adaptive and dt is not None:
         raise ValueError("give either dt (fixed steps) or rtol/atol (adaptive step control; first_step sets the "
                          "first step), not both")
     if not adaptive and dt is None and not is_model:
         if method is None or method in _eci._adaptive_methods_real():
-            adaptive, rtol, atol = True, _SCIPY_RTOL, _SCIPY_ATOL
+            adaptive = True
         else:
             raise ValueError(f"dt is required for method {method} (fixed steps); or give rtol/atol with an adaptive "
                              f"method ({', '.join(_eci._adaptive_methods_real())})")
+    if adaptive:  # SciPy's defaults for the one not given
+        rtol = _SCIPY_RTOL if rtol is None else rtol
+        atol = _SCIPY_ATOL if atol is None else atol
     if method is None:
         method = _DEFAULT_ADAPTIVE if adaptive else "c-rk4"
     if not adaptive:
         for name, value, default in (("first_step", first_step, None), ("min_step", min_step, 0.0),
                                      ("max_step", max_step, math.inf), ("max_steps", max_steps, None),
-                                     ("t_eval_mode", t_eval_mode, "auto")):
+                                     ("t_eval_mode", t_eval_mode, "auto"), ("dense_output", dense_output, False),
+                                     ("events", event_list, None)):
             if value != default:
                 raise ValueError(f"{name} is for adaptive step control: give rtol/atol (and no dt)")
+        if t1 < t0:
+            raise ValueError(f"t_span[1] = {_shortest(t1)} is before t_span[0] = {_shortest(t0)}: fixed steps run "
+                             "forward only; backward time needs adaptive control (rtol/atol, no dt)")
         if dt is None:  # NavierStokes2D: the CFL 0.5 step of the initial state, as `eci run navier-stokes-2d`
             dt = fun.cfl_step(y0) if y0 is not None and hasattr(fun, "cfl_step") else fun.default_dt
         dt = _number(dt, "dt")
@@ -308,15 +483,13 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     if isinstance(max_halvings, bool) or not isinstance(max_halvings, numbers.Integral) or not 0 <= max_halvings <= 60:
         raise ValueError(f"max_halvings must be a whole number from 0 to 60, not {max_halvings!r}")
     times = _t_eval_array(t_eval, t0, t1)
-    functions, names = _invariant_list(invariants)
+    functions, inv_names = _invariant_list(invariants)
     if transform is not None and not isinstance(transform, Transform):
         raise TypeError(f"transform must be an eci.Transform, not {type(transform).__name__}")
     if is_model and transform is not None:
         raise ValueError(f"transform is for a Python fun; model {fun.name} uses its own")
-    if jac is not None and is_model:
-        raise ValueError(f"jac is for a Python fun; model {fun.name} has its own Jacobian")
-    if jac is not None and method != "kahan":
-        raise ValueError(f"jac is used by method kahan only, not {method}")
+    if transform is not None and (dense_output or event_list):
+        raise ValueError("dense_output and events are not available with a transform yet")
     if is_model:
         y = None if y0 is None else np.asarray(y0)
         n = len(fun.default_y0) if y is None or y.ndim != 1 else len(y)
@@ -328,7 +501,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             raise ValueError("a transform needs a real y0")
         n = len(y)
 
-    settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None}
+    settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None,
+                "dense_output": bool(dense_output), "events": event_list}
+    extra_calls = 0
     if adaptive:
         settings["adaptive"] = _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps,
                                                   t_eval_mode, t0, t1)
@@ -338,10 +513,11 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         elif h is None:
             order = next((m.order for m in methods() if m.name == method), 4)
             a = settings["adaptive"]
-            h = _first_step(fun, t0, t1, y, order, max(a["rtol_each"] or [a["rtol"]]), np.asarray(a["atol_each"] or a["atol"]))
+            h, extra_calls = _first_step(fun, t0, t1, y, order, max(a["rtol_each"] or [a["rtol"]]),
+                                         np.asarray(a["atol_each"] or a["atol"]))
         dt = h
     if is_model:
-        raw = fun._solve(t0, t1, y0, method, dt, settings, functions, names)
+        raw = fun._solve(t0, t1, y0, method, dt, settings, functions, inv_names)
     else:
         if method == "kahan":
             if transform is not None:
@@ -349,12 +525,33 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             jac = _jacobian(jac, y)
         parts = None if transform is None else (transform.forward, transform.inverse, transform.jacobian,
                                                 transform.rate)
-        raw = _eci._solve_function(fun, t0, t1, y, method, dt, settings, functions, names, parts, jac)
+        raw = _eci._solve_function(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac)
     result = SolveResult(raw)
-    result["nfev"] = result["stats"]["rhs_evals"]
-    result["status"] = 0
-    result["success"] = True
-    result["message"] = "The solver successfully reached the end of the integration interval."
+    result["nfev"] = result["stats"]["rhs_evals"] + extra_calls
+    result["njev"] = 0  # explicit methods evaluate no Jacobian (kahan's calls of jac are in its solver stats)
+    result["nlu"] = 0
+    failure = result.get("failure")
+    if failure is not None:  # the exception that describes it, not raised: result.failure (raise it if you like)
+        from . import _errors
+        f = failure
+        result["failure"] = getattr(_errors, f["kind"])(f["message"], f["t"], f["component"], f["component_name"],
+                                                         f["dt"], f["cause"], result["stats"])
+        result["status"], result["message"] = -1, f["message"]
+    elif result.get("stopped_at") is not None:
+        result["status"], result["message"] = 1, _TERMINATED
+    else:
+        result["status"], result["message"] = 0, _SUCCESS
+    result["success"] = result["status"] >= 0
+    if event_list is None:
+        result["t_events"] = result["y_events"] = None
+    else:  # as SciPy: an event that never occurred has y_events of shape (0,)
+        result["y_events"] = [ye if len(ye) else np.asarray([]) for ye in result["y_events"]]
+    result["sol"] = None
+    if dense_output:
+        d = result.pop("dense")
+        start = y if y is not None else (result["y"][:, 0] if result["y"].shape[1] else np.asarray(fun.default_y0))
+        result["sol"] = DenseSolution(d["t_start"], d["t_end"], d["nodes"], d["samples"], d["signs"], d["sign_nodes"],
+                                      d["squared"], start, t0)
     return result
 
 
@@ -376,10 +573,17 @@ def _jacobian(jac, y):
 
 
 def _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps, t_eval_mode, t0, t1):
-    """The checked adaptive settings, as the dict the compiled solvers read. One tolerance missing takes the
-    other's value (as `eci run --rtol`)."""
-    r, r_each = _tolerance(atol if rtol is None else rtol, "atol" if rtol is None else "rtol", n)
-    a, a_each = _tolerance(rtol if atol is None else atol, "rtol" if atol is None else "atol", n)
+    """The checked adaptive settings, as the dict the compiled solvers read (solve has filled in SciPy's
+    defaults for a tolerance not given). An rtol below 100 eps is raised to it with SciPy's warning: below it the
+    error estimate is round-off."""
+    r, r_each = _tolerance(rtol, "rtol", n)
+    a, a_each = _tolerance(atol, "atol", n)
+    floor = 100 * np.finfo(float).eps
+    if (r_each and min(r_each) < floor) or (not r_each and r < floor):
+        warnings.warn(f"At least one element of `rtol` is too small. Setting `rtol = np.maximum(rtol, {floor})`.",
+                      UserWarning, stacklevel=3)
+        r = max(r, floor)
+        r_each = [max(v, floor) for v in r_each]
     if not r_each and not a_each and r == 0.0 and a == 0.0:
         raise ValueError("rtol and atol cannot both be zero")
     if r_each or a_each:  # the library takes per-component vectors for both or a scalar: expand the scalar
@@ -391,6 +595,9 @@ def _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps,
         first_step = _number(first_step, "first_step")
         if not (first_step > 0.0) or not math.isfinite(first_step):
             raise ValueError(f"first_step must be a positive finite number, not {_shortest(first_step)}")
+        if first_step > abs(t1 - t0):
+            raise ValueError(f"first_step {_shortest(first_step)} exceeds the span |t1 - t0| = "
+                             f"{_shortest(abs(t1 - t0))}")
     min_step = _number(min_step, "min_step")
     if not (min_step >= 0.0) or not math.isfinite(min_step):
         raise ValueError(f"min_step must be a finite number >= 0, not {_shortest(min_step)}")

@@ -2,7 +2,11 @@
 // arrays and polls Ctrl-C, eci::solve, and the report as SolveResult's dict (or eci's Python exceptions).
 #pragma once
 
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <utility>
@@ -20,6 +24,13 @@ namespace eci::python {
 /// t_eval_mode. `dt` is the fixed step or the first step.
 struct python_request {
     run_config config;
+    bool dense_output = false;  ///< record every step's dense output (result.sol)
+    /// The event functions g(t, y) and, for each, whether it ends the run and which crossings count (SciPy's
+    /// `terminal` and `direction`).
+    std::vector<py::object> events;
+    std::vector<bool> terminal;
+    std::vector<double> direction;
+    bool sees_steps() const { return dense_output || !events.empty(); }
 };
 
 inline python_request request_from(double t0, double t1, double dt, const py::dict& settings) {
@@ -45,16 +56,178 @@ inline python_request request_from(double t0, double t1, double dt, const py::di
         c.mode = mode == "dense" ? output_mode::dense : mode == "landing" ? output_mode::landing : output_mode::automatic;
         c.adaptive = o;
     }
+    if (settings.contains("dense_output")) r.dense_output = settings["dense_output"].cast<bool>();
+    if (settings.contains("events") && !settings["events"].is_none())
+        for (const py::handle e : settings["events"].cast<py::list>()) {
+            const py::tuple t = e.cast<py::tuple>();
+            r.events.push_back(py::reinterpret_borrow<py::object>(t[0]));
+            r.terminal.push_back(t[1].cast<bool>());
+            r.direction.push_back(t[2].cast<double>());
+        }
     return r;
 }
 
-/// The sink: every output into the arrays, Ctrl-C polled between steps.
+/// Brent's root finder on [a, b] with g(a), g(b) of opposite signs (or one zero), to SciPy's tolerances for
+/// events, xtol = rtol = 4 eps (scipy.optimize.brentq, whose algorithm this follows): the root to round-off.
+template <class G>
+double brent_root(G&& g, double a, double b, double fa, double fb) {
+    constexpr double eps = std::numeric_limits<double>::epsilon();
+    constexpr double xtol = 4.0 * eps, rtol = 4.0 * eps;
+    if (fa == 0.0) return a;
+    if (fb == 0.0) return b;
+    double xpre = a, xcur = b, fpre = fa, fcur = fb, xblk = 0.0, fblk = 0.0, spre = 0.0, scur = 0.0;
+    for (int i = 0; i < 100; ++i) {
+        if (fpre != 0.0 && fcur != 0.0 && (std::signbit(fpre) != std::signbit(fcur))) {
+            xblk = xpre;
+            fblk = fpre;
+            spre = scur = xcur - xpre;
+        }
+        if (std::abs(fblk) < std::abs(fcur)) {
+            xpre = xcur, xcur = xblk, xblk = xpre;
+            fpre = fcur, fcur = fblk, fblk = fpre;
+        }
+        const double delta = (xtol + rtol * std::abs(xcur)) / 2.0;
+        const double sbis = (xblk - xcur) / 2.0;
+        if (fcur == 0.0 || std::abs(sbis) < delta) return xcur;
+        if (std::abs(spre) > delta && std::abs(fcur) < std::abs(fpre)) {
+            double stry;
+            if (xpre == xblk) {
+                stry = -fcur * (xcur - xpre) / (fcur - fpre);  // interpolate
+            } else {  // extrapolate
+                const double dpre = (fpre - fcur) / (xpre - xcur), dblk = (fblk - fcur) / (xblk - xcur);
+                stry = -fcur * (fblk * dblk - fpre * dpre) / (dblk * dpre * (fblk - fpre));
+            }
+            if (2.0 * std::abs(stry) < std::min(std::abs(spre), 3.0 * std::abs(sbis) - delta)) {
+                spre = scur;  // good short step
+                scur = stry;
+            } else {
+                spre = sbis;  // bisect
+                scur = sbis;
+            }
+        } else {
+            spre = sbis;
+            scur = sbis;
+        }
+        xpre = xcur;
+        fpre = fcur;
+        xcur += std::abs(scur) > delta ? scur : (sbis > 0.0 ? delta : -delta);
+        fcur = g(xcur);
+    }
+    return xcur;
+}
+
+/// What a run that sees its steps records besides the outputs: every step's dense output at dense_nodes points
+/// (result.sol), and the events found (t_events, y_events).
+template <class S>
+struct step_record {
+    using value_type = std::ranges::range_value_t<S>;
+    /// Where each step's dense output is sampled, as fractions of the step: five points determine the
+    /// interpolants of eci's pairs (degree 4: DP54's continuous extension; degree 3: the cubic Hermite), of psi
+    /// for the conventional pairs and of xi = psi^2 for the conservative ones, exactly.
+    static constexpr std::array<double, 5> dense_nodes{0.0, 0.25, 0.5, 0.75, 1.0};
+    /// Where a conservative pair's conventional interpolant (whose sign each state takes) is sampled: not at the
+    /// step's end, where the state is the conservative one and the conventional interpolant the conventional
+    /// update (FSAL pairs), a different value; at the start both are the step's first state.
+    static constexpr std::array<double, 5> sign_nodes{0.0, 0.25, 0.5, 0.75, 0.875};
+    std::vector<double> t_start, t_end;
+    std::vector<value_type> samples;  // per step, per node, the state
+    std::vector<value_type> signs;    // squared: the conventional interpolant there, whose sign the state takes
+    bool squared = false;             // the interpolant is of every real unknown's square (conservative)
+    std::vector<std::vector<double>> t_events;
+    std::vector<std::vector<value_type>> y_events;
+};
+
+/// The sink: every output into the arrays, Ctrl-C polled between steps; with dense output or events, every
+/// accepted step too: its dense output sampled, and each event function's sign change located on it.
 template <class S>
 struct recording_sink {
+    using value_type = std::ranges::range_value_t<S>;
     recorded_output<S>* out;
     interrupt_check* interrupt;
+    const python_request* req = nullptr;
+    step_record<S>* steps = nullptr;
+    std::vector<double> g_prev{};  // each event function at the last step's end
+    S scratch{}, conventional{};
+
     void output(const S& x, const output_point& p) { out->record(p.t, x); }
     void progress(double, std::uint64_t) { (*interrupt)(); }
+    bool observes_steps() const { return req && req->sees_steps(); }
+
+    double event_value(std::size_t j, double t, const S& x) const {
+        const py::object r = req->events[j](t, to_numpy(std::vector<value_type>(std::ranges::begin(x), std::ranges::end(x))));
+        try {
+            return r.cast<double>();
+        } catch (const py::cast_error&) {
+            throw py::type_error("event " + std::to_string(j) + " returned " + std::string(py::repr(r)) +
+                                 ", expected a real number");
+        }
+    }
+
+    template <class Step>
+    std::optional<double> step(Step& s) {
+        if (req->dense_output) {
+            using St = typename Step::stepper_type;
+            if constexpr (requires { St::dense_of_squares; }) steps->squared = St::dense_of_squares;
+            steps->t_start.push_back(s.t_start());
+            steps->t_end.push_back(s.t_end());
+            auto node_time = [&](double theta) {
+                return theta == 0.0 ? s.t_start() : theta == 1.0 ? s.t_end()
+                                                  : s.t_start() + theta * (s.t_end() - s.t_start());
+            };
+            for (double theta : step_record<S>::dense_nodes) {
+                s.at(node_time(theta), scratch);
+                steps->samples.insert(steps->samples.end(), std::ranges::begin(scratch), std::ranges::end(scratch));
+            }
+            if (steps->squared)
+                for (double theta : step_record<S>::sign_nodes) {
+                    s.at(node_time(theta), scratch, &conventional);
+                    steps->signs.insert(steps->signs.end(), std::ranges::begin(conventional),
+                                        std::ranges::end(conventional));
+                }
+        }
+        const std::size_t m = req->events.size();
+        if (m == 0) return std::nullopt;
+        if (g_prev.empty()) {
+            g_prev.resize(m);
+            steps->t_events.resize(m);
+            steps->y_events.resize(m);
+            for (std::size_t j = 0; j < m; ++j) g_prev[j] = event_value(j, s.t_start(), s.start_state());
+        }
+        // SciPy's rules (find_active_events, handle_events): a crossing from <= 0 to >= 0 is up, from >= 0 to
+        // <= 0 down; each active one located by Brent on the dense output; with a terminal one among them, the
+        // first terminal root (in the run's direction) ends the run and later roots are dropped.
+        std::vector<std::pair<double, std::size_t>> roots;
+        std::vector<double> g_new(m);
+        for (std::size_t j = 0; j < m; ++j) {
+            g_new[j] = event_value(j, s.t_end(), s.end_state());
+            const double g = g_prev[j], gn = g_new[j], dir = req->direction[j];
+            const bool up = g <= 0.0 && gn >= 0.0, down = g >= 0.0 && gn <= 0.0;
+            if (!((up && dir > 0.0) || (down && dir < 0.0) || ((up || down) && dir == 0.0))) continue;
+            auto on_dense = [&](double t) {
+                s.at(t, scratch);
+                return event_value(j, t, scratch);
+            };
+            roots.emplace_back(brent_root(on_dense, s.t_start(), s.t_end(), g, gn), j);
+        }
+        g_prev = g_new;
+        const bool forward = s.t_end() > s.t_start();
+        std::optional<double> stop;
+        if (std::ranges::any_of(roots, [&](const auto& r) { return bool(req->terminal[r.second]); })) {
+            std::stable_sort(roots.begin(), roots.end(), [&](const auto& a, const auto& b) {
+                return forward ? a.first < b.first : a.first > b.first;
+            });
+            std::size_t k = 0;
+            while (!req->terminal[roots[k].second]) ++k;
+            roots.resize(k + 1);
+            stop = roots.back().first;
+        }
+        for (const auto& [t, j] : roots) {
+            s.at(t, scratch);
+            steps->t_events[j].push_back(t);
+            steps->y_events[j].insert(steps->y_events[j].end(), std::ranges::begin(scratch), std::ranges::end(scratch));
+        }
+        return stop;
+    }
 };
 
 /// The statistics of a run as `result.stats`.
@@ -101,16 +274,22 @@ inline py::dict drift_dict(const std::vector<invariant_record>& records) {
     return d;
 }
 
-/// A run that stopped early as eci's Python exception (GIL held).
-[[noreturn]] inline void throw_failure(const solve_report& r, const component_namer& name) {
+/// A run that stopped early, as SciPy reports it (status -1 and a message, no exception): the dict
+/// result["failure"], with the kind of eci's exception that describes it (StepSizeUnderflow, TooManySteps,
+/// NonFiniteSolution), the message, the cause, and where.
+inline py::dict failure_dict(const solve_report& r, const component_namer& name) {
     const run_failure& f = *r.failure;
     const std::string component = name(f.component);
-    const py::module_ errors = py::module_::import("eci._errors");
+    py::dict d;
     auto raise = [&](const char* cls_name, const std::string& message, const std::string& cause) {
-        const py::object cls = errors.attr(cls_name);
-        const py::object exc = cls(message, f.t, f.component, component, f.dt, cause, stats_dict(r));
-        PyErr_SetObject(cls.ptr(), exc.ptr());
-        return py::error_already_set();
+        d["kind"] = cls_name;
+        d["message"] = message;
+        d["t"] = f.t;
+        d["component"] = f.component;
+        d["component_name"] = component;
+        d["dt"] = f.dt;
+        d["cause"] = cause;
+        return d;
     };
     switch (f.kind) {
         case run_failure_kind::step_failed: {
@@ -119,21 +298,21 @@ inline py::dict drift_dict(const std::vector<invariant_record>& records) {
                                                  " in component " + component
                                            : "negative radicand, non-invertible transform or non-finite state";
             const std::string head = f.message.substr(0, f.message.find("): ") + 3);
-            throw raise("StepSizeUnderflow", head + cause, rate ? "non_finite_fun" : "step_failed");
+            return raise("StepSizeUnderflow", head + cause, rate ? "non_finite_fun" : "step_failed");
         }
         case run_failure_kind::step_too_small: {
             const char* cause = f.last_rejection == rejection::non_finite_rate ? "non_finite_fun"
                                 : f.last_rejection == rejection::step_failed   ? "step_failed"
                                                                                 : "error_estimate";
-            throw raise("StepSizeUnderflow",
-                        f.message + " [component " + component + ", last rejection: " + cause + "]", cause);
+            return raise("StepSizeUnderflow",
+                         f.message + " [component " + component + ", last rejection: " + cause + "]", cause);
         }
-        case run_failure_kind::too_many_steps: throw raise("TooManySteps", f.message, "too_many_steps");
-        case run_failure_kind::work_exceeded: throw raise("StepSizeUnderflow", f.message, "work_exceeded");
+        case run_failure_kind::too_many_steps: return raise("TooManySteps", f.message, "too_many_steps");
+        case run_failure_kind::work_exceeded: return raise("StepSizeUnderflow", f.message, "work_exceeded");
         case run_failure_kind::non_finite_state:
-            throw raise("NonFiniteSolution", f.message + ": the solution blew up", "non_finite_state");
+            return raise("NonFiniteSolution", f.message + ": the solution blew up", "non_finite_state");
         case run_failure_kind::invariant_overflow:
-            throw raise("NonFiniteSolution", f.message, "invariant_overflow");
+            return raise("NonFiniteSolution", f.message, "invariant_overflow");
     }
     throw std::logic_error("unknown run failure");
 }
@@ -146,20 +325,57 @@ py::dict run_python(const F& f, S& x, const std::string& method, python_request 
                     bool release) {
     req.config.component_name = namer;
     recorded_output<S> out;
+    step_record<S> steps;
     solve_report report;
+    if (req.sees_steps() && !req.config.adaptive)
+        throw std::invalid_argument("dense_output and events need adaptive step control (rtol/atol, no dt)");
+    release = release && !req.sees_steps();  // events are Python callables
     {
         std::optional<py::gil_scoped_release> unlocked;
         if (release) unlocked.emplace();
         interrupt_check interrupt(!release);
-        recording_sink<S> sink{&out, &interrupt};
+        recording_sink<S> sink{&out, &interrupt, &req, &steps};
         report = solve<Dispatch>(f, x, method, req.config, sink, std::move(extra), what);
     }
-    if (report.failure) throw_failure(report, namer);
+    const std::size_t n = std::ranges::size(x);
     py::dict d;
-    add_arrays(d, out, std::ranges::size(x));
+    add_arrays(d, out, n);
     d["stats"] = stats_dict(report);
     d["invariants"] = drift_dict(report.invariants);
     add_method(d, report.method);
+    d["failure"] = report.failure ? py::object(failure_dict(report, namer)) : py::object(py::none());
+    d["stopped_at"] = report.stopped_at ? py::object(py::float_(*report.stopped_at)) : py::object(py::none());
+    using value_type = std::ranges::range_value_t<S>;
+    if (req.dense_output) {
+        const auto m = static_cast<py::ssize_t>(steps.t_start.size());
+        const auto k = static_cast<py::ssize_t>(step_record<S>::dense_nodes.size());
+        py::array_t<value_type> samples({m, k, static_cast<py::ssize_t>(n)});
+        std::copy(steps.samples.begin(), steps.samples.end(), samples.mutable_data());
+        py::dict dense;
+        dense["t_start"] = py::array_t<double>(m, steps.t_start.data());
+        dense["t_end"] = py::array_t<double>(m, steps.t_end.data());
+        dense["nodes"] = py::array_t<double>(k, step_record<S>::dense_nodes.data());
+        dense["samples"] = samples;
+        dense["squared"] = steps.squared;
+        py::array_t<value_type> signs({steps.squared ? m : 0, k, static_cast<py::ssize_t>(n)});
+        std::copy(steps.signs.begin(), steps.signs.end(), signs.mutable_data());
+        dense["signs"] = signs;
+        dense["sign_nodes"] = py::array_t<double>(k, step_record<S>::sign_nodes.data());
+        d["dense"] = dense;
+    }
+    if (!req.events.empty()) {
+        py::list te, ye;
+        for (std::size_t j = 0; j < req.events.size(); ++j) {
+            const bool any = j < steps.t_events.size();
+            const auto c = static_cast<py::ssize_t>(any ? steps.t_events[j].size() : 0);
+            te.append(py::array_t<double>(c, any ? steps.t_events[j].data() : nullptr));
+            py::array_t<value_type> y({c, static_cast<py::ssize_t>(n)});
+            if (c) std::copy(steps.y_events[j].begin(), steps.y_events[j].end(), y.mutable_data());
+            ye.append(y);
+        }
+        d["t_events"] = te;
+        d["y_events"] = ye;
+    }
     return d;
 }
 

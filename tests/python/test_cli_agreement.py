@@ -136,7 +136,7 @@ def test_cli_and_python_name_the_same_adaptive_methods(cli):
 
     message = cli_error(cli, "run", "kepler", "--method", "c-rk4", "--rtol", "1e-8")
     with pytest.raises(ValueError) as e:
-        eci.solve(eci.models.Kepler(), (0.0, 1.0), method="c-rk4", rtol=1e-8)
+        eci.solve(eci.models.Kepler(), (0.0, 1.0), method="c-rk4", rtol=1e-8, atol=1e-8)
     assert str(e.value) == message
 
 

@@ -87,7 +87,6 @@ def test_kahan_is_second_order_with_a_constant_jacobian():
 
 @pytest.mark.parametrize("kwargs, pattern", [
     (dict(method="kahan"), r"method kahan needs the Jacobian of fun: give jac=jac\(t, y\)"),
-    (dict(method="rk4", jac=three_wave_jac), "jac is used by method kahan only, not rk4"),
     (dict(method="kahan", jac=np.eye(2)), r"jac must be callable jac\(t, y\) or an array of shape \(3, 3\)"),
     (dict(method="kahan", jac=lambda t, y: np.eye(2)), r"jac\(t, y\) returned an array of shape \(2, 2\), expected "
                                                        r"\(3, 3\)"),
@@ -95,6 +94,12 @@ def test_kahan_is_second_order_with_a_constant_jacobian():
 def test_kahan_bad_jac(kwargs, pattern):
     with pytest.raises(ValueError, match=pattern):
         eci.solve(three_wave_fun, (0.0, 1.0), [1.0, 0.5, -0.3], dt=0.1, **kwargs)
+
+
+def test_jac_is_ignored_by_explicit_methods_with_scipys_warning():
+    with pytest.warns(UserWarning, match="no effect for a chosen solver: `jac`"):
+        r = eci.solve(three_wave_fun, (0.0, 1.0), [1.0, 0.5, -0.3], method="rk4", dt=0.1, jac=three_wave_jac)
+    assert np.array_equal(r.y, eci.solve(three_wave_fun, (0.0, 1.0), [1.0, 0.5, -0.3], method="rk4", dt=0.1).y)
 
 
 def test_kahan_limits():

@@ -119,6 +119,9 @@ class embedded_rk {
     /// Not a conservative pair's continuous extension: interpolated xi near a zero of psi turns an O(dt^5) error of
     /// xi into its square root in psi (up to 9x the steps' error measured on the three-wave model at 1e-6).
     static constexpr bool dense_matches_steps = (has_continuous_extension && !conservative) || T.order <= 3;
+    /// Whether the dense output interpolates xi = psi^2 of every real unknown (the conservative update), so that
+    /// the interpolant is a polynomial in the step fraction of xi, not of psi.
+    static constexpr bool dense_of_squares = conservative;
 
     /// Attempt a step of dt from (x, t). x is not changed; on success, accept() makes the candidate the state.
     /// With `w`, the error norm is computed; with `track_worst`, also the component with the largest error.
@@ -209,9 +212,15 @@ class embedded_rk {
     /// k_i. Every such interpolant is xi0 + c (xi1 - xi0) + dt sum_i beta_i 2 Y_i S(Y_i): xi0 and xi1 have equal
     /// invariants and every rate term has sum_k w_k Y_k S_k(Y) = 0, so each interpolated point keeps every
     /// invariant of the step's ends. psi takes the sign of the conventional interpolant. A negative interpolated
-    /// xi fails (the component named): the caller then lands a step on that time instead.
-    step_result interpolate(const S& x, double theta, S& out) const {
+    /// xi fails (the component named): the caller then lands a step on that time instead. With `conventional`,
+    /// the conventional interpolant of psi (whose sign the conservative one takes) is written there too.
+    step_result interpolate(const S& x, double theta, S& out, S* conventional = nullptr) const {
         detail::resize_like(out, x);
+        double* c = nullptr;
+        if (conventional) {
+            detail::resize_like(*conventional, x);
+            c = detail::reals(*conventional).data();
+        }
         const auto x1 = detail::reals(x);
         const double* x0 = detail::reals(std::as_const(result_)).data();
         // the stage derivatives of the accepted step, in stage order (an FSAL accept rotated k_0 and k_{s-1})
@@ -249,6 +258,7 @@ class embedded_rk {
             }
             // conventional interpolant of psi: between x0 and the conventional update (x1 itself if conventional)
             const double psi = interpolant(x0[i], p1[i], k[0][i], k_end[i], kd);
+            if (c) c[i] = psi;
             if constexpr (!conservative) {
                 o[i] = psi;
             } else {

@@ -1,0 +1,209 @@
+# eci.solve with SciPy's conventions, on eci's own models: events located to round-off on the dense output,
+# backward integration, the conservative dense output keeping the invariants at every point, and the conventions
+# of SciPy's solve_ivp that are not numerical (status instead of exceptions, tolerance defaults, args, jac, ...).
+import math
+import warnings
+
+import numpy as np
+import pytest
+
+import eci
+import eci.models as M
+from conftest import EPS
+
+
+def drift_bound(steps, k=20.0):
+    """k eps sqrt(steps): the round-off of an exactly conservative method's updates, a random walk over the steps
+    (k covers the few roundings of each update of a three-term sum)."""
+    return k * EPS * math.sqrt(max(steps, 1))
+
+
+def changes_sign_across(g, sol, t, ulps=64):
+    """Whether g(s, sol(s)) has opposite signs (or a zero) at t -+ ulps eps |t|: t is g's zero on the dense output
+    to round-off. Brent stops within 4 eps |t| of it; 64 eps |t| of slope |g'| moves g by far more than the
+    rounding of g's few operations on O(1) values here (a few eps)."""
+    d = ulps * EPS * abs(t)
+    a, b = g(t - d, sol(t - d)), g(t + d, sol(t + d))
+    return a * b <= 0.0
+
+
+def three_wave_turning(model, k):
+    """d/dt psi_k^2 / 2 = psi_k dpsi_k/dt: zero where mode k's energy turns (the energy exchange's turning points)."""
+    return lambda t, y: y[k] * model(t, y)[k]
+
+
+@pytest.mark.parametrize("method", ["dp54", "c-dp54", "c-bs32", "c-f78"])
+def test_three_wave_turning_points_are_located_to_round_off(method):
+    model = M.ThreeWave()
+    events = [three_wave_turning(model, k) for k in range(3)]
+    r = eci.solve(model, (0.0, 40.0), method=method, rtol=1e-9, atol=1e-12, events=events, dense_output=True)
+    assert r.status == 0 and r.success
+    counts = [len(t) for t in r.t_events]
+    assert min(counts) >= 3, counts  # the modes exchange energy several times over the span
+    landed = 0
+    for g, times, states in zip(events, r.t_events, r.y_events):
+        assert np.all(np.diff(times) > 0)
+        for t, y in zip(times, states):
+            assert changes_sign_across(g, r.sol, t), (method, t)
+            # y_events is the library's interpolant at t; sol rebuilds it from five points, each rounded, with
+            # Lagrange weights of absolute sum below 3 on a step, so a few roundings of the largest component apart;
+            # for a conservative pair in y**2 (the interpolated quantity: sqrt amplifies its rounding near a zero),
+            # and without the sign, which flips at t
+            # (except where the conservative interpolant needed sqrt of a negative xi near that zero and a step
+            # landed on t instead: then within the run's tolerance of the interpolant, and counted in the stats)
+            v = r.sol(t)
+            a, b = (y * y, v * v) if r.conservative else (y, v)
+            err = np.max(np.abs(a - b)) / np.max(np.abs(a))
+            assert err <= 1e-9
+            landed += err > 32 * EPS
+    assert landed <= r.stats["dense_fallbacks"]
+    # the turning points of mode 0 alternate between maxima and minima of its energy
+    e0 = r.y_events[0][:, 0] ** 2
+    assert np.all(np.diff(np.sign(np.diff(e0))) != 0)
+
+
+@pytest.mark.parametrize("method", ["dp54", "c-dp54"])
+def test_kepler_pericentres_terminal_event_and_period(method):
+    kepler = M.Kepler()
+
+    def pericentre(t, y):  # the radial velocity v_r turns from negative to positive at a pericentre
+        return y[1]
+
+    pericentre.direction = 1
+    r = eci.solve(kepler, (0.0, 60.0), method=method, rtol=1e-10, atol=1e-12, events=pericentre,
+                  dense_output=True)
+    times = r.t_events[0]
+    assert len(times) >= 3
+    # The check is on y_events, the library's interpolant at the root (c-dp54 on Kepler runs the transformed
+    # engine, whose dense output is the interpolant of xi inverted, which sol only approximates). dp54: Brent stops
+    # within 4 eps (|t| + 1) of the interpolant's zero, where v_r moves at its rate dv_r/dt, and the interpolant
+    # rounds by a few eps of the largest v_r. c-dp54: the inverse takes v_r = sqrt(v_r^2) from xi, so at a
+    # pericentre (v_r = 0) xi's rounding, a few eps of its O(1) terms, is a few sqrt(eps) in v_r.
+    v_scale = np.max(np.abs(r.y[1]))
+    for t, y in zip(times, r.y_events[0]):
+        rate = kepler(t, y)[1]
+        floor = 64 * EPS * v_scale if method == "dp54" else 8 * math.sqrt(EPS)
+        assert abs(y[1]) <= abs(rate) * 8 * EPS * (abs(t) + 1) + floor, (t, y[1], rate)
+    periods = np.diff(times)
+    # The orbit is periodic: every interval between pericentres is the period, up to the run's error (rtol 1e-10
+    # over a few orbits: far below 1e-6 of the period)
+    assert np.max(np.abs(periods - periods[0])) <= 1e-6 * periods[0]
+    # terminal: the same orbit started at t = 1 stops at its first pericentre, 1 later than the one above, with
+    # status 1, the last state being it
+    pericentre.terminal = True
+    s = eci.solve(kepler, (1.0, 60.0), method=method, rtol=1e-10, atol=1e-12, events=pericentre)
+    assert s.status == 1 and s.success and s.message == "A termination event occurred."
+    first = 1.0 + times[0]
+    assert s.t[-1] == s.t_events[0][0] and abs(s.t[-1] - first) <= 1e-8 * first
+    np.testing.assert_array_equal(s.y[:, -1], s.y_events[0][0])
+
+
+@pytest.mark.parametrize("method", ["dp54", "c-dp54", "c-f78"])
+def test_backward_integration_returns_to_the_initial_state(method):
+    model = M.ThreeWave()
+    tol = 1e-9
+    fwd = eci.solve(model, (0.0, 20.0), method=method, rtol=tol, atol=tol)
+    back = eci.solve(model, (20.0, 0.0), fwd.y[:, -1], method=method, rtol=tol, atol=tol)
+    assert back.success and back.t[0] == 20.0 and back.t[-1] == 0.0 and np.all(np.diff(back.t) < 0)
+    # the forward run's own error against a much tighter run measures what the tolerance buys on this span; the
+    # way back is the same length with the same tolerance, so it errs by about as much again
+    ref = eci.solve(model, (0.0, 20.0), method="dp54", rtol=1e-13, atol=1e-13)
+    e_fwd = np.max(np.abs(fwd.y[:, -1] - ref.y[:, -1]))
+    assert np.max(np.abs(back.y[:, -1] - model.default_y0)) <= 10 * e_fwd + 100 * tol
+    if method.startswith("c-"):  # the conservative pairs keep both invariants backward too
+        for name in ("energy", "enstrophy"):
+            assert back.invariants[name]["max_rel_drift"] <= drift_bound(back.stats["steps"])
+
+
+def test_backward_python_fun_with_t_eval_and_dense_output():
+    fun = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731  y = (sin t, cos t) backward from t = 3
+    y3 = [math.sin(3.0), math.cos(3.0)]
+    t_eval = np.linspace(3.0, -2.0, 11)
+    r = eci.solve(fun, (3.0, -2.0), y3, method="c-dp54", rtol=1e-10, atol=1e-12, t_eval=t_eval, dense_output=True)
+    np.testing.assert_array_equal(r.t, t_eval)
+    exact = np.vstack((np.sin(t_eval), np.cos(t_eval)))
+    assert np.max(np.abs(r.y - exact)) <= 1e-8
+    tc = np.linspace(-2.0, 3.0, 101)
+    assert np.max(np.abs(r.sol(tc) - np.vstack((np.sin(tc), np.cos(tc))))) <= 1e-8
+    with pytest.raises(ValueError, match="fixed steps run forward only"):
+        eci.solve(fun, (3.0, -2.0), y3, method="c-rk4", dt=0.1)
+    with pytest.raises(ValueError, match="sorted in decreasing order"):
+        eci.solve(fun, (3.0, -2.0), y3, t_eval=[-1.0, 0.0])
+
+
+@pytest.mark.parametrize("method", ["c-bs32", "c-dp54", "c-f78"])
+def test_conservative_dense_output_keeps_the_invariants_at_every_point(method):
+    model = M.ThreeWave()
+    r = eci.solve(model, (0.0, 50.0), method=method, rtol=1e-6, atol=1e-6, dense_output=True)
+    assert r.sol.n_segments == r.stats["steps"]
+    tc = np.linspace(0.0, 50.0, 5001)
+    inv = model.invariants(r.sol(tc))
+    steps = r.stats["steps"]
+    for name in ("energy", "enstrophy"):
+        v0 = r.invariants[name]["initial"]
+        # Each point is a combination of five stored states whose weights sum to 1, each state within the run's
+        # drift (k eps sqrt(steps)) of the initial value; the combination and the square root add a few eps
+        assert np.max(np.abs(inv[name] / v0 - 1.0)) <= drift_bound(steps) + 16 * EPS, name
+    # the conventional pair's dense output does not keep them (the test can fail)
+    c = eci.solve(model, (0.0, 50.0), method=method[2:], rtol=1e-6, atol=1e-6, dense_output=True)
+    e = model.invariants(c.sol(tc))["energy"]
+    assert np.max(np.abs(e / e[0] - 1.0)) > 1e3 * drift_bound(c.stats["steps"])
+    # the dense output passes through the stored steps
+    np.testing.assert_allclose(r.sol(r.t), r.y, rtol=1e-15, atol=1e-15)
+
+
+def test_failure_is_a_status_not_an_exception():
+    r = eci.solve(lambda t, y: y * y, (0.0, 2.0), [1.0], method="dp54", rtol=1e-6)  # blows up at t = 1
+    assert r.status == -1 and not r.success
+    assert isinstance(r.failure, eci.StepSizeUnderflow) and r.message == str(r.failure)
+    assert abs(r.t[-1] - 1.0) <= 1e-3 and r.y.shape == (1, len(r.t)) and r.y[0, -1] > 1e3
+    with pytest.raises(ValueError, match="rtol must be"):  # bad input is still an exception
+        eci.solve(lambda t, y: y, (0.0, 1.0), [1.0], rtol=-1.0)
+
+
+def test_tolerance_defaults_and_rtol_floor():
+    fun = lambda t, y: -y  # noqa: E731
+    only_rtol = eci.solve(fun, (0.0, 1.0), [1.0], method="dp54", rtol=1e-8)
+    both = eci.solve(fun, (0.0, 1.0), [1.0], method="dp54", rtol=1e-8, atol=1e-6)
+    np.testing.assert_array_equal(only_rtol.y, both.y)  # giving only rtol keeps SciPy's atol = 1e-6
+    default = eci.solve(fun, (0.0, 1.0), [1.0], method="dp54")
+    explicit = eci.solve(fun, (0.0, 1.0), [1.0], method="dp54", rtol=1e-3, atol=1e-6)
+    np.testing.assert_array_equal(default.y, explicit.y)
+    with pytest.warns(UserWarning, match="At least one element of `rtol` is too small"):
+        low = eci.solve(fun, (0.0, 1.0), [1.0], method="dp54", rtol=1e-20, atol=1e-12)
+    clipped = eci.solve(fun, (0.0, 1.0), [1.0], method="dp54", rtol=100 * EPS, atol=1e-12)
+    np.testing.assert_array_equal(low.y, clipped.y)
+
+
+def test_scipy_arguments():
+    fun = lambda t, y, a: a * y  # noqa: E731
+    r = eci.solve(fun, (0.0, 1.0), [1.0], method="dp54", args=(-1.0,), rtol=1e-10, atol=1e-12)
+    assert abs(r.y[0, -1] - math.exp(-1.0)) <= 1e-9
+    with pytest.raises(TypeError, match="Supplied 'args' cannot be unpacked"):
+        eci.solve(fun, (0.0, 1.0), [1.0], args=-1.0)
+    v = eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0, 2.0], method="dp54", vectorized=True)
+    w = eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0, 2.0], method="dp54")
+    np.testing.assert_array_equal(v.y, w.y)
+    with pytest.warns(UserWarning, match="no effect for a chosen solver: `jac`"):
+        j = eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0, 2.0], method="dp54", jac=lambda t, y: -np.eye(2))
+    np.testing.assert_array_equal(j.y, w.y)
+    e = eci.solve(lambda t, y: y, (0.0, 1.0), [], method="dp54")
+    assert e.success and e.y.shape == (0, len(e.t)) and e.t[-1] == 1.0
+    with pytest.raises(ValueError, match="first_step .* exceeds the span"):
+        eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0], first_step=2.0)
+    with pytest.raises(ValueError, match=r"unknown method 'RK45' \(methods: .*dp54"):
+        eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0], method="RK45")
+
+
+def test_nfev_counts_every_call_of_fun():
+    calls = [0]
+
+    def fun(t, y):
+        calls[0] += 1
+        return -y
+
+    r = eci.solve(fun, (0.0, 5.0), [1.0, 0.5], method="c-dp54", t_eval=np.linspace(0, 5, 11))
+    assert r.nfev == calls[0]
+    calls[0] = 0
+    r = eci.solve(fun, (0.0, 5.0), [1.0, 0.5], method="dp54", dense_output=True, events=lambda t, y: y[0] - 0.5)
+    assert r.nfev == calls[0] and len(r.t_events[0]) == 1
