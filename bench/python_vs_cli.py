@@ -70,7 +70,9 @@ def main():
                 if rtol is None:
                     r = eci.solve(model, (0.0, t_end), method=method, dt=dt, t_eval=[t_end])
                 else:
-                    r = eci.solve(model, (0.0, t_end), method=method, rtol=rtol, first_step=dt, t_eval=[0.0, t_end])
+                    # the CLI's --rtol alone sets atol = rtol; eci.solve keeps SciPy's atol default: pass both
+                    r = eci.solve(model, (0.0, t_end), method=method, rtol=rtol, atol=rtol, first_step=dt,
+                                  t_eval=[0.0, t_end])
                 return time.perf_counter() - start, r
 
             for rep in range(args.reps):
