@@ -170,7 +170,7 @@ std::string default_wisdom_file() {
 // The snapshot files a run writes: "<stem>_<step>.h5", "<stem>_<step>.png", "spectrum_<step>.csv" and
 // "spectrum_<step>.png" (step at least 8 digits); the step a name belongs to, or nothing.
 std::optional<std::uint64_t> snapshot_step(const std::string& name, const std::string& stem) {
-    for (const std::string prefix : {stem + "_", std::string("spectrum_")}) {
+    for (const std::string& prefix : {stem + "_", std::string("spectrum_")}) {
         if (name.compare(0, prefix.size(), prefix) != 0) continue;
         const std::size_t dot = name.find('.', prefix.size());
         if (dot == std::string::npos) continue;
@@ -373,7 +373,7 @@ int spectral_command::run(const run_settings& settings) {
             if (path.empty() || path == "-" || !snapshot_step(fs::path(path).filename().string(), stem_)) continue;
             const fs::path parent = fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
             if (fs::weakly_canonical(fs::absolute(parent, ec), ec) == snapshots)
-                throw bad_input(option + " '" + path + "' is one of the snapshot files written into " + dir);
+                throw bad_input(option + " and --snapshot-dir name the same file '" + path + "' (a snapshot's)");
         }
     }
 

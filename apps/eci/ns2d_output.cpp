@@ -37,7 +37,12 @@ struct handle {
 hid_t untimed_file_properties();
 
 void quiet_hdf5() {
-    static const bool done = [] { return H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0; }();
+    static const bool done = [] {
+        // No cleanup at exit: after a failed flush or close (a full disk) HDF5's own shutdown would flush the
+        // half-closed file again and crash (exit 139 instead of 1, issue 21 defect 1); every file is closed here.
+        H5dont_atexit();
+        return H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0;
+    }();
     (void)done;
 }
 
