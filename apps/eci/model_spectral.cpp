@@ -370,7 +370,10 @@ int spectral_command::run(const run_settings& settings) {
         std::error_code ec;
         const fs::path snapshots = fs::weakly_canonical(fs::absolute(dir, ec), ec);
         for (const auto& [option, path] : named) {
-            if (path.empty() || path == "-" || !snapshot_step(fs::path(path).filename().string(), stem_)) continue;
+            if (path.empty() || path == "-") continue;
+            if (fs::weakly_canonical(fs::absolute(path, ec), ec) == snapshots)
+                throw bad_input(option + " and --snapshot-dir name the same file '" + path + "'");
+            if (!snapshot_step(fs::path(path).filename().string(), stem_)) continue;
             const fs::path parent = fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
             if (fs::weakly_canonical(fs::absolute(parent, ec), ec) == snapshots)
                 throw bad_input(option + " and --snapshot-dir name the same file '" + path + "' (a snapshot's)");
@@ -383,9 +386,9 @@ int spectral_command::run(const run_settings& settings) {
     if (!restart && ic_ != "random" && ic_ != "vortex-pair" && ic_ != "taylor-green") {
         try {
             if (is_checkpoint(ic_))
-                ic_checkpoint = read_checkpoint(ic_);
+                ic_checkpoint = read_checkpoint(ic_, p.n);
             else
-                ic_field = read_vorticity(ic_);
+                ic_field = read_vorticity(ic_, p.n);
         } catch (const std::exception& e) {
             throw bad_input(std::string("--ic: ") + e.what());
         }
