@@ -141,7 +141,10 @@ void write_dataset(hid_t file, const char* name, const double* data, std::initia
         throw std::runtime_error(std::string("HDF5 dataset ") + name);
 }
 
-std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize_t>& dims) {
+// The dataset's shape is checked against `expected` (when given) before anything is allocated or read: a small
+// file declaring a huge dataset is refused, not read (issue 21, defect 11).
+std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize_t>& dims,
+                                 const std::vector<hsize_t>& expected = {}) {
     if (H5Lexists(file, name, H5P_DEFAULT) <= 0) throw std::runtime_error(std::string("dataset '") + name + "' missing");
     handle ds(H5Dopen2(file, name, H5P_DEFAULT), H5Dclose, std::string("dataset ") + name);
     handle sp(H5Dget_space(ds), H5Sclose, "dataspace");
@@ -149,6 +152,14 @@ std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize
     if (rank < 1 || rank > 2) throw std::runtime_error(std::string("dataset '") + name + "' has the wrong rank");
     dims.assign(std::size_t(rank), 0);
     H5Sget_simple_extent_dims(sp, dims.data(), nullptr);
+    if (!expected.empty() && dims != expected) {
+        std::string shape;
+        for (hsize_t d : dims) {  // appended, not operator+: GCC 12 warns falsely (-Wstringop-overflow) on that
+            if (!shape.empty()) shape.push_back('x');
+            shape.append(std::to_string(d));
+        }
+        throw std::runtime_error(std::string("dataset '") + name + "' is " + shape + ", not the grid's");
+    }
     std::size_t count = 1;
     for (hsize_t d : dims) count *= std::size_t(d);
     std::vector<double> v(count);
@@ -265,7 +276,7 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
     });
 }
 
-ns2d_checkpoint read_checkpoint(const std::string& path) {
+ns2d_checkpoint read_checkpoint(const std::string& path, int n) {
     handle f = open_for_reading(path);
     const std::string equation =
         H5Aexists(f, "format") > 0 ? equation_of_format(get_string(f, "format"), "checkpoint") : std::string();
@@ -290,6 +301,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path) {
     // how the run planned its transforms (before issue 20 always FFTW_MEASURE unless --fftw-estimate, not recorded)
     if (H5Aexists(f, "fftw_measure") > 0) p.measure = whole("fftw_measure", 0, 1) == 1;
     p.n = whole("N", 8, 65536);
+    if (n > 0 && p.n != n)  // before the state is read: it may be gigabytes (issue 21, defect 11)
+        throw std::runtime_error(path + " holds a " + std::to_string(p.n) + "^2 grid, not N = " + std::to_string(n));
     p.nu = get<double>(f, "nu");
     p.hyper_nu = get<double>(f, "hyper_nu");
     p.hyper_p = whole("hyper_p", 1, 16);
@@ -340,7 +353,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path) {
         if (!std::isfinite(v)) throw std::runtime_error(path + ": " + name + " is not finite");
     std::vector<hsize_t> dims;
     const std::string name = state_dataset(spectral::find_equation(equation));
-    const std::vector<double> v = read_dataset(f, name.c_str(), dims);
+    const std::vector<double> v =
+        read_dataset(f, name.c_str(), dims, {hsize_t(p.n), hsize_t(2 * (p.n / 2 + 1))});
     if (dims.size() != 2 || dims[0] != hsize_t(p.n) || dims[1] != hsize_t(2 * (p.n / 2 + 1)))
         throw std::runtime_error(path + ": " + name + " does not match the grid N = " + std::to_string(p.n));
     c.state.resize(v.size() / 2);
@@ -376,11 +390,23 @@ bool is_checkpoint(const std::string& path) {
     return H5Aexists(f, "format") > 0 && !equation_of_format(get_string(f, "format"), "checkpoint").empty();
 }
 
-std::pair<int, std::vector<double>> read_vorticity(const std::string& path) {
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n) {
     handle f = open_for_reading(path);
     std::vector<hsize_t> dims;
     // the snapshot's field (a Navier-Stokes snapshot of before the spectral core names none: vorticity)
     const std::string name = H5Aexists(f, "field") > 0 ? get_string(f, "field") : std::string("vorticity");
+    // the shape first: a file of another grid is refused before its field is read
+    {
+        if (H5Lexists(f, name.c_str(), H5P_DEFAULT) <= 0) throw std::runtime_error("dataset '" + name + "' missing");
+        handle ds(H5Dopen2(f, name.c_str(), H5P_DEFAULT), H5Dclose, "dataset " + name);
+        handle sp(H5Dget_space(ds), H5Sclose, "dataspace");
+        hsize_t d[2] = {0, 0};
+        if (H5Sget_simple_extent_ndims(sp) != 2 || H5Sget_simple_extent_dims(sp, d, nullptr) < 0 || d[0] != d[1])
+            throw std::runtime_error(path + ": " + name + " is not a square grid");
+        if (n > 0 && d[0] != hsize_t(n))
+            throw std::runtime_error(path + " holds a " + std::to_string(d[0]) + "^2 grid, not N = " +
+                                     std::to_string(n));
+    }
     std::vector<double> v = read_dataset(f, name.c_str(), dims);
     if (dims.size() != 2 || dims[0] != dims[1]) throw std::runtime_error(path + ": " + name + " is not a square grid");
     return {int(dims[0]), std::move(v)};

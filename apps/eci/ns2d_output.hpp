@@ -31,8 +31,9 @@ struct ns2d_checkpoint {
 /// Writes the checkpoint through output.hpp's write_replacing (a temporary beside the target, HDF5's flush and close
 /// checked, synced, renamed over `path`); throws run_error.
 void write_checkpoint(const std::string& path, const ns2d_checkpoint& c);
-/// Reads a checkpoint; throws std::runtime_error naming the problem (unreadable, not an eci checkpoint, ...).
-ns2d_checkpoint read_checkpoint(const std::string& path);
+/// Reads a checkpoint; throws std::runtime_error naming the problem (unreadable, not an eci checkpoint, a grid other
+/// than n when n > 0, found before the state is read, ...).
+ns2d_checkpoint read_checkpoint(const std::string& path, int n = 0);
 
 /// A snapshot: the field on the grid with grid, time and parameters as attributes, written to `path` (a new file in
 /// the run's staging directory; the flush and close are checked); throws run_error.
@@ -40,8 +41,9 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
                        double t, std::uint64_t step, const std::string& method, double dt);
 /// Whether `path` is an HDF5 file holding an eci checkpoint (false for a snapshot); throws if it is unreadable.
 bool is_checkpoint(const std::string& path);
-/// The field of an eci snapshot (any equation's) and its grid size n; throws std::runtime_error.
-std::pair<int, std::vector<double>> read_vorticity(const std::string& path);
+/// The field of an eci snapshot (any equation's) and its grid size; a grid other than n (when n > 0) is refused before
+/// the field is read. Throws std::runtime_error.
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n = 0);
 
 /// The field as a PNG (diverging colour map symmetric about 0, colour bar `symbol`, `name` and time in the title), by
 /// gnuplot, written to `path` (in the staging directory). Returns false (and draws nothing) when gnuplot is not
