@@ -5,6 +5,7 @@
 #ifdef ECI_CLI_PATH
 
 #include <gtest/gtest.h>
+#include <hdf5.h>
 
 #include <fstream>
 #include <string>
@@ -338,6 +339,49 @@ TEST(CliSpectralOutputs, FullDiskIsAnErrorAndCommitsNothing) {
             EXPECT_TRUE(temporaries(w.path()).empty()) << leave << " " << args;
         }
         fs::remove(m / "fill");
+    }
+}
+
+// Defect 11: memory before the first step. Too many --output-dt times and an --ic file declaring a huge dataset
+// are refused at once, in little memory (a 400 MB address-space limit: the old behaviour needed gigabytes).
+TEST(CliSpectralOutputs, NoGigabytesBeforeTheFirstStep) {
+    work_dir w("spectral-memory");
+    const std::string limit = "ulimit -v 400000; ";
+    for (const std::string args :
+         {"run three-wave --method c-dp54 --rtol 1e-6 --output-dt 1e-3 --t-end 1e5",
+          "run three-wave --method c-dp54 --rtol 1e-6 --output-dt 1e-5 --t-end 1e4 --output o.csv",
+          "run kepler --method c-dp54 --rtol 1e-8 --output-dt 1e-4 --t-end 1e6"}) {
+        const run_result r = w.run(args, limit);
+        expect_refused(r, args);
+        EXPECT_NE(r.err.find("10^7"), std::string::npos) << r.err;
+        EXPECT_TRUE(w.files().empty()) << args;
+    }
+    // small files declaring big datasets (never written: HDF5 allocates nothing for them)
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    auto declare = [&](const std::string& name, const char* dataset, std::vector<hsize_t> dims, bool snapshot_format) {
+        const hid_t f = H5Fcreate(w.file(name).c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+        const hid_t sp = H5Screate_simple(int(dims.size()), dims.data(), nullptr);
+        const hid_t d = H5Dcreate2(f, dataset, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT);
+        if (snapshot_format) {
+            const hid_t t = H5Tcopy(H5T_C_S1);
+            const std::string v = "eci navier-stokes-2d snapshot";
+            H5Tset_size(t, v.size());
+            const hid_t s1 = H5Screate(H5S_SCALAR);
+            const hid_t a = H5Acreate2(f, "format", t, s1, H5P_DEFAULT, H5P_DEFAULT);
+            H5Awrite(a, t, v.data());
+            H5Aclose(a), H5Sclose(s1), H5Tclose(t);
+        }
+        H5Dclose(d), H5Sclose(sp), H5Fclose(f);
+        EXPECT_LT(fs::file_size(w.file(name)), 100000u) << name;
+    };
+    declare("big.h5", "vorticity", {12000, 12000}, true);
+    declare("bigger.h5", "vorticity", {30000, 30000}, false);
+    declare("oblong.h5", "vorticity", {16, 40000000}, true);
+    for (const char* f : {"big.h5", "bigger.h5", "oblong.h5"}) {
+        const run_result r = w.run(small + "--fftw-wisdom none --ic " + f + " --output o.csv", limit);
+        expect_refused(r, f);
+        EXPECT_NE(r.err.find("grid"), std::string::npos) << r.err;
+        EXPECT_FALSE(fs::exists(w.file("o.csv")));
     }
 }
 
