@@ -332,8 +332,7 @@ int spectral_command::run(const run_settings& settings) {
                 check_output_path(wisdom_path, "FFTW wisdom file");
         } catch (const bad_input&) {
             if (!default_wisdom) throw;
-            wisdom_path.clear();  // the default cache is unusable: plan without it, as before
-            wisdom_text.reset();
+            wisdom_path.clear();  // the default cache cannot be written (or read): use what could be read, as before
         }
     }
     if (snapshot_every_ > 0) {
