@@ -27,7 +27,9 @@ constexpr const char* exit_status_help =
     "or method, bad number, invalid coefficients, unwritable output, ...); 128+N stopped by signal N (130 "
     "Ctrl-C; SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE). On any failure no output file or directory is created "
     "or replaced (files of one run appear together), except what goes directly to standard output, a device "
-    "or a FIFO.";
+    "or a FIFO (for --output and --summary-json; other outputs refuse devices and FIFOs), and a spectral run's "
+    "checkpoint (replaced whole at each --checkpoint-every and on a stop, so the last good one stays) and FFTW "
+    "wisdom file (written once the input is known good).";
 
 void print_error(std::string_view message) {
     std::string line(message);

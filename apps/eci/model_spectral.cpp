@@ -7,6 +7,7 @@
 #include <complex>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <limits>
 #include <numbers>
@@ -14,6 +15,9 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <eci/models/navier_stokes_2d.hpp>
 #include <eci/registry.hpp>
@@ -153,20 +157,31 @@ class spectral_command final : public model_command {
     bool warned_ = false;
 };
 
-// The user's wisdom cache (created if need be); empty if there is no home to put it in.
+// The user's wisdom cache, $XDG_CACHE_HOME/eci/fftw-wisdom or ~/.cache/eci/fftw-wisdom; empty if there is no home to
+// put it in. Its directory is created only when the wisdom is written, after the run's input is known to be good.
 std::string default_wisdom_file() {
     const char* xdg = std::getenv("XDG_CACHE_HOME");
     const char* home = std::getenv("HOME");
-    std::filesystem::path dir;
-    if (xdg && *xdg)
-        dir = std::filesystem::path(xdg) / "eci";
-    else if (home && *home)
-        dir = std::filesystem::path(home) / ".cache" / "eci";
-    else
-        return {};
-    std::error_code ec;
-    std::filesystem::create_directories(dir, ec);
-    return ec ? std::string() : (dir / "fftw-wisdom").string();
+    if (xdg && *xdg) return (std::filesystem::path(xdg) / "eci" / "fftw-wisdom").string();
+    if (home && *home) return (std::filesystem::path(home) / ".cache" / "eci" / "fftw-wisdom").string();
+    return {};
+}
+
+// The snapshot files a run writes: "<stem>_<step>.h5", "<stem>_<step>.png", "spectrum_<step>.csv" and
+// "spectrum_<step>.png" (step at least 8 digits); the step a name belongs to, or nothing.
+std::optional<std::uint64_t> snapshot_step(const std::string& name, const std::string& stem) {
+    for (const std::string& prefix : {stem + "_", std::string("spectrum_")}) {
+        if (name.compare(0, prefix.size(), prefix) != 0) continue;
+        const std::size_t dot = name.find('.', prefix.size());
+        if (dot == std::string::npos) continue;
+        const std::string digits = name.substr(prefix.size(), dot - prefix.size()), ext = name.substr(dot);
+        const bool known = prefix == "spectrum_" ? (ext == ".csv" || ext == ".png") : (ext == ".h5" || ext == ".png");
+        if (!known || digits.size() < 8 || digits.size() > 19 ||
+            digits.find_first_not_of("0123456789") != std::string::npos)
+            continue;
+        return std::stoull(digits);
+    }
+    return std::nullopt;
 }
 
 ns2d_forcing parse_forcing(const std::string& s) {
@@ -261,8 +276,12 @@ int spectral_command::run(const run_settings& settings) {
     }
     if (given_whole("threads")) p.threads = int(std::min<std::uint64_t>(*given_whole("threads"), 1000));
     p.measure = restart ? ck.params.measure : !*spec("fftw-estimate").flag;
-    const std::string wisdom_file = given_text("fftw-wisdom").value_or("");
-    p.wisdom_file = wisdom_file == "none" ? std::string() : wisdom_file.empty() ? default_wisdom_file() : wisdom_file;
+    // The wisdom file is read and written here, through the CLI's checked output path, not opened by FFTW (a FIFO
+    // there would hang it, a device be replaced; a refused run must not create it: issue 21, defects 3, 4, 7).
+    const std::string wisdom_option = given_text("fftw-wisdom").value_or("");
+    const bool default_wisdom = wisdom_option.empty();
+    std::string wisdom_path = wisdom_option == "none" ? std::string() : default_wisdom ? default_wisdom_file() : wisdom_option;
+    p.wisdom_file.clear();
     const std::string ic_ = given_text("ic").value_or("random");
     const double k_peak_ = given_real("k-peak").value_or(8.0), energy_ = given_real("energy").value_or(0.5);
     const std::uint64_t seed_ = given_whole("seed").value_or(1);
@@ -295,15 +314,80 @@ int spectral_command::run(const run_settings& settings) {
     if (settings.every == 0) throw bad_input("--every must be at least 1");
     check_distinct_outputs(settings);
 
+    // ---- every file the run will write, checked before any work (issue 21, defects 3, 4, 6, 12): a regular file or
+    // a symlink to one (written through), in a directory where a file can be created, no two outputs the same file;
+    // FIFOs, devices, directories and read-only files are refused, never replaced
+    namespace fs = std::filesystem;
+    std::vector<std::pair<std::string, std::string>> named = {
+        {"--output", settings.output}, {"--summary-json", settings.summary_json}, {"--checkpoint", checkpoint_}};
+    if (!default_wisdom) named.emplace_back("--fftw-wisdom", wisdom_path);
+    check_distinct_files(named);
+    check_output_path(checkpoint_, "checkpoint");
+    std::optional<std::string> wisdom_text;
+    if (!wisdom_path.empty()) {
+        try {
+            wisdom_text = read_small_file(wisdom_path, "FFTW wisdom file", std::size_t(64) << 20);
+            const fs::path parent = fs::path(wisdom_path).parent_path();
+            if (!default_wisdom || fs::is_directory(parent.empty() ? fs::path(".") : parent))
+                check_output_path(wisdom_path, "FFTW wisdom file");
+        } catch (const bad_input&) {
+            if (!default_wisdom) throw;
+            wisdom_path.clear();  // the default cache cannot be written (or read): use what could be read, as before
+        }
+    }
+    if (snapshot_every_ > 0) {
+        const std::uint64_t first_step = restart ? ck.step : 0;
+        const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
+        struct stat st {};
+        if (::stat(dir.c_str(), &st) == 0) {
+            if (!S_ISDIR(st.st_mode))
+                throw bad_input("cannot write snapshots into '" + snapshot_dir_ + "': it is not a directory");
+            if (::access(dir.c_str(), W_OK | X_OK) != 0)
+                throw bad_input("cannot write snapshots into '" + snapshot_dir_ + "': " + std::strerror(errno));
+            std::error_code ec;
+            for (const auto& entry : fs::directory_iterator(dir, ec)) {
+                const auto step = snapshot_step(entry.path().filename().string(), stem_);
+                if (!step || *step < first_step) continue;
+                const std::string target = check_output_path(entry.path().string(), "snapshot");
+                // a name linked elsewhere is written through: its target must be on the directory's file system
+                struct stat t {};
+                const fs::path target_dir = fs::path(target).parent_path();
+                if (::stat(target_dir.empty() ? "." : target_dir.c_str(), &t) == 0 && t.st_dev != st.st_dev)
+                    throw bad_input("cannot write snapshot '" + entry.path().string() +
+                                    "': it links to another file system");
+            }
+            if (ec) throw bad_input("cannot read snapshot directory '" + snapshot_dir_ + "': " + ec.message());
+        } else {
+            const fs::path parent = fs::path(dir).parent_path().empty() ? fs::path(".") : fs::path(dir).parent_path();
+            if (!fs::is_directory(parent))
+                throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': directory '" +
+                                parent.string() + "' does not exist");
+            if (::access(parent.c_str(), W_OK | X_OK) != 0)
+                throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " + std::strerror(errno));
+        }
+        // no other output may be one of the snapshot files
+        std::error_code ec;
+        const fs::path snapshots = fs::weakly_canonical(fs::absolute(dir, ec), ec);
+        for (const auto& [option, path] : named) {
+            if (path.empty() || path == "-") continue;
+            if (fs::weakly_canonical(fs::absolute(path, ec), ec) == snapshots)
+                throw bad_input(option + " and --snapshot-dir name the same file '" + path + "'");
+            if (!snapshot_step(fs::path(path).filename().string(), stem_)) continue;
+            const fs::path parent = fs::path(path).parent_path().empty() ? fs::path(".") : fs::path(path).parent_path();
+            if (fs::weakly_canonical(fs::absolute(parent, ec), ec) == snapshots)
+                throw bad_input(option + " and --snapshot-dir name the same file '" + path + "' (a snapshot's)");
+        }
+    }
+
     // ---- the initial condition (a file of another grid is an error)
     std::optional<ns2d_checkpoint> ic_checkpoint;
     std::optional<std::pair<int, std::vector<double>>> ic_field;
     if (!restart && ic_ != "random" && ic_ != "vortex-pair" && ic_ != "taylor-green") {
         try {
             if (is_checkpoint(ic_))
-                ic_checkpoint = read_checkpoint(ic_);
+                ic_checkpoint = read_checkpoint(ic_, p.n);
             else
-                ic_field = read_vorticity(ic_);
+                ic_field = read_vorticity(ic_, p.n);
         } catch (const std::exception& e) {
             throw bad_input(std::string("--ic: ") + e.what());
         }
@@ -313,6 +397,7 @@ int spectral_command::run(const run_settings& settings) {
                             std::to_string(p.n));
     }
 
+    if (wisdom_text) navier_stokes_2d::import_fftw_wisdom(*wisdom_text);  // not wisdom: ignored, as FFTW did
     navier_stokes_2d model = [&] {
         try {
             return navier_stokes_2d(p);
@@ -376,12 +461,45 @@ int spectral_command::run(const run_settings& settings) {
                         std::to_string(last));
 
     // ---- outputs: opened (or their directories created) only now that the input is known to be good
+    // The snapshot directory is created now if missing (and removed again if the run fails while it is empty); the
+    // snapshots go into a staging directory inside it and are moved in only when the run has succeeded, so a run
+    // that blows up or is stopped creates and replaces none of them (issue 21, defect 7).
+    struct created_dir {
+        std::string path;
+        ~created_dir() {
+            if (!path.empty()) ::rmdir(path.c_str());
+        }
+    } created_snapshot_dir;
+    std::optional<staging_dir> staged_snapshots;
+    if (snapshot_every_ > 0) {
+        const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
+        if (::mkdir(dir.c_str(), 0777) == 0)
+            created_snapshot_dir.path = dir;
+        else if (errno != EEXIST)
+            throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " + std::strerror(errno));
+        staged_snapshots.emplace(dir);
+    }
     output_file csv = settings.output.empty() ? output_file() : output_file(settings.output, "CSV output");
     output_file json = settings.summary_json.empty() ? output_file() : output_file(settings.summary_json, "summary JSON");
-    if (snapshot_every_ > 0) {
-        std::error_code ec;
-        std::filesystem::create_directories(snapshot_dir_, ec);
-        if (ec) throw bad_input("cannot create snapshot directory " + snapshot_dir_);
+    // The wisdom (the model's plans), now that the input is known to be good; the default cache's directory is made
+    // here, and a cache that cannot be written is no error.
+    if (!wisdom_path.empty()) {
+        const std::string text = navier_stokes_2d::fftw_wisdom();
+        const auto write = [&] {
+            write_replacing(wisdom_path, "FFTW wisdom file", [&](const std::string& tmp) {
+                write_new_file(tmp, "FFTW wisdom file", [&](std::FILE* f) { std::fputs(text.c_str(), f); }, false);
+            });
+        };
+        if (!default_wisdom) {
+            write();
+        } else {
+            try {
+                std::error_code ec;
+                fs::create_directories(fs::path(wisdom_path).parent_path(), ec);
+                write();
+            } catch (const std::exception&) {
+            }
+        }
     }
 
     ns2d_checkpoint run = restart ? ck : ns2d_checkpoint{};
@@ -414,7 +532,7 @@ int spectral_command::run(const run_settings& settings) {
     auto snapshot = [&](std::uint64_t i) {
         char stem[32];
         std::snprintf(stem, sizeof stem, "%08llu", (unsigned long long)i);
-        const std::string base = snapshot_dir_ + "/", t = num(double(i) * dt);
+        const std::string base = staged_snapshots->path() + "/", t = num(double(i) * dt);
         const std::vector<double> field = model.to_physical(w);
         write_snapshot_h5(base + stem_ + "_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
         if (!plot_vorticity_png(base + stem_ + "_" + stem + ".png", p.n, field, double(i) * dt, field_,
@@ -548,6 +666,8 @@ int spectral_command::run(const run_settings& settings) {
     // partial time series).
     if (std::FILE* j = json.get()) write_summary_json(j, s);
     commit_outputs({&csv, &json});
+    if (staged_snapshots) staged_snapshots->commit();
+    created_snapshot_dir.path.clear();
     print_summary(stderr, s);
     return 0;
 }

@@ -2,9 +2,13 @@
 // readable by h5py), and gnuplot figures of the field and of E(k). Every file is written under a temporary name, renamed.
 #include "ns2d_output.hpp"
 
+#include "output.hpp"
+
 #include <hdf5.h>
 
 #include <algorithm>
+#include <cerrno>
+#include <cstring>
 #include <cmath>
 #include <cstdlib>
 #include <cstdio>
@@ -30,27 +34,45 @@ struct handle {
     operator hid_t() const { return id; }
 };
 
+hid_t untimed_file_properties();
+
 void quiet_hdf5() {
-    static const bool done = [] { return H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0; }();
+    static const bool done = [] {
+        // No cleanup at exit: after a failed flush or close (a full disk) HDF5's own shutdown would flush the
+        // half-closed file again and crash (exit 139 instead of 1, issue 21 defect 1); every file is closed here.
+        H5dont_atexit();
+        return H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0;
+    }();
     (void)done;
 }
 
-std::string temp_name(const std::string& path) {
-    const std::filesystem::path p(path);
-    std::string name = ".";  // built by appending: GCC 12 warns falsely (-Wrestrict) on "." + string
-    name += p.filename().string();
-    name += ".tmp";
-    name += std::to_string(::getpid());
-    return (p.parent_path() / name).string();
-}
-
-void commit(const std::string& tmp, const std::string& path) {
-    std::error_code ec;
-    std::filesystem::rename(tmp, path, ec);
-    if (ec) {
-        std::filesystem::remove(tmp, ec);
-        throw std::runtime_error("cannot write " + path);
+// Creates `file` as HDF5, fill(file id) writes it; the flush and the close are checked (a full disk shows up there, in
+// HDF5's buffered writes), so a file that could not be written whole is an error, never a committed file.
+template <class Fill>
+void write_h5(const std::string& file, const std::string& what, Fill fill) {
+    quiet_hdf5();
+    // HDF5 says only that it failed; errno, when it is one of these, says why
+    const auto why = [] {
+        const int e = errno;
+        return e == ENOSPC || e == EDQUOT || e == EIO || e == EROFS || e == EFBIG ? std::string(": ") + std::strerror(e)
+                                                                                 : std::string();
+    };
+    errno = 0;
+    const hid_t id = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT);
+    if (id < 0) throw run_error("cannot write " + what + ": HDF5 could not create the file" + why());
+    try {
+        fill(id);
+    } catch (const std::exception& e) {
+        const std::string reason = why();
+        H5Fclose(id);
+        throw run_error("cannot write " + what + ": " + e.what() + reason);
     }
+    const bool flushed = H5Fflush(id, H5F_SCOPE_LOCAL) >= 0;
+    const std::string reason = why();
+    const bool closed = H5Fclose(id) >= 0;
+    if (!flushed || !closed)
+        throw run_error("cannot write " + what + ": HDF5 could not " + (flushed ? "close" : "flush") + " the file" +
+                        (reason.empty() ? why() : reason));
 }
 
 template <class T>
@@ -119,7 +141,10 @@ void write_dataset(hid_t file, const char* name, const double* data, std::initia
         throw std::runtime_error(std::string("HDF5 dataset ") + name);
 }
 
-std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize_t>& dims) {
+// The dataset's shape is checked against `expected` (when given) before anything is allocated or read: a small
+// file declaring a huge dataset is refused, not read (issue 21, defect 11).
+std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize_t>& dims,
+                                 const std::vector<hsize_t>& expected = {}) {
     if (H5Lexists(file, name, H5P_DEFAULT) <= 0) throw std::runtime_error(std::string("dataset '") + name + "' missing");
     handle ds(H5Dopen2(file, name, H5P_DEFAULT), H5Dclose, std::string("dataset ") + name);
     handle sp(H5Dget_space(ds), H5Sclose, "dataspace");
@@ -127,6 +152,14 @@ std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize
     if (rank < 1 || rank > 2) throw std::runtime_error(std::string("dataset '") + name + "' has the wrong rank");
     dims.assign(std::size_t(rank), 0);
     H5Sget_simple_extent_dims(sp, dims.data(), nullptr);
+    if (!expected.empty() && dims != expected) {
+        std::string shape;
+        for (hsize_t d : dims) {  // appended, not operator+: GCC 12 warns falsely (-Wstringop-overflow) on that
+            if (!shape.empty()) shape.push_back('x');
+            shape.append(std::to_string(d));
+        }
+        throw std::runtime_error(std::string("dataset '") + name + "' is " + shape + ", not the grid's");
+    }
     std::size_t count = 1;
     for (hsize_t d : dims) count *= std::size_t(d);
     std::vector<double> v(count);
@@ -211,11 +244,8 @@ std::string quoted(const std::string& s) {
 }  // namespace
 
 void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
-    quiet_hdf5();
-    const std::string tmp = temp_name(path);
-    {
-        handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT), H5Fclose,
-                 "cannot write " + path);
+    write_replacing(path, "checkpoint", [&](const std::string& tmp) {
+        write_h5(tmp, "checkpoint '" + path + "'", [&](hid_t f) {
         put(f, "format", format_of(c.params.equation, "checkpoint"));
         put(f, "version", std::int64_t(1));
         put_params(f, c.params);
@@ -242,11 +272,11 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
         const hsize_t rows = hsize_t(c.params.n), cols = hsize_t(c.params.n / 2 + 1);
         write_dataset(f, state_dataset(spectral::find_equation(c.params.equation)).c_str(),
                       reinterpret_cast<const double*>(c.state.data()), {rows, cols * 2});
-    }
-    commit(tmp, path);
+        });
+    });
 }
 
-ns2d_checkpoint read_checkpoint(const std::string& path) {
+ns2d_checkpoint read_checkpoint(const std::string& path, int n) {
     handle f = open_for_reading(path);
     const std::string equation =
         H5Aexists(f, "format") > 0 ? equation_of_format(get_string(f, "format"), "checkpoint") : std::string();
@@ -271,6 +301,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path) {
     // how the run planned its transforms (before issue 20 always FFTW_MEASURE unless --fftw-estimate, not recorded)
     if (H5Aexists(f, "fftw_measure") > 0) p.measure = whole("fftw_measure", 0, 1) == 1;
     p.n = whole("N", 8, 65536);
+    if (n > 0 && p.n != n)  // before the state is read: it may be gigabytes (issue 21, defect 11)
+        throw std::runtime_error(path + " holds a " + std::to_string(p.n) + "^2 grid, not N = " + std::to_string(n));
     p.nu = get<double>(f, "nu");
     p.hyper_nu = get<double>(f, "hyper_nu");
     p.hyper_p = whole("hyper_p", 1, 16);
@@ -321,7 +353,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path) {
         if (!std::isfinite(v)) throw std::runtime_error(path + ": " + name + " is not finite");
     std::vector<hsize_t> dims;
     const std::string name = state_dataset(spectral::find_equation(equation));
-    const std::vector<double> v = read_dataset(f, name.c_str(), dims);
+    const std::vector<double> v =
+        read_dataset(f, name.c_str(), dims, {hsize_t(p.n), hsize_t(2 * (p.n / 2 + 1))});
     if (dims.size() != 2 || dims[0] != hsize_t(p.n) || dims[1] != hsize_t(2 * (p.n / 2 + 1)))
         throw std::runtime_error(path + ": " + name + " does not match the grid N = " + std::to_string(p.n));
     c.state.resize(v.size() / 2);
@@ -335,11 +368,7 @@ ns2d_checkpoint read_checkpoint(const std::string& path) {
 
 void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const std::vector<double>& field,
                        double t, std::uint64_t step, const std::string& method, double dt) {
-    quiet_hdf5();
-    const std::string tmp = temp_name(path);
-    {
-        handle f(H5Fcreate(tmp.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT), H5Fclose,
-                 "cannot write " + path);
+    write_h5(path, "snapshot '" + path + "'", [&](hid_t f) {
         put(f, "format", format_of(m.params().equation, "snapshot"));
         put(f, "field", field_dataset(m.eq()));
         put_params(f, m.params());
@@ -353,8 +382,7 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
         for (int i = 0; i < m.n(); ++i) x[std::size_t(i)] = 2.0 * M_PI * i / m.n();
         write_dataset(f, "x", x.data(), {n});
         write_dataset(f, "y", x.data(), {n});
-    }
-    commit(tmp, path);
+    });
 }
 
 bool is_checkpoint(const std::string& path) {
@@ -362,11 +390,23 @@ bool is_checkpoint(const std::string& path) {
     return H5Aexists(f, "format") > 0 && !equation_of_format(get_string(f, "format"), "checkpoint").empty();
 }
 
-std::pair<int, std::vector<double>> read_vorticity(const std::string& path) {
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n) {
     handle f = open_for_reading(path);
     std::vector<hsize_t> dims;
     // the snapshot's field (a Navier-Stokes snapshot of before the spectral core names none: vorticity)
     const std::string name = H5Aexists(f, "field") > 0 ? get_string(f, "field") : std::string("vorticity");
+    // the shape first: a file of another grid is refused before its field is read
+    {
+        if (H5Lexists(f, name.c_str(), H5P_DEFAULT) <= 0) throw std::runtime_error("dataset '" + name + "' missing");
+        handle ds(H5Dopen2(f, name.c_str(), H5P_DEFAULT), H5Dclose, "dataset " + name);
+        handle sp(H5Dget_space(ds), H5Sclose, "dataspace");
+        hsize_t d[2] = {0, 0};
+        if (H5Sget_simple_extent_ndims(sp) != 2 || H5Sget_simple_extent_dims(sp, d, nullptr) < 0 || d[0] != d[1])
+            throw std::runtime_error(path + ": " + name + " is not a square grid");
+        if (n > 0 && d[0] != hsize_t(n))
+            throw std::runtime_error(path + " holds a " + std::to_string(d[0]) + "^2 grid, not N = " +
+                                     std::to_string(n));
+    }
     std::vector<double> v = read_dataset(f, name.c_str(), dims);
     if (dims.size() != 2 || dims[0] != dims[1]) throw std::runtime_error(path + ": " + name + " is not a square grid");
     return {int(dims[0]), std::move(v)};
@@ -374,13 +414,10 @@ std::pair<int, std::vector<double>> read_vorticity(const std::string& path) {
 
 bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t,
                         const std::string& name, const std::string& symbol) {
-    const std::string data = temp_name(path) + ".bin", tmp = temp_name(path);
-    {
-        std::FILE* f = std::fopen(data.c_str(), "wb");
-        if (!f) return false;
+    const std::string data = path + ".bin", &tmp = path;
+    write_new_file(data, "field data for gnuplot", [&](std::FILE* f) {
         std::fwrite(field.data(), sizeof(double), field.size(), f);
-        std::fclose(f);
-    }
+    });
     double vmax = 0.0;
     for (double v : field) vmax = std::max(vmax, std::abs(v));
     if (!(vmax > 0.0)) vmax = 1.0;
@@ -401,23 +438,17 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
         std::filesystem::remove(tmp, ec);
         return false;
     }
-    commit(tmp, path);
     return true;
 }
 
 void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t) {
-    const std::string tmp = temp_name(csv_path);
     const std::vector<double>& e = r.energy;
-    {
-        std::FILE* f = std::fopen(tmp.c_str(), "w");
-        if (!f) throw std::runtime_error("cannot write " + csv_path);
+    write_new_file(csv_path, "spectrum", [&](std::FILE* f) {
         std::fprintf(f, "k,E,Z,Pi_E,Pi_Z\n");
         for (std::size_t k = 1; k < e.size(); ++k)
             std::fprintf(f, "%zu,%.17g,%.17g,%.17g,%.17g\n", k, e[k], r.enstrophy[k], r.energy_flux[k],
                          r.enstrophy_flux[k]);
-        if (std::fclose(f) != 0) throw std::runtime_error("cannot write " + csv_path);
-    }
-    commit(tmp, csv_path);
+    });
     if (png_path.empty()) return;
     // Guides through the spectrum's peak: k^-3 (enstrophy cascade) and k^-5/3 (inverse energy cascade).
     std::size_t kp = 1;
@@ -426,7 +457,7 @@ void write_spectrum(const std::string& csv_path, const std::string& png_path, co
     const double ep = std::max(e[kp], 1e-300);
     char title[64];
     std::snprintf(title, sizeof title, "energy spectrum, t = %.4g", t);
-    const std::string ptmp = temp_name(png_path);
+    const std::string& ptmp = png_path;
     std::string s = "set terminal pngcairo size 720,540\nset output " + quoted(ptmp) + "\nset datafile separator ','\n";
     s += "set logscale xy\nset format y '10^{%L}'\nset xlabel 'k'\nset ylabel 'E(k)'\nset key bottom left\n";
     s += "set title " + quoted(title) + "\n";
@@ -434,9 +465,7 @@ void write_spectrum(const std::string& csv_path, const std::string& png_path, co
     s += "plot " + quoted(csv_path) + " skip 1 using 1:($2 > 0 ? $2 : NaN) with linespoints pt 7 ps 0.4 title 'E(k)', ";
     s += g(ep) + "*(x/" + std::to_string(kp) + ".)**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
     s += g(ep) + "*(x/" + std::to_string(kp) + ".)**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
-    if (gnuplot(s)) {
-        commit(ptmp, png_path);
-    } else {
+    if (!gnuplot(s)) {
         std::error_code ec;
         std::filesystem::remove(ptmp, ec);
     }

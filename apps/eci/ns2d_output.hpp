@@ -28,21 +28,26 @@ struct ns2d_checkpoint {
     double max_energy_residual = 0.0, max_enstrophy_residual = 0.0;  ///< max per-step budget residual, relative
 };
 
-/// Writes the checkpoint under a temporary name and renames it over `path`; throws std::runtime_error.
+/// Writes the checkpoint through output.hpp's write_replacing (a temporary beside the target, HDF5's flush and close
+/// checked, synced, renamed over `path`); throws run_error.
 void write_checkpoint(const std::string& path, const ns2d_checkpoint& c);
-/// Reads a checkpoint; throws std::runtime_error naming the problem (unreadable, not an eci checkpoint, ...).
-ns2d_checkpoint read_checkpoint(const std::string& path);
+/// Reads a checkpoint; throws std::runtime_error naming the problem (unreadable, not an eci checkpoint, a grid other
+/// than n when n > 0, found before the state is read, ...).
+ns2d_checkpoint read_checkpoint(const std::string& path, int n = 0);
 
-/// A snapshot: the field on the grid with grid, time and parameters as attributes (atomic).
+/// A snapshot: the field on the grid with grid, time and parameters as attributes, written to `path` (a new file in
+/// the run's staging directory; the flush and close are checked); throws run_error.
 void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const std::vector<double>& field,
                        double t, std::uint64_t step, const std::string& method, double dt);
 /// Whether `path` is an HDF5 file holding an eci checkpoint (false for a snapshot); throws if it is unreadable.
 bool is_checkpoint(const std::string& path);
-/// The field of an eci snapshot (any equation's) and its grid size n; throws std::runtime_error.
-std::pair<int, std::vector<double>> read_vorticity(const std::string& path);
+/// The field of an eci snapshot (any equation's) and its grid size; a grid other than n (when n > 0) is refused before
+/// the field is read. Throws std::runtime_error.
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n = 0);
 
 /// The field as a PNG (diverging colour map symmetric about 0, colour bar `symbol`, `name` and time in the title), by
-/// gnuplot. Returns false (and draws nothing) when gnuplot is not available.
+/// gnuplot, written to `path` (in the staging directory). Returns false (and draws nothing) when gnuplot is not
+/// available.
 bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t,
                         const std::string& name, const std::string& symbol);
 /// The shell spectra and the nonlinear fluxes through each shell.
@@ -50,7 +55,7 @@ struct spectrum_rows {
     std::vector<double> energy, enstrophy, energy_flux, enstrophy_flux;
 };
 /// E(k), Z(k), Pi_E(k), Pi_Z(k) as CSV (k,E,Z,Pi_E,Pi_Z) and, if gnuplot is available, a log-log PNG of E(k) with
-/// k^-3 and k^-5/3 guide lines.
+/// k^-3 and k^-5/3 guide lines, written to the paths given (in the staging directory; the CSV's writes checked).
 void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t);
 
 }  // namespace eci::cli

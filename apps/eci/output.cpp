@@ -457,6 +457,207 @@ void commit_outputs(std::initializer_list<output_file*> outputs) {
     // Committed: the run is complete, so later signals (pending ones included) no longer interrupt it.
 }
 
+// ---- files written by name: one checked path ----
+
+namespace {
+
+const char* kind_of(mode_t m) {
+    if (S_ISFIFO(m)) return "a FIFO";
+    if (S_ISCHR(m)) return "a character device";
+    if (S_ISBLK(m)) return "a block device";
+    if (S_ISSOCK(m)) return "a socket";
+    if (S_ISDIR(m)) return "a directory";
+    return "not a regular file";
+}
+
+// The checks of check_output_path; `st` gets the target's status (st_mode 0 if it does not exist). With `probe`,
+// a temporary is created beside the target and removed, so an unwritable directory is found now.
+std::string inspect_output(const std::string& path, std::string_view what, struct stat& st, bool probe) {
+    const auto refuse = [&](std::string_view why) {
+        return bad_input(message({"cannot write ", what, " '", path, "': ", why}));
+    };
+    if (path.empty()) throw bad_input(message({what, ": the file name is empty"}));
+    if (path == "-" || named_descriptor(path) >= 0) throw refuse("it must name a file, not a descriptor");
+    if (path.back() == '/') throw refuse("it names a directory, not a file");
+    std::string target;
+    if (!resolve_links(path, target)) throw refuse(errno_text());
+    const long name_max = ::pathconf(dir_of(target).c_str(), _PC_NAME_MAX);
+    const std::size_t limit = static_cast<std::size_t>(name_max > 0 ? name_max : NAME_MAX);
+    if (base_of(target).size() > limit) throw refuse("the file name is too long");
+    st = {};
+    const bool exists = ::stat(target.c_str(), &st) == 0;
+    if (!exists) st.st_mode = 0;
+    if (const char* pseudo = pseudo_file_system(exists ? target : dir_of(target)))
+        throw refuse(message({"it is in ", pseudo, ", a kernel interface, not a place for data files"}));
+    if (exists && !S_ISREG(st.st_mode))
+        throw refuse(message({"it is ", kind_of(st.st_mode), "; eci writes its ", what, " only to regular files"}));
+    if (exists && (st.st_mode & 0222) == 0) throw refuse("the file is read-only");
+    if (exists && ::access(target.c_str(), W_OK) != 0) throw refuse(errno_text());
+    if (probe) {
+        std::string temp = temp_template(target, ".eci-tmp-");
+        const int fd = ::mkstemp(temp.data());
+        if (fd < 0) {
+            const int e = errno;
+            if (e == ENOENT) throw refuse(message({"directory '", dir_of(target), "' does not exist"}));
+            throw refuse(message({"cannot create a file in '", dir_of(target), "': ", errno_text(e)}));
+        }
+        ::close(fd);
+        ::unlink(temp.c_str());
+    }
+    return target;
+}
+
+}  // namespace
+
+std::string check_output_path(const std::string& path, std::string_view what) {
+    struct stat st {};
+    return inspect_output(path, what, st, true);
+}
+
+void sync_file(const std::string& file, std::string_view what) {
+    const int fd = ::open(file.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
+    if (fd < 0 || (::fsync(fd) != 0 && errno != EINVAL)) {
+        const int e = errno;
+        if (fd >= 0) ::close(fd);
+        throw run_error(message({"cannot write ", what, " '", file, "': ", errno_text(e)}));
+    }
+    ::close(fd);
+}
+
+void write_replacing(const std::string& path, std::string_view what,
+                     const std::function<void(const std::string& temp)>& write) {
+    struct stat st {};
+    std::string target;
+    try {
+        target = inspect_output(path, what, st, false);
+    } catch (const bad_input& e) {
+        throw run_error(e.what());  // checked before the run; changed since
+    }
+    std::string temp = temp_template(target, ".eci-tmp-");
+    const int fd = ::mkstemp(temp.data());
+    if (fd < 0) {
+        const int e = errno;
+        throw run_error(message({"cannot write ", what, " '", path, "': cannot create a file in '", dir_of(target),
+                                 "': ", errno_text(e)}));
+    }
+    // The replacement keeps the replaced file's permissions; a new file gets what a plain fopen would give.
+    if (st.st_mode != 0) {
+        ::fchmod(fd, st.st_mode & 07777);
+    } else {
+        const mode_t mask = ::umask(0);
+        ::umask(mask);
+        ::fchmod(fd, 0666 & ~mask);
+    }
+    ::close(fd);
+    struct cleanup_guard {
+        std::string temp;
+        int slot;
+        ~cleanup_guard() {
+            if (!temp.empty()) ::unlink(temp.c_str());
+            unregister_cleanup(slot);
+        }
+    } guard{temp, register_cleanup(temp, 1)};
+    write(temp);
+    sync_file(temp, what);
+    if (::rename(temp.c_str(), target.c_str()) != 0) {
+        const int e = errno;
+        throw run_error(message({"cannot write ", what, " '", path, "': ", errno_text(e)}));
+    }
+    guard.temp.clear();
+}
+
+void write_new_file(const std::string& file, std::string_view what, const std::function<void(std::FILE*)>& fill,
+                    bool exclusive) {
+    const int fd = ::open(file.c_str(), O_WRONLY | O_CLOEXEC | (exclusive ? O_CREAT | O_EXCL : O_TRUNC | O_NOFOLLOW), 0666);
+    std::FILE* f = fd >= 0 ? ::fdopen(fd, "w") : nullptr;
+    if (!f) {
+        const int e = errno;
+        if (fd >= 0) {
+            ::close(fd);
+            ::unlink(file.c_str());
+        }
+        throw run_error(message({"cannot write ", what, " '", file, "': ", errno_text(e)}));
+    }
+    int e = 0;
+    try {
+        fill(f);
+    } catch (...) {
+        std::fclose(f);
+        ::unlink(file.c_str());
+        throw;
+    }
+    if (std::ferror(f)) e = errno ? errno : EIO;
+    if (std::fflush(f) != 0 && e == 0) e = errno;
+    if (::fsync(::fileno(f)) != 0 && errno != EINVAL && e == 0) e = errno;
+    if (std::fclose(f) != 0 && e == 0) e = errno;
+    if (e != 0) {
+        ::unlink(file.c_str());
+        throw run_error(message({"cannot write ", what, " '", file, "': ", errno_text(e)}));
+    }
+}
+
+std::optional<std::string> read_small_file(const std::string& path, std::string_view what, std::size_t max_bytes) {
+    const auto refuse = [&](std::string_view why) {
+        return bad_input(message({"cannot read ", what, " '", path, "': ", why}));
+    };
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) {
+        if (errno == ENOENT) return std::nullopt;
+        throw refuse(errno_text());
+    }
+    if (!S_ISREG(st.st_mode)) throw refuse(message({"it is ", kind_of(st.st_mode), ", not a regular file"}));
+    const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_NOCTTY | O_CLOEXEC);
+    if (fd < 0) throw refuse(errno_text());
+    struct closer {
+        int fd;
+        ~closer() { ::close(fd); }
+    } close_it{fd};
+    if (::fstat(fd, &st) != 0) throw refuse(errno_text());
+    if (!S_ISREG(st.st_mode)) throw refuse(message({"it is ", kind_of(st.st_mode), ", not a regular file"}));
+    if (static_cast<std::size_t>(st.st_size) > max_bytes)
+        throw refuse(message({"it is larger than ", std::to_string(max_bytes), " bytes"}));
+    std::string text;
+    char buffer[65536];
+    for (;;) {
+        const ssize_t n = ::read(fd, buffer, sizeof buffer);
+        if (n < 0 && errno == EINTR) continue;
+        if (n < 0) throw refuse(errno_text());
+        if (n == 0) break;
+        text.append(buffer, static_cast<std::size_t>(n));
+        if (text.size() > max_bytes) throw refuse(message({"it is larger than ", std::to_string(max_bytes), " bytes"}));
+    }
+    return text;
+}
+
+void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs) {
+    struct key {
+        const std::string* name;
+        const std::string* path;
+        std::string canonical;
+        bool exists;
+        dev_t dev;
+        ino_t ino;
+    };
+    std::vector<key> keys;
+    for (const auto& [name, path] : outputs) {
+        if (path.empty() || path == "-" || named_descriptor(path) >= 0) continue;
+        std::string target;
+        if (!resolve_links(path, target)) target = path;
+        std::error_code ec;
+        // absolute first: weakly_canonical leaves a relative path with no existing prefix ("out") relative.
+        std::filesystem::path c = std::filesystem::weakly_canonical(std::filesystem::absolute(target, ec), ec);
+        struct stat st {};
+        const bool exists = ::stat(target.c_str(), &st) == 0;
+        keys.push_back({&name, &path, c.lexically_normal().string(), exists, st.st_dev, st.st_ino});
+    }
+    for (std::size_t i = 0; i < keys.size(); ++i)
+        for (std::size_t j = i + 1; j < keys.size(); ++j) {
+            const key &a = keys[i], &b = keys[j];
+            if (a.canonical == b.canonical || (a.exists && b.exists && a.dev == b.dev && a.ino == b.ino))
+                throw bad_input(message({*a.name, " and ", *b.name, " name the same file '", *a.path, "'"}));
+        }
+}
+
 // ---- staging_dir ----
 
 staging_dir::staging_dir(const std::string& final_dir) : final_(final_dir) {
@@ -511,11 +712,31 @@ void staging_dir::commit() {
                 for (const auto& target : created) ::unlink(target.c_str());
             };
             std::error_code ec;
-            for (const auto& entry : fs::directory_iterator(path_, ec)) {
+            // The names first: the backups made below go into the same directory and must not be moved.
+            std::vector<fs::directory_entry> entries;
+            for (const auto& entry : fs::directory_iterator(path_, ec)) entries.push_back(entry);
+            for (const auto& entry : entries) {
                 const std::string name = entry.path().filename().string();
-                const std::string target = message({final_, "/", name});
+                // A symlinked name is written through: its target is replaced, the link kept.
+                std::string target = message({final_, "/", name});
+                if (std::string resolved; resolve_links(target, resolved)) target = resolved;
                 struct stat old {};
-                const bool existed = ::stat(target.c_str(), &old) == 0 && S_ISREG(old.st_mode);
+                const bool present = ::stat(target.c_str(), &old) == 0;
+                if (present && !S_ISREG(old.st_mode)) {
+                    roll_back();
+                    throw run_error(message({"cannot write '", target, "': it is ", kind_of(old.st_mode),
+                                             ", not a regular file"}));
+                }
+                const bool existed = present;
+                if (int fd = ::open(entry.path().c_str(), O_RDONLY | O_CLOEXEC); fd >= 0) {
+                    const bool synced = ::fsync(fd) == 0 || errno == EINVAL;
+                    const int e = errno;
+                    ::close(fd);
+                    if (!synced) {
+                        roll_back();
+                        throw run_error(message({"cannot write '", target, "': ", errno_text(e)}));
+                    }
+                }
                 if (existed) {
                     ::chmod(entry.path().c_str(), old.st_mode & 07777);
                     std::string backup = message({path_, "/.old-", name});

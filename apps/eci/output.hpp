@@ -8,10 +8,14 @@
 #include <chrono>
 #include <cstdint>
 #include <cstdio>
+#include <functional>
 #include <initializer_list>
+#include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <utility>
+#include <vector>
 
 namespace eci::cli {
 
@@ -95,6 +99,39 @@ class staging_dir {
     int slot_ = -1;
     bool committed_ = false;
 };
+
+// ---- The one path for the files eci writes by name (checkpoints, snapshots, spectra, pictures, FFTW wisdom) ----
+
+/// Checks, before any work, that `path` can be replaced by a regular file: symlinks are followed (a dangling one
+/// names the file it would create); a directory, FIFO, device or socket, a file in /proc or /sys, a read-only
+/// file, a missing directory or one where no file can be created (tried with a temporary, removed at once) is
+/// refused with bad_input ("cannot write <what> '<path>': ..."). Returns the file the rename will replace.
+std::string check_output_path(const std::string& path, std::string_view what);
+
+/// Writes `path` through a temporary beside its final target (so a symlink is kept and written through):
+/// write(temp) fills the temporary by name and throws on any failure (checked writes and close); then the
+/// temporary is synced to disk and renamed over the target, keeping the replaced file's mode. The temporary is
+/// registered with the signal handler (removed on a forced exit) and removed on every failure; the target is
+/// then untouched. Throws run_error (or what write throws).
+void write_replacing(const std::string& path, std::string_view what,
+                     const std::function<void(const std::string& temp)>& write);
+
+/// Creates `file` (which must not exist, unless `exclusive` is false: write_replacing's temporary) and writes it
+/// with fill(stream), checking every write, the flush, the sync to disk and the close; on a failure the file is
+/// removed and run_error is thrown.
+void write_new_file(const std::string& file, std::string_view what, const std::function<void(std::FILE*)>& fill,
+                    bool exclusive = true);
+
+/// Flushes a file written by name (by HDF5, gnuplot) to disk; throws run_error.
+void sync_file(const std::string& file, std::string_view what);
+
+/// The contents of a small regular file (symlinks followed), or nothing if there is no such file. Opened without
+/// blocking (a FIFO never hangs); a directory, FIFO, device or a file over max_bytes is refused with bad_input.
+std::optional<std::string> read_small_file(const std::string& path, std::string_view what, std::size_t max_bytes);
+
+/// Refuses (bad_input "<a> and <b> name the same file '<path>'") two of the named outputs (option, path) that are
+/// one file: symlinks followed, dangling ones too, and hard links. Empty paths, "-" and descriptors are skipped.
+void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs);
 
 /// v with 17 significant digits (what %.17g gives: enough to read back the same double).
 std::string_view format_double(double v, char (&buffer)[32]);

@@ -172,7 +172,12 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         const double h = *settings.output_dt;
         if (!(h > 0.0) || !std::isfinite(h))
             throw bad_input("--output-dt must be a positive finite number, not " + shortest(h));
-        if (plan.t_end / h > 1e9) throw bad_input("--output-dt " + shortest(h) + " asks for too many rows");
+        // The output times are built before the first step (8 bytes each, with or without --output): bounded, so
+        // that a typo is an error at once rather than gigabytes and a long wait (issue 21, defect 11).
+        constexpr double max_rows = 1e7;
+        if (plan.t_end / h > max_rows)
+            throw bad_input("--output-dt " + shortest(h) + " to t = " + shortest(plan.t_end) + " asks for " +
+                            shortest(std::floor(plan.t_end / h)) + " rows, more than 10^7: give a larger --output-dt");
         if (adaptive) {
             cfg.times.push_back(0.0);  // the initial state, as fixed-step runs write it
             for (std::uint64_t k = 1; double(k) * h < plan.t_end * (1.0 - 1e-12); ++k) cfg.times.push_back(double(k) * h);

@@ -75,13 +75,8 @@ void check_distinct_outputs(const run_settings& settings) {
     if (settings.output.empty() || settings.summary_json.empty()) return;
     if (settings.output == "-" && settings.summary_json == "-")
         throw bad_input("--output and --summary-json cannot both be standard output");
-    namespace fs = std::filesystem;
-    std::error_code ec;
-    // absolute first: weakly_canonical leaves a relative path with no existing prefix ("out") relative.
-    const fs::path a = fs::weakly_canonical(fs::absolute(settings.output, ec), ec);
-    const fs::path b = fs::weakly_canonical(fs::absolute(settings.summary_json, ec), ec);
-    if (settings.output != "-" && settings.summary_json != "-" && a == b)
-        throw bad_input("--output and --summary-json name the same file '" + settings.output + "'");
+    // symlinks followed, dangling ones too (issue 21, defect 12), and hard links
+    check_distinct_files({{"--output", settings.output}, {"--summary-json", settings.summary_json}});
 }
 
 std::string underflow_message(const step_size_underflow& e, const column_names& columns) {

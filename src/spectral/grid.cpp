@@ -134,6 +134,11 @@ grid::~grid() = default;
 grid::grid(grid&&) noexcept = default;
 grid& grid::operator=(grid&&) noexcept = default;
 
+bool grid::import_fftw_wisdom(const std::string& text) {
+    std::call_once(fftw_threads_once, [] { fftw_init_threads(); });  // FFTW's threads first, as the constructor
+    return !text.empty() && fftw_import_wisdom_from_string(text.c_str()) != 0;
+}
+
 std::string grid::fftw_wisdom() {
     char* w = fftw_export_wisdom_to_string();
     if (!w) return {};

@@ -93,6 +93,15 @@ std::vector<std::string> fuzzed_models() {
             "nonlinear-oscillator", "exp-entropy", "navier-stokes-2d", "charney-hasegawa-mima", "surface-qg"};
 }
 
+bool is_spectral(const std::string& model) {
+    return model == "navier-stokes-2d" || model == "charney-hasegawa-mima" || model == "surface-qg";
+}
+
+// The checkpoint a spectral run writes when stopped without --checkpoint.
+std::string default_checkpoint(const std::string& model) {
+    return model == "navier-stokes-2d" ? "ns2d-checkpoint.h5" : model + "-checkpoint.h5";
+}
+
 fuzz_case make_case(generator& g) {
     // Every model `eci run` offers (a test below checks this list against `eci list`).
     static const std::vector<std::string> models = fuzzed_models();
@@ -132,12 +141,19 @@ fuzz_case make_case(generator& g) {
         opt("--u", g.number(1, false) + "," + g.number(0.2, false));
     } else if (c.model == "exp-entropy") {
         opt("--uv", g.number(1, false) + "," + g.number(0.5, false));
-    } else if (c.model == "navier-stokes-2d" || c.model == "charney-hasegawa-mima" || c.model == "surface-qg") {
+    } else if (is_spectral(c.model)) {
         // Small grids (odd and tiny ones are bad input); no wisdom file outside the scratch directory.
         if (c.model == "charney-hasegawa-mima")
             opt("--beta", g.number(10, false), 0.6), opt("--deformation", g.number(1, true), 0.6);
         opt("--N", g.chance(0.9) ? std::to_string(2 * (4 + g.below(13))) : g.count(40), 1.0);
-        opt("--fftw-wisdom", "none", 1.0), opt("--fftw-estimate", "", 1.0);
+        opt("--fftw-estimate", "", 1.0);
+        // The files written by name (issue 21): good names, names of other outputs, missing directories
+        opt("--fftw-wisdom", g.chance(0.7) ? "none" : g.pick<std::string>({"w", "o.csv", "ck.h5", "nodir/w"}), 1.0);
+        opt("--checkpoint", g.pick<std::string>({"ck.h5", "o.csv", "s.json", "nodir/ck.h5", "snaps"}), 0.3);
+        opt("--checkpoint-every", g.count(20), 0.2);
+        opt("--snapshot-every", g.count(10), 0.1);
+        opt("--snapshot-dir", g.pick<std::string>({"snaps", "o.csv", "nodir/snaps"}), 0.1);
+        if (c.model == "charney-hasegawa-mima") opt("--beta", g.number(1, false), 0.3), opt("--deformation", g.number(1, true), 0.3);
         opt("--nu", g.number(0.01, true), 0.3), opt("--cfl", g.number(0.5, true), 0.3);
         opt("--ic", g.pick<std::string>({"random", "vortex-pair", "taylor-green", "missing.h5"}), 0.5);
         opt("--forcing", g.pick<std::string>({"none", "deterministic", "stochastic", "x"}), 0.3);
@@ -278,12 +294,27 @@ std::vector<std::string> check(const fuzz_case& c, const run_result& r, const fs
     std::set<std::string> expected;
     if (c.csv_old || (r.status == 0 && c.csv)) expected.insert("o.csv");
     if (c.json_old || (r.status == 0 && c.json)) expected.insert("s.json");
-    // An interrupted or failed Navier-Stokes run keeps its state in a checkpoint (that is its contract).
-    // a spectral run stopped by a failure keeps its checkpoint
-    const std::string checkpoint = c.model == "navier-stokes-2d" ? "ns2d-checkpoint.h5" : c.model + "-checkpoint.h5";
-    if (r.status != 0 && r.status != 2 && fs::exists(work / checkpoint)) expected.insert(checkpoint);
+    // A spectral run that started (its input good) may leave its checkpoint (an interrupted or failed run keeps
+    // its state there: that is its contract), its wisdom file and, on success, its snapshots; a refused one nothing.
+    std::set<std::string> allowed;
+    if (is_spectral(c.model) && r.status != 2) {
+        allowed = {default_checkpoint(c.model), "ck.h5", "w"};
+        if (r.status == 0) {
+            allowed.insert("snaps");
+            allowed.insert(c.model == "navier-stokes-2d" ? "ns2d-snapshots" : c.model + "-snapshots");
+        }
+    }
     std::set<std::string> present;
-    for (const auto& e : fs::directory_iterator(work)) present.insert(e.path().filename().string());
+    for (const auto& e : fs::directory_iterator(work)) {
+        const std::string name = e.path().filename().string();
+        if (allowed.count(name) && !expected.count(name)) expected.insert(name);
+        present.insert(name);
+    }
+    for (const std::string& dir : present)
+        if (fs::is_directory(work / dir))
+            for (const auto& e : fs::directory_iterator(work / dir))
+                if (e.path().filename().string().find("tmp") != std::string::npos)
+                    bad.push_back("temporary left: " + dir + "/" + e.path().filename().string());
     if (present != expected) {
         std::string list;
         for (const auto& p : present) list += " " + p;

@@ -99,6 +99,8 @@ class flow2d {
 
     /// FFTW's accumulated wisdom as text (holds this model's plans).
     static std::string fftw_wisdom() { return grid::fftw_wisdom(); }
+    /// Adds FFTW wisdom text to the process's wisdom (what wisdom_file would import); false if it is not wisdom.
+    static bool import_fftw_wisdom(const std::string& text) { return grid::import_fftw_wisdom(text); }
     const flow_params& params() const;
     const equation& eq() const;
     const spectral::grid& grid() const;

@@ -127,6 +127,8 @@ class grid {
 
     /// The plans as FFTW wisdom text (so a restart plans the same transforms and repeats bit for bit).
     static std::string fftw_wisdom();
+    /// Adds FFTW wisdom text (a wisdom file's contents) to the process's wisdom; false if it is not FFTW wisdom.
+    static bool import_fftw_wisdom(const std::string& text);
 
    private:
     void run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const;
