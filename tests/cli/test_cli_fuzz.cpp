@@ -143,8 +143,6 @@ fuzz_case make_case(generator& g) {
         opt("--uv", g.number(1, false) + "," + g.number(0.5, false));
     } else if (is_spectral(c.model)) {
         // Small grids (odd and tiny ones are bad input); no wisdom file outside the scratch directory.
-        if (c.model == "charney-hasegawa-mima")
-            opt("--beta", g.number(10, false), 0.6), opt("--deformation", g.number(1, true), 0.6);
         opt("--N", g.chance(0.9) ? std::to_string(2 * (4 + g.below(13))) : g.count(40), 1.0);
         opt("--fftw-estimate", "", 1.0);
         // The files written by name (issue 21): good names, names of other outputs, missing directories
