@@ -228,7 +228,7 @@ TEST(Solve, BadSettingsAreRefusedBeforeAnyStep) {
     EXPECT_EQ(message(zero), "time step must be a positive finite number");
     eci::run_config times = ok;
     times.times = {0.5, 0.2};
-    EXPECT_EQ(message(times), "output times must be finite, sorted and within the span");
+    EXPECT_EQ(message(times), "output times must be finite, sorted in the direction of the run and within the span");
     EXPECT_EQ(x, fig5);
 }
 
