@@ -136,7 +136,10 @@ TEST_F(reliability, every_interrupt_signal_stops_the_run_and_leaves_no_file) {
     for (const auto& [name, number] : std::vector<std::pair<std::string, int>>{
              {"INT", SIGINT}, {"TERM", SIGTERM}, {"HUP", SIGHUP}, {"QUIT", SIGQUIT}}) {
         const std::string script =
-            "$ECI run lotka-volterra --t-end 1e7 --output out.csv --summary-json out.json & p=$!; sleep 0.4; "
+            // 1 s in: under ASan on a loaded machine a SIGQUIT sent at 0.4 s was once lost (the run went on for
+            // 644 s); a signal that arrives during start-up is an open defect of its own (issue 21 note), not this
+            // test's subject, which is a running run.
+            "$ECI run lotka-volterra --t-end 1e7 --output out.csv --summary-json out.json & p=$!; sleep 1; "
             "start=$(date +%s%N); kill -" + name + " $p; wait $p; status=$?; end=$(date +%s%N); "
             "[ $(( (end - start) / 1000000 )) -lt 1500 ] || exit 99; exit $status";
         EXPECT_EQ(bash(script), 128 + number) << name << read_text(dir_.capture() / "bash_err");
