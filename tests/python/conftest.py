@@ -38,3 +38,12 @@ def cli_error(cli_path, *args):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("eci: error: "), r.stderr
     return lines[0][len("eci: error: "):]
+
+
+def failure_of(r, cls):
+    """The failure of a run that stopped early: SciPy's status -1, success False, the message, and the eci
+    exception describing it in r.failure (not raised)."""
+    assert r.status == -1 and not r.success, (r.status, r.message)
+    assert isinstance(r.failure, cls) and isinstance(r.failure, RuntimeError)
+    assert r.message == str(r.failure)
+    return r.failure

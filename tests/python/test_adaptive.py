@@ -8,19 +8,10 @@ import pytest
 from scipy.integrate import solve_ivp
 
 import eci
-from conftest import EPS, run_cli
+from conftest import EPS, failure_of, run_cli
 
 M = eci.models
 
-
-
-def failure_of(r, cls):
-    """The failure of a run that stopped early: SciPy's status -1, success False, the message, and the eci
-    exception describing it in r.failure (not raised)."""
-    assert r.status == -1 and not r.success, (r.status, r.message)
-    assert isinstance(r.failure, cls) and isinstance(r.failure, RuntimeError)
-    assert r.message == str(r.failure)
-    return r.failure
 
 def three_wave_fun(t, y):
     """Eq. (1) with the default coefficients, written as the C++ model writes it (same operations, same order)."""

@@ -12,19 +12,10 @@ import numpy as np
 import pytest
 
 import eci
-from conftest import BUILD, cli_error
+from conftest import BUILD, cli_error, failure_of
 
 M = eci.models
 
-
-
-def failure_of(r, cls):
-    """The failure of a run that stopped early: SciPy's status -1, success False, the message, and the eci
-    exception describing it in r.failure (not raised)."""
-    assert r.status == -1 and not r.success, (r.status, r.message)
-    assert isinstance(r.failure, cls) and isinstance(r.failure, RuntimeError)
-    assert r.message == str(r.failure)
-    return r.failure
 
 def message(excinfo):
     return str(excinfo.value)
