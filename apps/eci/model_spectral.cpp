@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <ctime>
 #include <filesystem>
 #include <limits>
 #include <numbers>
@@ -276,6 +277,21 @@ int spectral_command::run(const run_settings& settings) {
     }
     if (given_whole("threads")) p.threads = int(std::min<std::uint64_t>(*given_whole("threads"), 1000));
     p.measure = restart ? ck.params.measure : !*spec("fftw-estimate").flag;
+    {
+        // A grid that cannot fit is refused now, with its size, not as std::bad_alloc after planning (issue 21,
+        // defect 15). At least 10 copies of FFTW's half plane: the measured peak of C-RK4 is 9.6 at N = 4096
+        // (docs/benchmarks.md); methods with more stages need more, so this refuses only what cannot run.
+        const double need = 10.0 * 16.0 * double(p.n) * double(p.n / 2 + 1);
+        const double have = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGE_SIZE));
+        const auto gib = [](double b) {
+            char text[32];
+            std::snprintf(text, sizeof text, "%.1f", b / double(1 << 30));
+            return std::string(text);
+        };
+        if (have > 0.0 && need > have)
+            throw bad_input("--N " + std::to_string(p.n) + " needs at least " + gib(need) +
+                            " GiB of memory, more than this machine's " + gib(have) + " GiB");
+    }
     // The wisdom file is read and written here, through the CLI's checked output path, not opened by FFTW (a FIFO
     // there would hang it, a device be replaced; a refused run must not create it: issue 21, defects 3, 4, 7).
     const std::string wisdom_option = given_text("fftw-wisdom").value_or("");
@@ -537,7 +553,7 @@ int spectral_command::run(const run_settings& settings) {
         write_snapshot_h5(base + stem_ + "_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
         if (!plot_vorticity_png(base + stem_ + "_" + stem + ".png", p.n, field, double(i) * dt, field_,
                                 std::string(eq_.symbol)) &&
-            !warned_) {
+            !warned_ && !interrupt_requested()) {
             std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
             warned_ = true;
         }
@@ -546,11 +562,35 @@ int spectral_command::run(const run_settings& settings) {
                        {model.energy_spectrum(w), model.enstrophy_spectrum(w), pi.energy, pi.enstrophy},
                        double(i) * dt);
     };
+    // Ctrl-C finishes the step under way and writes the checkpoint. On a large grid one step takes longer than the
+    // signal handler's default allowance (0.3 s of CPU), so the run tells it how long a step and a checkpoint
+    // take: estimated from one right-hand side's transforms before the first step, measured after.
+    const auto cpu_now = [] {
+        timespec ts{};
+        ::clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+        return double(ts.tv_sec) + 1e-9 * double(ts.tv_nsec);
+    };
+    const auto wall_now = [] { return std::chrono::duration<double>(std::chrono::steady_clock::now().time_since_epoch()).count(); };
+    double step_cpu = 0.0, step_wall = 0.0, save_cpu = 0.0, save_wall = 0.0;
+    const auto update_grace = [&] {
+        set_interrupt_grace(0.3 + 2.0 * (step_cpu + save_cpu), 1.0 + 2.0 * (step_wall + save_wall));
+    };
+    {
+        const double c0 = cpu_now(), w0 = wall_now();
+        model.execute_transforms();
+        // at most 13 stages (f78) plus the diagnostics; the checkpoint about two transforms' worth
+        step_cpu = 16.0 * (cpu_now() - c0), step_wall = 16.0 * (wall_now() - w0);
+        save_cpu = step_cpu / 8.0, save_wall = step_wall / 8.0;
+        update_grace();
+    }
     auto save = [&](std::uint64_t i) {
+        const double c0 = cpu_now(), w0 = wall_now();
         run.step = i;
         run.state = model.to_half_plane(w);
         run.rng_state = model.rng_state();
         write_checkpoint(checkpoint_, run);
+        save_cpu = std::max(save_cpu, cpu_now() - c0), save_wall = std::max(save_wall, wall_now() - w0);
+        update_grace();
     };
 
     progress_bar progress(last - first, 1);  // steps take milliseconds or more: look at the clock every step
@@ -566,8 +606,12 @@ int spectral_command::run(const run_settings& settings) {
             run_stats stats;
             w_prev = w;  // an interrupted step goes back to the last whole step
             const std::uint64_t rng_prev = model.rng_state();
+            const double c0 = cpu_now(), w0 = wall_now();
             try {
                 ns2d_step(stepper, model, w, double(i - 1) * dt, dt, b, stats, 40, &interrupt_requested);
+                if (i == first + 1) step_cpu = step_wall = 0.0;  // measured from now on, not estimated
+                step_cpu = std::max(step_cpu, cpu_now() - c0), step_wall = std::max(step_wall, wall_now() - w0);
+                update_grace();
             } catch (const step_interrupted&) {
                 progress.finish();
                 w = w_prev;

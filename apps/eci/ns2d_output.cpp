@@ -213,19 +213,20 @@ std::string state_dataset(const spectral::equation& e) { return std::string(e.sy
 
 handle open_for_reading(const std::string& path) {
     quiet_hdf5();
-    if (!std::filesystem::is_regular_file(path)) throw std::runtime_error("cannot read " + path + ": no such file");
+    if (const std::string why = unreadable_reason(path); !why.empty())
+        throw std::runtime_error("cannot read " + path + ": " + why);
     if (H5Fis_hdf5(path.c_str()) <= 0) throw std::runtime_error(path + " is not an HDF5 file");
     return handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "cannot open " + path);
 }
 
-// Runs a gnuplot script; false when gnuplot is missing or fails.
-bool gnuplot(const std::string& script) {
-    static const bool available = std::system("command -v gnuplot > /dev/null 2>&1") == 0;
+// Runs a gnuplot script (written beside `output`, the picture it draws); false when gnuplot is missing, fails or
+// was stopped by an interrupt (which the run's loop then honours, with its checkpoint).
+bool gnuplot(const std::string& script, const std::string& output) {
+    static const bool available = run_program("gnuplot", {"--version"}) == 0;
     if (!available) return false;
-    std::FILE* g = ::popen("gnuplot 2> /dev/null", "w");
-    if (!g) return false;
-    std::fputs(script.c_str(), g);
-    return ::pclose(g) == 0;
+    const scoped_temporary file(output + ".gp");
+    write_new_file(file.path(), "gnuplot script", [&](std::FILE* f) { std::fputs(script.c_str(), f); });
+    return run_program("gnuplot", {file.path()}) == 0;
 }
 
 // A double as gnuplot reads it back exactly (std::to_string's %f would print 1e-13 as 0.000000).
@@ -414,7 +415,9 @@ std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int 
 
 bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t,
                         const std::string& name, const std::string& symbol) {
-    const std::string data = path + ".bin", &tmp = path;
+    const scoped_temporary data_file(path + ".bin");
+    const std::string& data = data_file.path();
+    const std::string& tmp = path;
     write_new_file(data, "field data for gnuplot", [&](std::FILE* f) {
         std::fwrite(field.data(), sizeof(double), field.size(), f);
     });
@@ -431,10 +434,8 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
     s += "set cblabel " + quoted(symbol) + "\n";
     s += "plot " + quoted(data) + " binary array=(" + std::to_string(n) + "," + std::to_string(n) +
          ") format='%float64' dx=" + g(h) + " dy=" + g(h) + " with image notitle\n";
-    const bool ok = gnuplot(s);
-    std::error_code ec;
-    std::filesystem::remove(data, ec);
-    if (!ok) {
+    if (!gnuplot(s, tmp)) {
+        std::error_code ec;
         std::filesystem::remove(tmp, ec);
         return false;
     }
@@ -465,7 +466,7 @@ void write_spectrum(const std::string& csv_path, const std::string& png_path, co
     s += "plot " + quoted(csv_path) + " skip 1 using 1:($2 > 0 ? $2 : NaN) with linespoints pt 7 ps 0.4 title 'E(k)', ";
     s += g(ep) + "*(x/" + std::to_string(kp) + ".)**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
     s += g(ep) + "*(x/" + std::to_string(kp) + ".)**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
-    if (!gnuplot(s)) {
+    if (!gnuplot(s, ptmp)) {
         std::error_code ec;
         std::filesystem::remove(ptmp, ec);
     }

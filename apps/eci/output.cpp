@@ -25,6 +25,7 @@
 #include <sys/syscall.h>
 #include <sys/time.h>
 #include <sys/vfs.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 namespace eci::cli {
@@ -45,6 +46,8 @@ long long monotonic_ns() {
     return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
 }
 std::atomic<pid_t> child_pid{0};
+// The watchdog's allowance after an interrupt (set_interrupt_grace), in microseconds.
+std::atomic<long long> grace_cpu_us{300000}, grace_wall_us{1000000};
 
 /// A path the handler removes on a forced exit: a file (kind 1) or a flat directory (kind 2).
 struct cleanup_slot {
@@ -141,12 +144,15 @@ extern "C" void on_interrupt(int s) {
         cancel.store(true);
         // The run stops at its next poll; if it has not, the watchdog stops it here, cleaning up the same way:
         // after 0.3 s of its own CPU time (a long right-hand side; CPU time, so that a process merely waiting
-        // for a busy machine's core still stops gracefully) or 1 s of wall time (a blocked write).
+        // for a busy machine's core still stops gracefully) or 1 s of wall time (a blocked write), or the longer
+        // allowance a run with long steps has set (set_interrupt_grace).
+        const long long cpu = grace_cpu_us.load(), wall = grace_wall_us.load();
         itimerval watchdog{};
-        watchdog.it_value.tv_usec = 300000;
+        watchdog.it_value.tv_sec = static_cast<time_t>(cpu / 1000000);
+        watchdog.it_value.tv_usec = static_cast<suseconds_t>(cpu % 1000000);
         ::setitimer(ITIMER_VIRTUAL, &watchdog, nullptr);
-        watchdog.it_value.tv_usec = 0;
-        watchdog.it_value.tv_sec = 1;
+        watchdog.it_value.tv_sec = static_cast<time_t>(wall / 1000000);
+        watchdog.it_value.tv_usec = static_cast<suseconds_t>(wall % 1000000);
         ::setitimer(ITIMER_REAL, &watchdog, nullptr);
         return;
     }
@@ -596,6 +602,14 @@ void write_new_file(const std::string& file, std::string_view what, const std::f
     }
 }
 
+std::string unreadable_reason(const std::string& path) {
+    struct stat st {};
+    if (::stat(path.c_str(), &st) != 0) return errno == ENOENT ? "no such file" : errno_text();
+    if (!S_ISREG(st.st_mode)) return message({"it is ", kind_of(st.st_mode), ", not a regular file"});
+    if (::access(path.c_str(), R_OK) != 0) return errno_text();
+    return {};
+}
+
 std::optional<std::string> read_small_file(const std::string& path, std::string_view what, std::size_t max_bytes) {
     const auto refuse = [&](std::string_view why) {
         return bad_input(message({"cannot read ", what, " '", path, "': ", why}));
@@ -825,6 +839,66 @@ void throw_if_interrupted(std::string_view where) {
 }
 
 void register_child(pid_t pid) { child_pid.store(pid); }
+
+void set_interrupt_grace(double cpu_seconds, double wall_seconds) {
+    // Clamped to [default, 1 hour]: a watchdog is still a watchdog.
+    const auto us = [](double s, double lo) {
+        return static_cast<long long>(std::clamp(std::isfinite(s) ? s : lo, lo, 3600.0) * 1e6);
+    };
+    grace_cpu_us.store(us(cpu_seconds, 0.3));
+    grace_wall_us.store(us(wall_seconds, 1.0));
+}
+
+int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet) {
+    std::fflush(stdout);
+    std::fflush(stderr);
+    std::vector<const char*> argv{program.c_str()};
+    for (const std::string& a : args) argv.push_back(a.c_str());
+    argv.push_back(nullptr);
+    const pid_t pid = ::fork();
+    if (pid < 0) return 127;
+    if (pid == 0) {
+        ::setpgid(0, 0);
+        // The parent's handlers are not the child's business: default dispositions, nothing blocked.
+        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGALRM, SIGVTALRM}) std::signal(sig, SIG_DFL);
+        sigset_t none;
+        sigemptyset(&none);
+        ::sigprocmask(SIG_SETMASK, &none, nullptr);
+        const int null = ::open("/dev/null", quiet ? O_RDWR : O_RDONLY);
+        if (null >= 0) {
+            ::dup2(null, STDIN_FILENO);  // nothing to read: a program that asks does not wait on our terminal
+            if (quiet) ::dup2(null, STDOUT_FILENO), ::dup2(null, STDERR_FILENO);
+        }
+        ::execvp(argv[0], const_cast<char* const*>(argv.data()));
+        ::_exit(127);
+    }
+    ::setpgid(pid, pid);  // also here, so that the group exists before the first kill
+    register_child(pid);
+    int status = 0;
+    for (;;) {
+        const pid_t w = ::waitpid(pid, &status, WNOHANG);
+        if (w == pid) break;
+        const bool lost = w < 0 && errno != EINTR;
+        if (lost || interrupt_requested()) {
+            ::kill(-pid, SIGKILL);
+            while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+            }
+            register_child(0);
+            return interrupt_requested() ? -1 : 127;
+        }
+        ::usleep(10000);  // 10 ms: an interrupt is seen within that, at no measurable cost
+    }
+    register_child(0);
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
+scoped_temporary::scoped_temporary(std::string path) : path_(std::move(path)), slot_(register_cleanup(path_, 1)) {}
+
+scoped_temporary::~scoped_temporary() {
+    std::error_code ec;
+    std::filesystem::remove(path_, ec);
+    unregister_cleanup(slot_);
+}
 
 // ---- progress bar ----
 

@@ -129,6 +129,10 @@ void sync_file(const std::string& file, std::string_view what);
 /// blocking (a FIFO never hangs); a directory, FIFO, device or a file over max_bytes is refused with bad_input.
 std::optional<std::string> read_small_file(const std::string& path, std::string_view what, std::size_t max_bytes);
 
+/// Why `path` cannot be read as a regular file ("no such file", "it is a FIFO, not a regular file", the system's
+/// reason), or empty if it can be opened as one (symlinks followed).
+std::string unreadable_reason(const std::string& path);
+
 /// Refuses (bad_input "<a> and <b> name the same file '<path>'") two of the named outputs (option, path) that are
 /// one file: symlinks followed, dangling ones too, and hard links. Empty paths, "-" and descriptors are skipped.
 void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs);
@@ -165,6 +169,33 @@ void throw_if_interrupted(std::string_view where = {});
 
 /// Registers a child process (group) for the signal handler to kill on a forced exit; 0 unregisters.
 void register_child(pid_t pid);
+
+/// How long the run may need, after an interrupt, to reach its next poll and write its checkpoint: the watchdog
+/// then allows that much of the process's CPU time (at least 0.3 s) and wall time (at least 1 s) before it exits
+/// by itself. A run whose one step takes longer than the default (a large grid) sets it from its measured step
+/// time, so that Ctrl-C finishes the step and writes the checkpoint; a second signal still exits at once.
+void set_interrupt_grace(double cpu_seconds, double wall_seconds);
+
+/// Runs `program args...` (PATH lookup, no shell) in its own process group, standard input /dev/null, its output
+/// discarded if `quiet`. The wait polls the interrupt flag: on an interrupt the child's group is killed and -1
+/// returned (the caller decides what the interrupt means; nothing is thrown). Otherwise the exit status, 127 if
+/// the program could not be started, 128 if it died of a signal.
+int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet = true);
+
+/// A file removed when this goes out of scope and, if the process is forced to exit by a signal, by the handler
+/// (a temporary another program reads, such as gnuplot's data).
+class scoped_temporary {
+   public:
+    explicit scoped_temporary(std::string path);
+    ~scoped_temporary();
+    scoped_temporary(const scoped_temporary&) = delete;
+    scoped_temporary& operator=(const scoped_temporary&) = delete;
+    const std::string& path() const { return path_; }
+
+   private:
+    std::string path_;
+    int slot_;
+};
 
 /// A one-line progress bar on stderr, shown only when stderr is a terminal and the run has lasted over a
 /// second. update() is cheap: it looks at the clock once every 4096 calls.

@@ -29,7 +29,7 @@ namespace eci::figures {
 
 using cli::bad_input;
 using cli::interrupt_requested;
-using cli::register_child;
+using cli::run_program;
 using cli::run_error;
 using cli::staging_dir;
 using cli::throw_if_interrupted;
@@ -109,53 +109,6 @@ std::string plotting_program() {
     return env && *env ? env : "gnuplot";
 }
 
-/// Runs `program arg` (PATH lookup, no shell), stdout to /dev/null if `quiet`; returns the exit status, or 127
-/// if the program could not be started. The child runs in its own process group, which an interrupt stops
-/// (here, or in the signal handler on a forced exit); the wait polls the interrupt flag.
-int run_program(const std::string& program, const std::string& arg, bool quiet) {
-    std::cout.flush();
-    const pid_t pid = fork();
-    if (pid < 0) return 127;
-    if (pid == 0) {
-        ::setpgid(0, 0);
-        // The parent's handlers are not the child's business: default dispositions, nothing blocked.
-        for (int sig : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE, SIGALRM, SIGVTALRM}) std::signal(sig, SIG_DFL);
-        sigset_t none;
-        sigemptyset(&none);
-        ::sigprocmask(SIG_SETMASK, &none, nullptr);
-        if (quiet) {
-            const int null = open("/dev/null", O_WRONLY);
-            if (null >= 0) {
-                dup2(null, STDOUT_FILENO);
-                dup2(null, STDERR_FILENO);
-            }
-        }
-        const char* argv[] = {program.c_str(), arg.c_str(), nullptr};
-        execvp(argv[0], const_cast<char* const*>(argv));
-        _exit(127);
-    }
-    ::setpgid(pid, pid);  // also here, so that the group exists before the first kill
-    register_child(pid);
-    int status = 0;
-    for (;;) {
-        const pid_t w = ::waitpid(pid, &status, WNOHANG);
-        if (w == pid) break;
-        if (w < 0 && errno != EINTR) {
-            register_child(0);
-            return 127;
-        }
-        if (interrupt_requested()) {
-            ::kill(-pid, SIGKILL);
-            ::waitpid(pid, &status, 0);
-            register_child(0);
-            throw_if_interrupted("while gnuplot was drawing");
-        }
-        ::usleep(10000);  // 10 ms: an interrupt is seen within that, at no measurable cost
-    }
-    register_child(0);
-    return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
-}
-
 /// Throws run_error unless `file` exists and is not empty (a full disk can leave gnuplot's output empty
 /// with exit status 0).
 void require_nonempty(const std::filesystem::path& file, const std::string& made_by) {
@@ -219,7 +172,7 @@ int run_figures(const options& options) {
     const std::filesystem::path work = staging.path();
 
     const std::string gnuplot = plotting_program();
-    const bool have_gnuplot = run_program(gnuplot, "--version", true) == 0;
+    const bool have_gnuplot = run_program(gnuplot, {"--version"}, true) == 0;
 
     const auto start = std::chrono::steady_clock::now();
     std::vector<figure_result> results;
@@ -247,7 +200,8 @@ int run_figures(const options& options) {
         std::string files;
         for (const auto& [name, table] : r.csvs) files += " " + name;
         if (have_gnuplot) {
-            const int status = run_program(gnuplot, script.string(), false);
+            const int status = run_program(gnuplot, {script.string()}, false);
+            if (status < 0) throw_if_interrupted("while gnuplot was drawing");
             if (status != 0)
                 throw run_error(gnuplot + " failed on " + stem + ".gp (exit status " + std::to_string(status) + ")");
             require_nonempty(work / (stem + ".png"), gnuplot);

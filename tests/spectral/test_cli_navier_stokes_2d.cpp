@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 #include <hdf5.h>
+#include <signal.h>
+#include <sys/stat.h>
 
 #include <chrono>
 #include <cmath>
@@ -160,6 +162,62 @@ TEST(CliNavierStokes2d, InterruptWritesCheckpointThatRestarts) {
         EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
 
+// Ctrl-C during steps longer than the signal handler's default allowance (0.3 s of CPU; issue 21, defect 2): at
+// N = 2048 one C-RK4 step takes about a second, and the run must still finish the step, write the checkpoint
+// and exit 130 (before, the watchdog exited first and the checkpoint was lost in 2 of 3 tries). The checkpoint
+// then continues the run.
+TEST(CliNavierStokes2d, InterruptDuringLongStepsWritesCheckpoint) {
+    scratch_dir dir("ns2d-sigint-large");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    auto r = run_eci("run navier-stokes-2d --N 2048 --steps 1000 --fftw-estimate --fftw-wisdom none --checkpoint " +
+                         q + "/c.h5",
+                     d, "timeout --preserve-status -s INT 4");
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("checkpoint written"), std::string::npos) << r.err;
+    const std::size_t at = r.err.find("interrupted at step ");
+    ASSERT_NE(at, std::string::npos) << r.err;
+    const unsigned long step = std::stoul(r.err.substr(at + 20));
+    ASSERT_EQ(read_doubles(d / "c.h5", "omega_hat").size(), 2u * 2048u * 1025u);
+    r = run_eci("run navier-stokes-2d --restart " + q + "/c.h5 --fftw-wisdom none --steps " +
+                    std::to_string(step + 1) + " --checkpoint " + q + "/c2.h5",
+                d);
+    EXPECT_EQ(r.status, 0) << r.err;
+    for (const auto& e : fs::directory_iterator(d))  // no temporary left behind
+        EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
+}
+
+// Ctrl-C while gnuplot draws a snapshot (issue 21, defect 5): gnuplot (here a stand-in that never finishes) is
+// stopped, not orphaned, the run writes its checkpoint and exits 130, and no temporary (script, data) is left.
+TEST(CliNavierStokes2d, InterruptWhileGnuplotDrawsStopsItAndCheckpoints) {
+    scratch_dir dir("ns2d-sigint-gnuplot");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    fs::create_directories(d / "bin");
+    {
+        std::ofstream fake(d / "bin" / "gnuplot");
+        fake << "#!/bin/sh\n[ \"$1\" = --version ] && { echo 'gnuplot 5.4'; exit 0; }\necho $$ > " << q
+             << "/gnuplot.pid\nexec sleep 60\n";
+    }
+    fs::permissions(d / "bin" / "gnuplot", fs::perms::owner_all);
+    auto r = run_eci("run navier-stokes-2d --N 32 --steps 10 --fftw-estimate --fftw-wisdom none --snapshot-every 1 "
+                     "--snapshot-dir " + q + "/snaps --checkpoint " + q + "/c.h5",
+                     d, "PATH=" + q + "/bin:\"$PATH\" timeout --preserve-status -s INT 2");
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("checkpoint written"), std::string::npos) << r.err;
+    EXPECT_FALSE(read_doubles(d / "c.h5", "omega_hat").empty());
+    std::ifstream pid_file(d / "gnuplot.pid");
+    long pid = 0;
+    ASSERT_TRUE(pid_file >> pid) << "the stand-in gnuplot never ran";
+    EXPECT_NE(::kill(pid_t(pid), 0), 0) << "gnuplot " << pid << " outlived the run";
+    for (const auto& e : fs::recursive_directory_iterator(d)) {
+        const std::string name = e.path().filename().string();
+        EXPECT_TRUE(name.find(".tmp") == std::string::npos && name.find(".gp") == std::string::npos &&
+                    name.find(".bin") == std::string::npos)
+            << e.path();
+    }
+}
+
 // Bad input: one line on stderr, exit 2, the output file neither created nor replaced.
 TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
     scratch_dir dir("ns2d-bad");
@@ -194,7 +252,12 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--restart " + q + "/ok.h5 --injection-rate 3", "does not match"},
         {"--restart " + q + "/ok.h5 --seed 4", "initial condition"},
         {"--restart " + q + "/ok.h5 --energy 2", "initial condition"},
+        // issue 21, defect 15: the message names the problem
+        {"--N 65536", "GiB of memory"},
+        {"--ic " + q, "is a directory"},
+        {"--ic " + q + "/fifo", "is a FIFO"},
     };
+    ASSERT_EQ(::mkfifo((d / "fifo").c_str(), 0600), 0);
     for (const auto& [args, needle] : cases) {
         for (const char* out : {"new.csv", "keep.csv"}) {
             r = run_eci("run navier-stokes-2d --steps 2 --fftw-estimate " + args + " --output " + q + "/" + out, d);
