@@ -354,7 +354,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     fun: a callable fun(t, y) -> dy/dt (y a real or complex 1-D array, as in SciPy), or a built-in model
         (eci.models.ThreeWave(), ...), which runs the whole integration in C++ without the GIL (unless Python
         invariants, events or dense output need it).
-    t_span: (t0, t1). t1 < t0 integrates backward in time (adaptive control only: fixed steps run forward).
+    t_span: (t0, t1). t1 < t0 integrates backward in time (a built-in model's fixed steps run forward only).
     y0: the initial state (may be empty); for a model, None means its default initial condition.
     method: a name from eci.methods(). Default: "c-rk4" (conservative classical Runge-Kutta) with fixed steps,
         "c-dp54" (conservative Dormand-Prince 5(4)) with adaptive control.
@@ -470,9 +470,10 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
                                      ("events", event_list, None)):
             if value != default:
                 raise ValueError(f"{name} is for adaptive step control: give rtol/atol (and no dt)")
-        if t1 < t0:
-            raise ValueError(f"t_span[1] = {_shortest(t1)} is before t_span[0] = {_shortest(t0)}: fixed steps run "
-                             "forward only; backward time needs adaptive control (rtol/atol, no dt)")
+        if t1 < t0 and is_model:
+            raise ValueError(f"t_span[1] = {_shortest(t1)} is before t_span[0] = {_shortest(t0)}: fixed steps of a "
+                             f"built-in model run forward only; backward time needs adaptive control (rtol/atol, "
+                             f"no dt)")
         if dt is None:  # NavierStokes2D: the CFL 0.5 step of the initial state, as `eci run navier-stokes-2d`
             dt = fun.cfl_step(y0) if y0 is not None and hasattr(fun, "cfl_step") else fun.default_dt
         dt = _number(dt, "dt")
@@ -525,7 +526,10 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             jac = _jacobian(jac, y)
         parts = None if transform is None else (transform.forward, transform.inverse, transform.jacobian,
                                                 transform.rate)
-        raw = _eci._solve_function(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac)
+        if t1 < t0 and not adaptive:  # fixed steps backward (adaptive runs step backward in the library)
+            raw = _solve_backward_fixed(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac)
+        else:
+            raw = _eci._solve_function(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac)
     result = SolveResult(raw)
     result["nfev"] = result["stats"]["rhs_evals"] + extra_calls
     result["njev"] = 0  # explicit methods evaluate no Jacobian (kahan's calls of jac are in its solver stats)
@@ -553,6 +557,33 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         result["sol"] = DenseSolution(d["t_start"], d["t_end"], d["nodes"], d["samples"], d["signs"], d["sign_nodes"],
                                       d["squared"], start, t0)
     return result
+
+
+def _solve_backward_fixed(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac):
+    """Fixed steps of dt from t0 back to t1 < t0: the forward run of g(s, y) = -fun(t0 - s, y) over s in [0, t0 - t1].
+    A Runge-Kutta step of g with step dt computes exactly what a step of fun with step -dt computes (negation is
+    exact; the stage times t0 - (s + c dt) differ from t + c (-dt) only in their rounding), and the transforms,
+    invariants and radicands see the same states, so the conservative methods keep their invariants backward too.
+    The result's times are t0 - s, with t_eval's own values and t1 itself where the run reached them."""
+    def backward(s, x):
+        return np.negative(np.asarray(fun(t0 - s, x)))
+
+    back_jac = None
+    if jac is not None:  # kahan: d(-fun)/dy
+        back_jac = lambda s, x: np.negative(np.asarray(jac(t0 - s, x)))  # noqa: E731
+    times = settings["t_eval"]
+    settings = dict(settings, t_eval=None if times is None else [t0 - t for t in times])
+    raw = _eci._solve_function(backward, 0.0, t0 - t1, y, method, dt, settings, functions, inv_names, parts,
+                               back_jac)
+    t = t0 - np.asarray(raw["t"], dtype=float)
+    if times is not None and len(t) == len(times):
+        t = np.asarray(times, dtype=float)
+    elif len(t) and raw.get("failure") is None and raw.get("stopped_at") is None:
+        t[-1] = t1
+    raw["t"] = t
+    if raw.get("failure") is not None:
+        raw["failure"] = dict(raw["failure"], t=t0 - raw["failure"]["t"])
+    return raw
 
 
 def _jacobian(jac, y):

@@ -52,9 +52,11 @@ def test_invalid_initial_conditions_give_the_cli_message(cli, model, y0, cli_arg
     assert message(e) == cli_error(cli, "run", *cli_args)
 
 
-def test_a_backward_span_needs_adaptive_control():
-    # the CLI has no backward span (--t-end >= 0); eci.solve integrates backward with rtol/atol only
-    with pytest.raises(ValueError, match=r"t_span\[1\] = -1 is before t_span\[0\] = 0: fixed steps run forward only"):
+def test_a_backward_span_of_a_model_needs_adaptive_control():
+    # the CLI has no backward span (--t-end >= 0); a built-in model runs backward with rtol/atol only (a Python fun
+    # also in fixed steps: test_solve_conventions.py)
+    with pytest.raises(ValueError, match=r"t_span\[1\] = -1 is before t_span\[0\] = 0: fixed steps of a built-in "
+                                         r"model run forward only"):
         eci.solve(M.ThreeWave(), (0.0, -1.0))
     assert eci.solve(M.ThreeWave(), (0.0, -1.0), rtol=1e-8, atol=1e-8).t[-1] == -1.0
 

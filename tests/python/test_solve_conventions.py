@@ -125,10 +125,35 @@ def test_backward_python_fun_with_t_eval_and_dense_output():
     assert np.max(np.abs(r.y - exact)) <= 1e-8
     tc = np.linspace(-2.0, 3.0, 101)
     assert np.max(np.abs(r.sol(tc) - np.vstack((np.sin(tc), np.cos(tc))))) <= 1e-8
-    with pytest.raises(ValueError, match="fixed steps run forward only"):
-        eci.solve(fun, (3.0, -2.0), y3, method="c-rk4", dt=0.1)
     with pytest.raises(ValueError, match="sorted in decreasing order"):
         eci.solve(fun, (3.0, -2.0), y3, t_eval=[-1.0, 0.0])
+
+
+@pytest.mark.parametrize("method, order", [("c-rk4", 4), ("rk4", 4), ("c-pc", 2)])
+def test_backward_fixed_steps_of_a_python_fun(method, order):
+    # y' = (y1, -y0) + (cos t, 0) backward from t = 3 to -2: a time-dependent fun, so the stage times matter; the
+    # order is measured against the run at dt / 8.
+    fun = lambda t, y: np.array([y[1] + math.cos(t), -y[0]])  # noqa: E731
+    y3 = np.array([math.sin(3.0), math.cos(3.0)])
+    runs = [eci.solve(fun, (3.0, -2.0), y3, method=method, dt=0.1 / 2 ** k) for k in range(4)]
+    for k, r in enumerate(runs):
+        dt = 0.1 / 2 ** k
+        assert r.status == 0 and r.t[0] == 3.0 and r.t[-1] == -2.0
+        assert r.t[1] == 3.0 - dt and r.t[2] == 3.0 - 2 * dt  # the grid t0 - i dt, as stepping with -dt
+        assert np.all(np.diff(r.t) < 0) and len(r.t) == round(5.0 / dt) + 1
+    errors = [np.max(np.abs(r.y[:, -1] - runs[-1].y[:, -1])) for r in runs[:-1]]
+    slopes = [math.log2(a / b) for a, b in zip(errors, errors[1:])]
+    assert min(slopes) >= order - 0.3, (errors, slopes)
+    # the same steps as a forward run of the time-reversed system, bit for bit (what stepping with -dt computes)
+    mirror = eci.solve(lambda s, y: -fun(3.0 - s, y), (0.0, 5.0), y3, method=method, dt=0.1)
+    np.testing.assert_array_equal(runs[0].y, mirror.y)
+    # conservative methods keep |y|^2 backward too when the system keeps it (the rotation alone)
+    rot = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    r = eci.solve(rot, (3.0, -2.0), y3, method=method, dt=0.01, t_eval=np.linspace(3.0, -2.0, 6),
+                  invariants={"E": lambda y: y @ y})
+    np.testing.assert_array_equal(r.t, np.linspace(3.0, -2.0, 6))
+    if method.startswith("c-"):
+        assert r.invariants["E"]["max_rel_drift"] <= drift_bound(r.stats["steps"])
 
 
 @pytest.mark.parametrize("method", ["c-bs32", "c-dp54", "c-f78"])
