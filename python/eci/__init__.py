@@ -179,8 +179,9 @@ _T_EVAL_MODES = ("auto", "dense", "landing")
 def _tolerance(value, name, n):
     """rtol or atol as (scalar, per-component list): a number >= 0 or one number >= 0 per component of y."""
     a = np.asarray(value)
-    if a.dtype.kind not in "biuf":
-        raise TypeError(f"{name} must be a real number or an array of them, not {type(value).__name__}")
+    if a.dtype.kind not in "iuf":  # a bool (True read as 1.0) is a mistake, as in _number
+        raise TypeError(f"{name} must be a real number or an array of them, not "
+                        f"{'bool' if a.dtype.kind == 'b' else type(value).__name__}")
     if a.ndim == 0:
         v = float(a)
         if not (v >= 0.0) or not math.isfinite(v):

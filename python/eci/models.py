@@ -8,6 +8,8 @@ set-ups are named presets: ThreeWave.preset("fig2").solve() is `eci run three-wa
 
 from collections import namedtuple
 
+import numpy as _np
+
 from ._eci import Kepler, LotkaVolterra, Model, ThreeWave
 from ._eci import NWave as _NWaveReal
 from ._eci import NWaveComplex as _NWaveComplex
@@ -56,6 +58,39 @@ def _preset(cls, name):
 for _cls in (ThreeWave, LotkaVolterra, Kepler, _NWaveReal, _NWaveComplex):
     _cls.presets = classmethod(_presets)
     _cls.preset = classmethod(_preset)
+
+
+def _is_bool(v):
+    if isinstance(v, (bool, _np.bool_)):
+        return True
+    if isinstance(v, (list, tuple)):
+        return any(_is_bool(x) for x in v)
+    return isinstance(v, _np.ndarray) and v.dtype.kind == "b"
+
+
+def _refuse_bools(cls, flags=()):
+    """A parameter given as True or False is a mistake the compiled constructor would read as 1 or 0 (nu=True as
+    a viscosity of 1, threads=True as one thread): refused with TypeError naming it. `flags` are the parameters
+    that are booleans (fftw_measure); with flags, positional arguments are not checked (their names are unknown)."""
+    init = cls.__init__
+
+    def __init__(self, *args, **kwargs):
+        given = ([] if flags else list(enumerate(args))) + [(k, v) for k, v in kwargs.items() if k not in flags]
+        for name, v in given:
+            if _is_bool(v):
+                what = f"argument {name + 1}" if isinstance(name, int) else name
+                raise TypeError(f"{cls.__name__}: {what} must be a number, not bool")
+        init(self, *args, **kwargs)
+
+    __init__.__doc__ = init.__doc__
+    cls.__init__ = __init__
+
+
+for _cls in (ThreeWave, LotkaVolterra, Kepler, _NWaveReal, _NWaveComplex):
+    _refuse_bools(_cls)
+for _name in ("NavierStokes2D", "CharneyHasegawaMima", "SurfaceQG"):
+    if _name in globals():
+        _refuse_bools(globals()[_name], flags=("fftw_measure",))
 
 
 def NWave(modes=30, triads_per_mode=20, seed=1, complex=False):

@@ -269,3 +269,24 @@ def test_ctrl_c_interrupts_a_long_run(kind, tmp_path):
     assert ran >= 0.9  # it was interrupted inside the integration, not before it
     # prompt: checked between steps (every 1-10 ms of run time with the GIL released); generous for a loaded CI
     assert latency < 2.0, latency
+
+
+@pytest.mark.parametrize("make", [
+    lambda: eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0], rtol=True),
+    lambda: eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0], atol=[np.True_]),
+    lambda: M.ThreeWave(K=True),
+    lambda: M.Kepler(ell=False),
+    lambda: M.NWave(modes=True),
+])
+def test_a_bool_is_not_a_number(make):
+    # issue 21, defect 16: True read as 1 (a tolerance of 1.0, one mode) is a mistake, refused by name
+    with pytest.raises(TypeError, match="not bool"):
+        make()
+
+
+@pytest.mark.skipif(not hasattr(M, "NavierStokes2D"), reason="built without eci::spectral")
+def test_a_bool_is_not_a_spectral_parameter_but_flags_are_bools():
+    for kwargs in ({"nu": True}, {"threads": True}, {"hyper_p": np.True_}):
+        with pytest.raises(TypeError, match="not bool"):
+            M.NavierStokes2D(n=16, **kwargs)
+    assert M.NavierStokes2D(n=16, fftw_measure=False).n == 16
