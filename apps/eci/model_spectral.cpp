@@ -480,17 +480,12 @@ int spectral_command::run(const run_settings& settings) {
     // The snapshot directory is created now if missing (and removed again if the run fails while it is empty); the
     // snapshots go into a staging directory inside it and are moved in only when the run has succeeded, so a run
     // that blows up or is stopped creates and replaces none of them (issue 21, defect 7).
-    struct created_dir {
-        std::string path;
-        ~created_dir() {
-            if (!path.empty()) ::rmdir(path.c_str());
-        }
-    } created_snapshot_dir;
+    std::optional<created_directory> created_snapshot_dir;
     std::optional<staging_dir> staged_snapshots;
     if (snapshot_every_ > 0) {
         const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
         if (::mkdir(dir.c_str(), 0777) == 0)
-            created_snapshot_dir.path = dir;
+            created_snapshot_dir.emplace(dir);
         else if (errno != EEXIST)
             throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " + std::strerror(errno));
         staged_snapshots.emplace(dir);
@@ -711,7 +706,7 @@ int spectral_command::run(const run_settings& settings) {
     if (std::FILE* j = json.get()) write_summary_json(j, s);
     commit_outputs({&csv, &json});
     if (staged_snapshots) staged_snapshots->commit();
-    created_snapshot_dir.path.clear();
+    if (created_snapshot_dir) created_snapshot_dir->keep();
     print_summary(stderr, s);
     return 0;
 }

@@ -49,7 +49,8 @@ std::atomic<pid_t> child_pid{0};
 // The watchdog's allowance after an interrupt (set_interrupt_grace), in microseconds.
 std::atomic<long long> grace_cpu_us{300000}, grace_wall_us{1000000};
 
-/// A path the handler removes on a forced exit: a file (kind 1) or a flat directory (kind 2).
+/// A path the handler removes on a forced exit: a file (kind 1), a flat directory (kind 2), or a directory the run
+/// created, if it is then empty (kind 3: after the others, which may have emptied it).
 struct cleanup_slot {
     std::atomic<int> kind{0};
     char path[PATH_MAX];
@@ -130,6 +131,8 @@ void write_stderr(const char* s) {
         if (kind == 1) ::unlink(c.path);
         if (kind == 2) remove_flat_dir_signal_safe(c.path);
     }
+    for (cleanup_slot& c : cleanup)
+        if (c.kind.load() == 3) ::rmdir(c.path);  // fails, as it should, if anything is left in it
     const int s = signal_number ? signal_number : SIGINT;
     write_stderr("eci: error: interrupted by ");
     write_stderr(signal_name(s));
@@ -890,6 +893,19 @@ int run_program(const std::string& program, const std::vector<std::string>& args
     }
     register_child(0);
     return WIFEXITED(status) ? WEXITSTATUS(status) : 128;
+}
+
+created_directory::created_directory(std::string path) : path_(std::move(path)), slot_(register_cleanup(path_, 3)) {}
+
+created_directory::~created_directory() {
+    if (!path_.empty()) ::rmdir(path_.c_str());
+    unregister_cleanup(slot_);
+}
+
+void created_directory::keep() {
+    unregister_cleanup(slot_);
+    slot_ = -1;
+    path_.clear();
 }
 
 scoped_temporary::scoped_temporary(std::string path) : path_(std::move(path)), slot_(register_cleanup(path_, 1)) {}

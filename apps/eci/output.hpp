@@ -182,6 +182,21 @@ void set_interrupt_grace(double cpu_seconds, double wall_seconds);
 /// the program could not be started, 128 if it died of a signal.
 int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet = true);
 
+/// A directory the run has just created: removed when this goes out of scope, and by the signal handler on a forced
+/// exit, if it is empty then (what the run wrote into it is removed first); keep() once the run has succeeded.
+class created_directory {
+   public:
+    explicit created_directory(std::string path);
+    ~created_directory();
+    created_directory(const created_directory&) = delete;
+    created_directory& operator=(const created_directory&) = delete;
+    void keep();
+
+   private:
+    std::string path_;
+    int slot_;
+};
+
 /// A file removed when this goes out of scope and, if the process is forced to exit by a signal, by the handler
 /// (a temporary another program reads, such as gnuplot's data).
 class scoped_temporary {
