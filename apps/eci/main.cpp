@@ -9,6 +9,9 @@
 #include <string_view>
 
 #include <CLI/CLI.hpp>
+#ifdef ECI_MPI
+#include <mpi.h>
+#endif
 #include <eci/integrate.hpp>
 #include <eci/registry.hpp>
 #include <eci/version.hpp>
@@ -252,7 +255,7 @@ int run_cli(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int main_inner(int argc, char** argv) {
     try {
         return run_cli(argc, argv);
     } catch (const bad_input& e) {
@@ -274,4 +277,21 @@ int main(int argc, char** argv) {
         print_error(e.what());
         return 1;
     }
+}
+
+int main(int argc, char** argv) {
+#ifdef ECI_MPI
+    // The MPI build: under mpirun the spectral equations run spread over the processes (model_spectral.cpp). Only
+    // rank 0 speaks: the others' messages (each process meets the same errors) go nowhere.
+    MPI_Init(&argc, &argv);
+    int rank = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    if (rank != 0 && !std::freopen("/dev/null", "w", stderr)) return 1;
+    const int status = main_inner(argc, argv);
+    std::fflush(stdout);
+    MPI_Finalize();
+    return status;
+#else
+    return main_inner(argc, argv);
+#endif
 }
