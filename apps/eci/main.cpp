@@ -11,6 +11,9 @@
 #include <CLI/CLI.hpp>
 #ifdef ECI_MPI
 #include <mpi.h>
+#include <sys/time.h>
+
+#include <csignal>
 #endif
 #include <eci/integrate.hpp>
 #include <eci/registry.hpp>
@@ -287,7 +290,21 @@ int main(int argc, char** argv) {
     int rank = 0;
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
     if (rank != 0 && !std::freopen("/dev/null", "w", stderr)) return 1;
-    const int status = main_inner(argc, argv);
+    int status = main_inner(argc, argv);
+    // Ctrl-C reaches mpirun alone, which sends every process SIGTERM: an interrupted run spread over processes
+    // exits 130 on every one (each has written its part of the checkpoint's agreement), whichever signal came.
+    int size = 1;
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    if (size > 1 && status > 128) status = 130;
+    if (size > 1) {
+        // The run is over (its checkpoint written): the interrupt watchdog and a second SIGTERM from mpirun must not
+        // cut MPI_Finalize short with another status.
+        itimerval off{};
+        ::setitimer(ITIMER_VIRTUAL, &off, nullptr);
+        ::setitimer(ITIMER_REAL, &off, nullptr);
+        std::signal(SIGINT, SIG_IGN);
+        std::signal(SIGTERM, SIG_IGN);
+    }
     std::fflush(stdout);
     MPI_Finalize();
     return status;

@@ -490,6 +490,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         p.comm = MPI_COMM_WORLD;
         wisdom_text.reset();  // (each process plans its own part; the MPI plans are not kept in a wisdom file)
         wisdom_path.clear();
+        p.wisdom.clear();  // (nor taken from a checkpoint: another process count plans other transforms)
     }
 #endif
     if (wisdom_text) navier_stokes_2d::import_fftw_wisdom(*wisdom_text);  // not wisdom: ignored, as FFTW did
@@ -605,6 +606,7 @@ int spectral_command::run_spread(const run_settings& settings) {
 
     ns2d_checkpoint run = restart ? ck : ns2d_checkpoint{};
     run.params = p;
+    run.keep_wisdom = !mpi.on;
     run.method = method;
     run.dt = dt;
     run.total_steps = last;
