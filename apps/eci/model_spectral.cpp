@@ -520,8 +520,14 @@ int spectral_command::run_spread(const run_settings& settings) {
     } catch (const std::invalid_argument& e) {
         throw bad_input(std::string("initial condition: ") + e.what());
     }
-    for (const auto& v : w)
-        if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) throw bad_input("initial condition is not finite");
+    {
+        // (each process checks its own modes; the verdict is every process's, so that all refuse together)
+        double bad = 0.0;
+        for (const auto& v : w)
+            if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) bad = 1.0;
+        model.grid().sum_over_ranks(&bad, 1);
+        if (bad != 0.0) throw bad_input("initial condition is not finite");
+    }
     {
         // E and Z below the smallest normal double lose their precision to subnormal arithmetic (and squares of
         // the modes underflow): refuse, as the other models' initial-state check does (issue 21, defect 14)
