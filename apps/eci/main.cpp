@@ -9,6 +9,12 @@
 #include <string_view>
 
 #include <CLI/CLI.hpp>
+#ifdef ECI_MPI
+#include <mpi.h>
+#include <sys/time.h>
+
+#include <csignal>
+#endif
 #include <eci/integrate.hpp>
 #include <eci/registry.hpp>
 #include <eci/version.hpp>
@@ -252,7 +258,7 @@ int run_cli(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
+int main_inner(int argc, char** argv) {
     try {
         return run_cli(argc, argv);
     } catch (const bad_input& e) {
@@ -274,4 +280,35 @@ int main(int argc, char** argv) {
         print_error(e.what());
         return 1;
     }
+}
+
+int main(int argc, char** argv) {
+#ifdef ECI_MPI
+    // The MPI build: under mpirun the spectral equations run spread over the processes (model_spectral.cpp). Only
+    // rank 0 speaks: the others' messages (each process meets the same errors) go nowhere.
+    MPI_Init(&argc, &argv);
+    int rank = 0;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    if (rank != 0 && !std::freopen("/dev/null", "w", stderr)) return 1;
+    int status = main_inner(argc, argv);
+    // Ctrl-C reaches mpirun alone, which sends every process SIGTERM: an interrupted run spread over processes
+    // exits 130 on every one (each has written its part of the checkpoint's agreement), whichever signal came.
+    int size = 1;
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    if (size > 1 && status > 128) status = 130;
+    if (size > 1) {
+        // The run is over (its checkpoint written): the interrupt watchdog and a second SIGTERM from mpirun must not
+        // cut MPI_Finalize short with another status.
+        itimerval off{};
+        ::setitimer(ITIMER_VIRTUAL, &off, nullptr);
+        ::setitimer(ITIMER_REAL, &off, nullptr);
+        std::signal(SIGINT, SIG_IGN);
+        std::signal(SIGTERM, SIG_IGN);
+    }
+    std::fflush(stdout);
+    MPI_Finalize();
+    return status;
+#else
+    return main_inner(argc, argv);
+#endif
 }

@@ -30,9 +30,78 @@
 #include "output.hpp"
 #include "run_model.hpp"
 
+#ifdef ECI_MPI
+#include <mpi.h>
+#endif
+
 namespace eci::cli {
 
 namespace {
+
+// ---- MPI (the MPI build under mpirun with more than one process): the run is spread over MPI_COMM_WORLD. Every
+// process validates the same input (the files are read by each); the verdict is agreed once, before the first
+// collective, so a bad input exits 2 on every process with nothing written. From there every decision is global
+// (the model's sums are reduced in rank order, the stop flag is agreed once per step), and only rank 0 writes:
+// CSV, JSON, progress, the snapshots and the checkpoint (the whole field gathered, the serial layout). A write
+// failing on rank 0 alone aborts every process (MPI_Abort) rather than leave them waiting.
+struct mpi_run {
+    bool on = false;  // more than one process
+    int rank = 0, size = 1;
+    bool agreed = false;  // the input verdict has been agreed
+};
+mpi_run mpi;
+
+void mpi_setup() {
+#ifdef ECI_MPI
+    int init = 0;
+    MPI_Initialized(&init);
+    if (!init) return;
+    MPI_Comm_rank(MPI_COMM_WORLD, &mpi.rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &mpi.size);
+    mpi.on = mpi.size > 1;
+#endif
+}
+
+// Whether any process found the input bad (collective: every process calls it exactly once, from the normal flow
+// or from the error path of run()).
+bool mpi_any_bad([[maybe_unused]] bool bad) {
+#ifdef ECI_MPI
+    if (!mpi.on || mpi.agreed) return bad;
+    mpi.agreed = true;
+    int mine = bad ? 1 : 0, any = 0;
+    MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+    return any != 0;
+#else
+    return bad;
+#endif
+}
+
+// The interrupt flag agreed over every process (collective; the flag alone on one process).
+bool stop_requested() {
+#ifdef ECI_MPI
+    if (mpi.on) {
+        int mine = interrupt_requested() ? 1 : 0, any = 0;
+        MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
+        return any != 0;
+    }
+#endif
+    return interrupt_requested();
+}
+
+// fn() on rank 0 only (every process on one); a failure there ends every process.
+template <class Fn>
+void on_root(Fn&& fn) {
+    if (mpi.rank != 0) return;
+    if (!mpi.on) return fn();
+    try {
+        fn();
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "eci: error: %s\n", e.what());
+#ifdef ECI_MPI
+        MPI_Abort(MPI_COMM_WORLD, 1);
+#endif
+    }
+}
 
 using state = navier_stokes_2d::state_type;
 
@@ -107,6 +176,7 @@ class spectral_command final : public model_command {
     int run(const run_settings& settings) override;
 
    private:
+    int run_spread(const run_settings& settings);
     void real(const char* name, const std::string& help) {
         helps_.push_back(std::make_unique<std::string>(help));
         reals_.push_back(std::make_unique<std::vector<double>>(1, 0.0));
@@ -192,6 +262,18 @@ ns2d_forcing parse_forcing(const std::string& s) {
 }
 
 int spectral_command::run(const run_settings& settings) {
+    mpi_setup();
+    if (!mpi.on) return run_spread(settings);
+    try {
+        return run_spread(settings);
+    } catch (...) {
+        // an error before the verdict was agreed: this process's part of it (the others get theirs there)
+        if (!mpi.agreed) mpi_any_bad(true);
+        throw;
+    }
+}
+
+int spectral_command::run_spread(const run_settings& settings) {
     // ---- options this command has no use for are refused, not ignored (issue 21, defect 10)
     if (settings.rtol || settings.atol)
         throw bad_input(name_ + " runs fixed steps (the spectral methods have no error estimate): --rtol and --atol "
@@ -413,6 +495,20 @@ int spectral_command::run(const run_settings& settings) {
                             std::to_string(p.n));
     }
 
+    if (mpi.on && mpi.size > p.n)
+        throw bad_input(std::to_string(mpi.size) + " MPI processes for N = " + std::to_string(p.n) +
+                        ": at most one process per grid row");
+    // every process has checked the same input: one verdict for all, before the first collective
+    if (mpi_any_bad(false))
+        throw bad_input("the input was refused on another MPI process (its file system or files differ?)");
+#ifdef ECI_MPI
+    if (mpi.on) {
+        p.comm = MPI_COMM_WORLD;
+        wisdom_text.reset();  // (each process plans its own part; the MPI plans are not kept in a wisdom file)
+        wisdom_path.clear();
+        p.wisdom.clear();  // (nor taken from a checkpoint: another process count plans other transforms)
+    }
+#endif
     if (wisdom_text) navier_stokes_2d::import_fftw_wisdom(*wisdom_text);  // not wisdom: ignored, as FFTW did
     navier_stokes_2d model = [&] {
         try {
@@ -440,8 +536,14 @@ int spectral_command::run(const run_settings& settings) {
     } catch (const std::invalid_argument& e) {
         throw bad_input(std::string("initial condition: ") + e.what());
     }
-    for (const auto& v : w)
-        if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) throw bad_input("initial condition is not finite");
+    {
+        // (each process checks its own modes; the verdict is every process's, so that all refuse together)
+        double bad = 0.0;
+        for (const auto& v : w)
+            if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) bad = 1.0;
+        model.grid().sum_over_ranks(&bad, 1);
+        if (bad != 0.0) throw bad_input("initial condition is not finite");
+    }
     {
         // E and Z below the smallest normal double lose their precision to subnormal arithmetic (and squares of
         // the modes underflow): refuse, as the other models' initial-state check does (issue 21, defect 14)
@@ -482,16 +584,22 @@ int spectral_command::run(const run_settings& settings) {
     // that blows up or is stopped creates and replaces none of them (issue 21, defect 7).
     std::optional<created_directory> created_snapshot_dir;
     std::optional<staging_dir> staged_snapshots;
-    if (snapshot_every_ > 0) {
-        const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
-        if (::mkdir(dir.c_str(), 0777) == 0)
-            created_snapshot_dir.emplace(dir);
-        else if (errno != EEXIST)
-            throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " + std::strerror(errno));
-        staged_snapshots.emplace(dir);
-    }
-    output_file csv = settings.output.empty() ? output_file() : output_file(settings.output, "CSV output");
-    output_file json = settings.summary_json.empty() ? output_file() : output_file(settings.summary_json, "summary JSON");
+    std::optional<output_file> csv_file, json_file;
+    on_root([&] {
+        if (snapshot_every_ > 0) {
+            const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
+            if (::mkdir(dir.c_str(), 0777) == 0)
+                created_snapshot_dir.emplace(dir);
+            else if (errno != EEXIST)
+                throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " + std::strerror(errno));
+            staged_snapshots.emplace(dir);
+        }
+        if (!settings.output.empty()) csv_file.emplace(settings.output, "CSV output");
+        if (!settings.summary_json.empty()) json_file.emplace(settings.summary_json, "summary JSON");
+    });
+    output_file no_csv, no_json;
+    output_file& csv = csv_file ? *csv_file : no_csv;
+    output_file& json = json_file ? *json_file : no_json;
     // The wisdom (the model's plans), now that the input is known to be good; the default cache's directory is made
     // here, and a cache that cannot be written is no error.
     if (!wisdom_path.empty()) {
@@ -515,6 +623,7 @@ int spectral_command::run(const run_settings& settings) {
 
     ns2d_checkpoint run = restart ? ck : ns2d_checkpoint{};
     run.params = p;
+    run.keep_wisdom = !mpi.on;
     run.method = method;
     run.dt = dt;
     run.total_steps = last;
@@ -529,11 +638,14 @@ int spectral_command::run(const run_settings& settings) {
                     "_budget_residual," + inv_[1] + "_budget_residual,max_velocity,cfl,halvings\n")
                        .c_str(),
                    out);
+    const bool rows_wanted = !settings.output.empty();  // (the same on every process; `out` is rank 0's)
     auto row = [&](std::uint64_t i) {
         const double e = model.energy(w), z = model.enstrophy(w), u = model.max_velocity(w);
+        const double pal = model.palinstrophy(w);
         const ns2d_budget& b = run.budget;
+        if (!out) return;
         std::fprintf(out, "%llu,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%llu\n", (unsigned long long)i,
-                     num(double(i) * dt).c_str(), num(e).c_str(), num(z).c_str(), num(model.palinstrophy(w)).c_str(),
+                     num(double(i) * dt).c_str(), num(e).c_str(), num(z).c_str(), num(pal).c_str(),
                      num(b.energy_injection).c_str(), num(b.energy_dissipation).c_str(),
                      num(b.enstrophy_injection).c_str(), num(b.enstrophy_dissipation).c_str(),
                      num(e - run.energy0 - (b.energy_injection - b.energy_dissipation)).c_str(),
@@ -543,19 +655,22 @@ int spectral_command::run(const run_settings& settings) {
     auto snapshot = [&](std::uint64_t i) {
         char stem[32];
         std::snprintf(stem, sizeof stem, "%08llu", (unsigned long long)i);
-        const std::string base = staged_snapshots->path() + "/", t = num(double(i) * dt);
+        // the field, spectra and fluxes on every process (collective), the files on rank 0
         const std::vector<double> field = model.to_physical(w);
-        write_snapshot_h5(base + stem_ + "_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
-        if (!plot_vorticity_png(base + stem_ + "_" + stem + ".png", p.n, field, double(i) * dt, field_,
-                                std::string(eq_.symbol)) &&
-            !warned_ && !interrupt_requested()) {
-            std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
-            warned_ = true;
-        }
         const spectral::flow_fluxes pi = model.fluxes(w);
-        write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
-                       {model.energy_spectrum(w), model.enstrophy_spectrum(w), pi.energy, pi.enstrophy},
-                       double(i) * dt);
+        const std::vector<double> es = model.energy_spectrum(w), zs = model.enstrophy_spectrum(w);
+        on_root([&] {
+            const std::string base = staged_snapshots->path() + "/";
+            write_snapshot_h5(base + stem_ + "_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
+            if (!plot_vorticity_png(base + stem_ + "_" + stem + ".png", p.n, field, double(i) * dt, field_,
+                                    std::string(eq_.symbol)) &&
+                !warned_ && !interrupt_requested()) {
+                std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
+                warned_ = true;
+            }
+            write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
+                           {es, zs, pi.energy, pi.enstrophy}, double(i) * dt);
+        });
     };
     // Ctrl-C finishes the step under way and writes the checkpoint. On a large grid one step takes longer than the
     // signal handler's default allowance (0.3 s of CPU), so the run tells it how long a step and a checkpoint
@@ -581,9 +696,9 @@ int spectral_command::run(const run_settings& settings) {
     auto save = [&](std::uint64_t i) {
         const double c0 = cpu_now(), w0 = wall_now();
         run.step = i;
-        run.state = model.to_half_plane(w);
+        run.state = model.to_half_plane(w);  // (the whole half plane, gathered on every process)
         run.rng_state = model.rng_state();
-        write_checkpoint(checkpoint_, run);
+        on_root([&] { write_checkpoint(checkpoint_, run); });
         save_cpu = std::max(save_cpu, cpu_now() - c0), save_wall = std::max(save_wall, wall_now() - w0);
         update_grace();
     };
@@ -593,7 +708,7 @@ int spectral_command::run(const run_settings& settings) {
     std::uint64_t good_checkpoint = restart ? first : std::numeric_limits<std::uint64_t>::max();
     state w_prev;
     const bool found = with_ns2d_method(method, [&](auto stepper) {
-        if (out) row(first);
+        if (rows_wanted) row(first);
         if (snapshot_every_ > 0 && !restart) snapshot(first);
         for (std::uint64_t i = first + 1; i <= last; ++i) {
             const double e0 = model.energy(w), z0 = model.enstrophy(w);
@@ -603,7 +718,7 @@ int spectral_command::run(const run_settings& settings) {
             const std::uint64_t rng_prev = model.rng_state();
             const double c0 = cpu_now(), w0 = wall_now();
             try {
-                ns2d_step(stepper, model, w, double(i - 1) * dt, dt, b, stats, 40, &interrupt_requested);
+                ns2d_step(stepper, model, w, double(i - 1) * dt, dt, b, stats, 40, &stop_requested);
                 if (i == first + 1) step_cpu = step_wall = 0.0;  // measured from now on, not estimated
                 step_cpu = std::max(step_cpu, cpu_now() - c0), step_wall = std::max(step_wall, wall_now() - w0);
                 update_grace();
@@ -650,7 +765,7 @@ int spectral_command::run(const run_settings& settings) {
                 std::abs(z1 - z0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
             run.max_energy_drift = std::max(run.max_energy_drift, std::abs(e1 - run.energy0));
             run.max_enstrophy_drift = std::max(run.max_enstrophy_drift, std::abs(z1 - run.enstrophy0));
-            if (out && (i % settings.every == 0 || i == last)) row(i);
+            if (rows_wanted && (i % settings.every == 0 || i == last)) row(i);
             if (snapshot_every_ > 0 && (i % snapshot_every_ == 0 || i == last)) snapshot(i);
             if (checkpoint_every_ > 0 && (i % checkpoint_every_ == 0 || i == last)) {
                 save(i);
@@ -660,13 +775,14 @@ int spectral_command::run(const run_settings& settings) {
                 // drift from the exact budget (pure drift when nothing is forced or dissipated)
                 const ns2d_budget& b = run.budget;
                 char line[160];
+                // (max |u| is collective on MPI, and the bar is drawn on rank 0's clock: no CFL there)
                 std::snprintf(line, sizeof line, " step %llu  CFL %.3g  E drift %.2g  Z drift %.2g ",
-                              (unsigned long long)i, model.cfl(w, dt),
+                              (unsigned long long)i, mpi.on ? std::nan("") : model.cfl(w, dt),
                               (e1 - run.energy0 - (b.energy_injection - b.energy_dissipation)) / e1,
                               (z1 - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
                 return std::string(line);
             });
-            if (interrupt_requested()) {
+            if (stop_requested()) {
                 progress.finish();
                 save(i);
                 throw interrupted("interrupted at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
@@ -703,11 +819,13 @@ int spectral_command::run(const run_settings& settings) {
                  {"final_cfl", model.cfl(w, dt)}};
     // Both outputs complete before either replaces anything (a failed or interrupted run keeps its checkpoint, not a
     // partial time series).
-    if (std::FILE* j = json.get()) write_summary_json(j, s);
-    commit_outputs({&csv, &json});
-    if (staged_snapshots) staged_snapshots->commit();
-    if (created_snapshot_dir) created_snapshot_dir->keep();
-    print_summary(stderr, s);
+    on_root([&] {
+        if (std::FILE* j = json.get()) write_summary_json(j, s);
+        commit_outputs({&csv, &json});
+        if (staged_snapshots) staged_snapshots->commit();
+        if (created_snapshot_dir) created_snapshot_dir->keep();
+        print_summary(stderr, s);
+    });
     return 0;
 }
 

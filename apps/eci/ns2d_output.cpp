@@ -257,7 +257,7 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
         put(f, "time", double(c.step) * c.dt);
         put(f, "total_steps", c.total_steps);
         put(f, "rng_state", c.rng_state);
-        put(f, "fftw_wisdom", navier_stokes_2d::fftw_wisdom());
+        put(f, "fftw_wisdom", c.keep_wisdom ? navier_stokes_2d::fftw_wisdom() : std::string());
         put(f, "halvings", c.halvings);
         put(f, "rhs_evals", c.rhs_evals);
         put(f, "energy_injection", c.budget.energy_injection);

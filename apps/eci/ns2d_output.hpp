@@ -20,6 +20,9 @@ struct ns2d_checkpoint {
     std::uint64_t total_steps = 0;    ///< steps the run was asked for
     std::uint64_t rng_state = 0;
     navier_stokes_2d::state_type state;  ///< FFTW's half plane (flow2d::to_half_plane), the file's layout
+    /// Store the process's FFTW wisdom (the plans, for a bit-identical restart); false for a run spread over MPI
+    /// processes, whose MPI plans' wisdom a process without FFTW's MPI solvers could not read.
+    bool keep_wisdom = true;
     // statistics
     std::uint64_t halvings = 0, rhs_evals = 0;
     ns2d_budget budget;               ///< cumulative since step 0

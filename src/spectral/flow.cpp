@@ -16,6 +16,14 @@ void require(bool ok, const std::string& what) {
     if (!ok) throw std::invalid_argument(what);
 }
 
+grid_options grid_options_of(const flow_params& p) {
+    grid_options o{p.n, 4, p.threads, p.measure, p.pruned_transforms, p.wisdom_file, p.wisdom};
+#ifdef ECI_MPI
+    o.comm = p.comm;
+#endif
+    return o;
+}
+
 }  // namespace
 
 void flow_params::validate() const { validate(find_equation(equation)); }
@@ -45,7 +53,14 @@ struct flow2d::impl {
     bool dispersive = false;
 
     int kmax = 0, rows = 0;
-    std::size_t kept = 0, nc = 0;  // the state's row length kmax + 1, the grid's n/2 + 1
+    std::size_t kept = 0, nc = 0;  // the state's row length kmax + 1 (on MPI: this process's), the grid's n/2 + 1
+    int c0 = 0;                    // k_x of the state's (and the grid's local) first column
+    std::size_t rs = 0, cs = 0;    // the grid's spectral index of (row, column c): row rs + c cs (grid::at)
+    // the forced band's modes in the order of the whole state (rows, then k_x), and where each is held in this
+    // process's state (npos: another process's); the forcing is drawn over all of them, so it is the same at any
+    // number of processes
+    std::vector<std::size_t> band;
+    static constexpr std::size_t npos = std::size_t(-1);
 
     // The grid's row of the state's row r.
     std::size_t full_row(int r) const { return std::size_t(r <= kmax ? r : r + g.n() - rows); }
@@ -54,17 +69,20 @@ struct flow2d::impl {
     // k and -k on the k_x = 0 column exact conjugates (a real field's transform is so only up to round-off), so the
     // state stays the transform of a real field bit for bit.
     void hermitian(cplx* q) const {
+        if (c0 != 0 || kept == 0) return;  // the k_x = 0 column is another process's
         for (int r = 1; r <= kmax; ++r) q[std::size_t(rows - r) * kept] = std::conj(q[std::size_t(r) * kept]);
         q[0] = q[0].real();
     }
 
     impl(const flow_params& p_, const equation& e)
-        : p(p_), eq(&e), g(grid_options{p_.n, 4, p_.threads, p_.measure,
-                                        p_.pruned_transforms, p_.wisdom_file, p_.wisdom}),
+        : p(p_), eq(&e), g(grid_options_of(p_)),
           kmax(g.kmax()),
           rows(2 * g.kmax() + 1),
-          kept(std::size_t(g.kmax()) + 1),
-          nc(std::size_t(g.columns())) {}
+          kept(std::size_t(std::clamp(g.kmax() + 1 - g.first_column(), 0, g.local_columns()))),
+          nc(std::size_t(g.columns())),
+          c0(g.first_column()),
+          rs(g.distributed() ? 1 : nc),
+          cs(g.distributed() ? std::size_t(g.n()) : 1) {}
 
     // The streamfunction's velocity (u, v) = (-i k_y psi, i k_x psi) of q into scratch fields 0 and 1 (and, for the
     // advective form, i k_x q and i k_y q into 2 and 3), zero outside the retained square; a transform overwrites
@@ -74,6 +92,7 @@ struct flow2d::impl {
         cplx* f[4] = {g.spectral(0), g.spectral(1), fields > 2 ? g.spectral(2) : nullptr,
                       fields > 2 ? g.spectral(3) : nullptr};
         const double* av = a.data();
+        if (g.distributed()) return fill_columns(q, fields, f);
         const std::size_t end = all_columns || !g.pruned() ? nc : kept;
         const int n = g.n();
         g.for_rows([&](int r0, int r1) {
@@ -101,6 +120,37 @@ struct flow2d::impl {
                 for (int j = 0; j < fields; ++j) std::fill(f[j] + i0 + (in ? kept : 0), f[j] + i0 + end, cplx{});
             }
         }, n);
+    }
+
+    // fill() on a grid spread over processes: this process's columns of the transposed layout, each a column of
+    // n modes (k_x = c0 + c), every mode written (the MPI transforms read them all).
+    void fill_columns(const cplx* q, int fields, cplx* const* f) {
+        const int n = g.n(), local = g.local_columns();
+        if (local == 0) return;
+        const double* av = a.data();
+        g.for_rows([&](int l0, int l1) {
+            for (int c = l0; c < l1; ++c) {
+                const double kx = double(c0 + c);
+                const bool col_in = std::size_t(c) < kept;
+                for (int row = 0; row < n; ++row) {
+                    const std::size_t i = std::size_t(c) * std::size_t(n) + std::size_t(row);
+                    const int ky_i = g.ky_of_row(row);
+                    if (!col_in || ky_i > kmax || -ky_i > kmax) {
+                        for (int j = 0; j < fields; ++j) f[j][i] = cplx{};
+                        continue;
+                    }
+                    const std::size_t k = std::size_t(ky_i >= 0 ? ky_i : ky_i + rows) * kept + std::size_t(c);
+                    const double ky = ky_i, re = q[k].real(), im = q[k].imag();
+                    const double pr = av[k] * re, pi = av[k] * im;
+                    f[0][i] = cplx(ky * pi, -ky * pr);
+                    f[1][i] = cplx(-kx * pi, kx * pr);
+                    if (fields > 2) {
+                        f[2][i] = cplx(-kx * im, kx * re);
+                        f[3][i] = cplx(-ky * im, ky * re);
+                    }
+                }
+            }
+        }, local);
     }
 
     // The transforms of the nonlinear term, leaving in the scratch fields what nl_at() reads.
@@ -141,11 +191,12 @@ struct flow2d::impl {
         g.for_rows([&](int r0, int r1) {
             for (int r = r0; r < r1; ++r) {
                 const double ky = ky_of(r);
-                const std::size_t j0 = full_row(r) * nc, i0 = std::size_t(r) * kept;
-                for (std::size_t col = 0; col < kept; ++col) dst[i0 + col] = nl_at<F>(j0 + col, double(col), ky, scale);
+                const std::size_t j0 = full_row(r) * rs, i0 = std::size_t(r) * kept;
+                for (std::size_t col = 0; col < kept; ++col)
+                    dst[i0 + col] = nl_at<F>(j0 + col * cs, double(c0 + int(col)), ky, scale);
             }
         }, rows);
-        dst[0] = 0.0;  // k = 0
+        if (c0 == 0 && kept > 0) dst[0] = 0.0;  // k = 0
         hermitian(dst);
     }
 };
@@ -156,9 +207,11 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
     p.validate(e);
     d_ = std::make_unique<impl>(p, e);
     impl& d = *d_;
+    col0_ = d.c0;
+    cols_ = int(d.kept);
     const std::size_t m = size();
     weights_.assign(m, 0.0);
-    for (std::size_t i = 1; i < m; ++i) weights_[i] = kx(i) == 0 ? 1.0 : 2.0;
+    for (std::size_t i = 0; i < m; ++i) weights_[i] = kx(i) == 0 ? (ky(i) == 0 ? 0.0 : 1.0) : 2.0;
     d.a.assign(m, 0.0);
     d.ea.assign(m, 0.0);
     d.lin.assign(m, 0.0);
@@ -180,15 +233,22 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
                     " (viscosity, hyperviscosity, hypoviscosity, drag or beta too large for N = " +
                     std::to_string(p.n) + ")");
     }
-    // The forced band k_f - 1/2 <= |k| < k_f + 1/2, retained modes only.
+    // The forced band k_f - 1/2 <= |k| < k_f + 1/2, retained modes only: over the whole state (in its order), so
+    // that every process knows the band and the sums are those of one process.
     double band_count = 0.0, band_energy_weight = 0.0;
-    for (std::size_t i = 0; i < m; ++i) {
-        const double k = std::sqrt(double(kx(i)) * kx(i) + double(ky(i)) * ky(i));
-        if (!retained(i) || k < p.forcing_k - 0.5 || k >= p.forcing_k + 0.5) continue;
-        d.sigma[i] = 1.0;
-        band_count += weights_[i];
-        band_energy_weight += weights_[i] * d.ea[i];
-    }
+    const int K = kmax();
+    for (int r = 0; r < rows(); ++r)
+        for (int x = 0; x <= K; ++x) {
+            const int y = r <= K ? r : r - rows();
+            const double k = std::sqrt(double(x) * x + double(y) * y);
+            if ((x == 0 && y == 0) || k < p.forcing_k - 0.5 || k >= p.forcing_k + 0.5) continue;
+            const double w = x == 0 ? 1.0 : 2.0;
+            band_count += w;
+            band_energy_weight += w * std::abs(e.inversion(p, x, y));
+            const bool mine = owns_column(x);
+            d.band.push_back(mine ? index(x, y) : impl::npos);
+            if (mine) d.sigma[index(x, y)] = 1.0;
+        }
     if (p.forcing != forcing_kind::none)
         require(band_count > 0.0, "the forcing band |k| = " + std::to_string(p.forcing_k) +
                                       " +- 1/2 holds no retained mode (kmax = " + std::to_string(kmax()) + ")");
@@ -197,10 +257,9 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
         // Fixed random phases; rms of the forcing field sum_full |F_k|^2 = amplitude^2.
         std::uint64_t s = p.forcing_seed;
         const double amp = p.forcing_amplitude / std::sqrt(band_count);
-        for (std::size_t i = 0; i < m; ++i) {
-            if (d.sigma[i] == 0.0) continue;
+        for (std::size_t i : d.band) {
             const double phase = 2.0 * std::numbers::pi * uniform(s);
-            d.force[i] = std::polar(amp, phase);
+            if (i != impl::npos) d.force[i] = std::polar(amp, phase);
         }
         d.hermitian(d.force.data());
     } else if (p.forcing == forcing_kind::stochastic) {
@@ -277,7 +336,7 @@ namespace {
 template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
 std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cplx* f) {
     const spectral::grid& g = d.g;
-    const std::size_t nc = d.nc, kept = d.kept;
+    const std::size_t kept = d.kept;
     const double scale = 1.0 / double(g.points());
     const double* wt = m.weights().data();
     const double* lin = d.lin.data();
@@ -287,10 +346,11 @@ std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cp
     return g.template sum_rows<6>([&](int r0, int r1, std::array<double, 6>& acc) {
         for (int r = r0; r < r1; ++r) {
             const double ky = d.ky_of(r);
-            const std::size_t j0 = d.full_row(r) * nc, i0 = std::size_t(r) * kept;
+            const std::size_t j0 = d.full_row(r) * d.rs, i0 = std::size_t(r) * kept, cs = d.cs;
             for (std::size_t col = 0; col < kept; ++col) {
                 const std::size_t i = i0 + col;
-                const cplx nk = wt[i] != 0.0 ? d.template nl_at<F>(j0 + col, double(col), ky, scale) : cplx{};
+                const cplx nk =
+                    wt[i] != 0.0 ? d.template nl_at<F>(j0 + col * cs, double(d.c0 + int(col)), ky, scale) : cplx{};
                 cplx v = nk + lin[i] * x[i];
                 if constexpr (Dispersive) v += cplx(-disp[i] * x[i].imag(), disp[i] * x[i].real());
                 if constexpr (Forced) v += Fk[i];
@@ -337,6 +397,7 @@ void flow2d::operator()(const state_type& q, state_type& dqdt, double /*t*/) {
     else
         s = rhs_dispatch<nonlinear_form::advective, true>(*this, d, q.data(), dqdt.data(), forced, recording_);
     d.hermitian(dqdt.data());
+    if (recording_) d.g.sum_over_ranks(s.data(), s.size());  // (recording is on or off on every process alike)
     if (recording_ && recorded_count_ < recorded_.size())
         recorded_[recorded_count_++] = {s[0], s[1], s[2], s[3], s[4], s[5]};
 }
@@ -364,27 +425,33 @@ void flow2d::start_recording() {
 double flow2d::energy(const state_type& q) const {
     const std::size_t nc = std::size_t(columns());
     const double* ea = d_->ea.data();
-    return 0.5 * d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
+    auto s = d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
         for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i)
             acc[0] += weights_[i] * ea[i] * std::norm(q[i]);
-    }, rows())[0];
+    }, rows());
+    d_->g.sum_over_ranks(s.data(), 1);
+    return 0.5 * s[0];
 }
 
 double flow2d::enstrophy(const state_type& q) const {
     const std::size_t nc = std::size_t(columns());
-    return 0.5 * d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
+    auto s = d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
         for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i) acc[0] += weights_[i] * std::norm(q[i]);
-    }, rows())[0];
+    }, rows());
+    d_->g.sum_over_ranks(s.data(), 1);
+    return 0.5 * s[0];
 }
 
 double flow2d::palinstrophy(const state_type& q) const {
     const std::size_t nc = std::size_t(columns());
-    return 0.5 * d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
+    auto s = d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
         for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i) {
             const double x = kx(i), y = ky(i);
             acc[0] += weights_[i] * (x * x + y * y) * std::norm(q[i]);
         }
-    }, rows())[0];
+    }, rows());
+    d_->g.sum_over_ranks(s.data(), 1);
+    return 0.5 * s[0];
 }
 
 double flow2d::max_velocity(const state_type& q) {
@@ -395,9 +462,10 @@ double flow2d::max_velocity(const state_type& q) {
     const double* u = d.g.physical(0);
     const double* v = d.g.physical(1);
     double vmax = 0.0;
-    for (std::size_t y = 0; y < std::size_t(n_); ++y)
+    for (std::size_t y = 0; y < std::size_t(d.g.local_rows()); ++y)
         for (std::size_t j = y * d.g.padded(); j < y * d.g.padded() + std::size_t(n_); ++j)
             vmax = std::max(vmax, u[j] * u[j] + v[j] * v[j]);
+    d.g.max_over_ranks(&vmax, 1);
     return std::sqrt(vmax);
 }
 
@@ -406,8 +474,9 @@ double flow2d::cfl(const state_type& q, double dt) { return max_velocity(q) * dt
 template <class Value>
 std::vector<double> flow2d::shells(Value value) const {
     std::vector<double> e(d_->g.shell_count(), 0.0);
-    for (std::size_t i = 1; i < size(); ++i)
-        e[std::size_t(std::lround(std::hypot(double(kx(i)), double(ky(i)))))] += value(i);
+    for (std::size_t i = 0; i < size(); ++i)
+        if (weights_[i] != 0.0) e[std::size_t(std::lround(std::hypot(double(kx(i)), double(ky(i)))))] += value(i);
+    d_->g.sum_over_ranks(e.data(), e.size());
     return e;
 }
 
@@ -437,16 +506,86 @@ flow_fluxes flow2d::fluxes(const state_type& q) {
 }
 
 flow2d::state_type flow2d::from_physical(std::span<const double> field) {
-    return from_half_plane(d_->g.from_physical(field));
+    const spectral::grid& g = d_->g;
+    if (!g.distributed()) return from_half_plane(g.from_physical(field));
+    // this process's rows of the field, forward, and its retained modes of the transposed layout
+    if (field.size() != g.points())
+        throw std::invalid_argument("field has " + std::to_string(field.size()) + " values, the grid " +
+                                    std::to_string(g.points()));
+    double* r = g.physical(0);
+    for (int y = 0; y < g.local_rows(); ++y) {
+        const auto src = field.begin() + std::ptrdiff_t(g.first_row() + y) * n_;
+        std::copy(src, src + n_, r + std::size_t(y) * g.padded());
+        std::fill(r + std::size_t(y) * g.padded() + std::size_t(n_), r + std::size_t(y + 1) * g.padded(), 0.0);
+    }
+    g.forward(0, 1);
+    const double scale = 1.0 / double(g.points());
+    state_type q(size());
+    for (std::size_t i = 0; i < size(); ++i) {
+        const int row = int(i / std::size_t(cols_));
+        q[i] = scale * g.spectral(0)[g.at(int(d_->full_row(row)), int(i % std::size_t(cols_)))];
+    }
+    if (col0_ == 0 && cols_ > 0) q[0] = 0.0;
+    d_->hermitian(q.data());
+    return q;
 }
 
 std::vector<double> flow2d::to_physical(const state_type& q) {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
-    return d_->g.to_physical(to_half_plane(q).data());
+    const spectral::grid& g = d_->g;
+    if (!g.distributed()) return g.to_physical(to_half_plane(q).data());
+#ifdef ECI_MPI
+    // this process's columns into the transposed layout (zero elsewhere), inverse, every process's rows gathered
+    cplx* f = g.spectral(0);
+    std::fill(f, f + std::size_t(g.local_columns()) * std::size_t(n_), cplx{});
+    for (std::size_t i = 0; i < size(); ++i) {
+        const int row = int(i / std::size_t(cols_));
+        f[g.at(int(d_->full_row(row)), int(i % std::size_t(cols_)))] = q[i];
+    }
+    g.inverse(1);
+    std::vector<double> mine(std::size_t(g.local_rows()) * std::size_t(n_));
+    for (int y = 0; y < g.local_rows(); ++y)
+        std::copy_n(g.physical(0) + std::size_t(y) * g.padded(), n_, mine.begin() + std::ptrdiff_t(y) * n_);
+    const int P = g.ranks(), count = int(mine.size());
+    std::vector<int> counts(static_cast<std::size_t>(P)), offsets(static_cast<std::size_t>(P));
+    MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, g.comm());
+    for (int k = 1; k < P; ++k) offsets[std::size_t(k)] = offsets[std::size_t(k - 1)] + counts[std::size_t(k - 1)];
+    std::vector<double> out(g.points());
+    MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, out.data(), counts.data(), offsets.data(), MPI_DOUBLE, g.comm());
+    return out;
+#else
+    return {};
+#endif
 }
 
 flow2d::state_type flow2d::to_half_plane(const state_type& q) const {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+#ifdef ECI_MPI
+    if (d_->g.distributed()) {
+        // every process's columns gathered (with where they start), then laid out in the half plane
+        const spectral::grid& g = d_->g;
+        const int P = g.ranks();
+        int mine[2] = {col0_, cols_};
+        std::vector<int> cols(2 * static_cast<std::size_t>(P));
+        MPI_Allgather(mine, 2, MPI_INT, cols.data(), 2, MPI_INT, g.comm());
+        std::vector<int> counts(static_cast<std::size_t>(P)), offsets(static_cast<std::size_t>(P));
+        for (int k = 0; k < P; ++k) {
+            counts[std::size_t(k)] = 2 * rows() * cols[2 * std::size_t(k) + 1];
+            if (k > 0) offsets[std::size_t(k)] = offsets[std::size_t(k - 1)] + counts[std::size_t(k - 1)];
+        }
+        std::vector<cplx> all(std::size_t(offsets.back() + counts.back()) / 2);
+        MPI_Allgatherv(q.data(), 2 * int(q.size()), MPI_DOUBLE, reinterpret_cast<double*>(all.data()),
+                       counts.data(), offsets.data(), MPI_DOUBLE, g.comm());
+        state_type h(g.size());
+        for (int k = 0; k < P; ++k) {
+            const std::size_t c0 = std::size_t(cols[2 * std::size_t(k)]), lc = std::size_t(cols[2 * std::size_t(k) + 1]);
+            const cplx* part = all.data() + offsets[std::size_t(k)] / 2;
+            for (int r = 0; r < rows(); ++r)
+                for (std::size_t c = 0; c < lc; ++c) h[d_->full_row(r) * d_->nc + c0 + c] = part[std::size_t(r) * lc + c];
+        }
+        return h;
+    }
+#endif
     state_type h(d_->g.size());
     for (int r = 0; r < rows(); ++r)
         std::copy_n(q.begin() + std::ptrdiff_t(r) * columns(), columns(),
@@ -460,9 +599,9 @@ flow2d::state_type flow2d::from_half_plane(const state_type& h) const {
                                     std::to_string(d_->g.size()));
     state_type q(size());
     for (int r = 0; r < rows(); ++r)
-        std::copy_n(h.begin() + std::ptrdiff_t(d_->full_row(r) * d_->nc), columns(),
+        std::copy_n(h.begin() + std::ptrdiff_t(d_->full_row(r) * d_->nc) + col0_, columns(),
                     q.begin() + std::ptrdiff_t(r) * columns());
-    q[0] = 0.0;
+    if (col0_ == 0 && cols_ > 0) q[0] = 0.0;
     d_->hermitian(q.data());
     return q;
 }
@@ -482,7 +621,7 @@ flow2d::state_type flow2d::random_field(double k_peak, double energy_target, std
         // Every mode of the half plane draws, in its order, so the field of a seed does not depend on which modes
         // are retained (nor on the state's layout).
         const double phase = 2.0 * std::numbers::pi * uniform(s);
-        if (!g.retained(j)) continue;
+        if (!g.retained(j) || !owns_column(g.kx(j))) continue;
         const std::size_t i = index(g.kx(j), g.ky(j));
         const double k2 = g.k2(j), k = std::sqrt(k2), sq = k / k_peak;
         // A shell of radius k holds about 2 pi k modes of energy |a_k| |q_k|^2 / 2 each. The tail is a power law:
@@ -527,8 +666,10 @@ flow2d::state_type flow2d::taylor_green(double velocity) {
     require(std::isfinite(velocity), "Taylor-Green velocity must be finite");
     // 2 U sin x sin y = -(U/2) (e^{i(x+y)} - e^{i(x-y)} - e^{i(-x+y)} + e^{-i(x+y)})
     state_type w(size());
-    w[index(1, 1)] = -0.5 * velocity;
-    w[index(1, -1)] = 0.5 * velocity;
+    if (owns_column(1)) {
+        w[index(1, 1)] = -0.5 * velocity;
+        w[index(1, -1)] = 0.5 * velocity;
+    }
     return w;
 }
 
@@ -536,8 +677,11 @@ void flow2d::draw_forcing(double dt) {
     impl& d = *d_;
     if (d.p.forcing != forcing_kind::stochastic) return;
     const double amp = 1.0 / std::sqrt(dt);
-    for (std::size_t i = 0; i < size(); ++i)
-        d.force[i] = d.sigma[i] != 0.0 ? d.sigma[i] * amp * complex_gaussian(rng_) : cplx{};
+    // one draw per mode of the band, in the order of the whole state, kept by the process that holds the mode
+    for (std::size_t i : d.band) {
+        const cplx g = complex_gaussian(rng_);
+        if (i != impl::npos) d.force[i] = d.sigma[i] * amp * g;
+    }
     d.hermitian(d.force.data());
 }
 

@@ -4,6 +4,9 @@
 
 #include <fftw3.h>
 #include <omp.h>
+#ifdef ECI_MPI
+#include <fftw3-mpi.h>
+#endif
 
 #include <cstdio>
 #include <cstdlib>
@@ -50,7 +53,21 @@ struct grid::plans {
     // and one row's 1-D c2r and r2c, in place.
     std::vector<double*> rows;
     fftw_plan row_c2r = nullptr, row_r2c = nullptr;
+    // Spread over processes: one field's transforms (a batch is executed field by field on the same plan)
+    fftw_plan mpi_c2r = nullptr, mpi_r2c = nullptr;
+#ifdef ECI_MPI
+    MPI_Comm comm = MPI_COMM_NULL;
+#endif
     ~plans() {
+        for (fftw_plan p : {mpi_c2r, mpi_r2c})
+            if (p) fftw_destroy_plan(p);
+#ifdef ECI_MPI
+        if (comm != MPI_COMM_NULL) {
+            int finalized = 0;
+            MPI_Finalized(&finalized);
+            if (!finalized) MPI_Comm_free(&comm);
+        }
+#endif
         for (auto* v : {&inverse, &forward, &inverse_rows, &forward_columns})
             for (fftw_plan p : *v)
                 if (p) fftw_destroy_plan(p);
@@ -67,11 +84,20 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
     require(o.threads >= 1 && o.threads <= 64, "threads must be in 1..64");
     require(o.fields >= 1 && o.fields <= 8, "scratch fields must be in 1..8");
     const std::size_t m = size();
+    local_rows_ = n_;
+    local_cols_ = columns();
+    field_stride_ = m;
     std::call_once(fftw_threads_once, [] { fftw_init_threads(); });
     if (!o.wisdom_file.empty()) fftw_import_wisdom_from_filename(o.wisdom_file.c_str());
     if (!o.wisdom.empty() && !fftw_import_wisdom_from_string(o.wisdom.c_str()))
         throw std::invalid_argument("FFTW wisdom could not be read");
     fftw_plan_with_nthreads(o.threads);
+#ifdef ECI_MPI
+    if (o.comm != MPI_COMM_NULL) {
+        plan_distributed(o);
+        return;
+    }
+#endif
     p_->buf = reinterpret_cast<cplx*>(fftw_alloc_complex(std::size_t(fields_) * m));
     if (!p_->buf) throw std::bad_alloc();
     std::fill(p_->buf, p_->buf + std::size_t(fields_) * m, cplx{});
@@ -130,6 +156,63 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
     }
 }
 
+void grid::plan_distributed([[maybe_unused]] const grid_options& o) {
+#ifdef ECI_MPI
+    require(!o.pruned, "pruned transforms are not available on MPI (slab decomposition)");
+    static std::once_flag fftw_mpi_once;
+    std::call_once(fftw_mpi_once, [] { fftw_mpi_init(); });  // after fftw_init_threads, as FFTW asks
+    distributed_ = true;
+    MPI_Comm_dup(o.comm, &p_->comm);
+    MPI_Comm_rank(p_->comm, &rank_);
+    MPI_Comm_size(p_->comm, &ranks_);
+    // n x (n/2 + 1) complex, transposed: this process's rows (y) of the real array, columns (k_x) of the spectral
+    ptrdiff_t ln0 = 0, l0 = 0, ln1 = 0, l1 = 0;
+    const ptrdiff_t alloc =
+        fftw_mpi_local_size_2d_transposed(n_, columns(), p_->comm, &ln0, &l0, &ln1, &l1);
+    local_rows_ = int(ln0);
+    row0_ = int(l0);
+    local_cols_ = int(ln1);
+    col0_ = int(l1);
+    // every field on a 64-byte boundary, as the first (the plans are made on field 0 and executed on the others)
+    field_stride_ = (std::size_t(std::max<ptrdiff_t>(alloc, 1)) + 3) / 4 * 4;
+    p_->buf = reinterpret_cast<cplx*>(fftw_alloc_complex(std::size_t(fields_) * field_stride_));
+    if (!p_->buf) throw std::bad_alloc();
+    std::fill(p_->buf, p_->buf + std::size_t(fields_) * field_stride_, cplx{});
+    const unsigned flags = o.measure ? FFTW_MEASURE : FFTW_ESTIMATE;
+    auto* c = reinterpret_cast<fftw_complex*>(p_->buf);
+    auto* r = reinterpret_cast<double*>(p_->buf);
+    p_->mpi_c2r = fftw_mpi_plan_dft_c2r_2d(n_, n_, c, r, p_->comm, flags | FFTW_MPI_TRANSPOSED_IN);
+    p_->mpi_r2c = fftw_mpi_plan_dft_r2c_2d(n_, n_, r, c, p_->comm, flags | FFTW_MPI_TRANSPOSED_OUT);
+    if (!p_->mpi_c2r || !p_->mpi_r2c) throw std::runtime_error("FFTW could not plan the MPI transforms");
+    std::fill(p_->buf, p_->buf + std::size_t(fields_) * field_stride_, cplx{});
+    // the fused pass is not used spread over processes; p_->rows stays empty
+#endif
+}
+
+#ifdef ECI_MPI
+MPI_Comm grid::comm() const { return p_->comm; }
+#endif
+
+void grid::sum_over_ranks([[maybe_unused]] double* v, [[maybe_unused]] std::size_t count) const {
+#ifdef ECI_MPI
+    if (!distributed_ || count == 0) return;
+    std::vector<double> all(count * std::size_t(ranks_));
+    MPI_Allgather(v, int(count), MPI_DOUBLE, all.data(), int(count), MPI_DOUBLE, p_->comm);
+    for (std::size_t i = 0; i < count; ++i) {
+        double acc = all[i];
+        for (std::size_t r = 1; r < std::size_t(ranks_); ++r) acc += all[r * count + i];
+        v[i] = acc;
+    }
+#endif
+}
+
+void grid::max_over_ranks([[maybe_unused]] double* v, [[maybe_unused]] std::size_t count) const {
+#ifdef ECI_MPI
+    if (!distributed_ || count == 0) return;
+    MPI_Allreduce(MPI_IN_PLACE, v, int(count), MPI_DOUBLE, MPI_MAX, p_->comm);
+#endif
+}
+
 grid::~grid() = default;
 grid::grid(grid&&) noexcept = default;
 grid& grid::operator=(grid&&) noexcept = default;
@@ -147,17 +230,31 @@ std::string grid::fftw_wisdom() {
     return s;
 }
 
-cplx* grid::spectral(int j) const { return p_->buf + std::size_t(j) * size(); }
+cplx* grid::spectral(int j) const { return p_->buf + std::size_t(j) * field_stride_; }
 double* grid::physical(int j) const { return reinterpret_cast<double*>(spectral(j)); }
 
 bool grid::pruned() const { return p_->pruned; }
 
 void grid::inverse(int count) const {
+#ifdef ECI_MPI
+    if (distributed_) {
+        for (int j = 0; j < count; ++j)
+            fftw_mpi_execute_dft_c2r(p_->mpi_c2r, reinterpret_cast<fftw_complex*>(spectral(j)), physical(j));
+        return;
+    }
+#endif
     fftw_execute(p_->inverse.at(std::size_t(count - 1)));
     if (p_->pruned) fftw_execute(p_->inverse_rows[std::size_t(count - 1)]);
 }
 
 void grid::forward(int first, int count) const {
+#ifdef ECI_MPI
+    if (distributed_) {
+        for (int j = first; j < first + count; ++j)
+            fftw_mpi_execute_dft_r2c(p_->mpi_r2c, physical(j), reinterpret_cast<fftw_complex*>(spectral(j)));
+        return;
+    }
+#endif
     const std::size_t k = std::size_t(count - 1);
     auto* c = reinterpret_cast<fftw_complex*>(spectral(first));
     // a batch that does not start at field 0: the new-array interface on the same layout (alignment is the same,
@@ -179,9 +276,9 @@ void grid::run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const
 
 void grid::product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const {
     const std::size_t nc = std::size_t(columns()), pad = padded();
-    if (!p_->pruned) {  // FFTW's 2-D transforms and a pass over the fields between them
+    if (!p_->pruned) {  // FFTW's 2-D transforms and a pass over the fields (this process's rows) between them
         inverse(in);
-        omp_rows(threads_, n_, [&](int r0, int r1, int) {
+        omp_rows(threads_, local_rows_, [&](int r0, int r1, int) {
             double* g[8];
             for (int y = r0; y < r1; ++y) {
                 for (int j = 0; j < in; ++j) g[j] = physical(j) + std::size_t(y) * pad;
@@ -227,6 +324,7 @@ void grid::make_hermitian(cplx* w) const {
 }
 
 std::vector<double> grid::to_physical(const cplx* f) const {
+    require(!distributed_, "grid::to_physical holds the whole field: on MPI use flow2d::to_physical");
     std::copy(f, f + size(), spectral(0));  // the inverse transform overwrites its input
     inverse(1);
     std::vector<double> out(points());
@@ -238,6 +336,7 @@ std::vector<double> grid::to_physical(const cplx* f) const {
 }
 
 std::vector<cplx> grid::from_physical(std::span<const double> field) const {
+    require(!distributed_, "grid::from_physical holds the whole field: on MPI use flow2d::from_physical");
     if (field.size() != points())
         throw std::invalid_argument("field has " + std::to_string(field.size()) + " values, the grid " +
                                     std::to_string(points()));

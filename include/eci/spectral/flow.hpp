@@ -45,6 +45,9 @@ struct flow_params {
     std::string wisdom_file;           ///< FFTW wisdom read before planning and written after; empty: none
     std::string wisdom;                ///< FFTW wisdom text imported before planning (a checkpoint's, so that a
                                        ///< restart plans the same transforms and continues bit for bit)
+#ifdef ECI_MPI
+    MPI_Comm comm = MPI_COMM_NULL;     ///< the processes the flow is spread over (grid_options::comm); MPI build only
+#endif
 
     /// Throws std::invalid_argument naming the first bad parameter (the equation's own included).
     void validate() const;
@@ -83,6 +86,15 @@ struct flow_fluxes {
 /// over the full plane. That is 4/9 of FFTW's half plane: every pass of a stepper over the state, every sum and
 /// every buffer is that much smaller. k = 0 (index 0) is zero and stays zero; on the k_x = 0 column k and -k are
 /// both stored and are exact conjugates. to_half_plane() gives FFTW's layout (the files' and the grid's).
+///
+/// Spread over processes (flow_params::comm, MPI build), a process's state is the retained modes of its own
+/// columns k_x = first_column() .. first_column() + columns() - 1 (the grid's slab cut to kx <= kmax; columns() may
+/// be 0), in the same row order. Everything else is unchanged and the equation module never knows: sums (E, Z,
+/// spectra, the budget's rates) are over every process in a fixed order (grid::sum_over_ranks), max |u| is the
+/// global maximum, forcing and random fields are drawn per global mode (the same at any process count), and
+/// to_half_plane / to_physical / from_half_plane / from_physical convert between the process's part and the whole
+/// field (the whole field on every process; collective). The steppers make their decisions global through
+/// reduce_sums / reduce_max (detail/reduce.hpp), which a flow declares only in the MPI build.
 class flow2d {
    public:
     using state_type = std::vector<std::complex<double>>;
@@ -106,21 +118,31 @@ class flow2d {
     const spectral::grid& grid() const;
     int n() const { return n_; }
     int kmax() const { return (n_ - 1) / 3; }
-    /// Modes per row of the state, kmax + 1.
-    int columns() const { return kmax() + 1; }
+    /// Modes per row of the state, kmax + 1 (on MPI: this process's retained columns).
+    int columns() const { return cols_; }
+    /// The k_x of the state's first column (0 but on MPI).
+    int first_column() const { return col0_; }
+    /// Whether the state holds column k_x (always but on MPI).
+    bool owns_column(int kx) const { return kx >= col0_ && kx < col0_ + cols_; }
     /// Rows of the state, 2 kmax + 1.
     int rows() const { return 2 * kmax() + 1; }
     /// Modes in the state.
     std::size_t size() const { return std::size_t(rows()) * std::size_t(columns()); }
-    int kx(std::size_t i) const { return int(i % std::size_t(columns())); }
+    int kx(std::size_t i) const { return col0_ + int(i % std::size_t(columns())); }
     int ky(std::size_t i) const {
         const int row = int(i / std::size_t(columns()));
         return row <= kmax() ? row : row - rows();
     }
-    /// The index of mode (kx, ky), 0 <= kx <= kmax, |ky| <= kmax.
+    /// The index of mode (kx, ky), 0 <= kx <= kmax, |ky| <= kmax (on MPI: owns_column(kx)).
     std::size_t index(int kx, int ky) const {
-        return std::size_t(ky >= 0 ? ky : ky + rows()) * std::size_t(columns()) + std::size_t(kx);
+        return std::size_t(ky >= 0 ? ky : ky + rows()) * std::size_t(columns()) + std::size_t(kx - col0_);
     }
+#ifdef ECI_MPI
+    /// The steppers' reductions (detail/reduce.hpp): each v[i] summed over the processes in rank order, or its
+    /// maximum. Collective; no-ops on one process.
+    void reduce_sums(std::span<double> v) const { grid().sum_over_ranks(v.data(), v.size()); }
+    void reduce_max(std::span<double> v) const { grid().max_over_ranks(v.data(), v.size()); }
+#endif
     bool retained(std::size_t i) const { return weights_[i] != 0.0; }
     /// How often mode i appears in the full plane: 2 (itself and its conjugate -k, not stored), 1 on the k_x = 0
     /// column (where -k is stored too), 0 for k = 0.
@@ -208,6 +230,7 @@ class flow2d {
     std::vector<double> shells(Value value) const;
     struct impl;
     int n_;
+    int col0_ = 0, cols_ = 0;  // the state's columns k_x = col0_ .. col0_ + cols_ - 1
     std::vector<double> weights_;
     std::unique_ptr<impl> d_;
     std::uint64_t rng_ = 0;

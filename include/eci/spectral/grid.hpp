@@ -16,6 +16,10 @@
 #include <string>
 #include <vector>
 
+#ifdef ECI_MPI
+#include <mpi.h>
+#endif
+
 namespace eci::spectral {
 
 using cplx = std::complex<double>;
@@ -35,8 +39,21 @@ struct grid_options {
     bool pruned = false;
     std::string wisdom_file;   ///< FFTW wisdom read before planning and written after; empty: none
     std::string wisdom;        ///< FFTW wisdom text imported before planning (a checkpoint's)
+#ifdef ECI_MPI
+    /// The processes the grid is spread over (MPI build only; MPI_COMM_NULL: this process alone, as without MPI).
+    /// Slab decomposition with FFTW's MPI transforms: each process holds a slab of physical rows (y) and, in
+    /// spectral space, FFTW's transposed layout, a slab of k_x columns (see grid). Collective: every process of the
+    /// communicator constructs its grid with the same options.
+    MPI_Comm comm = MPI_COMM_NULL;
+#endif
 };
 
+/// Spread over processes (grid_options::comm), a process holds physical rows first_row() .. + local_rows() - 1
+/// (each padded to 2 columns(), as above) and the spectral columns k_x = first_column() .. + local_columns() - 1,
+/// each a column of n modes in the row order above (FFTW_MPI_TRANSPOSED_OUT / _IN: no transpose back between an
+/// inverse and a forward transform); at(row, c) is the index of a mode in either layout. On one process
+/// first_row() = first_column() = 0, local_rows() = n, local_columns() = columns().
+///
 /// The storage is FFTW's real-to-complex half plane: n rows (k_y = 0, 1, ..., n/2, -n/2 + 1, ..., -1) of n/2 + 1
 /// columns (k_x = 0 ... n/2), normalised so that f(x) = sum_k f_k exp(i k.x). The retained modes are the square
 /// |k_x|, |k_y| <= kmax = (n - 1) / 3 without k = 0: with 3 kmax < n no product of two retained fields aliases onto a
@@ -59,6 +76,34 @@ class grid {
     std::size_t points() const { return std::size_t(n_) * std::size_t(n_); }
     int kmax() const { return (n_ - 1) / 3; }
     int threads() const { return threads_; }
+
+    /// Whether the grid is spread over more than this process's memory (an MPI communicator; also for one rank).
+    bool distributed() const { return distributed_; }
+    /// This process's rank and the number of processes (0 and 1 without a communicator).
+    int rank() const { return rank_; }
+    int ranks() const { return ranks_; }
+    /// This process's physical rows y = first_row() .. first_row() + local_rows() - 1.
+    int first_row() const { return row0_; }
+    int local_rows() const { return local_rows_; }
+    /// This process's spectral columns k_x = first_column() .. first_column() + local_columns() - 1.
+    int first_column() const { return col0_; }
+    int local_columns() const { return local_cols_; }
+    /// The index in a spectral field of the mode in grid row `row` (k_y = ky_of_row(row)) and this process's
+    /// column c (k_x = first_column() + c): row columns() + c on one process, c n + row spread over processes.
+    std::size_t at(int row, int c) const {
+        return distributed_ ? std::size_t(c) * std::size_t(n_) + std::size_t(row)
+                            : std::size_t(row) * std::size_t(columns()) + std::size_t(c);
+    }
+    /// Replaces each v[i] by its sum over the processes: every process's partial sums gathered, then added in rank
+    /// order, so a given number of processes repeats bit for bit (never an MPI_Allreduce, whose order may vary).
+    /// Collective; a no-op on one process.
+    void sum_over_ranks(double* v, std::size_t count) const;
+    /// Replaces each v[i] by its maximum over the processes (exact in any order). Collective; a no-op on one.
+    void max_over_ranks(double* v, std::size_t count) const;
+#ifdef ECI_MPI
+    /// The grid's communicator (a duplicate of grid_options::comm; MPI_COMM_NULL on one process).
+    MPI_Comm comm() const;
+#endif
     /// Whether the transforms skip the columns without retained modes (grid_options::pruned).
     bool pruned() const;
     int kx(std::size_t i) const { return int(i % std::size_t(columns())); }
@@ -134,7 +179,11 @@ class grid {
     void run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const;
     void product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const;
     struct plans;
+    void plan_distributed(const grid_options& o);
     int n_, fields_, threads_;
+    bool distributed_ = false;
+    int rank_ = 0, ranks_ = 1, row0_ = 0, local_rows_ = 0, col0_ = 0, local_cols_ = 0;
+    std::size_t field_stride_ = 0;  // complex values from one scratch field to the next
     std::unique_ptr<plans> p_;
 };
 

@@ -41,6 +41,7 @@ class conservative_rk : public radicand_remedy {
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
         st_.prepare(x);
+        reduce_ = detail::reducer::of(f);  // empty unless the model's state is spread over processes
         if constexpr (!is_c_pc) detail::resize_like(result_, x);
         st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
         const auto xr = detail::reals(std::as_const(x));
@@ -48,7 +49,9 @@ class conservative_rk : public radicand_remedy {
         double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
         S& out = is_c_pc ? st_.stage : result_;
         double* o = detail::reals(out).data();
-        if (conditioned_update_applies(n)) {
+        // (the conditioned update's cascade is not yet made global: a model spread over processes takes the
+        // paper's update, whose decisions are)
+        if (!reduce_ && conditioned_update_applies(n)) {
             // Issue 19: the modulus of a complex mode, the conventional update where the square root is
             // ill-conditioned, and one exact rescale (docs/methods.md).
             std::array<const double*, s> kp{};
@@ -69,11 +72,15 @@ class conservative_rk : public radicand_remedy {
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
             finish_general(o, xr.data(), kp, dt, n, bad, std::make_index_sequence<s>{});
         }
+        // A negative radicand on any process is one on every process (detail/reduce.hpp).
+        if constexpr (detail::distributed_model<F>) bad = reduce_.any(bad != 0.0) ? 1.0 : 0.0;
         // Only steps with failures pay for the remedy; the failed unknowns are NaN in o.
         if (bad != 0.0 && !remedy_failures(o, xr.data(), dt, n))
             return step_result::failure(first_failure(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
         // An overflow (inf) fails the step as well, never passes as a result.
-        if (!detail::all_finite_reals(o, n))
+        bool finite = detail::all_finite_reals(o, n);
+        if constexpr (detail::distributed_model<F>) finite = !reduce_.any(!finite);
+        if (!finite)
             return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); }));
         using std::swap;
         swap(x, out);

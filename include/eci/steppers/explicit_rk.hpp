@@ -10,6 +10,7 @@
 #include <utility>
 
 #include "../concepts.hpp"
+#include "../detail/reduce.hpp"
 #include "../detail/state_ops.hpp"
 #include "../tableaus.hpp"
 
@@ -117,7 +118,10 @@ class explicit_rk {
         // own update reads element by element before overwriting it), is checked in the same pass, then swaps in.
         S& spare = T.stages > 1 ? st_.stage : st_.k[0];
         double* o = detail::reals(spare).data();
-        if (!detail::combine_stages_finite<T.b>(o, xr.data(), kp, dt, n, std::make_index_sequence<T.stages>{}))
+        bool finite = detail::combine_stages_finite<T.b>(o, xr.data(), kp, dt, n, std::make_index_sequence<T.stages>{});
+        // a state spread over processes fails the step on every process when it fails on one (detail/reduce.hpp)
+        if constexpr (detail::distributed_model<F>) finite = !detail::reducer::of(f).any(!finite);
+        if (!finite)
             return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); }));
         using std::swap;
         swap(x, spare);

@@ -13,6 +13,8 @@
 #include <utility>
 #include <vector>
 
+#include "../detail/reduce.hpp"
+
 namespace eci {
 
 /// What a conservative stepper does when some radicands (new psi_k^2) come out negative.
@@ -110,18 +112,23 @@ class radicand_remedy {
         bad_.clear();
         if (remedy.policy != radicand_policy::remedy || m == 0 || weights_.front().size() * Per != n) return false;
         constexpr std::size_t shift = Per == 2 ? 1 : 0;
-        const double limit = remedy.max_fraction * double(n);
+        double limit = remedy.max_fraction * double(n);
         for (std::size_t i = 0; i < n; ++i) {
             if (!bad(i)) continue;
             bad_.push_back(i);
-            if (double(bad_.size()) > limit) return decline();
+            // (a state spread over processes decides on the count over all of them, below)
+            if (!reduce_ && double(bad_.size()) > limit) return decline();
         }
-        if (bad_.empty()) return decline();
         // The conventional update for the failing components, and the defect it makes in each invariant.
         std::array<double, max_invariants> defect{}, held{};
+        bool finite = true;
         for (std::size_t i : bad_) {
             const auto [conv, rad] = fix(i);
-            if (!std::isfinite(conv) || !std::isfinite(rad)) return decline();
+            if (!std::isfinite(conv) || !std::isfinite(rad)) {
+                if (!reduce_) return decline();
+                finite = false;
+                break;
+            }
             o[i] = conv;
             const double d = conv * conv - rad, h = std::max(x[i] * x[i], conv * conv);
             for (std::size_t j = 0; j < m; ++j) {
@@ -130,22 +137,49 @@ class radicand_remedy {
                 held[j] += std::abs(w) * h;
             }
         }
+        std::size_t failures = bad_.size();
+        std::array<double, max_invariants> wmax = wmax_;
+        if (reduce_) {
+            // Over every process, in one collective each (every process reaches them: the decision to try the
+            // remedy was global): the counts, the defects and held shares, the largest weights.
+            std::array<double, 3 + 2 * max_invariants> all{double(failures), double(n), finite ? 0.0 : 1.0};
+            for (std::size_t j = 0; j < m; ++j) all[3 + j] = defect[j], all[3 + m + j] = held[j];
+            reduce_.sum({all.data(), 3 + 2 * m});
+            reduce_.max({wmax.data(), m});
+            failures = std::size_t(all[0]);
+            limit = remedy.max_fraction * all[1];
+            for (std::size_t j = 0; j < m; ++j) defect[j] = all[3 + j], held[j] = all[3 + m + j];
+            if (all[2] != 0.0 || double(failures) > limit) return decline();
+        }
+        if (failures == 0) return decline();
         // The Gram matrix G_ij = sum_k w_ik w_jk xi_k and each invariant's magnitude A_j = sum_k |w_jk| xi_k.
         std::array<double, max_invariants * max_invariants> g{};
         std::array<double, max_invariants> mag{};
         gram<shift>(o, n, g, mag);
+        if (reduce_) {
+            std::array<double, max_invariants * max_invariants + max_invariants> all{};
+            for (std::size_t a = 0; a < m; ++a) {
+                all[a] = mag[a];
+                for (std::size_t b = 0; b < m; ++b) all[m + a * m + b] = g[a * max_invariants + b];
+            }
+            reduce_.sum({all.data(), m + m * m});
+            for (std::size_t a = 0; a < m; ++a) {
+                mag[a] = all[a];
+                for (std::size_t b = 0; b < m; ++b) g[a * max_invariants + b] = all[m + a * m + b];
+            }
+        }
         for (std::size_t j = 0; j < m; ++j)
             if (!(held[j] <= remedy.max_fraction * mag[j])) return decline();
         std::array<double, max_invariants> c{};
         if (!solve(g, mag, defect, c)) return decline();
         // |s_k| <= sum_j |c_j| max_k |w_jk|: a bound, checked before anything is rescaled.
         double s_bound = 0.0;
-        for (std::size_t j = 0; j < m; ++j) s_bound += std::abs(c[j]) * wmax_[j];
+        for (std::size_t j = 0; j < m; ++j) s_bound += std::abs(c[j]) * wmax[j];
         if (!(s_bound <= remedy.max_rescale)) return decline();
         s_bound_ = s_bound;
         rescale_pass(c);
         ++stats_.remedied_steps;
-        stats_.components_remedied += bad_.size();
+        stats_.components_remedied += failures;
         return true;
     }
 
@@ -225,6 +259,10 @@ class radicand_remedy {
     std::size_t first_negative() const {
         return neg_.empty() ? 0 : neg_.front() * Per;
     }
+
+    // The model's reductions when its state is spread over processes (set by the stepper at each step; empty
+    // otherwise): try_remedy's counts and sums are then over every process, and its decisions the same on all.
+    detail::reducer reduce_;
 
     std::vector<std::size_t> neg_, cond_;  // the conditioned update's elements (see remedy_elements)
     std::vector<double> cond_ratio_;       // xi / |change of xi| of each element of cond_

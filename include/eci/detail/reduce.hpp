@@ -1,0 +1,54 @@
+// The hook through which a model spread over several processes (eci::spectral::flow2d on an MPI communicator) makes
+// a stepper's decisions global: the steppers sum and compare over their own part of the state, and every sum or
+// decision that concerns the whole state (a negative radicand anywhere, the remedy's defect and Gram sums, a
+// non-finite update) is passed through the model's reduce_sums / reduce_max before it is used. A model on one
+// process declares neither, and for it nothing changes: the hook is empty and costs a test of a null pointer.
+#pragma once
+
+#include <cstddef>
+#include <span>
+
+namespace eci::detail {
+
+/// A model whose state is spread over processes: reduce_sums(v) replaces each v[i] by its sum over every process
+/// (in an order fixed for a given process count, so a run repeats bit for bit) and reduce_max(v) by its maximum;
+/// both are collective (every process calls them at the same point with the same v.size()).
+template <class F>
+concept distributed_model = requires(const F& f, std::span<double> v) {
+    f.reduce_sums(v);
+    f.reduce_max(v);
+};
+
+/// The reductions of a model, type-erased so that a stepper's non-template helpers can call them; empty (every
+/// call a no-op) for a model on one process.
+struct reducer {
+    const void* model = nullptr;
+    void (*sums)(const void*, std::span<double>) = nullptr;
+    void (*maxes)(const void*, std::span<double>) = nullptr;
+
+    explicit operator bool() const { return sums != nullptr; }
+    void sum(std::span<double> v) const {
+        if (sums) sums(model, v);
+    }
+    void max(std::span<double> v) const {
+        if (maxes) maxes(model, v);
+    }
+    /// Whether `b` holds on any process (collective when the reducer is not empty).
+    bool any(bool b) const {
+        if (!sums) return b;
+        double v = b ? 1.0 : 0.0;
+        sums(model, {&v, 1});
+        return v != 0.0;
+    }
+
+    template <class F>
+    static reducer of(const F& f) {
+        if constexpr (distributed_model<F>)
+            return {&f, [](const void* m, std::span<double> v) { static_cast<const F*>(m)->reduce_sums(v); },
+                    [](const void* m, std::span<double> v) { static_cast<const F*>(m)->reduce_max(v); }};
+        else
+            return {};
+    }
+};
+
+}  // namespace eci::detail

@@ -1,0 +1,270 @@
+// The spectral core spread over MPI processes against the same run on one process (no communicator), run under
+// `mpirun -np P` (P = 1, 2, 3 by ctest, label mpi). Every check is made on every rank and the verdicts combined;
+// rank 0 prints one line per check. Exit 0 when all hold, 1 otherwise.
+//
+// Why the bounds are what they are: the distributed transforms (FFTW's MPI plans, transposed layouts) and the
+// reductions (per-rank partial sums added in rank order) round differently from the serial ones, by a few eps per
+// operation. Over s steps these differences are independent of sign from step to step, so they add up like a
+// random walk: k eps sqrt(s) relative to the state's largest mode, k counting the operations whose round-off enters
+// one step (the transforms' log2(N) levels and the 4 stages). The run is short enough in time (dt = 0.002) that
+// the flow's own amplification of differences stays O(1). E and Z of a conservative method change by round-off
+// only (each step rounds them by a few eps, again as a random walk).
+#include <mpi.h>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstdio>
+#include <limits>
+#include <numbers>
+#include <utility>
+#include <string>
+#include <vector>
+
+#include <eci/models/navier_stokes_2d.hpp>
+
+namespace {
+
+using eci::navier_stokes_2d;
+using state = navier_stokes_2d::state_type;
+constexpr double eps = std::numeric_limits<double>::epsilon();
+
+int rank_ = 0;
+bool all_ok = true;
+
+void check(bool ok, const std::string& what) {
+    int mine = ok ? 1 : 0, all = 0;
+    MPI_Allreduce(&mine, &all, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+    if (rank_ == 0) std::printf("%s %s\n", all ? "ok  " : "FAIL", what.c_str());
+    if (!all) all_ok = false;
+}
+
+struct run_result {
+    state half;  // the final state, FFTW's half plane (the whole field, on every rank)
+    double e0, z0, e1, z1;
+    eci::ns2d_budget budget;
+    double max_budget_residual = 0.0;  // per step, relative
+};
+
+// `steps` steps from the random field of seed 1 (or from `start`, a half plane, with the generator at `rng`).
+template <class Stepper>
+run_result run(eci::ns2d_params p, MPI_Comm comm, int steps, double dt, const state* start = nullptr,
+               std::uint64_t rng = 0, std::uint64_t* rng_out = nullptr) {
+    p.comm = comm;
+    navier_stokes_2d m(p);
+    state w = start ? m.from_half_plane(*start) : m.random_field(4.0, 0.5, 1);
+    if (start) m.set_rng_state(rng);
+    Stepper st;
+    run_result r{};
+    r.e0 = m.energy(w);
+    r.z0 = m.enstrophy(w);
+    eci::run_stats stats;
+    for (int i = 0; i < steps; ++i) {
+        const double e0 = m.energy(w);
+        eci::ns2d_budget b;
+        eci::ns2d_step(st, m, w, i * dt, dt, b, stats);
+        const double e1 = m.energy(w);
+        r.max_budget_residual = std::max(
+            r.max_budget_residual, std::abs(e1 - e0 - (b.energy_injection - b.energy_dissipation)) / e1);
+        r.budget.energy_injection += b.energy_injection;
+        r.budget.energy_dissipation += b.energy_dissipation;
+    }
+    r.e1 = m.energy(w);
+    r.z1 = m.enstrophy(w);
+    r.half = m.to_half_plane(w);
+    if (rng_out) *rng_out = m.rng_state();
+    return r;
+}
+
+// max |a - b| / max |b|
+double rel_diff(const state& a, const state& b) {
+    double d = 0.0, s = 0.0;
+    for (std::size_t i = 0; i < b.size(); ++i) {
+        d = std::max(d, std::abs(a[i] - b[i]));
+        s = std::max(s, std::abs(b[i]));
+    }
+    return d / s;
+}
+
+bool same_bits(const state& a, const state& b) {
+    if (a.size() != b.size()) return false;
+    for (std::size_t i = 0; i < a.size(); ++i)
+        if (a[i].real() != b[i].real() || a[i].imag() != b[i].imag()) return false;
+    return true;
+}
+
+std::string num(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.3g", v);
+    return b;
+}
+
+template <class Stepper>
+void against_serial(const std::string& name, eci::ns2d_params p, int steps, double dt, double k, bool conservative) {
+    const run_result one = run<Stepper>(p, MPI_COMM_NULL, steps, dt);
+    const run_result all = run<Stepper>(p, MPI_COMM_WORLD, steps, dt);
+    const double bound = k * eps * std::sqrt(double(steps)), d = rel_diff(all.half, one.half);
+    check(d <= bound, name + ": state after " + std::to_string(steps) + " steps = the serial run's to " + num(d) +
+                          " <= " + num(k) + " eps sqrt(steps) = " + num(bound));
+    const run_result again = run<Stepper>(p, MPI_COMM_WORLD, steps, dt);
+    check(same_bits(again.half, all.half), name + ": a second run on the same ranks repeats bit for bit");
+    if (conservative && p.nu == 0.0 && p.forcing == eci::ns2d_forcing::none) {
+        // C-RK4 conserves E and Z to round-off: a few eps per step, accumulated as a random walk
+        const double de = std::abs(all.e1 - all.e0) / all.e0, dz = std::abs(all.z1 - all.z0) / all.z0;
+        const double b = 8.0 * eps * std::sqrt(double(steps));
+        check(de <= b && dz <= b, name + ": E and Z exact: drift " + num(de) + ", " + num(dz) + " <= 8 eps sqrt(steps) = " + num(b));
+    }
+    if (p.nu != 0.0 || p.forcing != eci::ns2d_forcing::none) {
+        // a conservative method's budget closes per step: E1 - E0 = injection - dissipation to round-off of E
+        if (conservative)
+            check(all.max_budget_residual <= 64.0 * eps,
+              name + ": budget closed per step to " + num(all.max_budget_residual) + " <= 64 eps of E");
+        const double di = std::abs(all.budget.energy_injection - one.budget.energy_injection) /
+                          std::max(std::abs(one.budget.energy_injection), 1e-300);
+        if (p.forcing != eci::ns2d_forcing::none)
+            check(di <= bound, name + ": the injected energy = the serial run's to " + num(di) +
+                                   " (forcing drawn per global mode)");
+    }
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    MPI_Init(&argc, &argv);
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
+    int ranks = 1;
+    MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+    if (rank_ == 0) std::printf("spectral core on %d MPI process(es)\n", ranks);
+    {
+        eci::ns2d_params p;
+        p.n = 32;
+        p.measure = false;  // FFTW_ESTIMATE: the same plans on every run
+        const double dt = 0.002;
+        const double k = 16.0;  // measured: at most 0.6 eps sqrt(steps) on 1-3 ranks
+        using S = state;
+        against_serial<eci::c_rk4<S>>("navier-stokes-2d N=32 C-RK4 inviscid", p, 100, dt, k, true);
+        against_serial<eci::rk4<S>>("navier-stokes-2d N=32 RK4 inviscid", p, 100, dt, k, false);
+        p.n = 64;
+        against_serial<eci::c_rk4<S>>("navier-stokes-2d N=64 C-RK4 inviscid", p, 100, dt, k, true);
+        eci::ns2d_params f = p;
+        f.n = 32;
+        f.nu = 1e-3;
+        f.forcing = eci::ns2d_forcing::stochastic;
+        f.forcing_k = 3.0;
+        against_serial<eci::c_rk4<S>>("navier-stokes-2d N=32 C-RK4 viscous, stochastic forcing", f, 100, dt, k, true);
+        f.forcing = eci::ns2d_forcing::deterministic;
+        against_serial<eci::rk4<S>>("navier-stokes-2d N=32 RK4 viscous, deterministic forcing", f, 100, dt, k, false);
+        eci::ns2d_params c = p;
+        c.n = 32;
+        c.equation = "charney-hasegawa-mima";
+        c.beta = 2.0;
+        c.deformation = 1.0;
+        against_serial<eci::c_rk4<S>>("charney-hasegawa-mima N=32 C-RK4", c, 100, dt, k, true);
+        eci::ns2d_params q = p;
+        q.n = 32;
+        q.equation = "surface-qg";
+        against_serial<eci::c_rk4<S>>("surface-qg N=32 C-RK4", q, 100, dt, k, true);
+
+        // A restart on another number of processes: 50 steps on a communicator of ceil(P/2) ranks, its state
+        // (the half plane, as in a checkpoint) continued for 50 on all P and on rank 0 alone, against 100 steps
+        // on all P in one go. The generator's state travels with it (stochastic forcing).
+        MPI_Comm half = MPI_COMM_NULL, solo = MPI_COMM_NULL;
+        MPI_Comm_split(MPI_COMM_WORLD, rank_ < (ranks + 1) / 2 ? 0 : MPI_UNDEFINED, rank_, &half);
+        MPI_Comm_split(MPI_COMM_WORLD, rank_ == 0 ? 0 : MPI_UNDEFINED, rank_, &solo);
+        eci::ns2d_params r = f;
+        r.forcing = eci::ns2d_forcing::stochastic;
+        state mid;
+        std::uint64_t rng = 0;
+        if (half != MPI_COMM_NULL) mid = run<eci::c_rk4<S>>(r, half, 50, dt, nullptr, 0, &rng).half;
+        // the half plane and generator to every rank (as every rank reads a checkpoint)
+        mid.resize(std::size_t(r.n) * std::size_t(r.n / 2 + 1));
+        MPI_Bcast(mid.data(), int(2 * mid.size()), MPI_DOUBLE, 0, MPI_COMM_WORLD);
+        MPI_Bcast(&rng, 1, MPI_UINT64_T, 0, MPI_COMM_WORLD);
+        struct restartable {
+            static run_result go(eci::ns2d_params p, MPI_Comm c, int steps, double dt, const state* s, std::uint64_t g) {
+                return run<eci::c_rk4<S>>(p, c, steps, dt, s, g);
+            }
+        };
+        const run_result whole = run<eci::c_rk4<S>>(r, MPI_COMM_WORLD, 100, dt);
+        // the second half's step times start at 0 in run(): the flow is autonomous, so the times do not matter
+        const run_result on_all = restartable::go(r, MPI_COMM_WORLD, 50, dt, &mid, rng);
+        const double bound = k * eps * std::sqrt(100.0);
+        const double d_all = rel_diff(on_all.half, whole.half);
+        check(d_all <= bound, "restart from " + std::to_string((ranks + 1) / 2) + " rank(s) on " +
+                                  std::to_string(ranks) + ": continues the run to " + num(d_all) + " <= " + num(bound));
+        double d_solo = 0.0;
+        if (solo != MPI_COMM_NULL) d_solo = rel_diff(restartable::go(r, solo, 50, dt, &mid, rng).half, whole.half);
+        MPI_Bcast(&d_solo, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
+        check(d_solo <= bound, "restart from " + std::to_string((ranks + 1) / 2) + " rank(s) on 1: continues the run to " +
+                                   num(d_solo) + " <= " + num(bound));
+        if (half != MPI_COMM_NULL) MPI_Comm_free(&half);
+        if (solo != MPI_COMM_NULL) MPI_Comm_free(&solo);
+
+        // The remedy of negative radicands spread over ranks (its counts, defects, Gram sums and largest weights
+        // reduced; its decisions the same on every rank): a spectrum |omega_k| = exp(-|k|/3) falls below round-off
+        // inside the retained modes, where the radicands come out negative, at CFL 0.5.
+        {
+            auto remedied = [&](MPI_Comm comm, std::uint64_t& steps_remedied, std::uint64_t& halvings) {
+                eci::ns2d_params e = p;
+                e.n = 32;
+                e.comm = comm;
+                navier_stokes_2d m(e);
+                state w = m.random_field(4.0, 0.5, 17);
+                for (std::size_t i = 0; i < m.size(); ++i) {
+                    if (!m.retained(i) || std::abs(w[i]) == 0.0) continue;
+                    w[i] *= std::exp(-std::hypot(double(m.kx(i)), double(m.ky(i))) / 3.0) / std::abs(w[i]);
+                }
+                const double dt0 = 0.5 * (2.0 * std::numbers::pi / e.n) / m.max_velocity(w);
+                const double e0 = m.energy(w), z0 = m.enstrophy(w);
+                eci::c_rk4<S> st;
+                eci::ns2d_budget b;
+                eci::run_stats stats;
+                double drift = 0.0;
+                for (int i = 0; i < 50; ++i) {
+                    eci::ns2d_step(st, m, w, i * dt0, dt0, b, stats);
+                    drift = std::max({drift, std::abs(m.energy(w) - e0) / e0, std::abs(m.enstrophy(w) - z0) / z0});
+                }
+                steps_remedied = st.remedy_statistics().remedied_steps;
+                halvings = stats.step_reductions;
+                return std::make_pair(m.to_half_plane(w), drift);
+            };
+            std::uint64_t rs = 0, hs = 0, rd = 0, hd = 0;
+            const auto [ws, drift_s] = remedied(MPI_COMM_NULL, rs, hs);
+            const auto [wd, drift_d] = remedied(MPI_COMM_WORLD, rd, hd);
+            std::uint64_t mine[2] = {rd, hd}, lo[2] = {}, hi[2] = {};
+            MPI_Allreduce(mine, lo, 2, MPI_UINT64_T, MPI_MIN, MPI_COMM_WORLD);
+            MPI_Allreduce(mine, hi, 2, MPI_UINT64_T, MPI_MAX, MPI_COMM_WORLD);
+            check(rd > 0 && lo[0] == hi[0] && lo[1] == hi[1],
+                  "remedy: " + std::to_string(rd) + " remedied steps, " + std::to_string(hd) +
+                      " halvings, the same on every rank (serial: " + std::to_string(rs) + ", " + std::to_string(hs) + ")");
+            const double b = 8.0 * eps * std::sqrt(50.0);
+            check(drift_d <= b, "remedy: E and Z exact through remedied steps: drift " + num(drift_d) + " <= 8 eps sqrt(steps)");
+            const double d = rel_diff(wd, ws);
+            check(d <= k * eps * std::sqrt(50.0), "remedy: state = the serial run's to " + num(d));
+        }
+
+        // the field on the grid (snapshots) and back
+        eci::ns2d_params g = p;
+        g.n = 32;
+        navier_stokes_2d ms(g);
+        g.comm = MPI_COMM_WORLD;
+        navier_stokes_2d md(g);
+        const state ws = ms.random_field(4.0, 0.5, 1), wd = md.random_field(4.0, 0.5, 1);
+        const std::vector<double> fs = ms.to_physical(ws), fd = md.to_physical(wd);
+        double dphys = 0.0, smax = 0.0;
+        for (std::size_t i = 0; i < fs.size(); ++i)
+            dphys = std::max(dphys, std::abs(fd[i] - fs[i])), smax = std::max(smax, std::abs(fs[i]));
+        check(fd.size() == fs.size() && dphys <= 16.0 * eps * smax,
+              "to_physical = the serial field to " + num(dphys / smax) + " <= 16 eps of max |q|");
+        const double back = rel_diff(md.to_half_plane(md.from_physical(fd)), ms.to_half_plane(ws));
+        check(back <= 16.0 * eps, "from_physical(to_physical(q)) = q to " + num(back) + " <= 16 eps");
+        const double vs = ms.max_velocity(ws), vd = md.max_velocity(wd);
+        check(std::abs(vs - vd) <= 16.0 * eps * vs, "max |u| = the serial value to 16 eps");
+        const auto es = ms.energy_spectrum(ws), ed = md.energy_spectrum(wd);
+        double dspec = 0.0, stot = 0.0;
+        for (std::size_t i = 0; i < es.size(); ++i) dspec = std::max(dspec, std::abs(es[i] - ed[i])), stot += es[i];
+        check(es.size() == ed.size() && dspec <= 16.0 * eps * stot, "energy spectrum = the serial one to 16 eps of E");
+    }
+    MPI_Finalize();
+    return all_ok ? 0 : 1;
+}
