@@ -558,6 +558,8 @@ int spectral_command::run(const run_settings& settings) {
     std::uint64_t good_checkpoint = restart ? first : std::numeric_limits<std::uint64_t>::max();
     state w_prev;
     const bool found = with_ns2d_method(method, [&](auto stepper) {
+        if constexpr (requires { stepper.remedy.update; })  // --update (issue 19): conditioned unless "paper"
+            stepper.remedy.update = settings.update == "paper" ? update_kind::paper : update_kind::conditioned;
         if (out) row(first);
         if (snapshot_every_ > 0 && !restart) snapshot(first);
         for (std::uint64_t i = first + 1; i <= last; ++i) {

@@ -103,8 +103,8 @@ class conservative_rk : public radicand_remedy {
     // min_unknowns real unknowns. Otherwise: the paper's per-unknown update (and eq. (30) for C-PC).
     bool conditioned_update_applies(std::size_t n) const {
         const auto& w = quadratic_invariants();
-        return remedy.policy == radicand_policy::remedy && !w.empty() && w.front().size() * per == n &&
-               n >= remedy.min_unknowns;
+        return remedy.update == update_kind::conditioned && remedy.policy == radicand_policy::remedy && !w.empty() &&
+               w.front().size() * per == n && n >= remedy.min_unknowns;
     }
 
     // Element e (one real unknown, or the two parts of a complex mode): its conventional update into c, and
@@ -181,9 +181,17 @@ class conservative_rk : public radicand_remedy {
                             std::size_t n) {
         neg_.clear();
         cond_.clear();
-        cond_ratio_.clear();
         const double kappa = remedy.condition;
-        for (std::size_t e = 0; e < n / per; ++e) {
+        // The Gram sums of the finished state, G_ab = sum_e w_ae w_be |o_e|^2 and A_a = sum_e |w_ae| |o_e|^2, are
+        // accumulated in this same pass when there are two invariants (E and Z: every spectral model, n-wave), so
+        // that the remedy needs no pass of its own over the state (docs/methods.md, "Cost"). Two interleaved sets
+        // of sums keep the add chains short.
+        const bool fused = weights_fused();
+        const double* w0 = fused ? quadratic_invariants()[0].data() : nullptr;
+        const double* w1 = fused ? quadratic_invariants()[1].data() : nullptr;
+        std::array<double, 2> g00{}, g01{}, g11{}, a0{}, a1{};
+        const std::size_t ne = n / per;
+        for (std::size_t e = 0; e < ne; ++e) {
             std::array<double, per> c{}, rad{};
             const auto [c2, xi] = element_update(x, k, e, dt, c, rad);
             double x2 = 0.0;
@@ -191,28 +199,41 @@ class conservative_rk : public radicand_remedy {
                 o[e * per + p] = c[p];
                 x2 += x[e * per + p] * x[e * per + p];
             }
+            double q = c2;  // |o_e|^2 of the value o_e ends with (the conventional one unless changed below)
             if (!(xi >= 0.0)) {
                 neg_.push_back(e);
-                continue;
-            }
-            if constexpr (per == 1) {
-                const double sign = Sign == sign_rule::of_update ? c[0] : stage_value<s - 1>(x[e], k, e, dt);
-                o[e] = std::copysign(std::sqrt(xi), sign);
             } else {
-                if (!(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
-                    if (xi > 0.0) neg_.push_back(e);
-                    continue;
+                bool keep_conventional = false;
+                if constexpr (per == 1) {
+                    const double sign = Sign == sign_rule::of_update ? c[0] : stage_value<s - 1>(x[e], k, e, dt);
+                    o[e] = std::copysign(std::sqrt(xi), sign);
+                    q = o[e] * o[e];
+                } else {
+                    if (!(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
+                        if (xi > 0.0) neg_.push_back(e);
+                        keep_conventional = true;
+                    } else {
+                        modulus_update(o + e * per, c, xi, c2);
+                        q = o[e * per] * o[e * per] + o[e * per + 1] * o[e * per + 1];
+                    }
                 }
-                modulus_update(o + e * per, c, xi, c2);
+                // Ill-conditioned, and the conventional update differs from it beyond round-off (2^-40 relative):
+                // where the two agree to a few ulps the swap gains nothing, and its defect (then of the order of eps
+                // times their share of each invariant, and of one sign from step to step) would be too small for
+                // the rescale to represent: a systematic drift of ~eps per step (measured on DP54 at small steps,
+                // 15 eps sqrt(n)).
+                const double change = std::abs(xi - x2);
+                if (!keep_conventional && xi < kappa * change && std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi))
+                    cond_.push_back({xi / change, e});
             }
-            // Ill-conditioned, and the conventional update differs from it beyond round-off (2^-40 relative): where
-            // the two agree to a few ulps the swap gains nothing, and its defect (then of the order of eps times
-            // their share of each invariant, and of one sign from step to step) would be too small for the rescale
-            // to represent: a systematic drift of ~eps per step (measured on DP54 at small steps, 15 eps sqrt(n)).
-            const double change = std::abs(xi - x2);
-            if (xi < kappa * change && std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi))
-                cond_.push_back(e), cond_ratio_.push_back(xi / change);
+            if (fused) {
+                const std::size_t l = e & 1;
+                const double u = w0[e], v = w1[e];
+                g00[l] += u * u * q, g01[l] += u * v * q, g11[l] += v * v * q;
+                a0[l] += std::abs(u) * q, a1[l] += std::abs(v) * q;
+            }
         }
+        if (fused) set_gram(g00[0] + g00[1], g01[0] + g01[1], g11[0] + g11[1], a0[0] + a0[1], a1[0] + a1[1]);
     }
 
     // The remedy (radicand_remedy.hpp) for the unknowns whose radicand is negative (NaN in o): their conventional
