@@ -184,12 +184,16 @@ class conservative_rk : public radicand_remedy {
         const double kappa = remedy.condition;
         // The Gram sums of the finished state, G_ab = sum_e w_ae w_be |o_e|^2 and A_a = sum_e |w_ae| |o_e|^2, are
         // accumulated in this same pass when there are two invariants (E and Z: every spectral model, n-wave), so
-        // that the remedy needs no pass of its own over the state (docs/methods.md, "Cost"). Two interleaved sets
-        // of sums keep the add chains short.
+        // that the remedy needs no pass of its own over the state (docs/methods.md, "Cost"). G is summed with
+        // compensation (error-free additions): where E and Z are nearly dependent (a Taylor-Green flow and a small
+        // perturbation) the rescale's coefficients are large and of opposite signs, and plain sums, which drop every
+        // small term added after the large ones, erred by up to 160 eps in G_00, one-signed: C-PC drifted E by
+        // ~5 eps per step (50 eps sqrt(n) at N = 128; docs/methods.md).
         const bool fused = weights_fused();
         const double* w0 = fused ? quadratic_invariants()[0].data() : nullptr;
         const double* w1 = fused ? quadratic_invariants()[1].data() : nullptr;
-        std::array<double, 2> g00{}, g01{}, g11{}, a0{}, a1{};
+        detail::compensated_sum g00, g01, g11;
+        double a0 = 0.0, a1 = 0.0;
         const std::size_t ne = n / per;
         for (std::size_t e = 0; e < ne; ++e) {
             std::array<double, per> c{}, rad{};
@@ -227,13 +231,12 @@ class conservative_rk : public radicand_remedy {
                     cond_.push_back({xi / change, e});
             }
             if (fused) {
-                const std::size_t l = e & 1;
                 const double u = w0[e], v = w1[e];
-                g00[l] += u * u * q, g01[l] += u * v * q, g11[l] += v * v * q;
-                a0[l] += std::abs(u) * q, a1[l] += std::abs(v) * q;
+                g00.add(u * u * q), g01.add(u * v * q), g11.add(v * v * q);
+                a0 += std::abs(u) * q, a1 += std::abs(v) * q;
             }
         }
-        if (fused) set_gram(g00[0] + g00[1], g01[0] + g01[1], g11[0] + g11[1], a0[0] + a0[1], a1[0] + a1[1]);
+        if (fused) set_gram(g00.value(), g01.value(), g11.value(), a0, a1);
     }
 
     // The remedy (radicand_remedy.hpp) for the unknowns whose radicand is negative (NaN in o): their conventional

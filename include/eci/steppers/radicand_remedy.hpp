@@ -15,6 +15,20 @@
 
 namespace eci {
 
+namespace detail {
+/// A sum with its rounding error carried (Knuth's TwoSum per addition, branch-free): accurate to about one rounding
+/// of the result whatever the order and sizes of the terms.
+struct compensated_sum {
+    double s = 0.0, err = 0.0;
+    void add(double v) {
+        const double t = s + v, z = t - s;
+        err += (s - (t - z)) + (v - z);
+        s = t;
+    }
+    double value() const { return s + err; }
+};
+}  // namespace detail
+
 /// What a conservative stepper does when some radicands (new psi_k^2) come out negative.
 enum class radicand_policy {
     remedy,  ///< isolated failures: conventional update for them, exact rescale of all; else as `halve`
@@ -174,7 +188,7 @@ class radicand_remedy {
         // attempt corrects them for the elements it changes, so no attempt passes over the state for them.
         if (!gram_valid_) {
             g0_ = {}, mag0_ = {};
-            gram<shift>(o, n, g0_, mag0_);
+            gram_compensated<shift>(o, n, g0_, mag0_);
         }
         gram_valid_ = false;  // the next step's finishing pass sets them again
         // Negative radicands must be taken: if they alone hold too large a share, or are not finite (a step far
@@ -318,7 +332,9 @@ class radicand_remedy {
         std::array<double, max_invariants> defect{}, held{};
         // G and A of the state with these elements conventional: the finished state's (g0_, mag0_, where neg_
         // already hold their conventional value) corrected by each changed element's w_a w_b (|c|^2 - |o|^2).
-        std::array<double, M * M> g = g0_;
+        // The corrections are small against G's entries: summed apart and added once, so that none is lost in
+        // rounding against the large entries (see finish_conditioned on why G must be accurate).
+        std::array<double, M * M> g = g0_, dg{};
         std::array<double, max_invariants> mag = mag0_;
         std::size_t taken = 0;
         auto take = [&](std::size_t e, bool changes) {
@@ -336,7 +352,7 @@ class radicand_remedy {
                 defect[a] += w * d;
                 held[a] += std::abs(w) * h;
                 mag[a] += std::abs(w) * dq;
-                for (std::size_t b = 0; b < m; ++b) g[a * M + b] += w * weights_[b][e] * dq;
+                for (std::size_t b = 0; b < m; ++b) dg[a * M + b] += w * weights_[b][e] * dq;
             }
             ++taken;
             return true;
@@ -346,6 +362,8 @@ class radicand_remedy {
         for (std::size_t j = 0; j < ncond; ++j)
             if (!take(cond_[j].e, true)) return false;
         if (taken == 0) return true;
+        for (std::size_t a = 0; a < m; ++a)
+            for (std::size_t b = 0; b < m; ++b) g[a * M + b] += dg[a * M + b];
         for (std::size_t j = 0; j < m; ++j)
             if (!(held[j] <= remedy.max_share * mag[j])) return false;
         std::array<double, max_invariants> c{};
@@ -430,6 +448,26 @@ class radicand_remedy {
         }
         for (std::size_t a = 0; a < m; ++a)
             for (std::size_t b = 0; b < a; ++b) g[b * max_invariants + a] = g[a * max_invariants + b];
+    }
+
+    // The Gram sums as gram() forms them, G with compensated sums (the conditioned update, any number of
+    // invariants; see finish_conditioned in conservative_rk.hpp on why G must be accurate).
+    template <std::size_t Shift>
+    void gram_compensated(const double* o, std::size_t n, std::array<double, max_invariants * max_invariants>& g,
+                          std::array<double, max_invariants>& mag) const {
+        const std::size_t m = weights_.size();
+        std::array<detail::compensated_sum, max_invariants * max_invariants> acc{};
+        for (std::size_t i = 0; i < n; ++i) {
+            const double xi = o[i] * o[i];
+            for (std::size_t a = 0; a < m; ++a) {
+                const double wa = weights_[a][i >> Shift];
+                mag[a] += std::abs(wa) * xi;
+                for (std::size_t b = 0; b <= a; ++b) acc[a * max_invariants + b].add(wa * weights_[b][i >> Shift] * xi);
+            }
+        }
+        for (std::size_t a = 0; a < m; ++a)
+            for (std::size_t b = 0; b <= a; ++b)
+                g[a * max_invariants + b] = g[b * max_invariants + a] = acc[a * max_invariants + b].value();
     }
 
     // G c = -defect in the least-squares sense on G's numerically non-zero eigenvalues (Jacobi-scaled, cyclic
