@@ -38,9 +38,16 @@ double seconds_since(double t) { return now() - t; }
 
 // One attempt of the stepper (success or not: a failed attempt costs the same work), the fastest of `reps`.
 // The state is restored before each attempt, so every method steps the same field at CFL 0.5.
+// update: which finishing pass a conservative stepper takes (issue 19): 0 its default, 1 the paper's update, 2 the
+// conditioned update. The model's invariants are declared to it, as ns2d_step (the CLI's driver) does.
 template <class St>
-double step_time(eci::navier_stokes_2d& m, const state& w0, double dt, int reps) {
+double step_time(eci::navier_stokes_2d& m, const state& w0, double dt, int reps, int update = 0) {
     St st;
+    if constexpr (requires { st.remedy; }) {
+        st.set_quadratic_invariants(m.quadratic_invariant_weights());
+        if (update == 1) st.remedy.update = eci::update_kind::paper;
+        if (update == 2) st.remedy.update = eci::update_kind::conditioned;
+    }
     state w = w0;
     st.step(m, w, 0.0, dt);  // warm up: buffers allocated
     double best = 1e300;
@@ -72,6 +79,7 @@ int main(int argc, char** argv) {
     const double dt = 0.5 * (2.0 * std::numbers::pi / p.n) / m.max_velocity(w0);
     // Interleaved: each round times every method once, so load changes hit all alike; the fastest round counts.
     double t_rk4 = 1e300, t_crk4 = 1e300, t_pc = 1e300, t_cpc = 1e300, t_fft = 1e300, t_rhs = 1e300;
+    double t_crk4_paper = 1e300, t_cpc_paper = 1e300, t_crk4_cond = 1e300, t_cpc_cond = 1e300;
     state f;
     m(w0, f, 0.0);
     for (int round = 0; round < 3; ++round) {
@@ -79,6 +87,10 @@ int main(int argc, char** argv) {
         t_crk4 = std::min(t_crk4, step_time<eci::c_rk4<state>>(m, w0, dt, reps));
         t_pc = std::min(t_pc, step_time<eci::pc<state>>(m, w0, dt, reps));
         t_cpc = std::min(t_cpc, step_time<eci::c_pc<state>>(m, w0, dt, reps));
+        t_crk4_paper = std::min(t_crk4_paper, step_time<eci::c_rk4<state>>(m, w0, dt, reps, 1));
+        t_cpc_paper = std::min(t_cpc_paper, step_time<eci::c_pc<state>>(m, w0, dt, reps, 1));
+        t_crk4_cond = std::min(t_crk4_cond, step_time<eci::c_rk4<state>>(m, w0, dt, reps, 2));
+        t_cpc_cond = std::min(t_cpc_cond, step_time<eci::c_pc<state>>(m, w0, dt, reps, 2));
         for (int r = 0; r < reps; ++r) {
             const double t = now();
             for (int s = 0; s < 4; ++s) m.execute_transforms();  // the transforms of one RK4 step
@@ -126,6 +138,10 @@ int main(int argc, char** argv) {
                 p.n, p.threads, use_cpu_clock ? "cpu" : "wall", t_rk4, t_crk4, t_pc, t_cpc, t_fft, t_rhs,
                 t_crk4 / t_rk4, t_cpc / t_pc, t_crk4 / t_fft, t_rhs / t_fft, dt, t_one, t_fft / 4.0 / t_one,
                 m.transforms_per_rhs());
+    // Issue 19: the conservative steppers' two finishing passes side by side (c_rk4 and c_pc above are the default).
+    std::printf("ns2d-update N=%d c_rk4_paper/rk4=%.4f c_rk4_conditioned/rk4=%.4f c_pc_paper/pc=%.4f "
+                "c_pc_conditioned/pc=%.4f\n",
+                p.n, t_crk4_paper / t_rk4, t_crk4_cond / t_rk4, t_cpc_paper / t_pc, t_cpc_cond / t_pc);
     if (p.threads == 1) return 0;
     // Threads: a one-thread model beside this one, C-RK4 steps alternating between them in wall time, so load from
     // other processes hits both alike (on a shared machine it takes cores from the threaded one first).

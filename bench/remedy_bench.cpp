@@ -56,9 +56,13 @@ struct runner {
     std::uint64_t evals = 0, steps = 0;
     eci::run_stats stats{};
 
-    runner(const model* mod, const state& x0, double step, bool remedy) : m(mod), dt(step), x(x0) {
+    // paper_update: the paper's per-unknown update with the issue-9 remedy instead of the default conditioned
+    // update (issue 19), for the before / after rows.
+    runner(const model* mod, const state& x0, double step, bool remedy, bool paper_update = false)
+        : m(mod), dt(step), x(x0) {
         if constexpr (requires { stepper.remedy; }) {
             stepper.remedy.policy = remedy ? eci::radicand_policy::remedy : eci::radicand_policy::halve;
+            if (paper_update) stepper.remedy.update = eci::update_kind::paper;
             stepper.set_quadratic_invariants(m->quadratic_invariant_weights());
         }
     }
@@ -218,15 +222,21 @@ int main(int argc, char** argv) {
         if (which.find("tiny") != std::string::npos) steps.push_back({1e-5, "(tiny, the old rows)"});
         for (const step_size& s : steps) {
             if (probe_only) break;
-            auto compare = [&]<class C, class P>(const char* what, bool remedy, int count, bool targeted) {
+            auto compare = [&]<class C, class P>(const char* what, bool remedy, int count, bool targeted,
+                                                 bool paper_update = false) {
                 if (count == 0) return;
-                runner<C> a(&m, x0, s.dt, remedy);
+                runner<C> a(&m, x0, s.dt, remedy, paper_update);
                 runner<P> b(&m, x0, s.dt, true);
-                out.row(n, s.dt, s.label, what, remedy ? "remedy" : "halving (before)", count, run_pair(a, b, count),
-                        targeted);
+                out.row(n, s.dt, s.label, what,
+                        !remedy ? "halving (before)" : paper_update ? "paper update+remedy" : "remedy", count,
+                        run_pair(a, b, count), targeted);
             };
             compare.template operator()<eci::c_pc<state>, eci::pc<state>>("C-PC / PC", true, pairs, true);
             compare.template operator()<eci::c_rk4<state>, eci::rk4<state>>("C-RK4 / RK4", true, pairs, true);
+            // Issue 19: the paper's update (per-unknown square roots, remedy for isolated failures) beside the
+            // default conditioned update above, in the same run.
+            compare.template operator()<eci::c_pc<state>, eci::pc<state>>("C-PC / PC", true, pairs, false, true);
+            compare.template operator()<eci::c_rk4<state>, eci::rk4<state>>("C-RK4 / RK4", true, pairs, false, true);
             // C-Euler's near-zero band is O(tau) wide: beyond the tiny step it is not isolated and C-Euler takes its
             // implicit step as before (10-14 evaluations per step), so one pair shows it.
             compare.template operator()<eci::c_euler<state>, eci::euler<state>>("C-Euler / Euler", true,

@@ -24,6 +24,10 @@ struct run_settings {
     std::optional<double> rtol;          ///< relative tolerance: with or without atol, adaptive step control
     std::optional<double> atol;          ///< absolute tolerance (adaptive); unset means rtol's value
     std::optional<double> output_dt;     ///< CSV rows at multiples of this time (and the end) instead of steps
+    /// Conservative RK methods at fixed steps on large systems (n-wave, the spectral models): "conditioned" (the
+    /// default, when empty) or "paper", the paper's update bit for bit (issue 19; docs/methods.md). Empty: not
+    /// given (a spectral run on more than one MPI process then takes "paper").
+    std::string update;
 };
 
 /// What `eci list` and `eci run MODEL --help` show about a model, and its defaults (its first preset).

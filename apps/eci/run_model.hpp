@@ -155,6 +155,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     cfg.t_end = plan.t_end;
     if (plan.fixed_steps) cfg.steps = plan.steps;
     cfg.every = settings.every;
+    cfg.update = settings.update == "paper" ? update_kind::paper : update_kind::conditioned;
     cfg.cancel = cancel_flag();  // polled between sub-steps and right-hand-side evaluations
     if (adaptive) {
         if (plan.fixed_steps) throw bad_input("--steps counts fixed steps; an adaptive run (--rtol/--atol) ends at --t-end");

@@ -50,6 +50,10 @@ struct run_config {
     output_mode mode = output_mode::automatic;  ///< adaptive runs with `times`
 
     int max_halvings = run_options{}.max_halvings;      ///< fixed steps: halvings of one failed step
+    /// Fixed steps with a conservative Runge-Kutta method on a system with declared invariants and at least
+    /// remedy_options::min_unknowns real unknowns: the conditioned update (default) or the paper's update (issue 19,
+    /// docs/methods.md "Zero crossings without loss of accuracy").
+    update_kind update = update_kind::conditioned;
     std::uint64_t max_substeps = run_options{}.max_substeps;  ///< fixed steps: attempts for one step of the grid
     /// A monitored invariant that becomes non-finite ends the run (invariant_overflow): the solution blew up.
     bool stop_on_invariant_overflow = true;
@@ -453,6 +457,7 @@ solve_report solve(const F& f, S& x, std::string_view method, const run_config& 
             opt.cancel = cfg.cancel;
             const bool found = with_stepper<Dispatch>(report.method.name, [&](auto stepper) {
                 using St = decltype(stepper);
+                if constexpr (requires { stepper.remedy.update; }) stepper.remedy.update = cfg.update;
                 std::function<std::optional<double>()> lag = [] { return std::optional<double>{}; };
                 if constexpr (detail::stepper_shifts_time<St>())
                     lag = [&stepper] { return std::optional<double>(stepper.time_lag()); };

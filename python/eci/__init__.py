@@ -349,7 +349,8 @@ def _event_list(events):
 
 def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
           transform=None, max_halvings=40, first_step=None, min_step=0.0, max_step=math.inf, max_steps=None,
-          t_eval_mode="auto", jac=None, dense_output=False, events=None, vectorized=False, args=None, **options):
+          t_eval_mode="auto", jac=None, dense_output=False, events=None, vectorized=False, args=None,
+          update="conditioned", **options):
     """Integrate dy/dt = fun(t, y) from t_span[0] to t_span[1], SciPy's solve_ivp conventions, eci's numerics.
 
     fun: a callable fun(t, y) -> dy/dt (y a real or complex 1-D array, as in SciPy), or a built-in model
@@ -388,6 +389,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     transform: an eci.Transform in which the invariants are linear (methods c-pc, c-rk2, c-rk4; adaptive: the c-
         pairs).
     max_halvings: fixed steps: how often a failed step may be halved before the run stops (default 40).
+    update: fixed steps with c-pc, c-rk2 or c-rk4 on a system of 16 or more real unknowns with declared invariants
+        (the n-wave and spectral models, a fun with invariants=): "conditioned" (default; at the conventional
+        method's error, docs/methods.md) or "paper" (the paper's update, bit for bit as before issue 19).
     first_step, min_step, max_step, max_steps: adaptive control: the first step (no larger than the span;
         default: the model's default dt, as `eci run --rtol`; for a Python fun, SciPy's rule from two evaluations
         of fun, counted in nfev), the smallest step (default 0: 64 eps |t|), the largest (default inf) and the most
@@ -503,7 +507,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             raise ValueError("a transform needs a real y0")
         n = len(y)
 
-    settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None,
+    if update not in ("conditioned", "paper"):
+        raise ValueError(f"update must be 'conditioned' or 'paper', not {update!r}")
+    settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None, "update": update,
                 "dense_output": bool(dense_output), "events": event_list}
     extra_calls = 0
     if adaptive:

@@ -143,6 +143,9 @@ class ns2d_object : public model_base {
             measure(x, true);
             emit(t0, x);
             with_ns2d_method(method, [&](auto stepper) {
+                if constexpr (requires { stepper.remedy.update; })  // update="paper" (issue 19)
+                    if (settings.contains("update") && settings["update"].cast<std::string>() == "paper")
+                        stepper.remedy.update = update_kind::paper;
                 for (std::uint64_t i = 1; i <= n; ++i) {
                     interrupt();
                     const double start = t0 + double(i - 1) * dt;

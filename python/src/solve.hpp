@@ -42,6 +42,7 @@ inline python_request request_from(double t0, double t1, double dt, const py::di
     c.stop_on_invariant_overflow = true;
     if (!settings["t_eval"].is_none()) c.times = settings["t_eval"].cast<std::vector<double>>();
     c.max_halvings = settings["max_halvings"].cast<int>();
+    if (settings.contains("update") && settings["update"].cast<std::string>() == "paper") c.update = update_kind::paper;
     const py::object a = settings["adaptive"];
     if (!a.is_none()) {
         adaptive_options o;

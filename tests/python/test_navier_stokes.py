@@ -51,6 +51,32 @@ def test_inviscid_c_rk4_keeps_energy_and_enstrophy_where_rk4_drifts():
     assert all(v == 0.0 for v in r.budget.values())
 
 
+def test_update_keyword_conditioned_by_default_and_paper_on_request():
+    # issue 19: c-rk4 takes the conditioned update by default (at RK4's error on random phases), update="paper" the
+    # paper's; N = 32 inviscid, t = 0.05 in 32 steps against 512 RK4 steps. Both keep E and Z to 8 eps sqrt(steps)
+    # (each step rounds every sum once, as in tests/spectral).
+    m = NS(n=32)
+    w = m.random_field(k_peak=4.0, energy=0.5, seed=3)
+    t_end = 0.05
+
+    def final(method, steps, **kw):
+        r = eci.solve(m, (0.0, t_end), w, method=method, dt=t_end / steps, t_eval=[t_end], **kw)
+        return r, r.y[:, -1]
+
+    _, ref = final("rk4", 512)
+    _, rk4 = final("rk4", 32)
+    cond, crk4 = final("c-rk4", 32)
+    paper, crk4_paper = final("c-rk4", 32, update="paper")
+    err = lambda y: np.linalg.norm(y - ref)
+    assert err(crk4) <= 1.5 * err(rk4), (err(crk4), err(rk4), err(crk4_paper))
+    assert not np.array_equal(crk4, crk4_paper)  # the keyword reaches the stepper
+    tol = 8.0 * EPS * math.sqrt(32)
+    for r in (cond, paper):
+        assert all(r.invariants[n]["max_rel_drift"] <= tol for n in ("energy", "enstrophy"))
+    with pytest.raises(ValueError, match="update must be"):
+        eci.solve(m, (0.0, t_end), w, method="c-rk4", dt=t_end / 32, update="fast")
+
+
 def test_viscous_decay_budget_and_default_step():
     m = NS(n=32, nu=0.01)
     w = m.taylor_green(velocity=1.0)

@@ -9,6 +9,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <string>
@@ -73,6 +74,50 @@ TEST(CliNavierStokes2d, RestartIsBitIdentical) {
     // and the forcing did something: the run without the restart's generator state would differ
     const auto half = read_doubles(d / "half.h5", "omega_hat");
     EXPECT_NE(0, std::memcmp(full.data(), half.data(), full.size() * sizeof(double)));
+}
+
+// Issue 19, as a user meets it: `eci run navier-stokes-2d --method c-rk4` with no other option is at RK4's error.
+// N = 64, the CLI's random field (k_p 8), nu 2e-3, to t = 0.1 in 128 steps (CFL ~0.02), against 2048 RK4 steps of
+// the same run (RK4's own error there is ~1e-13 of the error measured). The paper's update (--update paper) was
+// 2.4-8x RK4's error on such runs (docs/benchmarks.md), so the check fails if the default loses the conditioned
+// update; its E and Z stay exact (the CSV's relative drift columns), so the accuracy costs no exactness.
+double relative_error(const std::vector<double>& w, const std::vector<double>& ref) {
+    double e = 0.0, norm = 0.0;
+    for (std::size_t i = 0; i < w.size(); ++i) e += (w[i] - ref[i]) * (w[i] - ref[i]), norm += ref[i] * ref[i];
+    return std::sqrt(e / norm);
+}
+
+TEST(CliNavierStokes2d, DefaultCRk4IsAtRk4Error) {
+    scratch_dir dir("ns2d-accuracy");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    for (const char* seed : {"3", "5"}) {
+        auto final_state = [&](const std::string& method, int steps, const std::string& extra) {
+            const std::string name = method + "-" + std::to_string(steps) + extra.substr(extra.find_last_of(' ') + 1);
+            char dt[32];
+            std::snprintf(dt, sizeof dt, "%.17g", 0.1 / steps);  // all digits: every run ends at the same t
+            const auto r = run_eci("run navier-stokes-2d --N 64 --nu 2e-3 --seed " + std::string(seed) +
+                                       " --fftw-estimate --method " + method + " --dt " + dt + " --steps " + std::to_string(steps) +
+                                       " --checkpoint-every " + std::to_string(steps) + " --checkpoint " + q + "/" +
+                                       name + ".h5" + extra,
+                                   d);
+            EXPECT_EQ(r.status, 0) << r.err;
+            return read_doubles(d / (name + ".h5"), "omega_hat");
+        };
+        const auto ref = final_state("rk4", 2048, "");
+        const auto rk4 = final_state("rk4", 128, ""), crk4 = final_state("c-rk4", 128, "");
+        const auto paper = final_state("c-rk4", 128, " --update paper");
+        ASSERT_FALSE(ref.empty());
+        ASSERT_EQ(ref.size(), crk4.size());
+        ASSERT_EQ(ref.size(), paper.size());
+        const double e_rk4 = relative_error(rk4, ref), e_crk4 = relative_error(crk4, ref);
+        const double e_paper = relative_error(paper, ref);
+        std::printf("seed %s, 128 steps: RK4 %.3e, C-RK4 (default) %.3e = %.2fx, C-RK4 --update paper %.3e = %.2fx\n",
+                    seed, e_rk4, e_crk4, e_crk4 / e_rk4, e_paper, e_paper / e_rk4);
+        EXPECT_LE(e_crk4, 1.5 * e_rk4) << "seed " << seed;
+        // the test has the power to see the paper's update (it is the check above that would fail without it)
+        EXPECT_GT(e_paper, 1.5 * e_rk4) << "seed " << seed;
+    }
 }
 
 // Snapshots: vorticity as HDF5 (grid, time, parameters) and PNG, E(k) as CSV; the budget columns close.

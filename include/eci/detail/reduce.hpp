@@ -43,11 +43,15 @@ struct reducer {
 
     template <class F>
     static reducer of(const F& f) {
-        if constexpr (distributed_model<F>)
+        if constexpr (distributed_model<F>) {
+            // a model that can be spread but is not (spread() false: one process) is a serial model
+            if constexpr (requires { bool(f.spread()); })
+                if (!f.spread()) return {};
             return {&f, [](const void* m, std::span<double> v) { static_cast<const F*>(m)->reduce_sums(v); },
                     [](const void* m, std::span<double> v) { static_cast<const F*>(m)->reduce_max(v); }};
-        else
+        } else {
             return {};
+        }
     }
 };
 

@@ -110,8 +110,8 @@ class conservative_rk : public radicand_remedy {
     // min_unknowns real unknowns. Otherwise: the paper's per-unknown update (and eq. (30) for C-PC).
     bool conditioned_update_applies(std::size_t n) const {
         const auto& w = quadratic_invariants();
-        return remedy.policy == radicand_policy::remedy && !w.empty() && w.front().size() * per == n &&
-               n >= remedy.min_unknowns;
+        return remedy.update == update_kind::conditioned && remedy.policy == radicand_policy::remedy && !w.empty() &&
+               w.front().size() * per == n && n >= remedy.min_unknowns;
     }
 
     // Element e (one real unknown, or the two parts of a complex mode): its conventional update into c, and
@@ -188,9 +188,21 @@ class conservative_rk : public radicand_remedy {
                             std::size_t n) {
         neg_.clear();
         cond_.clear();
-        cond_ratio_.clear();
         const double kappa = remedy.condition;
-        for (std::size_t e = 0; e < n / per; ++e) {
+        // The Gram sums of the finished state, G_ab = sum_e w_ae w_be |o_e|^2 and A_a = sum_e |w_ae| |o_e|^2, are
+        // accumulated in this same pass when there are two invariants (E and Z: every spectral model, n-wave), so
+        // that the remedy needs no pass of its own over the state (docs/methods.md, "Cost"). G is summed with
+        // compensation (error-free additions): where E and Z are nearly dependent (a Taylor-Green flow and a small
+        // perturbation) the rescale's coefficients are large and of opposite signs, and plain sums, which drop every
+        // small term added after the large ones, erred by up to 160 eps in G_00, one-signed: C-PC drifted E by
+        // ~5 eps per step (50 eps sqrt(n) at N = 128; docs/methods.md).
+        const bool fused = weights_fused();
+        const double* w0 = fused ? quadratic_invariants()[0].data() : nullptr;
+        const double* w1 = fused ? quadratic_invariants()[1].data() : nullptr;
+        detail::compensated_sum g00, g01, g11;
+        double a0 = 0.0, a1 = 0.0;
+        const std::size_t ne = n / per;
+        for (std::size_t e = 0; e < ne; ++e) {
             std::array<double, per> c{}, rad{};
             const auto [c2, xi] = element_update(x, k, e, dt, c, rad);
             double x2 = 0.0;
@@ -198,28 +210,40 @@ class conservative_rk : public radicand_remedy {
                 o[e * per + p] = c[p];
                 x2 += x[e * per + p] * x[e * per + p];
             }
+            double q = c2;  // |o_e|^2 of the value o_e ends with (the conventional one unless changed below)
             if (!(xi >= 0.0)) {
                 neg_.push_back(e);
-                continue;
-            }
-            if constexpr (per == 1) {
-                const double sign = Sign == sign_rule::of_update ? c[0] : stage_value<s - 1>(x[e], k, e, dt);
-                o[e] = std::copysign(std::sqrt(xi), sign);
             } else {
-                if (!(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
-                    if (xi > 0.0) neg_.push_back(e);
-                    continue;
+                bool keep_conventional = false;
+                if constexpr (per == 1) {
+                    const double sign = Sign == sign_rule::of_update ? c[0] : stage_value<s - 1>(x[e], k, e, dt);
+                    o[e] = std::copysign(std::sqrt(xi), sign);
+                    q = o[e] * o[e];
+                } else {
+                    if (!(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
+                        if (xi > 0.0) neg_.push_back(e);
+                        keep_conventional = true;
+                    } else {
+                        modulus_update(o + e * per, c, xi, c2);
+                        q = o[e * per] * o[e * per] + o[e * per + 1] * o[e * per + 1];
+                    }
                 }
-                modulus_update(o + e * per, c, xi, c2);
+                // Ill-conditioned, and the conventional update differs from it beyond round-off (2^-40 relative):
+                // where the two agree to a few ulps the swap gains nothing, and its defect (then of the order of eps
+                // times their share of each invariant, and of one sign from step to step) would be too small for
+                // the rescale to represent: a systematic drift of ~eps per step (measured on DP54 at small steps,
+                // 15 eps sqrt(n)).
+                const double change = std::abs(xi - x2);
+                if (!keep_conventional && xi < kappa * change && std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi))
+                    cond_.push_back({xi / change, e});
             }
-            // Ill-conditioned, and the conventional update differs from it beyond round-off (2^-40 relative): where
-            // the two agree to a few ulps the swap gains nothing, and its defect (then of the order of eps times
-            // their share of each invariant, and of one sign from step to step) would be too small for the rescale
-            // to represent: a systematic drift of ~eps per step (measured on DP54 at small steps, 15 eps sqrt(n)).
-            const double change = std::abs(xi - x2);
-            if (xi < kappa * change && std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi))
-                cond_.push_back(e), cond_ratio_.push_back(xi / change);
+            if (fused) {
+                const double u = w0[e], v = w1[e];
+                g00.add(u * u * q), g01.add(u * v * q), g11.add(v * v * q);
+                a0 += std::abs(u) * q, a1 += std::abs(v) * q;
+            }
         }
+        if (fused) set_gram(g00.value(), g01.value(), g11.value(), a0, a1);
     }
 
     // The remedy (radicand_remedy.hpp) for the unknowns whose radicand is negative (NaN in o): their conventional

@@ -17,10 +17,30 @@
 
 namespace eci {
 
+namespace detail {
+/// A sum with its rounding error carried (Knuth's TwoSum per addition, branch-free): accurate to about one rounding
+/// of the result whatever the order and sizes of the terms.
+struct compensated_sum {
+    double s = 0.0, err = 0.0;
+    void add(double v) {
+        const double t = s + v, z = t - s;
+        err += (s - (t - z)) + (v - z);
+        s = t;
+    }
+    double value() const { return s + err; }
+};
+}  // namespace detail
+
 /// What a conservative stepper does when some radicands (new psi_k^2) come out negative.
 enum class radicand_policy {
     remedy,  ///< isolated failures: conventional update for them, exact rescale of all; else as `halve`
     halve,   ///< fail the step, so the driver halves it: the paper's procedure
+};
+
+/// Which finishing pass the conservative RK engine takes on a system with declared invariants (issue 19).
+enum class update_kind {
+    conditioned,  ///< from remedy_options::min_unknowns real unknowns on: the conditioned update (the default)
+    paper,        ///< the paper's per-unknown square root on any system (its bits; the issue-9 remedy)
 };
 
 /// The weights of a model's quadratic invariants I_j = sum_k w_jk |psi_k|^2: one row per invariant, one weight per
@@ -47,9 +67,11 @@ struct remedy_options {
     double max_rescale = 0.01;
     /// The conditioned update (issue 19; docs/methods.md, "Zero crossings without loss of accuracy") is used by the
     /// conservative RK engine when the invariants' weights are declared, the policy is `remedy` and the state has at
-    /// least this many real unknowns. Opt-in for now (set it to 16): it costs 1.2-2.2x the step of the paper's
-    /// update, whose bits every front end keeps by default (docs/methods.md says why).
-    std::size_t min_unknowns = std::numeric_limits<std::size_t>::max();
+    /// least this many real unknowns and `update` is `conditioned` (the default; `paper` keeps the paper's update and
+    /// its bits on any system). Smaller systems (the paper's three-wave model) always take the paper's update.
+    std::size_t min_unknowns = 16;
+    /// The conditioned update (default) or the paper's update on systems of min_unknowns or more.
+    update_kind update = update_kind::conditioned;
     /// kappa of the conditioned update: an element (a real unknown, or a complex mode) whose new xi = |psi|^2 is
     /// below kappa times its change over the step, xi < kappa |xi - |psi(t)|^2|, takes the conventional update
     /// (if the caps allow), since there the square root amplifies the error of xi by 1 / (2 |psi|) and sqrt is
@@ -88,6 +110,7 @@ class radicand_remedy {
                 if (!std::isfinite(v)) throw std::invalid_argument("quadratic invariant weights must be finite");
         }
         weights_ = std::move(w);
+        gram_valid_ = false;
         for (std::size_t j = 0; j < weights_.size(); ++j) {
             wmax_[j] = 0.0;
             for (double v : weights_[j]) wmax_[j] = std::max(wmax_[j], std::abs(v));
@@ -194,50 +217,77 @@ class radicand_remedy {
     // refused too, false (the step fails and is halved).
     template <std::size_t Per, class Conv>
     bool remedy_elements(double* o, const double* x, std::size_t n, Conv&& conv) {
+        constexpr std::size_t shift = Per == 2 ? 1 : 0;
+        // The Gram sums of the finished state: from the finishing pass (two invariants), else one pass here. Each
+        // attempt corrects them for the elements it changes, so no attempt passes over the state for them.
+        if (!gram_valid_) {
+            g0_ = {}, mag0_ = {};
+            gram_compensated<shift>(o, n, g0_, mag0_);
+        }
+        gram_valid_ = false;  // the next step's finishing pass sets them again
         // Negative radicands must be taken: if they alone hold too large a share, or are not finite (a step far
         // too large), every set fails; decline at once rather than try the cascade (a step of 1e7 on n-wave would
         // otherwise try it in each of 2^16 attempts).
-        if (!neg_.empty() && !negatives_can_be_taken<Per>(o, x, n)) return decline();
-        // The worst-conditioned first (smallest xi / |change of xi|), so that a refused set can be cut to its worst.
-        if (!cond_.empty()) {
-            order_.resize(cond_.size());
-            for (std::size_t j = 0; j < order_.size(); ++j) order_[j] = j;
-            std::sort(order_.begin(), order_.end(), [&](std::size_t a, std::size_t b) {
-                return cond_ratio_[a] < cond_ratio_[b] || (cond_ratio_[a] == cond_ratio_[b] && a < b);
-            });
-            sorted_.resize(cond_.size());
-            for (std::size_t j = 0; j < order_.size(); ++j) sorted_[j] = cond_[order_[j]];
-            cond_.swap(sorted_);
-        }
+        if (!neg_.empty() && !negatives_can_be_taken<Per>(o, x)) return decline();
         saved_.resize(cond_.size() * Per);
         for (std::size_t j = 0; j < cond_.size(); ++j)
-            for (std::size_t p = 0; p < Per; ++p) saved_[j * Per + p] = o[cond_[j] * Per + p];
-        // All of cond_, then its worst quarter, its worst sixteenth, none: the caps decide how many.
+            for (std::size_t p = 0; p < Per; ++p) saved_[j * Per + p] = o[cond_[j].e * Per + p];
+        // All of cond_, then its worst-conditioned quarter (smallest xi / |change of xi|), its worst sixteenth,
+        // none: the caps decide how many. The first attempt, which takes every ill-conditioned element and is the
+        // one that succeeds in nearly every step, needs no ordering; a refused set is cut by a selection
+        // (nth_element, linear) on the set alone, not a sort.
         too_small_ = false;
-        for (std::size_t take = cond_.size();; take /= 4) {
-            // Never cut between equal ratios: elements that are mirror images of each other (a real field's k and
-            // -k, both stored on Navier-Stokes' k_x = 0 column) have equal ratios and must be treated alike, or
-            // the state stops being Hermitian and the model's rates (and its budget) see another field.
-            while (take > 0 && take < cond_.size() && cond_ratio_[order_[take]] == cond_ratio_[order_[take - 1]])
-                ++take;
+        for (std::size_t take = cond_.size();;) {
             if (attempt_elements<Per>(o, x, n, conv, take)) return true;
             ++stats_.conditioning_declined;
             for (std::size_t j = 0; j < take; ++j)
-                for (std::size_t p = 0; p < Per; ++p) o[cond_[j] * Per + p] = saved_[j * Per + p];
+                for (std::size_t p = 0; p < Per; ++p) o[cond_[j].e * Per + p] = saved_[j * Per + p];
             if (take == 0) break;
             if (too_small_) take = 1;  // a subset's rescale would be smaller still: straight to neg_ alone
             if (take / 4 == 0 && neg_.empty()) return true;  // every radicand positive: the conservative update stands
+            take = worst_first<Per>(o, take, take / 4);
         }
         --stats_.conditioning_declined;  // the last refusal (no ill-conditioned element taken) is a decline
         return decline();
     }
 
-    // One pass: whether neg_ alone (o holds their conventional update) holds at most max_share of every invariant.
+    // Reorders cond_[0, have) so that its `want` worst-conditioned elements come first (with their saved values),
+    // and returns how many elements are then taken: those `want`, and every further one whose ratio equals the
+    // largest of them. Never cut between equal ratios: elements that are mirror images of each other (a real
+    // field's k and -k, both stored on Navier-Stokes' k_x = 0 column) have equal ratios and must be treated alike,
+    // or the state stops being Hermitian and the model's rates (and its budget) see another field. o holds the
+    // saved (conservative) values of all of cond_ when this is called.
     template <std::size_t Per>
-    bool negatives_can_be_taken(const double* o, const double* x, std::size_t n) const {
-        constexpr std::size_t shift = Per == 2 ? 1 : 0;
+    std::size_t worst_first(const double* o, std::size_t have, std::size_t want) {
+        if (want == 0) return 0;
+        const auto first = cond_.begin(), last = cond_.begin() + std::ptrdiff_t(have);
+        std::nth_element(first, first + std::ptrdiff_t(want - 1), last, [](const candidate& a, const candidate& b) {
+            return a.ratio < b.ratio || (a.ratio == b.ratio && a.e < b.e);
+        });
+        const double limit = cond_[want - 1].ratio;
+        const auto cut = std::partition(first + std::ptrdiff_t(want), last,
+                                        [&](const candidate& a) { return a.ratio <= limit; });
+        const std::size_t taken = std::size_t(cut - first);
+        for (std::size_t j = 0; j < taken; ++j)
+            for (std::size_t p = 0; p < Per; ++p) saved_[j * Per + p] = o[cond_[j].e * Per + p];
+        return taken;
+    }
+
+    // Two invariants (E and Z): the finishing pass accumulates the Gram sums (see remedy_elements).
+    bool weights_fused() const { return weights_.size() == 2; }
+    void set_gram(double g00, double g01, double g11, double a0, double a1) {
+        g0_ = {}, mag0_ = {};
+        g0_[0] = g00, g0_[1] = g0_[max_invariants] = g01, g0_[max_invariants + 1] = g11;
+        mag0_[0] = a0, mag0_[1] = a1;
+        gram_valid_ = true;
+    }
+
+    // Whether neg_ alone (o holds their conventional update) holds at most max_share of every invariant (the
+    // magnitudes from the Gram sums).
+    template <std::size_t Per>
+    bool negatives_can_be_taken(const double* o, const double* x) const {
         const std::size_t m = weights_.size();
-        std::array<double, max_invariants> held{}, mag{};
+        std::array<double, max_invariants> held{};
         for (std::size_t e : neg_) {
             double x2 = 0.0, c2 = 0.0;
             for (std::size_t p = 0; p < Per; ++p)
@@ -245,12 +295,8 @@ class radicand_remedy {
             if (!std::isfinite(c2)) return false;
             for (std::size_t j = 0; j < m; ++j) held[j] += std::abs(weights_[j][e]) * std::max(x2, c2);
         }
-        for (std::size_t i = 0; i < n; ++i) {
-            const double xi = o[i] * o[i];
-            for (std::size_t j = 0; j < m; ++j) mag[j] += std::abs(weights_[j][i >> shift]) * xi;
-        }
         for (std::size_t j = 0; j < m; ++j)
-            if (!(held[j] <= remedy.max_share * mag[j])) return false;
+            if (!(held[j] <= remedy.max_share * mag0_[j])) return false;
         return true;
     }
 
@@ -264,8 +310,14 @@ class radicand_remedy {
     // otherwise): try_remedy's counts and sums are then over every process, and its decisions the same on all.
     detail::reducer reduce_;
 
-    std::vector<std::size_t> neg_, cond_;  // the conditioned update's elements (see remedy_elements)
-    std::vector<double> cond_ratio_;       // xi / |change of xi| of each element of cond_
+    // The conditioned update's elements (see remedy_elements): an ill-conditioned element and its
+    // xi / |change of xi| (smaller is worse).
+    struct candidate {
+        double ratio;
+        std::size_t e;
+    };
+    std::vector<std::size_t> neg_;
+    std::vector<candidate> cond_;
 
     // The first failed unknown after try_remedy declined: from its list when it made one, else by bad(i).
     template <class Bad>
@@ -314,31 +366,42 @@ class radicand_remedy {
     bool attempt_elements(double* o, const double* x, std::size_t n, Conv& conv, std::size_t ncond) {
         constexpr std::size_t shift = Per == 2 ? 1 : 0;
         const std::size_t m = weights_.size();
+        constexpr std::size_t M = max_invariants;
         std::array<double, max_invariants> defect{}, held{};
+        // G and A of the state with these elements conventional: the finished state's (g0_, mag0_, where neg_
+        // already hold their conventional value) corrected by each changed element's w_a w_b (|c|^2 - |o|^2).
+        // The corrections are small against G's entries: summed apart and added once, so that none is lost in
+        // rounding against the large entries (see finish_conditioned on why G must be accurate).
+        std::array<double, M * M> g = g0_, dg{};
+        std::array<double, max_invariants> mag = mag0_;
         std::size_t taken = 0;
-        auto take = [&](std::size_t e) {
+        auto take = [&](std::size_t e, bool changes) {
             std::array<double, Per> c{};
             const auto [c2, xi] = conv(e, c);
             if (!std::isfinite(c2) || !std::isfinite(xi)) return false;
-            double x2 = 0.0;
-            for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p], x2 += x[e * Per + p] * x[e * Per + p];
-            const double d = c2 - xi, h = std::max(x2, c2);
-            for (std::size_t j = 0; j < m; ++j) {
-                const double w = weights_[j][e];
-                defect[j] += w * d;
-                held[j] += std::abs(w) * h;
+            double x2 = 0.0, q = 0.0;
+            for (std::size_t p = 0; p < Per; ++p) {
+                q += o[e * Per + p] * o[e * Per + p];
+                o[e * Per + p] = c[p], x2 += x[e * Per + p] * x[e * Per + p];
+            }
+            const double d = c2 - xi, h = std::max(x2, c2), dq = changes ? c2 - q : 0.0;
+            for (std::size_t a = 0; a < m; ++a) {
+                const double w = weights_[a][e];
+                defect[a] += w * d;
+                held[a] += std::abs(w) * h;
+                mag[a] += std::abs(w) * dq;
+                for (std::size_t b = 0; b < m; ++b) dg[a * M + b] += w * weights_[b][e] * dq;
             }
             ++taken;
             return true;
         };
         for (std::size_t e : neg_)
-            if (!take(e)) return false;
+            if (!take(e, false)) return false;
         for (std::size_t j = 0; j < ncond; ++j)
-            if (!take(cond_[j])) return false;
+            if (!take(cond_[j].e, true)) return false;
         if (taken == 0) return true;
-        std::array<double, max_invariants * max_invariants> g{};
-        std::array<double, max_invariants> mag{};
-        gram<shift>(o, n, g, mag);
+        for (std::size_t a = 0; a < m; ++a)
+            for (std::size_t b = 0; b < m; ++b) g[a * M + b] += dg[a * M + b];
         for (std::size_t j = 0; j < m; ++j)
             if (!(held[j] <= remedy.max_share * mag[j])) return false;
         std::array<double, max_invariants> c{};
@@ -350,11 +413,26 @@ class radicand_remedy {
         // each of them per step at CFL 0.5, which moves 1e-8 of E and Z.
         double s_max = 0.0;
         std::array<double, max_invariants> moved{};
-        for_each_factor<shift>(n, c, [&](std::size_t i, double sk) {
-            s_max = std::max(s_max, std::abs(sk));
-            const double a = std::abs(sk) * o[i] * o[i];
-            for (std::size_t j = 0; j < m; ++j) moved[j] += std::abs(weights_[j][i >> shift]) * a;
-        });
+        if (m == 2) {  // E and Z: a loop over the elements with the weights hoisted (q_e = |o_e|^2 once)
+            const double* w0 = weights_[0].data();
+            const double* w1 = weights_[1].data();
+            const double c0 = c[0], c1 = c[1];
+            double m0 = 0.0, m1 = 0.0;
+            for (std::size_t e = 0; e < n / Per; ++e) {
+                double q = 0.0;
+                for (std::size_t p = 0; p < Per; ++p) q += o[e * Per + p] * o[e * Per + p];
+                const double u = w0[e], v = w1[e], sk = std::abs(c0 * u + c1 * v), a = sk * q;
+                s_max = std::max(s_max, sk);
+                m0 += std::abs(u) * a, m1 += std::abs(v) * a;
+            }
+            moved[0] = m0, moved[1] = m1;
+        } else {
+            for_each_factor<shift>(n, c, [&](std::size_t i, double sk) {
+                s_max = std::max(s_max, std::abs(sk));
+                const double a = std::abs(sk) * o[i] * o[i];
+                for (std::size_t j = 0; j < m; ++j) moved[j] += std::abs(weights_[j][i >> shift]) * a;
+            });
+        }
         if (!(s_max <= 0.5)) return false;
         // A rescale this small (every |s_k| < 2^-48: no amplitude would move by more than ~8-16 ulps) is not
         // represented: where o h is below half an ulp of o, o + o h rounds back to o, an error of one sign in every
@@ -408,6 +486,26 @@ class radicand_remedy {
         }
         for (std::size_t a = 0; a < m; ++a)
             for (std::size_t b = 0; b < a; ++b) g[b * max_invariants + a] = g[a * max_invariants + b];
+    }
+
+    // The Gram sums as gram() forms them, G with compensated sums (the conditioned update, any number of
+    // invariants; see finish_conditioned in conservative_rk.hpp on why G must be accurate).
+    template <std::size_t Shift>
+    void gram_compensated(const double* o, std::size_t n, std::array<double, max_invariants * max_invariants>& g,
+                          std::array<double, max_invariants>& mag) const {
+        const std::size_t m = weights_.size();
+        std::array<detail::compensated_sum, max_invariants * max_invariants> acc{};
+        for (std::size_t i = 0; i < n; ++i) {
+            const double xi = o[i] * o[i];
+            for (std::size_t a = 0; a < m; ++a) {
+                const double wa = weights_[a][i >> Shift];
+                mag[a] += std::abs(wa) * xi;
+                for (std::size_t b = 0; b <= a; ++b) acc[a * max_invariants + b].add(wa * weights_[b][i >> Shift] * xi);
+            }
+        }
+        for (std::size_t a = 0; a < m; ++a)
+            for (std::size_t b = 0; b <= a; ++b)
+                g[a * max_invariants + b] = g[b * max_invariants + a] = acc[a * max_invariants + b].value();
     }
 
     // G c = -defect in the least-squares sense on G's numerically non-zero eigenvalues (Jacobi-scaled, cyclic
@@ -480,7 +578,9 @@ class radicand_remedy {
     std::array<double, max_invariants> wmax_{};
     std::vector<std::size_t> bad_;
     std::vector<double> saved_;
-    std::vector<std::size_t> order_, sorted_;
+    std::array<double, max_invariants * max_invariants> g0_{};  // Gram sums of the finished state (remedy_elements)
+    std::array<double, max_invariants> mag0_{};
+    bool gram_valid_ = false;  // g0_, mag0_ from this step's finishing pass
     bool too_small_ = false;  // the last attempt's rescale was below what the state can represent
     double s_bound_ = 0.0;  // the bound on |s_k| of the rescale under way
     remedy_stats stats_{};
