@@ -28,7 +28,7 @@ echo "== MPI: the spectral core and eci run spread over 1-3 processes (build-mpi
 # Only the MPI targets: the library, the CLI, the MPI test binary and example; their tests (mpirun --oversubscribe,
 # as root in CI) compare with the serial runs of the same binaries.
 cmake -S . -B build-mpi -DCMAKE_BUILD_TYPE=Release -DECI_WERROR=ON -DECI_MPI=ON -DECI_BUILD_PYTHON=OFF \
-      -DECI_BUILD_TESTS=ON -DECI_BUILD_APPS=ON -DECI_BUILD_EXAMPLES=ON -DECI_SANITIZE=OFF >/dev/null
+      -DECI_BUILD_TESTS=ON -DECI_BUILD_APPS=ON -DECI_BUILD_EXAMPLES=ON -DECI_SANITIZE=OFF "${launcher[@]}" >/dev/null
 cmake --build build-mpi -j$jobs --target eci_cli eci_mpi_tests example_spectral_mpi
 OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 \
   ctest --test-dir build-mpi --output-on-failure --no-tests=error -L mpi
