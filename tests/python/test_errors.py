@@ -228,7 +228,10 @@ def test_transform_that_cannot_be_inverted_underflows():
 # --- Ctrl-C -----------------------------------------------------------------------------------------------------
 
 INTERRUPTED = textwrap.dedent("""
-    import sys, time
+    import signal, sys, time
+    # Ctrl-C raises KeyboardInterrupt, as in a user's Python; a suite started in the background (`.ci/run &`)
+    # hands its children SIGINT ignored, and Python then leaves it ignored
+    signal.signal(signal.SIGINT, signal.default_int_handler)
     sys.path.insert(0, {path!r})
     import numpy as np
     import eci
