@@ -72,6 +72,9 @@ class model_command {
     /// Builds the model from the preset and the options given, and runs it; returns the exit status. Throws
     /// bad_input, run_error or interrupted (output.hpp).
     virtual int run(const run_settings& settings) = 0;
+    /// Whether a run of this model is spread over the processes of an MPI launch (the spectral equations in the
+    /// MPI build); any other model runs on one process only, and main.cpp refuses it under mpirun -np > 1.
+    virtual bool spreads_over_processes() const { return false; }
 };
 
 /// The shortest text that reads back as v: what a person typed (0.2, not 0.20000000000000001).

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cstdio>
+#include <cstdlib>
 #include <exception>
 #include <stdexcept>
 #include <string>
@@ -129,6 +130,37 @@ void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
     }
 }
 
+// How many processes this one was launched with: MPI_COMM_WORLD's size in the MPI build, else what the launcher
+// tells its children (Open MPI's mpirun, MPICH's Hydra), 1 when run on its own.
+int launched_processes() {
+#ifdef ECI_MPI
+    int init = 0, size = 1;
+    MPI_Initialized(&init);
+    if (init) MPI_Comm_size(MPI_COMM_WORLD, &size);
+    return size;
+#else
+    for (const char* name : {"OMPI_COMM_WORLD_SIZE", "PMI_SIZE"}) {
+        const char* v = std::getenv(name);
+        if (v && *v) return std::max(1, std::atoi(v));
+    }
+    return 1;
+#endif
+}
+
+// Under mpirun -np P > 1 each process would run the whole command and write the same files: only a model whose run
+// is spread over the processes (the spectral equations in the MPI build) is run there; anything else is refused.
+void check_process_count(const std::string& what, const model_command* model) {
+    const int p = launched_processes();
+    if (p <= 1 || (model && model->spreads_over_processes())) return;
+#ifdef ECI_MPI
+    const std::string spread = " (only the spectral equations' runs are spread over MPI processes)";
+#else
+    const std::string spread = " (this eci is built without MPI: cmake -DECI_MPI=ON spreads the spectral equations)";
+#endif
+    throw bad_input(what + " runs on one process, not " + std::to_string(p) +
+                    ": start it without mpirun, or with -np 1" + spread);
+}
+
 int run_cli(int argc, char** argv) {
     // First of all: from here on no signal leaves a temporary file behind.
     install_interrupt_handler();
@@ -244,6 +276,7 @@ int run_cli(int argc, char** argv) {
         return 0;
     }
     if (figures->parsed()) {
+        check_process_count("eci figures", nullptr);
         if (figures->count("--only")) figure_options.only = only;
         return eci::figures::run_figures(figure_options);
     }
@@ -257,6 +290,7 @@ int run_cli(int argc, char** argv) {
         if (sub->count("--atol")) settings.atol = atol;
         if (sub->count("--output-dt")) settings.output_dt = output_dt;
         for (option_spec& o : model->options()) o.given = sub->count("--" + o.name) > 0;
+        check_process_count("eci run " + model->info().name, model.get());
         return model->run(settings);
     }
     throw bad_input("eci run needs a MODEL (models: " + model_names(models) + ")");

@@ -174,6 +174,9 @@ class spectral_command final : public model_command {
     const model_info& info() const override { return info_; }
     std::vector<option_spec>& options() override { return specs_; }
     int run(const run_settings& settings) override;
+#ifdef ECI_MPI
+    bool spreads_over_processes() const override { return true; }
+#endif
 
    private:
     int run_spread(const run_settings& settings);

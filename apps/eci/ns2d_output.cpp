@@ -222,11 +222,12 @@ handle open_for_reading(const std::string& path) {
 // Runs a gnuplot script (written beside `output`, the picture it draws); false when gnuplot is missing, fails or
 // was stopped by an interrupt (which the run's loop then honours, with its checkpoint).
 bool gnuplot(const std::string& script, const std::string& output) {
-    static const bool available = run_program("gnuplot", {"--version"}) == 0;
+    static const std::string program = plotting_program();
+    static const bool available = run_program(program, {"--version"}) == 0;
     if (!available) return false;
     const scoped_temporary file(output + ".gp");
     write_new_file(file.path(), "gnuplot script", [&](std::FILE* f) { std::fputs(script.c_str(), f); });
-    return run_program("gnuplot", {file.path()}) == 0;
+    return run_program(program, {file.path()}) == 0;
 }
 
 // A double as gnuplot reads it back exactly (std::to_string's %f would print 1e-13 as 0.000000).

@@ -852,6 +852,11 @@ void set_interrupt_grace(double cpu_seconds, double wall_seconds) {
     grace_wall_us.store(us(wall_seconds, 1.0));
 }
 
+std::string plotting_program() {
+    const char* env = std::getenv("ECI_GNUPLOT");
+    return env && *env ? env : "gnuplot";
+}
+
 int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet) {
     std::fflush(stdout);
     std::fflush(stderr);

@@ -182,6 +182,10 @@ void set_interrupt_grace(double cpu_seconds, double wall_seconds);
 /// the program could not be started, 128 if it died of a signal.
 int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet = true);
 
+/// The plotting program every picture is drawn with (figures, snapshots, spectra): $ECI_GNUPLOT if set and not
+/// empty, else `gnuplot` from PATH.
+std::string plotting_program();
+
 /// A directory the run has just created: removed when this goes out of scope, and by the signal handler on a forced
 /// exit, if it is empty then (what the run wrote into it is removed first); keep() once the run has succeeded.
 class created_directory {

@@ -30,6 +30,7 @@ namespace eci::figures {
 using cli::bad_input;
 using cli::interrupt_requested;
 using cli::run_program;
+using cli::plotting_program;
 using cli::run_error;
 using cli::staging_dir;
 using cli::throw_if_interrupted;
@@ -102,12 +103,6 @@ do for [format in "png svg"] {
 }
 
 namespace {
-
-/// The plotting program: $ECI_GNUPLOT if set and not empty, else `gnuplot` from PATH.
-std::string plotting_program() {
-    const char* env = std::getenv("ECI_GNUPLOT");
-    return env && *env ? env : "gnuplot";
-}
 
 /// Throws run_error unless `file` exists and is not empty (a full disk can leave gnuplot's output empty
 /// with exit status 0).

@@ -436,6 +436,24 @@ TEST_F(reliability, empty_values_are_rejected_not_read_as_zero) {
     EXPECT_TRUE(work_files().empty());
 }
 
+// Under mpirun with more than one process every process would run the whole command and write the same files: a
+// model whose run is not spread over processes (here: any, this build has no MPI), and eci figures, are refused,
+// each process saying so in one line, nothing written. The launcher's word is its environment (Open MPI's, MPICH's).
+TEST_F(reliability, a_run_not_spread_over_processes_is_refused_under_mpirun) {
+    for (const char* launcher : {"OMPI_COMM_WORLD_SIZE=3", "PMI_SIZE=2"}) {
+        for (const std::vector<std::string>& args :
+             {std::vector<std::string>{"run", "three-wave", "--output", "o.csv"},
+              std::vector<std::string>{"run", "navier-stokes-2d", "--N", "16", "--steps", "1", "--output", "o.csv"},
+              std::vector<std::string>{"figures", "--out", "figs"}}) {
+            const run_result r = dir_.run(args, std::string(launcher) + " " + bounded(20));
+            expect_one_line_error(r, 2, "runs on one process, not ", std::string(launcher) + " " + args[1]);
+            EXPECT_TRUE(work_files().empty()) << launcher << " " << args[1];
+        }
+    }
+    // one process is a plain run
+    EXPECT_EQ(dir_.run({"run", "three-wave", "--steps", "2"}, "OMPI_COMM_WORLD_SIZE=1 " + bounded(20)).status, 0);
+}
+
 // Numbers in messages read back as what was computed or typed; counts beyond 2^64 - 1 are "too large".
 TEST_F(reliability, messages_name_the_problem_exactly) {
     const std::vector<std::pair<std::vector<std::string>, std::string>> cases{

@@ -172,6 +172,13 @@ def case_bad_input(d):
               f"-np {np_} {what}: exit 2 (mpirun {r.returncode}) in {time.monotonic() - start:.1f} s")
         check(len(own) == 1, f"-np {np_} {what}: one line from rank 0: {own}")
         check(os.listdir(sub) == [], f"-np {np_} {what}: nothing written ({os.listdir(sub)})")
+    # a model whose run is not spread over processes: every process would run it whole and write the same files
+    sub = tempfile.mkdtemp(dir=d)
+    r = run(2, ["--output", "o.csv"], sub, equation="three-wave")
+    own = [l for l in r.stderr.splitlines() if l.startswith("eci")]
+    check(r.returncode == 2 or ("exit code: 2" in r.stderr.lower()), f"-np 2 three-wave: exit 2 (mpirun {r.returncode})")
+    check(len(own) == 1 and "runs on one process, not 2" in own[0], f"-np 2 three-wave: one line from rank 0: {own}")
+    check(os.listdir(sub) == [], f"-np 2 three-wave: nothing written ({os.listdir(sub)})")
 
 
 WRAPPER = r"""

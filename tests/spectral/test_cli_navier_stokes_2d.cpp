@@ -263,6 +263,30 @@ TEST(CliNavierStokes2d, InterruptWhileGnuplotDrawsStopsItAndCheckpoints) {
     }
 }
 
+// Snapshot pictures are drawn by the program $ECI_GNUPLOT names, as eci figures' are (a gnuplot that is not on
+// PATH, or not called gnuplot): here a stand-in that writes a token picture where the script's `set output` says.
+TEST(CliNavierStokes2d, SnapshotsDrawWithTheProgramEciGnuplotNames) {
+    scratch_dir dir("ns2d-eci-gnuplot");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    {
+        std::ofstream fake(d / "plot-tool");
+        fake << "#!/bin/sh\n[ \"$1\" = --version ] && exit 0\necho \"$1\" >> " << q << "/calls\n"
+             << "sed -n \"s/^set output '\\(.*\\)'$/\\1/p\" \"$1\" | while read -r f; do echo png > \"$f\"; done\n";
+    }
+    fs::permissions(d / "plot-tool", fs::perms::owner_all);
+    const auto r = run_eci("run navier-stokes-2d --N 16 --steps 2 --fftw-estimate --fftw-wisdom none "
+                           "--snapshot-every 2 --snapshot-dir " + q + "/snaps",
+                           d, "PATH=/usr/bin:/bin ECI_GNUPLOT=" + q + "/plot-tool");
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (const char* name : {"vorticity_00000000.png", "vorticity_00000002.png", "spectrum_00000000.png", "spectrum_00000002.png"})
+        EXPECT_TRUE(fs::is_regular_file(d / "snaps" / name)) << name << " not drawn; " << r.err;
+    std::ifstream calls(d / "calls");
+    int n = 0;
+    for (std::string line; std::getline(calls, line);) ++n;
+    EXPECT_EQ(n, 4) << "the stand-in should have drawn each picture once";
+}
+
 // A forced exit (a second, different signal during the run) leaves nothing: not the snapshots staged so far, not the
 // snapshot directory the run created (issue 21: it was left behind, empty).
 TEST(CliNavierStokes2d, ForcedExitRemovesTheSnapshotDirectoryItCreated) {
