@@ -233,7 +233,7 @@ for l in open(out + "/ns2d_pyfftw.txt"): print("  " + l.rstrip())
 PY
   if command -v gnuplot > /dev/null; then
     gnuplot -e "set terminal pngcairo size 640,480; set output '$out/ns2d_scaling.png'; set datafile separator ','; \
-      set logscale xy; set xlabel 'N'; set ylabel 'C-RK4 step (s)'; set key top left; \
+      set logscale xy; set xlabel 'N'; set ylabel 'C-RK4 step (s)'; set key top left; set fit logfile '$out/fit.log'; \
       f(x) = c * x**2 * log(x); c = 1e-9; fit f(x) '$out/ns2d_scaling.csv' skip 1 using 1:2 via c; \
       plot '$out/ns2d_scaling.csv' skip 1 using 1:2 with linespoints pt 7 title 'eci C-RK4', f(x) title 'c N^2 log N'" \
       2> /dev/null || true
