@@ -187,7 +187,9 @@ class conservative_rk : public radicand_remedy {
     void finish_conditioned(double* o, const double* x, const std::array<const double*, s>& k, double dt,
                             std::size_t n) {
         neg_.clear();
+        neg_h_.clear();
         cond_.clear();
+        cond_values_.clear();
         const double kappa = remedy.condition;
         // The Gram sums of the finished state, G_ab = sum_e w_ae w_be |o_e|^2 and A_a = sum_e |w_ae| |o_e|^2, are
         // accumulated in this same pass when there are two invariants (E and Z: every spectral model, n-wave), so
@@ -213,6 +215,7 @@ class conservative_rk : public radicand_remedy {
             double q = c2;  // |o_e|^2 of the value o_e ends with (the conventional one unless changed below)
             if (!(xi >= 0.0)) {
                 neg_.push_back(e);
+                neg_h_.push_back(std::max(x2, c2));
             } else {
                 bool keep_conventional = false;
                 if constexpr (per == 1) {
@@ -221,7 +224,7 @@ class conservative_rk : public radicand_remedy {
                     q = o[e] * o[e];
                 } else {
                     if (!(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
-                        if (xi > 0.0) neg_.push_back(e);
+                        if (xi > 0.0) neg_.push_back(e), neg_h_.push_back(std::max(x2, c2));
                         keep_conventional = true;
                     } else {
                         modulus_update(o + e * per, c, xi, c2);
@@ -234,8 +237,11 @@ class conservative_rk : public radicand_remedy {
                 // the rescale to represent: a systematic drift of ~eps per step (measured on DP54 at small steps,
                 // 15 eps sqrt(n)).
                 const double change = std::abs(xi - x2);
-                if (!keep_conventional && xi < kappa * change && std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi))
-                    cond_.push_back({xi / change, e});
+                if (!keep_conventional && xi < kappa * change && std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi)) {
+                    cond_.push_back({xi / change, e, cond_values_.size()});
+                    cond_values_.push_back({{c[0], c[per - 1]}, {o[e * per], o[e * per + per - 1]}, c2, xi, q,
+                                            std::max(x2, c2)});
+                }
             }
             if (fused) {
                 const double u = w0[e], v = w1[e];

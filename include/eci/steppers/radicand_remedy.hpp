@@ -111,9 +111,15 @@ class radicand_remedy {
         }
         weights_ = std::move(w);
         gram_valid_ = false;
+        weights_nonnegative_ = true;
         for (std::size_t j = 0; j < weights_.size(); ++j) {
             wmax_[j] = 0.0;
-            for (double v : weights_[j]) wmax_[j] = std::max(wmax_[j], std::abs(v));
+            wargmax_[j] = 0;
+            for (std::size_t e = 0; e < weights_[j].size(); ++e) {
+                const double v = weights_[j][e];
+                if (std::abs(v) > wmax_[j]) wmax_[j] = std::abs(v), wargmax_[j] = e;
+                weights_nonnegative_ = weights_nonnegative_ && v >= 0.0;
+            }
         }
     }
     /// The weights in use (empty: none known, the stepper halves).
@@ -229,36 +235,34 @@ class radicand_remedy {
         // too large), every set fails; decline at once rather than try the cascade (a step of 1e7 on n-wave would
         // otherwise try it in each of 2^16 attempts).
         if (!neg_.empty() && !negatives_can_be_taken<Per>(o, x)) return decline();
-        saved_.resize(cond_.size() * Per);
-        for (std::size_t j = 0; j < cond_.size(); ++j)
-            for (std::size_t p = 0; p < Per; ++p) saved_[j * Per + p] = o[cond_[j].e * Per + p];
         // All of cond_, then its worst-conditioned quarter (smallest xi / |change of xi|), its worst sixteenth,
         // none: the caps decide how many. The first attempt, which takes every ill-conditioned element and is the
         // one that succeeds in nearly every step, needs no ordering; a refused set is cut by a selection
         // (nth_element, linear) on the set alone, not a sort.
         too_small_ = false;
         for (std::size_t take = cond_.size();;) {
-            if (attempt_elements<Per>(o, x, n, conv, take)) return true;
+            if (share_cap_holds(take)) {
+                if (attempt_elements<Per>(o, x, n, conv, take)) return true;
+                for (std::size_t j = 0; j < take; ++j) {  // back to their conservative values
+                    const element_values& v = cond_values_[cond_[j].slot];
+                    for (std::size_t p = 0; p < Per; ++p) o[cond_[j].e * Per + p] = v.o[p];
+                }
+            }
             ++stats_.conditioning_declined;
-            for (std::size_t j = 0; j < take; ++j)
-                for (std::size_t p = 0; p < Per; ++p) o[cond_[j].e * Per + p] = saved_[j * Per + p];
             if (take == 0) break;
             if (too_small_) take = 1;  // a subset's rescale would be smaller still: straight to neg_ alone
             if (take / 4 == 0 && neg_.empty()) return true;  // every radicand positive: the conservative update stands
-            take = worst_first<Per>(o, take, take / 4);
+            take = worst_first(take, take / 4);
         }
         --stats_.conditioning_declined;  // the last refusal (no ill-conditioned element taken) is a decline
         return decline();
     }
 
-    // Reorders cond_[0, have) so that its `want` worst-conditioned elements come first (with their saved values),
-    // and returns how many elements are then taken: those `want`, and every further one whose ratio equals the
+    // Reorders cond_[0, have) so that its `want` worst-conditioned elements come first, and returns how many elements are then taken: those `want`, and every further one whose ratio equals the
     // largest of them. Never cut between equal ratios: elements that are mirror images of each other (a real
     // field's k and -k, both stored on Navier-Stokes' k_x = 0 column) have equal ratios and must be treated alike,
-    // or the state stops being Hermitian and the model's rates (and its budget) see another field. o holds the
-    // saved (conservative) values of all of cond_ when this is called.
-    template <std::size_t Per>
-    std::size_t worst_first(const double* o, std::size_t have, std::size_t want) {
+    // or the state stops being Hermitian and the model's rates (and its budget) see another field.
+    std::size_t worst_first(std::size_t have, std::size_t want) {
         if (want == 0) return 0;
         const auto first = cond_.begin(), last = cond_.begin() + std::ptrdiff_t(have);
         std::nth_element(first, first + std::ptrdiff_t(want - 1), last, [](const candidate& a, const candidate& b) {
@@ -267,10 +271,7 @@ class radicand_remedy {
         const double limit = cond_[want - 1].ratio;
         const auto cut = std::partition(first + std::ptrdiff_t(want), last,
                                         [&](const candidate& a) { return a.ratio <= limit; });
-        const std::size_t taken = std::size_t(cut - first);
-        for (std::size_t j = 0; j < taken; ++j)
-            for (std::size_t p = 0; p < Per; ++p) saved_[j * Per + p] = o[cond_[j].e * Per + p];
-        return taken;
+        return std::size_t(cut - first);
     }
 
     // Two invariants (E and Z): the finishing pass accumulates the Gram sums (see remedy_elements).
@@ -315,9 +316,45 @@ class radicand_remedy {
     struct candidate {
         double ratio;
         std::size_t e;
+        std::size_t slot;  // its values in cond_values_
     };
     std::vector<std::size_t> neg_;
+    std::vector<double> neg_h_;  // h (below) of each element of neg_
     std::vector<candidate> cond_;
+    // What the engine's finishing pass computed for each element of cond_, in the order it found them (the engine
+    // fills it with cond_): the conventional update c and the conservative value o (c[1], o[1]: a complex mode's
+    // second part), |c|^2, xi, q = |o|^2 and h = max(|x_e|^2, |c|^2), the element's weight in the share cap. The
+    // attempts read these instead of recomputing the update from the stages (whose reads at the scattered
+    // elements of a selected subset miss the caches) and restore o from them.
+    struct element_values {
+        std::array<double, 2> c, o;
+        double c2, xi, q, h;
+    };
+    std::vector<element_values> cond_values_;
+
+    // Whether the set neg_ + cond_[0, ncond) holds at most max_share of every invariant, before and after: the
+    // sums attempt_elements forms, in its order and so to the same bits, from the h and dq the finishing pass
+    // kept instead of a conventional update recomputed per element. A set refused here is one attempt_elements
+    // would refuse; on a turbulent field the whole ill-conditioned set and its worst quarter usually are, and they
+    // then cost no pass over their elements' stages.
+    bool share_cap_holds(std::size_t ncond) const {
+        const std::size_t m = weights_.size();
+        std::array<double, max_invariants> held{}, mag = mag0_;
+        for (std::size_t k = 0; k < neg_.size(); ++k)
+            for (std::size_t a = 0; a < m; ++a) held[a] += std::abs(weights_[a][neg_[k]]) * neg_h_[k];
+        for (std::size_t j = 0; j < ncond; ++j) {
+            const element_values& v = cond_values_[cond_[j].slot];
+            const double dq = v.c2 - v.q;
+            for (std::size_t a = 0; a < m; ++a) {
+                const double w = weights_[a][cond_[j].e];
+                held[a] += std::abs(w) * v.h;
+                mag[a] += std::abs(w) * dq;
+            }
+        }
+        for (std::size_t a = 0; a < m; ++a)
+            if (!(held[a] <= remedy.max_share * mag[a])) return false;
+        return true;
+    }
 
     // The first failed unknown after try_remedy declined: from its list when it made one, else by bad(i).
     template <class Bad>
@@ -375,16 +412,8 @@ class radicand_remedy {
         std::array<double, M * M> g = g0_, dg{};
         std::array<double, max_invariants> mag = mag0_;
         std::size_t taken = 0;
-        auto take = [&](std::size_t e, bool changes) {
-            std::array<double, Per> c{};
-            const auto [c2, xi] = conv(e, c);
-            if (!std::isfinite(c2) || !std::isfinite(xi)) return false;
-            double x2 = 0.0, q = 0.0;
-            for (std::size_t p = 0; p < Per; ++p) {
-                q += o[e * Per + p] * o[e * Per + p];
-                o[e * Per + p] = c[p], x2 += x[e * Per + p] * x[e * Per + p];
-            }
-            const double d = c2 - xi, h = std::max(x2, c2), dq = changes ? c2 - q : 0.0;
+        // element e given its conventional update: its defect d, share weight h and change dq of |o_e|^2
+        auto add = [&](std::size_t e, double d, double h, double dq) {
             for (std::size_t a = 0; a < m; ++a) {
                 const double w = weights_[a][e];
                 defect[a] += w * d;
@@ -393,12 +422,22 @@ class radicand_remedy {
                 for (std::size_t b = 0; b < m; ++b) dg[a * M + b] += w * weights_[b][e] * dq;
             }
             ++taken;
-            return true;
         };
-        for (std::size_t e : neg_)
-            if (!take(e, false)) return false;
-        for (std::size_t j = 0; j < ncond; ++j)
-            if (!take(cond_[j].e, true)) return false;
+        for (std::size_t e : neg_) {  // (few elements: the update recomputed; o holds it already, |o_e|^2 unchanged)
+            std::array<double, Per> c{};
+            const auto [c2, xi] = conv(e, c);
+            if (!std::isfinite(c2) || !std::isfinite(xi)) return false;
+            double x2 = 0.0;
+            for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p], x2 += x[e * Per + p] * x[e * Per + p];
+            add(e, c2 - xi, std::max(x2, c2), 0.0);
+        }
+        for (std::size_t j = 0; j < ncond; ++j) {  // the finishing pass's values: the bits take() would compute
+            const std::size_t e = cond_[j].e;
+            const element_values& v = cond_values_[cond_[j].slot];
+            if (!std::isfinite(v.c2) || !std::isfinite(v.xi)) return false;
+            for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = v.c[p];
+            add(e, v.c2 - v.xi, v.h, v.c2 - v.q);
+        }
         if (taken == 0) return true;
         for (std::size_t a = 0; a < m; ++a)
             for (std::size_t b = 0; b < m; ++b) g[a * M + b] += dg[a * M + b];
@@ -411,6 +450,31 @@ class radicand_remedy {
         // alone would refuse the flows where it matters: on a Taylor-Green flow with a small perturbation E and Z
         // are nearly dependent on the large modes, so Z - 2E is restored by the perturbation's modes alone, ~1 % of
         // each of them per step at CFL 0.5, which moves 1e-8 of E and Z.
+        // Bounds settle these checks without the pass when they are far from every threshold (the usual case:
+        // |s_k| ~ the defect's share of an invariant, 1e-8 or less): |s_k| <= sum_j |c_j| max_k |w_jk|, and with
+        // weights >= 0, sum_k |w_jk| xi_k |s_k| <= sum_i |c_i| G_ji. The pass's s_max is at least |s| at the
+        // elements of largest weight (computed as the pass computes it), which settles the too-small check. The
+        // margins (2^-40 on |s|, 2^-20 on the sums, a bound on n) cover the roundings of the pass and of the bounds,
+        // so that a check passed here is one the pass would pass: the step's bits are the same either way.
+        if (weights_nonnegative_ && n / Per < (std::size_t(1) << 32)) {
+            double ub = 0.0, lb = 0.0;
+            for (std::size_t j = 0; j < m; ++j) ub += std::abs(c[j]) * wmax_[j];
+            for (std::size_t j = 0; j < m; ++j) lb = std::max(lb, s_at(c, wargmax_[j]));
+            bool settled = ub * (1.0 + 0x1p-40) <= 1e-4 && (ncond == 0 || lb >= 0x1p-48);
+            for (std::size_t j = 0; settled && j < m; ++j) {
+                double bound = 0.0;
+                for (std::size_t i = 0; i < m; ++i) bound += std::abs(c[i]) * g[j * M + i];
+                settled = bound * (1.0 + 0x1p-20) <= remedy.max_rescale * mag[j];
+            }
+            if (settled) {
+                s_bound_ = ub;
+                rescale<Per>(o, n, c);
+                ++stats_.remedied_steps;
+                stats_.components_remedied += taken * Per;
+                stats_.conditioned += ncond * Per;
+                return true;
+            }
+        }
         double s_max = 0.0;
         std::array<double, max_invariants> moved{};
         if (m == 2) {  // E and Z: a loop over the elements with the weights hoisted (q_e = |o_e|^2 once)
@@ -455,6 +519,15 @@ class radicand_remedy {
     bool decline() {
         ++stats_.declined;
         return false;
+    }
+
+    // |s_e| = |sum_j c_j w_je| at element e, with the operations attempt_elements' pass uses for it.
+    double s_at(const std::array<double, max_invariants>& c, std::size_t e) const {
+        const std::size_t m = weights_.size();
+        if (m == 2) return std::abs(c[0] * weights_[0][e] + c[1] * weights_[1][e]);
+        double s = 0.0;
+        for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][e];
+        return std::abs(s);
     }
 
     template <std::size_t Shift>
@@ -576,8 +649,9 @@ class radicand_remedy {
 
     quadratic_weights weights_;
     std::array<double, max_invariants> wmax_{};
+    std::array<std::size_t, max_invariants> wargmax_{};  // an element of the largest |weight| of each invariant
+    bool weights_nonnegative_ = true;
     std::vector<std::size_t> bad_;
-    std::vector<double> saved_;
     std::array<double, max_invariants * max_invariants> g0_{};  // Gram sums of the finished state (remedy_elements)
     std::array<double, max_invariants> mag0_{};
     bool gram_valid_ = false;  // g0_, mag0_ from this step's finishing pass
