@@ -95,6 +95,14 @@ def case_state(d):
     run(2, plain + ["--update", "paper", "--checkpoint", "u1.h5"], d)
     check(np.array_equal(state(os.path.join(d, "u0.h5"))[0], state(os.path.join(d, "u1.h5"))[0]),
           "-np 2 without --update: the paper's update, bit for bit")
+    # FFTW's and OpenMP's threads inside each process (hybrid MPI + threads): the same state as the serial run
+    args = BASE + ["--method", "c-rk4", "--steps", "50", "--checkpoint-every", "50"]
+    run(0, args + ["--checkpoint", "t0.h5"], d)
+    r = run(2, args + ["--threads", "2", "--checkpoint", "t2.h5"], d)
+    check(r.returncode == 0, f"-np 2 --threads 2: exit {r.returncode} {r.stderr.strip()[-200:]}")
+    if r.returncode == 0:
+        diff = rel(state(os.path.join(d, "t2.h5"))[0], state(os.path.join(d, "t0.h5"))[0])
+        check(diff <= 16 * EPS * np.sqrt(50), f"-np 2 --threads 2: state = serial to {diff:.3g}")
     # the other equations run distributed from the same code
     for eq, extra in (("charney-hasegawa-mima", ["--beta", "2", "--deformation", "1"]), ("surface-qg", [])):
         args = BASE + extra + ["--steps", "50", "--checkpoint-every", "50"]
