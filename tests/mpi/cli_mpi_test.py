@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """`mpirun -np P eci run navier-stokes-2d ...` against the same run of the tool on one process (issue 23).
 
-usage: cli_mpi_test.py ECI MPIEXEC CASE     (CASE: state, restart, snapshot, bad-input, signal)
+usage: cli_mpi_test.py ECI MPIEXEC CASE     (CASE: state, restart, snapshot, bad-input, signal, abort)
 
 Each case runs in a fresh temporary directory and exits 0 when every check holds; each check prints one line.
 
@@ -224,8 +224,35 @@ def case_signal(d):
     check(r.returncode == 0, "the serial tool continues from it")
 
 
+def case_abort(d):
+    # A failure on rank 0 alone (its checkpoint write on a full disk: the other ranks write nothing) ends every
+    # process through MPI_Abort: exit non-zero at once, no hang, the reason named, nothing left behind.
+    m = os.path.join(d, "m")
+    os.mkdir(m)
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", m], capture_output=True).returncode:
+        print("skipped: cannot mount a tmpfs here (not root?)")
+        return
+    try:
+        try:  # fill the disk (the write, or the close, fails with ENOSPC)
+            with open(os.path.join(m, "fill"), "wb") as f:
+                while True:
+                    f.write(b"x" * 4096)
+                    f.flush()
+        except OSError:
+            pass
+        start = time.monotonic()
+        r = run(2, BASE + ["--steps", "5", "--checkpoint-every", "1", "--checkpoint", "m/ck.h5"], d)
+        took = time.monotonic() - start
+        own = [l for l in r.stderr.splitlines() if l.startswith("eci")]
+        check(r.returncode != 0, f"-np 2, rank 0's write fails: exit {r.returncode} after {took:.1f} s")
+        check(len(own) == 1 and "No space left on device" in own[0], f"one line naming the reason: {own}")
+        check(sorted(os.listdir(m)) == ["fill"], f"nothing left on the full disk: {os.listdir(m)}")
+    finally:
+        subprocess.run(["umount", "-l", m])
+
+
 with tempfile.TemporaryDirectory() as d:
     {"state": case_state, "restart": case_restart, "snapshot": case_snapshot, "bad-input": case_bad_input,
-     "signal": case_signal}[CASE](d)
+     "signal": case_signal, "abort": case_abort}[CASE](d)
 print(f"{CASE}: {'FAILED' if failures else 'passed'} ({failures} failure(s))")
 sys.exit(1 if failures else 0)
