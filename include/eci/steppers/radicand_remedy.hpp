@@ -445,6 +445,14 @@ class radicand_remedy {
             if (!(held[j] <= remedy.max_share * mag[j])) return false;
         std::array<double, max_invariants> c{};
         if (!solve(g, mag, defect, c)) return false;
+        const auto commit = [&](double s_bound) {  // the rescale, |s_k| <= s_bound
+            s_bound_ = s_bound;
+            rescale<Per>(o, n, c);
+            ++stats_.remedied_steps;
+            stats_.components_remedied += taken * Per;
+            stats_.conditioned += ncond * Per;
+            return true;
+        };
         // The size of the rescale (one pass, only in steps that rescale): the share of each invariant it moves,
         // sum_k |w_jk| xi_k |s_k| <= max_rescale A_j, and no xi_k changed by more than half. A cap on every |s_k|
         // alone would refuse the flows where it matters: on a Taylor-Green flow with a small perturbation E and Z
@@ -466,14 +474,7 @@ class radicand_remedy {
                 for (std::size_t i = 0; i < m; ++i) bound += std::abs(c[i]) * g[j * M + i];
                 settled = bound * (1.0 + 0x1p-20) <= remedy.max_rescale * mag[j];
             }
-            if (settled) {
-                s_bound_ = ub;
-                rescale<Per>(o, n, c);
-                ++stats_.remedied_steps;
-                stats_.components_remedied += taken * Per;
-                stats_.conditioned += ncond * Per;
-                return true;
-            }
+            if (settled) return commit(ub);
         }
         double s_max = 0.0;
         std::array<double, max_invariants> moved{};
@@ -507,13 +508,7 @@ class radicand_remedy {
         if (ncond > 0 && s_max < 0x1p-48) return too_small_ = true, false;
         for (std::size_t j = 0; j < m; ++j)
             if (!(moved[j] <= remedy.max_rescale * mag[j])) return false;
-        const double s_bound = s_max;
-        s_bound_ = s_bound;
-        rescale<Per>(o, n, c);
-        ++stats_.remedied_steps;
-        stats_.components_remedied += taken * Per;
-        stats_.conditioned += ncond * Per;
-        return true;
+        return commit(s_max);
     }
 
     bool decline() {
