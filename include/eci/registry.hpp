@@ -189,6 +189,18 @@ struct c_dp54 {
                                       "conservative Dormand-Prince 5(4), FSAL, invariant-exact dense output"};
     static constexpr const auto& tableau = tableaus::dormand_prince_54;
 };
+/// Dormand-Prince 8(5,3), SciPy's DOP853.
+struct dp853 {
+    static constexpr method_info info{"dp853", method_family::conventional, 8, false,
+                                      "Dormand-Prince 8(5,3) embedded pair, FSAL, 7th-order dense output (SciPy's DOP853)"};
+    static constexpr const auto& tableau = tableaus::dormand_prince_853;
+};
+/// Conservative Dormand-Prince 8(5,3).
+struct c_dp853 {
+    static constexpr method_info info{"c-dp853", method_family::conservative, 8, true,
+                                      "conservative Dormand-Prince 8(5,3), FSAL, invariant-exact 7th-order dense output"};
+    static constexpr const auto& tableau = tableaus::dormand_prince_853;
+};
 /// Fehlberg 7(8), propagating order 8.
 struct f78 {
     static constexpr method_info info{"f78", method_family::conventional, 8, false,
@@ -403,7 +415,8 @@ using method_entry_list =
                       method_entries::c_euler, method_entries::c_pc, method_entries::c_rk2, method_entries::c_rk4,
                       method_entries::c_pc_compensated, method_entries::implicit_midpoint, method_entries::kahan,
                       method_entries::bs32, method_entries::c_bs32, method_entries::ck54, method_entries::c_ck54,
-                      method_entries::dp54, method_entries::c_dp54, method_entries::f78, method_entries::c_f78,
+                      method_entries::dp54, method_entries::c_dp54, method_entries::dp853, method_entries::c_dp853,
+                      method_entries::f78, method_entries::c_f78,
                       method_entries::rrk_rk4, method_entries::idt_rk4, method_entries::mrrk_rk4,
                       method_entries::projected_rk4, method_entries::rrk_bs32, method_entries::rrk_dp54,
                       method_entries::mrrk_bs32, method_entries::mrrk_dp54, method_entries::projected_dp54,

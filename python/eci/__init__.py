@@ -56,7 +56,8 @@ class Transform:
     and the rate of xi along the flow, given either as jacobian(x) -> dxi/dx (shape (len(xi), len(x))) or as
     rate(x, dxdt) -> dxi/dt.
 
-    With transform=..., eci.solve accepts the methods c-pc, c-rk2 and c-rk4.
+    With transform=..., eci.solve accepts the methods c-pc, c-rk2 and c-rk4 at fixed steps, and the conservative
+    pairs (c-bs32, c-ck54, c-dp54, c-dp853, c-f78) with rtol/atol, also with events and dense_output.
     """
 
     def __init__(self, forward, inverse, jacobian=None, rate=None):
@@ -245,18 +246,21 @@ class DenseSolution:
     """result.sol of eci.solve(..., dense_output=True): the solution between every two accepted steps, like SciPy's
     OdeSolution: sol(t) for a number gives y at t (shape (n,)), for an array of times y at each (shape (n, len(t))).
 
-    Each step's dense output is the stepper's own interpolant (DP54's continuous extension, else the cubic Hermite
-    interpolant), stored as its values at five points of the step, which determine it (degree <= 4). For a
-    conservative pair the interpolant is of xi = y**2 and each y takes the conventional interpolant's sign: every
-    sum_k w_k y_k**2 the method keeps is kept at every t, to rounding (the five stored points keep it, and the
-    interpolant is a combination of them whose weights sum to 1); the sign is that of the conventional interpolant,
-    stored at the same five points, as the library takes it. Through a transform (transform=, or a model the
-    library integrates in its linearizing variables) the stored points are the engine's dense output and sol is
-    the polynomial through them, not invariant-exact. Outside [t_min, t_max] the first or last step's interpolant
-    is extrapolated, as OdeSolution does.
+    Each step's dense output is the stepper's own interpolant (the continuous extension of DP54, degree 4, or of
+    DP853, degree 7; else the cubic Hermite interpolant), stored as its values at degree + 1 points of the step,
+    which determine it. For a conservative pair the interpolant is of xi = y**2 and each y takes the conventional
+    interpolant's sign: every sum_k w_k y_k**2 the method keeps is kept at every t, to rounding (the stored points
+    keep it, and the interpolant is a combination of them whose weights sum to 1); the sign is that of the
+    conventional interpolant, stored at as many points, as the library takes it. Through a user's transform
+    (transform=) the interpolant is of xi = forward(y) (forward of the stored points, which the library's
+    interpolant of xi passes through), inverted by transform.inverse with the polynomial through the stored y as
+    the hint: the invariants, sums of xi, are kept at every t as at the stored points. A built-in model the library
+    integrates in its linearizing variables (Kepler, LotkaVolterra) has sol the polynomial through the stored
+    points, not invariant-exact. Outside [t_min, t_max] the first or last step's interpolant is extrapolated, as
+    OdeSolution does.
     """
 
-    def __init__(self, t_start, t_end, nodes, samples, signs, sign_nodes, squared, y0, t0):
+    def __init__(self, t_start, t_end, nodes, samples, signs, sign_nodes, squared, y0, t0, transform=None):
         forward = len(t_start) == 0 or t_end[0] >= t_start[0]
         order = slice(None) if forward else slice(None, None, -1)
         self._t_start, self._t_end = np.asarray(t_start)[order], np.asarray(t_end)[order]
@@ -272,6 +276,8 @@ class DenseSolution:
             self.ts = self.ts[::-1]
         self.t_min, self.t_max = (float(min(self.ts[0], self.ts[-1])), float(max(self.ts[0], self.ts[-1])))
         self.n_segments = len(self._t_start)
+        self._transform = transform
+        self._xi = {}  # per step: forward() of its stored points (transform=), computed when first needed
 
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
@@ -290,7 +296,9 @@ class DenseSolution:
         if complex_state:  # real and imaginary parts are unknowns of their own
             samples = samples.view(np.float64)
         psi = np.einsum("kj,kjn->kn", weights, samples)
-        if self._squared:  # xi's interpolant, and the sign of the conventional one, as the library's interpolate
+        if self._transform is not None:
+            psi = np.stack([self._through_transform(int(s), w, p) for s, w, p in zip(i, weights, psi)])
+        elif self._squared:  # xi's interpolant, and the sign of the conventional one, as the library's interpolate
             xi = np.einsum("kj,kjn->kn", weights, samples * samples)
             signs = self._signs[i]
             conventional = np.einsum("kj,kjn->kn", self._lagrange(theta, self._sign_nodes),
@@ -300,6 +308,18 @@ class DenseSolution:
             psi = np.ascontiguousarray(psi).view(np.complex128)
         y = psi.T.reshape(n, tt.size)
         return y[:, 0] if t.ndim == 0 else y
+
+    def _through_transform(self, step, weights, hint):
+        """y at one time of step `step`: xi interpolated from forward() of the stored points, inverted on the
+        branch of `hint` (the polynomial through the stored points); that hint where xi cannot be inverted."""
+        xi = self._xi.get(step)
+        if xi is None:
+            xi = self._xi[step] = np.array([np.asarray(self._transform.forward(y), dtype=float)
+                                            for y in self._samples[step]])
+        x = self._transform.inverse(weights @ xi, hint)
+        if isinstance(x, tuple):
+            x = x[0]
+        return hint if x is None else np.asarray(x, dtype=float)
 
     @staticmethod
     def _lagrange(theta, x):
@@ -350,7 +370,7 @@ def _event_list(events):
 def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
           transform=None, max_halvings=40, first_step=None, min_step=0.0, max_step=math.inf, max_steps=None,
           t_eval_mode="auto", jac=None, dense_output=False, events=None, vectorized=False, args=None,
-          update="conditioned", **options):
+          update="conditioned", quadratic_invariants=None, **options):
     """Integrate dy/dt = fun(t, y) from t_span[0] to t_span[1], SciPy's solve_ivp conventions, eci's numerics.
 
     fun: a callable fun(t, y) -> dy/dt (y a real or complex 1-D array, as in SciPy), or a built-in model
@@ -362,7 +382,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         "c-dp54" (conservative Dormand-Prince 5(4)) with adaptive control.
     dt: the fixed step. Steps land on t0 + i dt, the last one shortened to end at t1, exactly as `eci run`, so the
         states are the CLI's bit for bit. For a model, None means its default step (model.default_dt).
-    rtol, atol: adaptive step control (an embedded pair: bs32, ck54, dp54, f78 and their c- versions), each a
+    rtol, atol: adaptive step control (an embedded pair: bs32, ck54, dp54, dp853, f78 and their c- versions), each a
         number or one number per component of y (a complex component's two parts share one). SciPy's defaults:
         one not given is rtol=1e-3 or atol=1e-6; an rtol below 100 eps is raised to it with SciPy's warning. A
         Python fun given neither dt nor tolerances is integrated adaptively with both defaults. dt and rtol/atol
@@ -370,7 +390,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     t_eval: times at which to store the solution (sorted in the direction of t_span, within it); by default every
         step is stored. Fixed steps: a time between two grid points is reached by one extra step from the earlier
         one, off the grid run. Adaptive: t_eval_mode "auto" (dense output where it is as accurate as the steps:
-        bs32, dp54, c-bs32 and c-dp54 through a transform; c-dp54 on a plain system lands steps), "dense"
+        bs32, dp54, dp853, c-bs32, and c-dp54 and c-dp853 through a transform; c-dp54 and c-dp853 on a plain
+        system land steps), "dense"
         (conservative dense output interpolates xi and keeps the invariants) or "landing" (a step lands on each
         time). With dense_output or events, t_eval comes from the dense output, as in SciPy.
     dense_output: also return result.sol, a DenseSolution (callable like SciPy's OdeSolution) built from every
@@ -386,11 +407,18 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     invariants: callables of y whose drift is measured after every step (adaptive with t_eval: at every t_eval
         time, as `eci run --rtol --output-dt`): one, a list, or a dict name -> callable. A model's own invariants
         are always measured.
+    quadratic_invariants: the weights W of quadratic invariants sum_k W[j, k] |y_k|^2 that fun keeps, an (m, n)
+        array (or (n,) for one) for y0 of n components, m <= 8. The conservative methods keep every such invariant
+        whether told or not; told, the fixed-step ones (c-rk4, c-pc, c-euler, ...) remedy isolated negative
+        radicands (the conventional update for those few unknowns, then one rescale restoring every W invariant)
+        instead of halving the whole step, and from 16 real unknowns on take the conditioned update (update=).
+        result.invariants reports each as quadratic_0, quadratic_1, ... (summed with compensation). fun is
+        checked to keep them at (t0, y0) (one call, counted in nfev); a Python fun only, not with transform=.
     transform: an eci.Transform in which the invariants are linear (methods c-pc, c-rk2, c-rk4; adaptive: the c-
         pairs).
     max_halvings: fixed steps: how often a failed step may be halved before the run stops (default 40).
     update: fixed steps with c-pc, c-rk2 or c-rk4 on a system of 16 or more real unknowns with declared invariants
-        (the n-wave and spectral models, a fun with invariants=): "conditioned" (default; at the conventional
+        (the n-wave and spectral models, a fun with quadratic_invariants=): "conditioned" (default; at the conventional
         method's error, docs/methods.md) or "paper" (the paper's update, bit for bit as before issue 19).
     first_step, min_step, max_step, max_steps: adaptive control: the first step (no larger than the span;
         default: the model's default dt, as `eci run --rtol`; for a Python fun, SciPy's rule from two evaluations
@@ -494,8 +522,6 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         raise TypeError(f"transform must be an eci.Transform, not {type(transform).__name__}")
     if is_model and transform is not None:
         raise ValueError(f"transform is for a Python fun; model {fun.name} uses its own")
-    if transform is not None and (dense_output or event_list):
-        raise ValueError("dense_output and events are not available with a transform yet")
     if is_model:
         y = None if y0 is None else np.asarray(y0)
         n = len(fun.default_y0) if y is None or y.ndim != 1 else len(y)
@@ -506,12 +532,23 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         if transform is not None and y.dtype.kind == "c":
             raise ValueError("a transform needs a real y0")
         n = len(y)
+    weights = None
+    if quadratic_invariants is not None:
+        if is_model:
+            raise ValueError(f"quadratic_invariants is for a Python fun; model {fun.name} declares its own")
+        if transform is not None:
+            raise ValueError("quadratic_invariants and transform exclude each other: through a transform the "
+                             "invariants are those the transform makes linear")
+        weights = _quadratic_weights(quadratic_invariants, y)
 
     if update not in ("conditioned", "paper"):
         raise ValueError(f"update must be 'conditioned' or 'paper', not {update!r}")
     settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None, "update": update,
                 "dense_output": bool(dense_output), "events": event_list}
     extra_calls = 0
+    if weights is not None:
+        _check_quadratic_invariants(fun, t0, y, weights)
+        extra_calls += 1
     if adaptive:
         settings["adaptive"] = _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps,
                                                   t_eval_mode, t0, t1)
@@ -534,9 +571,11 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         parts = None if transform is None else (transform.forward, transform.inverse, transform.jacobian,
                                                 transform.rate)
         if t1 < t0 and not adaptive:  # fixed steps backward (adaptive runs step backward in the library)
-            raw = _solve_backward_fixed(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac)
+            raw = _solve_backward_fixed(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac,
+                                        weights)
         else:
-            raw = _eci._solve_function(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac)
+            raw = _eci._solve_function(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac,
+                                       weights)
     result = SolveResult(raw)
     result["nfev"] = result["stats"]["rhs_evals"] + extra_calls
     result["njev"] = 0  # explicit methods evaluate no Jacobian (kahan's calls of jac are in its solver stats)
@@ -562,11 +601,11 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         d = result.pop("dense")
         start = y if y is not None else (result["y"][:, 0] if result["y"].shape[1] else np.asarray(fun.default_y0))
         result["sol"] = DenseSolution(d["t_start"], d["t_end"], d["nodes"], d["samples"], d["signs"], d["sign_nodes"],
-                                      d["squared"], start, t0)
+                                      d["squared"], start, t0, transform)
     return result
 
 
-def _solve_backward_fixed(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac):
+def _solve_backward_fixed(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac, weights=None):
     """Fixed steps of dt from t0 back to t1 < t0: the forward run of g(s, y) = -fun(t0 - s, y) over s in [0, t0 - t1].
     A Runge-Kutta step of g with step dt computes exactly what a step of fun with step -dt computes (negation is
     exact; the stage times t0 - (s + c dt) differ from t + c (-dt) only in their rounding), and the transforms,
@@ -581,7 +620,7 @@ def _solve_backward_fixed(fun, t0, t1, y, method, dt, settings, functions, inv_n
     times = settings["t_eval"]
     settings = dict(settings, t_eval=None if times is None else [t0 - t for t in times])
     raw = _eci._solve_function(backward, 0.0, t0 - t1, y, method, dt, settings, functions, inv_names, parts,
-                               back_jac)
+                               back_jac, weights)
     t = t0 - np.asarray(raw["t"], dtype=float)
     if times is not None and len(t) == len(times):
         t = np.asarray(times, dtype=float)
@@ -591,6 +630,50 @@ def _solve_backward_fixed(fun, t0, t1, y, method, dt, settings, functions, inv_n
     if raw.get("failure") is not None:
         raw["failure"] = dict(raw["failure"], t=t0 - raw["failure"]["t"])
     return raw
+
+
+_MAX_QUADRATIC_INVARIANTS = 8  # the remedy's limit (radicand_remedy::max_invariants)
+
+
+def _quadratic_weights(weights, y):
+    """quadratic_invariants= as a float64 (m, n) array, checked: real finite numbers, n per row, 1 <= m <= 8."""
+    n = len(y)
+    try:
+        w = np.asarray(weights)
+    except Exception as e:  # ragged lists and the like
+        raise ValueError(f"quadratic_invariants is not an array of numbers: {e}") from None
+    if w.dtype.kind not in "iuf":
+        raise TypeError(f"quadratic_invariants must be real numbers, not dtype {w.dtype}")
+    if w.ndim == 1:
+        w = w[None, :]
+    if w.ndim != 2 or w.shape[1] != n or w.shape[0] == 0:
+        raise ValueError(f"quadratic_invariants has shape {np.shape(weights)}, expected ({n},) or (m, {n}): one "
+                         f"weight per component of y0")
+    if w.shape[0] > _MAX_QUADRATIC_INVARIANTS:
+        raise ValueError(f"quadratic_invariants has {w.shape[0]} rows; at most {_MAX_QUADRATIC_INVARIANTS} "
+                         f"quadratic invariants")
+    w = np.ascontiguousarray(w, dtype=np.float64)
+    if not np.all(np.isfinite(w)):
+        j, k = np.argwhere(~np.isfinite(w))[0]
+        raise ValueError(f"quadratic_invariants[{j}, {k}] is not finite")
+    return w
+
+
+def _check_quadratic_invariants(fun, t0, y, w):
+    """ValueError if fun does not keep sum_k W[j, k] |y_k|^2 at (t0, y0): its rate 2 sum_k W[j, k] Re(conj(y_k)
+    f_k) must vanish up to the rounding of the products and their sum, each product below a few eps of
+    |W[j, k]| |y_k| |f_k| (a complex product's real part is itself a difference of two), the sum below n eps of
+    the sum of those."""
+    f = np.asarray(fun(t0, y.copy()))
+    if f.shape != y.shape or f.dtype.kind not in "biufc" or not np.all(np.isfinite(f)):
+        return  # the run itself reports a fun that returns something unusable
+    rate = (2.0 * w * np.real(np.conj(y) * f)[None, :]).sum(axis=1)
+    size = (2.0 * np.abs(w) * (np.abs(y) * np.abs(f))[None, :]).sum(axis=1)
+    bad = np.flatnonzero(np.abs(rate) > 4 * (len(y) + 1) * np.finfo(float).eps * size)
+    if bad.size:
+        j = int(bad[0])
+        raise ValueError(f"fun does not keep quadratic invariant {j} (row {j} of quadratic_invariants) at (t0, y0): "
+                         f"its rate is {rate[j]:.17g}, not 0")
 
 
 def _jacobian(jac, y):

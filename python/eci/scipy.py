@@ -1,8 +1,9 @@
 """eci's embedded pairs as SciPy solvers: ``scipy.integrate.solve_ivp(fun, t_span, y0, method=eci.scipy.CDP54)``.
 
 Every embedded pair of eci's registry (``eci.methods()``) is an ``scipy.integrate.OdeSolver`` subclass here, named
-after it in capitals without the dash: ``BS32``, ``CBS32``, ``CK54``, ``CCK54``, ``DP54``, ``CDP54``, ``F78``,
-``CF78`` (``eci.scipy.solvers()`` lists them). ``solve_ivp`` keeps all it does with any solver: events, t_eval,
+after it in capitals without the dash: ``BS32``, ``CBS32``, ``CK54``, ``CCK54``, ``DP54``, ``CDP54``, ``DP853``,
+``CDP853``, ``F78``, ``CF78`` (``eci.scipy.solvers()`` lists them). ``DP853`` is SciPy's ``DOP853`` (the same
+coefficients, error estimate and seventh-order dense output), ``DP54`` its ``RK45``. ``solve_ivp`` keeps all it does with any solver: events, t_eval,
 dense output (``dense_output=True`` gives ``sol``), backward integration, ``args``, ``vectorized``, status and message.
 
 What is eci's: each step is the C++ engine of ``include/eci/steppers/embedded_rk.hpp`` (stages, candidate, error

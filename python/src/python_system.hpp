@@ -200,4 +200,18 @@ struct python_transformed_system {
     python_transform linearizing_transform() const { return transform; }
 };
 
+/// fun(t, y) with the quadratic invariants sum_k W[j][k] |y_k|^2 it keeps, declared by the user
+/// (eci.solve(..., quadratic_invariants=W)): the conservative fixed-step engines take the weights for their remedy
+/// of negative radicands (as a model's quadratic_invariant_weights()), instead of halving the step.
+template <class T>
+struct python_weighted_system {
+    using state_type = std::vector<T>;
+    static constexpr bool reports_non_finite_rate = true;
+    python_rhs<T> rhs;
+    quadratic_weights weights;
+
+    void operator()(const state_type& x, state_type& dxdt, double t) const { rhs(x, dxdt, t); }
+    quadratic_weights quadratic_invariant_weights() const { return weights; }
+};
+
 }  // namespace eci::python

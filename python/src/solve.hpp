@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 #include <limits>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <utility>
@@ -122,14 +123,29 @@ double brent_root(G&& g, double a, double b, double fa, double fb) {
 template <class S>
 struct step_record {
     using value_type = std::ranges::range_value_t<S>;
-    /// Where each step's dense output is sampled, as fractions of the step: five points determine the
-    /// interpolants of eci's pairs (degree 4: DP54's continuous extension; degree 3: the cubic Hermite), of psi
-    /// for the conventional pairs and of xi = psi^2 for the conservative ones, exactly.
-    static constexpr std::array<double, 5> dense_nodes{0.0, 0.25, 0.5, 0.75, 1.0};
-    /// Where a conservative pair's conventional interpolant (whose sign each state takes) is sampled: not at the
-    /// step's end, where the state is the conservative one and the conventional interpolant the conventional
-    /// update (FSAL pairs), a different value; at the start both are the step's first state.
-    static constexpr std::array<double, 5> sign_nodes{0.0, 0.25, 0.5, 0.75, 0.875};
+    /// Where each step's dense output is sampled, as fractions of the step: degree + 1 points determine the
+    /// interpolant of that degree, of psi for the conventional pairs and of xi = psi^2 for the conservative ones,
+    /// exactly. Degree <= 4 (DP54's continuous extension, the cubic Hermite): 0, 1/4, 1/2, 3/4, 1; degree 7 (DP853):
+    /// the 8 Chebyshev-Lobatto points (1 - cos(j pi / 7)) / 2, whose Lagrange weights stay small (sum of their
+    /// magnitudes below 3, so sol adds a few roundings at most).
+    std::vector<double> dense_nodes;
+    /// Where a conservative pair's conventional interpolant (whose sign each state takes) is sampled: the same but
+    /// for the step's end, where the state is the conservative one and the conventional interpolant the
+    /// conventional update (FSAL pairs), a different value: halfway between the last two nodes instead (at the
+    /// start both are the step's first state).
+    std::vector<double> sign_nodes;
+    void choose_nodes(int degree) {
+        if (!dense_nodes.empty()) return;
+        const int d = std::max(degree, 4);
+        if (d == 4) {
+            dense_nodes = {0.0, 0.25, 0.5, 0.75, 1.0};
+        } else {
+            for (int j = 0; j <= d; ++j)
+                dense_nodes.push_back(j == 0 ? 0.0 : j == d ? 1.0 : 0.5 * (1.0 - std::cos(j * std::numbers::pi / d)));
+        }
+        sign_nodes = dense_nodes;
+        sign_nodes.back() = 0.5 * (dense_nodes[dense_nodes.size() - 2] + 1.0);
+    }
     std::vector<double> t_start, t_end;
     std::vector<value_type> samples;  // per step, per node, the state
     std::vector<value_type> signs;    // squared: the conventional interpolant there, whose sign the state takes
@@ -169,18 +185,22 @@ struct recording_sink {
         if (req->dense_output) {
             using St = typename Step::stepper_type;
             if constexpr (requires { St::dense_of_squares; }) steps->squared = St::dense_of_squares;
+            if constexpr (requires { St::dense_degree; })
+                steps->choose_nodes(St::dense_degree);
+            else
+                steps->choose_nodes(4);
             steps->t_start.push_back(s.t_start());
             steps->t_end.push_back(s.t_end());
             auto node_time = [&](double theta) {
                 return theta == 0.0 ? s.t_start() : theta == 1.0 ? s.t_end()
                                                   : s.t_start() + theta * (s.t_end() - s.t_start());
             };
-            for (double theta : step_record<S>::dense_nodes) {
+            for (double theta : steps->dense_nodes) {
                 s.at(node_time(theta), scratch);
                 steps->samples.insert(steps->samples.end(), std::ranges::begin(scratch), std::ranges::end(scratch));
             }
             if (steps->squared)
-                for (double theta : step_record<S>::sign_nodes) {
+                for (double theta : steps->sign_nodes) {
                     s.at(node_time(theta), scratch, &conventional);
                     steps->signs.insert(steps->signs.end(), std::ranges::begin(conventional),
                                         std::ranges::end(conventional));
@@ -348,20 +368,21 @@ py::dict run_python(const F& f, S& x, const std::string& method, python_request 
     d["stopped_at"] = report.stopped_at ? py::object(py::float_(*report.stopped_at)) : py::object(py::none());
     using value_type = std::ranges::range_value_t<S>;
     if (req.dense_output) {
+        steps.choose_nodes(4);  // a run without a step: the nodes are not used
         const auto m = static_cast<py::ssize_t>(steps.t_start.size());
-        const auto k = static_cast<py::ssize_t>(step_record<S>::dense_nodes.size());
+        const auto k = static_cast<py::ssize_t>(steps.dense_nodes.size());
         py::array_t<value_type> samples({m, k, static_cast<py::ssize_t>(n)});
         std::copy(steps.samples.begin(), steps.samples.end(), samples.mutable_data());
         py::dict dense;
         dense["t_start"] = py::array_t<double>(m, steps.t_start.data());
         dense["t_end"] = py::array_t<double>(m, steps.t_end.data());
-        dense["nodes"] = py::array_t<double>(k, step_record<S>::dense_nodes.data());
+        dense["nodes"] = py::array_t<double>(k, steps.dense_nodes.data());
         dense["samples"] = samples;
         dense["squared"] = steps.squared;
         py::array_t<value_type> signs({steps.squared ? m : 0, k, static_cast<py::ssize_t>(n)});
         std::copy(steps.signs.begin(), steps.signs.end(), signs.mutable_data());
         dense["signs"] = signs;
-        dense["sign_nodes"] = py::array_t<double>(k, step_record<S>::sign_nodes.data());
+        dense["sign_nodes"] = py::array_t<double>(k, steps.sign_nodes.data());
         d["dense"] = dense;
     }
     if (!req.events.empty()) {

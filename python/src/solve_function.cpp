@@ -67,23 +67,46 @@ constexpr auto kahan_table(std::index_sequence<I...>) {
     return std::array{&solve_kahan_n<I + 1>...};
 }
 
+/// The quadratic invariants sum_k w[k] |x_k|^2 of the weights, as invariants the run measures (named
+/// quadratic_j), each summed with its rounding carried (so that what is measured is the state's drift, not the
+/// rounding of a sum of many terms).
+template <class S>
+void add_weighted_invariants(std::vector<extra_invariant<S>>& out, const quadratic_weights& w) {
+    for (std::size_t j = 0; j < w.size(); ++j)
+        out.push_back({"quadratic_" + std::to_string(j), [row = w[j]](const S& x) {
+                           detail::compensated_sum sum;
+                           for (std::size_t k = 0; k < row.size(); ++k) sum.add(row[k] * std::norm(x[k]));
+                           return sum.value();
+                       }});
+}
+
 template <class T>
 py::dict solve_plain(py::object fun, const input_array<T>& y0, const std::string& method, const python_request& req,
-                     std::vector<py::object> invariants, const std::vector<std::string>& names) {
+                     std::vector<py::object> invariants, const std::vector<std::string>& names,
+                     const py::object& weights) {
     using S = std::vector<T>;
     const std::size_t n = static_cast<std::size_t>(y0.shape(0));
     S x(y0.data(), y0.data() + n);
-    const python_rhs<T> f(std::move(fun), n);
+    python_rhs<T> f(std::move(fun), n);
     const component_namer namer{{}, std::is_same_v<T, std::complex<double>>};
-    return run_python<S>(f, x, method, req, python_extra_invariants<S>(std::move(invariants), names), namer,
-                         "fun(t, y)", false);
+    auto extra = python_extra_invariants<S>(std::move(invariants), names);
+    if (weights.is_none())
+        return run_python<S>(f, x, method, req, std::move(extra), namer, "fun(t, y)", false);
+    // checked by eci.solve: a float64 (m, n) array
+    const auto w = input_array<double>::ensure(weights);
+    quadratic_weights rows(static_cast<std::size_t>(w.shape(0)), std::vector<double>(n));
+    for (std::size_t j = 0; j < rows.size(); ++j) std::copy(w.data() + j * n, w.data() + (j + 1) * n, rows[j].begin());
+    add_weighted_invariants(extra, rows);
+    const python_weighted_system<T> g{std::move(f), std::move(rows)};
+    return run_python<python_weighted_system<T>>(g, x, method, req, std::move(extra), namer, "fun(t, y)", false);
 }
 
 /// eci.solve(fun, ...): the one entry point for a Python fun. `transform` is None or (forward, inverse, jacobian,
 /// rate); `jac` is Kahan's Jacobian (method kahan) or None.
 py::dict solve_function(py::object fun, double t0, double t1, const py::array& y0, const std::string& method,
                         double dt, const py::dict& settings, std::vector<py::object> invariants,
-                        const std::vector<std::string>& names, py::object transform, py::object jac) {
+                        const std::vector<std::string>& names, py::object transform, py::object jac,
+                        py::object weights) {
     const python_request req = request_from(t0, t1, dt, settings);
     const std::size_t n = static_cast<std::size_t>(y0.shape(0));
     if (!jac.is_none()) {
@@ -115,9 +138,9 @@ py::dict solve_function(py::object fun, double t0, double t1, const py::array& y
     }
     if (y0.dtype().kind() == 'c')
         return solve_plain<std::complex<double>>(std::move(fun), input_array<std::complex<double>>::ensure(y0), method,
-                                                 req, std::move(invariants), names);
+                                                 req, std::move(invariants), names, weights);
     return solve_plain<double>(std::move(fun), input_array<double>::ensure(y0), method, req, std::move(invariants),
-                               names);
+                               names, weights);
 }
 
 std::vector<std::string> names_of(const std::vector<method_info>& list) {
@@ -131,7 +154,8 @@ std::vector<std::string> names_of(const std::vector<method_info>& list) {
 void init_functions(py::module_& m) {
     m.def("_solve_function", &solve_function, py::arg("fun"), py::arg("t0"), py::arg("t1"), py::arg("y0"),
           py::arg("method"), py::arg("dt"), py::arg("settings"), py::arg("invariants"), py::arg("invariant_names"),
-          py::arg("transform"), py::arg("jac"), "Integrate a Python fun(t, y) (used by eci.solve).");
+          py::arg("transform"), py::arg("jac"), py::arg("quadratic_invariants") = py::none(),
+          "Integrate a Python fun(t, y) (used by eci.solve).");
     m.def("_adaptive_methods_real", [] { return names_of(adaptive_methods_for<std::vector<double>>()); });
     m.def("_adaptive_methods_complex", [] { return names_of(adaptive_methods_for<std::vector<std::complex<double>>>()); });
     m.def("_adaptive_methods_transformed", [] { return names_of(adaptive_methods_for<python_transformed_system>()); });

@@ -197,12 +197,15 @@ std::vector<double> output_times(double t_end, std::size_t n, double offset) {
     return t;
 }
 
-TEST(AdaptiveTransformedDense, LotkaVolterraKeepsHAtEveryDensePoint) {
+// The same for DP54 and DP853 (its continuous extension through the transform: xi interpolated with the rates
+// of xi at its 16 stages, the three extra ones evaluated for the dense output).
+template <const auto& Tableau>
+void lotka_volterra_keeps_h_at_every_dense_point() {
     const eci::lotka_volterra model{};
     const auto times = output_times(100.0, 400, 0.0);
     for (int e = 3; e <= 12; ++e) {
         const double tol = std::pow(10.0, -e);
-        eci::transformed_dp54<eci::lotka_volterra::transform> st;
+        eci::transformed_embedded_rk<Tableau, eci::lotka_volterra::transform> st;
         eci::adaptive_options opt;
         opt.rtol = opt.atol = tol;
         std::array<double, 2> x{1.0, 0.4};
@@ -215,7 +218,7 @@ TEST(AdaptiveTransformedDense, LotkaVolterraKeepsHAtEveryDensePoint) {
         // as KeepsHAtEveryTolerance: each step rounds the additions to xi, each inverse recomputes x to a few eps;
         // the interpolated xi adds one rounded combination of them
         EXPECT_LE(worst, 8.0 * eps * std::sqrt(double(s.accepted) + 1.0)) << "tol " << tol;
-        // automatic output is dense here (DP54's continuous extension); a non-invertible interpolated xi lands;
+        // automatic output is dense here (the continuous extension); a non-invertible interpolated xi lands;
         // the last time is the run's end, reached by a step
         EXPECT_EQ(s.dense_points + s.dense_fallbacks, times.size() - 1) << "tol " << tol;
         EXPECT_GE(s.dense_points, times.size() - 10) << "tol " << tol;
@@ -226,7 +229,15 @@ TEST(AdaptiveTransformedDense, LotkaVolterraKeepsHAtEveryDensePoint) {
     }
 }
 
-TEST(AdaptiveTransformedDense, KeplerKeepsHAndAAtDensePointsAsAccurateAsTheSteps) {
+TEST(AdaptiveTransformedDense, LotkaVolterraKeepsHAtEveryDensePoint) {
+    lotka_volterra_keeps_h_at_every_dense_point<eci::tableaus::dormand_prince_54>();
+}
+TEST(AdaptiveTransformedDense, LotkaVolterraKeepsHAtEveryDensePointDP853) {
+    lotka_volterra_keeps_h_at_every_dense_point<eci::tableaus::dormand_prince_853>();
+}
+
+template <const auto& Tableau>
+void kepler_keeps_h_and_a_at_dense_points_as_accurate_as_the_steps() {
     const eccentric_orbit o(0.9);
     const eci::kepler_exact exact(o.model, o.x0);
     const auto times = output_times(10.0 * o.period, 400, 0.0123);  // off the steps' ends
@@ -244,7 +255,7 @@ TEST(AdaptiveTransformedDense, KeplerKeepsHAndAAtDensePointsAsAccurateAsTheSteps
         opt.rtol = opt.atol = tol;
         double h_drift = 0.0, a_drift = 0.0, scale_ratio = 0.0, dense_error = 0.0, step_error = 0.0;
         kstate x = o.x0;
-        eci::transformed_dp54<eci::kepler::transform> st;
+        eci::transformed_embedded_rk<Tableau, eci::kepler::transform> st;
         const auto s = eci::integrate_adaptive_at(
             st, o.model, x, 0.0, times, 1e-3, opt,
             [&](const kstate& y, double t, std::size_t) {
@@ -257,9 +268,9 @@ TEST(AdaptiveTransformedDense, KeplerKeepsHAndAAtDensePointsAsAccurateAsTheSteps
                 dense_error = std::max(dense_error, error(y, t));
             },
             eci::output_mode::dense);
-        // the same run without outputs takes the same steps (FSAL: dense output costs no evaluation)
+        // the same run without outputs takes the same steps (FSAL: dense output costs no step)
         kstate z = o.x0;
-        eci::transformed_dp54<eci::kepler::transform> plain;
+        eci::transformed_embedded_rk<Tableau, eci::kepler::transform> plain;
         const auto p = eci::integrate_adaptive(plain, o.model, z, 0.0, times.back(), 1e-3, opt,
                                                [&](const kstate& y, double t) { step_error = std::max(step_error, error(y, t)); });
         EXPECT_EQ(p.accepted, s.accepted) << "tol " << tol;
@@ -280,6 +291,13 @@ TEST(AdaptiveTransformedDense, KeplerKeepsHAndAAtDensePointsAsAccurateAsTheSteps
                         tol, (unsigned long long)s.accepted, (unsigned long long)s.dense_points,
                         (unsigned long long)s.dense_fallbacks, h_drift, a_drift, dense_error, step_error);
     }
+}
+
+TEST(AdaptiveTransformedDense, KeplerKeepsHAndAAtDensePointsAsAccurateAsTheSteps) {
+    kepler_keeps_h_and_a_at_dense_points_as_accurate_as_the_steps<eci::tableaus::dormand_prince_54>();
+}
+TEST(AdaptiveTransformedDense, KeplerKeepsHAndAAtDensePointsAsAccurateAsTheStepsDP853) {
+    kepler_keeps_h_and_a_at_dense_points_as_accurate_as_the_steps<eci::tableaus::dormand_prince_853>();
 }
 
 TEST(AdaptiveTransformedDense, AutomaticOutputIsDenseAndFallbackLandsOnNonInvertiblePoints) {

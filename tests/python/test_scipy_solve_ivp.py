@@ -1,6 +1,6 @@
 # SciPy's own tests of solve_ivp (scipy/integrate/_ivp/tests/test_ivp.py of the installed SciPy, Debian's
 # python3-scipy 1.10.1) run against eci.solve, with only the method names mapped: RK23 -> bs32, RK45 -> dp54,
-# DOP853 -> f78 and, a second time, RK23 -> c-bs32, RK45 -> c-dp54, DOP853 -> c-f78.
+# DOP853 -> dp853 and, a second time, RK23 -> c-bs32, RK45 -> c-dp54, DOP853 -> c-dp853.
 #
 # The test module is read and rewritten in memory exactly as test_scipy_suite.py does for the OdeSolver classes
 # (each test function runs once per explicit method it covers); here its `solve_ivp` is replaced by an adapter
@@ -22,13 +22,13 @@ import eci.scipy  # noqa: E402
 from test_scipy_suite import MODULES, SCIPY_EXPLICIT, VARIANTS  # noqa: E402
 
 NAMES = {
-    "conventional": {"RK23": "bs32", "RK45": "dp54", "DOP853": "f78"},
-    "conservative": {"RK23": "c-bs32", "RK45": "c-dp54", "DOP853": "c-f78"},
+    "conventional": {"RK23": "bs32", "RK45": "dp54", "DOP853": "dp853"},
+    "conservative": {"RK23": "c-bs32", "RK45": "c-dp54", "DOP853": "c-dp853"},
 }
 
 LANDING = ("t_eval with and without dense_output must give the same y (assert_equal); eci serves t_eval from "
-           "the dense output only where it is as accurate as the steps (dp54's continuous extension, bs32's "
-           "Hermite) and lands steps on the times otherwise ({}), while dense_output=True takes every output "
+           "the dense output only where it is as accurate as the steps (dp54's and dp853's continuous extensions, "
+           "bs32's Hermite) and lands steps on the times otherwise ({}), while dense_output=True takes every output "
            "from the dense output, as SciPy: the two differ by less than the tolerance, not bit for bit")
 # (test, eci method) -> why it cannot pass; each reason checked by hand on the failing run.
 KNOWN = {
@@ -38,10 +38,6 @@ KNOWN = {
         "a work bound of RK45 (nfev < 25 on y' = -y): the conservative pair's error estimate measures its own "
         "solution (psi from the tableau applied to psi^2), which rejects the long second step RK45 takes (as for "
         "eci.scipy.CDP54 in test_scipy_suite.py)"),
-    ("test_integration_complex", "c-f78"): (
-        "dense output within 5x the tolerance between steps: Fehlberg 7(8) has no continuous extension in the "
-        "library, so c-f78's dense output is the cubic Hermite interpolant of psi^2, which errs by more on this "
-        "problem's long step (as for eci.scipy.CF78 in test_scipy_suite.py)"),
 }
 INFINITE = ("integrates over t_span [0, inf] (an empty y0): eci's run needs a finite end time (its step floor, "
             "output times and the CLI's --t-end are all relative to it)")

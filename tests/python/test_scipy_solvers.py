@@ -26,10 +26,11 @@ Y0 = np.array([1.0, 0.5, -0.25])
 
 
 def test_the_classes_are_the_registrys_embedded_pairs():
-    pairs = {m.name for m in eci.methods() if m.name in {"bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78",
-                                                        "c-f78"}}
+    pairs = {m.name for m in eci.methods() if m.name in {"bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "dp853",
+                                                        "c-dp853", "f78", "c-f78"}}
     assert set(eci.scipy.solvers()) == pairs
-    assert {c.__name__ for c in PAIRS} == {"BS32", "CBS32", "CK54", "CCK54", "DP54", "CDP54", "F78", "CF78"}
+    assert {c.__name__ for c in PAIRS} == {"BS32", "CBS32", "CK54", "CCK54", "DP54", "CDP54", "DP853", "CDP853", "F78",
+                                           "CF78"}
     info = {m.name: m for m in eci.methods()}
     for name, cls in eci.scipy.solvers().items():
         assert issubclass(cls, scipy_integrate.OdeSolver) and cls.order == info[name].order
@@ -51,6 +52,28 @@ def test_dp54_is_rk45():
         steps = a.t.size - 1
         np.testing.assert_allclose(b.t, a.t, rtol=steps * EPS / rtol, atol=0)
         assert np.max(np.abs(b.y - a.y)) <= rtol * np.max(np.abs(a.y)) * (t_span[1] - t_span[0])
+
+
+def test_dp853_is_dop853():
+    # Dormand-Prince 8(5,3) with Hairer's DOP853 coefficients and its error estimate (the fifth- and third-order
+    # estimates combined, |e5|^2 / sqrt(|e5|^2 + 0.01 |e3|^2)), under SciPy's controller: the steps and calls of
+    # SciPy's DOP853: the same number of steps and calls. The step sizes agree up to the rounding of the estimate,
+    # of which the controller takes the 1/8th power: where the estimate is itself at round-off (SciPy's first step
+    # here is so short that its error is 1e-16, and the two sums of the same terms differ by 1e-4 of it) the next
+    # step differs by 1e-5, and the times after it by as much (measured 1.2e-5 on y' = -y (1 + t)), hence 1e-4.
+    # The states are then at slightly different times: each is compared with the other run's dense output at its
+    # own time, and the dense outputs (DOP853's seventh-order one) with each other between the steps; both runs are
+    # within about rtol |y| per unit time of the exact solution.
+    rtol = 1e-8
+    for fun, t_span, y0 in ((rotation, (0.0, 20.0), Y0), (lambda t, y: -y * (1 + t), (0.0, 3.0), np.array([2.0]))):
+        a = solve_ivp(fun, t_span, y0, method="DOP853", rtol=rtol, atol=1e-10, dense_output=True)
+        b = solve_ivp(fun, t_span, y0, method=eci.scipy.DP853, rtol=rtol, atol=1e-10, dense_output=True)
+        assert a.nfev == b.nfev and a.t.size == b.t.size and b.t.size > 8
+        np.testing.assert_allclose(b.t, a.t, rtol=1e-4, atol=0)
+        reach = rtol * np.max(np.abs(a.y)) * (t_span[1] - t_span[0])
+        assert np.max(np.abs(b.y - a.sol(b.t))) <= reach
+        tt = np.linspace(*t_span, 997)
+        assert np.max(np.abs(b.sol(tt) - a.sol(tt))) <= reach
 
 
 @pytest.mark.parametrize("cls", CONSERVATIVE, ids=lambda c: c.__name__)

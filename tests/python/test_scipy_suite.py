@@ -1,7 +1,7 @@
 # SciPy's own tests of solve_ivp and its Runge-Kutta solvers (scipy/integrate/_ivp/tests/test_ivp.py and
 # test_rk.py of the installed SciPy, Debian's python3-scipy 1.10.1) run against eci.scipy's solver classes, with
-# only the method names mapped: RK23 -> BS32, RK45 -> DP54, DOP853 -> F78 (the conventional pairs) and, a second
-# time, RK23 -> CBS32, RK45 -> CDP54, DOP853 -> CF78 (the conservative ones).
+# only the method names mapped: RK23 -> BS32, RK45 -> DP54, DOP853 -> DP853 (the conventional pairs) and, a second
+# time, RK23 -> CBS32, RK45 -> CDP54, DOP853 -> CDP853 (the conservative ones).
 #
 # No SciPy source is copied here: the test modules are read from the installed SciPy and rewritten in memory
 # (ast) so that each test function runs once per explicit method it covers: a literal list of methods in its body
@@ -29,8 +29,8 @@ import eci.scipy  # noqa: E402
 SCIPY_EXPLICIT = ("RK23", "RK45", "DOP853")
 SCIPY_METHODS = set(SCIPY_EXPLICIT) | {"Radau", "BDF", "LSODA"}
 VARIANTS = {
-    "conventional": {"RK23": eci.scipy.BS32, "RK45": eci.scipy.DP54, "DOP853": eci.scipy.F78},
-    "conservative": {"RK23": eci.scipy.CBS32, "RK45": eci.scipy.CDP54, "DOP853": eci.scipy.CF78},
+    "conventional": {"RK23": eci.scipy.BS32, "RK45": eci.scipy.DP54, "DOP853": eci.scipy.DP853},
+    "conservative": {"RK23": eci.scipy.CBS32, "RK45": eci.scipy.CDP54, "DOP853": eci.scipy.CDP853},
 }
 
 # SciPy's private internals of its RungeKutta class, which an OdeSolver need not have.
@@ -39,23 +39,13 @@ INTERNALS = ("uses SciPy's private RungeKutta internals (solver.K, the stage mat
              "linear combination K.T @ E for the conservative pairs")
 # (test, eci class) -> why it cannot pass; filled from the runs below, each reason checked by hand.
 KNOWN = {}
-for cls in ("BS32", "DP54", "F78", "CBS32", "CDP54", "CF78"):
+for cls in ("BS32", "DP54", "DP853", "CBS32", "CDP54", "CDP853"):
     KNOWN[("test_rk.test_error_estimation", cls)] = INTERNALS
     KNOWN[("test_rk.test_error_estimation_complex", cls)] = INTERNALS
-for cls in ("F78", "CF78"):
-    KNOWN[("test_rk.test_coefficient_properties", cls)] = (
-        "asks each row of A to sum to its c to rtol 1e-14, so Fehlberg's row 12 (c = 0) to exactly 0; its "
-        "coefficients 3/205, -6/41, -3/205, -3/41, 3/41, 6/41 sum to 0 in exact arithmetic and to 2.8e-17 as "
-        "rounded doubles (the library's tableau, tableaus.hpp; SciPy's DOP853 has no such row)")
 KNOWN[("test_ivp.test_integration_complex", "CDP54")] = (
     "a work bound of RK45 (nfev < 25 on y' = -y): the conservative pair's error estimate measures its own "
     "solution (psi from the tableau applied to psi^2), which rejects the 0.9-long second step RK45 takes: "
     "26 evaluations, with an end error 0.22 of the tolerance against RK45's 0.57")
-KNOWN[("test_ivp.test_integration_complex", "CF78")] = (
-    "dense output between steps within 5x the tolerance: Fehlberg 7(8) has no continuous extension in the "
-    "library, so its dense output is the cubic Hermite interpolant, here of psi^2 (to keep the invariants); on "
-    "the 0.76-long step of this problem it errs by 7.7x the tolerance (the conventional F78's Hermite of psi by "
-    "0.9x). A continuous extension for f78, or Dormand-Prince 8(5,3), is the library's part of issue 22")
 
 
 def _is_method_list(node):

@@ -139,10 +139,19 @@ TEST(EmbeddedTableaus, BogackiShampine32) { expect_pair(eci::tableaus::bogacki_s
 TEST(EmbeddedTableaus, CashKarp54) { expect_pair(eci::tableaus::cash_karp_54, "CK54"); }
 TEST(EmbeddedTableaus, DormandPrince54) { expect_pair(eci::tableaus::dormand_prince_54, "DP54"); }
 TEST(EmbeddedTableaus, Fehlberg78) { expect_pair(eci::tableaus::fehlberg_78, "F78"); }
+TEST(EmbeddedTableaus, DormandPrince853) {
+    const auto& T = eci::tableaus::dormand_prince_853;
+    expect_pair(T, "DP853");  // b of order 8, bhat of order 5
+    expect_exact_order(T, T.bhat_low, T.low_order, "DP853 bhat_low");
+    EXPECT_EQ(T.order, 8);
+    EXPECT_EQ(T.embedded_order, 5);
+    EXPECT_EQ(T.low_order, 3);
+}
 
 TEST(EmbeddedTableaus, FsalIsDetectedFromTheCoefficients) {
     EXPECT_TRUE(eci::is_fsal(eci::tableaus::bogacki_shampine_32));
     EXPECT_TRUE(eci::is_fsal(eci::tableaus::dormand_prince_54));
+    EXPECT_TRUE(eci::is_fsal(eci::tableaus::dormand_prince_853));
     EXPECT_FALSE(eci::is_fsal(eci::tableaus::cash_karp_54));
     EXPECT_FALSE(eci::is_fsal(eci::tableaus::fehlberg_78));
 }
@@ -158,7 +167,7 @@ TEST(EmbeddedTableaus, DormandPrinceContinuousExtensionIsFourthOrder) {
         // with D = h sum b k: collect the weight of each k_i.
         std::array<double, 7> beta{};
         const double c_d = theta * (1.0 - (1.0 - theta) + (1.0 - theta) * theta * 2.0);
-        for (std::size_t i = 0; i < 7; ++i) beta[i] = c_d * T.b[i] + theta * (1.0 - theta) * theta * (1.0 - theta) * T.d[i];
+        for (std::size_t i = 0; i < 7; ++i) beta[i] = c_d * T.b[i] + theta * (1.0 - theta) * theta * (1.0 - theta) * T.d[0][i];
         beta[0] += theta * (1.0 - theta) * (1.0 - theta);
         beta[6] -= theta * (1.0 - theta) * theta;
         // scale the order conditions: sum beta Phi(t) = theta^|t| / gamma(t)  <=>  sum (beta / theta) Phi = ...
@@ -176,6 +185,57 @@ TEST(EmbeddedTableaus, DormandPrinceContinuousExtensionIsFourthOrder) {
         }
     }
     EXPECT_TRUE(fifth_violated) << "a fourth-order extension cannot be fifth order inside the step";
+}
+
+// DP853's continuous extension over its 13 stages and 3 extra ones (one tableau of 16 stages), written as
+// y0 + h sum_i beta_i(theta) k_i from y0 + theta (F0 + (1 - theta)(F1 + theta (F2 + (1 - theta)(F3 + theta (F4 +
+// (1 - theta)(F5 + theta F6)))))), F0 = D = h sum b k, F1 = h k_1 - D, F2 = 2 D - h (k_1 + k_13), F_{3+r} = h sum
+// d[r] k: every order condition up to order 7 holds with theta^|t| / gamma(t) at any theta, some of order 8
+// does not inside the step, and beta(1) = b (continuity).
+TEST(EmbeddedTableaus, DormandPrince853ContinuousExtensionIsSeventhOrder) {
+    const auto& T = eci::tableaus::dormand_prince_853;
+    constexpr std::size_t S = 13, N = 16;
+    eci::embedded_tableau<N> X{};
+    for (std::size_t i = 0; i < S; ++i) {
+        for (std::size_t j = 0; j < S; ++j) X.a[i][j] = T.a[i][j];
+        X.c[i] = T.c[i];
+    }
+    for (std::size_t e = 0; e < 3; ++e) {
+        for (std::size_t j = 0; j < N; ++j) X.a[S + e][j] = T.a_extra[e][j];
+        X.c[S + e] = T.c_extra[e];
+        double sum = 0.0, magnitude = 0.0;  // the extra stages' times are their rows' sums, as for the others
+        for (std::size_t j = 0; j < N; ++j) sum += T.a_extra[e][j], magnitude += std::abs(T.a_extra[e][j]);
+        EXPECT_LE(std::abs(sum - T.c_extra[e]), 8.0 * eps * (magnitude + 1.0)) << "extra stage " << e;
+    }
+    const auto trees = rooted_trees(8);
+    bool eighth_violated = false;
+    for (double theta : {0.2, 0.5, 0.7, 1.0}) {
+        const double u = 1.0 - theta;
+        // the factor in front of each F: theta, theta u, theta^2 u, theta^2 u^2, theta^3 u^2, theta^3 u^3, ...
+        std::array<double, 7> p{};
+        p[0] = theta;
+        for (std::size_t m = 1; m < 7; ++m) p[m] = p[m - 1] * (m % 2 == 1 ? u : theta);
+        std::array<double, N> beta{};
+        for (std::size_t i = 0; i < S; ++i) beta[i] = (p[0] - p[1] + 2.0 * p[2]) * T.b[i];
+        beta[0] += p[1] - p[2];
+        beta[S - 1] -= p[2];
+        for (std::size_t r = 0; r < 4; ++r)
+            for (std::size_t i = 0; i < N; ++i) beta[i] += p[3 + r] * T.d[r][i];
+        const auto res = check(X, beta, trees);
+        for (std::size_t t = 0; t < trees.size(); ++t) {
+            const double target = std::pow(theta, trees[t].order) / trees[t].gamma;
+            const double residual = res.residual[t] + 1.0 / trees[t].gamma - target;
+            if (trees[t].order <= 7)
+                EXPECT_LE(std::abs(residual), roundings * eps * res.magnitude[t]) << "theta " << theta << " tree " << t;
+            else if (theta < 1.0 && std::abs(residual) > 1e-6)
+                eighth_violated = true;
+        }
+        if (theta == 1.0) {
+            for (std::size_t i = 0; i < S; ++i) EXPECT_NEAR(beta[i], T.b[i], 4.0 * eps) << "continuity at stage " << i;
+            for (std::size_t i = S; i < N; ++i) EXPECT_EQ(beta[i], 0.0) << "continuity at extra stage " << i;
+        }
+    }
+    EXPECT_TRUE(eighth_violated) << "a seventh-order extension cannot be eighth order inside the step";
 }
 
 }  // namespace

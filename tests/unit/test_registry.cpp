@@ -35,16 +35,16 @@ using strings = std::vector<std::string>;
 TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     EXPECT_EQ(names_of(eci::methods_for<eci::three_wave>()),
               (strings{"euler", "pc", "rk2", "rk4", "c-euler", "c-pc", "c-rk2", "c-rk4", "c-pc-compensated",
-                       "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78",
+                       "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "dp853", "c-dp853", "f78", "c-f78",
                        "rrk-rk4", "idt-rk4", "mrrk-rk4", "projected-rk4", "rrk-bs32", "rrk-dp54", "mrrk-bs32", "mrrk-dp54",
                        "projected-dp54"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::n_wave<std::complex<double>>>()),
               names_of(eci::methods_for<eci::three_wave>()));
     EXPECT_EQ(names_of(eci::methods_for<eci::lotka_volterra>()),
-              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "kahan", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78",
+              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "kahan", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "dp853", "c-dp853", "f78", "c-f78",
                        "rrk-rk4", "idt-rk4", "projected-rk4", "rrk-bs32", "rrk-dp54", "projected-dp54"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler>()),
-              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "f78", "c-f78",
+              (strings{"euler", "pc", "rk2", "rk4", "c-pc", "c-rk2", "c-rk4", "implicit-midpoint", "bs32", "c-bs32", "ck54", "c-ck54", "dp54", "c-dp54", "dp853", "c-dp853", "f78", "c-f78",
                        "rrk-rk4", "idt-rk4", "projected-rk4", "rrk-bs32", "rrk-dp54", "projected-dp54"}));
     // Each with its family on the model: the transform is used on Kepler, the psi^2 engine on three-wave.
     EXPECT_EQ(eci::methods_for<eci::kepler>()[4].family, eci::method_family::transformed);
@@ -52,7 +52,7 @@ TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     // Issue 12: multiple relaxation where there are two independent invariants, symplectic methods on a separable
     // Hamiltonian, and no C-RK on Kepler in Cartesian variables (H is not a sum of squares there).
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler_cartesian>()),
-              (strings{"euler", "pc", "rk2", "rk4", "implicit-midpoint", "bs32", "ck54", "dp54", "f78", "rrk-rk4",
+              (strings{"euler", "pc", "rk2", "rk4", "implicit-midpoint", "bs32", "ck54", "dp54", "dp853", "f78", "rrk-rk4",
                        "idt-rk4", "mrrk-rk4", "projected-rk4", "rrk-bs32", "rrk-dp54", "mrrk-bs32", "mrrk-dp54",
                        "projected-dp54", "stormer-verlet", "sb3a"}));
     EXPECT_EQ(names_of(eci::methods_for<eci::rigid_body>()), names_of(eci::methods_for<eci::three_wave>()));

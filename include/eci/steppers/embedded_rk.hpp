@@ -53,6 +53,38 @@ concept embedded_pair = requires(const Tab& t) { t.bhat; t.embedded_order; };
 template <class Tab>
 concept with_continuous_extension = requires(const Tab& t) { t.d; };
 
+/// A pair whose error estimate combines two embedded solutions (doubly_embedded_tableau).
+template <class Tab>
+concept with_second_estimate = requires(const Tab& t) { t.bhat_low; t.low_mix; };
+
+/// The number of terms of a continuous extension beyond the cubic (0 without one).
+template <class Tab>
+constexpr std::size_t dense_terms_of() {
+    if constexpr (with_continuous_extension<Tab>)
+        return Tab::dense_terms;
+    else
+        return 0;
+}
+
+/// The number of stages a continuous extension evaluates after the step (0 without one).
+template <class Tab>
+constexpr std::size_t extra_stages_of() {
+    if constexpr (with_continuous_extension<Tab>)
+        return Tab::extra_stages;
+    else
+        return 0;
+}
+
+/// The order whose error the pair's estimate has the size of: the embedded solution's, or for two combined
+/// (doubly_embedded_tableau) 2 embedded_order - low_order.
+template <class Tab>
+constexpr int estimate_order(const Tab& t) {
+    if constexpr (with_second_estimate<Tab>)
+        return 2 * t.embedded_order - t.low_order;
+    else
+        return t.embedded_order;
+}
+
 template <const auto& T>
 constexpr bool tableau_is_fsal() {
     if constexpr (embedded_pair<std::remove_cvref_t<decltype(T)>>)
@@ -62,13 +94,17 @@ constexpr bool tableau_is_fsal() {
 }
 
 /// The value at theta in [0, 1] of a step of size h from y0 to y1 with end rates f0, f1: the continuous
-/// extension's form (fd = sum_i d_i rate_i) or, without one, the cubic Hermite interpolant. Linear in its data,
-/// so data with equal linear invariants give a value with the same invariants (the conservative dense output).
-template <bool continuous_extension>
-double dense_value(double theta, double h, double y0, double y1, double f0, double f1, double fd) {
-    if constexpr (continuous_extension) {
+/// extension's form (dense_embedded_tableau; fd[r] = sum_i d[r][i] rate_i, R terms beyond the cubic) or, for
+/// R = 0, the cubic Hermite interpolant. Linear in its data, so data with equal linear invariants give a value
+/// with the same invariants (the conservative dense output).
+template <std::size_t R>
+double dense_value(double theta, double h, double y0, double y1, double f0, double f1, const std::array<double, R>& fd) {
+    if constexpr (R > 0) {
+        // u = fd[0] + theta (fd[1] + (1 - theta)(fd[2] + theta fd[3])), the factors alternating
+        double u = fd[R - 1];
+        for (std::size_t r = R - 1; r-- > 0;) u = fd[r] + (r % 2 == 0 ? theta : 1.0 - theta) * u;
         const double dy = y1 - y0, c3 = h * f0 - dy, c4 = dy - h * f1 - c3;
-        return y0 + theta * (dy + (1.0 - theta) * (c3 + theta * (c4 + (1.0 - theta) * h * fd)));
+        return y0 + theta * (dy + (1.0 - theta) * (c3 + theta * (c4 + (1.0 - theta) * h * u)));
     } else {
         (void)fd;
         const double h00 = (1.0 + 2.0 * theta) * (1.0 - theta) * (1.0 - theta);
@@ -95,6 +131,11 @@ class embedded_rk {
     static constexpr bool compensated = X == xi_carry::compensated;
     static_assert(conservative || !compensated, "only a conservative stepper carries xi");
     static constexpr bool fsal = detail::tableau_is_fsal<T>();
+    static constexpr bool two_estimates = detail::with_second_estimate<tableau_type>;
+    // terms of the continuous extension beyond the cubic, and the stages it evaluates after the step
+    static constexpr std::size_t R = detail::with_continuous_extension<tableau_type> && fsal
+                                         ? detail::dense_terms_of<tableau_type>() : 0;
+    static constexpr std::size_t E = R > 0 ? detail::extra_stages_of<tableau_type>() : 0;
 
    public:
     /// Order of the propagated solution.
@@ -102,9 +143,11 @@ class embedded_rk {
     /// Whether the tableau has an embedded solution (an error estimate for step control).
     static constexpr bool has_error_estimate = detail::embedded_pair<tableau_type>;
     /// Order of the embedded solution (0 if there is none): the error estimate is O(dt^(embedded_order + 1)).
+    /// For two embedded solutions combined (doubly_embedded_tableau), the order whose error the estimate has the
+    /// size of (DP853: 7, as SciPy's DOP853 declares).
     static constexpr int embedded_order = [] {
         if constexpr (has_error_estimate)
-            return T.embedded_order;
+            return detail::estimate_order(T);
         else
             return 0;
     }();
@@ -114,6 +157,9 @@ class embedded_rk {
     static constexpr bool first_same_as_last = fsal;
     /// Whether the dense output is the pair's own continuous extension (else a cubic Hermite interpolant).
     static constexpr bool has_continuous_extension = detail::with_continuous_extension<tableau_type> && fsal;
+    /// The degree of the dense output's polynomial in the step fraction (of psi, or of xi = psi^2 if conservative):
+    /// 3 + the continuous extension's terms beyond the cubic (DP54: 4, DP853: 7), or 3 (cubic Hermite).
+    static constexpr int dense_degree = 3 + int(has_continuous_extension ? detail::dense_terms_of<tableau_type>() : 0);
     /// Whether the dense output is as accurate as the steps themselves (measured in tests/numeric/test_adaptive.cpp):
     /// a conventional pair's continuous extension, or a cubic Hermite interpolant for a pair of order at most 3.
     /// Not a conservative pair's continuous extension: interpolated xi near a zero of psi turns an O(dt^5) error of
@@ -139,6 +185,7 @@ class embedded_rk {
         pending_first_ = false;
         have_first_ = true;
         dense_ready_ = false;
+        extras_ready_ = false;
         run_stages(f, x, t, dt, std::make_index_sequence<s>{});
         const auto xr = detail::reals(x);
         const double* p0 = conservative && !first_is_x_ ? detail::reals(std::as_const(first_point_)).data() : xr.data();
@@ -164,7 +211,12 @@ class embedded_rk {
             res.component = detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); });
             return res;
         }
-        res.error = n > 0 ? std::sqrt(sums.sq / double(n)) : 0.0;
+        if constexpr (two_estimates) {  // |err|^2 / sqrt(|err|^2 + mix |err_low|^2), RMS norms (doubly_embedded_tableau)
+            const double den = sums.sq + T.low_mix * sums.sq_low;
+            res.error = den > 0.0 ? sums.sq / std::sqrt(double(n) * den) : 0.0;
+        } else {
+            res.error = n > 0 ? std::sqrt(sums.sq / double(n)) : 0.0;
+        }
         res.component = sums.worst;
         last_dt_ = dt;
         return res;
@@ -195,19 +247,26 @@ class embedded_rk {
 
     /// Make the dense output of the accepted step available: a non-FSAL tableau needs f at the new state, which
     /// this evaluates once and keeps as the next step's first stage (so dense output costs no extra evaluation
-    /// over a run). x is the current state (the one accept() produced), t its time.
+    /// over a run); a continuous extension with extra stages (DP853) evaluates them (E calls of f per step that
+    /// is interpolated). x is the current state (the one accept() produced), t its time.
     template <system<S> F>
     void prepare_dense(F& f, const S& x, double t) {
-        if (dense_ready_) return;
-        f(x, k_[s - 1], t);
-        pending_first_ = true;
-        have_first_ = true;
-        first_is_x_ = true;
-        dense_ready_ = true;
+        if (!dense_ready_) {
+            f(x, k_[s - 1], t);
+            pending_first_ = true;
+            have_first_ = true;
+            first_is_x_ = true;
+            dense_ready_ = true;
+        }
+        if constexpr (E > 0) {
+            if (!extras_ready_) run_extra_stages(f, t);
+            extras_ready_ = true;
+        }
     }
 
     /// The dense output at t0 + theta dt of the accepted step (x is the current state; call prepare_dense first).
-    /// Conventional: the pair's continuous extension (DP54, fourth order) or the cubic Hermite interpolant of psi.
+    /// Conventional: the pair's continuous extension (DP54: fourth order; DP853: seventh, with its three extra
+    /// stages) or the cubic Hermite interpolant of psi.
     /// Conservative: the same interpolant applied to xi = psi^2, with the stage rates 2 Y_i S(Y_i) in place of the
     /// k_i. Every such interpolant is xi0 + c (xi1 - xi0) + dt sum_i beta_i 2 Y_i S(Y_i): xi0 and xi1 have equal
     /// invariants and every rate term has sum_k w_k Y_k S_k(Y) = 0, so each interpolated point keeps every
@@ -240,21 +299,31 @@ class embedded_rk {
         }
         const double* r0 = compensated ? detail::reals(std::as_const(res_new_)).data() : nullptr;
         const double* r1 = compensated ? detail::reals(std::as_const(res_)).data() : nullptr;
-        // One interpolant, given the end values, the end rates and (continuous extension) sum_i d_i rate_i.
-        auto interpolant = [&](double y0, double y1, double f0, double f1, double fd) {
-            return detail::dense_value<has_continuous_extension>(theta, h, y0, y1, f0, f1, fd);
+        std::array<const double*, E> ky{}, yy{};  // the extra stages' derivatives and values
+        if constexpr (E > 0)
+            for (std::size_t e = 0; e < E; ++e) {
+                ky[e] = detail::reals(std::as_const(k_extra_[e])).data();
+                yy[e] = detail::reals(std::as_const(y_extra_[e])).data();
+            }
+        // One interpolant, given the end values, the end rates and (continuous extension) sum_i d[r][i] rate_i.
+        auto interpolant = [&](double y0, double y1, double f0, double f1, const std::array<double, R>& fd) {
+            return detail::dense_value<R>(theta, h, y0, y1, f0, f1, fd);
         };
         double bad = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
-            double kd = 0.0, rd = 0.0;  // sum_i d_i k_i and sum_i d_i 2 Y_i k_i
-            if constexpr (has_continuous_extension) {
+            std::array<double, R> kd{}, rd{};  // sum_j d[r][j] k_j and sum_j d[r][j] 2 Y_j k_j
+            if constexpr (R > 0) {
                 [&]<std::size_t... J>(std::index_sequence<J...>) {
-                    ((T.d[J] != 0.0 ? (void)(kd += T.d[J] * k[J][i],
-                                             rd += T.d[J] * 2.0 *
-                                                   (J == 0 ? p0[i] : stage_value<J>(x0[i], k, i, h)) * k[J][i])
-                                    : (void)0),
-                     ...);
+                    (add_dense_terms<J>(p0[i], x0[i], k, i, h, kd, rd), ...);
                 }(std::make_index_sequence<s>{});
+                if constexpr (E > 0)
+                    for (std::size_t e = 0; e < E; ++e)
+                        for (std::size_t r = 0; r < R; ++r) {
+                            const double dv = T.d[r][s + e];
+                            if (dv == 0.0) continue;
+                            kd[r] += dv * ky[e][i];
+                            if constexpr (conservative) rd[r] += dv * 2.0 * yy[e][i] * ky[e][i];
+                        }
             }
             // conventional interpolant of psi: between x0 and the conventional update (x1 itself if conventional)
             const double psi = interpolant(x0[i], p1[i], k[0][i], k_end[i], kd);
@@ -281,7 +350,7 @@ class embedded_rk {
 
     /// Forget everything carried between steps (FSAL derivative, compensated residual, dense output).
     void reset() {
-        have_first_ = pending_first_ = dense_ready_ = false;
+        have_first_ = pending_first_ = dense_ready_ = extras_ready_ = false;
         first_is_x_ = true;
         residual_valid_ = false;
     }
@@ -300,16 +369,18 @@ class embedded_rk {
     }
 
     /// How many state-sized buffers an adaptive run holds: the stages, one stage value, the candidate, and for a
-    /// conservative FSAL pair the point of the carried derivative, for a compensated one two residuals.
+    /// conservative FSAL pair the point of the carried derivative, for a compensated one two residuals, for a
+    /// continuous extension with extra stages their values and derivatives (allocated at the first dense output).
     /// (step() keeps one more, a copy of the last state, to detect a changed x.)
     static constexpr std::size_t buffer_count() {
-        return s + 2 + (conservative && fsal ? 1 : 0) + (compensated ? 2 : 0);
+        return s + 2 + (conservative && fsal ? 1 : 0) + (compensated ? 2 : 0) + 2 * E;
     }
 
    private:
     struct finish_sums {
         double bad = 0.0;  // negative radicands, as a double to keep the loop vectorizable
         double sq = 0.0;   // sum of squared weighted errors
+        double sq_low = 0.0;  // the same for the second embedded solution (two_estimates)
         double worst_ratio = -1.0;
         std::size_t worst = 0;
     };
@@ -357,6 +428,69 @@ class embedded_rk {
             for (std::size_t j = 0; j < s; ++j) d[j] = T.b[j] - T.bhat[j];
         return d;
     }();
+
+    // b - bhat_low, the second estimate's weights (two_estimates; zero otherwise)
+    static constexpr std::array<double, s> low_error_weights_of_tableau = [] {
+        std::array<double, s> d{};
+        if constexpr (two_estimates)
+            for (std::size_t j = 0; j < s; ++j) d[j] = T.b[j] - T.bhat_low[j];
+        return d;
+    }();
+
+    // The stage derivatives of the accepted step in stage order (an FSAL accept rotated k_0 and k_{s-1}).
+    std::array<const double*, s> stage_derivatives() const {
+        std::array<const double*, s> k{};
+        for (std::size_t j = 0; j < s; ++j) k[j] = detail::reals(std::as_const(k_[j])).data();
+        if constexpr (fsal) std::swap(k[0], k[s - 1]);
+        return k;
+    }
+
+    // The continuous extension's extra stages (E > 0) of the accepted step from result_ (its start) over
+    // last_dt_ ending at t_end: values y_extra_ and derivatives k_extra_, each from the stages before it.
+    template <class F>
+    void run_extra_stages(F& f, double t_end) {
+        const double h = last_dt_, t0 = t_end - h;
+        const std::array<const double*, s> k = stage_derivatives();
+        const auto x0 = detail::reals(std::as_const(result_));
+        const std::size_t n = x0.size();
+        for (std::size_t e = 0; e < E; ++e) {
+            detail::resize_like(y_extra_[e], result_);
+            detail::resize_like(k_extra_[e], result_);
+            double* y = detail::reals(y_extra_[e]).data();
+            std::copy(x0.begin(), x0.end(), y);
+            for (std::size_t j = 0; j < s + e; ++j) {
+                const double a = T.a_extra[e][j];
+                if (a == 0.0) continue;
+                const double w = h * a;
+                const double* kj = j < s ? k[j] : detail::reals(std::as_const(k_extra_[j - s])).data();
+                for (std::size_t i = 0; i < n; ++i) y[i] += w * kj[i];
+            }
+            f(std::as_const(y_extra_[e]), k_extra_[e], t0 + T.c_extra[e] * h);
+        }
+    }
+
+    // Stage J's terms of the continuous extension at unknown i: d[r][J] k_J into kd[r] and (conservative)
+    // d[r][J] 2 Y_J k_J into rd[r], Y_J recomputed once (Y_0: p0, the point k_0 was taken at).
+    template <std::size_t J>
+    static void add_dense_terms(double p0, double x0, const std::array<const double*, s>& k, std::size_t i, double h,
+                                std::array<double, R>& kd, std::array<double, R>& rd) {
+        (void)p0, (void)x0, (void)h, (void)rd;
+        constexpr bool used = [] {
+            for (std::size_t r = 0; r < R; ++r)
+                if (T.d[r][J] != 0.0) return true;
+            return false;
+        }();
+        if constexpr (used) {
+            const double kj = k[J][i];
+            double y = 0.0;
+            if constexpr (conservative) y = stage_or_start<J>(p0, x0, k, i, h);
+            for (std::size_t r = 0; r < R; ++r) {
+                if (T.d[r][J] == 0.0) continue;
+                kd[r] += T.d[r][J] * kj;
+                if constexpr (conservative) rd[r] += T.d[r][J] * 2.0 * y * kj;
+            }
+        }
+    }
 
     // Stage value Y_J at one unknown, recomputed with the operations combine_stages used (the same bits).
     template <std::size_t J>
@@ -420,14 +554,15 @@ class embedded_rk {
                        const std::array<const double*, s>& k, double dt, std::size_t n, const error_weights& w,
                        finish_sums& sums, std::index_sequence<J...>) {
         constexpr auto d = error_weights_of_tableau;
-        (void)w, (void)rn, (void)r, (void)p0;
+        constexpr auto dl = low_error_weights_of_tableau;
+        (void)w, (void)rn, (void)r, (void)p0, (void)dl;
         const std::array<double, s> wb{(dt * T.b[J])...};
         [[maybe_unused]] const std::array<double, s> c2{(2.0 * wb[J])...};  // c_J = 2 dt b_J (compensated)
-        double bad = 0.0, sq = 0.0;
+        double bad = 0.0, sq = 0.0, sq_low = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
             double conv = x[i];  // the conventional update: the state, or the sign of the conservative one
             ((T.b[J] != 0.0 ? (conv += wb[J] * k[J][i], 0) : 0), ...);
-            double next = conv, err = 0.0;
+            double next = conv, err = 0.0, err_low = 0.0;
             if constexpr (conservative) {
                 constexpr bool est = Norm && has_error_estimate;
                 double xi, inc, a_acc = 0.0;  // inc: the increment of xi; a_acc: dt sum_j b_j k_j (Y_j - x)
@@ -470,10 +605,17 @@ class embedded_rk {
                     ((T.b[J] != 0.0 ? (bt += wb[J] * k[J][i], 0) : 0), ...);
                     const double den = next + x[i];
                     const double smooth = (2.0 * a_acc - (inc / den) * bt) / den;
-                    err = (x[i] * next > 0.0 ? smooth : next - conv) + dconv;
+                    const double own = x[i] * next > 0.0 ? smooth : next - conv;  // psi - conv
+                    err = own + dconv;
+                    if constexpr (two_estimates) {  // psi - psihat_low, the same way
+                        double dconv_low = 0.0;
+                        ((dl[J] != 0.0 ? (dconv_low += (dt * dl[J]) * k[J][i], 0) : 0), ...);
+                        err_low = own + dconv_low;
+                    }
                 }
             } else if constexpr (Norm && has_error_estimate) {
                 ((d[J] != 0.0 ? (err += (dt * d[J]) * k[J][i], 0) : 0), ...);
+                if constexpr (two_estimates) ((dl[J] != 0.0 ? (err_low += (dt * dl[J]) * k[J][i], 0) : 0), ...);
             }
             o[i] = next;
             if constexpr (Norm && has_error_estimate) {
@@ -482,8 +624,13 @@ class embedded_rk {
                     if (w.rtol_each) rt = w.rtol_each[i];
                     if (w.atol_each) at = w.atol_each[i];
                 }
-                const double ratio = err / (at + rt * std::max(std::abs(x[i]), std::abs(next)));
+                const double scale = at + rt * std::max(std::abs(x[i]), std::abs(next));
+                const double ratio = err / scale;
                 sq += ratio * ratio;
+                if constexpr (two_estimates) {
+                    const double ratio_low = err_low / scale;
+                    sq_low += ratio_low * ratio_low;
+                }
                 if constexpr (Track) {
                     if (!(std::abs(ratio) <= sums.worst_ratio)) {
                         sums.worst_ratio = std::abs(ratio);
@@ -494,15 +641,18 @@ class embedded_rk {
         }
         sums.bad = bad;
         sums.sq = sq;
+        sums.sq_low = sq_low;
     }
 
     std::array<S, s> k_{};
+    std::array<S, E> k_extra_{}, y_extra_{};  // the continuous extension's extra stages (after prepare_dense)
     S stage_{}, result_{}, first_point_{}, res_{}, res_new_{}, last_x_{};
     bool have_first_ = false;      // k_[0] holds the derivative for the current state's first stage
     bool pending_first_ = false;   // ... but it waits in k_[s - 1] (evaluated for the dense output)
     bool first_is_x_ = true;       // the first derivative was taken at x itself (else at first_point_)
     bool p0_is_x0_ = true;         // the same, for the start of the accepted step (dense output)
     bool dense_ready_ = false;
+    bool extras_ready_ = false;    // the extra stages of the accepted step are evaluated
     bool residual_valid_ = false;
     bool stepped_ = false;
     double last_dt_ = 0.0;
@@ -520,6 +670,10 @@ template <state S> using c_ck54 = embedded_rk<tableaus::cash_karp_54, S, update_
 template <state S> using dp54 = embedded_rk<tableaus::dormand_prince_54, S, update_rule::conventional>;
 /// Dormand-Prince 5(4), conservative.
 template <state S> using c_dp54 = embedded_rk<tableaus::dormand_prince_54, S, update_rule::conservative>;
+/// Dormand-Prince 8(5,3), conventional (SciPy's DOP853).
+template <state S> using dp853 = embedded_rk<tableaus::dormand_prince_853, S, update_rule::conventional>;
+/// Dormand-Prince 8(5,3), conservative.
+template <state S> using c_dp853 = embedded_rk<tableaus::dormand_prince_853, S, update_rule::conservative>;
 /// Fehlberg 7(8) (propagating order 8), conventional.
 template <state S> using f78 = embedded_rk<tableaus::fehlberg_78, S, update_rule::conventional>;
 /// Fehlberg 7(8) (propagating order 8), conservative.

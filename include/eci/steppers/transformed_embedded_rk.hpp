@@ -28,8 +28,14 @@ namespace eci {
 /// Protocol as embedded_rk (attempt / accept / reset / step / prepare_dense / interpolate).
 template <const auto& T, invariant_transform Tr>
 class transformed_embedded_rk {
-    static constexpr std::size_t s = std::remove_cvref_t<decltype(T)>::stages;
+    using tableau_type = std::remove_cvref_t<decltype(T)>;
+    static constexpr std::size_t s = tableau_type::stages;
     static constexpr bool fsal = is_fsal(T);
+    static constexpr bool two_estimates = detail::with_second_estimate<tableau_type>;
+    // terms of the continuous extension beyond the cubic, and the stages it evaluates after the step
+    static constexpr std::size_t R =
+        detail::with_continuous_extension<tableau_type> && fsal ? detail::dense_terms_of<tableau_type>() : 0;
+    static constexpr std::size_t E = R > 0 ? detail::extra_stages_of<tableau_type>() : 0;
     using S = typename Tr::state_type;
     using X = typename Tr::xi_type;
 
@@ -37,11 +43,14 @@ class transformed_embedded_rk {
     using state_type = S;
     static constexpr int order = T.order;
     static constexpr bool has_error_estimate = true;
-    static constexpr int embedded_order = T.embedded_order;
+    /// The estimate's order (two embedded solutions combined, DP853: 2 embedded_order - low_order).
+    static constexpr int embedded_order = detail::estimate_order(T);
     static constexpr bool is_conservative = true;
     static constexpr bool first_same_as_last = fsal;
     /// Whether the dense output is the pair's own continuous extension (else a cubic Hermite interpolant).
-    static constexpr bool has_continuous_extension = detail::with_continuous_extension<std::remove_cvref_t<decltype(T)>> && fsal;
+    static constexpr bool has_continuous_extension = R > 0;
+    /// The degree of the interpolant of xi in the step fraction (3 + the extension's terms, or 3: cubic Hermite).
+    static constexpr int dense_degree = 3 + int(R);
     /// Whether the dense output is as accurate as the steps (as embedded_rk: a continuous extension, or order <= 3).
     static constexpr bool dense_matches_steps = has_continuous_extension || T.order <= 3;
 
@@ -53,6 +62,8 @@ class transformed_embedded_rk {
         const Tr& tr = tr_;
         for (auto& ki : k_) detail::resize_like(ki, x);
         for (S* b : {&stage_, &conv_, &conv_hat_, &x_new_, &x_hat_, &first_point_, &k_end_}) detail::resize_like(*b, x);
+        if constexpr (two_estimates)
+            for (S* b : {&conv_low_, &x_low_}) detail::resize_like(*b, x);
         if (!have_xi_) {
             tr.to_xi(x, xi_);
             have_xi_ = true;
@@ -70,16 +81,23 @@ class transformed_embedded_rk {
             have_first_ = true;
         }
         dense_ready_ = false;
+        extras_ready_ = false;
         for (X* b : {&acc_, &acc_hat_, &xi_new_, &xi_hat_, &rate_end_}) detail::resize_like(*b, xi_);
+        if constexpr (two_estimates)
+            for (X* b : {&acc_low_, &xi_low_}) detail::resize_like(*b, xi_);
         for (X& b : rates_) detail::resize_like(b, xi_);
-        auto acc = detail::reals(acc_), acc_hat = detail::reals(acc_hat_);
+        auto acc = detail::reals(acc_), acc_hat = detail::reals(acc_hat_), acc_low = detail::reals(acc_low_);
         std::fill(acc.begin(), acc.end(), 0.0);
         std::fill(acc_hat.begin(), acc_hat.end(), 0.0);
+        std::fill(acc_low.begin(), acc_low.end(), 0.0);
         auto add_rate = [&](std::size_t i, const S& y, const S& k) {
             tr.xi_rate(y, k, rates_[i]);  // every stage's rate is kept for the dense output
-            if (T.b[i] == 0.0 && T.bhat[i] == 0.0) return;
             const auto r = detail::reals(std::as_const(rates_[i]));
-            for (std::size_t m = 0; m < acc.size(); ++m) acc[m] += T.b[i] * r[m], acc_hat[m] += T.bhat[i] * r[m];
+            if (T.b[i] != 0.0 || T.bhat[i] != 0.0)
+                for (std::size_t m = 0; m < acc.size(); ++m) acc[m] += T.b[i] * r[m], acc_hat[m] += T.bhat[i] * r[m];
+            if constexpr (two_estimates)
+                if (T.bhat_low[i] != 0.0)
+                    for (std::size_t m = 0; m < acc_low.size(); ++m) acc_low[m] += T.bhat_low[i] * r[m];
         };
         add_rate(0, first_point_, k_[0]);
         const auto xr = detail::reals(x);
@@ -101,16 +119,35 @@ class transformed_embedded_rk {
         if (w == nullptr) return res;
         const step_result rh = tr.from_xi(std::as_const(xi_hat_), std::as_const(conv_hat_), x_hat_, stats_);
         if (!rh) return {true, rh.component, std::numeric_limits<double>::infinity()};
+        const double* c = nullptr;  // the second embedded solution (two_estimates)
+        if constexpr (two_estimates) {
+            const auto xl = detail::reals(xi_low_);
+            for (std::size_t m = 0; m < xl.size(); ++m) xl[m] = xo[m] + dt * acc_low[m];
+            combine<T.bhat_low>(conv_low_, x, dt, std::make_index_sequence<s>{});
+            const step_result rl = tr.from_xi(std::as_const(xi_low_), std::as_const(conv_low_), x_low_, stats_);
+            if (!rl) return {true, rl.component, std::numeric_limits<double>::infinity()};
+            c = detail::reals(std::as_const(x_low_)).data();
+        }
         const auto a = detail::reals(std::as_const(x_new_)), b = detail::reals(std::as_const(x_hat_));
-        double sq = 0.0, worst = -1.0;
+        double sq = 0.0, sq_low = 0.0, worst = -1.0;
         for (std::size_t i = 0; i < a.size(); ++i) {
             const double rt = w->rtol_each ? w->rtol_each[i] : w->rtol;
             const double at = w->atol_each ? w->atol_each[i] : w->atol;
-            const double ratio = (a[i] - b[i]) / (at + rt * std::max(std::abs(xr[i]), std::abs(a[i])));
+            const double scale = at + rt * std::max(std::abs(xr[i]), std::abs(a[i]));
+            const double ratio = (a[i] - b[i]) / scale;
             sq += ratio * ratio;
+            if (c) {
+                const double ratio_low = (a[i] - c[i]) / scale;
+                sq_low += ratio_low * ratio_low;
+            }
             if (track_worst && !(std::abs(ratio) <= worst)) worst = std::abs(ratio), res.component = i;
         }
-        res.error = std::sqrt(sq / double(a.size()));
+        if constexpr (two_estimates) {  // as embedded_rk: |err|^2 / sqrt(|err|^2 + mix |err_low|^2), RMS norms
+            const double den = sq + T.low_mix * sq_low;
+            res.error = den > 0.0 ? sq / std::sqrt(double(a.size()) * den) : 0.0;
+        } else {
+            res.error = std::sqrt(sq / double(a.size()));
+        }
         last_dt_ = dt;
         return res;
     }
@@ -134,43 +171,51 @@ class transformed_embedded_rk {
 
     /// Make the dense output of the accepted step available (x the new state, t its time): a non-FSAL pair needs
     /// f at x, evaluated once here and kept as the next attempt's first stage.
+    /// A continuous extension with extra stages (DP853) evaluates them here, with their rates of xi.
     template <system<S> F>
     void prepare_dense(F& f, const S& x, double t) {
-        if (dense_ready_) return;
-        f(x, k_end_, t);
-        tr_.xi_rate(x, k_end_, rate_end_);
-        p1_ = x;
-        pending_first_ = true;
-        dense_ready_ = true;
+        if (!dense_ready_) {
+            f(x, k_end_, t);
+            tr_.xi_rate(x, k_end_, rate_end_);
+            p1_ = x;
+            pending_first_ = true;
+            dense_ready_ = true;
+        }
+        if constexpr (E > 0) {
+            if (!extras_ready_) run_extra_stages(f, t);
+            extras_ready_ = true;
+        }
     }
 
     /// The dense output at t0 + theta dt of the accepted step (x the current state; call prepare_dense first).
-    /// xi is interpolated with the rates of xi at the stages (DP54's continuous extension, else the cubic Hermite
-    /// interpolant with the end rates), then inverted on the branch of the same interpolant applied to x with the
-    /// stage derivatives. Each interpolated xi is xi0 + c (xi1 - xi0) + dt sum_i beta_i rate_i: xi0 and xi1 have
-    /// equal invariants and every rate keeps them (they are linear in xi), so each point keeps the invariants of
-    /// the step's ends up to rounding. A non-invertible interpolated xi fails (the driver lands a step instead).
+    /// xi is interpolated with the rates of xi at the stages (the pair's continuous extension, DP54's, or DP853's
+    /// with its extra stages; else the cubic Hermite interpolant with the end rates), then inverted on the branch
+    /// of the same interpolant applied to x with the stage derivatives. Each interpolated xi is xi0 + c (xi1 - xi0)
+    /// + dt sum_i beta_i rate_i: xi0 and xi1 have equal invariants and every rate keeps them (they are linear in
+    /// xi), so each point keeps the invariants of the step's ends up to rounding. A non-invertible interpolated xi fails (the driver lands a step instead).
     step_result interpolate(const S& x, double theta, S& out) const {
         detail::resize_like(out, x);
         detail::resize_like(xi_dense_, xi_);
         detail::resize_like(hint_, x);
         const double h = last_dt_;
-        auto interpolant = [&](double y0, double y1, double f0, double f1, double fd) {
-            return detail::dense_value<has_continuous_extension>(theta, h, y0, y1, f0, f1, fd);
+        auto interpolant = [&](double y0, double y1, double f0, double f1, const std::array<double, R>& fd) {
+            return detail::dense_value<R>(theta, h, y0, y1, f0, f1, fd);
         };
-        // the stage derivatives in stage order (an FSAL accept rotated k_0 and k_{s-1})
-        std::array<const double*, s> k{};
-        for (std::size_t j = 0; j < s; ++j) k[j] = detail::reals(std::as_const(k_[j])).data();
-        if constexpr (fsal) std::swap(k[0], k[s - 1]);
+        const std::array<const double*, s> k = stage_derivatives();
         const double* k_end = fsal ? k[s - 1] : detail::reals(std::as_const(k_end_)).data();
         {  // the branch hint: the conventional interpolant of x, from the start to the conventional update
             const double* x0 = detail::reals(std::as_const(x_new_)).data();
             const double* x1 = detail::reals(std::as_const(p1_)).data();
             double* o = detail::reals(hint_).data();
             for (std::size_t i = 0; i < detail::reals(std::as_const(hint_)).size(); ++i) {
-                double kd = 0.0;
-                if constexpr (has_continuous_extension)
-                    for (std::size_t j = 0; j < s; ++j) kd += T.d[j] * k[j][i];
+                std::array<double, R> kd{};
+                if constexpr (R > 0)
+                    for (std::size_t r = 0; r < R; ++r) {
+                        for (std::size_t j = 0; j < s; ++j) kd[r] += T.d[r][j] * k[j][i];
+                        if constexpr (E > 0)
+                            for (std::size_t e = 0; e < E; ++e)
+                                kd[r] += T.d[r][s + e] * detail::reals(std::as_const(k_extra_[e]))[i];
+                    }
                 o[i] = interpolant(x0[i], x1[i], k[0][i], k_end[i], kd);
             }
         }
@@ -180,9 +225,15 @@ class transformed_embedded_rk {
             const double* r1 = detail::reals(std::as_const(rate_end_)).data();
             double* o = detail::reals(xi_dense_).data();
             for (std::size_t m = 0; m < xi0.size(); ++m) {
-                double rd = 0.0;
-                if constexpr (has_continuous_extension)
-                    for (std::size_t j = 0; j < s; ++j) rd += T.d[j] * detail::reals(std::as_const(rates_[j]))[m];
+                std::array<double, R> rd{};
+                if constexpr (R > 0)
+                    for (std::size_t r = 0; r < R; ++r) {
+                        for (std::size_t j = 0; j < s; ++j)
+                            rd[r] += T.d[r][j] * detail::reals(std::as_const(rates_[j]))[m];
+                        if constexpr (E > 0)
+                            for (std::size_t e = 0; e < E; ++e)
+                                rd[r] += T.d[r][s + e] * detail::reals(std::as_const(rates_extra_[e]))[m];
+                    }
                 o[m] = interpolant(xi0[m], xi1[m], r0[m], r1[m], rd);
             }
         }
@@ -195,7 +246,7 @@ class transformed_embedded_rk {
     double last_step_size() const { return last_dt_; }
 
     /// Forget the carried xi and derivative: the next attempt recomputes them from its x.
-    void reset() { have_xi_ = have_first_ = pending_first_ = dense_ready_ = false; }
+    void reset() { have_xi_ = have_first_ = pending_first_ = dense_ready_ = extras_ready_ = false; }
 
     /// The fixed-step face.
     template <system<S> F>
@@ -215,6 +266,37 @@ class transformed_embedded_rk {
     const X& xi() const { return xi_; }
 
    private:
+    // The stage derivatives of the accepted step in stage order (an FSAL accept rotated k_0 and k_{s-1}).
+    std::array<const double*, s> stage_derivatives() const {
+        std::array<const double*, s> k{};
+        for (std::size_t j = 0; j < s; ++j) k[j] = detail::reals(std::as_const(k_[j])).data();
+        if constexpr (fsal) std::swap(k[0], k[s - 1]);
+        return k;
+    }
+
+    // The continuous extension's extra stages of the accepted step (from its start x_new_ over last_dt_, ending
+    // at t_end): derivatives k_extra_ and rates of xi rates_extra_, each stage from the stages before it.
+    template <class F>
+    void run_extra_stages(F& f, double t_end) {
+        const double h = last_dt_, t0 = t_end - h;
+        const std::array<const double*, s> k = stage_derivatives();
+        const auto x0 = detail::reals(std::as_const(x_new_));
+        for (std::size_t e = 0; e < E; ++e) {
+            detail::resize_like(stage_, x_new_);
+            detail::resize_like(k_extra_[e], x_new_);
+            double* y = detail::reals(stage_).data();
+            std::copy(x0.begin(), x0.end(), y);
+            for (std::size_t j = 0; j < s + e; ++j) {
+                const double a = T.a_extra[e][j];
+                if (a == 0.0) continue;
+                const double* kj = j < s ? k[j] : detail::reals(std::as_const(k_extra_[j - s])).data();
+                for (std::size_t i = 0; i < x0.size(); ++i) y[i] += (h * a) * kj[i];
+            }
+            f(std::as_const(stage_), k_extra_[e], t0 + T.c_extra[e] * h);
+            tr_.xi_rate(stage_, k_extra_[e], rates_extra_[e]);
+        }
+    }
+
     template <std::size_t I>
     static constexpr std::array<double, I> row = [] {
         std::array<double, I> r{};
@@ -235,8 +317,13 @@ class transformed_embedded_rk {
     X xi_{}, xi_new_{}, xi_hat_{}, acc_{}, acc_hat_{}, rate_end_{};
     mutable X xi_dense_{};
     std::array<X, s> rates_{};  // dxi/dt at every stage of the last attempt
+    std::array<S, E> k_extra_{};   // the continuous extension's extra stages (after prepare_dense)
+    std::array<X, E> rates_extra_{};
+    S conv_low_{}, x_low_{};       // the second embedded solution (two_estimates)
+    X acc_low_{}, xi_low_{};
     Tr tr_{};
     bool have_xi_ = false, have_first_ = false, stepped_ = false, pending_first_ = false, dense_ready_ = false;
+    bool extras_ready_ = false;
     double last_dt_ = 0.0;
     mutable solver_stats stats_{};  // the dense output's inverses count too
 };
