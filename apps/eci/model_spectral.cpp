@@ -21,9 +21,7 @@
 #include <unistd.h>
 
 #include <eci/models/navier_stokes_2d.hpp>
-#include <eci/registry.hpp>
-#include <eci/steppers/conservative_rk.hpp>
-#include <eci/steppers/explicit_rk.hpp>
+#include <eci/solve.hpp>
 
 #include "command.hpp"
 #include "ns2d_output.hpp"
@@ -109,6 +107,17 @@ std::string num(double v) {
     char b[32];
     return std::string(format_double(v, b));
 }
+
+/// A sink of eci::solve made of three callables: output, after_step, progress.
+template <class Output, class AfterStep, class Progress>
+struct callback_sink {
+    Output on_output;
+    AfterStep on_step;
+    Progress on_progress;
+    void output(const state& x, const output_point& p) { on_output(x, p); }
+    void after_step(const state& x, const output_point& p) { on_step(x, p); }
+    void progress(double t, std::uint64_t i) { on_progress(t, i); }
+};
 
 class spectral_command final : public model_command {
    public:
@@ -402,9 +411,11 @@ int spectral_command::run_spread(const run_settings& settings) {
         throw bad_input(name_ + ": " + e.what());
     }
     const std::string method = restart ? ck.method : settings.method.empty() ? info_.default_method : settings.method;
-    if (std::find(info_.methods.begin(), info_.methods.end(), method) == info_.methods.end())
-        throw bad_input("method '" + method + "' is not available for " + name_ + " (one of c-rk4, c-pc, c-rk2, "
-                        "rk4, pc, rk2, euler)");
+    if (std::find(info_.methods.begin(), info_.methods.end(), method) == info_.methods.end()) {
+        std::string names;
+        for (const std::string& m : info_.methods) names += (names.empty() ? "" : ", ") + m;
+        throw bad_input("method '" + method + "' is not available for " + name_ + " (one of " + names + ")");
+    }
     if (settings.dt && cfl_) throw bad_input("give --dt or --cfl, not both");
     if (cfl_ && !(std::isfinite(*cfl_) && *cfl_ > 0.0)) throw bad_input("--cfl must be a positive number");
     if (settings.dt && !(std::isfinite(*settings.dt) && *settings.dt > 0.0))
@@ -652,8 +663,8 @@ int spectral_command::run_spread(const run_settings& settings) {
                        .c_str(),
                    out);
     const bool rows_wanted = !settings.output.empty();  // (the same on every process; `out` is rank 0's)
-    auto row = [&](std::uint64_t i) {
-        const double e = model.energy(w), z = model.enstrophy(w), u = model.max_velocity(w);
+    auto row = [&](std::uint64_t i, double e, double z) {  // (e, z: E and Z of w)
+        const double u = model.max_velocity(w);
         const double pal = model.palinstrophy(w);
         const ns2d_budget& b = run.budget;
         if (!out) return;
@@ -719,68 +730,58 @@ int spectral_command::run_spread(const run_settings& settings) {
     progress_bar progress(last - first, 1);  // steps take milliseconds or more: look at the clock every step
     const auto start = std::chrono::steady_clock::now();
     std::uint64_t good_checkpoint = restart ? first : std::numeric_limits<std::uint64_t>::max();
-    state w_prev;
-    const bool found = with_ns2d_method(method, [&](auto stepper) {
-        if constexpr (requires { stepper.remedy.update; })  // --update (issue 19): conditioned unless "paper"
-            stepper.remedy.update = update == "paper" ? update_kind::paper : update_kind::conditioned;
-        if (rows_wanted) row(first);
-        if (snapshot_every_ > 0 && !restart) snapshot(first);
-        for (std::uint64_t i = first + 1; i <= last; ++i) {
-            const double e0 = model.energy(w), z0 = model.enstrophy(w);
-            ns2d_budget b;
-            run_stats stats;
-            w_prev = w;  // an interrupted step goes back to the last whole step
-            const std::uint64_t rng_prev = model.rng_state();
-            const double c0 = cpu_now(), w0 = wall_now();
-            try {
-                ns2d_step(stepper, model, w, double(i - 1) * dt, dt, b, stats, 40, &stop_requested);
-                if (i == first + 1) step_cpu = step_wall = 0.0;  // measured from now on, not estimated
-                step_cpu = std::max(step_cpu, cpu_now() - c0), step_wall = std::max(step_wall, wall_now() - w0);
-                update_grace();
-            } catch (const step_interrupted&) {
-                progress.finish();
-                w = w_prev;
-                model.set_rng_state(rng_prev);
-                save(i - 1);
-                throw interrupted("interrupted at step " + std::to_string(i - 1) + ", t = " + num(double(i - 1) * dt) +
-                                  "; checkpoint written to " + checkpoint_ + " (continue with --restart " +
-                                  checkpoint_ + ")");
-            } catch (const step_size_underflow& e) {
-                progress.finish();
-                throw run_error("step " + std::to_string(i) + " failed at t = " + num(e.time) +
-                                  " even with the step halved 40 times (non-finite state?)" +
-                                  (good_checkpoint != std::numeric_limits<std::uint64_t>::max()
-                                       ? "; last good checkpoint: " + checkpoint_ + " (step " +
-                                             std::to_string(good_checkpoint) + ")"
-                                       : std::string()));
-            }
-            run.halvings += stats.step_reductions;
-            run.rhs_evals += stats.rhs_evals;
-            run.budget.energy_injection += b.energy_injection;
-            run.budget.energy_dissipation += b.energy_dissipation;
-            run.budget.enstrophy_injection += b.enstrophy_injection;
-            run.budget.enstrophy_dissipation += b.enstrophy_dissipation;
-            const double e1 = model.energy(w), z1 = model.enstrophy(w);
-            // A blow-up: non-finite invariants, or energy grown a thousandfold beyond what the forcing put in.
-            if (!std::isfinite(e1) || !std::isfinite(z1) ||
-                e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
-                progress.finish();
-                throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
-                                  ": energy " + num(e1) + " (CFL " + num(model.cfl(w, dt)) +
-                                  "); reduce --dt or --cfl" +
-                                  (good_checkpoint != std::numeric_limits<std::uint64_t>::max()
-                                       ? "; last good checkpoint: " + checkpoint_ + " (step " +
-                                             std::to_string(good_checkpoint) + ")"
-                                       : std::string()));
-            }
-            run.max_energy_residual = std::max(
-                run.max_energy_residual, std::abs(e1 - e0 - (b.energy_injection - b.energy_dissipation)) / e1);
-            run.max_enstrophy_residual = std::max(
-                run.max_enstrophy_residual,
-                std::abs(z1 - z0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
-            run.max_energy_drift = std::max(run.max_energy_drift, std::abs(e1 - run.energy0));
-            run.max_enstrophy_drift = std::max(run.max_enstrophy_drift, std::abs(z1 - run.enstrophy0));
-            if (rows_wanted && (i % settings.every == 0 || i == last)) row(i);
+    const auto last_good = [&] {
+        return good_checkpoint != std::numeric_limits<std::uint64_t>::max()
+                   ? "; last good checkpoint: " + checkpoint_ + " (step " + std::to_string(good_checkpoint) + ")"
+                   : std::string();
+    };
+    // The run is the library's (eci::solve: the flow's step hooks draw the forcing and integrate the budget); this
+    // sink formats it. Per step it adds the step's budget and counts, checks for a blow-up and measures the step;
+    // between steps it writes snapshots and checkpoints and answers Ctrl-C. A Ctrl-C between the halvings of a
+    // step (eci::interrupted) goes back to the last whole step, w_prev.
+    state w_prev = w;
+    std::uint64_t rng_prev = model.rng_state(), done = first;
+    double e_prev = model.energy(w), z_prev = model.enstrophy(w);  // E and Z at the start of the step
+    const std::uint64_t halvings0 = run.halvings, rhs_evals0 = run.rhs_evals;
+    double c0 = 0.0, w0 = 0.0;  // the clocks at the start of the step
+    auto interrupted_at = [&](std::uint64_t i) {
+        return interrupted("interrupted at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
+                           "; checkpoint written to " + checkpoint_ + " (continue with --restart " + checkpoint_ + ")");
+    };
+    auto on_output = [&](const state&, const output_point& pt) {
+        if (rows_wanted) row(pt.index, pt.invariants[0], pt.invariants[1]);
+    };
+    auto on_step = [&](const state&, const output_point& pt) {
+        const std::uint64_t i = pt.index;
+        if (i == first + 1) step_cpu = step_wall = 0.0;  // measured from now on, not estimated
+        step_cpu = std::max(step_cpu, cpu_now() - c0), step_wall = std::max(step_wall, wall_now() - w0);
+        update_grace();
+        run.halvings = halvings0 + pt.stats->step_reductions;
+        run.rhs_evals = rhs_evals0 + pt.stats->rhs_evals;
+        const ns2d_budget& b = model.step_budget();
+        run.budget.energy_injection += b.energy_injection;
+        run.budget.energy_dissipation += b.energy_dissipation;
+        run.budget.enstrophy_injection += b.enstrophy_injection;
+        run.budget.enstrophy_dissipation += b.enstrophy_dissipation;
+        const double e1 = pt.invariants[0], z1 = pt.invariants[1];
+        // A blow-up: non-finite invariants, or energy grown a thousandfold beyond what the forcing put in.
+        if (!std::isfinite(e1) || !std::isfinite(z1) || e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
+            progress.finish();
+            throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(double(i) * dt) + ": energy " +
+                            num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); reduce --dt or --cfl" + last_good());
+        }
+        run.max_energy_residual = std::max(
+            run.max_energy_residual, std::abs(e1 - e_prev - (b.energy_injection - b.energy_dissipation)) / e1);
+        run.max_enstrophy_residual = std::max(
+            run.max_enstrophy_residual, std::abs(z1 - z_prev - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
+        run.max_energy_drift = std::max(run.max_energy_drift, std::abs(e1 - run.energy0));
+        run.max_enstrophy_drift = std::max(run.max_enstrophy_drift, std::abs(z1 - run.enstrophy0));
+        e_prev = e1, z_prev = z1;
+    };
+    auto on_progress = [&](double, std::uint64_t i) {
+        if (i == first) {
+            if (snapshot_every_ > 0 && !restart) snapshot(first);
+        } else {
             if (snapshot_every_ > 0 && (i % snapshot_every_ == 0 || i == last)) snapshot(i);
             if (checkpoint_every_ > 0 && (i % checkpoint_every_ == 0 || i == last)) {
                 save(i);
@@ -793,26 +794,53 @@ int spectral_command::run_spread(const run_settings& settings) {
                 // (max |u| is collective on MPI, and the bar is drawn on rank 0's clock: no CFL there)
                 std::snprintf(line, sizeof line, " step %llu  CFL %.3g  E drift %.2g  Z drift %.2g ",
                               (unsigned long long)i, mpi.on ? std::nan("") : model.cfl(w, dt),
-                              (e1 - run.energy0 - (b.energy_injection - b.energy_dissipation)) / e1,
-                              (z1 - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
+                              (e_prev - run.energy0 - (b.energy_injection - b.energy_dissipation)) / e_prev,
+                              (z_prev - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z_prev);
                 return std::string(line);
             });
             if (stop_requested()) {
                 progress.finish();
                 save(i);
-                throw interrupted("interrupted at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
-                                  "; checkpoint written to " + checkpoint_ + " (continue with --restart " +
-                                  checkpoint_ + ")");
+                throw interrupted_at(i);
             }
         }
-    });
+        w_prev = w;  // the next step starts here
+        rng_prev = model.rng_state();
+        done = i;
+        c0 = cpu_now(), w0 = wall_now();
+    };
+    run_config cfg;
+    cfg.dt = dt;
+    cfg.first_step = first;  // a restart continues the grid i dt and its step numbers
+    cfg.steps = last - first;
+    cfg.every = settings.every;
+    cfg.max_halvings = 40;
+    cfg.max_substeps = std::numeric_limits<std::uint64_t>::max();
+    cfg.update = update == "paper" ? update_kind::paper : update_kind::conditioned;  // --update (issue 19)
+    cfg.stop_on_invariant_overflow = false;  // a blow-up is the sink's, with its own message
+    cfg.stop_between_attempts = &stop_requested;  // (collective on MPI)
+    solve_report report;
+    try {
+        report = solve<navier_stokes_2d>(model, w, method, cfg, callback_sink{on_output, on_step, on_progress}, {},
+                                         name_);
+    } catch (const eci::interrupted&) {
+        progress.finish();
+        w = w_prev;
+        model.set_rng_state(rng_prev);
+        save(done);
+        throw interrupted_at(done);
+    }
     progress.finish();
-    if (!found) throw bad_input("method '" + method + "' is not available for " + name_);
+    if (report.failure) {
+        if (report.failure->kind != run_failure_kind::step_failed) throw run_error(report.failure->message + last_good());
+        throw run_error("step " + std::to_string(done + 1) + " failed at t = " + num(report.failure->t) +
+                        " even with the step halved 40 times (non-finite state?)" + last_good());
+    }
 
     run_summary s;
     s.model = info_.name;
     s.method = method;
-    with_method<state>(method, [&](auto st) { s.order = decltype(st)::order; });
+    s.order = report.method.order;
     s.conservative = method.rfind("c-", 0) == 0;
     s.dt = dt;
     s.t_end = double(last) * dt;

@@ -514,7 +514,7 @@ concept embedded_method = tableau_method<E> && embedded_pair<std::remove_cvref_t
 template <class E, class M>
 constexpr auto resolve_adaptive() {
     using S = typename M::state_type;
-    if constexpr (!embedded_method<E>)
+    if constexpr (!embedded_method<E> || records_stages<M>)  // (stage hooks: fixed steps only)
         return type_is<unsupported>{};
     else if constexpr (E::info.family == method_family::conventional)
         return type_is<embedded_rk<E::tableau, S, update_rule::conventional>>{};

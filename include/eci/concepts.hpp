@@ -4,6 +4,7 @@
 
 #include <complex>
 #include <concepts>
+#include <span>
 #include <algorithm>
 #include <cstddef>
 #include <cstdint>
@@ -121,6 +122,30 @@ concept has_jacobian = requires(const M& m, const typename M::state_type& x) { m
 template <class M>
 concept quadratic_invariants = !linearizable<M> && !requires {
     requires !static_cast<bool>(M::quadratic_invariants);
+};
+
+/// A model that takes part in its own steps (the spectral flows, spectral/flow.hpp), through hooks the drivers
+/// detect with these concepts; a model without them compiles to the same code as before. `begin_step(dt)`: before
+/// every step of the grid (e.g. a stochastic forcing drawn once per step and held through retries and halvings).
+template <class M>
+concept begins_steps = requires(M& m, double dt) { m.begin_step(dt); };
+
+/// `begin_attempt()` before and `end_attempt(accepted, dt, b)` after every attempt of a Runge-Kutta stepper, b
+/// being the weights of the stepper's tableau: the model records a rate per stage and integrates them with dt b
+/// when the attempt is accepted (a budget, exact for any tableau and any number of stages).
+template <class M>
+concept records_stages = requires(M& m, std::span<const double> b) {
+    m.begin_attempt();
+    m.end_attempt(true, 1.0, b);
+};
+
+/// `begin_retry()` after a failed first attempt of a step: true if the model has switched to another form of its
+/// right-hand side in which the whole step is taken again (halved there if it fails) before the driver halves it;
+/// `end_retry(completed)` when that step is over, or abandoned by an exception.
+template <class M>
+concept retries_attempts = requires(M& m) {
+    { m.begin_retry() } -> std::convertible_to<bool>;
+    m.end_retry(true);
 };
 
 }  // namespace eci

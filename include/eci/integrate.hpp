@@ -10,9 +10,11 @@
 #include <cstddef>
 #include <concepts>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <ranges>
+#include <span>
 #include <type_traits>
 #include <sstream>
 #include <stdexcept>
@@ -65,6 +67,13 @@ struct run_options {
     /// Polled before every sub-step and every right-hand-side evaluation: when it reads true the driver
     /// throws eci::interrupted, leaving x at the last completed sub-step. Null: never cancelled.
     const std::atomic<bool>* cancel = nullptr;
+    /// Asked after a failed attempt, before it is halved (a cascade of halvings can take long), and nowhere else:
+    /// true throws eci::interrupted with x part-way through the step. Being asked at the same points on every
+    /// process, it may be collective (MPI: a stop agreed by all). Empty: never asked.
+    std::function<bool()> stop_between_attempts{};
+    /// integrate_n_steps: the run continues the grid t0 + i dt from step first_step (a restart from a checkpoint):
+    /// step times and observer indices count from there, and the observer's cadence is on those indices.
+    std::uint64_t first_step = 0;
 };
 
 /// Adds the counts of `more` (a later part of the same run) to `stats`.
@@ -170,6 +179,23 @@ struct counting_system {
         f(x, dxdt, t);
     }
     const F& wrapped() const { return f; }
+    /// The system itself, for the hooks of a model that takes part in its steps (concepts.hpp).
+    F& hooks() const { return f; }
+};
+
+/// The model whose step hooks the drivers call: f, or the system a counting wrapper counts for.
+template <class F>
+constexpr auto& hook_target(F& f) {
+    if constexpr (requires { f.hooks(); })
+        return f.hooks();
+    else
+        return f;
+}
+
+/// The tableau of a Runge-Kutta stepper (explicit_rk, conservative_rk): its weights weigh a model's stage rates.
+template <class St>
+struct tableau_of {
+    static constexpr const auto& value = St::tableau;
 };
 
 /// Whether every real unknown of x is finite: one pass over the exponent bits, vectorizable.
@@ -197,10 +223,13 @@ inline void poll_cancel(const run_options& opt, double t) {
     if (opt.cancel && opt.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
 }
 
-/// One attempt of stepper.step; a non-finite rate reported by the system (eci::non_finite_rate) is a failed
-/// attempt whose value is kept in `rate` (left as is otherwise).
+/// Before halving a failed attempt: the front end's stop (run_options::stop_between_attempts).
+inline void poll_stop(const run_options& opt, double t) {
+    if (opt.stop_between_attempts && opt.stop_between_attempts()) throw interrupted(t);
+}
+
 template <class St, class F, class S>
-step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
+step_result attempt_unhooked(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
     if constexpr (reports_non_finite_rate<F>) {
         try {
             return stepper.step(f, x, t, dt);
@@ -210,6 +239,30 @@ step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::opti
         }
     } else {
         return stepper.step(f, x, t, dt);
+    }
+}
+
+/// One attempt of stepper.step; a non-finite rate reported by the system (eci::non_finite_rate) is a failed
+/// attempt whose value is kept in `rate` (left as is otherwise). A model that records its stages (concepts.hpp)
+/// is told where the attempt begins and ends, and given the tableau's weights.
+template <class St, class F, class S>
+step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
+    if constexpr (records_stages<std::remove_reference_t<decltype(hook_target(f))>>) {
+        auto& m = hook_target(f);
+        static_assert(requires { St::tableau.b; },
+                      "a model that records its rates per stage is stepped by a Runge-Kutta stepper with a tableau");
+        m.begin_attempt();
+        std::optional<step_result> r;
+        try {
+            r = attempt_unhooked(stepper, f, x, t, dt, rate);
+        } catch (...) {
+            m.end_attempt(false, dt, std::span<const double>{});
+            throw;
+        }
+        m.end_attempt(bool(*r), dt, std::span<const double>(tableau_of<St>::value.b));
+        return *r;
+    } else {
+        return attempt_unhooked(stepper, f, x, t, dt, rate);
     }
 }
 
@@ -224,6 +277,19 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const 
         check_finite_after<St>(x, t + dt);
         return;
     }
+    if constexpr (retries_attempts<std::remove_reference_t<decltype(hook_target(f))>>) {
+        auto& m = hook_target(f);
+        if (m.begin_retry()) {  // the whole step again in the model's other form, halved there if need be
+            try {
+                advance_with_reduction(stepper, f, x, t, dt, opt, stats);
+            } catch (...) {
+                m.end_retry(false);
+                throw;
+            }
+            m.end_retry(true);
+            return;
+        }
+    }
     auto underflow = [&](double ts, double h) {
         step_size_underflow e(ts, r.component, h, stats);
         e.non_finite_rate_value = rate;
@@ -235,6 +301,7 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const 
         rate.reset();
     };
     if (opt.max_halvings <= 0) throw underflow(t, dt);
+    poll_stop(opt, t);
     count_reduction();
     std::vector<int> pending{1, 1};  // depths of the pieces still to take, the next one last
     double offset = 0.0;             // sum of pieces taken: multiples of dt 2^-depth, exact
@@ -255,6 +322,7 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const 
             continue;
         }
         if (depth >= opt.max_halvings) throw underflow(ts, h);
+        poll_stop(opt, ts);
         count_reduction();
         pending.push_back(depth + 1);
         pending.push_back(depth + 1);
@@ -319,6 +387,15 @@ void notify(Observer& observe, const S& x, double t, std::uint64_t i) {
         static_assert(std::invocable<Observer&, const S&, double>, "an observer takes (x, t, i) or (x, t)");
 }
 
+/// The same, or as (x, t, i, stats) with the run's statistics so far if the observer takes them.
+template <class Observer, class S>
+void notify(Observer& observe, const S& x, double t, std::uint64_t i, const run_stats& stats) {
+    if constexpr (std::invocable<Observer&, const S&, double, std::uint64_t, const run_stats&>)
+        observe(x, t, i, stats);
+    else
+        notify(observe, x, t, i);
+}
+
 template <class St, class F, class S, class Observer>
 run_stats run_n_steps(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t n, Observer& observe,
                       const run_options& opt) {
@@ -326,12 +403,15 @@ run_stats run_n_steps(St& stepper, F& f, S& x, double t0, double dt, std::uint64
     const counting_system<F> counted{f, stats.rhs_evals, opt.cancel};
     attach_quadratic_invariants(stepper, f, x);
     const remedy_stats before = remedy_counters(stepper);
-    notify(observe, std::as_const(x), t0, std::uint64_t{0});
+    const std::uint64_t first = opt.first_step;
+    notify(observe, std::as_const(x), first == 0 ? t0 : t0 + double(first) * dt, first, stats);
     try {
         for (std::uint64_t i = 1; i <= n; ++i) {
-            advance_with_reduction(stepper, counted, x, t0 + double(i - 1) * dt, dt, opt, stats);
+            const std::uint64_t k = first + i;
+            if constexpr (begins_steps<F>) f.begin_step(dt);
+            advance_with_reduction(stepper, counted, x, t0 + double(k - 1) * dt, dt, opt, stats);
             ++stats.steps;
-            if (i % opt.every == 0 || i == n) notify(observe, std::as_const(x), t0 + double(i) * dt, i);
+            if (k % opt.every == 0 || i == n) notify(observe, std::as_const(x), t0 + double(k) * dt, k, stats);
         }
     } catch (step_size_underflow& e) {
         collect_solver_stats(stepper, e.stats);
@@ -361,6 +441,7 @@ void step_with_reduction(St& stepper, F&& f, S& x, double t, double dt, run_stat
     const remedy_stats before = detail::remedy_counters(stepper);
     run_options opt;
     opt.max_halvings = max_halvings;
+    if constexpr (begins_steps<std::remove_reference_t<F>>) f.begin_step(dt);
     detail::advance_with_reduction(stepper, counted, x, t, dt, opt, stats);
     ++stats.steps;
     detail::collect_remedy_stats(stepper, before, stats);
@@ -402,23 +483,24 @@ run_stats integrate_to(St& stepper, F&& f, S& x, double t0, double t_end, double
     if (!(t_end >= t0) || !std::isfinite(t_end)) throw std::invalid_argument("end time must be finite and >= start");
     detail::check_step(dt);
     if (opt.every == 0) throw std::invalid_argument("observer interval must be at least 1");
+    if (opt.first_step != 0) throw std::invalid_argument("first_step is for integrate_n_steps");
     if (!opt.resume) reset_carried_state(stepper);
     const std::uint64_t n = steps_to_reach(t0, t_end, dt);
     if (n == 0) {
-        detail::notify(observe, std::as_const(x), t0, std::uint64_t{0});
+        detail::notify(observe, std::as_const(x), t0, std::uint64_t{0}, run_stats{});
         return {};
     }
     const double last = t_end - (t0 + double(n - 1) * dt);
     if (std::abs(last - dt) <= 1e-12 * dt) {
         // t0 + n dt may miss t_end by round-off (3 * 0.1 != 0.3): the last observation reports t_end itself.
-        auto observe_end = [&](const S& s, double t, std::uint64_t i) {
-            detail::notify(observe, s, i == n ? t_end : t, i);
+        auto observe_end = [&](const S& s, double t, std::uint64_t i, const run_stats& st) {
+            detail::notify(observe, s, i == n ? t_end : t, i, st);
         };
         return detail::run_n_steps(stepper, f, x, t0, dt, n, observe_end, opt);
     }
     // The grid holds n - 1 full steps, then one shorter step to t_end.
-    auto observe_full = [&](const S& s, double t, std::uint64_t i) {
-        if (i % opt.every == 0 || i == 0) detail::notify(observe, s, t, i);
+    auto observe_full = [&](const S& s, double t, std::uint64_t i, const run_stats& st) {
+        if (i % opt.every == 0 || i == 0) detail::notify(observe, s, t, i, st);
     };
     run_stats stats = detail::run_n_steps(stepper, f, x, t0, dt, n - 1, observe_full, opt);
     no_observer none;
@@ -429,7 +511,7 @@ run_stats integrate_to(St& stepper, F&& f, S& x, double t0, double t_end, double
         throw;
     }
     detail::collect_solver_stats(stepper, stats);
-    detail::notify(observe, std::as_const(x), t_end, n);
+    detail::notify(observe, std::as_const(x), t_end, n, stats);
     return stats;
 }
 

@@ -353,6 +353,16 @@ struct type_is {
 template <class E>
 concept tableau_method = requires { E::tableau; };
 
+template <class T>
+inline constexpr bool is_butcher_tableau = false;
+template <std::size_t N>
+inline constexpr bool is_butcher_tableau<butcher_tableau<N>> = true;
+
+/// A tableau method of fixed steps: a Butcher tableau, not an embedded pair (those are the adaptive methods).
+template <class E>
+concept fixed_tableau_method =
+    tableau_method<E> && is_butcher_tableau<std::remove_cvref_t<decltype(E::tableau)>>;
+
 template <class E>
 constexpr sign_rule sign_of() {
     if constexpr (requires { E::sign; })
@@ -368,7 +378,11 @@ using transform_t = std::remove_cvref_t<decltype(std::declval<const M&>().linear
 template <class E, class M>
 constexpr auto resolve() {
     using S = typename M::state_type;
-    if constexpr (!tableau_method<E>) {
+    if constexpr (records_stages<M> && !fixed_tableau_method<E>) {
+        // A model that integrates its budget with the stepper's weights (concepts.hpp) runs the Runge-Kutta
+        // engines over the fixed-step tableaux: other engines have no tableau, and the embedded pairs are adaptive.
+        return type_is<unsupported>{};
+    } else if constexpr (!tableau_method<E>) {
         if constexpr (E::template runs_on<M>)
             return type_is<typename E::template stepper<M>>{};
         else

@@ -36,6 +36,9 @@ struct run_config {
     double t_end = 0.0;
     /// Fixed steps only: take exactly this many steps of dt from t0 (t_end is then t0 + steps * dt).
     std::optional<std::uint64_t> steps;
+    /// With `steps`: the run continues the grid t0 + i dt from step first_step (a restart from a checkpoint), so
+    /// it ends at t0 + (first_step + steps) dt; output indices count from there, and `every` is on them.
+    std::uint64_t first_step = 0;
     double dt = 0.0;  ///< the fixed step, or an adaptive run's first step
     /// A step controller around the method's embedded pair (rtol, atol, limits); none: fixed steps of dt.
     std::optional<adaptive_options> adaptive;
@@ -59,13 +62,17 @@ struct run_config {
     bool stop_on_invariant_overflow = true;
     /// Polled between steps and right-hand-side evaluations; when it reads true the run throws eci::interrupted.
     const std::atomic<bool>* cancel = nullptr;
+    /// Fixed steps: asked after a failed attempt, before it is halved, and nowhere else; true throws
+    /// eci::interrupted (x part-way through the step). May be collective (MPI: asked at the same points on
+    /// every process). Stops between steps are the sink's (progress may throw).
+    std::function<bool()> stop_between_attempts{};
     /// Names real unknown i in messages (a CSV column, "y[i]"); empty: "x[i]" (re/im for complex states).
     std::function<std::string(std::size_t)> component_name;
 
     /// Whether the run is adaptive.
     bool is_adaptive() const { return adaptive.has_value(); }
     /// The end time the run reaches.
-    double end_time() const { return steps ? t0 + double(*steps) * dt : t_end; }
+    double end_time() const { return steps ? t0 + double(first_step + *steps) * dt : t_end; }
 };
 
 /// Why a run stopped before its end.
@@ -112,6 +119,7 @@ struct output_point {
     std::uint64_t index;                  ///< step index (fixed: on the grid; adaptive: accepted steps) or time index
     std::span<const double> invariants;   ///< the monitored invariants' values at this state
     std::optional<double> time_lag;       ///< relaxation RK: the state belongs to t + time_lag
+    const run_stats* stats = nullptr;     ///< fixed steps: the run's statistics so far
 };
 
 /// An invariant given as a function of the state (a Python callable), monitored after the model's own.
@@ -122,8 +130,10 @@ struct extra_invariant {
 };
 
 /// A sink: output(x, point) at every output; optionally progress(t, steps) after every step (adaptive: before
-/// every attempt), which may throw to stop the run (Ctrl-C). An adaptive run also shows every accepted step with
-/// its dense output (eci::accepted_step) to a sink whose observes_steps() is true, through step(s) ->
+/// every attempt), which may throw to stop the run (Ctrl-C). Fixed steps also show every step of the grid to a
+/// sink with after_step(x, point), before output and progress (a per-step record: budgets, drifts, blow-up). An
+/// adaptive run also shows every accepted step with its dense output (eci::accepted_step) to a sink whose
+/// observes_steps() is true, through step(s) ->
 /// std::optional<double>: a time within that step at which to stop the run (an event), or none. Output times are
 /// then taken from the dense output of the steps (as SciPy's solve_ivp does), whatever cfg.mode says.
 template <class K, class S>
@@ -209,6 +219,8 @@ inline void check_config(const run_config& c) {
             throw std::invalid_argument("end time must be finite and >= start");
     }
     if (c.every == 0) throw std::invalid_argument("output interval must be at least 1");
+    if (c.first_step != 0 && (c.adaptive || !c.steps || !c.times.empty()))
+        throw std::invalid_argument("first_step continues a run of fixed steps by count, without output times");
     const double t_end = c.end_time();
     const bool forward = !(t_end < c.t0);
     const double lo = forward ? c.t0 : t_end, hi = forward ? t_end : c.t0;
@@ -382,16 +394,19 @@ void check_initial_state(const Model& model, const S& x, const std::function<std
 /// for (the model; for a plain function, its state type). Bad settings throw std::invalid_argument before any
 /// step; a run that cannot go on returns with `failure` set and x at the last state reached; a cancelled run
 /// throws eci::interrupted; whatever the sink throws propagates.
-template <class Dispatch, class F, class S, class Sink>
-solve_report solve(const F& f, S& x, std::string_view method, const run_config& cfg, Sink&& sink,
+template <class Dispatch, class F_, class S, class Sink>
+solve_report solve(F_&& system, S& x, std::string_view method, const run_config& cfg, Sink&& sink,
                    std::vector<extra_invariant<S>> extra = {}, std::string_view what = "this system") {
+    using F = std::remove_reference_t<F_>;  // const for a const system; a model with step hooks is not
+    F& f = system;
     detail::check_config(cfg);
     solve_report report;
     report.method = resolve_method_for<Dispatch>(method, cfg.is_adaptive(), what);
     report.t = cfg.t0;
-    detail::run_monitor<F, S> monitor(f, std::move(extra));
+    detail::run_monitor<std::remove_cv_t<F>, S> monitor(f, std::move(extra));
     const double t_end = cfg.end_time();
     constexpr bool has_progress = requires(double t, std::uint64_t i) { sink.progress(t, i); };
+    constexpr bool has_after_step = requires(const output_point& p) { sink.after_step(std::as_const(x), p); };
     auto fail = [&](run_failure_kind kind, double t, std::size_t component, double dt, std::string message) {
         report.failure = run_failure{kind, t, component, dt, std::move(message), std::nullopt, rejection::step_failed};
     };
@@ -449,12 +464,14 @@ solve_report solve(const F& f, S& x, std::string_view method, const run_config& 
                 report.stats.rhs_evals = stats.rhs_evals;
             });
         } else {
-            const run_span span = cfg.steps ? run_span::n_steps(*cfg.steps, cfg.dt, cfg.t0)
+            const run_span span = cfg.steps ? run_span::n_steps(cfg.first_step + *cfg.steps, cfg.dt, cfg.t0)
                                             : run_span::until(cfg.t_end, cfg.dt, cfg.t0);
             run_options opt;
             opt.max_halvings = cfg.max_halvings;
             opt.max_substeps = cfg.max_substeps;
             opt.cancel = cfg.cancel;
+            opt.stop_between_attempts = cfg.stop_between_attempts;
+            opt.first_step = cfg.first_step;
             const bool found = with_stepper<Dispatch>(report.method.name, [&](auto stepper) {
                 using St = decltype(stepper);
                 if constexpr (requires { stepper.remedy.update; }) stepper.remedy.update = cfg.update;
@@ -464,16 +481,19 @@ solve_report solve(const F& f, S& x, std::string_view method, const run_config& 
                 // Output times between grid points: a side step from the earlier grid state, with copies of the
                 // stepper and the state, so that the grid run is untouched.
                 run_stats side{};
-                const detail::counting_system<const F> side_f{f, side.rhs_evals, cfg.cancel};
+                const detail::counting_system<F> side_f{f, side.rhs_evals, cfg.cancel};
                 std::size_t next = 0;
                 const std::uint64_t last = span.steps;
                 auto grid_time = [&](std::uint64_t i) { return i >= last ? span.t_end : span.t0 + double(i) * span.dt; };
-                auto observe = [&](const S& s, double t, std::uint64_t i) {
+                auto observe = [&](const S& s, double t, std::uint64_t i, const run_stats& st) {
                     monitor.record(s);
                     report.t = t;
                     check_overflow(t);
+                    if constexpr (has_after_step)
+                        if (i != cfg.first_step) sink.after_step(s, output_point{t, i, monitor.values(), lag(), &st});
                     if (cfg.times.empty()) {
-                        if (i % cfg.every == 0 || i == last) sink.output(s, output_point{t, i, monitor.values(), lag()});
+                        if (i % cfg.every == 0 || i == last || i == cfg.first_step)
+                            sink.output(s, output_point{t, i, monitor.values(), lag(), &st});
                     } else {
                         for (; next < cfg.times.size() && cfg.times[next] == t; ++next)
                             sink.output(s, output_point{t, next, monitor.values(), lag()});
@@ -495,7 +515,8 @@ solve_report solve(const F& f, S& x, std::string_view method, const run_config& 
                 try {
                     report.stats = span.to_end_time
                                        ? integrate_to(stepper, f, x, span.t0, span.t_end, span.dt, observe, opt)
-                                       : integrate_n_steps(stepper, f, x, span.t0, span.dt, span.steps, observe, opt);
+                                       : integrate_n_steps(stepper, f, x, span.t0, span.dt,
+                                                           span.steps - cfg.first_step, observe, opt);
                 } catch (const step_size_underflow& e) {
                     report.stats = e.stats;
                     const std::string name = detail::name_of<S>(cfg, e.component);

@@ -1,12 +1,14 @@
 // eci.models.NavierStokes2D, CharneyHasegawaMima, SurfaceQG: the spectral equations of eci::spectral (FFTW), stepped
-// by ns2d_step as `eci run EQUATION` steps them, with their diagnostics (E, Z, P, spectra, fluxes, fields).
+// by eci::solve as `eci run EQUATION` steps them, with their diagnostics (E, Z, P, spectra, fluxes, fields).
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <mutex>
 #include <numbers>
 
 #include <eci/models/navier_stokes_2d.hpp>
 #include <eci/registry.hpp>
+#include <eci/solve.hpp>
 
 #include "models.hpp"
 #include "module.hpp"
@@ -18,7 +20,7 @@ namespace {
 using state = navier_stokes_2d::state_type;
 using cplx = std::complex<double>;
 
-// Ctrl-C between the halvings of a failed step: ns2d_step's stop() is a plain function, so the flag is per thread.
+// Ctrl-C between the halvings of a failed step (run_config::stop_between_attempts): the flag is per thread.
 thread_local bool gil_released_in_run = false;
 thread_local bool interrupt_pending = false;
 bool python_interrupt_requested() {
@@ -27,6 +29,17 @@ bool python_interrupt_requested() {
     py::gil_scoped_acquire gil;
     return interrupt_pending = check();
 }
+
+/// A sink of eci::solve made of three callables: output, after_step, progress.
+template <class Output, class AfterStep, class Progress>
+struct flow_sink {
+    Output on_output;
+    AfterStep on_step;
+    Progress on_progress;
+    void output(const state& x, const output_point& p) { on_output(x, p); }
+    void after_step(const state& x, const output_point& p) { on_step(x, p); }
+    void progress(double t, std::uint64_t i) { on_progress(t, i); }
+};
 
 /// The model object: one spectral flow (its FFT plans and scratch) used by one call at a time.
 class ns2d_object : public model_base {
@@ -88,7 +101,7 @@ class ns2d_object : public model_base {
     }
 
     std::vector<std::string> adaptive_methods() const override { return {}; }
-    /// Fixed steps t0 + i dt (the last one shortened to land on t1), each by ns2d_step as the CLI takes them.
+    /// Fixed steps t0 + i dt (the last one shortened to land on t1), by eci::solve as the CLI takes them.
     py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
                    const py::dict& settings, std::vector<py::object> invariants,
                    const std::vector<std::string>& invariant_names) const override {
@@ -104,8 +117,6 @@ class ns2d_object : public model_base {
                 throw std::invalid_argument("initial condition is not finite");
         const method_info info = resolve_named_method(method, eci::ns2d_methods(), "model " + name());
         const std::uint64_t n = steps_to_reach(t0, t1, dt);
-        const double last = n ? t1 - (t0 + double(n - 1) * dt) : 0.0;
-        const bool full_last = std::abs(last - dt) <= 1e-12 * dt;  // as integrate_to decides
         auto grid_time = [&](std::uint64_t i) { return i == n ? t1 : t0 + double(i) * dt; };
         if (t_eval)
             for (double te : *t_eval) {
@@ -123,16 +134,20 @@ class ns2d_object : public model_base {
         ns2d_budget budget;
         const auto lock_ = lock();
         navier_stokes_2d& m = *model_;
-        auto measure = [&](const state& s, bool first) {
-            drift[0].update(m.energy(s), first);
-            drift[1].update(m.enstrophy(s), first);
-            if (!release) user.measure(s, drift, 2, first);
-        };
-        std::size_t k = 0;
-        auto emit = [&](double t, const state& s) {
-            if (!t_eval) return out.record(t, s);
-            for (; k < t_eval->size() && (*t_eval)[k] == t; ++k) out.record(t, s);
-        };
+        // The run is the library's (eci::solve, the flow's step hooks); this sink fills the arrays, the drifts
+        // and the budget, and polls Ctrl-C between steps.
+        run_config cfg;
+        cfg.t0 = t0;
+        cfg.t_end = t1;
+        cfg.dt = dt;
+        if (t_eval) cfg.times = *t_eval;
+        cfg.max_halvings = max_halvings;
+        cfg.max_substeps = std::numeric_limits<std::uint64_t>::max();
+        if (settings.contains("update") && settings["update"].cast<std::string>() == "paper")  // (issue 19)
+            cfg.update = update_kind::paper;
+        cfg.stop_on_invariant_overflow = false;
+        cfg.stop_between_attempts = &python_interrupt_requested;
+        const bool no_outputs = t_eval && t_eval->empty();
         std::optional<underflow_error> failure;
         {
             std::optional<py::gil_scoped_release> unlocked;
@@ -140,36 +155,45 @@ class ns2d_object : public model_base {
             gil_released_in_run = release;
             interrupt_pending = false;
             interrupt_check interrupt(!release);
-            measure(x, true);
-            emit(t0, x);
-            with_ns2d_method(method, [&](auto stepper) {
-                if constexpr (requires { stepper.remedy.update; })  // update="paper" (issue 19)
-                    if (settings.contains("update") && settings["update"].cast<std::string>() == "paper")
-                        stepper.remedy.update = update_kind::paper;
-                for (std::uint64_t i = 1; i <= n; ++i) {
-                    interrupt();
-                    const double start = t0 + double(i - 1) * dt;
-                    const double h = (i < n || full_last) ? dt : last;
-                    try {
-                        ns2d_step(stepper, m, x, start, h, budget, report.stats, max_halvings,
-                                  &python_interrupt_requested);
-                    } catch (const step_interrupted&) {
-                        if (!release) throw py::error_already_set();
-                        break;  // the KeyboardInterrupt is raised below, with the GIL
-                    } catch (const step_size_underflow& e) {
-                        report.rejected.step_failed = report.stats.step_reductions;
-                        const std::string c = "mode " + std::to_string(e.component);
-                        failure.emplace("step failed at t = " + full_text(e.time) + " in component " + c +
-                                            " even with the step halved " + std::to_string(max_halvings) +
-                                            " times (dt = " + full_text(e.dt) + "): negative radicand or "
-                                            "non-finite state",
-                                        e.time, e.component, c, e.dt, false, report);
-                        break;
-                    }
-                    measure(x, false);
-                    emit(grid_time(i), x);
+            drift[0].update(m.energy(x), true);
+            drift[1].update(m.enstrophy(x), true);
+            if (!release) user.measure(x, drift, 2, true);
+            auto on_output = [&](const state& s, const output_point& pt) {
+                if (!no_outputs) out.record(pt.t, s);
+            };
+            auto on_step = [&](const state& s, const output_point& pt) {
+                drift[0].update(pt.invariants[0], false);
+                drift[1].update(pt.invariants[1], false);
+                if (!release) user.measure(s, drift, 2, false);
+                const ns2d_budget& b = m.step_budget();
+                budget.energy_injection += b.energy_injection;
+                budget.energy_dissipation += b.energy_dissipation;
+                budget.enstrophy_injection += b.enstrophy_injection;
+                budget.enstrophy_dissipation += b.enstrophy_dissipation;
+            };
+            auto on_progress = [&](double, std::uint64_t i) {
+                if (i < n) interrupt();  // before every step
+            };
+            try {
+                const solve_report r = eci::solve<navier_stokes_2d>(m, x, method, cfg,
+                                                                    flow_sink{on_output, on_step, on_progress});
+                report.stats.steps = r.stats.steps;
+                report.stats.step_reductions = r.stats.step_reductions;
+                report.stats.rhs_evals = r.stats.rhs_evals;
+                if (r.failure) {
+                    const run_failure& e = *r.failure;
+                    report.rejected.step_failed = report.stats.step_reductions;
+                    const std::string c = "mode " + std::to_string(e.component);
+                    failure.emplace("step failed at t = " + full_text(e.t) + " in component " + c +
+                                        " even with the step halved " + std::to_string(max_halvings) +
+                                        " times (dt = " + full_text(e.dt) + "): negative radicand or "
+                                        "non-finite state",
+                                    e.t, e.component, c, e.dt, false, report);
                 }
-            });
+            } catch (const eci::interrupted&) {  // between the halvings of a step
+                if (!release) throw py::error_already_set();
+                // the KeyboardInterrupt is raised below, with the GIL
+            }
             gil_released_in_run = false;
         }
         if (interrupt_pending) throw py::error_already_set();

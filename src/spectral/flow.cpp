@@ -422,6 +422,37 @@ void flow2d::start_recording() {
     recorded_count_ = 0;
 }
 
+void flow2d::begin_step(double dt) {
+    draw_forcing(dt);
+    step_budget_ = {};
+}
+
+void flow2d::end_attempt(bool accepted, double dt, std::span<const double> b) {
+    stop_recording();
+    if (!accepted) return;
+    if (b.size() > recorded_count_)
+        throw std::logic_error("flow2d records the rates of at most " + std::to_string(recorded_.size()) +
+                               " stages; this attempt had " + std::to_string(b.size()));
+    for (std::size_t j = 0; j < b.size(); ++j) {
+        const double w = dt * b[j];
+        step_budget_.energy_injection += w * recorded_[j].energy_injection;
+        step_budget_.energy_dissipation += w * recorded_[j].energy_dissipation;
+        step_budget_.enstrophy_injection += w * recorded_[j].enstrophy_injection;
+        step_budget_.enstrophy_dissipation += w * recorded_[j].enstrophy_dissipation;
+    }
+}
+
+bool flow2d::begin_retry() {
+    if (form_ != nonlinear_form::basdevant) return false;
+    set_form(nonlinear_form::advective);
+    return true;
+}
+
+void flow2d::end_retry(bool completed) {
+    set_form(nonlinear_form::basdevant);
+    if (completed) ++form_retries_;
+}
+
 double flow2d::energy(const state_type& q) const {
     const std::size_t nc = std::size_t(columns());
     const double* ea = d_->ea.data();

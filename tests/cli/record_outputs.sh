@@ -53,9 +53,40 @@ run kepler-pc-fig8 kepler --method pc --dt 0.08 --steps 1313 --output "$out/run/
 run kepler-params kepler --K 2 --ell 1.2 --r 0.9 --v-r 0.1 --theta 0.3 --steps 3000 --dt 0.01 \
     --output "$out/run/kepler-params.csv"
 
+# The spectral equations on a small grid (FFTW_ESTIMATE plans and no wisdom file, so that a run repeats bit for bit):
+# every method, forcing, dissipation, the dispersive equation, snapshots, a checkpoint and the restart from it, a
+# step so long that it is halved and retried in the advective form, a blow-up and a refused method.
+spectral() {
+  run "$@" --N 32 --fftw-estimate --fftw-wisdom none
+}
+for method in c-rk4 c-pc c-rk2 rk4 pc rk2 euler; do
+  spectral "ns2d-$method" navier-stokes-2d --method "$method" --steps 40 --every 5 --output "$out/run/ns2d-$method.csv"
+done
+spectral ns2d-stochastic navier-stokes-2d --nu 0.01 --forcing stochastic --injection-rate 0.5 --steps 30 \
+    --output "$out/run/ns2d-stochastic.csv"
+spectral ns2d-deterministic navier-stokes-2d --hyper-nu 1e-6 --drag 0.05 --hypo-nu 0.01 --forcing deterministic \
+    --method c-pc --steps 30 --every 3 --output "$out/run/ns2d-deterministic.csv"
+spectral ns2d-taylor-green navier-stokes-2d --ic taylor-green --dt 0.05 --steps 20 --output "$out/run/ns2d-taylor-green.csv"
+spectral chm charney-hasegawa-mima --beta 2 --deformation 1 --nu 0.001 --steps 30 --output "$out/run/chm.csv"
+spectral sqg surface-qg --steps 30 --every 2 --output "$out/run/sqg.csv"
+mkdir -p "$out/run/snapshots"
+ECI_GNUPLOT=/nonexistent/gnuplot spectral ns2d-snapshots navier-stokes-2d --forcing stochastic --nu 0.01 --steps 20 \
+    --snapshot-every 10 --snapshot-dir "$out/run/snapshots" --checkpoint "$out/run/ns2d-checkpoint.h5" \
+    --checkpoint-every 10 --output "$out/run/ns2d-snapshots.csv"
+"$eci" run navier-stokes-2d --restart "$out/run/ns2d-checkpoint.h5" --steps 35 --fftw-wisdom none \
+    --checkpoint "$out/run/ns2d-restarted.h5" --checkpoint-every 7 --every 4 --output "$out/run/ns2d-restart.csv" \
+    --summary-json "$out/run/ns2d-restart.json" 2> "$out/run/ns2d-restart.txt"
+sed -i '/"wall_seconds"/d' "$out/run/ns2d-restart.json"
+sed -i -E 's/wall time [^ ]+ s/wall time - s/' "$out/run/ns2d-restart.txt"
+rm -f "$out"/run/snapshots/*.png
+spectral ns2d-halvings navier-stokes-2d --dt 5 --steps 10 --output "$out/run/ns2d-halvings.csv"
+"$eci" run navier-stokes-2d --N 32 --fftw-estimate --fftw-wisdom none --method rk4 --dt 2 --steps 50 \
+    2> "$out/run/ns2d-blow-up.txt" && exit 1
+"$eci" run navier-stokes-2d --N 32 --method dp54 2> "$out/run/ns2d-refused.txt" && exit 1
+
 # The user-facing text: `eci list`, and help (help legitimately changes when defaults are printed exactly).
 "$eci" list > "$out/list.txt"
-for model in three-wave n-wave n-wave-complex lotka-volterra kepler; do
+for model in three-wave n-wave n-wave-complex lotka-volterra kepler navier-stokes-2d charney-hasegawa-mima surface-qg; do
   "$eci" run "$model" --help > "$out/help-$model.txt"
 done
 echo "recorded in $out" >&2

@@ -193,6 +193,97 @@ TEST_P(Equation, BudgetClosesPerStep) {
     EXPECT_EQ(s.step_reductions, 0u);
 }
 
+// The step hooks weigh the stages with whatever tableau runs: the conservative engine over Fehlberg's 13 stages
+// closes the budget per step to the same round-off as C-RK4's (k eps (E + the step's terms), k = 64), which a
+// recorder sized for fewer stages could not.
+TEST_P(Equation, BudgetClosesPerStepForThirteenStages) {
+    flow_params p = params(GetParam(), 32);
+    p.nu = 1e-2;
+    p.drag = 0.1;
+    p.forcing = eci::ns2d_forcing::stochastic;
+    p.forcing_k = 3.0;
+    p.injection_rate = 0.3;
+    flow2d m(p);
+    state q = m.random_field(4.0, 0.5, 5);
+    const double dt = 0.4 * (2.0 * std::numbers::pi / 32) / m.max_velocity(q);
+    eci::conservative_rk<eci::tableaus::fehlberg_78, state> st;
+    static_assert(decltype(st)::tableau.stages == 13);
+    eci::run_stats s;
+    double worst_e = 0.0, worst_z = 0.0, moved = 0.0;
+    for (int i = 0; i < 20; ++i) {
+        const double e0 = m.energy(q), z0 = m.enstrophy(q);
+        eci::ns2d_budget b;
+        eci::ns2d_step(st, m, q, i * dt, dt, b, s);
+        const double de = b.energy_injection - b.energy_dissipation, dz = b.enstrophy_injection - b.enstrophy_dissipation;
+        worst_e = std::max(worst_e, std::abs(m.energy(q) - e0 - de) / (e0 + b.energy_injection + b.energy_dissipation));
+        worst_z = std::max(worst_z, std::abs(m.enstrophy(q) - z0 - dz) /
+                                        (z0 + b.enstrophy_injection + b.enstrophy_dissipation));
+        moved = std::max(moved, std::abs(de) / e0);
+    }
+    EXPECT_LE(worst_e, 64.0 * eps);
+    EXPECT_LE(worst_z, 64.0 * eps);
+    EXPECT_GT(moved, 1e-6) << "the terms do nothing: the budget is vacuous";
+    EXPECT_EQ(s.steps, 20u);
+    EXPECT_EQ(s.rhs_evals, 13u * (s.steps + 2u * s.step_reductions));  // 13 per attempt, stages all weighed
+}
+
+// eci::solve runs a flow as a loop of ns2d_step does (the forcing drawn per step, the budget from the step hooks),
+// bit for bit, also continued from a later step (first_step), and resolves its methods through the registry.
+TEST_P(Equation, SolveRunsTheStepsOfNs2dStep) {
+    flow_params p = params(GetParam(), 32);
+    p.nu = 1e-3;
+    p.forcing = eci::ns2d_forcing::stochastic;
+    flow2d a(p), c(p);
+    const state q0 = a.random_field(4.0, 0.5, 9);
+    const double dt = 1e-3;
+    const int steps = 12;
+    state q = q0;
+    eci::c_rk4<state> st;
+    eci::ns2d_budget b;
+    eci::run_stats s;
+    std::vector<double> injected;  // the budget after every step
+    for (int i = 0; i < steps; ++i) {
+        eci::ns2d_step(st, a, q, i * dt, dt, b, s);
+        injected.push_back(b.energy_injection);
+    }
+    struct sink_t {
+        flow2d& m;
+        std::vector<double>& seen;
+        double total = 0.0;
+        std::vector<std::uint64_t> outputs;
+        void output(const state&, const eci::output_point& pt) { outputs.push_back(pt.index); }
+        void after_step(const state&, const eci::output_point& pt) {
+            total += m.step_budget().energy_injection;
+            seen.push_back(total);
+            EXPECT_EQ(pt.stats->steps, pt.index - 4);
+        }
+    };
+    std::vector<double> seen;
+    state r = q0;
+    eci::run_config cfg;
+    cfg.dt = dt;
+    cfg.steps = 4;
+    const eci::solve_report first = eci::solve<flow2d>(c, r, "c-rk4", cfg, eci::no_sink{});
+    ASSERT_TRUE(first.completed());
+    EXPECT_EQ(first.stats.rhs_evals, 4u * 4u);
+    cfg.first_step = 4;  // continue the grid i dt from step 4: outputs every 3 steps on the grid's numbering
+    cfg.steps = steps - 4;
+    cfg.every = 3;
+    double total0 = 0.0;
+    for (int i = 0; i < 4; ++i) total0 = injected[i];
+    sink_t sink{c, seen, total0, {}};
+    const eci::solve_report rest = eci::solve<flow2d>(c, r, "c-rk4", cfg, sink);
+    ASSERT_TRUE(rest.completed());
+    EXPECT_EQ(rest.t, double(steps) * dt);
+    EXPECT_EQ(sink.outputs, (std::vector<std::uint64_t>{4, 6, 9, 12}));
+    ASSERT_EQ(q.size(), r.size());
+    for (std::size_t i = 0; i < q.size(); ++i) ASSERT_EQ(q[i], r[i]) << "mode " << i;
+    ASSERT_EQ(seen.size(), std::size_t(steps - 4));
+    for (int i = 4; i < steps; ++i) EXPECT_EQ(seen[std::size_t(i - 4)], injected[std::size_t(i)]) << "step " << i + 1;
+    EXPECT_EQ(eci::ns2d_methods(), (std::vector<std::string>{"c-rk4", "c-pc", "c-rk2", "rk4", "pc", "rk2", "euler"}));
+    EXPECT_THROW(eci::solve<flow2d>(c, r, "dp54", cfg, eci::no_sink{}), std::invalid_argument);
+}
+
 // A run continued from its state and generator on a fresh model repeats the uninterrupted run bit for bit.
 TEST_P(Equation, RestartFromStateAndGeneratorIsBitIdentical) {
     flow_params p = params(GetParam(), 32);

@@ -7,16 +7,20 @@
 
 #include <cstddef>
 #include <span>
+#include <type_traits>
+
+#include "../concepts.hpp"
 
 namespace eci::detail {
 
 /// A model whose state is spread over processes: reduce_sums(v) replaces each v[i] by its sum over every process
 /// (in an order fixed for a given process count, so a run repeats bit for bit) and reduce_max(v) by its maximum;
-/// both are collective (every process calls them at the same point with the same v.size()).
+/// both are collective (every process calls them at the same point with the same v.size()). F may be a wrapper
+/// of the model (the drivers' evaluation counter): the model is found through model_of.
 template <class F>
 concept distributed_model = requires(const F& f, std::span<double> v) {
-    f.reduce_sums(v);
-    f.reduce_max(v);
+    model_of(f).reduce_sums(v);
+    model_of(f).reduce_max(v);
 };
 
 /// The reductions of a model, type-erased so that a stepper's non-template helpers can call them; empty (every
@@ -42,13 +46,15 @@ struct reducer {
     }
 
     template <class F>
-    static reducer of(const F& f) {
+    static reducer of(const F& system) {
         if constexpr (distributed_model<F>) {
+            const auto& f = model_of(system);
+            using M = std::remove_cvref_t<decltype(f)>;
             // a model that can be spread but is not (spread() false: one process) is a serial model
             if constexpr (requires { bool(f.spread()); })
                 if (!f.spread()) return {};
-            return {&f, [](const void* m, std::span<double> v) { static_cast<const F*>(m)->reduce_sums(v); },
-                    [](const void* m, std::span<double> v) { static_cast<const F*>(m)->reduce_max(v); }};
+            return {&f, [](const void* m, std::span<double> v) { static_cast<const M*>(m)->reduce_sums(v); },
+                    [](const void* m, std::span<double> v) { static_cast<const M*>(m)->reduce_max(v); }};
         } else {
             return {};
         }

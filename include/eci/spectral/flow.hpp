@@ -173,9 +173,8 @@ class flow2d {
     /// (which every equation allows) for a step retried in it.
     nonlinear_form form() const { return form_; }
     void set_form(nonlinear_form f);
-    /// Attempts retried in the advective form (ns2d_step), since construction.
+    /// Attempts retried in the advective form (begin_retry), since construction.
     std::uint64_t form_retries() const { return form_retries_; }
-    void count_form_retry() { ++form_retries_; }
     /// The nonlinear term alone, -u . grad q, dealiased (zero outside the retained modes).
     void nonlinear(const state_type& q, state_type& out);
     /// The same term by the advective form (5 transforms) whatever the equation's form.
@@ -228,6 +227,26 @@ class flow2d {
     /// The rates recorded since start_recording, one per evaluation.
     std::span<const flow_rates> recorded() const { return {recorded_.data(), recorded_count_}; }
 
+    // The step hooks the drivers call (concepts.hpp), which make any Runge-Kutta run of the flow a budgeted one.
+    /// Before a step of the grid: draws its stochastic forcing (held through retries and halvings) and clears
+    /// step_budget().
+    void begin_step(double dt);
+    /// Before an attempt: records the rates of its stages.
+    void begin_attempt() { start_recording(); }
+    /// After an attempt: if accepted, adds dt sum_j b_j (the rates of stage j) to step_budget(). Sum w xi changes by
+    /// exactly dt sum_j b_j sum_k w_k 2 psi_k^(j) S_k^(j) (errata item 9): with S split into its nonlinear (zero),
+    /// linear and forcing parts, these are the discrete dissipation and injection.
+    void end_attempt(bool accepted, double dt, std::span<const double> b);
+    /// After a failed first attempt: Basdevant's form leaves round-off of random sign in components that are
+    /// exactly zero (a Taylor-Green flow's), where the paper's radicand is then negative at every step size; the
+    /// advective form's round-off differs (for such symmetric flows its products cancel exactly). So the step is
+    /// taken again in the advective form (true) before it is halved; false in the advective form already.
+    bool begin_retry();
+    /// After that step (completed: it is counted in form_retries()): back to the equation's form.
+    void end_retry(bool completed);
+    /// The budget of the current step (of its accepted attempts), since begin_step.
+    const flow_budget& step_budget() const { return step_budget_; }
+
    private:
     template <class Value>
     std::vector<double> shells(Value value) const;
@@ -242,6 +261,7 @@ class flow2d {
     std::uint64_t form_retries_ = 0;
     std::array<flow_rates, 16> recorded_{};
     std::size_t recorded_count_ = 0;
+    flow_budget step_budget_{};
 };
 
 }  // namespace eci::spectral

@@ -35,6 +35,7 @@ class conservative_rk : public radicand_remedy {
                                     Sign == sign_rule::of_last_stage;
 
    public:
+    static constexpr const auto& tableau = T;  ///< the tableau it runs (a run's stage hooks weigh with its b)
     static constexpr int order = T.order;
     static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
 

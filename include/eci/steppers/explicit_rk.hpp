@@ -102,6 +102,7 @@ struct stage_storage {
 template <const auto& T, state S>
 class explicit_rk {
    public:
+    static constexpr const auto& tableau = T;  ///< the tableau it runs (a run's stage hooks weigh with its b)
     static constexpr int order = T.order;
     static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
 
