@@ -1,0 +1,145 @@
+// Per-step cost of the spectral core spread over MPI processes (ECI_MPI=ON), side by side in one run: a C-RK4
+// and an RK4 step of 2-D Navier-Stokes on MPI_COMM_WORLD, the transforms that step performs, and the transposes
+// inside those transforms (FFTW's MPI r2c/c2r in the transposed layouts: every 2-D transform is the local row
+// transforms, one global transpose of the n x (n/2 + 1) complex half plane, and the column transforms).
+// Run on one process it also times the serial grid (no communicator) in the same process with the same threads,
+// so "1-rank MPI against the serial step" is a ratio of one run.
+//
+//   mpirun -np P eci_bench_mpi_step N [threads] [reps]
+//
+// Prints one line per layout, key=value, wall seconds per step (the fastest of reps; each rep the slowest rank's
+// time between barriers). bench/mpi.sh runs it for 1 and 2 processes and prints the ratios.
+#include <mpi.h>
+
+#include <fftw3-mpi.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <numbers>
+#include <vector>
+
+#include <eci/eci.hpp>
+#include <eci/models/navier_stokes_2d.hpp>
+
+namespace {
+
+using state = eci::navier_stokes_2d::state_type;
+
+// The slowest rank's time of fn() between two barriers, the fastest of reps.
+template <class Fn>
+double timed(MPI_Comm comm, int reps, Fn fn) {
+    double best = 1e300;
+    for (int r = 0; r < reps; ++r) {
+        MPI_Barrier(comm);
+        const double t0 = MPI_Wtime();
+        fn();
+        double t = MPI_Wtime() - t0, slowest = 0.0;
+        MPI_Allreduce(&t, &slowest, 1, MPI_DOUBLE, MPI_MAX, comm);
+        best = std::min(best, slowest);
+    }
+    return best;
+}
+
+struct result {
+    double crk4 = 0, rk4 = 0, transforms = 0, transposes = 0;
+};
+
+// One layout: the flow spread over `comm` (MPI_COMM_NULL: this process alone, the serial grid). Every process of
+// `timing` calls it. A step is timed from the same field at CFL 0.5 each rep, as eci_bench_ns2d_step does.
+result measure(int n, int threads, int reps, MPI_Comm comm, MPI_Comm timing) {
+    eci::ns2d_params p;
+    p.n = n;
+    p.threads = threads;
+    p.nu = 1e-4;
+    p.comm = comm;
+    eci::navier_stokes_2d m(p);
+    const state w0 = m.random_field(n / 16.0, 0.5, 1);
+    const double dt = 0.5 * (2.0 * std::numbers::pi / n) / m.max_velocity(w0);
+    result r;
+    state w = w0;
+    {
+        eci::c_rk4<state> st;
+        st.set_quadratic_invariants(m.quadratic_invariant_weights());
+        // The paper's update in every layout: a flow spread over processes takes it (the conditioned update's
+        // choice of elements is per process), so the serial row takes it too and the ratios compare one update.
+        st.remedy.update = eci::update_kind::paper;
+        st.step(m, w, 0.0, dt);  // buffers allocated
+        r.crk4 = timed(timing, reps, [&] {
+            w = w0;
+            st.step(m, w, 0.0, dt);
+        });
+    }
+    {
+        eci::rk4<state> st;
+        st.step(m, w, 0.0, dt);
+        r.rk4 = timed(timing, reps, [&] {
+            w = w0;
+            st.step(m, w, 0.0, dt);
+        });
+    }
+    // The transforms of an RK4 step: 4 right-hand sides of Basdevant's form, 2 inverse and 2 forward each.
+    const auto& g = m.grid();
+    r.transforms = timed(timing, reps, [&] {
+        for (int s = 0; s < 4; ++s) {
+            g.inverse(2);
+            g.forward(0, 2);
+        }
+    });
+    // The transposes inside them: 16 of the n x (n/2 + 1) complex half plane per step (one per 2-D transform).
+    if (comm != MPI_COMM_NULL) {
+        const ptrdiff_t dims[2] = {n, n / 2 + 1};
+        ptrdiff_t ln0 = 0, l0 = 0, ln1 = 0, l1 = 0;
+        const ptrdiff_t count = fftw_mpi_local_size_many_transposed(2, dims, 2, FFTW_MPI_DEFAULT_BLOCK,
+                                                                    FFTW_MPI_DEFAULT_BLOCK, comm, &ln0, &l0, &ln1, &l1);
+        double* buf = fftw_alloc_real(std::size_t(std::max<ptrdiff_t>(count, 1)));
+        fftw_plan t = fftw_mpi_plan_many_transpose(dims[0], dims[1], 2, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK,
+                                                   buf, buf, comm, FFTW_MEASURE);
+        std::fill(buf, buf + std::max<ptrdiff_t>(count, 1), 1.0);
+        r.transposes = timed(timing, reps, [&] {
+            for (int k = 0; k < 16; ++k) fftw_execute(t);
+        });
+        fftw_destroy_plan(t);
+        fftw_free(buf);
+    }
+    return r;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    MPI_Init(&argc, &argv);
+    int rank = 0, ranks = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+    if (argc < 2) {
+        if (rank == 0) std::fprintf(stderr, "usage: mpirun -np P %s N [threads] [reps]\n", argv[0]);
+        MPI_Finalize();
+        return 2;
+    }
+    const int n = std::atoi(argv[1]);
+    const int threads = argc > 2 ? std::atoi(argv[2]) : 1;
+    const int reps = argc > 3 ? std::atoi(argv[3]) : 5;
+    const auto print = [&](const char* layout, const result& r) {
+        if (rank == 0)
+            std::printf("N=%d ranks=%d threads=%d layout=%s crk4=%.6g rk4=%.6g transforms=%.6g transposes=%.6g\n", n,
+                        ranks, threads, layout, r.crk4, r.rk4, r.transforms, r.transposes);
+    };
+    // Alternated, twice, so a change of load hits both layouts alike; the faster of the two rounds is kept.
+    result mpi, serial;
+    for (int round = 0; round < 2; ++round) {
+        const result a = measure(n, threads, reps, MPI_COMM_WORLD, MPI_COMM_WORLD);
+        const auto keep = [](result& best, const result& x) {
+            if (best.crk4 == 0 || x.crk4 < best.crk4) best.crk4 = x.crk4;
+            if (best.rk4 == 0 || x.rk4 < best.rk4) best.rk4 = x.rk4;
+            if (best.transforms == 0 || x.transforms < best.transforms) best.transforms = x.transforms;
+            if (best.transposes == 0 || x.transposes < best.transposes) best.transposes = x.transposes;
+        };
+        keep(mpi, a);
+        if (ranks == 1) keep(serial, measure(n, threads, reps, MPI_COMM_NULL, MPI_COMM_WORLD));
+    }
+    print("mpi", mpi);
+    if (ranks == 1) print("serial", serial);
+    MPI_Finalize();
+    return 0;
+}
