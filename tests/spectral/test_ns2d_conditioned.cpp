@@ -23,8 +23,10 @@ using eci::navier_stokes_2d;
 using state = navier_stokes_2d::state_type;
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
-eci::ns2d_params params(int n, double nu, bool pruned = false) {
+eci::ns2d_params params(int n, double nu, bool pruned = false, const char* equation = "navier-stokes-2d") {
     eci::ns2d_params p;
+    p.equation = equation;
+    if (p.equation == "charney-hasegawa-mima") p.beta = 2.0, p.deformation = 1.0;  // Rossby waves and a finite L_d
     p.n = n;
     p.nu = nu;
     p.pruned_transforms = pruned;
@@ -81,8 +83,10 @@ double fitted_order(const std::vector<int>& counts, const std::vector<double>& e
 // N = 64, decaying turbulence from the random field (k_peak 8 as the CLI's default, and 4), to t = 0.1 with 64 ...
 // 512 steps against a 4096-step RK4 reference: with random phases thousands of real unknowns pass zero in the span
 // (the paper's per-part update lost up to 8x RK4's error there, and fitted slopes of 2.5-3.8).
-void check_turbulence(double k_peak, std::uint64_t seed, bool report_before = false) {
-    navier_stokes_2d m(params(64, 2e-3));
+// The same for every spectral equation: Charney-Hasegawa-Mima (with beta and F) and surface QG.
+void check_turbulence(double k_peak, std::uint64_t seed, bool report_before = false,
+                      const char* equation = "navier-stokes-2d") {
+    navier_stokes_2d m(params(64, 2e-3, false, equation));
     const state w0 = m.random_field(k_peak, 0.5, seed);
     const double t_end = 0.1;
     const state ref = run_steps<eci::rk4<state>>(m, w0, t_end / 4096, 4096).w;  // RK4's own error ~1e-16
@@ -102,9 +106,9 @@ void check_turbulence(double k_peak, std::uint64_t seed, bool report_before = fa
             report_before ? relative_error(m, run_steps<eci::c_rk4<state>>(m, w0, dt, steps, true).w, ref) : 0.0;
         const double before_cpc =
             report_before ? relative_error(m, run_steps<eci::c_pc<state>>(m, w0, dt, steps, true).w, ref) : 0.0;
-        std::printf("k_peak %g seed %llu, %3d steps (CFL %.3f): C-RK4 %.3e RK4 %.3e ratio %.3f (before %.3f; %llu "
+        std::printf("%s k_peak %g seed %llu, %3d steps (CFL %.3f): C-RK4 %.3e RK4 %.3e ratio %.3f (before %.3f; %llu "
                     "remedied steps)  C-PC %.3e PC %.3e ratio %.3f (before %.3f)\n",
-                    k_peak, static_cast<unsigned long long>(seed), steps, m.cfl(w0, dt), e_crk4.back(), e_rk4.back(),
+                    equation, k_peak, static_cast<unsigned long long>(seed), steps, m.cfl(w0, dt), e_crk4.back(), e_rk4.back(),
                     e_crk4.back() / e_rk4.back(), before_crk4 / e_rk4.back(),
                     static_cast<unsigned long long>(crk4.stats.remedied_steps), e_cpc.back(), e_pc.back(),
                     e_cpc.back() / e_pc.back(), before_cpc / e_pc.back());
@@ -124,6 +128,14 @@ void check_turbulence(double k_peak, std::uint64_t seed, bool report_before = fa
 TEST(Ns2dConditioned, TurbulenceCRk4AndCPcAtTheConventionalErrorSeed3) { check_turbulence(8.0, 3); }
 TEST(Ns2dConditioned, TurbulenceCRk4AndCPcAtTheConventionalErrorSeed5) { check_turbulence(4.0, 5); }
 TEST(Ns2dConditioned, TurbulenceCRk4AndCPcAtTheConventionalErrorSeed11) { check_turbulence(8.0, 11); }
+TEST(Ns2dConditioned, ChmTurbulenceCRk4AndCPcAtTheConventionalError) {
+    check_turbulence(8.0, 3, false, "charney-hasegawa-mima");
+    check_turbulence(4.0, 5, false, "charney-hasegawa-mima");
+}
+TEST(Ns2dConditioned, SurfaceQgTurbulenceCRk4AndCPcAtTheConventionalError) {
+    check_turbulence(8.0, 3, false, "surface-qg");
+    check_turbulence(4.0, 5, false, "surface-qg");
+}
 // The same with the paper's update's error printed beside ("before"), for docs/benchmarks.md.
 TEST(Ns2dConditionedLong, DISABLED_TurbulenceBeforeAndAfter) {
     check_turbulence(8.0, 3, true);
