@@ -63,7 +63,7 @@ cmake -S "$repo" -B "$build" -DCMAKE_BUILD_TYPE=Release -DECI_BUILD_BENCH=ON -DE
 # eci_cli and eci_python: the Python module against the CLI, both built here with the same flags (or taken from
 # --apps-from's build)
 cmake --build "$build" -j2 --target eci_bench_step eci_bench_memory_driver eci_bench_work_precision eci_bench_drift \
-      eci_bench_remedy eci_bench_adaptive eci_bench_compare_methods $([ -z "$apps" ] && echo eci_cli eci_python) \
+      eci_bench_remedy eci_bench_adaptive eci_bench_adaptive_nwave eci_bench_compare_methods $([ -z "$apps" ] && echo eci_cli eci_python) \
       $([ $ns2d = 1 ] && echo eci_bench_ns2d_step eci_bench_ns2d_radicand) >> "$out/cmake.log"
 bin="$build/bench"
 apps=${apps:-$build}
@@ -96,6 +96,9 @@ long_steps=0
 if [ "$long" = 1 ]; then long_steps=10000000; fi
 if [ "$mode" = smoke ]; then long_steps=$((long * 1000)); fi
 "$bin/eci_bench_adaptive" $wp_quick "$out/adaptive.csv" $big_real $long_steps > "$out/adaptive.txt"
+
+echo "== adaptive: c-dp54 against dp54 at equal error on random n-wave systems (conditioned update)" >&2
+"$bin/eci_bench_adaptive_nwave" "$out/adaptive_nwave.csv" >> "$out/adaptive.txt"
 
 echo "== keeping invariants: every family head to head (docs/comparison.md)" >&2
 "$bin/eci_bench_compare_methods" $wp_quick "$out/compare.csv" "$out/compare.md" > "$out/compare.txt"

@@ -203,9 +203,10 @@ int run_cli(int argc, char** argv) {
                         "write CSV rows at multiples of this time and at the end (adaptive: dense output or steps "
                         "landing on them; fixed steps: a multiple of --dt)");
         sub->add_option("--update", settings.update,
-                        "conservative methods (c-pc, c-rk2, c-rk4) at fixed steps on systems of 16 or more real "
-                        "unknowns with declared invariants (n-wave, the spectral models): conditioned (default: at "
-                        "the conventional method's error, docs/methods.md; on more than one MPI process: paper) or "
+                        "conservative methods (c-pc, c-rk2, c-rk4 at fixed steps, the c- pairs with --rtol) on "
+                        "systems of 16 or more real unknowns with declared invariants (n-wave, the spectral models): "
+                        "conditioned (default: at the conventional method's error, docs/methods.md; on more than one "
+                        "MPI process: paper) or "
                         "paper (the paper's update, bit for bit as before issue 19)")
             ->check(CLI::IsMember({"conditioned", "paper"}));
         std::string presets;

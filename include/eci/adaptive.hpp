@@ -345,6 +345,7 @@ template <state S, system<S> F, class St, class Observer = no_observer>
 adaptive_stats integrate_adaptive(St& stepper, F&& f, S& x, double t0, double t_end, double dt0,
                                   const adaptive_options& options = {}, Observer&& observe = {}) {
     detail::check_run<F>(x, t0, t_end, dt0, options);
+    detail::attach_quadratic_invariants(stepper, f, x);
     adaptive_stats stats;
     const detail::counted_system<std::remove_reference_t<F>> counted{&f, &stats.rhs_evals};
     detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
@@ -370,6 +371,7 @@ adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const 
             throw std::invalid_argument(forward ? "output times must be finite, >= the start time and non-decreasing"
                                                 : "output times of a backward run must be finite, <= the start time "
                                                   "and non-increasing");
+    detail::attach_quadratic_invariants(stepper, f, x);
     adaptive_stats stats;
     const detail::counted_system<std::remove_reference_t<F>> counted{&f, &stats.rhs_evals};
     detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
@@ -483,6 +485,7 @@ template <state S, system<S> F, class St, class OnStep>
 adaptive_stats integrate_adaptive_steps(St& stepper, F&& f, S& x, double t0, double t_end, double dt0,
                                         const adaptive_options& options, OnStep&& on_step) {
     detail::check_run<F>(x, t0, t_end, dt0, options);
+    detail::attach_quadratic_invariants(stepper, f, x);
     adaptive_stats stats;
     using counted_t = const detail::counted_system<std::remove_reference_t<F>>;
     counted_t counted{&f, &stats.rhs_evals};

@@ -53,9 +53,9 @@ struct run_config {
     output_mode mode = output_mode::automatic;  ///< adaptive runs with `times`
 
     int max_halvings = run_options{}.max_halvings;      ///< fixed steps: halvings of one failed step
-    /// Fixed steps with a conservative Runge-Kutta method on a system with declared invariants and at least
-    /// remedy_options::min_unknowns real unknowns: the conditioned update (default) or the paper's update (issue 19,
-    /// docs/methods.md "Zero crossings without loss of accuracy").
+    /// A conservative Runge-Kutta method (fixed steps, or an adaptive pair with plain xi) on a system with declared
+    /// invariants and at least remedy_options::min_unknowns real unknowns: the conditioned update (default) or the
+    /// paper's update (docs/methods.md "Zero crossings without loss of accuracy", "Adaptive pairs").
     update_kind update = update_kind::conditioned;
     std::uint64_t max_substeps = run_options{}.max_substeps;  ///< fixed steps: attempts for one step of the grid
     /// A monitored invariant that becomes non-finite ends the run (invariant_overflow): the solution blew up.
@@ -437,6 +437,7 @@ solve_report solve(F_&& system, S& x, std::string_view method, const run_config&
             with_adaptive_stepper<Dispatch>(report.method.name, [&](auto stepper) {
                 detail::polled_stepper<decltype(stepper), decltype(poll)> st;
                 st.poll = &poll;
+                if constexpr (requires { st.remedy.update; }) st.remedy.update = cfg.update;
                 adaptive_stats stats;
                 auto run = [&]() -> adaptive_stats {
                     if constexpr (requires { sink.observes_steps(); })

@@ -173,7 +173,11 @@ def _initial_state(y0):
 
 # SciPy's solve_ivp defaults, used when a Python fun is given neither dt nor tolerances.
 _SCIPY_RTOL, _SCIPY_ATOL = 1e-3, 1e-6
+# The default adaptive method: the conservative pair for a model (every built-in one has invariants) or a fun that
+# declares one (invariants=, quadratic_invariants=, transform=); the conventional pair for a fun that declares none,
+# where nothing is conserved and dp54 is the more accurate of the two at equal work (docs/python.md).
 _DEFAULT_ADAPTIVE = "c-dp54"
+_DEFAULT_ADAPTIVE_PLAIN = "dp54"
 _T_EVAL_MODES = ("auto", "dense", "landing")
 
 
@@ -379,7 +383,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     t_span: (t0, t1). t1 < t0 integrates backward in time (a built-in model's fixed steps run forward only).
     y0: the initial state (may be empty); for a model, None means its default initial condition.
     method: a name from eci.methods(). Default: "c-rk4" (conservative classical Runge-Kutta) with fixed steps,
-        "c-dp54" (conservative Dormand-Prince 5(4)) with adaptive control.
+        "c-dp54" (conservative Dormand-Prince 5(4)) with adaptive control, but "dp54" (the conventional pair, SciPy's
+        RK45) for a Python fun that declares no invariant (none of invariants=, quadratic_invariants=, transform=):
+        nothing is conserved there, and the conventional pair is the more accurate at equal work.
     dt: the fixed step. Steps land on t0 + i dt, the last one shortened to end at t1, exactly as `eci run`, so the
         states are the CLI's bit for bit. For a model, None means its default step (model.default_dt).
     rtol, atol: adaptive step control (an embedded pair: bs32, ck54, dp54, dp853, f78 and their c- versions), each a
@@ -417,9 +423,10 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     transform: an eci.Transform in which the invariants are linear (methods c-pc, c-rk2, c-rk4; adaptive: the c-
         pairs).
     max_halvings: fixed steps: how often a failed step may be halved before the run stops (default 40).
-    update: fixed steps with c-pc, c-rk2 or c-rk4 on a system of 16 or more real unknowns with declared invariants
-        (the n-wave and spectral models, a fun with quadratic_invariants=): "conditioned" (default; at the conventional
-        method's error, docs/methods.md) or "paper" (the paper's update, bit for bit as before issue 19).
+    update: c-pc, c-rk2 or c-rk4 at fixed steps, or an adaptive c- pair, on a system of
+        16 or more real unknowns with declared invariants (the n-wave and spectral models, a fun with
+        quadratic_invariants=): "conditioned" (default; at the conventional method's error and, adaptive, its
+        evaluations, docs/methods.md) or "paper" (the paper's update, bit for bit as before issue 19).
     first_step, min_step, max_step, max_steps: adaptive control: the first step (no larger than the span;
         default: the model's default dt, as `eci run --rtol`; for a Python fun, SciPy's rule from two evaluations
         of fun, counted in nfev), the smallest step (default 0: 64 eps |t|), the largest (default inf) and the most
@@ -495,7 +502,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         rtol = _SCIPY_RTOL if rtol is None else rtol
         atol = _SCIPY_ATOL if atol is None else atol
     if method is None:
-        method = _DEFAULT_ADAPTIVE if adaptive else "c-rk4"
+        declares = is_model or invariants is not None or quadratic_invariants is not None or transform is not None
+        method = ("c-rk4" if not adaptive else _DEFAULT_ADAPTIVE if declares else _DEFAULT_ADAPTIVE_PLAIN)
     if not adaptive:
         for name, value, default in (("first_step", first_step, None), ("min_step", min_step, 0.0),
                                      ("max_step", max_step, math.inf), ("max_steps", max_steps, None),

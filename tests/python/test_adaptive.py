@@ -193,7 +193,8 @@ def test_non_finite_fun_is_rejected_and_counted_then_underflows():
 
 
 def test_complex_and_transformed_functions_run_adaptively():
-    z = eci.solve(lambda t, y: 1j * y, (0.0, 5.0), np.array([1.0 + 0.0j, 0.5j]), rtol=1e-9, atol=1e-9)
+    z = eci.solve(lambda t, y: 1j * y, (0.0, 5.0), np.array([1.0 + 0.0j, 0.5j]), method="c-dp54", rtol=1e-9,
+                  atol=1e-9)
     assert z.y.dtype == np.complex128
     assert np.max(np.abs(np.abs(z.y) - np.abs(z.y[:, :1]))) <= drift_bound(z.stats["steps"])
     # Lotka-Volterra by a user's transform, eq. (39): xi = (x - ln x, mu (y - ln y)) sums to H
@@ -253,6 +254,36 @@ def test_model_rtol_with_fixed_step_method_names_the_adaptive_ones(cli):
     assert "has no error estimate" in str(e.value) and "has no error estimate" in cli_message
     # the same list of adaptive methods as `eci run`
     assert str(e.value).split(": ")[-1] == cli_message.strip().split(": ")[-1]
+
+
+def arenstorf(t, y, mu=0.012277471):
+    """The restricted three-body problem (Hairer-Norsett-Wanner I, II.0): no quadratic invariant."""
+    r1 = ((y[0] + mu) ** 2 + y[1] ** 2) ** 1.5
+    r2 = ((y[0] - 1.0 + mu) ** 2 + y[1] ** 2) ** 1.5
+    return np.array([y[2], y[3],
+                     y[0] + 2.0 * y[3] - (1.0 - mu) * (y[0] + mu) / r1 - mu * (y[0] - 1.0 + mu) / r2,
+                     y[1] - 2.0 * y[2] - (1.0 - mu) * y[1] / r1 - mu * y[1] / r2])
+
+
+def test_default_adaptive_method_follows_what_fun_declares():
+    # A fun that declares no invariant gets the conventional pair: nothing is conserved, and dp54 is the more
+    # accurate at equal work (c-dp54's square roots lose accuracy wherever an unknown passes zero).
+    y0, period = [0.994, 0.0, 0.0, -2.00158510637908252240537862224], 17.0652165601579625588917206249
+    default = eci.solve(arenstorf, (0.0, period), y0, rtol=1e-8, atol=1e-8)
+    explicit = eci.solve(arenstorf, (0.0, period), y0, method="dp54", rtol=1e-8, atol=1e-8)
+    assert default.method == "dp54"
+    assert np.array_equal(default.y, explicit.y) and default.nfev == explicit.nfev
+    assert np.max(np.abs(default.y[:, -1] - y0)) < 1e-3  # one period of the orbit closes it
+    # A fun that declares an invariant keeps the conservative pair, and with it the invariant.
+    rot = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    for declared in (dict(quadratic_invariants=[1.0, 1.0]), dict(invariants=lambda y: float(y @ y))):
+        r = eci.solve(rot, (0.0, 5.0), [1.0, 0.0], rtol=1e-6, atol=1e-6, **declared)
+        assert r.method == "c-dp54"
+        n2 = np.sum(r.y * r.y, axis=0)
+        assert np.max(np.abs(n2 - 1.0)) <= drift_bound(r.stats["steps"])
+    assert eci.solve(rot, (0.0, 5.0), [1.0, 0.0]).method == "dp54"
+    # a built-in model keeps the conservative pair
+    assert eci.solve(M.ThreeWave(), (0.0, 1.0), rtol=1e-6, atol=1e-6).method == "c-dp54"
 
 
 def test_per_component_tolerances_and_landing_mode():

@@ -6,8 +6,6 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
-#include <cstdint>
-#include <cstring>
 #include <ranges>
 #include <span>
 #include <utility>
@@ -136,121 +134,22 @@ class conservative_rk : public radicand_remedy {
         return {c2, xi};
     }
 
-    // A complex mode's new value: the conventional update c rescaled to modulus sqrt(xi). Where the two moduli
-    // agree to within 2^-46 the rescaled value lies within a few ulps of c, and plain rounding would return c
-    // itself, |o|^2 = |c|^2 instead of xi, keeping the conventional modulus' offset from xi, which has one sign from
-    // step to step (DP54 at small steps drifted E and Z by ~eps / 40 per step, 8 eps sqrt(n) over 10^5 steps). There
-    // each part is c_p (1 + g), g = sqrt(xi / |c|^2) - 1 from an error-free |c|^2, rounded stochastically to one of
-    // its two neighbouring doubles with a uniform number hashed from xi's and |c_p|'s bits: unbiased, and
-    // deterministic (a restart from the same state gives the same bits).
-    static void modulus_update(double* o, const std::array<double, per>& c, double xi, double c2) {
-        if (!(std::abs(xi - c2) <= 0x1p-46 * xi)) {
-            const double root = std::sqrt(xi), r = std::sqrt(c2);
-            for (std::size_t p = 0; p < per; ++p) o[p] = root * (c[p] / r);
-            return;
-        }
-        double hi = 0.0, lo = 0.0;  // |c|^2 = hi + lo, error-free
-        for (std::size_t p = 0; p < per; ++p) {
-            const double sq = c[p] * c[p], sq_err = std::fma(c[p], c[p], -sq);
-            const double t = hi + sq, z = t - hi;
-            lo += ((hi - (t - z)) + (sq - z)) + sq_err;
-            hi = t;
-        }
-        const double g = ((xi - hi) - lo) / (2.0 * hi);  // xi - hi is exact here (Sterbenz); g ~ 2^-46 at most
-        std::uint64_t bits;
-        std::memcpy(&bits, &xi, sizeof bits);
-        for (std::size_t p = 0; p < per; ++p) {
-            const double delta = c[p] * g;
-            o[p] = c[p];
-            if (delta == 0.0) continue;
-            const double next = std::nextafter(c[p], delta > 0.0 ? HUGE_VAL : -HUGE_VAL);
-            const double frac = delta / (next - c[p]);  // in [0, 1) for |delta| below an ulp, else more
-            // hashed from xi and |c_p| (not the element's index): mirror-image modes (k and -k of a real field)
-            // get mirror-image values
-            const double mag = std::abs(c[p]);
-            std::uint64_t cb;
-            std::memcpy(&cb, &mag, sizeof cb);
-            std::uint64_t h = bits ^ (cb * 0x9E3779B97F4A7C15ull) ^ (p + 1);  // splitmix64
-            h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
-            h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
-            h ^= h >> 31;
-            const double u = double(h >> 11) * 0x1.0p-53;
-            const double whole = std::floor(frac);  // the ulps delta spans (0 or -1 below an ulp of either sign)
-            o[p] = c[p] + (whole + (u < frac - whole ? 1.0 : 0.0)) * (next - c[p]);
-        }
-    }
-
-    // The conditioned finishing pass. Each element's conservative value: a real unknown sgn * sqrt(xi) (the sign
-    // rule as in the paper's update); a complex mode the conventional update c rescaled to modulus sqrt(xi), so
-    // its phase is the conventional method's and it is near zero only where both parts are (codimension 2).
-    // Elements with xi < 0 go to neg_ (o holds their conventional update), those with
-    // xi < kappa^2 |c - psi|^2 to cond_ (o holds the conservative value); remedy_elements decides.
+    // The conditioned finishing pass: each element's conventional update and xi, filed by the remedy's
+    // condition_element (radicand_remedy.hpp): the sign rule as in the paper's update for a real unknown, the
+    // conventional phase for a complex mode; remedy_elements then decides.
     void finish_conditioned(double* o, const double* x, const std::array<const double*, s>& k, double dt,
                             std::size_t n) {
-        neg_.clear();
-        neg_h_.clear();
-        cond_.clear();
-        cond_values_.clear();
-        const double kappa = remedy.condition;
-        // The Gram sums of the finished state, G_ab = sum_e w_ae w_be |o_e|^2 and A_a = sum_e |w_ae| |o_e|^2, are
-        // accumulated in this same pass when there are two invariants (E and Z: every spectral model, n-wave), so
-        // that the remedy needs no pass of its own over the state (docs/methods.md, "Cost"). G is summed with
-        // compensation (error-free additions): where E and Z are nearly dependent (a Taylor-Green flow and a small
-        // perturbation) the rescale's coefficients are large and of opposite signs, and plain sums, which drop every
-        // small term added after the large ones, erred by up to 160 eps in G_00, one-signed: C-PC drifted E by
-        // ~5 eps per step (50 eps sqrt(n) at N = 128; docs/methods.md).
-        const bool fused = weights_fused();
-        const double* w0 = fused ? quadratic_invariants()[0].data() : nullptr;
-        const double* w1 = fused ? quadratic_invariants()[1].data() : nullptr;
-        detail::compensated_sum g00, g01, g11;
-        double a0 = 0.0, a1 = 0.0;
+        conditioned_pass pass = begin_conditioned();
         const std::size_t ne = n / per;
         for (std::size_t e = 0; e < ne; ++e) {
             std::array<double, per> c{}, rad{};
             const auto [c2, xi] = element_update(x, k, e, dt, c, rad);
-            double x2 = 0.0;
-            for (std::size_t p = 0; p < per; ++p) {
-                o[e * per + p] = c[p];
-                x2 += x[e * per + p] * x[e * per + p];
-            }
-            double q = c2;  // |o_e|^2 of the value o_e ends with (the conventional one unless changed below)
-            if (!(xi >= 0.0)) {
-                neg_.push_back(e);
-                neg_h_.push_back(std::max(x2, c2));
-            } else {
-                bool keep_conventional = false;
-                if constexpr (per == 1) {
-                    const double sign = Sign == sign_rule::of_update ? c[0] : stage_value<s - 1>(x[e], k, e, dt);
-                    o[e] = std::copysign(std::sqrt(xi), sign);
-                    q = o[e] * o[e];
-                } else {
-                    if (!(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
-                        if (xi > 0.0) neg_.push_back(e), neg_h_.push_back(std::max(x2, c2));
-                        keep_conventional = true;
-                    } else {
-                        modulus_update(o + e * per, c, xi, c2);
-                        q = o[e * per] * o[e * per] + o[e * per + 1] * o[e * per + 1];
-                    }
-                }
-                // Ill-conditioned, and the conventional update differs from it beyond round-off (2^-40 relative):
-                // where the two agree to a few ulps the swap gains nothing, and its defect (then of the order of eps
-                // times their share of each invariant, and of one sign from step to step) would be too small for
-                // the rescale to represent: a systematic drift of ~eps per step (measured on DP54 at small steps,
-                // 15 eps sqrt(n)).
-                const double change = std::abs(xi - x2);
-                if (!keep_conventional && xi < kappa * change && std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi)) {
-                    cond_.push_back({xi / change, e, cond_values_.size()});
-                    cond_values_.push_back({{c[0], c[per - 1]}, {o[e * per], o[e * per + per - 1]}, c2, xi, q,
-                                            std::max(x2, c2)});
-                }
-            }
-            if (fused) {
-                const double u = w0[e], v = w1[e];
-                g00.add(u * u * q), g01.add(u * v * q), g11.add(v * v * q);
-                a0 += std::abs(u) * q, a1 += std::abs(v) * q;
-            }
+            double sign = c[0];
+            if constexpr (per == 1 && Sign == sign_rule::of_last_stage)
+                if (xi >= 0.0) sign = stage_value<s - 1>(x[e], k, e, dt);
+            condition_element<per>(o, x, e, c, c2, xi, sign, pass);
         }
-        if (fused) set_gram(g00.value(), g01.value(), g11.value(), a0, a1);
+        end_conditioned(pass);
     }
 
     // The remedy (radicand_remedy.hpp) for the unknowns whose radicand is negative (NaN in o): their conventional

@@ -7,14 +7,17 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <ranges>
 #include <type_traits>
 #include <utility>
+#include <vector>
 
 #include "../concepts.hpp"
 #include "../detail/state_ops.hpp"
 #include "../tableaus.hpp"
 #include "compensated_c_pc.hpp"
 #include "explicit_rk.hpp"
+#include "radicand_remedy.hpp"
 
 namespace eci {
 
@@ -114,6 +117,9 @@ double dense_value(double theta, double h, double y0, double y1, double f0, doub
     }
 }
 
+/// The base of a stepper without the conditioned update (conventional, or compensated xi).
+struct no_conditioned_update {};
+
 }  // namespace detail
 
 /// The Runge-Kutta engine over the tableau T (an embedded_tableau or a butcher_tableau) for states S.
@@ -123,8 +129,14 @@ double dense_value(double theta, double h, double y0, double y1, double f0, doub
 /// dense output on the accepted step. The stepper carries data from one step to the next (the FSAL derivative,
 /// the compensated residual): `reset()` drops it, and must be called whenever x is changed by anyone else.
 /// `step(f, x, t, dt)` is the fixed-step face of every eci stepper (it checks x itself, so needs no reset).
+///
+/// A conservative stepper with plain xi derives from radicand_remedy: told the system's quadratic invariants
+/// (set_quadratic_invariants; the adaptive drivers pass a model's), it takes the conditioned update of the fixed-step
+/// engine on systems of remedy.min_unknowns real unknowns or more (docs/methods.md, "Adaptive pairs").
 template <const auto& T, state S, update_rule U, xi_carry X = xi_carry::plain>
-class embedded_rk {
+class embedded_rk
+    : public std::conditional_t<U == update_rule::conservative && X == xi_carry::plain, radicand_remedy,
+                                detail::no_conditioned_update> {
     using tableau_type = std::remove_cvref_t<decltype(T)>;
     static constexpr std::size_t s = tableau_type::stages;
     static constexpr bool conservative = U == update_rule::conservative;
@@ -169,6 +181,15 @@ class embedded_rk {
     /// the interpolant is a polynomial in the step fraction of xi, not of psi.
     static constexpr bool dense_of_squares = conservative;
 
+    embedded_rk() {
+        // The conditioned update without the share cap (only the rescale's caps, max_rescale and |s_k| <= 1/2): the
+        // error estimate measures each element taken conventional by the conventional estimate, so the controller
+        // bounds their error as it bounds dp54's, and the cap would only keep ill-conditioned square roots, whose
+        // error the estimate sees and the controller answers with smaller steps (docs/methods.md, "Adaptive
+        // pairs": 5 % cost 1.0-1.6x dp54's evaluations at equal error on the random n-wave system, 1 cost 0.8-1.1x).
+        if constexpr (conditioning) this->remedy.max_share = 1.0;
+    }
+
     /// Attempt a step of dt from (x, t). x is not changed; on success, accept() makes the candidate the state.
     /// With `w`, the error norm is computed; with `track_worst`, also the component with the largest error.
     template <system<S> F>
@@ -197,6 +218,22 @@ class embedded_rk {
         const std::size_t n = xr.size();
         finish_sums sums;
         constexpr auto J = std::make_index_sequence<s>{};
+        if constexpr (conditioning) {
+            // (a state spread over processes takes the per-unknown update, whose decisions are local)
+            if (!detail::reducer::of(f) && conditioned_update_applies(n)) {
+                const error_weights none{};
+                const bool ok = w == nullptr ? finish_conditioned<false, false, false>(o, xr.data(), p0, kp, dt, n, none, sums)
+                                : track_worst ? finish_conditioned<true, true, true>(o, xr.data(), p0, kp, dt, n, *w, sums)
+                                              : finish_conditioned<true, false, true>(o, xr.data(), p0, kp, dt, n, *w, sums);
+                attempt_result res;
+                if (!ok) {
+                    res.ok = false;
+                    res.component = this->template first_negative<per>();
+                    return res;
+                }
+                return finish_result(res, sums, n, dt);
+            }
+        }
         if (w == nullptr)
             finish<false, false, false>(o, rn, xr.data(), p0, r, kp, dt, n, error_weights{}, sums, J);
         else if (track_worst)
@@ -211,15 +248,7 @@ class embedded_rk {
             res.component = detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); });
             return res;
         }
-        if constexpr (two_estimates) {  // |err|^2 / sqrt(|err|^2 + mix |err_low|^2), RMS norms (doubly_embedded_tableau)
-            const double den = sums.sq + T.low_mix * sums.sq_low;
-            res.error = den > 0.0 ? sums.sq / std::sqrt(double(n) * den) : 0.0;
-        } else {
-            res.error = n > 0 ? std::sqrt(sums.sq / double(n)) : 0.0;
-        }
-        res.component = sums.worst;
-        last_dt_ = dt;
-        return res;
+        return finish_result(res, sums, n, dt);
     }
 
     /// Make the candidate of the last successful attempt the state x (the x that attempt was given).
@@ -384,6 +413,158 @@ class embedded_rk {
         double worst_ratio = -1.0;
         std::size_t worst = 0;
     };
+
+    // The error norm from the finishing pass's sums.
+    attempt_result finish_result(attempt_result res, const finish_sums& sums, std::size_t n, double dt) {
+        if constexpr (two_estimates) {  // |err|^2 / sqrt(|err|^2 + mix |err_low|^2), RMS norms (doubly_embedded_tableau)
+            const double den = sums.sq + T.low_mix * sums.sq_low;
+            res.error = den > 0.0 ? sums.sq / std::sqrt(double(n) * den) : 0.0;
+        } else {
+            res.error = n > 0 ? std::sqrt(sums.sq / double(n)) : 0.0;
+        }
+        res.component = sums.worst;
+        last_dt_ = dt;
+        return res;
+    }
+
+    // The conditioned update (conservative, plain xi): real parts per state element (2 for a complex mode).
+    static constexpr bool conditioning = conservative && !compensated;
+    static constexpr std::size_t per = sizeof(std::ranges::range_value_t<S>) / sizeof(double);
+
+    // It needs the declared weights (the rescale restores them, and they say the invariants of a complex state are
+    // sums w_k |psi_k|^2, phase-free), the remedy policy, and at least min_unknowns real unknowns.
+    bool conditioned_update_applies(std::size_t n) const {
+        const auto& w = this->quadratic_invariants();
+        return this->remedy.update == update_kind::conditioned && this->remedy.policy == radicand_policy::remedy &&
+               !w.empty() && w.front().size() * per == n && n >= this->remedy.min_unknowns;
+    }
+
+    // One real unknown's share of a step, as finish forms it: the conventional update, the increment of xi
+    // (dt sum_j b_j 2 Y_j k_j), and for the error estimate dt sum_j b_j k_j (Y_j - x), dt sum_j b_j k_j and the
+    // embedded solutions' differences from the conventional update, dt sum_j (b_j - bhat_j) k_j (and bhat_low).
+    struct part_values {
+        double conv, inc, a, bt, dconv, dconv_low;
+    };
+    template <bool Est, std::size_t... J>
+    static part_values part_update(const double* p0, const double* x, const std::array<const double*, s>& k,
+                                   std::size_t i, double dt, std::index_sequence<J...>) {
+        constexpr auto d = error_weights_of_tableau;
+        constexpr auto dl = low_error_weights_of_tableau;
+        (void)dl;
+        const std::array<double, s> wb{(dt * T.b[J])...};
+        part_values v{x[i], 0.0, 0.0, 0.0, 0.0, 0.0};
+        ((T.b[J] != 0.0 ? (v.conv += wb[J] * k[J][i], 0) : 0), ...);
+        double rate = 0.0;
+        (add_rate<J, Est>(p0[i], x[i], k, i, dt, wb, rate, v.a), ...);
+        v.inc = dt * rate;
+        if constexpr (Est) {
+            ((d[J] != 0.0 ? (v.dconv += (dt * d[J]) * k[J][i], 0) : 0), ...);
+            ((T.b[J] != 0.0 ? (v.bt += wb[J] * k[J][i], 0) : 0), ...);
+            if constexpr (two_estimates) ((dl[J] != 0.0 ? (v.dconv_low += (dt * dl[J]) * k[J][i], 0) : 0), ...);
+        }
+        return v;
+    }
+
+    // The conditioned finishing pass (docs/methods.md, "Adaptive pairs"): every element's conventional update and
+    // xi = the tableau applied to |psi_e|^2, filed by the remedy's condition_element (the sign of the conventional
+    // update for a real unknown, its phase for a complex mode), then remedy_elements: negative radicands and
+    // ill-conditioned square roots take the conventional update, one exact rescale restores every invariant.
+    // The error estimate measures what each element becomes: psi - psihat where it keeps the conservative value,
+    // the conventional estimate dt sum_j (b_j - bhat_j) k_j where it takes the conventional update. For the
+    // ill-conditioned elements the remedy may yet take, both are kept and the sums corrected for those it took.
+    // false: the remedy refused (the step fails, as for a negative radicand in the paper's update).
+    template <bool Norm, bool Track, bool Each>
+    bool finish_conditioned(double* o, const double* x, const double* p0, const std::array<const double*, s>& k,
+                            double dt, std::size_t n, const error_weights& w, finish_sums& sums) {
+        constexpr bool est = Norm && has_error_estimate;
+        constexpr auto J = std::make_index_sequence<s>{};
+        auto pass = this->begin_conditioned();
+        cond_err_.clear();
+        double sq = 0.0, sq_low = 0.0;
+        const std::size_t ne = n / per;
+        for (std::size_t e = 0; e < ne; ++e) {
+            std::array<part_values, per> v;
+            std::array<double, per> c{};
+            double c2 = 0.0, xi = 0.0;
+            for (std::size_t p = 0; p < per; ++p) {
+                const std::size_t i = e * per + p;
+                v[p] = part_update<est>(p0, x, k, i, dt, J);
+                c[p] = v[p].conv;
+                c2 += c[p] * c[p];
+                xi += x[i] * x[i] + v[p].inc;
+            }
+            const std::size_t filed = this->cond_.size();
+            const auto kind = this->template condition_element<per>(o, x, e, c, c2, xi, c[0], pass);
+            if constexpr (est) {
+                // each part's ratio to its weight, squared and summed: conventional and conservative estimates
+                std::array<double, 2> conv_sq{}, cons_sq{};  // [0]: the estimate, [1]: the second (two_estimates)
+                double own_g = 0.0;  // complex mode: psi_p - c_p = c_p g, g = sqrt(xi / |c|^2) - 1
+                if constexpr (per == 2) {
+                    if (kind == radicand_remedy::element_kind::conservative) {
+                        // xi - |c|^2 = sum_p (2 a_p - bt_p^2) (see finish), without the cancellation of |psi|^2
+                        double diff = 0.0;
+                        for (std::size_t p = 0; p < per; ++p) diff += 2.0 * v[p].a - v[p].bt * v[p].bt;
+                        const double r = std::sqrt(c2);
+                        own_g = diff / (r * (std::sqrt(xi) + r));
+                    }
+                }
+                for (std::size_t p = 0; p < per; ++p) {
+                    const std::size_t i = e * per + p;
+                    double rt = w.rtol, at = w.atol;
+                    if constexpr (Each) {
+                        if (w.rtol_each) rt = w.rtol_each[i];
+                        if (w.atol_each) at = w.atol_each[i];
+                    }
+                    const double conv_scale = at + rt * std::max(std::abs(x[i]), std::abs(c[p]));
+                    const double rc = v[p].dconv / conv_scale, rcl = v[p].dconv_low / conv_scale;
+                    conv_sq[0] += rc * rc, conv_sq[1] += rcl * rcl;
+                    if (kind != radicand_remedy::element_kind::conservative) continue;
+                    const double next = o[i];
+                    double own;  // psi - conv, as finish forms it
+                    if constexpr (per == 1) {
+                        const double den = next + x[i];
+                        const double smooth = (2.0 * v[p].a - (v[p].inc / den) * v[p].bt) / den;
+                        own = x[i] * next > 0.0 ? smooth : next - c[p];
+                    } else {
+                        own = c[p] * own_g;
+                    }
+                    const double scale = at + rt * std::max(std::abs(x[i]), std::abs(next));
+                    const double r = (own + v[p].dconv) / scale, rl = (own + v[p].dconv_low) / scale;
+                    cons_sq[0] += r * r, cons_sq[1] += rl * rl;
+                }
+                const bool conservative_value = kind == radicand_remedy::element_kind::conservative;
+                const std::array<double, 2>& added = conservative_value ? cons_sq : conv_sq;
+                sq += added[0], sq_low += added[1];
+                if (this->cond_.size() != filed)  // the remedy may take it: what taking it changes
+                    cond_err_.push_back({conv_sq[0] - cons_sq[0], conv_sq[1] - cons_sq[1]});
+                if constexpr (Track)
+                    if (!(std::sqrt(added[0]) <= sums.worst_ratio)) sums.worst_ratio = std::sqrt(added[0]), sums.worst = e * per;
+            }
+        }
+        this->end_conditioned(pass);
+        if (!(this->neg_.empty() && this->cond_.empty())) {
+            const bool ok = this->template remedy_elements<per>(o, x, n, [&](std::size_t e, std::array<double, per>& c) {
+                double c2 = 0.0, xi = 0.0;
+                for (std::size_t p = 0; p < per; ++p) {
+                    const std::size_t i = e * per + p;
+                    const part_values v = part_update<false>(p0, x, k, i, dt, J);
+                    c[p] = v.conv;
+                    c2 += c[p] * c[p];
+                    xi += x[i] * x[i] + v.inc;
+                }
+                return std::pair<double, double>{c2, xi};
+            });
+            if (!ok) return false;
+            if constexpr (est)
+                for (std::size_t j = 0; j < this->cond_taken_; ++j) {
+                    const auto& d = cond_err_[this->cond_[j].slot];
+                    sq += d[0], sq_low += d[1];
+                }
+        }
+        sums.sq = std::max(sq, 0.0);
+        sums.sq_low = std::max(sq_low, 0.0);
+        return true;
+    }
 
     void prepare(const S& x) {
         for (auto& ki : k_) detail::resize_like(ki, x);
@@ -644,6 +825,7 @@ class embedded_rk {
         sums.sq_low = sq_low;
     }
 
+    std::vector<std::array<double, 2>> cond_err_;  // per cond_ slot: what taking it conventional adds to the sums
     std::array<S, s> k_{};
     std::array<S, E> k_extra_{}, y_extra_{};  // the continuous extension's extra stages (after prepare_dense)
     S stage_{}, result_{}, first_point_{}, res_{}, res_new_{}, last_x_{};

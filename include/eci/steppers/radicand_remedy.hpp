@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -37,7 +38,8 @@ enum class radicand_policy {
     halve,   ///< fail the step, so the driver halves it: the paper's procedure
 };
 
-/// Which finishing pass the conservative RK engine takes on a system with declared invariants (issue 19).
+/// Which finishing pass the conservative RK engines (conservative_rk, and embedded_rk's adaptive pairs) take on a
+/// system with declared invariants.
 enum class update_kind {
     conditioned,  ///< from remedy_options::min_unknowns real unknowns on: the conditioned update (the default)
     paper,        ///< the paper's per-unknown square root on any system (its bits; the issue-9 remedy)
@@ -58,7 +60,8 @@ struct remedy_options {
     double max_fraction = 0.01;
     /// Conditioned update: the elements given the conventional update hold at most this share of every
     /// invariant's magnitude (before and after the step); no cap on how many they are. (1 % left C-RK4 at up to
-    /// 1.9x RK4's error on real n-wave systems, 5 % at 1.2x; docs/methods.md.)
+    /// 1.9x RK4's error on real n-wave systems, 5 % at 1.2x; docs/methods.md.) The adaptive pairs (embedded_rk)
+    /// start from 1, no share cap: their error estimate bounds the conventional elements' error.
     double max_share = 0.05;
     /// The size of the rescale allowed. Paper update (systems below min_unknowns): the largest relative change
     /// |s_k| = |sum_j c_j w_jk| of any psi_k^2, bounded by sum_j |c_j| max_k |w_jk|. Conditioned update: the share
@@ -274,6 +277,148 @@ class radicand_remedy {
         return std::size_t(cut - first);
     }
 
+    // The conditioned update's finishing pass, shared by the conservative engines (conservative_rk,
+    // embedded_rk): begin_conditioned(), then condition_element() for every element in order, then
+    // end_conditioned(); remedy_elements() then decides. The engine computes each element's conventional update c
+    // (Per parts), |c|^2 and xi = the tableau applied to |psi_e|^2; condition_element writes the element's value
+    // into o and files it: a real unknown sgn * sqrt(xi) (sign: the engine's sign rule), a complex mode the
+    // conventional update rescaled to modulus sqrt(xi), so its phase is the conventional method's and it is near
+    // zero only where both parts are (codimension 2). Elements with xi < 0 go to neg_ (o holds their conventional
+    // update), those with xi < kappa |xi - |psi(t)|^2| to cond_ (o holds the conservative value).
+    struct conditioned_pass {
+        // The Gram sums of the finished state, G_ab = sum_e w_ae w_be |o_e|^2 and A_a = sum_e |w_ae| |o_e|^2, are
+        // accumulated in the finishing pass when there are two invariants (E and Z: every spectral model, n-wave),
+        // so that the remedy needs no pass of its own over the state (docs/methods.md, "Cost"). G is summed with
+        // compensation (error-free additions): where E and Z are nearly dependent (a Taylor-Green flow and a small
+        // perturbation) the rescale's coefficients are large and of opposite signs, and plain sums, which drop
+        // every small term added after the large ones, erred by up to 160 eps in G_00, one-signed: C-PC drifted E
+        // by ~5 eps per step (50 eps sqrt(n) at N = 128; docs/methods.md).
+        detail::compensated_sum g00, g01, g11;
+        double a0 = 0.0, a1 = 0.0;
+        const double* w0 = nullptr;  // the two invariants' weights (null: not fused)
+        const double* w1 = nullptr;
+    };
+
+    /// What condition_element made of an element.
+    enum class element_kind {
+        conservative,  ///< the conservative value (possibly filed in cond_: the remedy may yet take it conventional)
+        conventional,  ///< the conventional update (filed in neg_, or a complex mode with no phase staying at zero)
+    };
+
+    conditioned_pass begin_conditioned() {
+        neg_.clear();
+        neg_h_.clear();
+        cond_.clear();
+        cond_values_.clear();
+        cond_taken_ = 0;
+        conditioned_pass p;
+        if (weights_fused()) p.w0 = weights_[0].data(), p.w1 = weights_[1].data();
+        return p;
+    }
+
+    void end_conditioned(const conditioned_pass& p) {
+        if (p.w0) set_gram(p.g00.value(), p.g01.value(), p.g11.value(), p.a0, p.a1);
+    }
+
+    template <std::size_t Per>
+    element_kind condition_element(double* o, const double* x, std::size_t e, const std::array<double, Per>& c,
+                                   double c2, double xi, double sign, conditioned_pass& pass) {
+        const double kappa = remedy.condition;
+        double x2 = 0.0;
+        for (std::size_t p = 0; p < Per; ++p) {
+            o[e * Per + p] = c[p];
+            x2 += x[e * Per + p] * x[e * Per + p];
+        }
+        double q = c2;  // |o_e|^2 of the value o_e ends with (the conventional one unless changed below)
+        element_kind kind = element_kind::conservative;
+        if (!(xi >= 0.0)) {
+            neg_.push_back(e);
+            neg_h_.push_back(std::max(x2, c2));
+            kind = element_kind::conventional;
+        } else {
+            if constexpr (Per == 1) {
+                o[e] = std::copysign(std::sqrt(xi), sign);
+                q = o[e] * o[e];
+            } else {
+                if (!(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
+                    if (xi > 0.0) neg_.push_back(e), neg_h_.push_back(std::max(x2, c2));
+                    kind = element_kind::conventional;
+                } else {
+                    modulus_update<Per>(o + e * Per, c, xi, c2);
+                    q = o[e * Per] * o[e * Per] + o[e * Per + 1] * o[e * Per + 1];
+                }
+            }
+            // Ill-conditioned, and the conventional update differs from it beyond round-off (2^-40 relative):
+            // where the two agree to a few ulps the swap gains nothing, and its defect (then of the order of eps
+            // times their share of each invariant, and of one sign from step to step) would be too small for
+            // the rescale to represent: a systematic drift of ~eps per step (measured on DP54 at small steps,
+            // 15 eps sqrt(n)).
+            const double change = std::abs(xi - x2);
+            if (kind == element_kind::conservative && xi < kappa * change &&
+                std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi)) {
+                cond_.push_back({xi / change, e, cond_values_.size()});
+                cond_values_.push_back({{c[0], c[Per - 1]}, {o[e * Per], o[e * Per + Per - 1]}, c2, xi, q,
+                                        std::max(x2, c2)});
+            }
+        }
+        (void)sign;
+        if (pass.w0) {
+            const double u = pass.w0[e], v = pass.w1[e];
+            pass.g00.add(u * u * q), pass.g01.add(u * v * q), pass.g11.add(v * v * q);
+            pass.a0 += std::abs(u) * q, pass.a1 += std::abs(v) * q;
+        }
+        return kind;
+    }
+
+    // A complex mode's new value: the conventional update c rescaled to modulus sqrt(xi). Where the two moduli
+    // agree to within 2^-46 the rescaled value lies within a few ulps of c, and plain rounding would return c
+    // itself, |o|^2 = |c|^2 instead of xi, keeping the conventional modulus' offset from xi, which has one sign from
+    // step to step (DP54 at small steps drifted E and Z by ~eps / 40 per step, 8 eps sqrt(n) over 10^5 steps). There
+    // each part is c_p (1 + g), g = sqrt(xi / |c|^2) - 1 from an error-free |c|^2, rounded stochastically to one of
+    // its two neighbouring doubles with a uniform number hashed from xi's and |c_p|'s bits: unbiased, and
+    // deterministic (a restart from the same state gives the same bits).
+    template <std::size_t Per>
+    static void modulus_update(double* o, const std::array<double, Per>& c, double xi, double c2) {
+        if (!(std::abs(xi - c2) <= 0x1p-46 * xi)) {
+            const double root = std::sqrt(xi), r = std::sqrt(c2);
+            for (std::size_t p = 0; p < Per; ++p) o[p] = root * (c[p] / r);
+            return;
+        }
+        double hi = 0.0, lo = 0.0;  // |c|^2 = hi + lo, error-free
+        for (std::size_t p = 0; p < Per; ++p) {
+            const double sq = c[p] * c[p], sq_err = std::fma(c[p], c[p], -sq);
+            const double t = hi + sq, z = t - hi;
+            lo += ((hi - (t - z)) + (sq - z)) + sq_err;
+            hi = t;
+        }
+        const double g = ((xi - hi) - lo) / (2.0 * hi);  // xi - hi is exact here (Sterbenz); g ~ 2^-46 at most
+        std::uint64_t bits;
+        std::memcpy(&bits, &xi, sizeof bits);
+        for (std::size_t p = 0; p < Per; ++p) {
+            const double delta = c[p] * g;
+            o[p] = c[p];
+            if (delta == 0.0) continue;
+            const double next = std::nextafter(c[p], delta > 0.0 ? HUGE_VAL : -HUGE_VAL);
+            const double frac = delta / (next - c[p]);  // in [0, 1) for |delta| below an ulp, else more
+            // hashed from xi and |c_p| (not the element's index): mirror-image modes (k and -k of a real field)
+            // get mirror-image values
+            const double mag = std::abs(c[p]);
+            std::uint64_t cb;
+            std::memcpy(&cb, &mag, sizeof cb);
+            std::uint64_t h = bits ^ (cb * 0x9E3779B97F4A7C15ull) ^ (p + 1);  // splitmix64
+            h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
+            h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
+            h ^= h >> 31;
+            const double u = double(h >> 11) * 0x1.0p-53;
+            const double whole = std::floor(frac);  // the ulps delta spans (0 or -1 below an ulp of either sign)
+            o[p] = c[p] + (whole + (u < frac - whole ? 1.0 : 0.0)) * (next - c[p]);
+        }
+    }
+
+    // How many of cond_ (its first ones, after remedy_elements reordered it) the last successful remedy_elements
+    // gave the conventional update.
+    std::size_t cond_taken_ = 0;
+
     // Two invariants (E and Z): the finishing pass accumulates the Gram sums (see remedy_elements).
     bool weights_fused() const { return weights_.size() == 2; }
     void set_gram(double g00, double g01, double g11, double a0, double a1) {
@@ -451,6 +596,7 @@ class radicand_remedy {
             ++stats_.remedied_steps;
             stats_.components_remedied += taken * Per;
             stats_.conditioned += ncond * Per;
+            cond_taken_ = ncond;
             return true;
         };
         // The size of the rescale (one pass, only in steps that rescale): the share of each invariant it moves,
