@@ -265,8 +265,8 @@ TEST(Ns2dConditioned, PrunedTransformsExactZerosNoHalvings) {
 }
 
 // C-RK4 only: inviscid at CFL 0.5 the fields develop a cascade to the grid scale within a few hundred steps, PC
-// blows up (steps 115-265) and C-PC then halves (from steps 179-390; docs/benchmarks.md); and C-PC on the
-// perturbed Taylor-Green flow at N = 256 drifts beyond the bound (an open defect, docs/methods.md).
+// blows up (steps 115-265) and C-PC then halves (from steps 179-390; docs/benchmarks.md): past that point neither
+// second-order method resolves the flow at this step.
 TEST(Ns2dConditionedLong, DISABLED_SmoothFieldsN256ThousandSteps) {
     for (smooth kind : {smooth::gaussian_vortices, smooth::exponential_spectrum, smooth::taylor_green_perturbed})
         check_smooth<eci::c_rk4<state>, eci::rk4<state>>(256, kind, 1000);
