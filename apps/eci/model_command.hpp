@@ -1,6 +1,7 @@
 // The one adapter between a model and `eci run`: everything it needs comes from the model's own description
 // (name, parameters, initial-state fields, presets, invariants; see include/eci/models/description.hpp) and the
-// registry (which methods run on it). apps/eci/CMakeLists.txt instantiates it once per listed model.
+// registry (which methods run on it). apps/eci/CMakeLists.txt instantiates it once per model of the list,
+// include/eci/models/list.hpp.
 #pragma once
 
 #include <unistd.h>

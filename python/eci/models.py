@@ -10,11 +10,19 @@ from collections import namedtuple
 
 import numpy as _np
 
-from ._eci import Kepler, LotkaVolterra, Model, ThreeWave
-from ._eci import NWave as _NWaveReal
-from ._eci import NWaveComplex as _NWaveComplex
+from . import _eci
+from ._eci import Model
 
-__all__ = ["Model", "Preset", "ThreeWave", "NWave", "LotkaVolterra", "Kepler"]
+# One class per model of the C++ model list (include/eci/models/list.hpp), in `eci list` order, each named after
+# its CLI name in CamelCase (three-wave: ThreeWave) and built from the model's own description: its parameters
+# as constructor keywords with the CLI's defaults, read-only properties, presets. NWave (below) picks n-wave's
+# real or complex class.
+ode_models = tuple(_eci._ode_models)
+for _cls in ode_models:
+    globals()[_cls.__name__] = _cls
+_NWaveReal, _NWaveComplex = _eci.NWave, _eci.NWaveComplex
+
+__all__ = ["Model", "Preset", "ode_models"] + [c.__name__ for c in ode_models]
 
 try:  # built with eci::spectral (FFTW3) only
     from ._eci import CharneyHasegawaMima, NavierStokes2D, SurfaceQG  # noqa: F401
@@ -55,7 +63,7 @@ def _preset(cls, name):
     raise ValueError(f"unknown preset {name!r} (presets: {', '.join(p.name for p in presets)})")
 
 
-for _cls in (ThreeWave, LotkaVolterra, Kepler, _NWaveReal, _NWaveComplex):
+for _cls in ode_models:
     _cls.presets = classmethod(_presets)
     _cls.preset = classmethod(_preset)
 
@@ -86,19 +94,19 @@ def _refuse_bools(cls, flags=()):
     cls.__init__ = __init__
 
 
-for _cls in (ThreeWave, LotkaVolterra, Kepler, _NWaveReal, _NWaveComplex):
+for _cls in ode_models:
     _refuse_bools(_cls)
 for _name in ("NavierStokes2D", "CharneyHasegawaMima", "SurfaceQG"):
     if _name in globals():
         _refuse_bools(globals()[_name], flags=("fftw_measure",))
 
 
-def NWave(modes=30, triads_per_mode=20, seed=1, complex=False):
-    """A random n-wave system (paper §III.C): `modes` real (or, with complex=True, complex) modes, each in about
-    `triads_per_mode` triads obeying eqs. (2)-(3); triads_per_mode=1 gives independent triads. The system and its
-    default initial condition are drawn from `seed` by a portable generator: the same as `eci run n-wave --seed`."""
-    cls = _NWaveComplex if complex else _NWaveReal
-    return cls(modes=modes, triads_per_mode=triads_per_mode, seed=seed)
+def NWave(*args, complex=False, **kwargs):
+    """NWave(modes, triads_per_mode, seed, complex=False): a random n-wave system (paper §III.C): `modes` real (or,
+    with complex=True, complex) modes, each in about `triads_per_mode` triads obeying eqs. (2)-(3);
+    triads_per_mode=1 gives independent triads. The system and its default initial condition are drawn from `seed`
+    by a portable generator: the same as `eci run n-wave --seed`, with the same defaults."""
+    return (_NWaveComplex if complex else _NWaveReal)(*args, **kwargs)
 
 
 NWave.presets = lambda complex=False: _presets(_NWaveComplex if complex else _NWaveReal)

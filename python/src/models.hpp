@@ -3,11 +3,16 @@
 #pragma once
 
 
+#include <algorithm>
 #include <array>
+#include <cstdint>
 #include <functional>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
+#include <string_view>
+#include <utility>
 #include <vector>
 
 #include <eci/models/invariant.hpp>
@@ -175,12 +180,6 @@ Meta describe(std::vector<std::string> columns) {
     return {std::string(Model::name), registry_methods<Model>(), standard.dt, standard.t_end, std::move(columns)};
 }
 
-/// A fixed-size model's component names.
-template <class Model>
-std::vector<std::string> component_columns() {
-    return {Model::component_names.begin(), Model::component_names.end()};
-}
-
 /// The CLI's column names for a state of `size` modes: psi_0... or re_psi_0, im_psi_0, ...
 inline std::vector<std::string> indexed_columns(const std::string& prefix, std::size_t size, bool complex) {
     std::vector<std::string> c;
@@ -196,34 +195,273 @@ inline std::vector<std::string> indexed_columns(const std::string& prefix, std::
     return c;
 }
 
-/// Adds the static `_presets()` to a model's class: the model's named set-ups (models/description.hpp) as tuples
-/// (name, description, model object, y0, method, dt, t_end), which eci.models wraps as Preset. columns(model)
-/// names a preset model's real unknowns.
-template <class Model, class Columns>
-void add_presets(py::module_& m, const char* class_name, Columns columns) {
-    auto c = py::reinterpret_borrow<py::class_<model_object<Model>, model_base>>(m.attr(class_name));
-    c.def_static(
-        "_presets",
-        [columns] {
-            using object = model_object<Model>;
-            py::list l;
-            for (const auto& p : Model::presets()) {
-                auto meta = describe<Model, typename object::meta>(columns(p.model));
-                const std::vector<std::ranges::range_value_t<typename Model::state_type>> y0(std::ranges::begin(p.x0),
-                                                                                          std::ranges::end(p.x0));
-                l.append(py::make_tuple(std::string(p.name), std::string(p.description),
-                                        object(p.model, std::move(meta), p.x0), to_numpy(y0), std::string(p.method),
-                                        p.dt, p.t_end));
-            }
-            return l;
-        },
-        "The model's named set-ups (the paper's figures) as tuples; see eci.models.Preset.");
+/// The names of a model's real unknowns, as the CLI's CSV header gives them: its component names, or psi_0, ...
+/// (re_/im_ when complex).
+template <class Model>
+std::vector<std::string> columns_of(const Model& model) {
+    if constexpr (requires { Model::component_names; }) {
+        return {Model::component_names.begin(), Model::component_names.end()};
+    } else {
+        bool complex = false;
+        if constexpr (requires { Model::is_complex; }) complex = Model::is_complex;
+        return indexed_columns("psi_", model.size(), complex);
+    }
 }
 
-/// Binds model_object<Model> as the Python class `name`, a subclass of eci._eci.Model.
-template <class Model>
-py::class_<model_object<Model>, model_base> bind_model(py::module_& m, const char* name, const char* doc) {
-    return py::class_<model_object<Model>, model_base>(m, name, doc);
+/// A model's Python class name: its CLI name in CamelCase (three-wave: ThreeWave, n-wave-complex: NWaveComplex).
+inline std::string class_name_of(std::string_view cli_name) {
+    std::string s;
+    bool upper = true;
+    for (char c : cli_name) {
+        if (c == '-') {
+            upper = true;
+            continue;
+        }
+        s.push_back(upper && c >= 'a' && c <= 'z' ? char(c - 'a' + 'A') : c);
+        upper = false;
+    }
+    return s;
 }
+
+/// A setting's Python keyword: its CLI option name with '-' written '_' (triads-per-mode: triads_per_mode).
+inline std::string keyword_of(std::string_view option) {
+    std::string s(option);
+    for (char& c : s)
+        if (c == '-') c = '_';
+    return s;
+}
+
+/// "(1, 1, -2)" or "1.5": values as a repr shows them.
+inline std::string values_text(std::span<const double> v) {
+    if (v.size() == 1) return shortest_text(v[0]);
+    std::string s = "(";
+    for (std::size_t i = 0; i < v.size(); ++i) s.append(i ? ", " : "").append(shortest_text(v[i]));
+    return s + ")";
+}
+
+/// The Python class of a described model (include/eci/models/description.hpp), built from the description alone:
+///   - its constructor takes the model's parameters (or, for a generated model such as n-wave, its recipe's
+///     settings) by position or keyword, with the defaults `eci run NAME` has: its first preset's (the recipe's);
+///   - each parameter is a read-only property, and repr shows them;
+///   - `_presets()` gives the model's presets (eci.models wraps them as Preset).
+/// What a model offers beyond that (Kepler's runge_lenz_turn) is added by add_extras (model_extras.hpp).
+template <class Model>
+class described_binder {
+    using object = model_object<Model>;
+    using value_type = std::ranges::range_value_t<typename Model::state_type>;
+    static constexpr bool generated = requires { Model::recipe_parameters(); };
+
+   public:
+    explicit described_binder(py::module_& m)
+        : name_(class_name_of(Model::name)), class_(m, name_.c_str(), doc().c_str()) {
+        const std::string cls = name_;
+        class_.def(py::init([cls](py::args args, py::kwargs kwargs) { return make(cls, args, kwargs); }));
+        if constexpr (!generated) {
+            const auto parameters = Model::parameters();
+            for (std::size_t i = 0; i < parameters.size(); ++i)
+                class_.def_property_readonly(
+                    keyword_of(parameters[i].name).c_str(),
+                    [i](const object& o) -> py::object {
+                        Model copy = o.model();
+                        const std::span<double> v = Model::parameters()[i].values(copy);
+                        if (v.size() == 1) return py::float_(v[0]);
+                        return py::cast(std::vector<double>(v.begin(), v.end()));
+                    },
+                    std::string(parameters[i].description).c_str());
+            class_.def("__repr__", [cls](const object& o) {
+                Model copy = o.model();
+                std::string s = cls + "(";
+                bool first = true;
+                for (const auto& q : Model::parameters()) {
+                    s.append(first ? "" : ", ")
+                        .append(keyword_of(q.name))
+                        .append("=")
+                        .append(values_text(q.values(copy)));
+                    first = false;
+                }
+                return s + ")";
+            });
+        }
+        class_.def_static(
+            "_parameters",
+            [] {
+                py::list l;
+                if constexpr (generated)
+                    for (const auto& q : Model::recipe_parameters())
+                        l.append(py::make_tuple(std::string(q.name), keyword_of(q.name), 1));
+                else
+                    for (const auto& q : Model::parameters()) {
+                        Model defaults = Model::presets()[0].model;
+                        l.append(py::make_tuple(std::string(q.name), keyword_of(q.name), q.values(defaults).size()));
+                    }
+                return l;
+            },
+            "The constructor's parameters as (CLI option, keyword, number of values), in order.");
+        class_.def_static(
+            "_initial_condition",
+            [] {
+                py::list l;
+                if constexpr (!generated)
+                    for (const state_field& f : Model::initial_condition())
+                        l.append(py::make_tuple(std::string(f.name), f.first, f.count));
+                return l;
+            },
+            "The CLI options that set the initial state as (option, first component, number of components).");
+        class_.def_static(
+            "_presets",
+            [] {
+                py::list l;
+                for (const auto& p : Model::presets()) {
+                    const std::vector<value_type> y0(std::ranges::begin(p.x0), std::ranges::end(p.x0));
+                    l.append(py::make_tuple(
+                        std::string(p.name), std::string(p.description),
+                        object(p.model, describe<Model, typename object::meta>(columns_of(p.model)), p.x0),
+                        to_numpy(y0), std::string(p.method), p.dt, p.t_end));
+                }
+                return l;
+            },
+            "The model's named set-ups (the paper's figures) as tuples; see eci.models.Preset.");
+    }
+
+    py::class_<object, model_base>& py_class() { return class_; }
+
+   private:
+    /// The keywords of the constructor, in order.
+    static std::vector<std::string> keywords() {
+        std::vector<std::string> k;
+        if constexpr (generated)
+            for (const auto& s : Model::recipe_parameters()) k.push_back(keyword_of(s.name));
+        else
+            for (const auto& q : Model::parameters()) k.push_back(keyword_of(q.name));
+        return k;
+    }
+
+    /// "ThreeWave(K=1.7320508075688772, P=3, ...)": the constructor with its defaults.
+    static std::string signature() {
+        std::string s = class_name_of(Model::name) + "(";
+        if constexpr (generated) {
+            const typename Model::recipe defaults{};
+            for (const auto& q : Model::recipe_parameters())
+                s.append(s.back() == '(' ? "" : ", ")
+                    .append(keyword_of(q.name))
+                    .append("=")
+                    .append(std::to_string(defaults.*q.value));
+        } else {
+            Model defaults = Model::presets()[0].model;
+            for (const auto& q : Model::parameters())
+                s.append(s.back() == '(' ? "" : ", ")
+                    .append(keyword_of(q.name))
+                    .append("=")
+                    .append(values_text(q.values(defaults)));
+        }
+        return s + ")";
+    }
+
+    static std::string doc() {
+        std::string d = signature() + "\n\n" + std::string(Model::description) + " (`eci run " +
+                        std::string(Model::name) + "`); invariants";
+        for (const auto& inv : Model::invariants()) d.append(" ").append(inv.name);
+        d.append(".");
+        if constexpr (!generated)
+            for (const auto& q : Model::parameters()) {
+                d.append("\n").append(keyword_of(q.name)).append(": ").append(q.description);
+                if (!q.constraint.empty()) d.append(", ").append(q.constraint);
+            }
+        else
+            for (const auto& q : Model::recipe_parameters())
+                d.append("\n")
+                    .append(keyword_of(q.name))
+                    .append(": ")
+                    .append(q.description)
+                    .append(", a whole number >= ")
+                    .append(std::to_string(q.min));
+        return d;
+    }
+
+    /// The arguments given, by keyword index; TypeError on an unknown keyword, one given twice or too many.
+    static std::vector<py::object> arguments(const std::string& cls, const py::args& args, const py::kwargs& kwargs) {
+        const std::vector<std::string> names = keywords();
+        std::vector<py::object> given(names.size());
+        if (args.size() > names.size())
+            throw py::type_error(cls + "() takes at most " + std::to_string(names.size()) + " arguments (" +
+                                 std::to_string(args.size()) + " given)");
+        for (std::size_t i = 0; i < args.size(); ++i) given[i] = args[i];
+        for (const auto& [key, value] : kwargs) {
+            const std::string k = py::cast<std::string>(key);
+            const auto at = std::find(names.begin(), names.end(), k);
+            if (at == names.end()) throw py::type_error(cls + "() got an unexpected keyword argument '" + k + "'");
+            auto& slot = given[std::size_t(at - names.begin())];
+            if (slot) throw py::type_error(cls + "() got multiple values for argument '" + k + "'");
+            slot = py::reinterpret_borrow<py::object>(value);
+        }
+        return given;
+    }
+
+    static double number(const std::string& cls, const std::string& key, const py::handle& v) {
+        try {
+            return py::cast<double>(v);
+        } catch (const py::cast_error&) {
+            throw py::type_error(cls + ": " + key + " must be a number, not " +
+                                 py::cast<std::string>(py::type::handle_of(v).attr("__name__")));
+        }
+    }
+
+    static object make(const std::string& cls, const py::args& args, const py::kwargs& kwargs) {
+        const std::vector<py::object> given = arguments(cls, args, kwargs);
+        const std::vector<std::string> names = keywords();
+        if constexpr (generated) {
+            typename Model::recipe r{};
+            const auto settings = Model::recipe_parameters();
+            for (std::size_t i = 0; i < settings.size(); ++i) {
+                if (!given[i]) continue;
+                long long v = 0;
+                try {
+                    v = py::cast<long long>(given[i]);
+                } catch (const py::cast_error&) {
+                    throw py::type_error(cls + ": " + names[i] + " must be a whole number, not " +
+                                         py::cast<std::string>(py::type::handle_of(given[i]).attr("__name__")));
+                }
+                // the CLI's check of its whole-number options, then the generator's own
+                if (v < 0 || std::uint64_t(v) < settings[i].min)
+                    throw std::invalid_argument(names[i] + " must be a whole number >= " +
+                                                std::to_string(settings[i].min) + ", not " + std::to_string(v));
+                r.*settings[i].value = std::uint64_t(v);
+            }
+            std::pair<Model, typename Model::state_type> generated_model;
+            try {
+                generated_model = Model::generate(r);
+            } catch (const std::invalid_argument& e) {
+                throw std::invalid_argument(std::string(Model::name) + ": " + e.what());
+            }
+            auto& [model, x0] = generated_model;
+            auto meta = describe<Model, typename object::meta>(columns_of(model));
+            return object(std::move(model), std::move(meta), std::move(x0));
+        } else {
+            auto p = Model::presets()[0];
+            const auto parameters = Model::parameters();
+            for (std::size_t i = 0; i < parameters.size(); ++i) {
+                if (!given[i]) continue;
+                const std::span<double> v = parameters[i].values(p.model);
+                if (v.size() == 1) {
+                    v[0] = number(cls, names[i], given[i]);
+                    continue;
+                }
+                if (!py::isinstance<py::iterable>(given[i]) || py::isinstance<py::str>(given[i]))
+                    throw py::type_error(cls + ": " + names[i] + " must be " + std::to_string(v.size()) + " numbers");
+                std::vector<double> values;
+                for (const py::handle& x : py::iter(given[i])) values.push_back(number(cls, names[i], x));
+                if (values.size() != v.size())
+                    throw std::invalid_argument(names[i] + " takes " + std::to_string(v.size()) + " values, not " +
+                                                std::to_string(values.size()));
+                std::copy(values.begin(), values.end(), v.begin());
+            }
+            auto meta = describe<Model, typename object::meta>(columns_of(p.model));
+            return object(std::move(p.model), std::move(meta), std::move(p.x0));
+        }
+    }
+
+    std::string name_;
+    py::class_<object, model_base> class_;
+};
 
 }  // namespace eci::python

@@ -52,8 +52,7 @@ PYBIND11_MODULE(_eci, m) {
     m.attr("__version__") = ECI_VERSION_STRING;  // project(eci VERSION ...), the one version source
     m.def("_methods", &method_list, "Every registered method as (name, order, conservative, description).");
     bind_model_base(m);
-    init_wave_models(m);
-    init_orbit_models(m);
+    init_models(m);
     init_functions(m);
     init_scipy_stepper(m);
 #ifdef ECI_PYTHON_SPECTRAL

@@ -9,10 +9,9 @@ namespace eci::python {
 void init_functions(pybind11::module_& m);
 /// NavierStokes2D (built with eci::spectral only).
 void init_ns2d(pybind11::module_& m);
-/// The model base class and ThreeWave, NWave, NWaveComplex.
-void init_wave_models(pybind11::module_& m);
-/// LotkaVolterra and Kepler.
-void init_orbit_models(pybind11::module_& m);
+/// eci.models' class of every model of the list (include/eci/models/list.hpp), and _ode_models in list order
+/// (generated from models.cpp.in).
+void init_models(pybind11::module_& m);
 /// _EmbeddedStepper, _embedded_pairs: the engine behind eci.scipy's OdeSolver classes.
 void init_scipy_stepper(pybind11::module_& m);
 

@@ -11,10 +11,7 @@
 #include <string_view>
 #include <vector>
 
-#include <eci/models/kepler.hpp>
-#include <eci/models/lotka_volterra.hpp>
-#include <eci/models/n_wave.hpp>
-#include <eci/models/three_wave.hpp>
+#include <eci/models/list.hpp>
 #include <eci/registry.hpp>
 
 #include "support.hpp"
@@ -58,10 +55,16 @@ std::string shortest(double v) {
     return std::string(buffer, r.ptr);
 }
 
-/// The --help line of option `--name` (up to the end of its description).
+/// The --help line of option `--name` (up to the end of its description, also when wrapped onto a second line).
 std::string help_line(const std::string& help, const std::string& name) {
-    for (const std::string& line : lines_of(help))
-        if (line.find(cat("  --", name, " ")) == 0) return line;
+    const auto lines = lines_of(help);
+    for (std::size_t i = 0; i < lines.size(); ++i)
+        if (lines[i].find(cat("  --", name, " ")) == 0) {
+            // a long option name puts its description on the next line, indented
+            std::string line = lines[i];
+            if (i + 1 < lines.size() && lines[i + 1].find("     ") == 0) line.append(lines[i + 1]);
+            return line;
+        }
     return "";
 }
 
@@ -75,43 +78,47 @@ std::string joined(const std::vector<double>& values) {
     return s;
 }
 
-/// Each parameter's and initial-state field's --help line ends with the value the model's first preset holds.
+/// Each parameter's and initial-state field's --help line ends with the value the model's first preset holds (for
+/// a generated model, each setting's line with its recipe's default).
 template <class Model>
 void expect_help_prints_the_models_defaults(const result& help) {
-    const auto p = Model::presets()[0];
-    Model m = p.model;
-    for (const auto& q : Model::parameters()) {
-        const auto v = q.values(m);
-        const std::string values = joined({v.begin(), v.end()});
-        EXPECT_NE(help_line(help.out, std::string(q.name)).find(cat("(default ", values, ")")), std::string::npos)
-            << q.name << "\n"
-            << help.out;
-    }
-    for (const auto& f : Model::initial_condition()) {
-        const std::string values = joined({p.x0.begin() + f.first, p.x0.begin() + f.first + f.count});
-        EXPECT_NE(help_line(help.out, std::string(f.name)).find(cat("(default ", values, ")")), std::string::npos)
-            << f.name << "\n"
-            << help.out;
+    if constexpr (requires { Model::recipe_parameters(); }) {
+        const typename Model::recipe defaults{};
+        for (const auto& s : Model::recipe_parameters())
+            EXPECT_NE(
+                help_line(help.out, std::string(s.name)).find(cat("(default ", std::to_string(defaults.*s.value), ")")),
+                std::string::npos)
+                << Model::name << " --" << s.name << "\n"
+                << help.out;
+    } else {
+        const auto p = Model::presets()[0];
+        Model m = p.model;
+        for (const auto& q : Model::parameters()) {
+            const auto v = q.values(m);
+            const std::string values = joined({v.begin(), v.end()});
+            EXPECT_NE(help_line(help.out, std::string(q.name)).find(cat("(default ", values, ")")), std::string::npos)
+                << Model::name << " --" << q.name << "\n"
+                << help.out;
+        }
+        for (const auto& f : Model::initial_condition()) {
+            const std::string values = joined({p.x0.begin() + f.first, p.x0.begin() + f.first + f.count});
+            EXPECT_NE(help_line(help.out, std::string(f.name)).find(cat("(default ", values, ")")), std::string::npos)
+                << Model::name << " --" << f.name << "\n"
+                << help.out;
+        }
     }
 }
 
 TEST_F(CliModels, HelpPrintsTheDefaultsTheModelsHold) {
+    eci::for_each_ode_model([&]<class Model>() {
+        const result help = eci(cat("run ", Model::name, " --help"));
+        ASSERT_EQ(help.status, 0) << help.err;
+        expect_help_prints_the_models_defaults<Model>(help);
+    });
     const result tw = eci("run three-wave --help");
-    ASSERT_EQ(tw.status, 0) << tw.err;
-    expect_help_prints_the_models_defaults<eci::three_wave>(tw);
     EXPECT_NE(help_line(tw.out, "K").find("(default 1.7320508075688772)"), std::string::npos) << tw.out;  // sqrt 3
-    const result lv = eci("run lotka-volterra --help");
-    ASSERT_EQ(lv.status, 0) << lv.err;
-    expect_help_prints_the_models_defaults<eci::lotka_volterra>(lv);
     const result kp = eci("run kepler --help");
-    ASSERT_EQ(kp.status, 0) << kp.err;
-    expect_help_prints_the_models_defaults<eci::kepler>(kp);
     EXPECT_NE(help_line(kp.out, "K").find("> 0 (default 1.5)"), std::string::npos) << kp.out;
-    const result nw = eci("run n-wave --help");
-    ASSERT_EQ(nw.status, 0) << nw.err;
-    const eci::n_wave<double>::recipe defaults{};
-    EXPECT_NE(help_line(nw.out, "modes").find(cat("(default ", std::to_string(defaults.modes), ")")), std::string::npos)
-        << nw.out;
 }
 
 /// The methods line of `eci list` for a model: the registry's methods_for<Model>, in list order.
@@ -131,11 +138,21 @@ void expect_listed_methods(const std::string& list) {
 TEST_F(CliModels, ListShowsTheMethodsTheRegistryComputesForEachModel) {
     const result r = eci("list");
     ASSERT_EQ(r.status, 0) << r.err;
-    expect_listed_methods<eci::three_wave>(r.out);
-    expect_listed_methods<eci::n_wave<double>>(r.out);
-    expect_listed_methods<eci::n_wave<std::complex<double>>>(r.out);
-    expect_listed_methods<eci::lotka_volterra>(r.out);
-    expect_listed_methods<eci::kepler>(r.out);
+    eci::for_each_ode_model([&]<class Model>() { expect_listed_methods<Model>(r.out); });
+}
+
+// `eci list` and `eci run` offer exactly the models of the C++ list (include/eci/models/list.hpp), in its order,
+// before the spectral equations.
+TEST_F(CliModels, ListShowsTheModelsOfTheModelListInItsOrder) {
+    const result r = eci("list");
+    ASSERT_EQ(r.status, 0) << r.err;
+    std::vector<std::string> expected;
+    eci::for_each_ode_model([&]<class Model>() { expected.emplace_back(Model::name); });
+    std::vector<std::string> listed;
+    for (const std::string& line : lines_of(r.out))
+        for (const std::string& name : expected)
+            if (line.find(cat("  ", name, " ")) == 0) listed.push_back(name);
+    EXPECT_EQ(listed, expected) << r.out;
 }
 
 // The review found `eci run kepler --method implicit-midpoint` refused although the bench runs it.

@@ -146,3 +146,108 @@ def test_adaptive_kepler_and_lotka_volterra_match_cli(cli, tmp_path, rtol):
     t, columns, summary = cli_run(cli, tmp_path, "kepler", "c-dp54", 0.01, 20.0, "--rtol", rtol)
     r = eci.solve(eci.models.Kepler(), (0.0, 20.0), method="c-dp54", rtol=rtol, atol=rtol, first_step=0.01)
     assert_same_run(r, t, columns, summary, ["r", "v_r", "theta"])
+
+
+# --- every model of the C++ model list (include/eci/models/list.hpp) --------------------------------------------
+
+M = eci.models
+EVERY_MODEL_AND_METHOD = [pytest.param(cls, method, id=f"{cls().name}-{method}")
+                          for cls in M.ode_models for method in cls().methods]
+
+
+def state_columns(header, model):
+    """The CSV columns of the state: as many after t as the model has real unknowns."""
+    real = len(model.default_y0) * (2 if np.iscomplexobj(model.default_y0) else 1)
+    return header[1:1 + real]
+
+
+def generated(cls):
+    """A model drawn from a generator (n-wave): its settings make the system and its initial state."""
+    return not cls._initial_condition()
+
+
+def cli_options(model, y0):
+    """The `eci run` options that give the model's parameters and the initial state y0 explicitly (a generated
+    model's settings are not properties of the system drawn: its defaults on both sides)."""
+    options = []
+    for option, keyword, _ in ([] if generated(type(model)) else type(model)._parameters()):
+        value = getattr(model, keyword)
+        options += ["--" + option, ",".join(repr(float(v)) for v in np.atleast_1d(value))]
+    for option, first, count in type(model)._initial_condition():
+        options += ["--" + option, ",".join(repr(float(v)) for v in y0[first:first + count])]
+    return options
+
+
+def test_python_has_every_model_of_the_cli_in_its_order(cli):
+    import re
+
+    listing = run_cli(cli, "list").stdout
+    listed = re.findall(r"^  (\S+) .*\n\s+methods: ", listing, re.M)
+    names = [cls().name for cls in M.ode_models]
+    assert listed[:len(names)] == names
+    assert all(hasattr(M, cls.__name__) for cls in M.ode_models)
+    for expected in ("ThreeWave", "NWave", "LotkaVolterra", "Kepler", "RigidBody", "KeplerCartesian",
+                     "NonlinearOscillator", "ExpEntropy"):
+        assert expected in M.__all__
+
+
+@pytest.mark.parametrize("cls, method", EVERY_MODEL_AND_METHOD)
+def test_every_model_matches_cli_for_every_method(cli, tmp_path, cls, method):
+    # the parameters and the initial state given explicitly to the CLI (the keywords' options), 7.5 steps: the
+    # last one shortened as `eci run` shortens it
+    model = cls()
+    y0, dt = model.default_y0, model.default_dt
+    t_end = 7.5 * dt
+    t, columns, summary = cli_run(cli, tmp_path, model.name, method, dt, t_end, *cli_options(model, y0))
+    r = eci.solve(model, (0.0, t_end), y0, method=method, dt=dt)
+    assert r.t[-1] == t[-1]  # the same end time (a relaxation method's may differ from t_end)
+    header = list(columns)
+    assert_same_run(r, t, columns, summary, state_columns(header, model), complex_state=np.iscomplexobj(y0))
+
+
+@pytest.mark.parametrize("cls", M.ode_models, ids=lambda c: c().name)
+def test_every_preset_matches_cli(cli, tmp_path, cls):
+    for p in cls.presets():
+        t_end = 5.5 * p.dt
+        t, columns, summary = cli_run(cli, tmp_path, p.model.name, p.method, p.dt, t_end, "--preset", p.name)
+        r = eci.solve(p.model, (0.0, t_end), p.y0, method=p.method, dt=p.dt)
+        assert_same_run(r, t, columns, summary, state_columns(list(columns), p.model),
+                        complex_state=np.iscomplexobj(p.y0))
+
+
+@pytest.mark.parametrize("cls", M.ode_models, ids=lambda c: c().name)
+def test_every_model_refuses_what_the_cli_refuses(cli, cls):
+    from conftest import cli_error
+
+    model = cls()
+    refused = [m.name for m in eci.methods() if m.name not in model.methods] + ["no-such-method"]
+    for method in refused:
+        message = cli_error(cli, "run", model.name, "--method", method, "--t-end", 1)
+        with pytest.raises(ValueError) as e:
+            eci.solve(model, (0.0, 1.0), method=method, dt=0.1)
+        assert str(e.value) == message, method
+    # a non-finite initial state, through the option that sets its first component
+    fields = cls._initial_condition()
+    if fields:
+        y0 = model.default_y0.copy()
+        option, first, count = fields[0]
+        y0[first] = np.nan
+        values = ",".join(repr(float(v)) for v in y0[first:first + count])
+        message = cli_error(cli, "run", model.name, "--" + option, values, "--t-end", 1)
+        with pytest.raises(ValueError) as e:
+            eci.solve(model, (0.0, 1.0), y0, dt=0.1)
+        assert str(e.value) == message
+
+
+@pytest.mark.parametrize("cls", [c for c in M.ode_models if not generated(c) and c._parameters()],
+                         ids=lambda c: c().name)
+def test_every_models_keywords_are_its_cli_parameters(cli, cls):
+    # each keyword reads back what it was given, and the default is the CLI's --help default
+    model = cls()
+    help_text = run_cli(cli, "run", model.name, "--help").stdout
+    for option, keyword, count in cls._parameters():
+        default = getattr(model, keyword)
+        line = next(l for l in help_text.splitlines() if l.startswith(f"  --{option} "))
+        shown = line.rsplit("(default ", 1)[1].rstrip(")")
+        assert [float(v) for v in shown.split(",")] == list(np.atleast_1d(default)), option
+        assert getattr(cls(**{keyword: default}), keyword) == default
