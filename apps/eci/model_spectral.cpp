@@ -819,6 +819,11 @@ int spectral_command::run_spread(const run_settings& settings) {
     cfg.update = update == "paper" ? update_kind::paper : update_kind::conditioned;  // --update (issue 19)
     cfg.stop_on_invariant_overflow = false;  // a blow-up is the sink's, with its own message
     cfg.stop_between_attempts = &stop_requested;  // (collective on MPI)
+    // A signal during the set-up: no step was made, so there is nothing for a checkpoint to keep.
+    if (stop_requested()) {
+        throw_if_interrupted("before the first step");  // (names the signal)
+        throw interrupted("interrupted before the first step");  // (another process's)
+    }
     solve_report report;
     try {
         report = solve<navier_stokes_2d>(model, w, method, cfg, callback_sink{on_output, on_step, on_progress}, {},

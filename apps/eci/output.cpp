@@ -821,6 +821,10 @@ void install_interrupt_handler() {
     sa.sa_handler = on_watchdog;
     ::sigaction(SIGALRM, &sa, nullptr);
     ::sigaction(SIGVTALRM, &sa, nullptr);
+    // A parent may hand these signals over blocked (the mask survives exec): one sent since is pending, and is
+    // delivered to the handler now instead of never.
+    const sigset_t set = interrupt_set();
+    ::sigprocmask(SIG_UNBLOCK, &set, nullptr);
 }
 
 bool interrupt_requested() { return cancel.load(std::memory_order_relaxed); }

@@ -146,10 +146,11 @@ void write_json_number(std::FILE* f, double v);
 /// Writes s as a JSON string.
 void write_json_string(std::FILE* f, std::string_view s);
 
-/// Installs the handler of SIGINT, SIGTERM, SIGHUP, SIGQUIT and SIGPIPE: the first one sets the cancel flag
-/// (polled by the library's drivers and the CLI's loops) and arms a watchdog; if the program has not stopped
-/// after 0.3 s more of its own CPU time or 1 s of wall time, or a second signal arrives, the handler removes the
-/// temporaries, stops child processes and exits with 128 + signal itself.
+/// Installs the handler of SIGINT, SIGTERM, SIGHUP, SIGQUIT and SIGPIPE (whatever disposition the parent left,
+/// ignored ones included) and unblocks them: the first one sets the cancel flag (polled by the library's drivers
+/// and the CLI's loops) and arms a watchdog; if the program has not stopped after 0.3 s more of its own CPU time
+/// or 1 s of wall time, or a second signal arrives, the handler removes the temporaries, stops child processes
+/// and exits with 128 + signal itself. The eci program calls it before any of its own code runs (main.cpp).
 void install_interrupt_handler();
 
 /// Whether an interrupt has arrived since install_interrupt_handler().
