@@ -97,6 +97,11 @@ TEST_F(reliability, inputs_beyond_double_precision_are_rejected_up_front) {
         {{"run", "three-wave", "--psi", "1e160,0,1e160"}, "overflows"},
         {{"run", "three-wave", "--psi", "1e-310,1,1"}, "subnormal"},
         {{"run", "three-wave", "--M", "1e300,1e300,-2e300", "--psi", "1e10,1e10,1e10"}, "overflows"},
+        {{"run", "rigid-body", "--alpha", "1e308", "--steps", "10"}, "largest rate"},
+        {{"run", "rigid-body", "--beta", "-1e308", "--steps", "10"}, "overflows"},
+        {{"run", "rigid-body", "--u", "1e155,1e155,0", "--steps", "10"}, "G1"},
+        {{"run", "exp-entropy", "--uv", "-800,-800", "--steps", "10"}, "entropy e^u + e^v"},
+        {{"run", "exp-entropy", "--uv", "-746,-750", "--steps", "10"}, "underflows"},
     };
     for (const auto& [args, needle] : cases) {
         const auto start = std::chrono::steady_clock::now();
