@@ -98,13 +98,22 @@ inline pid_t start_eci(const fs::path& dir, const std::vector<std::string>& args
     std::vector<char*> argv;
     for (std::string& w : words) argv.push_back(w.data());
     argv.push_back(nullptr);
+    // all_blocked: the child inherits the mask and the ignored SIGINT and SIGQUIT from this process, set before
+    // the fork (setting SIG_IGN in the child would discard a signal already pending there).
     sigset_t all, previous;
     sigfillset(&all);
-    if (how == handed_signals::all_blocked) ::sigprocmask(SIG_BLOCK, &all, &previous);
+    struct sigaction ignore {}, saved_int {}, saved_quit {};
+    ignore.sa_handler = SIG_IGN;
+    if (how == handed_signals::all_blocked) {
+        ::sigprocmask(SIG_BLOCK, &all, &previous);
+        ::sigaction(SIGINT, &ignore, &saved_int);
+        ::sigaction(SIGQUIT, &ignore, &saved_quit);
+    }
     const pid_t pid = ::fork();
     if (pid == 0) {  // (async-signal-safe calls only until exec)
         for (int s : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE}) {
             const bool ignored = how != handed_signals::defaults && (s == SIGINT || s == SIGQUIT);
+            if (ignored && how == handed_signals::all_blocked) continue;  // inherited
             struct sigaction sa {};
             sa.sa_handler = ignored ? SIG_IGN : SIG_DFL;
             ::sigaction(s, &sa, nullptr);
@@ -122,7 +131,11 @@ inline pid_t start_eci(const fs::path& dir, const std::vector<std::string>& args
         ::execv(argv[0], argv.data());
         ::_exit(127);
     }
-    if (how == handed_signals::all_blocked) ::sigprocmask(SIG_SETMASK, &previous, nullptr);
+    if (how == handed_signals::all_blocked) {
+        ::sigaction(SIGINT, &saved_int, nullptr);
+        ::sigaction(SIGQUIT, &saved_quit, nullptr);
+        ::sigprocmask(SIG_SETMASK, &previous, nullptr);
+    }
     return pid;
 }
 
