@@ -256,7 +256,9 @@ bool whole_png(const std::string& png) {
 
 // Runs a gnuplot script (written beside `output`, the picture it draws); false when gnuplot is missing, cannot draw
 // (no pngcairo) or was stopped by an interrupt (which the run's loop then honours, with its checkpoint). A picture
-// not written whole for lack of space is an error like any other failed write (run_error, with the reason).
+// not written whole, or not at all, on a file system with no space left is an error like any other failed write
+// (run_error, with the reason); otherwise what the program wrote is its business ($ECI_GNUPLOT may be another
+// program).
 bool gnuplot(const std::string& script, const std::string& output) {
     static const std::string program = plotting_program();
     static const bool available = run_program(program, {"--version"}) == 0;
@@ -268,8 +270,7 @@ bool gnuplot(const std::string& script, const std::string& output) {
     if (status == 0 && whole_png(output)) return true;
     if (const std::string reason = write_failure_reason(output, 0, ""); !reason.empty())
         throw run_error("cannot write picture '" + output + "': " + reason);
-    if (status == 0) throw run_error("cannot write picture '" + output + "': gnuplot left it incomplete");
-    return false;
+    return status == 0;
 }
 
 // A double as gnuplot reads it back exactly (std::to_string's %f would print 1e-13 as 0.000000).
