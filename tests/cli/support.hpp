@@ -162,13 +162,15 @@ inline ending wait_at_most(pid_t pid, double limit) {
     }
 }
 
-/// Whether process `pid` has a handler for signal `s` (its /proc status, SigCgt).
-inline bool catches(pid_t pid, int s) {
+/// Whether signal `s` is in the mask of process `pid` named `field` in its /proc status ("SigCgt:": it has a
+/// handler; "SigBlk:": it blocks it).
+inline bool signal_in(pid_t pid, const std::string& field, int s) {
     std::ifstream status("/proc/" + std::to_string(pid) + "/status");
     for (std::string line; std::getline(status, line);)
-        if (line.rfind("SigCgt:", 0) == 0) return (std::stoull(line.substr(7), nullptr, 16) >> (s - 1)) & 1;
+        if (line.rfind(field, 0) == 0) return (std::stoull(line.substr(field.size()), nullptr, 16) >> (s - 1)) & 1;
     return false;
 }
+inline bool catches(pid_t pid, int s) { return signal_in(pid, "SigCgt:", s); }
 
 /// A fresh, uniquely named directory under the system temp dir, removed with everything in it on destruction.
 class scratch_dir {
