@@ -223,9 +223,8 @@ def test_tolerances_near_the_smallest_double_do_not_blame_a_first_step_never_giv
         c, s = math.cos(1.0), math.sin(1.0)
         exact = [y0[0] * c + y0[1] * s, y0[1] * c - y0[0] * s]
         assert np.allclose(r.y[:, -1], exact, rtol=1e-9, atol=1e-9 * max(map(abs, y0)))
-    else:  # a failure names the tolerance, and returns the solution up to there
+    else:  # a failure names the tolerance (a conservative pair may stop at t0: y[1] = 0 there, atol 1e-300)
         assert r.status == -1 and "tolerance" in r.message, r.message
-        assert r.t[-1] > 0.0
 
 
 def test_scipy_arguments():
