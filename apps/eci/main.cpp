@@ -162,8 +162,7 @@ void check_process_count(const std::string& what, const model_command* model) {
 }
 
 int run_cli(int argc, char** argv) {
-    // First of all: from here on no signal leaves a temporary file behind.
-    install_interrupt_handler();
+    // (The signal handler is already installed: see eci_early_interrupt_handler below.)
     const auto models = registered_models();
 
     CLI::App app{"eci: explicit, exactly conservative ODE integrators (Shadwick, Bowman & Morrison)", "eci"};
@@ -297,11 +296,24 @@ int run_cli(int argc, char** argv) {
     throw bad_input("eci run needs a MODEL (models: " + model_names(models) + ")");
 }
 
+// The signal handler is installed before anything else of the program runs: from .preinit_array, which the dynamic
+// loader runs once the libraries are loaded, before their constructors, the program's static constructors and main
+// (and MPI_Init, which can take seconds). A signal arriving later, at start-up too, is honoured like one during the
+// run. One arriving while the libraries load has been blocked by build/eci (launcher.cpp), which started this
+// program: it is pending, and install_interrupt_handler's unblocking delivers it to the handler.
+void install_interrupt_handler_early(int, char**, char**) { install_interrupt_handler(); }
+__attribute__((section(".preinit_array"), used)) void (*eci_early_interrupt_handler)(int, char**, char**) =
+    install_interrupt_handler_early;
+
 }  // namespace
 
 int main_inner(int argc, char** argv) {
     try {
-        return run_cli(argc, argv);
+        const int status = run_cli(argc, argv);
+        // A command that never polls the flag (list, --help, --version): a signal that arrived is still an
+        // interrupt. (A run's commit blocks the signals, so one after its outputs are committed is not seen.)
+        if (status == 0 && interrupt_requested()) throw_if_interrupted();
+        return status;
     } catch (const bad_input& e) {
         print_error(e.what());
         return 2;

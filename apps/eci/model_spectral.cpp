@@ -616,7 +616,7 @@ int spectral_command::run_spread(const run_settings& settings) {
                 created_snapshot_dir.emplace(dir);
             else if (errno != EEXIST)
                 throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " + std::strerror(errno));
-            staged_snapshots.emplace(dir);
+            staged_snapshots.emplace(dir, "snapshots");
         }
         if (!settings.output.empty()) csv_file.emplace(settings.output, "CSV output");
         if (!settings.summary_json.empty()) json_file.emplace(settings.summary_json, "summary JSON");
@@ -685,15 +685,25 @@ int spectral_command::run_spread(const run_settings& settings) {
         const std::vector<double> es = model.energy_spectrum(w), zs = model.enstrophy_spectrum(w);
         on_root([&] {
             const std::string base = staged_snapshots->path() + "/";
-            write_snapshot_h5(base + stem_ + "_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
-            if (!plot_vorticity_png(base + stem_ + "_" + stem + ".png", p.n, field, double(i) * dt, field_,
-                                    std::string(eq_.symbol)) &&
-                !warned_ && !interrupt_requested()) {
-                std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
-                warned_ = true;
+            try {
+                write_snapshot_h5(base + stem_ + "_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
+                if (!plot_vorticity_png(base + stem_ + "_" + stem + ".png", p.n, field, double(i) * dt, field_,
+                                        std::string(eq_.symbol)) &&
+                    !warned_ && !interrupt_requested()) {
+                    std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
+                    warned_ = true;
+                }
+                write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
+                               {es, zs, pi.energy, pi.enstrophy}, double(i) * dt);
+            } catch (const run_error& e) {
+                // named where they were to go, not in the staging directory they are written in first
+                std::string m = e.what();
+                const std::string final_dir = snapshot_dir_.empty() || snapshot_dir_.back() == '/'
+                                                  ? snapshot_dir_
+                                                  : snapshot_dir_ + "/";
+                for (std::size_t at; (at = m.find(base)) != std::string::npos;) m.replace(at, base.size(), final_dir);
+                throw run_error(m);
             }
-            write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
-                           {es, zs, pi.energy, pi.enstrophy}, double(i) * dt);
         });
     };
     // Ctrl-C finishes the step under way and writes the checkpoint. On a large grid one step takes longer than the
@@ -819,6 +829,11 @@ int spectral_command::run_spread(const run_settings& settings) {
     cfg.update = update == "paper" ? update_kind::paper : update_kind::conditioned;  // --update (issue 19)
     cfg.stop_on_invariant_overflow = false;  // a blow-up is the sink's, with its own message
     cfg.stop_between_attempts = &stop_requested;  // (collective on MPI)
+    // A signal during the set-up: no step was made, so there is nothing for a checkpoint to keep.
+    if (stop_requested()) {
+        throw_if_interrupted("before the first step");  // (names the signal)
+        throw interrupted("interrupted before the first step");  // (another process's)
+    }
     solve_report report;
     try {
         report = solve<navier_stokes_2d>(model, w, method, cfg, callback_sink{on_output, on_step, on_progress}, {},
@@ -860,12 +875,12 @@ int spectral_command::run_spread(const run_settings& settings) {
                  {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(last, 1))},
                  {"advective_form_retries", double(model.form_retries())},
                  {"final_cfl", model.cfl(w, dt)}};
-    // Both outputs complete before either replaces anything (a failed or interrupted run keeps its checkpoint, not a
-    // partial time series).
+    // The run's outputs are committed together: the snapshots first, the CSV and JSON that describe the run last, and
+    // a failure takes back what was moved in (a failed or interrupted run keeps its checkpoint, not a partial time
+    // series).
     on_root([&] {
         if (std::FILE* j = json.get()) write_summary_json(j, s);
-        commit_outputs({&csv, &json});
-        if (staged_snapshots) staged_snapshots->commit();
+        commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr);
         if (created_snapshot_dir) created_snapshot_dir->keep();
         print_summary(stderr, s);
     });

@@ -36,28 +36,52 @@ struct handle {
 
 hid_t untimed_file_properties();
 
+// The system error HDF5's file driver last reported, 0 if none. HDF5 puts it in its error stack's text ("..., errno
+// = 28, error message = 'No space left on device', ..."), and clears that stack at the next call (a handle closed
+// while the exception unwinds), so it is noted by the handler HDF5 calls at the failing function's return.
+// Without one, the innermost description stands in for it.
+int hdf5_errno = 0;
+std::string hdf5_detail;
+
+herr_t note_system_error(hid_t stack, void*) {
+    H5Ewalk2(
+        stack, H5E_WALK_DOWNWARD,
+        [](unsigned, const H5E_error2_t* err, void*) -> herr_t {
+            // (downward: from the API function to where the error arose, so the innermost one stays)
+            if (!err || !err->desc) return 0;
+            if (const char* at = std::strstr(err->desc, "errno = "))
+                if (const int e = std::atoi(at + 8); e > 0) hdf5_errno = e;
+            hdf5_detail.assign(err->desc, std::min<std::size_t>(std::strlen(err->desc), 200));
+            return 0;
+        },
+        nullptr);
+    return 0;
+}
+
 void quiet_hdf5() {
     static const bool done = [] {
         // No cleanup at exit: after a failed flush or close (a full disk) HDF5's own shutdown would flush the
-        // half-closed file again and crash (exit 139 instead of 1, issue 21 defect 1); every file is closed here.
+        // half-closed file again and crash (exit 139 instead of 1); every file is closed here.
         H5dont_atexit();
-        return H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr) >= 0;
+        // Nothing printed: the errors become exceptions with one-line messages; their system reason is noted.
+        return H5Eset_auto2(H5E_DEFAULT, note_system_error, nullptr) >= 0;
     }();
     (void)done;
 }
 
 // Creates `file` as HDF5, fill(file id) writes it; the flush and the close are checked (a full disk shows up there, in
-// HDF5's buffered writes), so a file that could not be written whole is an error, never a committed file.
+// HDF5's buffered writes), so a file that could not be written whole is an error, never a committed file. Every
+// message ends with the reason: the system's, as HDF5's file driver reported it, or what the file system says.
 template <class Fill>
 void write_h5(const std::string& file, const std::string& what, Fill fill) {
     quiet_hdf5();
-    // HDF5 says only that it failed; errno, when it is one of these, says why
-    const auto why = [] {
-        const int e = errno;
-        return e == ENOSPC || e == EDQUOT || e == EIO || e == EROFS || e == EFBIG ? std::string(": ") + std::strerror(e)
-                                                                                 : std::string();
+    hdf5_errno = 0;
+    hdf5_detail.clear();
+    // the system's reason, else the file system's (a full disk whose driver error was not seen), else HDF5's
+    const auto why = [&] {
+        return ": " + write_failure_reason(file, hdf5_errno,
+                                           hdf5_detail.empty() ? "HDF5 gave no reason" : "HDF5: " + hdf5_detail);
     };
-    errno = 0;
     const hid_t id = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT);
     if (id < 0) throw run_error("cannot write " + what + ": HDF5 could not create the file" + why());
     try {
@@ -68,11 +92,10 @@ void write_h5(const std::string& file, const std::string& what, Fill fill) {
         throw run_error("cannot write " + what + ": " + e.what() + reason);
     }
     const bool flushed = H5Fflush(id, H5F_SCOPE_LOCAL) >= 0;
-    const std::string reason = why();
     const bool closed = H5Fclose(id) >= 0;
     if (!flushed || !closed)
         throw run_error("cannot write " + what + ": HDF5 could not " + (flushed ? "close" : "flush") + " the file" +
-                        (reason.empty() ? why() : reason));
+                        why());
 }
 
 template <class T>
@@ -219,15 +242,35 @@ handle open_for_reading(const std::string& path) {
     return handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "cannot open " + path);
 }
 
-// Runs a gnuplot script (written beside `output`, the picture it draws); false when gnuplot is missing, fails or
-// was stopped by an interrupt (which the run's loop then honours, with its checkpoint).
+// Whether `png` ends as a PNG file ends (its IEND chunk): gnuplot's exit status does not say whether the picture was
+// written whole, and on a full disk it is not.
+bool whole_png(const std::string& png) {
+    static constexpr unsigned char iend[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
+    std::FILE* f = std::fopen(png.c_str(), "rb");
+    if (!f) return false;
+    unsigned char tail[12] = {};
+    const bool read = std::fseek(f, -12, SEEK_END) == 0 && std::fread(tail, 1, 12, f) == 12;
+    std::fclose(f);
+    return read && std::memcmp(tail, iend, 12) == 0;
+}
+
+// Runs a gnuplot script (written beside `output`, the picture it draws); false when gnuplot is missing, cannot draw
+// (no pngcairo) or was stopped by an interrupt (which the run's loop then honours, with its checkpoint). A picture
+// not written whole, or not at all, on a file system with no space left is an error like any other failed write
+// (run_error, with the reason); otherwise what the program wrote is its business ($ECI_GNUPLOT may be another
+// program).
 bool gnuplot(const std::string& script, const std::string& output) {
     static const std::string program = plotting_program();
     static const bool available = run_program(program, {"--version"}) == 0;
     if (!available) return false;
     const scoped_temporary file(output + ".gp");
     write_new_file(file.path(), "gnuplot script", [&](std::FILE* f) { std::fputs(script.c_str(), f); });
-    return run_program(program, {file.path()}) == 0;
+    const int status = run_program(program, {file.path()});
+    if (status == -1) return false;
+    if (status == 0 && whole_png(output)) return true;
+    if (const std::string reason = write_failure_reason(output, 0, ""); !reason.empty())
+        throw run_error("cannot write picture '" + output + "': " + reason);
+    return status == 0;
 }
 
 // A double as gnuplot reads it back exactly (std::to_string's %f would print 1e-13 as 0.000000).

@@ -22,6 +22,7 @@
 #include <fcntl.h>
 #include <linux/magic.h>
 #include <sys/stat.h>
+#include <sys/statvfs.h>
 #include <sys/syscall.h>
 #include <sys/time.h>
 #include <sys/vfs.h>
@@ -391,45 +392,78 @@ void output_file::finish() {
             throw run_error(message({"cannot write ", what_, " to standard output: ", errno_text()}));
         return;
     }
+    // An earlier write's failure (the stream's error flag) left no errno worth trusting by now: e stays 0 unless
+    // the flush, sync or close below fails and says why.
     const bool write_failed = std::ferror(file_) != 0;
-    int e = errno;
+    int e = 0;
     // fflush first: a full disk shows up here, and fsync makes sure the data is on disk before the rename.
     const bool flush_failed = std::fflush(file_) != 0;
     if (flush_failed) e = errno;
     const bool sync_failed = !temp_.empty() && ::fsync(::fileno(file_)) != 0 && errno != EINVAL;
-    if (sync_failed) e = errno;
+    if (sync_failed && e == 0) e = errno;
     const bool close_failed = std::fclose(file_) != 0;
-    if (close_failed && !flush_failed && !sync_failed) e = errno;
+    if (close_failed && e == 0) e = errno;
     if (write_failed || flush_failed || sync_failed || close_failed) {
+        const std::string reason = write_failure_reason(temp_.empty() ? target_ : temp_, e);
         discard();
-        throw run_error(message({"cannot write ", what_, " '", path_, "': ", errno_text(e)}));
+        throw run_error(message({"cannot write ", what_, " '", path_, "': ", reason}));
     }
 }
 
-void commit_outputs(std::initializer_list<output_file*> outputs) {
+namespace {
+
+// The end of a commit's error message: what the failed commit left. `committed` names the outputs that now hold
+// this run's data (their old content could not be restored), `not_committed` those that kept their old content.
+std::string commit_state(const std::vector<std::string>& committed, const std::vector<std::string>& not_committed) {
+    if (committed.empty()) return "; no output was replaced";
+    std::string s = "; committed: ";
+    for (std::size_t i = 0; i < committed.size(); ++i) s.append(i ? ", " : "").append(committed[i]);
+    s.append("; not committed: ");
+    if (not_committed.empty()) s.append("none");
+    for (std::size_t i = 0; i < not_committed.size(); ++i) s.append(i ? ", " : "").append(not_committed[i]);
+    return s;
+}
+
+}  // namespace
+
+void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged) {
+    const auto name = [](const output_file* o) { return message({o->what_, " '", o->path_, "'"}); };
     throw_if_interrupted("before its output was committed");
-    for (output_file* o : outputs)
-        if (o) o->finish();
-    // No signal between the first rename and the last: the outputs appear together or not at all.
+    for (output_file* o : outputs) {
+        if (!o) continue;
+        try {
+            o->finish();
+        } catch (const run_error& e) {
+            throw run_error(message({e.what(), commit_state({}, {})}));
+        }
+    }
+    // No signal between the first move and the last: the outputs appear together or not at all.
     const sigset_t block = interrupt_set();
     sigset_t previous;
     ::pthread_sigmask(SIG_BLOCK, &block, &previous);
     try {
         throw_if_interrupted("before its output was committed");
+        // The staged files (snapshots) first, the files that describe the run last: a CSV or JSON is never
+        // committed for a run whose other files are not.
+        const auto staged_name = [&] { return message({"the ", staged->what_, " in '", staged->final_, "'"}); };
+        if (staged) {
+            try {
+                staged->move_in();
+            } catch (const run_error& e) {
+                std::vector<std::string> files;
+                for (output_file* o : outputs)
+                    if (o && o->replaces()) files.push_back(name(o));
+                throw run_error(message({e.what(), staged->partly_moved_in_
+                                                       ? commit_state({"some of " + staged_name()}, files)
+                                                       : commit_state({}, {})}));
+            }
+        }
         struct replaced {
             output_file* o;
             std::string backup;  // a hard link to the old file, empty if there was none (or none could be made)
             bool existed;
         };
         std::vector<replaced> done;
-        auto roll_back = [&] {
-            for (auto it = done.rbegin(); it != done.rend(); ++it) {
-                if (!it->backup.empty())
-                    ::rename(it->backup.c_str(), it->o->target_.c_str());
-                else if (!it->existed)
-                    ::unlink(it->o->target_.c_str());
-            }
-        };
         for (output_file* o : outputs) {
             if (!o || !o->replaces()) continue;
             replaced r{o, {}, false};
@@ -447,10 +481,20 @@ void commit_outputs(std::initializer_list<output_file*> outputs) {
             if (::rename(o->temp_.c_str(), o->target_.c_str()) != 0) {
                 const int e = errno;
                 if (!r.backup.empty()) ::unlink(r.backup.c_str());
-                roll_back();
-                for (const replaced& d : done)
-                    if (!d.backup.empty()) ::unlink(d.backup.c_str());
-                throw run_error(message({"cannot write ", o->what_, " '", o->path_, "': ", errno_text(e)}));
+                // Take back what this commit replaced, and say what could not be.
+                std::vector<std::string> committed, not_committed;
+                for (auto it = done.rbegin(); it != done.rend(); ++it) {
+                    const bool restored = !it->backup.empty()
+                                              ? ::rename(it->backup.c_str(), it->o->target_.c_str()) == 0
+                                              : !it->existed && ::unlink(it->o->target_.c_str()) == 0;
+                    (restored ? not_committed : committed).push_back(name(it->o));
+                    if (!restored && !it->backup.empty()) ::unlink(it->backup.c_str());
+                }
+                for (output_file* other : outputs)
+                    if (other && other->replaces()) not_committed.push_back(name(other));
+                if (staged) (staged->take_back() ? not_committed : committed).push_back(staged_name());
+                throw run_error(message({"cannot write ", name(o), ": ", errno_text(e),
+                                         commit_state(committed, not_committed)}));
             }
             unregister_cleanup(o->temp_slot_);
             o->temp_slot_ = -1;
@@ -459,6 +503,7 @@ void commit_outputs(std::initializer_list<output_file*> outputs) {
         }
         for (const replaced& d : done)
             if (!d.backup.empty()) ::unlink(d.backup.c_str());
+        if (staged) staged->finish_commit();
     } catch (...) {
         ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
         throw;
@@ -523,12 +568,25 @@ std::string check_output_path(const std::string& path, std::string_view what) {
     return inspect_output(path, what, st, true);
 }
 
+std::string write_failure_reason(const std::string& file, int error, std::string_view otherwise) {
+    if (error != 0) return errno_text(error);
+    struct statvfs fs {};
+    if (::statvfs(dir_of(file).c_str(), &fs) == 0) {
+        if (fs.f_flag & ST_RDONLY) return errno_text(EROFS);
+        // (root may use the reserved blocks: f_bfree, not f_bavail, is what is left for it)
+        const bool no_blocks = (::geteuid() == 0 ? fs.f_bfree : fs.f_bavail) == 0;
+        const bool no_inodes = fs.f_files > 0 && (::geteuid() == 0 ? fs.f_ffree : fs.f_favail) == 0;
+        if (no_blocks || no_inodes) return errno_text(ENOSPC);
+    }
+    return std::string(otherwise);
+}
+
 void sync_file(const std::string& file, std::string_view what) {
     const int fd = ::open(file.c_str(), O_RDONLY | O_NOFOLLOW | O_CLOEXEC);
     if (fd < 0 || (::fsync(fd) != 0 && errno != EINVAL)) {
         const int e = errno;
         if (fd >= 0) ::close(fd);
-        throw run_error(message({"cannot write ", what, " '", file, "': ", errno_text(e)}));
+        throw run_error(message({"cannot write ", what, " '", file, "': ", write_failure_reason(file, e)}));
     }
     ::close(fd);
 }
@@ -566,8 +624,15 @@ void write_replacing(const std::string& path, std::string_view what,
             unregister_cleanup(slot);
         }
     } guard{temp, register_cleanup(temp, 1)};
-    write(temp);
-    sync_file(temp, what);
+    try {
+        write(temp);
+        sync_file(temp, what);
+    } catch (const run_error& e) {
+        // named as the user wrote it, not by the temporary's name
+        std::string m = e.what();
+        for (std::size_t at; (at = m.find(temp)) != std::string::npos;) m.replace(at, temp.size(), path);
+        throw run_error(m);
+    }
     if (::rename(temp.c_str(), target.c_str()) != 0) {
         const int e = errno;
         throw run_error(message({"cannot write ", what, " '", path, "': ", errno_text(e)}));
@@ -595,13 +660,18 @@ void write_new_file(const std::string& file, std::string_view what, const std::f
         ::unlink(file.c_str());
         throw;
     }
-    if (std::ferror(f)) e = errno ? errno : EIO;
-    if (std::fflush(f) != 0 && e == 0) e = errno;
-    if (::fsync(::fileno(f)) != 0 && errno != EINVAL && e == 0) e = errno;
-    if (std::fclose(f) != 0 && e == 0) e = errno;
-    if (e != 0) {
+    // As in output_file::finish: the error flag of an earlier write keeps no trustworthy errno.
+    const bool write_failed = std::ferror(f) != 0;
+    const bool flush_failed = std::fflush(f) != 0;
+    if (flush_failed) e = errno;
+    const bool sync_failed = ::fsync(::fileno(f)) != 0 && errno != EINVAL;
+    if (sync_failed && e == 0) e = errno;
+    const bool close_failed = std::fclose(f) != 0;
+    if (close_failed && e == 0) e = errno;
+    if (write_failed || flush_failed || sync_failed || close_failed) {
+        const std::string reason = write_failure_reason(file, e);
         ::unlink(file.c_str());
-        throw run_error(message({"cannot write ", what, " '", file, "': ", errno_text(e)}));
+        throw run_error(message({"cannot write ", what, " '", file, "': ", reason}));
     }
 }
 
@@ -677,7 +747,7 @@ void check_distinct_files(const std::vector<std::pair<std::string, std::string>>
 
 // ---- staging_dir ----
 
-staging_dir::staging_dir(const std::string& final_dir) : final_(final_dir) {
+staging_dir::staging_dir(const std::string& final_dir, std::string what) : final_(final_dir), what_(std::move(what)) {
     while (final_.size() > 1 && final_.back() == '/') final_.pop_back();
     if (final_.empty()) throw bad_input("the output directory name is empty");
     struct stat st {};
@@ -705,79 +775,106 @@ staging_dir::~staging_dir() {
     unregister_cleanup(slot_);
 }
 
-void staging_dir::commit() {
+void staging_dir::move_in() {
     namespace fs = std::filesystem;
-    throw_if_interrupted("before the figures were committed");
+    const auto fail = [&](std::string_view what) {
+        partly_moved_in_ = !take_back();
+        return run_error(std::string(what));
+    };
+    struct stat st {};
+    if (::stat(final_.c_str(), &st) != 0) {
+        // The directory did not exist: it appears whole.
+        const mode_t mask = ::umask(0);
+        ::umask(mask);
+        ::chmod(path_.c_str(), 0777 & ~mask);
+        if (::rename(path_.c_str(), final_.c_str()) != 0)
+            throw run_error(message({"cannot create output directory '", final_, "': ", errno_text()}));
+        moved_whole_ = true;
+        return;
+    }
+    std::error_code ec;
+    // The names first: the replaced files are kept aside in the same directory and must not be moved.
+    std::vector<fs::directory_entry> entries;
+    for (const auto& entry : fs::directory_iterator(path_, ec)) entries.push_back(entry);
+    if (ec) throw fail(message({"cannot read '", path_, "': ", ec.message()}));
+    for (const auto& entry : entries) {
+        const std::string name = entry.path().filename().string();
+        // A symlinked name is written through: its target is replaced, the link kept.
+        std::string target = message({final_, "/", name});
+        if (std::string resolved; resolve_links(target, resolved)) target = resolved;
+        struct stat old {};
+        const bool existed = ::stat(target.c_str(), &old) == 0;
+        if (existed && !S_ISREG(old.st_mode))
+            throw fail(message({"cannot write '", target, "': it is ", kind_of(old.st_mode), ", not a regular file"}));
+        if (int fd = ::open(entry.path().c_str(), O_RDONLY | O_CLOEXEC); fd >= 0) {
+            const bool synced = ::fsync(fd) == 0 || errno == EINVAL;
+            const int e = errno;
+            ::close(fd);
+            if (!synced) throw fail(message({"cannot write '", target, "': ", errno_text(e)}));
+        }
+        std::string backup;
+        if (existed) {
+            ::chmod(entry.path().c_str(), old.st_mode & 07777);
+            backup = message({path_, "/.old-", name});
+            if (::link(target.c_str(), backup.c_str()) != 0) backup.clear();
+        }
+        if (::rename(entry.path().c_str(), target.c_str()) != 0) {
+            const int e = errno;
+            if (!backup.empty()) ::unlink(backup.c_str());
+            throw fail(message({"cannot write '", target, "': ", errno_text(e)}));
+        }
+        if (!existed)
+            created_.push_back(target);
+        else if (backup.empty())
+            overwritten_.push_back(target);
+        else
+            replaced_.emplace_back(target, backup);
+    }
+}
+
+bool staging_dir::take_back() {
+    if (moved_whole_) {
+        moved_whole_ = false;
+        return ::rename(final_.c_str(), path_.c_str()) == 0;  // the destructor removes it
+    }
+    bool all = overwritten_.empty();  // their old content is gone
+    for (auto it = replaced_.rbegin(); it != replaced_.rend(); ++it)
+        all = ::rename(it->second.c_str(), it->first.c_str()) == 0 && all;
+    for (const std::string& target : created_) all = ::unlink(target.c_str()) == 0 && all;
+    replaced_.clear(), created_.clear(), overwritten_.clear();
+    return all;
+}
+
+void staging_dir::finish_commit() {
+    if (!moved_whole_) {
+        std::error_code ec;
+        std::filesystem::remove_all(path_, ec);  // the replaced files kept aside
+    }
+    replaced_.clear(), created_.clear(), overwritten_.clear();
+    committed_ = true;
+    unregister_cleanup(slot_);
+}
+
+void staging_dir::commit() {
+    const std::string where = message({"before the ", what_, " were committed"});
+    throw_if_interrupted(where);
     const sigset_t block = interrupt_set();
     sigset_t previous;
     ::pthread_sigmask(SIG_BLOCK, &block, &previous);
     try {
-        throw_if_interrupted("before the figures were committed");
-        struct stat st {};
-        if (::stat(final_.c_str(), &st) != 0) {
-            // The directory did not exist: it appears whole.
-            const mode_t mask = ::umask(0);
-            ::umask(mask);
-            ::chmod(path_.c_str(), 0777 & ~mask);
-            if (::rename(path_.c_str(), final_.c_str()) != 0)
-                throw run_error(message({"cannot create output directory '", final_, "': ", errno_text()}));
-        } else {
-            std::vector<std::pair<std::string, std::string>> moved;  // (target, backup or "")
-            std::vector<std::string> created;
-            auto roll_back = [&] {
-                for (const auto& [target, backup] : moved) ::rename(backup.c_str(), target.c_str());
-                for (const auto& target : created) ::unlink(target.c_str());
-            };
-            std::error_code ec;
-            // The names first: the backups made below go into the same directory and must not be moved.
-            std::vector<fs::directory_entry> entries;
-            for (const auto& entry : fs::directory_iterator(path_, ec)) entries.push_back(entry);
-            for (const auto& entry : entries) {
-                const std::string name = entry.path().filename().string();
-                // A symlinked name is written through: its target is replaced, the link kept.
-                std::string target = message({final_, "/", name});
-                if (std::string resolved; resolve_links(target, resolved)) target = resolved;
-                struct stat old {};
-                const bool present = ::stat(target.c_str(), &old) == 0;
-                if (present && !S_ISREG(old.st_mode)) {
-                    roll_back();
-                    throw run_error(message({"cannot write '", target, "': it is ", kind_of(old.st_mode),
-                                             ", not a regular file"}));
-                }
-                const bool existed = present;
-                if (int fd = ::open(entry.path().c_str(), O_RDONLY | O_CLOEXEC); fd >= 0) {
-                    const bool synced = ::fsync(fd) == 0 || errno == EINVAL;
-                    const int e = errno;
-                    ::close(fd);
-                    if (!synced) {
-                        roll_back();
-                        throw run_error(message({"cannot write '", target, "': ", errno_text(e)}));
-                    }
-                }
-                if (existed) {
-                    ::chmod(entry.path().c_str(), old.st_mode & 07777);
-                    std::string backup = message({path_, "/.old-", name});
-                    if (::link(target.c_str(), backup.c_str()) == 0) moved.emplace_back(target, backup);
-                }
-                if (::rename(entry.path().c_str(), target.c_str()) != 0) {
-                    const int e = errno;
-                    roll_back();
-                    throw run_error(message({"cannot write '", target, "': ", errno_text(e)}));
-                }
-                if (!existed) created.push_back(target);
-            }
-            if (ec) {
-                roll_back();
-                throw run_error(message({"cannot read '", path_, "': ", ec.message()}));
-            }
-            std::filesystem::remove_all(path_, ec);
+        throw_if_interrupted(where);
+        try {
+            move_in();
+        } catch (const run_error& e) {
+            if (!partly_moved_in_) throw;
+            throw run_error(message({e.what(), "; some of the ", what_, " in '", final_,
+                                     "' could not be given their old content back"}));
         }
+        finish_commit();
     } catch (...) {
         ::pthread_sigmask(SIG_SETMASK, &previous, nullptr);
         throw;
     }
-    committed_ = true;
-    unregister_cleanup(slot_);
 }
 
 // ---- numbers ----
@@ -821,6 +918,10 @@ void install_interrupt_handler() {
     sa.sa_handler = on_watchdog;
     ::sigaction(SIGALRM, &sa, nullptr);
     ::sigaction(SIGVTALRM, &sa, nullptr);
+    // A parent may hand these signals over blocked (the mask survives exec): one sent since is pending, and is
+    // delivered to the handler now instead of never.
+    const sigset_t set = interrupt_set();
+    ::sigprocmask(SIG_UNBLOCK, &set, nullptr);
 }
 
 bool interrupt_requested() { return cancel.load(std::memory_order_relaxed); }

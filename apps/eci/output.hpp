@@ -37,6 +37,8 @@ class interrupted : public std::runtime_error {
     using std::runtime_error::runtime_error;
 };
 
+class staging_dir;
+
 /// An output of one run. A regular file (new, or existing and writable) is written under a temporary name
 /// beside it (beside a symlink's final target, so the link is kept) and renamed over it by commit_outputs(),
 /// keeping the replaced file's mode; a reader never sees a partial file and a failed run leaves the old
@@ -60,7 +62,7 @@ class output_file {
     bool replaces() const { return !temp_.empty(); }
 
    private:
-    friend void commit_outputs(std::initializer_list<output_file*> outputs);
+    friend void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged);
     void discard();
 
     std::string path_;    ///< as the user wrote it (messages)
@@ -73,17 +75,22 @@ class output_file {
     int temp_slot_ = -1;  ///< the temporary's slot in the signal handler's cleanup list
 };
 
-/// Commits the outputs of one run together: finishes every one, then renames every temporary over its target.
-/// If any step fails, the targets already replaced get their old content back (or are removed if they did not
-/// exist) and bad_input is thrown; if an interrupt has arrived, nothing is committed and `interrupted` is thrown.
-void commit_outputs(std::initializer_list<output_file*> outputs);
+/// Commits the outputs of one run together: finishes every file (a write error shows up here, before anything is
+/// replaced), then moves the staged files in (`staged`, if any: the snapshots), then renames every temporary over
+/// its target, the files that describe the run (CSV, JSON) last. If any step fails, what was already replaced gets
+/// its old content back (a new file is removed) and run_error is thrown, naming the failure and ending in
+/// "; no output was replaced", or, if something could not be taken back, "; committed: ...; not committed: ...".
+/// If an interrupt has arrived, nothing is committed and `interrupted` is thrown. On success the interrupt signals
+/// stay blocked: the run is complete.
+void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged = nullptr);
 
 /// A temporary directory beside `final_dir` whose contents replace `final_dir`'s files of the same names on
 /// commit(); removed with its contents unless committed, and by the signal handler on a forced exit.
 class staging_dir {
    public:
-    /// Creates the temporary directory (and final_dir if missing); throws bad_input.
-    explicit staging_dir(const std::string& final_dir);
+    /// Creates the temporary directory (final_dir itself appears on commit if missing); throws bad_input. `what`
+    /// names the staged files in messages ("snapshots", "figures").
+    explicit staging_dir(const std::string& final_dir, std::string what = "figures");
     staging_dir(const staging_dir&) = delete;
     staging_dir& operator=(const staging_dir&) = delete;
     ~staging_dir();
@@ -91,13 +98,29 @@ class staging_dir {
     /// The temporary directory to write into.
     const std::string& path() const { return path_; }
     /// Moves every file of the temporary directory into final_dir (replacing files of the same name, keeping
-    /// their mode), restoring the replaced ones if a move fails; throws bad_input or interrupted.
+    /// their mode), restoring the replaced ones if a move fails; throws run_error or interrupted. (For a run with
+    /// other outputs too: commit_outputs.)
     void commit();
 
    private:
-    std::string final_, path_;
+    friend void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged);
+    // The commit in two phases, so that a later failure (another output's rename) can take the files back.
+    /// Moves the files in, keeping the replaced ones aside; on a failure takes back what it moved (partly_moved_in_
+    /// if it could not all) and throws run_error. Signals must be blocked.
+    void move_in();
+    /// After move_in: puts the replaced files back and removes the new ones. Returns false if any could not be.
+    bool take_back();
+    /// After move_in: drops the replaced files and the temporary directory.
+    void finish_commit();
+
+    std::string final_, path_, what_;
     int slot_ = -1;
     bool committed_ = false;
+    bool moved_whole_ = false;  ///< final_ did not exist: the temporary directory was renamed to it
+    bool partly_moved_in_ = false;  ///< move_in failed and could not take back all it had moved
+    std::vector<std::pair<std::string, std::string>> replaced_;  ///< (target, the replaced file kept aside)
+    std::vector<std::string> created_;                           ///< targets that did not exist
+    std::vector<std::string> overwritten_;                       ///< targets replaced with no copy kept aside
 };
 
 // ---- The one path for the files eci writes by name (checkpoints, snapshots, spectra, pictures, FFTW wisdom) ----
@@ -121,6 +144,12 @@ void write_replacing(const std::string& path, std::string_view what,
 /// removed and run_error is thrown.
 void write_new_file(const std::string& file, std::string_view what, const std::function<void(std::FILE*)>& fill,
                     bool exclusive = true);
+
+/// Why a write to `file` failed, for a message: the system's text for `error` (an errno value) if it is not 0, else
+/// what the file system says (statvfs of the file's directory: "No space left on device" when no block or inode is
+/// left, or a read-only file system), else `otherwise`.
+std::string write_failure_reason(const std::string& file, int error,
+                                 std::string_view otherwise = "the write failed, no reason given");
 
 /// Flushes a file written by name (by HDF5, gnuplot) to disk; throws run_error.
 void sync_file(const std::string& file, std::string_view what);
@@ -146,10 +175,11 @@ void write_json_number(std::FILE* f, double v);
 /// Writes s as a JSON string.
 void write_json_string(std::FILE* f, std::string_view s);
 
-/// Installs the handler of SIGINT, SIGTERM, SIGHUP, SIGQUIT and SIGPIPE: the first one sets the cancel flag
-/// (polled by the library's drivers and the CLI's loops) and arms a watchdog; if the program has not stopped
-/// after 0.3 s more of its own CPU time or 1 s of wall time, or a second signal arrives, the handler removes the
-/// temporaries, stops child processes and exits with 128 + signal itself.
+/// Installs the handler of SIGINT, SIGTERM, SIGHUP, SIGQUIT and SIGPIPE (whatever disposition the parent left,
+/// ignored ones included) and unblocks them: the first one sets the cancel flag (polled by the library's drivers
+/// and the CLI's loops) and arms a watchdog; if the program has not stopped after 0.3 s more of its own CPU time
+/// or 1 s of wall time, or a second signal arrives, the handler removes the temporaries, stops child processes
+/// and exits with 128 + signal itself. The eci program calls it before any of its own code runs (main.cpp).
 void install_interrupt_handler();
 
 /// Whether an interrupt has arrived since install_interrupt_handler().

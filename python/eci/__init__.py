@@ -221,7 +221,15 @@ def _first_step_size(fun, t0, t1, y0, order, rtol, atol, calls):
     fallback = 1e-6 * span
 
     def rms(v):
-        return float(np.sqrt(np.mean(np.abs(v) ** 2)))
+        # of v / scale; SciPy's formula, unless the squares overflow (a tolerance like 1e-300, where the rule would
+        # give a step of 0): then scaled by the largest entry. An entry beyond the largest double is inf, quietly.
+        with np.errstate(over="ignore", under="ignore"):
+            v = np.abs(v) / scale
+            plain = float(np.sqrt(np.mean(v**2)))
+            if math.isfinite(plain):
+                return plain
+            top = float(np.max(v))
+            return top * float(np.sqrt(np.mean((v / top) ** 2))) if math.isfinite(top) else top
 
     def evaluate(t, y):
         calls[0] += 1
@@ -235,15 +243,19 @@ def _first_step_size(fun, t0, t1, y0, order, rtol, atol, calls):
     f0 = evaluate(t0, y0)
     if f0 is None:
         return fallback
-    d0, d1 = rms(y0 / scale), rms(f0 / scale)
+    d0, d1 = rms(y0), rms(f0)
     h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
     h0 = min(h0, span)
+    if not h0 > 0.0:  # fun / scale beyond the largest double: see below
+        return float(np.nextafter(0.0, 1.0))
     f1 = evaluate(t0 + direction * h0, y0 + direction * h0 * f0)
     if f1 is None:
         return min(h0, span)
-    d2 = rms((f1 - f0) / scale) / h0
+    d2 = rms(f1 - f0) / h0
     h1 = max(1e-6, 1e-3 * h0) if max(d1, d2) <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
-    return min(100.0 * h0, h1, span)
+    h = min(100.0 * h0, h1, span)
+    # a tolerance so tight that the rule's step underflows: the smallest step, and the run says what is wrong
+    return h if h > 0.0 and math.isfinite(h) else float(np.nextafter(0.0, 1.0))
 
 
 class DenseSolution:

@@ -2,8 +2,13 @@
 // status, stdout and stderr captured, read files back, split CSV lines, and own a scratch directory.
 #pragma once
 
+#include <fcntl.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
+#include <csignal>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -77,6 +82,95 @@ inline run_result run_eci(const std::string& shell_args, const fs::path& capture
     fs::remove(err);
     return r;
 }
+
+/// The signal state a parent hands to eci: default dispositions and nothing blocked; SIGINT and SIGQUIT ignored
+/// (what a shell's `cmd &` does without job control); or every signal blocked, SIGINT and SIGQUIT also ignored.
+enum class handed_signals { defaults, interrupts_ignored, all_blocked };
+
+/// Starts eci with `args` in `dir` (stdin and stdout /dev/null, stderr to `err_file`, no core dumps) without a
+/// shell, so that a signal can be sent the moment it exists; returns its pid. With all_blocked the signals are
+/// blocked in this process already before the fork: one sent at once is pending in the child, never delivered
+/// to anything but eci.
+inline pid_t start_eci(const fs::path& dir, const std::vector<std::string>& args, const fs::path& err_file,
+                       handed_signals how = handed_signals::defaults) {
+    std::vector<std::string> words{ECI_CLI_PATH};
+    words.insert(words.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (std::string& w : words) argv.push_back(w.data());
+    argv.push_back(nullptr);
+    // all_blocked: the child inherits the mask and the ignored SIGINT and SIGQUIT from this process, set before
+    // the fork (setting SIG_IGN in the child would discard a signal already pending there).
+    sigset_t all, previous;
+    sigfillset(&all);
+    struct sigaction ignore {}, saved_int {}, saved_quit {};
+    ignore.sa_handler = SIG_IGN;
+    if (how == handed_signals::all_blocked) {
+        ::sigprocmask(SIG_BLOCK, &all, &previous);
+        ::sigaction(SIGINT, &ignore, &saved_int);
+        ::sigaction(SIGQUIT, &ignore, &saved_quit);
+    }
+    const pid_t pid = ::fork();
+    if (pid == 0) {  // (async-signal-safe calls only until exec)
+        for (int s : {SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE}) {
+            const bool ignored = how != handed_signals::defaults && (s == SIGINT || s == SIGQUIT);
+            if (ignored && how == handed_signals::all_blocked) continue;  // inherited
+            struct sigaction sa {};
+            sa.sa_handler = ignored ? SIG_IGN : SIG_DFL;
+            ::sigaction(s, &sa, nullptr);
+        }
+        if (how != handed_signals::all_blocked) {
+            sigset_t none;
+            sigemptyset(&none);
+            ::sigprocmask(SIG_SETMASK, &none, nullptr);
+        }
+        const rlimit no_core{0, 0};
+        ::setrlimit(RLIMIT_CORE, &no_core);
+        const int in = ::open("/dev/null", O_RDWR), err = ::open(err_file.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+        if (in < 0 || err < 0 || ::chdir(dir.c_str()) != 0) ::_exit(126);
+        ::dup2(in, 0), ::dup2(in, 1), ::dup2(err, 2);
+        ::execv(argv[0], argv.data());
+        ::_exit(127);
+    }
+    if (how == handed_signals::all_blocked) {
+        ::sigaction(SIGINT, &saved_int, nullptr);
+        ::sigaction(SIGQUIT, &saved_quit, nullptr);
+        ::sigprocmask(SIG_SETMASK, &previous, nullptr);
+    }
+    return pid;
+}
+
+/// How a started process ended: `raw` is waitpid's status, `seconds` the time from the call to its end; a process
+/// still there after `limit` seconds is killed (SIGKILL) and `hung` set.
+struct ending {
+    int raw = 0;
+    double seconds = 0.0;
+    bool hung = false;
+};
+inline ending wait_at_most(pid_t pid, double limit) {
+    const auto start = std::chrono::steady_clock::now();
+    ending e;
+    for (;;) {
+        e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (::waitpid(pid, &e.raw, WNOHANG) == pid) return e;
+        if (e.seconds > limit) {
+            e.hung = true;
+            ::kill(pid, SIGKILL);
+            ::waitpid(pid, &e.raw, 0);
+            return e;
+        }
+        ::usleep(2000);
+    }
+}
+
+/// Whether signal `s` is in the mask of process `pid` named `field` in its /proc status ("SigCgt:": it has a
+/// handler; "SigBlk:": it blocks it).
+inline bool signal_in(pid_t pid, const std::string& field, int s) {
+    std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+    for (std::string line; std::getline(status, line);)
+        if (line.rfind(field, 0) == 0) return (std::stoull(line.substr(field.size()), nullptr, 16) >> (s - 1)) & 1;
+    return false;
+}
+inline bool catches(pid_t pid, int s) { return signal_in(pid, "SigCgt:", s); }
 
 /// A fresh, uniquely named directory under the system temp dir, removed with everything in it on destruction.
 class scratch_dir {

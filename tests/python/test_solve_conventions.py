@@ -210,6 +210,23 @@ def test_tolerance_defaults_and_rtol_floor():
     np.testing.assert_array_equal(low.y, clipped.y)
 
 
+@pytest.mark.parametrize("method", ["dp54", "c-dp54", "c-f78", "bs32"])
+@pytest.mark.parametrize("y0", [[1.0, 0.0], [1e10, -3.0]])
+def test_tolerances_near_the_smallest_double_do_not_blame_a_first_step_never_given(method, y0):
+    # rtol is raised to 100 eps (SciPy's warning); atol 1e-300 makes y / (atol + rtol |y|) overflow in the first-step
+    # rule, which used to give a step of 0 and "initial step must be a positive finite number"
+    fun = lambda t, y: [y[1], -y[0]]  # noqa: E731
+    with pytest.warns(UserWarning, match="`rtol` is too small"):
+        r = eci.solve(fun, (0.0, 1.0), y0, method=method, rtol=1e-300, atol=1e-300)
+    assert "initial step" not in r.message
+    if r.success:  # a run that got there is as accurate as the tolerance floor allows
+        c, s = math.cos(1.0), math.sin(1.0)
+        exact = [y0[0] * c + y0[1] * s, y0[1] * c - y0[0] * s]
+        assert np.allclose(r.y[:, -1], exact, rtol=1e-9, atol=1e-9 * max(map(abs, y0)))
+    else:  # a failure names the tolerance (a conservative pair may stop at t0: y[1] = 0 there, atol 1e-300)
+        assert r.status == -1 and "tolerance" in r.message, r.message
+
+
 def test_scipy_arguments():
     fun = lambda t, y, a: a * y  # noqa: E731
     r = eci.solve(fun, (0.0, 1.0), [1.0], method="dp54", args=(-1.0,), rtol=1e-10, atol=1e-12)

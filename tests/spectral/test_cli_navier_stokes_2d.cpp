@@ -207,6 +207,47 @@ TEST(CliNavierStokes2d, InterruptWritesCheckpointThatRestarts) {
         EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
 
+// A signal at start-up (at once, 20 ms, 100 ms, 300 ms, or as soon as eci's handler exists), while the plans and
+// the initial field are made, ends the run at once: 128 + N (or killed by the signal itself, before the handler
+// exists), nothing left but, if the run had made a step, a whole checkpoint: no CSV, JSON, snapshot, snapshot
+// directory or temporary.
+TEST(CliNavierStokes2d, SignalAtStartUpEndsTheRunLeavingNothingPartial) {
+    scratch_dir dir("ns2d-early");
+    const fs::path d = dir.path() / "work", err = dir.path() / "err";
+    fs::create_directory(d);
+    const std::vector<std::string> args{"run", "navier-stokes-2d", "--N", "64", "--steps", "100000000",
+                                        "--fftw-wisdom", "none", "--snapshot-every", "1", "--snapshot-dir", "snaps",
+                                        "--checkpoint", "c.h5", "--output", "o.csv", "--summary-json", "o.json"};
+    const std::vector<std::pair<const char*, int>> signals{{"INT", SIGINT}, {"TERM", SIGTERM}, {"QUIT", SIGQUIT},
+                                                           {"HUP", SIGHUP}};
+    for (const auto& [name, number] : signals)
+        for (const int delay_ms : {0, 20, 100, 300, -1}) {  // -1: as soon as the handler exists
+            const pid_t pid = start_eci(d, args, err);
+            ASSERT_GT(pid, 0);
+            if (delay_ms >= 0) {
+                std::this_thread::sleep_for(std::chrono::milliseconds(delay_ms));
+            } else {
+                const auto start = std::chrono::steady_clock::now();
+                while (!catches(pid, number) && std::chrono::steady_clock::now() - start < std::chrono::seconds(20))
+                    std::this_thread::yield();
+            }
+            ASSERT_EQ(::kill(pid, number), 0);
+            const ending end = wait_at_most(pid, 20.0);
+            const std::string at = std::string(name) + " at " + std::to_string(delay_ms) + " ms: " + read_text(err);
+            EXPECT_FALSE(end.hung) << at << "the signal was lost";
+            const bool exited = WIFEXITED(end.raw) && WEXITSTATUS(end.raw) == 128 + number;
+            const bool killed = WIFSIGNALED(end.raw) && WTERMSIG(end.raw) == number;
+            EXPECT_TRUE(delay_ms < 0 ? exited : exited || killed) << at << end.raw;
+            EXPECT_LT(end.seconds, 3.0) << at;
+            if (fs::exists(d / "c.h5")) {
+                EXPECT_EQ(read_doubles(d / "c.h5", "omega_hat").size(), 2u * 64u * 33u) << at;
+            }
+            for (const auto& e : fs::directory_iterator(d))
+                if (e.path().filename() != "c.h5") ADD_FAILURE() << at << "left behind: " << e.path();
+            fs::remove(d / "c.h5");
+        }
+}
+
 // Ctrl-C during steps longer than the signal handler's default allowance (0.3 s of CPU; issue 21, defect 2): at
 // N = 2048 one C-RK4 step takes about a second, and the run must still finish the step, write the checkpoint
 // and exit 130 (before, the watchdog exited first and the checkpoint was lost in 2 of 3 tries). The checkpoint

@@ -7,7 +7,9 @@
 #include <gtest/gtest.h>
 #include <hdf5.h>
 
+#include <cstdlib>
 #include <fstream>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -271,6 +273,59 @@ TEST(CliSpectralOutputs, FailedRunsCreateOrReplaceNothing) {
     EXPECT_TRUE(temporaries(w.path()).empty());
 }
 
+// A run's outputs are committed in order, snapshots first and the CSV and JSON that describe the run last, and a
+// failure while committing (an output turned into a directory during the run) takes back what was moved in: the
+// earlier run's set stays whole, byte for byte, exit 1, and the one-line error names the output and says that no
+// output was replaced.
+TEST(CliSpectralOutputs, AFailedCommitLeavesTheEarlierRunsOutputs) {
+    work_dir w("spectral-commit");
+    const fs::path err = w.capture() / "err";
+    const std::string outputs = " --snapshot-every 1000 --snapshot-dir snaps --output o.csv --summary-json o.json";
+    // the earlier run: snapshots at steps 0 and 1000 (the later run's names too) and its CSV and JSON
+    ASSERT_EQ(run_in(w, "run navier-stokes-2d --N 32 --steps 1000 --fftw-estimate --fftw-wisdom none" + outputs)
+                  .status,
+              0);
+    std::map<fs::path, std::string> before;
+    for (const auto& e : fs::recursive_directory_iterator(w.path())) before[e.path()] = read_text(e.path());
+    ASSERT_GE(before.size(), 7u);  // o.csv, o.json, snaps, 2 x (.h5, spectrum .csv)
+    // the later run: other numbers (another seed), more snapshots (2000, 3000: names that did not exist)
+    const std::vector<std::string> later{"run", "navier-stokes-2d", "--N", "64", "--steps", "3000", "--seed", "7",
+                                         "--fftw-estimate", "--fftw-wisdom", "none", "--snapshot-every", "1000",
+                                         "--snapshot-dir", "snaps", "--output", "o.csv", "--summary-json", "o.json"};
+    for (const std::string sabotaged : {"snaps/vorticity_00001000.h5", "snaps/spectrum_00000000.csv", "o.csv",
+                                        "o.json"}) {
+        const pid_t pid = start_eci(w.path(), later, err);
+        ASSERT_GT(pid, 0);
+        // once the run is under way (its staged snapshots' directory exists), the output becomes a directory
+        bool staged = false;
+        for (int i = 0; i < 20000 && !staged; ++i) {
+            for (const auto& e : fs::directory_iterator(w.file("snaps")))
+                staged = staged || e.path().filename().string().rfind(".eci-tmp-", 0) == 0;
+            if (!staged) ::usleep(1000);
+        }
+        ASSERT_TRUE(staged) << sabotaged;
+        const fs::path target = w.file(sabotaged);
+        const std::string kept = read_text(target);
+        fs::remove(target);
+        fs::create_directory(target);
+        const ending end = wait_at_most(pid, 60.0);
+        const std::string message = read_text(err);
+        ASSERT_FALSE(end.hung) << sabotaged;
+        EXPECT_TRUE(WIFEXITED(end.raw) && WEXITSTATUS(end.raw) == 1) << sabotaged << ": " << end.raw << " " << message;
+        EXPECT_EQ(lines_of(message).size(), 1u) << message;
+        EXPECT_NE(message.find("cannot write"), std::string::npos) << message;
+        EXPECT_NE(message.find(fs::path(sabotaged).filename().string()), std::string::npos) << message;
+        EXPECT_NE(message.find("; no output was replaced"), std::string::npos) << message;
+        // everything else is the earlier run's, and nothing was added
+        fs::remove(target);
+        std::ofstream(target, std::ios::binary) << kept;
+        std::map<fs::path, std::string> after;
+        for (const auto& e : fs::recursive_directory_iterator(w.path())) after[e.path()] = read_text(e.path());
+        EXPECT_EQ(after.size(), before.size()) << sabotaged;
+        for (const auto& [f, text] : before) EXPECT_TRUE(after.count(f) && after[f] == text) << sabotaged << ": " << f;
+    }
+}
+
 // Defect 5: no temporary is left after a failure, an interrupt while snapshots are written, or two quick signals.
 TEST(CliSpectralOutputs, NoTemporariesLeftAfterFailuresAndSignals) {
     work_dir w("spectral-temps");
@@ -341,6 +396,72 @@ TEST(CliSpectralOutputs, FullDiskIsAnErrorAndCommitsNothing) {
         }
         fs::remove(m / "fill");
     }
+}
+
+// Every output a full disk can stop names the reason: the run is repeated with 0, 1, 2, ... pages (4 KiB) left on a
+// small tmpfs, so that the checkpoint, a snapshot's HDF5 file, its spectrum, its picture, the CSV, the JSON and the
+// FFTW wisdom each are the first write that fails in some run. Every failing run exits 1 with one line that names
+// the file and "No space left on device", and leaves nothing behind; each kind of output is seen failing at least
+// once. Skipped where tmpfs cannot be mounted.
+TEST(CliSpectralOutputs, FullDiskFailuresNameTheReasonForEveryOutput) {
+    work_dir w("spectral-full-reason");
+    const fs::path m = w.file("m");
+    fs::create_directory(m);
+    if (::mount("tmpfs", m.c_str(), "tmpfs", 0, "size=256k") != 0) {
+        GTEST_SKIP() << "cannot mount a tmpfs here (not root or not permitted): full-disk cases not run";
+    }
+    struct unmount {
+        fs::path m;
+        ~unmount() { ::umount2(m.c_str(), MNT_DETACH); }
+    } guard{m};
+    const bool pictures = std::system("gnuplot --version >/dev/null 2>&1") == 0;
+    const auto fill_leaving = [&](std::size_t pages) {
+        {
+            std::ofstream fill(m / "fill", std::ios::binary);
+            const std::string block(4096, 'x');
+            while (fill.write(block.data(), block.size())) {
+            }
+        }
+        const std::uintmax_t size = fs::file_size(m / "fill");
+        fs::resize_file(m / "fill", size > pages * 4096 ? size - pages * 4096 : 0);
+    };
+    const std::string run = "run navier-stokes-2d --N 32 --fftw-estimate --dt 0.01 ";
+    // (output as named in the message, the run that makes it fail)
+    const std::vector<std::pair<std::string, std::string>> families{
+        {"checkpoint", run + "--fftw-wisdom none --steps 8 --checkpoint-every 8 --checkpoint m/ck.h5"},
+        {"snapshots", run + "--fftw-wisdom none --steps 1 --snapshot-every 1 --snapshot-dir m"},
+        {"CSV and JSON", run + "--fftw-wisdom none --steps 40 --output m/o.csv --summary-json m/o.json"},
+        {"wisdom", run + "--steps 1 --fftw-wisdom m/w"}};
+    std::map<std::string, int> seen;  // kind of output named in a failure -> runs
+    for (const auto& [family, args] : families) {
+        bool succeeded = false;
+        for (std::size_t pages = 0; pages < 60 && !succeeded; ++pages) {
+            fill_leaving(pages);
+            const run_result r = run_in(w, args);
+            const std::string at = family + " with " + std::to_string(pages) + " pages: " + r.err;
+            succeeded = r.status == 0;
+            if (!succeeded) {
+                EXPECT_EQ(r.status, 1) << at;
+                EXPECT_EQ(lines_of(r.err).size(), 1u) << at;
+                EXPECT_NE(r.err.find("cannot write"), std::string::npos) << at;
+                EXPECT_NE(r.err.find("No space left on device"), std::string::npos) << "the reason, named: " << at;
+                for (const char* kind : {"checkpoint", "vorticity_", "spectrum_", ".png", "CSV output",
+                                         "summary JSON", "wisdom"})
+                    if (r.err.find(kind) != std::string::npos) ++seen[kind];
+                // nothing committed, nothing left (the fill aside)
+                for (const auto& e : fs::directory_iterator(m))
+                    if (e.path().filename() != "fill") ADD_FAILURE() << at << " left " << e.path();
+            }
+            for (const auto& e : fs::directory_iterator(m))
+                if (e.path().filename() != "fill") fs::remove_all(e.path());
+            fs::remove(m / "fill");
+        }
+        EXPECT_TRUE(succeeded) << family << ": no run succeeded with up to 59 pages free (the control)";
+    }
+    for (const char* kind : {"checkpoint", "vorticity_", "spectrum_", ".png", "CSV output", "summary JSON", "wisdom"})
+        if (pictures || std::string(kind) != ".png") {
+            EXPECT_GT(seen[kind], 0) << "no run failed on writing " << kind;
+        }
 }
 
 // Defect 11: memory before the first step. Too many --output-dt times and an --ic file declaring a huge dataset

@@ -41,10 +41,12 @@ struct exponential_entropy {
     /// ARKODE's initial state (1, 0.5).
     static constexpr state_type initial_state() { return {1.0, 0.5}; }
 
-    /// Throws std::invalid_argument unless the state is finite.
+    /// Throws std::invalid_argument unless the state is finite and the entropy e^u + e^v (positive: it scales both
+    /// rates, e^u and e^v, for all time) neither overflows nor underflows.
     void validate_state(const state_type& s) const {
         detail::require_finite(s[0], "exponential entropy u");
         detail::require_finite(s[1], "exponential entropy v");
+        detail::require_representable(entropy(s), "the entropy e^u + e^v of this initial condition");
     }
 
     void operator()(const state_type& s, state_type& dsdt, double /*t*/) const {

@@ -2,6 +2,7 @@
 // u3' = (beta - 1) u1 u2 with two quadratic invariants G1 = |u|^2 and G2 = u1^2 + beta u2^2 + alpha u3^2.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <cmath>
 #include <cstddef>
@@ -54,6 +55,18 @@ struct rigid_body {
     void validate() const {
         detail::require_finite(alpha, "rigid body alpha");
         detail::require_finite(beta, "rigid body beta");
+    }
+
+    /// Throws std::invalid_argument if the run's scale is beyond double precision (as three_wave's check: it is one
+    /// with M = (alpha - beta, 1 - alpha, beta - 1)): G1 = |u|^2 bounds every |u_i|^2 for all time, so if G1, G2 and
+    /// the largest rate bound max|M| G1 are representable, the whole run is.
+    void validate_state(const state_type& u) const {
+        const bool moving = u[0] != 0.0 || u[1] != 0.0 || u[2] != 0.0;
+        detail::require_representable(g1(u), "G1 = |u|^2 of this initial condition", moving);
+        detail::require_representable(g2(u), "G2 = u1^2 + beta u2^2 + alpha u3^2 of this initial condition", false);
+        const double m = std::max({std::abs(alpha - beta), std::abs(1.0 - alpha), std::abs(beta - 1.0)});
+        detail::require_representable(m * g1(u), "the largest rate max|M| G1 (M = (alpha - beta, 1 - alpha, beta - 1))",
+                                      false);
     }
 
     void operator()(const state_type& u, state_type& dudt, double /*t*/) const {
