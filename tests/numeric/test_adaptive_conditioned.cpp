@@ -28,17 +28,6 @@ double relative_error(const S& x, const S& ref) {
     return std::sqrt(d / r);
 }
 
-template <class S>
-double weighted_square_sum(const S& x, const std::vector<double>& w) {  // Neumaier: the sum adds ~1 eps
-    double s = 0.0, c = 0.0;
-    for (std::size_t i = 0; i < x.size(); ++i) {
-        const double v = w[i] * std::norm(x[i]), t = s + v;
-        c += std::abs(s) >= std::abs(v) ? (s - t) + v : (v - t) + s;
-        s = t;
-    }
-    return s + c;
-}
-
 // The worst relative change of any declared invariant between x0 and x.
 template <class Model>
 double invariant_change(const Model& m, const typename Model::state_type& x0, const typename Model::state_type& x) {

@@ -24,17 +24,6 @@ double rms_difference(const S& a, const S& b) {
     return std::sqrt(e2 / double(a.size()));
 }
 
-template <class S>
-double weighted_square_sum(const S& x, const std::vector<double>& w) {  // Neumaier: the sum adds ~1 eps
-    double s = 0.0, c = 0.0;
-    for (std::size_t i = 0; i < x.size(); ++i) {
-        const double v = w[i] * std::norm(x[i]), t = s + v;
-        c += std::abs(s) >= std::abs(v) ? (s - t) + v : (v - t) + s;
-        s = t;
-    }
-    return s + c;
-}
-
 struct errors {
     std::vector<double> conservative, conventional;
     std::uint64_t halvings = 0;

@@ -14,19 +14,6 @@ namespace {
 
 using namespace eci::test;
 
-// sum_k w_k |x_k|^2 with Neumaier's compensated summation: the measurement itself adds about one eps, not the
-// sqrt(N) eps of a plain sum over 10^4 terms, so the bounds below test the stepper rather than the sum.
-template <class S>
-double weighted_square_sum(const S& x, const std::vector<double>& w) {
-    double s = 0.0, c = 0.0;
-    for (std::size_t i = 0; i < x.size(); ++i) {
-        const double v = w[i] * std::norm(x[i]), t = s + v;
-        c += std::abs(s) >= std::abs(v) ? (s - t) + v : (v - t) + s;
-        s = t;
-    }
-    return s + c;
-}
-
 struct conservation_run {
     eci::run_stats stats;
     eci::remedy_stats remedy;
