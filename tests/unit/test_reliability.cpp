@@ -179,6 +179,24 @@ TEST(NonFiniteState, SteppersThatCheckFinitenessFailAnOverflowingStep) {
     static_assert(!eci::checks_finite<eci::implicit_midpoint<S>>);  // the driver checks its results
 }
 
+// The finiteness test the steppers fuse into their last pass (an add into bit 63, which vectorizes with baseline
+// SSE2): exactly the infinities and NaNs, at every position of a long array and at the edges of the exponent range.
+TEST(NonFiniteState, TheFusedFinitenessBitIsExactlyIsfinite) {
+    using lim = std::numeric_limits<double>;
+    const double values[] = {0.0, -0.0, lim::denorm_min(), -lim::denorm_min(), lim::min(), lim::max(), -lim::max(),
+                             1.0, -3.5, std::nextafter(lim::max(), 0.0), lim::infinity(), -lim::infinity(),
+                             lim::quiet_NaN(), -lim::quiet_NaN(), lim::signaling_NaN()};
+    for (const double v : values) {
+        EXPECT_EQ(eci::detail::none_non_finite(eci::detail::non_finite_bit(v)), bool(std::isfinite(v))) << v;
+        for (const std::size_t n : {1u, 2u, 3u, 7u, 64u, 1001u})
+            for (const std::size_t at : {std::size_t{0}, n / 2, n - 1}) {
+                std::vector<double> x(n, -lim::max());
+                x[at] = v;
+                EXPECT_EQ(eci::detail::all_finite_reals(x.data(), n), bool(std::isfinite(v))) << v << " n=" << n;
+            }
+    }
+}
+
 TEST(ModelRanges, OverflowingSquaresAndProductsAreRejected) {
     for (const auto& [K, P] : std::vector<std::pair<double, double>>{{1e200, 3.0}, {1.7, 1.5e154}, {1e-170, 3.0}}) {
         eci::three_wave w;

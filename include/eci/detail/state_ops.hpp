@@ -35,12 +35,22 @@ void resize_like(S& buffer, const S& like) {
     }
 }
 
-/// Whether all n values are finite: one pass over the exponent bits that the compiler vectorizes.
+/// Bit 63 set iff v is infinite or NaN (its exponent field all ones), for OR-accumulation over a loop. Written
+/// as an add, not a compare: adding one to the exponent field carries into bit 63 exactly when the field is all
+/// ones, and a 64-bit add and OR vectorize with baseline x86-64 (SSE2), where the 64-bit compare of
+/// `(bits & exponent) == exponent` does not (SSE4.1) and left the whole loop scalar.
+inline std::uint64_t non_finite_bit(double v) {
+    constexpr std::uint64_t exponent = 0x7ff0000000000000ull, one = 0x0010000000000000ull;
+    return (std::bit_cast<std::uint64_t>(v) & exponent) + one;
+}
+/// Whether an OR of non_finite_bit() values saw no infinite or NaN value.
+inline bool none_non_finite(std::uint64_t accumulated) { return (accumulated >> 63) == 0; }
+
+/// Whether all n values are finite: one vectorized pass over the exponent bits.
 inline bool all_finite_reals(const double* v, std::size_t n) {
-    constexpr std::uint64_t exponent = 0x7ff0000000000000ull;
     std::uint64_t bad = 0;
-    for (std::size_t i = 0; i < n; ++i) bad |= (std::bit_cast<std::uint64_t>(v[i]) & exponent) == exponent;
-    return bad == 0;
+    for (std::size_t i = 0; i < n; ++i) bad |= non_finite_bit(v[i]);
+    return none_non_finite(bad);
 }
 
 /// Index of the first real unknown for which `bad(i)` holds; called only after a step has failed.

@@ -31,20 +31,19 @@ void combine_stages(double* out, const double* x, const std::array<const double*
 }
 
 /// combine_stages that also reports whether every result is finite, in the same pass (an OR over the exponent
-/// bits, which vectorizes): the conventional step's blow-up check costs no second pass over the state.
+/// bits, which vectorizes: non_finite_bit): the conventional step's blow-up check costs no second pass.
 template <auto a, std::size_t... J>
 bool combine_stages_finite(double* out, const double* x, const std::array<const double*, sizeof...(J)>& k, double dt,
                            std::size_t n, std::index_sequence<J...>) {
-    constexpr std::uint64_t exponent = 0x7ff0000000000000ull;
     const std::array<double, sizeof...(J)> w{(dt * a[J])...};
     std::uint64_t bad = 0;
     for (std::size_t i = 0; i < n; ++i) {
         double acc = x[i];
         ((a[J] != 0.0 ? (acc += w[J] * k[J][i], 0) : 0), ...);
         out[i] = acc;
-        bad |= (std::bit_cast<std::uint64_t>(acc) & exponent) == exponent;
+        bad |= non_finite_bit(acc);
     }
-    return bad == 0;
+    return none_non_finite(bad);
 }
 
 /// The stage buffers of an explicit tableau, and the computation of every stage's derivative.
