@@ -169,6 +169,7 @@ void write_dataset(hid_t file, const char* name, const double* data, std::initia
         throw std::runtime_error(std::string("HDF5 dataset ") + name);
 }
 
+#ifdef ECI_MPI
 // A block of a two-dimensional dataset of doubles: rows start[0] .. + count[0] - 1, columns start[1] ..
 // + count[1] - 1, held row-major in `data` (one process's part of a file's dataset).
 struct block {
@@ -201,6 +202,7 @@ void create_dataset(hid_t file, const block& part, std::initializer_list<hsize_t
               std::string("HDF5 dataset ") + part.name);
     write_block(file, part);
 }
+#endif
 
 // Rows start[0] .. and columns start[1] .. (count[0] x count[1]) of a two-dimensional dataset whose shape has been
 // checked, row-major.
