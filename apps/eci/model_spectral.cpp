@@ -37,11 +37,14 @@ namespace eci::cli {
 namespace {
 
 // ---- MPI (the MPI build under mpirun with more than one process): the run is spread over MPI_COMM_WORLD. Every
-// process validates the same input (the files are read by each); the verdict is agreed once, before the first
-// collective, so a bad input exits 2 on every process with nothing written. From there every decision is global
-// (the model's sums are reduced in rank order, the stop flag is agreed once per step), and only rank 0 writes:
-// CSV, JSON, progress, the snapshots and the checkpoint (the whole field gathered, the serial layout). A write
-// failing on rank 0 alone aborts every process (MPI_Abort) rather than leave them waiting.
+// process validates the same input (each reads the files' headers); the verdict is agreed once, before the first
+// collective, so a bad input exits 2 on every process with nothing written. Each process then reads its own part
+// of an --ic or --restart file (its rows or columns; a failure there is agreed too). From there every decision is
+// global (the model's sums are reduced in rank order, the stop flag is agreed once per step). Rank 0 writes CSV,
+// JSON, progress, pictures and spectra; the snapshots and checkpoints are written by every process, each its own
+// rows or columns of the file (ns2d_output.hpp), so no process holds a whole field but rank 0 for a picture. A
+// failure of those is agreed: every process exits 1 with the first failing one's reason. A failure of what rank 0
+// alone writes at the end (the commit) aborts every process (MPI_Abort) rather than leave them waiting.
 struct mpi_run {
     bool on = false;  // more than one process
     int rank = 0, size = 1;
@@ -60,17 +63,15 @@ void mpi_setup() {
 #endif
 }
 
-// Whether any process found the input bad (collective: every process calls it exactly once, from the normal flow
-// or from the error path of run()).
-bool mpi_any_bad([[maybe_unused]] bool bad) {
+// Why the input was refused on the lowest-ranked process that refused it, empty if none did (collective: every
+// process calls it exactly once, from the normal flow with an empty reason or from the error path of run()).
+std::string mpi_refusal([[maybe_unused]] const std::string& mine) {
 #ifdef ECI_MPI
-    if (!mpi.on || mpi.agreed) return bad;
+    if (!mpi.on || mpi.agreed) return mine;
     mpi.agreed = true;
-    int mine = bad ? 1 : 0, any = 0;
-    MPI_Allreduce(&mine, &any, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
-    return any != 0;
+    return first_failure(MPI_COMM_WORLD, mine);
 #else
-    return bad;
+    return mine;
 #endif
 }
 
@@ -84,6 +85,23 @@ bool stop_requested() {
     }
 #endif
     return interrupt_requested();
+}
+
+// fn() on rank 0 only, its failure known to every process (collective): each throws run_error with its reason.
+template <class Fn>
+void on_root_agreed(Fn&& fn) {
+    if (!mpi.on) return fn();
+#ifdef ECI_MPI
+    std::string failure;
+    if (mpi.rank == 0) {
+        try {
+            fn();
+        } catch (const std::exception& e) {
+            failure = e.what();
+        }
+    }
+    if (failure = first_failure(MPI_COMM_WORLD, failure); !failure.empty()) throw run_error(failure);
+#endif
 }
 
 // fn() on rank 0 only (every process on one); a failure there ends every process.
@@ -278,9 +296,12 @@ int spectral_command::run(const run_settings& settings) {
     if (!mpi.on) return run_spread(settings);
     try {
         return run_spread(settings);
+    } catch (const std::exception& e) {
+        // an error before the verdict was agreed: this process's part of it (the others get its reason there)
+        if (!mpi.agreed) mpi_refusal(*e.what() ? e.what() : "the input was refused");
+        throw;
     } catch (...) {
-        // an error before the verdict was agreed: this process's part of it (the others get theirs there)
-        if (!mpi.agreed) mpi_any_bad(true);
+        if (!mpi.agreed) mpi_refusal("the input was refused");
         throw;
     }
 }
@@ -298,7 +319,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     const bool restart = !restart_.empty();
     if (restart) {
         try {
-            ck = read_checkpoint(restart_);
+            // (spread over processes: the header here, each process's columns of the state once the grid is made)
+            ck = read_checkpoint(restart_, 0, !mpi.on);
         } catch (const std::exception& e) {
             throw bad_input(std::string("cannot restart: ") + e.what());
         }
@@ -497,9 +519,9 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (!restart && ic_ != "random" && ic_ != "vortex-pair" && ic_ != "taylor-green") {
         try {
             if (is_checkpoint(ic_))
-                ic_checkpoint = read_checkpoint(ic_, p.n);
+                ic_checkpoint = read_checkpoint(ic_, p.n, !mpi.on);
             else
-                ic_field = read_vorticity(ic_, p.n);
+                ic_field = read_vorticity(ic_, p.n, !mpi.on);
         } catch (const std::exception& e) {
             throw bad_input(std::string("--ic: ") + e.what());
         }
@@ -523,8 +545,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         update = "paper";
     }
     // every process has checked the same input: one verdict for all, before the first collective
-    if (mpi_any_bad(false))
-        throw bad_input("the input was refused on another MPI process (its file system or files differ?)");
+    if (const std::string why = mpi_refusal({}); !why.empty()) throw bad_input(why);
 #ifdef ECI_MPI
     if (mpi.on) {
         p.comm = MPI_COMM_WORLD;
@@ -541,10 +562,34 @@ int spectral_command::run_spread(const run_settings& settings) {
             throw bad_input(name_ + ": " + e.what());
         }
     }();
+    // Spread over processes, each reads its own part of an --ic or --restart file: its columns of a checkpoint's
+    // state, its rows of a snapshot's field (the headers were read and agreed above).
+    state part_columns;
+    std::vector<double> part_rows;
+    if (mpi.on && (restart || ic_checkpoint || ic_field)) {
+#ifdef ECI_MPI
+        const spectral::grid& g = model.grid();
+        std::string failure;
+        try {
+            if (restart || ic_checkpoint)
+                part_columns = read_checkpoint_columns(restart ? restart_ : ic_, restart ? ck : *ic_checkpoint,
+                                                       g.first_column(), g.local_columns());
+            else
+                part_rows = read_vorticity_rows(ic_, p.n, g.first_row(), g.local_rows());
+        } catch (const std::exception& e) {
+            failure = (restart ? "cannot restart: " : "--ic: ") + std::string(e.what());
+        }
+        if (failure = first_failure(MPI_COMM_WORLD, failure); !failure.empty()) throw bad_input(failure);
+#endif
+    }
     state w;
     try {
-        if (restart) {
+        if (restart && mpi.on) {
+            w = model.from_half_plane_columns(part_columns);
+            model.set_rng_state(ck.rng_state);
+        } else if (restart) {
             w = model.from_half_plane(ck.state);
+            ck.state = state();  // (the file's half plane is not needed again)
             model.set_rng_state(ck.rng_state);
         } else if (ic_ == "random") {
             w = model.random_field(k_peak_, energy_, seed_);
@@ -553,9 +598,9 @@ int spectral_command::run_spread(const run_settings& settings) {
         } else if (ic_ == "taylor-green") {
             w = model.taylor_green(vortex_peak_);
         } else if (ic_checkpoint) {
-            w = model.from_half_plane(ic_checkpoint->state);
+            w = mpi.on ? model.from_half_plane_columns(part_columns) : model.from_half_plane(ic_checkpoint->state);
         } else {
-            w = model.from_physical(ic_field->second);
+            w = mpi.on ? model.from_physical_rows(part_rows) : model.from_physical(ic_field->second);
         }
     } catch (const std::invalid_argument& e) {
         throw bad_input(std::string("initial condition: ") + e.what());
@@ -676,35 +721,62 @@ int spectral_command::run_spread(const run_settings& settings) {
                      num(z - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)).c_str(),
                      num(u).c_str(), num(u * dt / dx).c_str(), (unsigned long long)run.halvings);
     };
+    // Whether the snapshots have pictures (rank 0's plotting program; spread over processes, only then is the field
+    // gathered on rank 0 for them), asked at the first snapshot.
+    [[maybe_unused]] std::optional<bool> pictures;
     auto snapshot = [&](std::uint64_t i) {
         char stem[32];
         std::snprintf(stem, sizeof stem, "%08llu", (unsigned long long)i);
-        // the field, spectra and fluxes on every process (collective), the files on rank 0
-        const std::vector<double> field = model.to_physical(w);
+        // the field (on one process), spectra and fluxes on every process (collective), the files as below
+        const std::vector<double> field = mpi.on ? std::vector<double>() : model.to_physical(w);
         const spectral::flow_fluxes pi = model.fluxes(w);
         const std::vector<double> es = model.energy_spectrum(w), zs = model.enstrophy_spectrum(w);
-        on_root([&] {
-            const std::string base = staged_snapshots->path() + "/";
-            try {
-                write_snapshot_h5(base + stem_ + "_" + stem + ".h5", model, field, double(i) * dt, i, method, dt);
-                if (!plot_vorticity_png(base + stem_ + "_" + stem + ".png", p.n, field, double(i) * dt, field_,
-                                        std::string(eq_.symbol)) &&
-                    !warned_ && !interrupt_requested()) {
-                    std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
-                    warned_ = true;
+        const std::string base = staged_snapshots ? staged_snapshots->path() + "/" : std::string();  // (rank 0's)
+        const std::string h5 = base + stem_ + "_" + stem + ".h5", png = base + stem_ + "_" + stem + ".png";
+        const auto no_pictures = [&] {
+            if (!warned_ && !interrupt_requested()) {
+                std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
+                warned_ = true;
+            }
+        };
+        try {
+            if (!mpi.on) {
+                write_snapshot_h5(h5, model, field, double(i) * dt, i, method, dt);
+                if (!plot_vorticity_png(png, p.n, field, double(i) * dt, field_, std::string(eq_.symbol)))
+                    no_pictures();
+            } else {
+#ifdef ECI_MPI
+                // every process writes its rows of the field into the file; the picture is drawn from the field
+                // gathered on rank 0 alone
+                write_snapshot_h5(h5, model, model.to_physical_rows(w), double(i) * dt, i, method, dt,
+                                  MPI_COMM_WORLD);
+                if (!pictures) {
+                    int yes = mpi.rank == 0 && plotting_available() ? 1 : 0;
+                    MPI_Bcast(&yes, 1, MPI_INT, 0, MPI_COMM_WORLD);
+                    pictures = yes != 0;
                 }
+                const std::vector<double> whole = *pictures ? model.to_physical(w, 0) : std::vector<double>();
+                on_root_agreed([&] {
+                    if (!*pictures || !plot_vorticity_png(png, p.n, whole, double(i) * dt, field_,
+                                                          std::string(eq_.symbol)))
+                        no_pictures();
+                });
+#endif
+            }
+            on_root_agreed([&] {
                 write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
                                {es, zs, pi.energy, pi.enstrophy}, double(i) * dt);
-            } catch (const run_error& e) {
-                // named where they were to go, not in the staging directory they are written in first
-                std::string m = e.what();
-                const std::string final_dir = snapshot_dir_.empty() || snapshot_dir_.back() == '/'
-                                                  ? snapshot_dir_
-                                                  : snapshot_dir_ + "/";
+            });
+        } catch (const run_error& e) {
+            // named where they were to go, not in the staging directory they are written in first
+            std::string m = e.what();
+            const std::string final_dir = snapshot_dir_.empty() || snapshot_dir_.back() == '/'
+                                              ? snapshot_dir_
+                                              : snapshot_dir_ + "/";
+            if (!base.empty())
                 for (std::size_t at; (at = m.find(base)) != std::string::npos;) m.replace(at, base.size(), final_dir);
-                throw run_error(m);
-            }
-        });
+            throw run_error(m);
+        }
     };
     // Ctrl-C finishes the step under way and writes the checkpoint. On a large grid one step takes longer than the
     // signal handler's default allowance (0.3 s of CPU), so the run tells it how long a step and a checkpoint
@@ -730,9 +802,19 @@ int spectral_command::run_spread(const run_settings& settings) {
     auto save = [&](std::uint64_t i) {
         const double c0 = cpu_now(), w0 = wall_now();
         run.step = i;
-        run.state = model.to_half_plane(w);  // (the whole half plane, gathered on every process)
         run.rng_state = model.rng_state();
-        on_root([&] { write_checkpoint(checkpoint_, run); });
+        if (!mpi.on) {
+            run.state = model.to_half_plane(w);
+            write_checkpoint(checkpoint_, run);
+        } else {
+#ifdef ECI_MPI
+            // every process writes its columns of the half plane into the file
+            run.state = model.to_half_plane_columns(w);
+            write_checkpoint(checkpoint_, run, MPI_COMM_WORLD, model.grid().first_column(),
+                             model.grid().local_columns());
+#endif
+        }
+        run.state = state();  // (held only while it is written)
         save_cpu = std::max(save_cpu, cpu_now() - c0), save_wall = std::max(save_wall, wall_now() - w0);
         update_grace();
     };

@@ -13,6 +13,7 @@
 #include <cstdlib>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <stdexcept>
 #include <string>
 #include <unistd.h>
@@ -72,8 +73,9 @@ void quiet_hdf5() {
 // Creates `file` as HDF5, fill(file id) writes it; the flush and the close are checked (a full disk shows up there, in
 // HDF5's buffered writes), so a file that could not be written whole is an error, never a committed file. Every
 // message ends with the reason: the system's, as HDF5's file driver reported it, or what the file system says.
+// (create false: `file` is an HDF5 file another process created, opened to write into.)
 template <class Fill>
-void write_h5(const std::string& file, const std::string& what, Fill fill) {
+void write_h5(const std::string& file, const std::string& what, Fill fill, bool create = true) {
     quiet_hdf5();
     hdf5_errno = 0;
     hdf5_detail.clear();
@@ -82,8 +84,11 @@ void write_h5(const std::string& file, const std::string& what, Fill fill) {
         return ": " + write_failure_reason(file, hdf5_errno,
                                            hdf5_detail.empty() ? "HDF5 gave no reason" : "HDF5: " + hdf5_detail);
     };
-    const hid_t id = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT);
-    if (id < 0) throw run_error("cannot write " + what + ": HDF5 could not create the file" + why());
+    const hid_t id = create ? H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT)
+                            : H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    if (id < 0)
+        throw run_error("cannot write " + what + ": HDF5 could not " + (create ? "create" : "open") + " the file" +
+                        why());
     try {
         fill(id);
     } catch (const std::exception& e) {
@@ -164,10 +169,59 @@ void write_dataset(hid_t file, const char* name, const double* data, std::initia
         throw std::runtime_error(std::string("HDF5 dataset ") + name);
 }
 
+#ifdef ECI_MPI
+// A block of a two-dimensional dataset of doubles: rows start[0] .. + count[0] - 1, columns start[1] ..
+// + count[1] - 1, held row-major in `data` (one process's part of a file's dataset).
+struct block {
+    const char* name;
+    hsize_t start[2], count[2];
+    const double* data;
+};
+
+// The dataset `name` of the given shape, created as write_dataset creates it, and `part` of it written.
+void create_dataset(hid_t file, const block& part, std::initializer_list<hsize_t> dims);
+
+// Writes `part` into its dataset (created by another process, or by create_dataset); an empty block writes nothing.
+void write_block(hid_t file, const block& part) {
+    if (part.count[0] == 0 || part.count[1] == 0) return;
+    handle ds(H5Dopen2(file, part.name, H5P_DEFAULT), H5Dclose, std::string("HDF5 dataset ") + part.name);
+    handle fs(H5Dget_space(ds), H5Sclose, "HDF5 dataspace");
+    if (H5Sselect_hyperslab(fs, H5S_SELECT_SET, part.start, nullptr, part.count, nullptr) < 0)
+        throw std::runtime_error(std::string("HDF5 dataset ") + part.name + ": block outside the dataset");
+    handle ms(H5Screate_simple(2, part.count, nullptr), H5Sclose, "HDF5 dataspace");
+    if (H5Dwrite(ds, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, part.data) < 0)
+        throw std::runtime_error(std::string("HDF5 dataset ") + part.name);
+}
+
+void create_dataset(hid_t file, const block& part, std::initializer_list<hsize_t> dims) {
+    std::vector<hsize_t> d(dims);
+    handle sp(H5Screate_simple(int(d.size()), d.data(), nullptr), H5Sclose, "HDF5 dataspace");
+    handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "HDF5 dataset properties");
+    H5Pset_obj_track_times(dcpl, false);
+    handle ds(H5Dcreate2(file, part.name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose,
+              std::string("HDF5 dataset ") + part.name);
+    write_block(file, part);
+}
+#endif
+
+// Rows start[0] .. and columns start[1] .. (count[0] x count[1]) of a two-dimensional dataset whose shape has been
+// checked, row-major.
+std::vector<double> read_block(hid_t file, const char* name, const hsize_t (&start)[2], const hsize_t (&count)[2]) {
+    std::vector<double> v(static_cast<std::size_t>(count[0]) * static_cast<std::size_t>(count[1]));
+    if (v.empty()) return v;
+    handle ds(H5Dopen2(file, name, H5P_DEFAULT), H5Dclose, std::string("dataset ") + name);
+    handle fs(H5Dget_space(ds), H5Sclose, "dataspace");
+    handle ms(H5Screate_simple(2, count, nullptr), H5Sclose, "dataspace");
+    if (H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
+        H5Dread(ds, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, v.data()) < 0)
+        throw std::runtime_error(std::string("dataset '") + name + "' unreadable");
+    return v;
+}
+
 // The dataset's shape is checked against `expected` (when given) before anything is allocated or read: a small
-// file declaring a huge dataset is refused, not read (issue 21, defect 11).
+// file declaring a huge dataset is refused, not read (issue 21, defect 11). read false: the shape alone.
 std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize_t>& dims,
-                                 const std::vector<hsize_t>& expected = {}) {
+                                 const std::vector<hsize_t>& expected = {}, bool read = true) {
     if (H5Lexists(file, name, H5P_DEFAULT) <= 0) throw std::runtime_error(std::string("dataset '") + name + "' missing");
     handle ds(H5Dopen2(file, name, H5P_DEFAULT), H5Dclose, std::string("dataset ") + name);
     handle sp(H5Dget_space(ds), H5Sclose, "dataspace");
@@ -183,6 +237,7 @@ std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize
         }
         throw std::runtime_error(std::string("dataset '") + name + "' is " + shape + ", not the grid's");
     }
+    if (!read) return {};
     std::size_t count = 1;
     for (hsize_t d : dims) count *= std::size_t(d);
     std::vector<double> v(count);
@@ -261,8 +316,7 @@ bool whole_png(const std::string& png) {
 // program).
 bool gnuplot(const std::string& script, const std::string& output) {
     static const std::string program = plotting_program();
-    static const bool available = run_program(program, {"--version"}) == 0;
-    if (!available) return false;
+    if (!plotting_available()) return false;
     const scoped_temporary file(output + ".gp");
     write_new_file(file.path(), "gnuplot script", [&](std::FILE* f) { std::fputs(script.c_str(), f); });
     const int status = run_program(program, {file.path()});
@@ -286,11 +340,7 @@ std::string quoted(const std::string& s) {
     return q + "'";
 }
 
-}  // namespace
-
-void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
-    write_replacing(path, "checkpoint", [&](const std::string& tmp) {
-        write_h5(tmp, "checkpoint '" + path + "'", [&](hid_t f) {
+void put_checkpoint_attributes(hid_t f, const ns2d_checkpoint& c) {
         put(f, "format", format_of(c.params.equation, "checkpoint"));
         put(f, "version", std::int64_t(1));
         put_params(f, c.params);
@@ -314,6 +364,97 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
         put(f, "max_enstrophy_drift", c.max_enstrophy_drift);
         put(f, "max_energy_residual", c.max_energy_residual);
         put(f, "max_enstrophy_residual", c.max_enstrophy_residual);
+}
+
+void put_snapshot_attributes(hid_t f, const navier_stokes_2d& m, double t, std::uint64_t step,
+                             const std::string& method, double dt) {
+        put(f, "format", format_of(m.params().equation, "snapshot"));
+        put(f, "field", field_dataset(m.eq()));
+        put_params(f, m.params());
+        put(f, "time", t);
+        put(f, "step", step);
+        put(f, "method", method);
+        put(f, "dt", dt);
+}
+
+// The grid's coordinates x_i = 2 pi i / n (a snapshot's x and y).
+std::vector<double> coordinates(int n) {
+    std::vector<double> x(std::size_t(n), 0.0);
+    for (int i = 0; i < n; ++i) x[std::size_t(i)] = 2.0 * M_PI * i / n;
+    return x;
+}
+
+#ifdef ECI_MPI
+// The processes of comm write one file in turn, in rank order: rank 0 has written its part (its own failure's
+// reason in root_failure, empty if none) of `file` (rank 0's name for it); each other process then writes its own
+// part, write(file), unless a process before it failed. Collective; returns, on every process, the reason of the
+// lowest-ranked process that failed (empty: none did).
+std::string write_in_turn(MPI_Comm comm, const std::string& file, const std::string& root_failure,
+                          const std::function<void(const std::string&)>& write) {
+    int rank = 0, size = 1;
+    MPI_Comm_rank(comm, &rank);
+    MPI_Comm_size(comm, &size);
+    std::string name = rank == 0 && root_failure.empty() ? file : std::string();
+    unsigned long long length = name.size();
+    MPI_Bcast(&length, 1, MPI_UNSIGNED_LONG_LONG, 0, comm);
+    name.resize(std::size_t(length));
+    MPI_Bcast(name.data(), int(length), MPI_CHAR, 0, comm);
+    std::string mine = rank == 0 ? root_failure : std::string();
+    constexpr int tag = 2323;
+    int ok = rank == 0 ? (root_failure.empty() ? 1 : 0) : 0;  // the token: whether every process before wrote
+    if (rank > 0) {
+        MPI_Recv(&ok, 1, MPI_INT, rank - 1, tag, comm, MPI_STATUS_IGNORE);
+        if (ok) {
+            try {
+                write(name);
+            } catch (const std::exception& e) {
+                mine = e.what();
+                ok = 0;
+            }
+        }
+    }
+    if (rank + 1 < size) MPI_Send(&ok, 1, MPI_INT, rank + 1, tag, comm);
+    return first_failure(comm, mine);
+}
+
+// Rank 0's text on every process (collective).
+std::string from_root(MPI_Comm comm, std::string text) {
+    unsigned long long length = text.size();
+    MPI_Bcast(&length, 1, MPI_UNSIGNED_LONG_LONG, 0, comm);
+    text.resize(std::size_t(length));
+    MPI_Bcast(text.data(), int(length), MPI_CHAR, 0, comm);
+    return text;
+}
+#endif
+
+}  // namespace
+
+bool plotting_available() {
+    static const bool available = run_program(plotting_program(), {"--version"}) == 0;
+    return available;
+}
+
+#ifdef ECI_MPI
+std::string first_failure(MPI_Comm comm, const std::string& mine) {
+    int rank = 0, size = 1;
+    MPI_Comm_rank(comm, &rank);
+    MPI_Comm_size(comm, &size);
+    int me = mine.empty() ? size : rank, first = size;
+    MPI_Allreduce(&me, &first, 1, MPI_INT, MPI_MIN, comm);
+    if (first == size) return {};
+    std::string text = rank == first ? mine : std::string();
+    unsigned long long length = text.size();
+    MPI_Bcast(&length, 1, MPI_UNSIGNED_LONG_LONG, first, comm);
+    text.resize(std::size_t(length));
+    MPI_Bcast(text.data(), int(length), MPI_CHAR, first, comm);
+    return text;
+}
+#endif
+
+void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
+    write_replacing(path, "checkpoint", [&](const std::string& tmp) {
+        write_h5(tmp, "checkpoint '" + path + "'", [&](hid_t f) {
+        put_checkpoint_attributes(f, c);
         const hsize_t rows = hsize_t(c.params.n), cols = hsize_t(c.params.n / 2 + 1);
         write_dataset(f, state_dataset(spectral::find_equation(c.params.equation)).c_str(),
                       reinterpret_cast<const double*>(c.state.data()), {rows, cols * 2});
@@ -321,7 +462,54 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
     });
 }
 
-ns2d_checkpoint read_checkpoint(const std::string& path, int n) {
+#ifdef ECI_MPI
+void write_checkpoint(const std::string& path, const ns2d_checkpoint& c, MPI_Comm comm, int first_column,
+                      int columns) {
+    int rank = 0;
+    MPI_Comm_rank(comm, &rank);
+    const std::string what = "checkpoint '" + path + "'";
+    const std::string name = state_dataset(spectral::find_equation(c.params.equation));
+    const hsize_t rows = hsize_t(c.params.n), cols = hsize_t(c.params.n / 2 + 1);
+    const block mine{name.c_str(), {0, 2 * hsize_t(first_column)}, {rows, 2 * hsize_t(columns)},
+                     reinterpret_cast<const double*>(c.state.data())};
+    if (c.state.size() != std::size_t(rows) * std::size_t(columns))
+        throw std::logic_error("write_checkpoint: the state is not n rows of this process's columns");
+    std::string failure;
+    if (rank == 0) {
+        // the temporary, its attributes, the whole dataset and rank 0's columns; then the other processes' columns
+        // in turn; then (rank 0) synced and renamed over the checkpoint
+        bool turned = false;
+        try {
+            write_replacing(path, "checkpoint", [&](const std::string& tmp) {
+                std::string own;
+                try {
+                    write_h5(tmp, what, [&](hid_t f) {
+                        put_checkpoint_attributes(f, c);
+                        create_dataset(f, mine, {rows, cols * 2});
+                    });
+                } catch (const std::exception& e) {
+                    own = e.what();
+                }
+                turned = true;
+                if (const std::string first = write_in_turn(comm, tmp, own, {}); !first.empty())
+                    throw run_error(first);
+            });
+        } catch (const std::exception& e) {
+            if (!turned) write_in_turn(comm, {}, e.what(), {});
+            failure = e.what();
+        }
+    } else {
+        write_in_turn(comm, {}, {}, [&](const std::string& tmp) {
+            write_h5(tmp, what, [&](hid_t f) { write_block(f, mine); }, false);
+            sync_file(tmp, "checkpoint");  // (this process's writes, wherever it runs)
+        });
+    }
+    // rank 0's verdict, the commit's included: the same on every process
+    if (failure = from_root(comm, failure); !failure.empty()) throw run_error(failure);
+}
+#endif
+
+ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state) {
     handle f = open_for_reading(path);
     const std::string equation =
         H5Aexists(f, "format") > 0 ? equation_of_format(get_string(f, "format"), "checkpoint") : std::string();
@@ -399,7 +587,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n) {
     std::vector<hsize_t> dims;
     const std::string name = state_dataset(spectral::find_equation(equation));
     const std::vector<double> v =
-        read_dataset(f, name.c_str(), dims, {hsize_t(p.n), hsize_t(2 * (p.n / 2 + 1))});
+        read_dataset(f, name.c_str(), dims, {hsize_t(p.n), hsize_t(2 * (p.n / 2 + 1))}, with_state);
+    if (!with_state) return c;
     if (dims.size() != 2 || dims[0] != hsize_t(p.n) || dims[1] != hsize_t(2 * (p.n / 2 + 1)))
         throw std::runtime_error(path + ": " + name + " does not match the grid N = " + std::to_string(p.n));
     c.state.resize(v.size() / 2);
@@ -411,33 +600,80 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n) {
     return c;
 }
 
+std::vector<std::complex<double>> read_checkpoint_columns(const std::string& path, const ns2d_checkpoint& header,
+                                                          int first_column, int columns) {
+    handle f = open_for_reading(path);
+    const int n = header.params.n;
+    const std::string name = state_dataset(spectral::find_equation(header.params.equation));
+    std::vector<hsize_t> dims;
+    read_dataset(f, name.c_str(), dims, {hsize_t(n), hsize_t(2 * (n / 2 + 1))}, false);  // (the shape again)
+    if (first_column < 0 || columns < 0 || first_column + columns > n / 2 + 1)
+        throw std::logic_error("read_checkpoint_columns: columns outside the half plane");
+    const std::vector<double> v =
+        read_block(f, name.c_str(), {0, 2 * hsize_t(first_column)}, {hsize_t(n), 2 * hsize_t(columns)});
+    std::vector<std::complex<double>> state(v.size() / 2);
+    for (std::size_t i = 0; i < state.size(); ++i) {
+        if (!std::isfinite(v[2 * i]) || !std::isfinite(v[2 * i + 1]))
+            throw std::runtime_error(path + ": " + name + " holds a non-finite value");
+        state[i] = {v[2 * i], v[2 * i + 1]};
+    }
+    return state;
+}
+
 void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const std::vector<double>& field,
                        double t, std::uint64_t step, const std::string& method, double dt) {
     write_h5(path, "snapshot '" + path + "'", [&](hid_t f) {
-        put(f, "format", format_of(m.params().equation, "snapshot"));
-        put(f, "field", field_dataset(m.eq()));
-        put_params(f, m.params());
-        put(f, "time", t);
-        put(f, "step", step);
-        put(f, "method", method);
-        put(f, "dt", dt);
+        put_snapshot_attributes(f, m, t, step, method, dt);
         const hsize_t n = hsize_t(m.n());
         write_dataset(f, field_dataset(m.eq()).c_str(), field.data(), {n, n});
-        std::vector<double> x(m.n());
-        for (int i = 0; i < m.n(); ++i) x[std::size_t(i)] = 2.0 * M_PI * i / m.n();
+        const std::vector<double> x = coordinates(m.n());
         write_dataset(f, "x", x.data(), {n});
         write_dataset(f, "y", x.data(), {n});
     });
 }
+
+#ifdef ECI_MPI
+void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const std::vector<double>& rows,
+                       double t, std::uint64_t step, const std::string& method, double dt, MPI_Comm comm) {
+    const spectral::grid& g = m.grid();
+    const hsize_t n = hsize_t(m.n());
+    const std::string name = field_dataset(m.eq());
+    if (rows.size() != std::size_t(g.local_rows()) * std::size_t(n))
+        throw std::logic_error("write_snapshot_h5: the field is not this process's rows");
+    const block mine{name.c_str(), {hsize_t(g.first_row()), 0}, {hsize_t(g.local_rows()), n}, rows.data()};
+    int rank = 0;
+    MPI_Comm_rank(comm, &rank);
+    // rank 0 creates the file (in the order the serial writer writes it) with its rows; the others add theirs
+    std::string own;
+    if (rank == 0) {
+        try {
+            write_h5(path, "snapshot '" + path + "'", [&](hid_t f) {
+                put_snapshot_attributes(f, m, t, step, method, dt);
+                create_dataset(f, mine, {n, n});
+                const std::vector<double> x = coordinates(m.n());
+                write_dataset(f, "x", x.data(), {n});
+                write_dataset(f, "y", x.data(), {n});
+            });
+        } catch (const std::exception& e) {
+            own = e.what();
+        }
+    }
+    const std::string first = write_in_turn(comm, path, own, [&](const std::string& file) {
+        write_h5(file, "snapshot '" + file + "'", [&](hid_t f) { write_block(f, mine); }, false);
+    });
+    if (!first.empty()) throw run_error(first);
+}
+#endif
 
 bool is_checkpoint(const std::string& path) {
     handle f = open_for_reading(path);
     return H5Aexists(f, "format") > 0 && !equation_of_format(get_string(f, "format"), "checkpoint").empty();
 }
 
-std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n) {
-    handle f = open_for_reading(path);
-    std::vector<hsize_t> dims;
+namespace {
+
+// The name of a snapshot's field dataset and its grid size n, the shape checked (square, n when n > 0).
+std::pair<std::string, int> snapshot_field(hid_t f, const std::string& path, int n) {
     // the snapshot's field (a Navier-Stokes snapshot of before the spectral core names none: vorticity)
     const std::string name = H5Aexists(f, "field") > 0 ? get_string(f, "field") : std::string("vorticity");
     // the shape first: a file of another grid is refused before its field is read
@@ -451,10 +687,28 @@ std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int 
         if (n > 0 && d[0] != hsize_t(n))
             throw std::runtime_error(path + " holds a " + std::to_string(d[0]) + "^2 grid, not N = " +
                                      std::to_string(n));
+        return {name, int(d[0])};
     }
+}
+
+}  // namespace
+
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n, bool with_field) {
+    handle f = open_for_reading(path);
+    const auto [name, size] = snapshot_field(f, path, n);
+    if (!with_field) return {size, {}};
+    std::vector<hsize_t> dims;
     std::vector<double> v = read_dataset(f, name.c_str(), dims);
     if (dims.size() != 2 || dims[0] != dims[1]) throw std::runtime_error(path + ": " + name + " is not a square grid");
     return {int(dims[0]), std::move(v)};
+}
+
+std::vector<double> read_vorticity_rows(const std::string& path, int n, int first_row, int rows) {
+    handle f = open_for_reading(path);
+    const auto [name, size] = snapshot_field(f, path, n);
+    if (first_row < 0 || rows < 0 || first_row + rows > size)
+        throw std::logic_error("read_vorticity_rows: rows outside the grid");
+    return read_block(f, name.c_str(), {hsize_t(first_row), 0}, {hsize_t(rows), hsize_t(size)});
 }
 
 bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t,

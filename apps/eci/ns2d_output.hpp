@@ -2,12 +2,17 @@
 // snapshots and checkpoints (written atomically), and the field and spectrum figures drawn by gnuplot.
 #pragma once
 
+#include <complex>
 #include <cstdint>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include <eci/models/navier_stokes_2d.hpp>
+
+#ifdef ECI_MPI
+#include <mpi.h>
+#endif
 
 namespace eci::cli {
 
@@ -35,8 +40,14 @@ struct ns2d_checkpoint {
 /// checked, synced, renamed over `path`); throws run_error.
 void write_checkpoint(const std::string& path, const ns2d_checkpoint& c);
 /// Reads a checkpoint; throws std::runtime_error naming the problem (unreadable, not an eci checkpoint, a grid other
-/// than n when n > 0, found before the state is read, ...).
-ns2d_checkpoint read_checkpoint(const std::string& path, int n = 0);
+/// than n when n > 0, found before the state is read, ...). with_state false: everything but the state, whose
+/// dataset's shape is checked but not read (state stays empty: read_checkpoint_columns reads a process's part).
+ns2d_checkpoint read_checkpoint(const std::string& path, int n = 0, bool with_state = true);
+/// The columns k_x = first_column .. first_column + columns - 1 of the state of the checkpoint `path` whose header
+/// read_checkpoint gave: n rows of `columns` modes, row-major (flow2d::from_half_plane_columns), and nothing else of
+/// the file's state. Throws std::runtime_error (unreadable, a non-finite value).
+std::vector<std::complex<double>> read_checkpoint_columns(const std::string& path, const ns2d_checkpoint& header,
+                                                          int first_column, int columns);
 
 /// A snapshot: the field on the grid with grid, time and parameters as attributes, written to `path` (a new file in
 /// the run's staging directory; the flush and close are checked); throws run_error.
@@ -45,8 +56,36 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
 /// Whether `path` is an HDF5 file holding an eci checkpoint (false for a snapshot); throws if it is unreadable.
 bool is_checkpoint(const std::string& path);
 /// The field of an eci snapshot (any equation's) and its grid size; a grid other than n (when n > 0) is refused before
-/// the field is read. Throws std::runtime_error.
-std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n = 0);
+/// the field is read. with_field false: the grid size alone (the field's shape checked, not read). Throws
+/// std::runtime_error.
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n = 0, bool with_field = true);
+/// Rows first_row .. first_row + rows - 1 of an eci snapshot's field on the n x n grid (row-major; the rest of the
+/// file's field is not read). Throws std::runtime_error.
+std::vector<double> read_vorticity_rows(const std::string& path, int n, int first_row, int rows);
+
+#ifdef ECI_MPI
+// ---- The files of a run spread over MPI processes: the serial layout, no process holding the whole field. Each
+// writer is collective over `comm`: every process gives its own block; rank 0 creates the file with every attribute,
+// the whole datasets and its block, then each other process in rank order opens the file, writes its block and
+// closes it (serial HDF5: one process at a time). A failure on any process is one run_error on every process, with
+// the reason of the lowest-ranked process that failed, and no file is left behind.
+
+/// write_checkpoint from every process's columns: c.state is this process's columns first_column .. + columns - 1
+/// of the half plane (flow2d::to_half_plane_columns). The temporary, its sync and rename are rank 0's, as on one
+/// process; each process syncs what it wrote.
+void write_checkpoint(const std::string& path, const ns2d_checkpoint& c, MPI_Comm comm, int first_column,
+                      int columns);
+/// write_snapshot_h5 from every process's rows of the field (flow2d::to_physical_rows: m.grid().first_row() ..);
+/// `path` is rank 0's (the others' is ignored: rank 0 tells them).
+void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const std::vector<double>& rows,
+                       double t, std::uint64_t step, const std::string& method, double dt, MPI_Comm comm);
+/// The reason of the lowest-ranked process of comm whose own reason (`mine`) is not empty, on every process; empty
+/// if none failed. Collective.
+std::string first_failure(MPI_Comm comm, const std::string& mine);
+#endif
+
+/// Whether the plotting program (plotting_program()) runs: pictures are drawn only then.
+bool plotting_available();
 
 /// The field as a PNG (diverging colour map symmetric about 0, colour bar `symbol`, `name` and time in the title), by
 /// gnuplot, written to `path` (in the staging directory). Returns false (and draws nothing) when gnuplot is not

@@ -539,13 +539,24 @@ flow_fluxes flow2d::fluxes(const state_type& q) {
 flow2d::state_type flow2d::from_physical(std::span<const double> field) {
     const spectral::grid& g = d_->g;
     if (!g.distributed()) return from_half_plane(g.from_physical(field));
-    // this process's rows of the field, forward, and its retained modes of the transposed layout
     if (field.size() != g.points())
         throw std::invalid_argument("field has " + std::to_string(field.size()) + " values, the grid " +
                                     std::to_string(g.points()));
+    return from_physical_rows(field.subspan(std::size_t(g.first_row()) * std::size_t(n_),
+                                            std::size_t(g.local_rows()) * std::size_t(n_)));
+}
+
+flow2d::state_type flow2d::from_physical_rows(std::span<const double> rows) {
+    const spectral::grid& g = d_->g;
+    if (!g.distributed()) return from_physical(rows);
+    // this process's rows of the field, forward, and its retained modes of the transposed layout
+    if (rows.size() != std::size_t(g.local_rows()) * std::size_t(n_))
+        throw std::invalid_argument("rows hold " + std::to_string(rows.size()) + " values, this process's " +
+                                    std::to_string(g.local_rows()) + " rows " +
+                                    std::to_string(std::size_t(g.local_rows()) * std::size_t(n_)));
     double* r = g.physical(0);
     for (int y = 0; y < g.local_rows(); ++y) {
-        const auto src = field.begin() + std::ptrdiff_t(g.first_row() + y) * n_;
+        const auto src = rows.begin() + std::ptrdiff_t(y) * n_;
         std::copy(src, src + n_, r + std::size_t(y) * g.padded());
         std::fill(r + std::size_t(y) * g.padded() + std::size_t(n_), r + std::size_t(y + 1) * g.padded(), 0.0);
     }
@@ -561,12 +572,11 @@ flow2d::state_type flow2d::from_physical(std::span<const double> field) {
     return q;
 }
 
-std::vector<double> flow2d::to_physical(const state_type& q) {
+std::vector<double> flow2d::to_physical_rows(const state_type& q) {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
     const spectral::grid& g = d_->g;
     if (!g.distributed()) return g.to_physical(to_half_plane(q).data());
-#ifdef ECI_MPI
-    // this process's columns into the transposed layout (zero elsewhere), inverse, every process's rows gathered
+    // this process's columns into the transposed layout (zero elsewhere), inverse: this process's rows
     cplx* f = g.spectral(0);
     std::fill(f, f + std::size_t(g.local_columns()) * std::size_t(n_), cplx{});
     for (std::size_t i = 0; i < size(); ++i) {
@@ -577,13 +587,59 @@ std::vector<double> flow2d::to_physical(const state_type& q) {
     std::vector<double> mine(std::size_t(g.local_rows()) * std::size_t(n_));
     for (int y = 0; y < g.local_rows(); ++y)
         std::copy_n(g.physical(0) + std::size_t(y) * g.padded(), n_, mine.begin() + std::ptrdiff_t(y) * n_);
-    const int P = g.ranks(), count = int(mine.size());
-    std::vector<int> counts(static_cast<std::size_t>(P)), offsets(static_cast<std::size_t>(P));
-    MPI_Allgather(&count, 1, MPI_INT, counts.data(), 1, MPI_INT, g.comm());
-    for (int k = 1; k < P; ++k) offsets[std::size_t(k)] = offsets[std::size_t(k - 1)] + counts[std::size_t(k - 1)];
-    std::vector<double> out(g.points());
-    MPI_Allgatherv(mine.data(), count, MPI_DOUBLE, out.data(), counts.data(), offsets.data(), MPI_DOUBLE, g.comm());
+    return mine;
+}
+
+#ifdef ECI_MPI
+namespace {
+
+// Every process's rows of a field gathered, in rank order (the rows' order), on `root` (root < 0: on every process),
+// counted in rows of n values, so that no count overflows an int however large the grid.
+std::vector<double> gather_rows(const grid& g, const std::vector<double>& mine, int root) {
+    const int P = g.ranks(), rows = g.local_rows(), n = g.n();
+    const bool here = root < 0 || g.rank() == root;
+    std::vector<int> counts(here ? std::size_t(P) : 0), offsets(here ? std::size_t(P) : 0);
+    if (root < 0)
+        MPI_Allgather(&rows, 1, MPI_INT, counts.data(), 1, MPI_INT, g.comm());
+    else
+        MPI_Gather(&rows, 1, MPI_INT, counts.data(), 1, MPI_INT, root, g.comm());
+    for (int k = 1; k < int(counts.size()); ++k)
+        offsets[std::size_t(k)] = offsets[std::size_t(k - 1)] + counts[std::size_t(k - 1)];
+    MPI_Datatype row;
+    MPI_Type_contiguous(n, MPI_DOUBLE, &row);
+    MPI_Type_commit(&row);
+    std::vector<double> out(here ? g.points() : 0);
+    if (root < 0)
+        MPI_Allgatherv(mine.data(), rows, row, out.data(), counts.data(), offsets.data(), row, g.comm());
+    else
+        MPI_Gatherv(mine.data(), rows, row, out.data(), counts.data(), offsets.data(), row, root, g.comm());
+    MPI_Type_free(&row);
     return out;
+}
+
+}  // namespace
+#endif
+
+std::vector<double> flow2d::to_physical(const state_type& q) {
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    const spectral::grid& g = d_->g;
+    if (!g.distributed()) return g.to_physical(to_half_plane(q).data());
+#ifdef ECI_MPI
+    return gather_rows(g, to_physical_rows(q), -1);
+#else
+    return {};
+#endif
+}
+
+std::vector<double> flow2d::to_physical(const state_type& q, int root) {
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    const spectral::grid& g = d_->g;
+    if (root < 0 || root >= g.ranks())
+        throw std::invalid_argument("root " + std::to_string(root) + " is not a process of the flow's " +
+                                    std::to_string(g.ranks()));
+    if (!g.distributed()) return to_physical(q);
+#ifdef ECI_MPI
+    return gather_rows(g, to_physical_rows(q), root);
 #else
     return {};
 #endif
@@ -637,6 +693,34 @@ flow2d::state_type flow2d::from_half_plane(const state_type& h) const {
     return q;
 }
 
+flow2d::state_type flow2d::to_half_plane_columns(const state_type& q) const {
+    const spectral::grid& g = d_->g;
+    if (!g.distributed()) return to_half_plane(q);
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    const std::size_t local = std::size_t(g.local_columns()), kept = std::size_t(cols_);
+    state_type h(std::size_t(n_) * local);
+    for (int r = 0; r < rows(); ++r)
+        std::copy_n(q.begin() + std::ptrdiff_t(std::size_t(r) * kept), kept,
+                    h.begin() + std::ptrdiff_t(d_->full_row(r) * local));
+    return h;
+}
+
+flow2d::state_type flow2d::from_half_plane_columns(const state_type& columns) const {
+    const spectral::grid& g = d_->g;
+    if (!g.distributed()) return from_half_plane(columns);
+    const std::size_t local = std::size_t(g.local_columns()), kept = std::size_t(cols_);
+    if (columns.size() != std::size_t(n_) * local)
+        throw std::invalid_argument("columns hold " + std::to_string(columns.size()) + " modes, this process's " +
+                                    std::to_string(local) + " columns " + std::to_string(std::size_t(n_) * local));
+    state_type q(size());
+    for (int r = 0; r < rows(); ++r)
+        std::copy_n(columns.begin() + std::ptrdiff_t(d_->full_row(r) * local), kept,
+                    q.begin() + std::ptrdiff_t(std::size_t(r) * kept));
+    if (col0_ == 0 && cols_ > 0) q[0] = 0.0;
+    d_->hermitian(q.data());
+    return q;
+}
+
 void flow2d::make_hermitian(state_type& q) const {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
     d_->hermitian(q.data());
@@ -676,21 +760,23 @@ flow2d::state_type flow2d::vortex_pair(double radius, double separation, double 
             "vortex separation must be in [0, pi)");
     require(std::isfinite(peak), "peak vorticity must be finite");
     const double h = 2.0 * std::numbers::pi / n_, L = 2.0 * std::numbers::pi;
-    std::vector<double> f(std::size_t(n_) * std::size_t(n_));
+    // this process's rows (every row on one process): no process holds the whole field
+    const int y0 = d_->g.first_row(), ny = d_->g.local_rows();
+    std::vector<double> f(std::size_t(ny) * std::size_t(n_));
     // The pair's centre is off the grid's symmetry points: centred on one, half the Fourier components would be
     // zero up to round-off, with right-hand sides of random sign, and their radicands negative at any step size.
     const double xc = std::numbers::pi + 0.1234, yc = std::numbers::pi + 0.0567;
     const double cx[2] = {xc - 0.5 * separation, xc + 0.5 * separation};
-    for (int j = 0; j < n_; ++j)
+    for (int j = y0; j < y0 + ny; ++j)
         for (int i = 0; i < n_; ++i) {
             double v = 0.0;
             for (double c : cx) {
                 const double dx = std::remainder(i * h - c, L), dy = std::remainder(j * h - yc, L);
                 v += peak * std::exp(-(dx * dx + dy * dy) / (radius * radius));
             }
-            f[std::size_t(j) * std::size_t(n_) + std::size_t(i)] = v;
+            f[std::size_t(j - y0) * std::size_t(n_) + std::size_t(i)] = v;
         }
-    return from_physical(f);
+    return from_physical_rows(f);
 }
 
 flow2d::state_type flow2d::taylor_green(double velocity) {

@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """`mpirun -np P eci run navier-stokes-2d ...` against the same run of the tool on one process (issue 23).
 
-usage: cli_mpi_test.py ECI MPIEXEC CASE     (CASE: state, restart, snapshot, bad-input, signal, abort)
+usage: cli_mpi_test.py ECI MPIEXEC CASE
+       (CASE: state, restart, snapshot, bad-input, signal, abort, rank-failure, memory)
 
 Each case runs in a fresh temporary directory and exits 0 when every check holds; each check prints one line.
 
@@ -134,6 +135,21 @@ def case_restart(d):
             diff = rel(w, ref)
             check(int(attrs["step"]) == 100 and diff <= bound,
                   f"restart on {who}: step 100 = the uninterrupted run to {diff:.3g} <= {bound:.3g}")
+    # and the other way: a checkpoint written by 3 processes (each its own columns) read by 2 (each its own)
+    r = run(3, args + ["--steps", "50", "--checkpoint-every", "50", "--checkpoint", "third.h5"], d)
+    check(r.returncode == 0, f"-np 3: 50 steps, checkpoint (exit {r.returncode})")
+    r = run(2, ["--restart", "third.h5", "--steps", "100", "--checkpoint-every", "100", "--checkpoint", "r32.h5",
+                "--fftw-wisdom", "none", "--update", "paper"], d)
+    check(r.returncode == 0, f"restart of the 3-rank checkpoint on -np 2: exit {r.returncode} {r.stderr.strip()[-200:]}")
+    if r.returncode == 0:
+        diff = rel(state(os.path.join(d, "r32.h5"))[0], ref)
+        check(diff <= bound, f"restart 3 -> 2 ranks: step 100 = the uninterrupted run to {diff:.3g} <= {bound:.3g}")
+    # a checkpoint as --ic, read by columns on 3 processes: the same state as the serial tool reads
+    for np_, name in ((0, "ic0.h5"), (3, "ic3.h5")):
+        run(np_, BASE + ["--ic", "half.h5", "--steps", "10", "--checkpoint-every", "10", "--checkpoint", name], d)
+    a, b = state(os.path.join(d, "ic0.h5"))[0], state(os.path.join(d, "ic3.h5"))[0]
+    diff = rel(b, a)
+    check(diff <= 16 * EPS * np.sqrt(10), f"--ic CHECKPOINT on -np 3 = on the serial tool to {diff:.3g}")
 
 
 def case_snapshot(d):
@@ -157,10 +173,46 @@ def case_snapshot(d):
             y = np.loadtxt(os.path.join(d, "p", n), delimiter=",", skiprows=1)
             diff = float(np.max(np.abs(x - y)) / np.max(np.abs(x)))
             check(x.shape == y.shape and diff <= 16 * EPS * np.sqrt(20), f"{n}: spectra and fluxes = serial to {diff:.3g}")
-    # a snapshot of the MPI run is an initial condition for the serial tool
+    # The files of the processes' rows have the serial file's layout byte for byte (h5py: every attribute's value,
+    # every dataset's type, shape and place in the file, the coordinates' bytes); the field's values differ only by
+    # the distributed transforms' round-off (above).
+    for n in names_s:
+        if not n.endswith(".h5"):
+            continue
+        with h5py.File(os.path.join(d, "s", n)) as a, h5py.File(os.path.join(d, "p", n)) as b:
+            same = all(np.array_equal(a.attrs[k], b.attrs[k]) for k in a.attrs)
+            check(same, f"{n}: every attribute as the serial file's")
+            for k in a.keys():
+                x, y = a[k], b[k]
+                check((x.dtype, x.shape, x.chunks, x.id.get_offset(), x.id.get_storage_size()) ==
+                      (y.dtype, y.shape, y.chunks, y.id.get_offset(), y.id.get_storage_size()),
+                      f"{n}/{k}: {y.dtype} {y.shape} at byte {y.id.get_offset()}, as in the serial file")
+            check(np.array_equal(a["x"][()], b["x"][()]) and np.array_equal(a["y"][()], b["y"][()]),
+                  f"{n}: x and y bit for bit")
+        check(os.path.getsize(os.path.join(d, "s", n)) == os.path.getsize(os.path.join(d, "p", n)),
+              f"{n}: the serial file's size")
+    # the same run on 3 processes: every row of the field written once (an uneven split, 11 + 11 + 10 rows)
+    r3 = run(3, args + ["--snapshot-dir", "q"], d)
+    check(r3.returncode == 0, f"-np 3 run with snapshots (exit {r3.returncode})")
+    for n in names_s:
+        if n.endswith(".h5") and r3.returncode == 0:
+            with h5py.File(os.path.join(d, "s", n)) as a, h5py.File(os.path.join(d, "q", n)) as b:
+                k = a.attrs["field"]
+                k = k.decode() if isinstance(k, bytes) else str(k)
+                x, y = np.array(a[k]), np.array(b[k])
+                diff = float(np.max(np.abs(x - y)) / np.max(np.abs(x)))
+                check(diff <= 16 * EPS * np.sqrt(20), f"-np 3 {n}/{k}: = serial to {diff:.3g}")
+    # a snapshot of the MPI run is an initial condition for the serial tool, and for 3 processes reading their rows
     snap = [n for n in names_p if n.endswith(".h5")][-1]
-    r = run(0, BASE + ["--steps", "2", "--ic", os.path.join("p", snap)], d)
+    r = run(0, BASE + ["--steps", "2", "--ic", os.path.join("p", snap), "--checkpoint-every", "2",
+                       "--checkpoint", "ic0.h5"], d)
     check(r.returncode == 0, f"the serial tool starts from the MPI run's snapshot {snap} (--ic)")
+    r = run(3, BASE + ["--steps", "2", "--ic", os.path.join("p", snap), "--checkpoint-every", "2",
+                       "--checkpoint", "ic3.h5"], d)
+    check(r.returncode == 0, f"-np 3 starts from the snapshot {snap}, each process reading its rows (--ic)")
+    if r.returncode == 0:
+        diff = rel(state(os.path.join(d, "ic3.h5"))[0], state(os.path.join(d, "ic0.h5"))[0])
+        check(diff <= 16 * EPS * np.sqrt(2), f"--ic SNAPSHOT on -np 3 = on the serial tool to {diff:.3g}")
 
 
 def case_bad_input(d):
@@ -225,8 +277,8 @@ def case_signal(d):
 
 
 def case_abort(d):
-    # A failure on rank 0 alone (its checkpoint write on a full disk: the other ranks write nothing) ends every
-    # process through MPI_Abort: exit non-zero at once, no hang, the reason named, nothing left behind.
+    # A failure on rank 0 alone (it creates the checkpoint's file, on a full disk) ends every process: exit
+    # non-zero at once, no hang, the reason named, nothing left behind.
     m = os.path.join(d, "m")
     os.mkdir(m)
     if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", m], capture_output=True).returncode:
@@ -251,8 +303,85 @@ def case_abort(d):
         subprocess.run(["umount", "-l", m])
 
 
+# Runs a command as one MPI process, records its exit status and peak memory (ru_maxrss, KiB) in
+# RC.<rank> ("status kib"); with a limit > 0, the command may write no file beyond that many bytes (RLIMIT_FSIZE, with
+# SIGXFSZ ignored: a write past it fails with EFBIG, "File too large").
+LIMITED = r"""
+import os, resource, signal, subprocess, sys
+rc, limit, cmd = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
+def limited():
+    signal.signal(signal.SIGXFSZ, signal.SIG_IGN)
+    if limit > 0:
+        resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
+child = subprocess.Popen(cmd, preexec_fn=limited)
+_, status, usage = os.wait4(child.pid, 0)
+with open(rc + "." + os.environ.get("OMPI_COMM_WORLD_RANK", "x"), "w") as f:
+    f.write(f"{os.waitstatus_to_exitcode(status)} {usage.ru_maxrss}")
+"""
+
+
+def ranks_run(d, tag, per_rank, args, env=None):
+    """mpirun of one process per entry of per_rank (a file size limit, 0: none), each through LIMITED; returns
+    mpirun's result and every rank's (status, peak KiB)."""
+    with open(os.path.join(d, "limited.py"), "w") as f:
+        f.write(LIMITED)
+    cmd = [MPIEXEC, "--oversubscribe"]
+    for k, limit in enumerate(per_rank):
+        if k:
+            cmd.append(":")
+        cmd += ["-np", "1", sys.executable, os.path.join(d, "limited.py"), os.path.join(d, tag), str(limit), ECI,
+                "run", "navier-stokes-2d"] + args
+    start = time.monotonic()
+    r = subprocess.run(cmd, cwd=d, env=env or ENV, capture_output=True, text=True, timeout=240)
+    r.took = time.monotonic() - start
+    out = []
+    for k in range(len(per_rank)):
+        try:
+            status, kib = open(os.path.join(d, f"{tag}.{k}")).read().split()
+            out.append((int(status), int(kib)))
+        except OSError:
+            out.append((None, None))
+    return r, out
+
+
+def case_rank_failure(d):
+    # A write failing on rank 1 alone (its block of the checkpoint, past a file size limit only it has): every
+    # process exits 1 with that reason, at once; one line from rank 0; no temporary or checkpoint left.
+    # (TCP between the processes: the limit would stop shared memory's backing files too.)
+    env = dict(ENV, OMPI_MCA_btl="self,tcp", OMPI_MCA_btl_tcp_if_include="lo")
+    for what, args in (("checkpoint", ["--checkpoint-every", "1", "--checkpoint", "ck.h5"]),
+                       ("snapshot", ["--snapshot-every", "1", "--snapshot-dir", "snaps"])):
+        sub = tempfile.mkdtemp(dir=d)
+        r, ranks = ranks_run(sub, "rc", [0, 1024], BASE + ["--steps", "3", "--output", "o.csv"] + args, env)
+        own = [l for l in r.stderr.splitlines() if l.startswith("eci")]
+        check([s for s, _ in ranks] == [1, 1], f"{what} of rank 1 fails: every rank exits 1 ({ranks}) in {r.took:.1f} s")
+        check(len(own) == 1 and "File too large" in own[0], f"{what}: one line from rank 0, rank 1's reason: {own}")
+        left = sorted(n for n in os.listdir(sub) if not n.startswith(("rc.", "limited.py")))
+        check(left == [], f"{what}: nothing left behind ({left})")
+
+
+def case_memory(d):
+    # No process but rank 0 (for the picture) holds a whole field: rank 1's peak memory with a snapshot and a
+    # checkpoint at every step is its run's without them plus less than one whole field (N^2 doubles). (Gathering
+    # the field, as every process did before, costs a field and a half plane more: 16 MiB at N = 1024.)
+    n = 1024
+    field_kib = n * n * 8 // 1024
+    args = ["--N", str(n), "--dt", "1e-4", "--steps", "2", "--fftw-estimate", "--fftw-wisdom", "none",
+            "--update", "paper", "--method", "c-rk4"]
+    env = dict(ENV, ECI_GNUPLOT="false")  # (no picture: rank 0's gnuplot is not what is measured)
+    _, plain = ranks_run(d, "plain", [0, 0], args)
+    _, files = ranks_run(d, "files", [0, 0], args + ["--snapshot-every", "1", "--snapshot-dir", "s",
+                                                     "--checkpoint-every", "1", "--checkpoint", "ck.h5"], env)
+    check(all(s == 0 for s, _ in plain + files), f"N = {n} on 2 processes, without and with files: {plain} {files}")
+    if all(s == 0 for s, _ in plain + files):
+        extra = files[1][1] - plain[1][1]
+        check(extra < field_kib, f"rank 1's peak with a snapshot and a checkpoint per step: {plain[1][1]} KiB + "
+              f"{extra} KiB < one field ({field_kib} KiB); rank 0: {plain[0][1]} + {files[0][1] - plain[0][1]} KiB")
+
+
 with tempfile.TemporaryDirectory() as d:
     {"state": case_state, "restart": case_restart, "snapshot": case_snapshot, "bad-input": case_bad_input,
-     "signal": case_signal, "abort": case_abort}[CASE](d)
+     "signal": case_signal, "abort": case_abort, "rank-failure": case_rank_failure,
+     "memory": case_memory}[CASE](d)
 print(f"{CASE}: {'FAILED' if failures else 'passed'} ({failures} failure(s))")
 sys.exit(1 if failures else 0)

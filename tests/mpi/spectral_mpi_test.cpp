@@ -273,6 +273,61 @@ int main(int argc, char** argv) {
         double dspec = 0.0, stot = 0.0;
         for (std::size_t i = 0; i < es.size(); ++i) dspec = std::max(dspec, std::abs(es[i] - ed[i])), stot += es[i];
         check(es.size() == ed.size() && dspec <= 16.0 * eps * stot, "energy spectrum = the serial one to 16 eps of E");
+
+        // What a process writes into and reads from a file of the whole field (snapshots, checkpoints, --ic,
+        // --restart): its own rows of the field and its own columns of the half plane, no more; the whole field
+        // only on the one process that asks for it (a picture)
+        const eci::spectral::grid& gd = md.grid();
+        const std::size_t n = std::size_t(g.n), nc = n / 2 + 1;
+        const std::size_t rows = std::size_t(gd.local_rows()), cols = std::size_t(gd.local_columns());
+        const std::vector<double> mine = md.to_physical_rows(wd);
+        double drows = 0.0;
+        if (mine.size() == rows * n)
+            for (std::size_t i = 0; i < mine.size(); ++i)
+                drows = std::max(drows, std::abs(mine[i] - fs[std::size_t(gd.first_row()) * n + i]));
+        check(mine.size() == rows * n && drows <= 16.0 * eps * smax,
+              "to_physical_rows: this process's " + std::to_string(rows) + " rows of the serial field to " +
+                  num(drows / smax));
+        // (the rows of every process are the field's rows once each: no process holds more than its share)
+        double total_rows = double(rows), most_rows = double(rows);
+        MPI_Allreduce(MPI_IN_PLACE, &total_rows, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+        MPI_Allreduce(MPI_IN_PLACE, &most_rows, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+        check(total_rows == double(n) && (ranks == 1 || most_rows < double(n)),
+              "the processes' rows are the field's " + std::to_string(n) + ", at most " + num(most_rows) + " each");
+        const double from_rows = rel_diff(md.to_half_plane(md.from_physical_rows(mine)), ms.to_half_plane(ws));
+        check(from_rows <= 16.0 * eps, "from_physical_rows(to_physical_rows(q)) = q to " + num(from_rows));
+        const state part = md.to_half_plane_columns(wd), gathered = md.to_half_plane(wd);
+        bool cut = part.size() == n * cols;
+        for (std::size_t r = 0; cut && r < n; ++r)
+            for (std::size_t c = 0; c < cols; ++c)
+                cut = cut && part[r * cols + c] == gathered[r * nc + std::size_t(gd.first_column()) + c];
+        check(cut, "to_half_plane_columns: this process's " + std::to_string(cols) +
+                       " columns of the gathered half plane, bit for bit");
+        double total_cols = double(cols), most_cols = double(cols);
+        MPI_Allreduce(MPI_IN_PLACE, &total_cols, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+        MPI_Allreduce(MPI_IN_PLACE, &most_cols, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+        check(total_cols == double(nc) && (ranks == 1 || most_cols < double(nc)),
+              "the processes' columns are the half plane's " + std::to_string(nc) + ", at most " + num(most_cols) +
+                  " each");
+        check(same_bits(md.from_half_plane_columns(part), wd), "from_half_plane_columns(to_half_plane_columns(q)) = q");
+        // a checkpoint of the serial run read by columns on these processes: the serial state's modes exactly
+        state serial_cut(n * cols);
+        const state hs = ms.to_half_plane(ws);
+        for (std::size_t r = 0; r < n; ++r)
+            for (std::size_t c = 0; c < cols; ++c)
+                serial_cut[r * cols + c] = hs[r * nc + std::size_t(gd.first_column()) + c];
+        check(same_bits(md.to_half_plane(md.from_half_plane_columns(serial_cut)), hs),
+              "from_half_plane_columns of the serial half plane's columns: the serial state bit for bit");
+        for (int root : {0, ranks - 1}) {
+            const std::vector<double> at = md.to_physical(wd, root);
+            check(rank_ == root ? at == fd : at.empty(),
+                  "to_physical(q, " + std::to_string(root) + "): the whole field on rank " + std::to_string(root) +
+                      " alone, nothing on the others");
+        }
+        // an initial field made from this process's rows alone
+        const double pair = rel_diff(md.to_half_plane(md.vortex_pair(0.25, 0.7, 10.0)),
+                                     ms.to_half_plane(ms.vortex_pair(0.25, 0.7, 10.0)));
+        check(pair <= 16.0 * eps, "vortex_pair from each process's rows = the serial one to " + num(pair));
     }
     MPI_Finalize();
     return all_ok ? 0 : 1;

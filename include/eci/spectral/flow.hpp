@@ -93,7 +93,10 @@ struct flow_fluxes {
 /// spectra, the budget's rates) are over every process in a fixed order (grid::sum_over_ranks), max |u| is the
 /// global maximum, forcing and random fields are drawn per global mode (the same at any process count), and
 /// to_half_plane / to_physical / from_half_plane / from_physical convert between the process's part and the whole
-/// field (the whole field on every process; collective). The steppers make their decisions global through
+/// field (the whole field on every process; collective). What a process needs for files of the whole field without
+/// holding it: its own rows of the field (to_physical_rows, from_physical_rows) and its own columns of the half
+/// plane (to_half_plane_columns, from_half_plane_columns), the blocks of the file it writes or reads, and the field
+/// gathered on one process alone (to_physical(q, root)). The steppers make their decisions global through
 /// reduce_sums / reduce_max (detail/reduce.hpp), which a flow declares only in the MPI build.
 class flow2d {
    public:
@@ -154,6 +157,13 @@ class flow2d {
     /// beyond are dropped). The layout of checkpoints.
     state_type to_half_plane(const state_type& q) const;
     state_type from_half_plane(const state_type& h) const;
+    /// This process's columns of the half plane: n rows (the half plane's order) of grid().local_columns() modes,
+    /// k_x = grid().first_column() + c, row-major (zero beyond the retained modes): the block of a checkpoint's
+    /// state this process writes. On one process the whole half plane (to_half_plane). Not collective.
+    state_type to_half_plane_columns(const state_type& q) const;
+    /// The state from this process's columns of a half plane (as to_half_plane_columns gives them; the modes beyond
+    /// are dropped): the block of a checkpoint this process reads. On one process from_half_plane. Not collective.
+    state_type from_half_plane_columns(const state_type& columns) const;
     /// Makes the k_x = 0 column's k and -k exact conjugates and k = 0 real.
     void make_hermitian(state_type& q) const;
     /// psi_k = inversion()[i] q_k (0 outside the retained modes).
@@ -206,6 +216,15 @@ class flow2d {
     state_type from_physical(std::span<const double> field);
     /// The field on the grid (row-major, y rows).
     std::vector<double> to_physical(const state_type& q);
+    /// The field on process `root` of the flow's communicator alone (empty on the others; collective), for what
+    /// one process must see whole (a picture). On one process to_physical(q) (root is 0).
+    std::vector<double> to_physical(const state_type& q, int root);
+    /// This process's rows of the field: grid().local_rows() rows of n values from y = grid().first_row(),
+    /// row-major (collective); the whole field on one process.
+    std::vector<double> to_physical_rows(const state_type& q);
+    /// The state of a field of which this process gives its rows (as to_physical_rows gives them; collective):
+    /// from_physical of a field no process holds whole. On one process from_physical.
+    state_type from_physical_rows(std::span<const double> rows);
     /// A random field with energy spectrum E(k) ~ s^4 / (1 + s^2)^4, s = k / k_peak (peak at k_peak, tail k^-4),
     /// random phases, scaled to energy `energy`.
     state_type random_field(double k_peak, double energy, std::uint64_t seed);
