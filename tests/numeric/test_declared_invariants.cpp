@@ -104,7 +104,9 @@ TEST(DeclaredInvariants, QuadraticWeightsAloneGiveRelaxationAndProjectionThatKee
         ASSERT_TRUE(r.completed()) << m.name;
         ASSERT_EQ(r.invariants.size(), 2u);
         EXPECT_LE(r.invariants[0].max_rel_drift(), bound) << m.name;
-        if (m.conservative) EXPECT_LE(r.invariants[1].max_rel_drift(), bound) << m.name;
+        if (m.conservative) {
+            EXPECT_LE(r.invariants[1].max_rel_drift(), bound) << m.name;
+        }
         ++ran;
     }
     EXPECT_EQ(ran, 9);
