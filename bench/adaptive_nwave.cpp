@@ -26,7 +26,7 @@ struct point {
 // ||x - ref|| / ||ref|| over the real unknowns.
 template <class S>
 double relative_error(const S& x, const S& ref) {
-    const auto a = eci::detail::reals(x), b = eci::detail::reals(ref);
+    const auto a = eci::reals(x), b = eci::reals(ref);
     double d = 0.0, r = 0.0;
     for (std::size_t i = 0; i < a.size(); ++i) d += (a[i] - b[i]) * (a[i] - b[i]), r += b[i] * b[i];
     return std::sqrt(d / r);

@@ -19,7 +19,7 @@
 #include <boost/numeric/odeint/stepper/symplectic_rkn_sb3a_mclachlan.hpp>
 
 #include <eci/eci.hpp>
-#include <eci/models/invariant_sets.hpp>
+#include <eci/models/list.hpp>
 #include <eci/models/kepler_exact.hpp>
 #include <eci/models/rigid_body_exact.hpp>
 #include <eci/models/three_wave_exact.hpp>

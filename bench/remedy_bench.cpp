@@ -63,12 +63,12 @@ struct runner {
         if constexpr (requires { stepper.remedy; }) {
             stepper.remedy.policy = remedy ? eci::radicand_policy::remedy : eci::radicand_policy::halve;
             if (paper_update) stepper.remedy.update = eci::update_kind::paper;
-            stepper.set_quadratic_invariants(m->quadratic_invariant_weights());
+            stepper.set_quadratic_invariants(eci::quadratic_weights_of(*m, m->size()));
         }
     }
     void step() {
         eci::bench::counted_rhs<model> f{m, &evals};
-        eci::detail::advance_with_reduction(stepper, f, x, t, dt, 40, stats);
+        eci::step_with_reduction(stepper, f, x, t, dt, stats, 40);
         t += dt;
         ++steps;
     }
@@ -121,7 +121,7 @@ pair_result run_pair(A& a, B& b, int pairs) {
 // the paired ratios cannot resolve a few per cent, this bounds what the remedy adds.
 struct remedy_probe : eci::radicand_remedy {
     double seconds(const model& m, const state& x, std::size_t failed) {
-        set_quadratic_invariants(m.quadratic_invariant_weights());
+        set_quadratic_invariants(eci::quadratic_weights_of(m, m.size()));
         state o = x;
         const std::size_t n = o.size();
         for (std::size_t i = 0; i < failed; ++i) o[(i * 7919) % n] = std::numeric_limits<double>::quiet_NaN();

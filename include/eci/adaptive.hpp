@@ -535,6 +535,10 @@ constexpr auto resolve_adaptive() {
 template <class E, class M>
 using adaptive_stepper_for = typename decltype(detail::resolve_adaptive<E, typename detail::as_model<M>::type>())::type;
 
+/// Whether method entry E runs adaptively (an embedded pair) on model M (or on a plain system on state type M).
+template <class E, class M>
+inline constexpr bool adaptive_runs_on = !std::same_as<adaptive_stepper_for<E, M>, detail::unsupported>;
+
 namespace detail {
 template <class M, class Fn, class... E>
 bool dispatch_adaptive(std::string_view name, Fn& fn, type_list<E...>) {

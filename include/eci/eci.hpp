@@ -3,12 +3,15 @@
 #pragma once
 
 #include "adaptive.hpp"
+#include "compensated_sum.hpp"
 #include "concepts.hpp"
 #include "integrate.hpp"
 #include "invariants.hpp"
 #include "registry.hpp"
 #include "run.hpp"
 #include "solve.hpp"
+#include "state.hpp"
+#include "steps.hpp"
 #include "steppers/compensated_c_pc.hpp"
 #include "steppers/conservative_euler.hpp"
 #include "steppers/conservative_rk.hpp"

@@ -23,6 +23,8 @@
 #include <vector>
 
 #include "concepts.hpp"
+#include "invariants.hpp"
+#include "steps.hpp"
 #include "steppers/radicand_remedy.hpp"
 #include "detail/state_ops.hpp"
 
@@ -329,7 +331,7 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const 
     }
 }
 
-/// The same with the default bounds and `max_halvings` (the benchmarks' entry point).
+/// The same with the default bounds and `max_halvings` (for tests that take a step without counting it).
 template <class St, class F, class S>
 void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, int max_halvings, run_stats& stats) {
     run_options opt;
@@ -343,13 +345,16 @@ void collect_solver_stats(const St& stepper, run_stats& stats) {
     if constexpr (requires { stepper.solver_statistics(); }) stats.solver = stepper.solver_statistics();
 }
 
-/// Gives a conservative stepper the quadratic invariants the model declares (`quadratic_invariant_weights()`),
-/// which its remedy for negative radicands needs; a system that declares none (a plain lambda) changes nothing.
-/// Throws std::invalid_argument if the weights do not have one entry per element of x.
+/// Gives a conservative stepper the quadratic invariants the system declares (quadratic_weights_of: a model's
+/// quadratic_invariant_weight(j, k), or weights as data), which its remedy for negative radicands needs; a system
+/// that declares none (a plain lambda) changes nothing. Throws std::invalid_argument if the weights do not have
+/// one entry per element of x.
 template <class St, class F, class S>
 void attach_quadratic_invariants(St& stepper, const F& f, const S& x) {
-    if constexpr (requires { stepper.set_quadratic_invariants(f.quadratic_invariant_weights()); }) {
-        quadratic_weights w = f.quadratic_invariant_weights();
+    if constexpr (requires {
+                      stepper.set_quadratic_invariants(quadratic_weights_of(f, std::size_t{0}));
+                  }) {
+        quadratic_weights w = quadratic_weights_of(f, std::ranges::size(x));
         for (const auto& row : w)
             if (row.size() != std::ranges::size(x))
                 throw std::invalid_argument("quadratic_invariant_weights() gives " + std::to_string(row.size()) +
@@ -463,16 +468,6 @@ run_stats integrate_n_steps(St& stepper, F&& f, S& x, double t0, double dt, std:
     if (opt.every == 0) throw std::invalid_argument("observer interval must be at least 1");
     if (!opt.resume) reset_carried_state(stepper);
     return detail::run_n_steps(stepper, f, x, t0, dt, n, observe, opt);
-}
-
-/// The number of steps of size dt that reach t_end from t0: at least one whenever t_end > t0, however short
-/// the span (a shorter last step, see integrate_to). Only a remainder at round-off level, the few eps of q
-/// that (t_end - t0) / dt carries, is not a step of its own (3 * 0.1 reaches 0.3 in 3 steps).
-inline std::uint64_t steps_to_reach(double t0, double t_end, double dt) {
-    if (!(t_end > t0)) return 0;
-    const double q = (t_end - t0) / dt;
-    const double slack = 8.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, q);
-    return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(q - slack)));
 }
 
 /// Step from t0 to t_end with steps of dt; the last step is shortened to land on t_end exactly. Observer,

@@ -1,16 +1,22 @@
 // Invariants as functions of the state (value and gradient): what relaxation Runge-Kutta and orthogonal projection
-// need to keep them. Models offer theirs (models/invariant_sets.hpp); a user builds one from lambdas.
+// need to keep them. A model declares its own in its header, either by the weights of its quadratic invariants
+// (quadratic_invariant_weight) or as a set of functions (invariant_functions); invariants_of(model) gives either as
+// an invariant set. A user builds one from lambdas.
 #pragma once
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <complex>
 #include <concepts>
 #include <cstdint>
 #include <cstddef>
 #include <initializer_list>
+#include <ranges>
+#include <span>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -113,13 +119,18 @@ struct invariant_subset {
 
 /// The members `which` of `set`; throws std::invalid_argument for an index out of range or an empty pick.
 template <class Set>
-invariant_subset<Set> pick_invariants(Set set, std::initializer_list<std::size_t> which) {
-    if (which.size() == 0) throw std::invalid_argument("pick at least one invariant");
+invariant_subset<Set> pick_invariants(Set set, std::span<const std::size_t> which) {
+    if (which.empty()) throw std::invalid_argument("pick at least one invariant");
     for (std::size_t i : which)
         if (i >= set.count())
             throw std::invalid_argument("invariant " + std::to_string(i) + " does not exist (the set has " +
                                         std::to_string(set.count()) + ")");
-    return {std::move(set), std::vector<std::size_t>(which)};
+    return {std::move(set), std::vector<std::size_t>(which.begin(), which.end())};
+}
+/// The same, with the members listed in place: pick_invariants(set, {0, 2}).
+template <class Set>
+invariant_subset<Set> pick_invariants(Set set, std::initializer_list<std::size_t> which) {
+    return pick_invariants(std::move(set), std::span<const std::size_t>(which.begin(), which.size()));
 }
 
 namespace detail {
@@ -177,11 +188,153 @@ inline bool solve_small(std::vector<double>& A, std::vector<double>& r, std::siz
 
 }  // namespace detail
 
+/// The weights of quadratic invariants I_j = sum_k w_jk |psi_k|^2: one row per invariant, one weight per state
+/// element (a complex mode's weight applies to both its parts). The conservative steppers' remedy for negative
+/// radicands takes them (radicand_remedy::set_quadratic_invariants); a system whose weights are data (a Python
+/// fun's, the spectral flows') returns them from a member `quadratic_invariant_weights()`.
+using quadratic_weights = std::vector<std::vector<double>>;
+
+/// A model that declares its invariants as quadratic forms by their weights, I_j(psi) = sum_k w_jk |psi_k|^2:
+/// a member `double quadratic_invariant_weight(std::size_t j, std::size_t k) const` for each invariant j of
+/// `invariants()` (in that order) and each element k of the state. Value, gradient and bilinear form
+/// (invariants_of), and the remedy's weights (quadratic_weights_of) follow from them.
+template <class M>
+concept declares_quadratic_weights = requires(const M& m, std::size_t j) {
+    typename M::state_type;
+    { m.quadratic_invariant_weight(j, j) } -> std::convertible_to<double>;
+    { M::invariants().size() } -> std::convertible_to<std::size_t>;
+};
+
+/// A model that declares its invariants as an invariant set of its own (values and gradients, an `inner` when they
+/// are quadratic): a member `invariant_functions()`, whose members are those of `invariants()`, in that order.
+template <class M>
+concept declares_invariant_functions = requires(const M& m) {
+    typename M::state_type;
+    { m.invariant_functions() } -> invariant_set<typename M::state_type>;
+    { M::invariants().size() } -> std::convertible_to<std::size_t>;
+};
+
+/// A model that declares its invariants as functions of the state, in either way: relaxation and projection run
+/// on it. A model that declares none is refused them, with that reason (resolve_method_for).
+template <class M>
+concept declares_invariants = declares_quadratic_weights<M> || declares_invariant_functions<M>;
+
+/// A model that names the invariants whose gradients are independent wherever it is integrated (projection and
+/// multiple relaxation solve linear systems in them, singular for a dependent set), as indices into invariants():
+/// `static constexpr std::array<std::size_t, N> independent_invariants{...};`. Without it, all are independent.
+template <class M>
+concept names_independent_invariants = requires {
+    { M::independent_invariants.size() } -> std::convertible_to<std::size_t>;
+    { M::independent_invariants[0] } -> std::convertible_to<std::size_t>;
+};
+
+namespace detail {
+/// Re(a conj(b)): the real inner product of two elements of a state (a * b for real ones).
+inline double real_product(double a, double b) { return a * b; }
+inline double real_product(const std::complex<double>& a, const std::complex<double>& b) {
+    return std::real(a * std::conj(b));
+}
+}  // namespace detail
+
+/// The invariant set of a model that declares quadratic weights: B_j(a, b) = sum_k w_jk Re(a_k conj(b_k)),
+/// I_j(x) = B_j(x, x), grad I_j = (2 w_jk x_k)_k. It holds the model by value when the model is trivially
+/// copyable (a few parameters), else by address (n-wave's tables): such a model must outlive the set.
+template <declares_quadratic_weights M>
+class weighted_invariants {
+   public:
+    using state_type = typename M::state_type;
+
+    explicit weighted_invariants(const M& m) : model_(hold(m)) {}
+
+    /// How many invariants: those of invariants().
+    static constexpr std::size_t count() { return M::invariants().size(); }
+    /// B_j(a, b).
+    double inner(const state_type& a, const state_type& b, std::size_t j) const {
+        const M& m = model();
+        double s = 0.0;
+        for (std::size_t k = 0; k < std::ranges::size(a); ++k)
+            s += m.quadratic_invariant_weight(j, k) * detail::real_product(a[k], b[k]);
+        return s;
+    }
+    /// I_j(x) = B_j(x, x).
+    double value(const state_type& x, std::size_t j) const { return inner(x, x, j); }
+    /// grad I_j at x, into g.
+    void gradient(const state_type& x, std::size_t j, state_type& g) const {
+        const M& m = model();
+        for (std::size_t k = 0; k < std::ranges::size(x); ++k) g[k] = (2.0 * m.quadratic_invariant_weight(j, k)) * x[k];
+    }
+
+   private:
+    static constexpr bool by_value = std::is_trivially_copyable_v<M>;
+    std::conditional_t<by_value, M, const M*> model_;
+
+    static auto hold(const M& m) {
+        if constexpr (by_value)
+            return m;
+        else
+            return &m;
+    }
+    const M& model() const {
+        if constexpr (by_value)
+            return model_;
+        else
+            return *model_;
+    }
+};
+
+/// The invariants a model declares, as an invariant set: its invariant_functions(), or the set its quadratic
+/// weights define (weighted_invariants, which refers to m).
+template <declares_invariants M>
+auto invariants_of(const M& m) {
+    if constexpr (declares_invariant_functions<M>)
+        return m.invariant_functions();
+    else
+        return weighted_invariants<M>(m);
+}
+
+/// The invariants of invariants_of(m) whose gradients are independent (what projection and multiple relaxation
+/// need): those the model names in independent_invariants, else all.
+template <declares_invariants M>
+auto independent_invariants_of(const M& m) {
+    if constexpr (names_independent_invariants<M>)
+        return pick_invariants(invariants_of(m), std::span<const std::size_t>(M::independent_invariants));
+    else
+        return invariants_of(m);
+}
+
+/// How many invariants independent_invariants_of(M) has, known at compile time (0: the model declares none), so
+/// that the registry offers relaxation and projection where there is one and multiple relaxation where there are
+/// two.
+template <class M>
+inline constexpr std::size_t independent_invariant_count = [] {
+    if constexpr (!declares_invariants<M>)
+        return std::size_t{0};
+    else if constexpr (names_independent_invariants<M>)
+        return std::size_t{M::independent_invariants.size()};
+    else
+        return std::size_t{M::invariants().size()};
+}();
+
+/// The weights of the quadratic invariants a system declares, for a state of `elements` elements: from its
+/// quadratic_invariant_weight(j, k), or its quadratic_invariant_weights() (weights as data).
+template <class M>
+    requires declares_quadratic_weights<M> || requires(const M& m) {
+        { m.quadratic_invariant_weights() } -> std::convertible_to<quadratic_weights>;
+    }
+quadratic_weights quadratic_weights_of(const M& m, std::size_t elements) {
+    if constexpr (declares_quadratic_weights<M>) {
+        quadratic_weights w(M::invariants().size(), std::vector<double>(elements));
+        for (std::size_t j = 0; j < w.size(); ++j)
+            for (std::size_t k = 0; k < elements; ++k) w[j][k] = m.quadratic_invariant_weight(j, k);
+        return w;
+    } else {
+        return m.quadratic_invariant_weights();
+    }
+}
+
 /// Invariant sources for the steppers' `Inv` parameter that take the invariants from the model being stepped
 /// (model_of(f): found through the system's wrappers), so the registry can build such a stepper without the
-/// model's parameters: every invariant of invariants_of(model), its first one, or independent_invariants_of(model)
-/// (a set whose gradients are independent wherever the model is integrable: what projection and multiple
-/// relaxation need). Those functions are in models/invariant_sets.hpp, which must be included where the stepper runs.
+/// model's parameters: every invariant of invariants_of(model), its first one, or independent_invariants_of(model).
 struct all_model_invariants {
     template <class M>
     static auto of(const M& m) {

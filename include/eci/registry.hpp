@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "concepts.hpp"
+#include "invariants.hpp"
 #include "steppers/compensated_c_pc.hpp"
 #include "steppers/conservative_euler.hpp"
 #include "steppers/conservative_rk.hpp"
@@ -24,14 +25,13 @@
 #include "steppers/symplectic.hpp"
 #include "steppers/transformed_rk.hpp"
 #include "tableaus.hpp"
-#include "models/invariant_sets.hpp"
 
 namespace eci {
 
 /// How a method is built. A conventional or conservative method is a tableau run by an engine: explicit_rk
 /// (conventional); conservative_rk on a model with quadratic invariants, transformed_rk on a model with a
 /// linearizing transform (reported as `transformed`). Implicit and model-specific methods name their stepper.
-/// Relaxation, projection and symplectic methods (issue 12) keep invariants given as functions of the state, or
+/// Relaxation, projection and symplectic methods keep invariants given as functions of the state, or
 /// a separable Hamiltonian's structure, instead.
 enum class method_family {
     conventional,
@@ -234,7 +234,7 @@ struct projection_after {
     template <class M> static constexpr bool runs_on = independent_invariant_count<M> >= 1;
 };
 
-/// Relaxation RK4 on the model's first invariant (issue 12).
+/// Relaxation RK4 on the model's first invariant.
 struct rrk_rk4 {
     static constexpr method_info info{"rrk-rk4", method_family::relaxation, 4, false,
                                       "relaxation RK4 keeping the model's first invariant (time advanced gamma tau)"};
@@ -498,6 +498,20 @@ struct method_table<type_list<E...>> {
 /// The registry over the list.
 using registered_methods = detail::method_table<method_entry_list>;
 
+namespace detail {
+template <class Fn, class... E>
+void for_each_entry(Fn& fn, type_list<E...>) {
+    (fn(static_cast<E*>(nullptr)), ...);
+}
+}  // namespace detail
+
+/// Calls fn(static_cast<Entry*>(nullptr)) for every registry entry, in list order (fn a generic lambda
+/// `[]<class Entry>(Entry*) {...}`): to build something per method at compile time.
+template <class Fn>
+void for_each_method_entry(Fn&& fn) {
+    detail::for_each_entry(fn, method_entry_list{});
+}
+
 /// Every registered method, in list order.
 inline constexpr auto methods = registered_methods::infos;
 
@@ -534,6 +548,18 @@ bool with_method(std::string_view name, Fn&& fn) {
 template <class Model>
 std::vector<method_info> methods_for() {
     return registered_methods::supported<typename detail::as_model<Model>::type>();
+}
+
+/// Why method `m` is not offered on Model (a model type, or a state type for a plain system) when what the model
+/// lacks is a declaration of its own, as a clause for the refusal's message; empty otherwise. Relaxation and
+/// projection keep the invariants a model declares (declares_invariants, invariants.hpp).
+template <class Model>
+std::string_view missing_declaration(const method_info& m) {
+    using M = typename detail::as_model<Model>::type;
+    const bool keeps_invariants = m.family == method_family::relaxation || m.family == method_family::projection;
+    if (keeps_invariants && !declares_invariants<M> && !records_stages<M>)
+        return "relaxation and projection keep the invariants a model declares, and it declares none";
+    return {};
 }
 
 /// Their names.

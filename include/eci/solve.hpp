@@ -147,7 +147,9 @@ struct no_sink {
 
 /// The registry entry of `method` among those that run on Dispatch (fixed or adaptive), or std::invalid_argument
 /// naming what is available: "unknown method 'x' (methods: ...)", "method 'x' is not available for WHAT
-/// (available: ...)", "method x has no error estimate for rtol/atol; adaptive methods for WHAT: ...".
+/// (available: ...)" (with the reason before the list when Dispatch lacks a declaration the method needs, as
+/// relaxation needs invariants: missing_declaration), "method x has no error estimate for rtol/atol; adaptive
+/// methods for WHAT: ...".
 template <class Dispatch>
 method_info resolve_method_for(std::string_view method, bool adaptive, std::string_view what) {
     auto joined = [](const auto& names) {
@@ -163,9 +165,13 @@ method_info resolve_method_for(std::string_view method, bool adaptive, std::stri
     }
     std::vector<std::string_view> fixed;
     for (const method_info& i : methods_for<Dispatch>()) fixed.push_back(i.name);
-    if (std::ranges::find(fixed, method) == fixed.end())
-        throw std::invalid_argument("method '" + std::string(method) + "' is not available for " + std::string(what) +
-                                    " (available: " + joined(fixed) + ")");
+    if (std::ranges::find(fixed, method) == fixed.end()) {
+        std::string message = "method '";
+        message.append(method).append("' is not available for ").append(what);
+        if (const std::string_view reason = missing_declaration<Dispatch>(*m); !reason.empty())
+            message.append(": ").append(reason);
+        throw std::invalid_argument(message.append(" (available: ").append(joined(fixed)).append(")"));
+    }
     if (adaptive) {
         std::vector<std::string_view> pairs;
         for (const method_info& i : adaptive_methods_for<Dispatch>()) pairs.push_back(i.name);

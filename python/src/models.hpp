@@ -15,6 +15,7 @@
 #include <utility>
 #include <vector>
 
+#include <eci/models/description.hpp>
 #include <eci/models/invariant.hpp>
 
 #include "core.hpp"

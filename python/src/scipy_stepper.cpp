@@ -171,7 +171,7 @@ class dense_step : public dense_step_base {
         }
         // Not even that (a shorter step can fail where the longer one did not): the nearest point with psi^2 >= 0,
         // psi = 0 in the failed components, off the invariants by the negative excess only.
-        for (double& v : detail::reals(point))
+        for (double& v : reals(point))
             if (!(v == v)) v = 0.0;
         ++clamped;
     }
@@ -250,13 +250,11 @@ class stepper_impl : public stepper_base {
 };
 
 /// Calls fn(Entry*) for every registry entry that is an embedded pair running on a plain system of T.
-template <class T, class Fn, class... E>
-void for_each_pair(Fn&& fn, detail::type_list<E...>) {
-    auto one = [&]<class Entry>(Entry*) {
-        if constexpr (!std::same_as<adaptive_stepper_for<Entry, std::vector<T>>, detail::unsupported>)
-            fn(static_cast<Entry*>(nullptr));
-    };
-    (one(static_cast<E*>(nullptr)), ...);
+template <class T, class Fn>
+void for_each_pair(Fn&& fn) {
+    for_each_method_entry([&]<class Entry>(Entry*) {
+        if constexpr (adaptive_runs_on<Entry, std::vector<T>>) fn(static_cast<Entry*>(nullptr));
+    });
 }
 
 std::unique_ptr<stepper_base> make_stepper(const std::string& method, py::object fun, double t0, const py::array& y0,
@@ -268,8 +266,7 @@ std::unique_ptr<stepper_base> make_stepper(const std::string& method, py::object
                 if (out || Entry::info.name != method) return;
                 out = std::make_unique<stepper_impl<adaptive_stepper_for<Entry, std::vector<T>>, T>>(
                     std::move(fun), y0, t0, f0, rtol, atol);
-            },
-            method_entry_list{});
+            });
     };
     if (y0.dtype().kind() == 'c')
         build(static_cast<std::complex<double>*>(nullptr));
@@ -277,8 +274,8 @@ std::unique_ptr<stepper_base> make_stepper(const std::string& method, py::object
         build(static_cast<double*>(nullptr));
     if (!out) {
         std::string names;
-        for_each_pair<double>([&]<class Entry>(Entry*) { names += (names.empty() ? "" : ", ") + std::string(Entry::info.name); },
-                              method_entry_list{});
+        for_each_pair<double>(
+            [&]<class Entry>(Entry*) { names += (names.empty() ? "" : ", ") + std::string(Entry::info.name); });
         throw py::value_error("unknown embedded pair '" + method + "' (eci's embedded pairs: " + names + ")");
     }
     return out;
@@ -316,8 +313,7 @@ py::list embedded_pairs() {
             d["C"] = C;
             d["E"] = E;
             l.append(d);
-        },
-        method_entry_list{});
+        });
     return l;
 }
 

@@ -74,7 +74,7 @@ template <class S>
 void add_weighted_invariants(std::vector<extra_invariant<S>>& out, const quadratic_weights& w) {
     for (std::size_t j = 0; j < w.size(); ++j)
         out.push_back({"quadratic_" + std::to_string(j), [row = w[j]](const S& x) {
-                           detail::compensated_sum sum;
+                           compensated_sum sum;
                            for (std::size_t k = 0; k < row.size(); ++k) sum.add(row[k] * std::norm(x[k]));
                            return sum.value();
                        }});

@@ -32,7 +32,7 @@ double relative_error(const S& x, const S& ref) {
 template <class Model>
 double invariant_change(const Model& m, const typename Model::state_type& x0, const typename Model::state_type& x) {
     double worst = 0.0;
-    for (const auto& row : m.quadratic_invariant_weights())
+    for (const auto& row : eci::quadratic_weights_of(m, m.size()))
         worst = std::max(worst, relative_change(weighted_square_sum(x, row), weighted_square_sum(x0, row)));
     return worst;
 }

@@ -40,7 +40,7 @@ errors compare(std::size_t modes, std::uint64_t seed, double t_end, const std::v
     S ref = x0;
     eci::rk4<S> rk4;
     eci::integrate_to(rk4, model, ref, 0.0, t_end, dts.back() / 16);
-    const eci::quadratic_weights w = model.quadratic_invariant_weights();
+    const eci::quadratic_weights w = eci::quadratic_weights_of(model, model.size());
     errors r;
     for (double dt : dts) {
         typename Conservative::template stepper<S> cs, paper;

@@ -6,7 +6,8 @@
 #include <complex>
 #include <limits>
 
-#include <eci/models/invariant_sets.hpp>
+#include <eci/invariants.hpp>
+#include <eci/models/list.hpp>
 #include <eci/models/rigid_body_exact.hpp>
 #include <eci/models/three_wave_exact.hpp>
 

@@ -11,7 +11,7 @@
 
 #include <boost/numeric/odeint/stepper/symplectic_rkn_sb3a_mclachlan.hpp>
 
-#include <eci/models/invariant_sets.hpp>
+#include <eci/models/list.hpp>
 #include <eci/models/rigid_body_exact.hpp>
 #include <eci/steppers/projection.hpp>
 #include <eci/steppers/relaxation_rk.hpp>

@@ -24,7 +24,7 @@ struct conservation_run {
 template <class Stepper, class Model>
 conservation_run run_and_measure(Stepper& st, const Model& model, typename Model::state_type x, double dt,
                                  std::uint64_t steps) {
-    const eci::quadratic_weights w = model.quadratic_invariant_weights();
+    const eci::quadratic_weights w = eci::quadratic_weights_of(model, model.size());
     std::vector<double> i0;
     for (const auto& row : w) i0.push_back(weighted_square_sum(x, row));
     conservation_run r;
@@ -159,7 +159,7 @@ TEST(RadicandRemedy, SingularGramFromDependentWeightsIsStillRemedied) {
     using S = std::vector<double>;
     const auto model = eci::n_wave<double>::random(10002, 4, 7);
     eci::c_pc<S> st;
-    eci::quadratic_weights w = model.quadratic_invariant_weights();
+    eci::quadratic_weights w = eci::quadratic_weights_of(model, model.size());
     w.push_back(w[0]);
     for (double& v : w.back()) v *= 3.0;  // 3 E, dependent on E
     st.set_quadratic_invariants(w);

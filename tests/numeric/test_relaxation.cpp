@@ -7,7 +7,7 @@
 #include <limits>
 #include <vector>
 
-#include <eci/models/invariant_sets.hpp>
+#include <eci/models/list.hpp>
 #include <eci/models/rigid_body_exact.hpp>
 #include <eci/steppers/relaxation_rk.hpp>
 

@@ -12,6 +12,7 @@
 
 #include <eci/eci.hpp>
 #include <eci/models/kepler.hpp>
+#include <eci/models/list.hpp>
 #include <eci/models/lotka_volterra.hpp>
 #include <eci/models/n_wave.hpp>
 #include <eci/models/three_wave.hpp>

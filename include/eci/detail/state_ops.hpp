@@ -1,5 +1,5 @@
-// Internals shared by the steppers: viewing any state as a flat array of real unknowns, and sizing buffers.
-// std::complex<double> is layout-compatible with double[2] ([complex.numbers]), so complex modes become pairs.
+// Internals shared by the steppers on the flat array of a state's real unknowns (eci::reals, state.hpp): sizing
+// buffers, finiteness checks.
 #pragma once
 
 #include <bit>
@@ -9,23 +9,11 @@
 #include <vector>
 
 #include "../concepts.hpp"
+#include "../state.hpp"
 
 namespace eci::detail {
 
-/// The real unknowns of a state: n doubles for a real state, 2n (re, im interleaved) for a complex one.
-template <state S>
-std::span<double> reals(S& x) {
-    using value = std::ranges::range_value_t<S>;
-    constexpr std::size_t per = sizeof(value) / sizeof(double);
-    return {reinterpret_cast<double*>(std::ranges::data(x)), std::ranges::size(x) * per};
-}
-
-template <state S>
-std::span<const double> reals(const S& x) {
-    using value = std::ranges::range_value_t<S>;
-    constexpr std::size_t per = sizeof(value) / sizeof(double);
-    return {reinterpret_cast<const double*>(std::ranges::data(x)), std::ranges::size(x) * per};
-}
+using eci::reals;  // the public name, for the engines written against detail::reals
 
 /// Make `buffer` the same size as `like` (a no-op for fixed-size states such as std::array).
 template <state S>

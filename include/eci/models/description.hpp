@@ -10,7 +10,7 @@
 #include <string_view>
 #include <type_traits>
 
-#include "../integrate.hpp"
+#include "../steps.hpp"
 #include "invariant.hpp"
 
 namespace eci {

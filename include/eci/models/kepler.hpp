@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <numbers>
 #include <stdexcept>
@@ -139,6 +140,35 @@ struct kepler {
                                                        {"runge_lenz_x", &kepler::runge_lenz_x},
                                                        {"runge_lenz_y", &kepler::runge_lenz_y}}};
     }
+
+    /// H (46) and the Runge-Lenz vector (47) as an invariant set (for relaxation and projection; not quadratic).
+    struct invariant_set {
+        double m, K, ell;
+        std::size_t count() const { return 3; }
+        double value(const state_type& s, std::size_t i) const {
+            const kepler model{m, K, ell};
+            return i == 0 ? model.hamiltonian(s) : model.runge_lenz(s)[i - 1];
+        }
+        void gradient(const state_type& s, std::size_t i, state_type& g) const {
+            const double r = s[0];
+            if (i == 0) {
+                g = {-ell * ell / (m * r * r * r) + K / (r * r), m * s[1], 0.0};
+                return;
+            }
+            // A = (a c - b s, a s + b c), a = ell^2/(m r) - K, b = -ell v_r.
+            const double a = ell * ell / (m * r) - K, b = -ell * s[1], ar = -ell * ell / (m * r * r);
+            const double c = std::cos(s[2]), sn = std::sin(s[2]);
+            if (i == 1)
+                g = {ar * c, ell * sn, -a * sn - b * c};
+            else
+                g = {ar * sn, -ell * c, a * c - b * sn};
+        }
+    };
+    /// H, A_x, A_y.
+    invariant_set invariant_functions() const { return {m, K, ell}; }
+    /// The three are dependent (|A|^2 = K^2 + 2 H ell^2 / m, ell a parameter): projection and multiple relaxation,
+    /// whose linear systems a dependent set makes singular, keep H alone.
+    static constexpr std::array<std::size_t, 1> independent_invariants{0};
     /// Output columns computed from the state, printed after the state and before the invariants.
     static constexpr auto derived_columns() {
         return std::array<named_invariant<kepler>, 2>{{{"x", &kepler::position_x}, {"y", &kepler::position_y}}};

@@ -137,6 +137,8 @@ struct kepler_cartesian {
     };
     /// H, L, A_x, A_y.
     invariant_set invariant_functions() const { return {}; }
+    /// H and L: the Runge-Lenz vector depends on them (above), so projection and multiple relaxation keep these two.
+    static constexpr std::array<std::size_t, 2> independent_invariants{0, 1};
 };
 
 /// The exact Cartesian state of a bound Kepler orbit at any time (Kepler's equation, through kepler_exact).

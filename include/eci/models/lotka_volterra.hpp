@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -147,6 +148,19 @@ struct lotka_volterra {
     static constexpr auto invariants() {
         return std::array<named_invariant<lotka_volterra>, 1>{{{"hamiltonian", &lotka_volterra::hamiltonian}}};
     }
+
+    /// H as an invariant set (for relaxation and projection; not quadratic).
+    struct invariant_set {
+        double mu;
+        std::size_t count() const { return 1; }
+        double value(const state_type& s, std::size_t) const { return lotka_volterra{mu}.hamiltonian(s); }
+        /// dH/dx = 1 - 1/x, dH/dy = mu (1 - 1/y).
+        void gradient(const state_type& s, std::size_t, state_type& g) const {
+            g = {1.0 - 1.0 / s[0], mu * (1.0 - 1.0 / s[1])};
+        }
+    };
+    /// H.
+    invariant_set invariant_functions() const { return {mu}; }
 
     /// The transform (39), shifted by its minimum: xi_1 = (x - 1) - log x, xi_2 = mu ((y - 1) - log y), so
     /// H = 1 + mu + xi_1 + xi_2 and both components are >= 0, with 0 at the branch point (errata item 6).

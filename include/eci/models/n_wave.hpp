@@ -4,7 +4,10 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
+#include <cmath>
 #include <complex>
+#include <cstddef>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
@@ -13,7 +16,6 @@
 #include <vector>
 
 #include "../concepts.hpp"
-#include "../steppers/radicand_remedy.hpp"
 #include "description.hpp"
 
 namespace eci {
@@ -135,12 +137,11 @@ struct n_wave {
         return 0.5 * z;
     }
 
-    /// The weights of energy and enstrophy as quadratic invariants sum_k w_k |psi_k|^2 (1/2 and k^2/2), in the
-    /// order of invariants(): what the conservative steppers' remedy for negative radicands needs.
-    quadratic_weights quadratic_invariant_weights() const {
-        quadratic_weights w(2, std::vector<double>(size(), 0.5));
-        for (std::size_t i = 0; i < size(); ++i) w[1][i] = 0.5 * sq(wavenumber[i]);
-        return w;
+    /// Energy and enstrophy as quadratic invariants sum_k w_jk |psi_k|^2, j in the order of invariants(): w_0k = 1/2
+    /// and w_1k = k^2 / 2. Relaxation and projection, and the conservative steppers' remedy for negative radicands,
+    /// take them from here.
+    double quadratic_invariant_weight(std::size_t j, std::size_t k) const {
+        return j == 0 ? 0.5 : 0.5 * sq(wavenumber[k]);
     }
 
     static constexpr auto invariants() {

@@ -6,11 +6,11 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 #include <string_view>
 
-#include "../steppers/radicand_remedy.hpp"
 #include "description.hpp"
 
 namespace eci {
@@ -102,10 +102,12 @@ struct three_wave {
         return 0.5 * (K * K * x[0] * x[0] + P * P * x[1] * x[1] + Q * Q * x[2] * x[2]);
     }
 
-    /// E and Z as quadratic invariants sum_k w_k psi_k^2, in the order of invariants() (for the remedy of
-    /// radicand_remedy.hpp; on three modes it never applies, one failing mode is not isolated).
-    quadratic_weights quadratic_invariant_weights() const {
-        return {{0.5, 0.5, 0.5}, {0.5 * K * K, 0.5 * P * P, 0.5 * Q * Q}};
+    /// E and Z as quadratic invariants sum_k w_jk psi_k^2, j in the order of invariants(): w_0k = 1/2 and
+    /// w_1k = k^2 / 2 (K, P, Q). Relaxation and projection, and the conservative steppers' remedy (which on three
+    /// modes never applies: one failing mode is not isolated), take them from here.
+    double quadratic_invariant_weight(std::size_t j, std::size_t k) const {
+        const double wavenumber = k == 0 ? K : k == 1 ? P : Q;
+        return j == 0 ? 0.5 : 0.5 * wavenumber * wavenumber;
     }
 
     /// The invariants by name, in CSV column order.

@@ -1,4 +1,4 @@
-// The remedy for isolated negative radicands in the conservative engines (issue 9): the few failing components
+// The remedy for isolated negative radicands in the conservative engines: the few failing components
 // take the conventional update, then one rescale psi_k^2 <- psi_k^2 (1 + sum_j c_j w_jk) restores every invariant.
 #pragma once
 
@@ -14,23 +14,11 @@
 #include <utility>
 #include <vector>
 
+#include "../compensated_sum.hpp"
 #include "../detail/reduce.hpp"
+#include "../invariants.hpp"
 
 namespace eci {
-
-namespace detail {
-/// A sum with its rounding error carried (Knuth's TwoSum per addition, branch-free): accurate to about one rounding
-/// of the result whatever the order and sizes of the terms.
-struct compensated_sum {
-    double s = 0.0, err = 0.0;
-    void add(double v) {
-        const double t = s + v, z = t - s;
-        err += (s - (t - z)) + (v - z);
-        s = t;
-    }
-    double value() const { return s + err; }
-};
-}  // namespace detail
 
 /// What a conservative stepper does when some radicands (new psi_k^2) come out negative.
 enum class radicand_policy {
@@ -44,11 +32,6 @@ enum class update_kind {
     conditioned,  ///< from remedy_options::min_unknowns real unknowns on: the conditioned update (the default)
     paper,        ///< the paper's per-unknown square root on any system (its bits; the issue-9 remedy)
 };
-
-/// The weights of a model's quadratic invariants I_j = sum_k w_jk |psi_k|^2: one row per invariant, one weight per
-/// state element (a complex mode's weight applies to both its parts). A model declares them with a member
-/// `quadratic_invariant_weights()` returning this type; the drivers hand them to the stepper.
-using quadratic_weights = std::vector<std::vector<double>>;
 
 /// Settings of the remedy (docs/methods.md derives each threshold).
 struct remedy_options {
@@ -68,7 +51,7 @@ struct remedy_options {
     /// of each invariant the rescale moves, sum_k |w_jk| xi_k |s_k| / sum_k |w_jk| xi_k, with every |s_k| <= 1/2.
     /// Beyond it (a correction that is not small, e.g. from nearly dependent weights) the step is halved instead.
     double max_rescale = 0.01;
-    /// The conditioned update (issue 19; docs/methods.md, "Zero crossings without loss of accuracy") is used by the
+    /// The conditioned update (docs/methods.md, "Zero crossings without loss of accuracy") is used by the
     /// conservative RK engine when the invariants' weights are declared, the policy is `remedy` and the state has at
     /// least this many real unknowns and `update` is `conditioned` (the default; `paper` keeps the paper's update and
     /// its bits on any system). Smaller systems (the paper's three-wave model) always take the paper's update.
@@ -215,7 +198,7 @@ class radicand_remedy {
         return true;
     }
 
-    // The conditioned update's remedy (issue 19), per element (a real unknown, or a complex mode of Per = 2
+    // The conditioned update's remedy, per element (a real unknown, or a complex mode of Per = 2
     // parts). The engine has filled neg_ (elements whose xi < 0: they must take the conventional update) and cond_
     // (xi >= 0 but an ill-conditioned square root: they take it if the caps allow), and written every element's
     // conservative value into o (the conventional value for neg_). conv(e, c) writes the conventional update of
@@ -293,7 +276,7 @@ class radicand_remedy {
         // perturbation) the rescale's coefficients are large and of opposite signs, and plain sums, which drop
         // every small term added after the large ones, erred by up to 160 eps in G_00, one-signed: C-PC drifted E
         // by ~5 eps per step (50 eps sqrt(n) at N = 128; docs/methods.md).
-        detail::compensated_sum g00, g01, g11;
+        compensated_sum g00, g01, g11;
         double a0 = 0.0, a1 = 0.0;
         const double* w0 = nullptr;  // the two invariants' weights (null: not fused)
         const double* w1 = nullptr;
@@ -708,7 +691,7 @@ class radicand_remedy {
     void gram_compensated(const double* o, std::size_t n, std::array<double, max_invariants * max_invariants>& g,
                           std::array<double, max_invariants>& mag) const {
         const std::size_t m = weights_.size();
-        std::array<detail::compensated_sum, max_invariants * max_invariants> acc{};
+        std::array<compensated_sum, max_invariants * max_invariants> acc{};
         for (std::size_t i = 0; i < n; ++i) {
             const double xi = o[i] * o[i];
             for (std::size_t a = 0; a < m; ++a) {

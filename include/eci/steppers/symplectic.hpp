@@ -116,4 +116,21 @@ using stormer_verlet = symplectic_splitting<splittings::stormer_verlet, S>;
 template <state S>
 using sb3a = symplectic_splitting<splittings::mclachlan_sb3a, S>;
 
+/// A model whose Hamiltonian is separable, H = T(p) + V(q), with state (q, p): symplectic splittings apply. It
+/// says so with `static constexpr bool separable_hamiltonian = true;`.
+template <class M>
+concept separable_hamiltonian = requires {
+    requires static_cast<bool>(M::separable_hamiltonian);
+};
+
+/// The drift rule of a separable model: dq/dt = p (no right-hand side needed) where the model says
+/// `static constexpr bool unit_mass = true;`.
+template <class M>
+inline constexpr drift_rule drift_rule_of = [] {
+    if constexpr (requires { requires static_cast<bool>(M::unit_mass); })
+        return drift_rule::momentum;
+    else
+        return drift_rule::from_system;
+}();
+
 }  // namespace eci

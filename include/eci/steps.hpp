@@ -1,0 +1,21 @@
+// How many fixed steps span an interval: the one rule the drivers, the models' presets and the front ends share.
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+
+namespace eci {
+
+/// The number of steps of size dt that reach t_end from t0: at least one whenever t_end > t0, however short
+/// the span (a shorter last step, see integrate_to). Only a remainder at round-off level, the few eps of q
+/// that (t_end - t0) / dt carries, is not a step of its own (3 * 0.1 reaches 0.3 in 3 steps).
+inline std::uint64_t steps_to_reach(double t0, double t_end, double dt) {
+    if (!(t_end > t0)) return 0;
+    const double q = (t_end - t0) / dt;
+    const double slack = 8.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, q);
+    return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(q - slack)));
+}
+
+}  // namespace eci
