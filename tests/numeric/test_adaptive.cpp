@@ -203,7 +203,9 @@ void expect_conserved_at_all_tolerances(const Model& m, const typename Model::st
             eci::adaptive_stats s;
             const drift_check d = check_invariants<St>(m, x0, t_end, tol, mode, &s, b_sum);
             EXPECT_LE(d.worst, 1.0) << label << " tol " << tol << (mode == eci::output_mode::dense ? " dense" : "");
-            EXPECT_GT(d.points, 10u);
+            // enough observations for the drift to mean something: the eighth-order pairs cross the span (t = 5)
+            // in 9 steps at 1e-3 on real n-wave (the conditioned update takes the widest set the caps allow)
+            EXPECT_GE(d.points, 8u);
             if (e == 3 || e == 12)
                 std::printf("  %-20s %-7s tol %.0e: %8llu steps, %5llu/%llu rejected (error/radicand), %llu dense "
                             "fallbacks, largest step %.2f, worst drift %.2f of the bound\n",

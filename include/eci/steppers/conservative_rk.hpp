@@ -59,7 +59,8 @@ class conservative_rk : public radicand_remedy {
             if (!(neg_.empty() && cond_.empty()) &&
                 !remedy_elements<per>(o, xr.data(), n, [&](std::size_t e, std::array<double, per>& c) {
                     std::array<double, per> rad{};
-                    return element_update(xr.data(), kp, e, dt, c, rad);
+                    const auto [c2, xi] = element_update(xr.data(), kp, e, dt, c, rad);
+                    return radicand_remedy::element_update{c2, xi, sign_of(xr.data(), kp, e, dt, c, xi)};
                 }))
                 return step_result::failure(first_negative<per>());
         } else if constexpr (is_c_pc) {
@@ -134,20 +135,27 @@ class conservative_rk : public radicand_remedy {
         return {c2, xi};
     }
 
+    // The sign a real unknown's conservative value takes (the sign rule): the conventional update's, or for C-PC
+    // the predictor's where xi >= 0.
+    static double sign_of(const double* x, const std::array<const double*, s>& k, std::size_t e, double dt,
+                          const std::array<double, per>& c, double xi) {
+        double sign = c[0];
+        if constexpr (per == 1 && Sign == sign_rule::of_last_stage)
+            if (xi >= 0.0) sign = stage_value<s - 1>(x[e], k, e, dt);
+        return sign;
+    }
+
     // The conditioned finishing pass: each element's conventional update and xi, filed by the remedy's
     // condition_element (radicand_remedy.hpp): the sign rule as in the paper's update for a real unknown, the
     // conventional phase for a complex mode; remedy_elements then decides.
     void finish_conditioned(double* o, const double* x, const std::array<const double*, s>& k, double dt,
                             std::size_t n) {
-        conditioned_pass pass = begin_conditioned();
+        conditioned_pass pass = begin_conditioned(n / per);
         const std::size_t ne = n / per;
         for (std::size_t e = 0; e < ne; ++e) {
             std::array<double, per> c{}, rad{};
             const auto [c2, xi] = element_update(x, k, e, dt, c, rad);
-            double sign = c[0];
-            if constexpr (per == 1 && Sign == sign_rule::of_last_stage)
-                if (xi >= 0.0) sign = stage_value<s - 1>(x[e], k, e, dt);
-            condition_element<per>(o, x, e, c, c2, xi, sign, pass);
+            condition_element<per>(o, x, e, c, c2, xi, sign_of(x, k, e, dt, c, xi), pass);
         }
         end_conditioned(pass);
     }

@@ -478,7 +478,7 @@ class embedded_rk
                             double dt, std::size_t n, const error_weights& w, finish_sums& sums) {
         constexpr bool est = Norm && has_error_estimate;
         constexpr auto J = std::make_index_sequence<s>{};
-        auto pass = this->begin_conditioned();
+        auto pass = this->begin_conditioned(n / per);
         cond_err_.clear();
         double sq = 0.0, sq_low = 0.0;
         const std::size_t ne = n / per;
@@ -552,14 +552,14 @@ class embedded_rk
                     c2 += c[p] * c[p];
                     xi += x[i] * x[i] + v.inc;
                 }
-                return std::pair<double, double>{c2, xi};
+                return typename radicand_remedy::element_update{c2, xi, c[0]};
             });
             if (!ok) return false;
             if constexpr (est)
-                for (std::size_t j = 0; j < this->cond_taken_; ++j) {
-                    const auto& d = cond_err_[this->cond_[j].slot];
+                this->for_each_taken([&](std::size_t j) {
+                    const auto& d = cond_err_[j];
                     sq += d[0], sq_low += d[1];
-                }
+                });
         }
         sums.sq = std::max(sq, 0.0);
         sums.sq_low = std::max(sq_low, 0.0);
@@ -825,7 +825,7 @@ class embedded_rk
         sums.sq_low = sq_low;
     }
 
-    std::vector<std::array<double, 2>> cond_err_;  // per cond_ slot: what taking it conventional adds to the sums
+    std::vector<std::array<double, 2>> cond_err_;  // per cond_ entry: what taking it conventional adds to the sums
     std::array<S, s> k_{};
     std::array<S, E> k_extra_{}, y_extra_{};  // the continuous extension's extra stages (after prepare_dense)
     S stage_{}, result_{}, first_point_{}, res_{}, res_new_{}, last_x_{};

@@ -202,11 +202,13 @@ class radicand_remedy {
     // parts). The engine has filled neg_ (elements whose xi < 0: they must take the conventional update) and cond_
     // (xi >= 0 but an ill-conditioned square root: they take it if the caps allow), and written every element's
     // conservative value into o (the conventional value for neg_). conv(e, c) writes the conventional update of
-    // element e into c[0..Per) and returns {sum_p c_p^2, xi_e}. The set B taken conventional is capped only by the
-    // share of every invariant it holds (max_share of sum_k |w_jk| |psi_k|^2, before and after the step) and by
-    // the size of the rescale (max_rescale), never by a count. If neg_ and cond_ together are refused, the worst
-    // quarter of cond_ is tried, and so on down to neg_ alone (cond_ keeping its conservative values); if that is
-    // refused too, false (the step fails and is halved).
+    // element e into c[0..Per) and returns {sum_p c_p^2, xi_e, sign}: the sign rule's value for a real unknown (the
+    // conservative value is sign * sqrt(xi)). The set taken conventional is capped only by the share of every
+    // invariant it holds (max_share of sum_k |w_jk| |psi_k|^2, before and after the step) and by the size of the
+    // rescale (max_rescale), never by a count. It is the worst-conditioned elements (smallest xi / |change of xi|,
+    // by the buckets of the histogram the finishing pass filled): the most of them whose shares pass the cap by the
+    // histogram's sums. If the attempt is refused, the most of them under a quarter of that count, and so on down to
+    // neg_ alone (cond_ keeping its conservative values); if that is refused too, false (the step fails, is halved).
     template <std::size_t Per, class Conv>
     bool remedy_elements(double* o, const double* x, std::size_t n, Conv&& conv) {
         constexpr std::size_t shift = Per == 2 ? 1 : 0;
@@ -221,47 +223,49 @@ class radicand_remedy {
         // too large), every set fails; decline at once rather than try the cascade (a step of 1e7 on n-wave would
         // otherwise try it in each of 2^16 attempts).
         if (!neg_.empty() && !negatives_can_be_taken<Per>(o, x)) return decline();
-        // All of cond_, then its worst-conditioned quarter (smallest xi / |change of xi|), its worst sixteenth,
-        // none: the caps decide how many. The first attempt, which takes every ill-conditioned element and is the
-        // one that succeeds in nearly every step, needs no ordering; a refused set is cut by a selection
-        // (nth_element, linear) on the set alone, not a sort.
+        // The histogram's bucket sums, cumulated from the worst bucket up: cut b (take every bucket below b) holds
+        // hist_[(b - 1) * stride ...]. The share each cut holds is then known without a pass over its elements.
+        const std::size_t m = weights_.size(), stride = 1 + 2 * m;
+        for (std::size_t b = 1; b < ratio_buckets; ++b)
+            for (std::size_t i = 0; i < stride; ++i) hist_[b * stride + i] += hist_[(b - 1) * stride + i];
+        std::array<double, max_invariants> held_neg{};
+        for (std::size_t k = 0; k < neg_.size(); ++k)
+            for (std::size_t a = 0; a < m; ++a) held_neg[a] += std::abs(weights_[a][neg_[k]]) * neg_h_[k];
         too_small_ = false;
-        for (std::size_t take = cond_.size();;) {
-            if (share_cap_holds(take)) {
-                if (attempt_elements<Per>(o, x, n, conv, take)) return true;
-                for (std::size_t j = 0; j < take; ++j) {  // back to their conservative values
-                    const element_values& v = cond_values_[cond_[j].slot];
-                    for (std::size_t p = 0; p < Per; ++p) o[cond_[j].e * Per + p] = v.o[p];
-                }
-            }
+        for (std::size_t limit = cond_.size();;) {
+            const std::size_t cut = widest_cut(limit, held_neg);
+            const std::size_t count = cut == 0 ? 0 : std::size_t(hist_[(cut - 1) * stride]);
+            if (attempt_elements<Per>(o, x, n, conv, cut, count)) return true;
             ++stats_.conditioning_declined;
-            if (take == 0) break;
-            if (too_small_) take = 1;  // a subset's rescale would be smaller still: straight to neg_ alone
-            if (take / 4 == 0 && neg_.empty()) return true;  // every radicand positive: the conservative update stands
-            take = worst_first(take, take / 4);
+            if (count == 0) break;
+            // a subset's rescale would be smaller still: straight to neg_ alone
+            limit = too_small_ ? 0 : count / 4;
+            if (limit == 0 && neg_.empty()) return true;  // every radicand positive: the conservative update stands
         }
         --stats_.conditioning_declined;  // the last refusal (no ill-conditioned element taken) is a decline
         return decline();
     }
 
-    // Reorders cond_[0, have) so that its `want` worst-conditioned elements come first, and returns how many elements are then taken: those `want`, and every further one whose ratio equals the
-    // largest of them. Never cut between equal ratios: elements that are mirror images of each other (a real
-    // field's k and -k, both stored on Navier-Stokes' k_x = 0 column) have equal ratios and must be treated alike,
-    // or the state stops being Hermitian and the model's rates (and its budget) see another field.
-    std::size_t worst_first(std::size_t have, std::size_t want) {
-        if (want == 0) return 0;
-        const auto first = cond_.begin(), last = cond_.begin() + std::ptrdiff_t(have);
-        std::nth_element(first, first + std::ptrdiff_t(want - 1), last, [](const candidate& a, const candidate& b) {
-            return a.ratio < b.ratio || (a.ratio == b.ratio && a.e < b.e);
-        });
-        const double limit = cond_[want - 1].ratio;
-        const auto cut = std::partition(first + std::ptrdiff_t(want), last,
-                                        [&](const candidate& a) { return a.ratio <= limit; });
-        return std::size_t(cut - first);
+    // The widest cut (cond_'s elements in buckets below it) holding at most `limit` elements whose shares, with
+    // neg_'s, pass the share cap by the histogram's sums; 0 (neg_ alone) if none does. The sums are the attempt's
+    // own in another order: the attempt checks the cap again from its exact sums.
+    std::size_t widest_cut(std::size_t limit, const std::array<double, max_invariants>& held_neg) const {
+        const std::size_t m = weights_.size(), stride = 1 + 2 * m;
+        for (std::size_t cut = ratio_buckets; cut > 0; --cut) {
+            const double* h = hist_.data() + (cut - 1) * stride;
+            if (h[0] == 0.0) return 0;  // no element in any bucket below
+            if (cut > 1 && h[0] == h[-std::ptrdiff_t(stride)]) continue;  // bucket cut - 1 is empty: the same set
+            if (h[0] > double(limit)) continue;
+            bool holds = true;
+            for (std::size_t a = 0; holds && a < m; ++a)
+                holds = held_neg[a] + h[1 + a] <= remedy.max_share * (mag0_[a] + h[1 + m + a]);
+            if (holds) return cut;
+        }
+        return 0;
     }
 
     // The conditioned update's finishing pass, shared by the conservative engines (conservative_rk,
-    // embedded_rk): begin_conditioned(), then condition_element() for every element in order, then
+    // embedded_rk): begin_conditioned(elements), then condition_element() for every element in order, then
     // end_conditioned(); remedy_elements() then decides. The engine computes each element's conventional update c
     // (Per parts), |c|^2 and xi = the tableau applied to |psi_e|^2; condition_element writes the element's value
     // into o and files it: a real unknown sgn * sqrt(xi) (sign: the engine's sign rule), a complex mode the
@@ -282,18 +286,27 @@ class radicand_remedy {
         const double* w1 = nullptr;
     };
 
+    /// What an engine's conv(e, c) returns to remedy_elements besides the conventional update c of element e:
+    /// |c|^2, xi (the tableau applied to |psi_e|^2) and the sign rule's value for a real unknown.
+    struct element_update {
+        double c2, xi, sign;
+    };
+
     /// What condition_element made of an element.
     enum class element_kind {
         conservative,  ///< the conservative value (possibly filed in cond_: the remedy may yet take it conventional)
         conventional,  ///< the conventional update (filed in neg_, or a complex mode with no phase staying at zero)
     };
 
-    conditioned_pass begin_conditioned() {
+    conditioned_pass begin_conditioned(std::size_t elements) {
         neg_.clear();
         neg_h_.clear();
         cond_.clear();
-        cond_values_.clear();
-        cond_taken_ = 0;
+        // room for every element at once: pages the filing never reaches are never touched (not resident), and
+        // no reallocation copies a half-filed list (which held 1.5 lists at its peak)
+        if (cond_.capacity() < elements) cond_.reserve(elements);
+        taken_cut_ = 0;
+        hist_.assign(ratio_buckets * (1 + 2 * weights_.size()), 0.0);
         conditioned_pass p;
         if (weights_fused()) p.w0 = weights_[0].data(), p.w1 = weights_[1].data();
         return p;
@@ -319,17 +332,11 @@ class radicand_remedy {
             neg_h_.push_back(std::max(x2, c2));
             kind = element_kind::conventional;
         } else {
-            if constexpr (Per == 1) {
-                o[e] = std::copysign(std::sqrt(xi), sign);
-                q = o[e] * o[e];
+            if (Per == 2 && !(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
+                if (xi > 0.0) neg_.push_back(e), neg_h_.push_back(std::max(x2, c2));
+                kind = element_kind::conventional;
             } else {
-                if (!(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
-                    if (xi > 0.0) neg_.push_back(e), neg_h_.push_back(std::max(x2, c2));
-                    kind = element_kind::conventional;
-                } else {
-                    modulus_update<Per>(o + e * Per, c, xi, c2);
-                    q = o[e * Per] * o[e * Per] + o[e * Per + 1] * o[e * Per + 1];
-                }
+                q = conservative_value<Per>(o + e * Per, c, c2, xi, sign);
             }
             // Ill-conditioned, and the conventional update differs from it beyond round-off (2^-40 relative):
             // where the two agree to a few ulps the swap gains nothing, and its defect (then of the order of eps
@@ -339,18 +346,40 @@ class radicand_remedy {
             const double change = std::abs(xi - x2);
             if (kind == element_kind::conservative && xi < kappa * change &&
                 std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi)) {
-                cond_.push_back({xi / change, e, cond_values_.size()});
-                cond_values_.push_back({{c[0], c[Per - 1]}, {o[e * Per], o[e * Per + Per - 1]}, c2, xi, q,
-                                        std::max(x2, c2)});
+                const std::size_t b = ratio_bucket(xi / change);
+                cond_.push_back((std::uint64_t(e) << bucket_bits) | b);
+                // its count, and its share weight h and change of |o_e|^2 if taken, into its bucket
+                const std::size_t m = weights_.size();
+                double* hb = hist_.data() + b * (1 + 2 * m);
+                const double h = std::max(x2, c2), dq = c2 - q;
+                hb[0] += 1.0;
+                for (std::size_t a = 0; a < m; ++a) {
+                    const double w = std::abs(weights_[a][e]);
+                    hb[1 + a] += w * h, hb[1 + m + a] += w * dq;
+                }
             }
         }
-        (void)sign;
         if (pass.w0) {
             const double u = pass.w0[e], v = pass.w1[e];
             pass.g00.add(u * u * q), pass.g01.add(u * v * q), pass.g11.add(v * v * q);
             pass.a0 += std::abs(u) * q, pass.a1 += std::abs(v) * q;
         }
         return kind;
+    }
+
+    // An element's conservative value into o_e, returning |o_e|^2: a real unknown sign * sqrt(xi), a complex mode
+    // (c2 > 0) the conventional update c rescaled to modulus sqrt(xi). The finishing pass and a refused attempt's
+    // restore (remedy_elements) form it alike, to the same bits.
+    template <std::size_t Per>
+    static double conservative_value(double* oe, const std::array<double, Per>& c, double c2, double xi, double sign) {
+        if constexpr (Per == 1) {
+            oe[0] = std::copysign(std::sqrt(xi), sign);
+            return oe[0] * oe[0];
+        } else {
+            (void)sign;
+            modulus_update<Per>(oe, c, xi, c2);
+            return oe[0] * oe[0] + oe[1] * oe[1];
+        }
     }
 
     // A complex mode's new value: the conventional update c rescaled to modulus sqrt(xi). Where the two moduli
@@ -398,9 +427,15 @@ class radicand_remedy {
         }
     }
 
-    // How many of cond_ (its first ones, after remedy_elements reordered it) the last successful remedy_elements
-    // gave the conventional update.
-    std::size_t cond_taken_ = 0;
+    // The last successful remedy_elements gave the conventional update to cond_'s elements in buckets below this.
+    std::size_t taken_cut_ = 0;
+    // Calls fn(j) for every j (an index into cond_, in filing order) the last successful remedy_elements took.
+    template <class Fn>
+    void for_each_taken(Fn&& fn) const {
+        if (taken_cut_ == 0) return;
+        for (std::size_t j = 0; j < cond_.size(); ++j)
+            if ((cond_[j] & bucket_mask) < taken_cut_) fn(j);
+    }
 
     // Two invariants (E and Z): the finishing pass accumulates the Gram sums (see remedy_elements).
     bool weights_fused() const { return weights_.size() == 2; }
@@ -439,50 +474,31 @@ class radicand_remedy {
     // otherwise): try_remedy's counts and sums are then over every process, and its decisions the same on all.
     detail::reducer reduce_;
 
-    // The conditioned update's elements (see remedy_elements): an ill-conditioned element and its
-    // xi / |change of xi| (smaller is worse).
-    struct candidate {
-        double ratio;
-        std::size_t e;
-        std::size_t slot;  // its values in cond_values_
-    };
+    // The conditioned update's ill-conditioned elements (see remedy_elements), in filing (element) order: each
+    // (e << bucket_bits) | its bucket of xi / |change of xi| (smaller is worse). 8 bytes per element, so that on
+    // turbulence (two thirds of the modes filed at CFL 0.5) the filing holds a sixth of a state, not the 88 bytes
+    // per element of its values: an attempt recomputes those from the stages (conv), in filing order.
     std::vector<std::size_t> neg_;
     std::vector<double> neg_h_;  // h (below) of each element of neg_
-    std::vector<candidate> cond_;
-    // What the engine's finishing pass computed for each element of cond_, in the order it found them (the engine
-    // fills it with cond_): the conventional update c and the conservative value o (c[1], o[1]: a complex mode's
-    // second part), |c|^2, xi, q = |o|^2 and h = max(|x_e|^2, |c|^2), the element's weight in the share cap. The
-    // attempts read these instead of recomputing the update from the stages (whose reads at the scattered
-    // elements of a selected subset miss the caches) and restore o from them.
-    struct element_values {
-        std::array<double, 2> c, o;
-        double c2, xi, q, h;
-    };
-    std::vector<element_values> cond_values_;
-
-    // Whether the set neg_ + cond_[0, ncond) holds at most max_share of every invariant, before and after: the
-    // sums attempt_elements forms, in its order and so to the same bits, from the h and dq the finishing pass
-    // kept instead of a conventional update recomputed per element. A set refused here is one attempt_elements
-    // would refuse; on a turbulent field the whole ill-conditioned set and its worst quarter usually are, and they
-    // then cost no pass over their elements' stages.
-    bool share_cap_holds(std::size_t ncond) const {
-        const std::size_t m = weights_.size();
-        std::array<double, max_invariants> held{}, mag = mag0_;
-        for (std::size_t k = 0; k < neg_.size(); ++k)
-            for (std::size_t a = 0; a < m; ++a) held[a] += std::abs(weights_[a][neg_[k]]) * neg_h_[k];
-        for (std::size_t j = 0; j < ncond; ++j) {
-            const element_values& v = cond_values_[cond_[j].slot];
-            const double dq = v.c2 - v.q;
-            for (std::size_t a = 0; a < m; ++a) {
-                const double w = weights_[a][cond_[j].e];
-                held[a] += std::abs(w) * v.h;
-                mag[a] += std::abs(w) * dq;
-            }
-        }
-        for (std::size_t a = 0; a < m; ++a)
-            if (!(held[a] <= remedy.max_share * mag[a])) return false;
-        return true;
+    std::vector<std::uint64_t> cond_;
+    // The filed elements' histogram over the buckets of their ratio: per bucket, its count, then for each invariant
+    // a the sum of |w_ae| h_e (h = max(|x_e|^2, |c_e|^2): the element's weight in the share cap) and the sum of
+    // |w_ae| (|c_e|^2 - |o_e|^2) (the change of the invariant's magnitude if taken). 32 buckets per octave of the
+    // ratio from 2^-32 (below: bucket 0) to 2^31 (above: the last), from the double's exponent and first five
+    // mantissa bits: equal ratios share a bucket, so mirror-image elements (a real field's k and -k on the
+    // k_x = 0 column) are always taken or left together, and the state stays Hermitian.
+    static constexpr std::size_t bucket_bits = 12;
+    static constexpr std::uint64_t bucket_mask = (std::uint64_t(1) << bucket_bits) - 1;
+    static constexpr std::size_t ratio_buckets = 64 * 32 + 1;
+    static std::size_t ratio_bucket(double ratio) {
+        std::uint64_t bits;
+        std::memcpy(&bits, &ratio, sizeof bits);
+        constexpr std::uint64_t low = std::uint64_t(1023 - 32) << 5;  // 2^-32: exponent and five mantissa bits
+        const std::uint64_t top = bits >> 47;
+        if (!(ratio >= 0x1p-32)) return 0;
+        return std::min<std::uint64_t>(top - low + 1, ratio_buckets - 1);
     }
+    std::vector<double> hist_;
 
     // The first failed unknown after try_remedy declined: from its list when it made one, else by bad(i).
     template <class Bad>
@@ -528,7 +544,8 @@ class radicand_remedy {
 
    private:
     template <std::size_t Per, class Conv>
-    bool attempt_elements(double* o, const double* x, std::size_t n, Conv& conv, std::size_t ncond) {
+    bool attempt_elements(double* o, const double* x, std::size_t n, Conv& conv, std::size_t cut,
+                          std::size_t ncond) {
         constexpr std::size_t shift = Per == 2 ? 1 : 0;
         const std::size_t m = weights_.size();
         constexpr std::size_t M = max_invariants;
@@ -553,33 +570,58 @@ class radicand_remedy {
         };
         for (std::size_t e : neg_) {  // (few elements: the update recomputed; o holds it already, |o_e|^2 unchanged)
             std::array<double, Per> c{};
-            const auto [c2, xi] = conv(e, c);
-            if (!std::isfinite(c2) || !std::isfinite(xi)) return false;
+            const auto u = conv(e, c);
+            if (!std::isfinite(u.c2) || !std::isfinite(u.xi)) return false;
             double x2 = 0.0;
             for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p], x2 += x[e * Per + p] * x[e * Per + p];
-            add(e, c2 - xi, std::max(x2, c2), 0.0);
+            add(e, u.c2 - u.xi, std::max(x2, u.c2), 0.0);
         }
-        for (std::size_t j = 0; j < ncond; ++j) {  // the finishing pass's values: the bits take() would compute
-            const std::size_t e = cond_[j].e;
-            const element_values& v = cond_values_[cond_[j].slot];
-            if (!std::isfinite(v.c2) || !std::isfinite(v.xi)) return false;
-            for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = v.c[p];
-            add(e, v.c2 - v.xi, v.h, v.c2 - v.q);
-        }
+        // The ill-conditioned elements below the cut, in filing (element) order: their update recomputed from the
+        // stages (the bits of the finishing pass), written into o. A refused attempt restores their conservative
+        // values, recomputed alike.
+        auto restore = [&](std::size_t upto) {
+            for (std::size_t j = 0; j < upto; ++j) {
+                if ((cond_[j] & bucket_mask) >= cut) continue;
+                const std::size_t e = std::size_t(cond_[j] >> bucket_bits);
+                std::array<double, Per> c{};
+                const auto u = conv(e, c);
+                conservative_value<Per>(o + e * Per, c, u.c2, u.xi, u.sign);
+            }
+        };
+        if (cut > 0)
+            for (std::size_t j = 0; j < cond_.size(); ++j) {
+                if ((cond_[j] & bucket_mask) >= cut) continue;
+                const std::size_t e = std::size_t(cond_[j] >> bucket_bits);
+                std::array<double, Per> c{};
+                const auto u = conv(e, c);
+                if (!std::isfinite(u.c2) || !std::isfinite(u.xi)) return restore(j), false;
+                double x2 = 0.0, q = 0.0;  // |x_e|^2 and |o_e|^2 of the conservative value, as the finishing pass
+                for (std::size_t p = 0; p < Per; ++p) x2 += x[e * Per + p] * x[e * Per + p];
+                if constexpr (Per == 1)
+                    q = o[e] * o[e];
+                else
+                    q = o[e * Per] * o[e * Per] + o[e * Per + 1] * o[e * Per + 1];
+                for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p];
+                add(e, u.c2 - u.xi, std::max(x2, u.c2), u.c2 - q);
+            }
+        const auto refuse = [&] {
+            restore(cond_.size());
+            return false;
+        };
         if (taken == 0) return true;
         for (std::size_t a = 0; a < m; ++a)
             for (std::size_t b = 0; b < m; ++b) g[a * M + b] += dg[a * M + b];
         for (std::size_t j = 0; j < m; ++j)
-            if (!(held[j] <= remedy.max_share * mag[j])) return false;
+            if (!(held[j] <= remedy.max_share * mag[j])) return refuse();
         std::array<double, max_invariants> c{};
-        if (!solve(g, mag, defect, c)) return false;
+        if (!solve(g, mag, defect, c)) return refuse();
         const auto commit = [&](double s_bound) {  // the rescale, |s_k| <= s_bound
             s_bound_ = s_bound;
             rescale<Per>(o, n, c);
             ++stats_.remedied_steps;
             stats_.components_remedied += taken * Per;
             stats_.conditioned += ncond * Per;
-            cond_taken_ = ncond;
+            taken_cut_ = cut;
             return true;
         };
         // The size of the rescale (one pass, only in steps that rescale): the share of each invariant it moves,
@@ -627,16 +669,16 @@ class radicand_remedy {
                 for (std::size_t j = 0; j < m; ++j) moved[j] += std::abs(weights_[j][i >> shift]) * a;
             });
         }
-        if (!(s_max <= 0.5)) return false;
+        if (!(s_max <= 0.5)) return refuse();
         // A rescale this small (every |s_k| < 2^-48: no amplitude would move by more than ~8-16 ulps) is not
         // represented: where o h is below half an ulp of o, o + o h rounds back to o, an error of one sign in every
         // such element. Ill-conditioned elements whose whole defect is this small (~4e-15 of every invariant) keep
         // their conservative value rather than drift the invariants by ~eps per step (DP54 at dt = 0.005 on a
         // 45-mode system: defects of 1e-16 of one sign, 15 eps sqrt(n)). Above it the rounding of o + o h is a
         // fraction of an ulp of either sign. (Negative radicands are remedied whatever the size.)
-        if (ncond > 0 && s_max < 0x1p-48) return too_small_ = true, false;
+        if (ncond > 0 && s_max < 0x1p-48) return too_small_ = true, refuse();
         for (std::size_t j = 0; j < m; ++j)
-            if (!(moved[j] <= remedy.max_rescale * mag[j])) return false;
+            if (!(moved[j] <= remedy.max_rescale * mag[j])) return refuse();
         return commit(s_max);
     }
 
