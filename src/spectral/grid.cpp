@@ -94,8 +94,16 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
     fftw_plan_with_nthreads(o.threads);
 #ifdef ECI_MPI
     if (o.comm != MPI_COMM_NULL) {
-        plan_distributed(o);
-        return;
+        // Spread over two processes or more: FFTW's MPI transforms. A communicator of one process holds the whole
+        // field: the serial plans below (batched, no transposes, the pruned transforms available) give the same
+        // bits as a grid without one; the communicator is kept (comm()) for a caller's own collectives.
+        int size = 1;
+        MPI_Comm_size(o.comm, &size);
+        if (size > 1) {
+            plan_distributed(o);
+            return;
+        }
+        MPI_Comm_dup(o.comm, &p_->comm);
     }
 #endif
     p_->buf = reinterpret_cast<cplx*>(fftw_alloc_complex(std::size_t(fields_) * m));

@@ -145,9 +145,10 @@ class flow2d {
     /// maximum. Collective; no-ops on one process.
     void reduce_sums(std::span<double> v) const { grid().sum_over_ranks(v.data(), v.size()); }
     void reduce_max(std::span<double> v) const { grid().max_over_ranks(v.data(), v.size()); }
-    /// Whether the flow is spread over processes (a communicator was given): on one process the steppers treat it
-    /// as a serial model (the conditioned update of issue 19 included).
-    bool spread() const { return grid().comm() != MPI_COMM_NULL; }
+    /// Whether the flow is spread over processes (a communicator of two or more): otherwise, also on a
+    /// communicator of one process, the steppers treat it as a serial model (the conditioned update of issue 19
+    /// included), and the grid takes the serial path, so the run is the serial one bit for bit.
+    bool spread() const { return grid().distributed(); }
 #endif
     bool retained(std::size_t i) const { return weights_[i] != 0.0; }
     /// How often mode i appears in the full plane: 2 (itself and its conjugate -k, not stored), 1 on the k_x = 0

@@ -43,7 +43,8 @@ struct grid_options {
     /// The processes the grid is spread over (MPI build only; MPI_COMM_NULL: this process alone, as without MPI).
     /// Slab decomposition with FFTW's MPI transforms: each process holds a slab of physical rows (y) and, in
     /// spectral space, FFTW's transposed layout, a slab of k_x columns (see grid). Collective: every process of the
-    /// communicator constructs its grid with the same options.
+    /// communicator constructs its grid with the same options. A communicator of one process is the serial grid
+    /// (its plans, layout and bits; distributed() false), the communicator kept in comm().
     MPI_Comm comm = MPI_COMM_NULL;
 #endif
 };
@@ -77,7 +78,8 @@ class grid {
     int kmax() const { return (n_ - 1) / 3; }
     int threads() const { return threads_; }
 
-    /// Whether the grid is spread over more than this process's memory (an MPI communicator; also for one rank).
+    /// Whether the grid is spread over processes (an MPI communicator of two or more; false on a communicator of
+    /// one process, which takes the serial path).
     bool distributed() const { return distributed_; }
     /// This process's rank and the number of processes (0 and 1 without a communicator).
     int rank() const { return rank_; }
@@ -101,7 +103,7 @@ class grid {
     /// Replaces each v[i] by its maximum over the processes (exact in any order). Collective; a no-op on one.
     void max_over_ranks(double* v, std::size_t count) const;
 #ifdef ECI_MPI
-    /// The grid's communicator (a duplicate of grid_options::comm; MPI_COMM_NULL on one process).
+    /// The grid's communicator (a duplicate of grid_options::comm, also of a one-process one; MPI_COMM_NULL without).
     MPI_Comm comm() const;
 #endif
     /// Whether the transforms skip the columns without retained modes (grid_options::pruned).
