@@ -171,6 +171,30 @@ int main(int argc, char** argv) {
         c.beta = 2.0;
         c.deformation = 1.0;
         against_serial<eci::c_rk4<S>>("charney-hasegawa-mima N=32 C-RK4", c, 100, dt, k, true);
+        // The right-hand side's pair of transforms batched (one FFTW MPI transform of the two fields interleaved,
+        // the default) and one field at a time: both the serial run to round-off, and the batch taken where it
+        // should be (2 fields interleaved on more than one process; never on one, nor when switched off).
+        {
+            eci::ns2d_params b = p;
+            b.n = 48;  // (25 columns of the half plane: 13 + 12 on 2 ranks, 9 + 9 + 7 on 3)
+            b.nu = 1e-3;
+            const run_result ser = run<eci::c_rk4<S>>(b, MPI_COMM_NULL, 100, dt);
+            const run_result bat = run<eci::c_rk4<S>>(b, MPI_COMM_WORLD, 100, dt);
+            b.batched_transforms = false;
+            const run_result one = run<eci::c_rk4<S>>(b, MPI_COMM_WORLD, 100, dt);
+            navier_stokes_2d unbatched_flow([&] { auto c = b; c.comm = MPI_COMM_WORLD; return c; }());
+            b.batched_transforms = true;
+            navier_stokes_2d batched_flow([&] { auto c = b; c.comm = MPI_COMM_WORLD; return c; }());
+            const int h = batched_flow.grid().interleaved(2, 2), h1 = unbatched_flow.grid().interleaved(2, 2);
+            check(h == (ranks > 1 ? 2 : 1) && h1 == 1 && batched_flow.grid().interleaved(4, 1) == 1,
+                  "batched transforms: the pair interleaved on " + std::to_string(ranks) + " process(es): " +
+                      std::to_string(h) + " (switched off: " + std::to_string(h1) + ")");
+            const double bound = k * eps * std::sqrt(100.0);
+            const double db = rel_diff(bat.half, ser.half), du = rel_diff(one.half, ser.half);
+            check(db <= bound && du <= bound, "N=48 C-RK4 viscous: batched " + num(db) + ", one field at a time " +
+                                                  num(du) + " from the serial state after 100 steps, <= " + num(bound));
+        }
+
         eci::ns2d_params q = p;
         q.n = 32;
         q.equation = "surface-qg";

@@ -46,6 +46,10 @@ struct grid_options {
     /// communicator constructs its grid with the same options. A communicator of one process is the serial grid
     /// (its plans, layout and bits; distributed() false), the communicator kept in comm().
     MPI_Comm comm = MPI_COMM_NULL;
+    /// Spread over processes: the transforms of a product whose outputs are its inputs (transform_product(k, k),
+    /// Basdevant's form: k = 2) made as one FFTW MPI transform of the k fields interleaved (howmany = k: one
+    /// all-to-all of k fields' worth instead of k all-to-alls; see interleaved()); false: one field at a time.
+    bool batched = true;
 #endif
 };
 
@@ -147,10 +151,16 @@ class grid {
     /// pruned transforms only the columns k_x <= kmax are computed; the others hold no meaning.
     void forward(int first, int count) const;
 
+    /// How transform_product(in, out) wants its fields: h = interleaved(in, out) > 1 (spread over processes,
+    /// grid_options::batched, in = out >= 2) means the h fields interleaved, FFTW's MPI `howmany` layout: mode i
+    /// (at()) of field j is spectral(0)[i h + j], both before and after (one transform of h fields each way);
+    /// h = 1: field j is spectral(j), as everywhere else. inverse() and forward() always take separate fields.
+    int interleaved(int in, int out) const;
     /// The transforms of a product term, fused: fields 0 .. in-1 to physical space, then, row by row while the row
     /// is in cache, row(x) -> row(x) by `fn`, then fields 0 .. out-1 back to spectral space (unnormalised). fn gets
     /// `in` pointers to the row's n values of each field and writes the outputs over the first `out`. Only the
-    /// columns k_x <= kmax of the inputs are read (the rest are taken as zero) and of the outputs written.
+    /// columns k_x <= kmax of the inputs are read (the rest are taken as zero) and of the outputs written. The
+    /// fields are laid out as interleaved(in, out) says.
     template <class Fn>
     void transform_product(int in, int out, Fn fn) const {
         product_pass(in, out, [](void* c, double* const* rows, std::size_t nx) { (*static_cast<Fn*>(c))(rows, nx); },
