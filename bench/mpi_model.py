@@ -1,20 +1,25 @@
 #!/usr/bin/env python3
 """Ratios from bench/mpi.sh's measurements, and a model of the step at many ranks built from them.
 
-Usage: mpi_model.py RAW [--nodes-cores 32] [--bandwidth 12.5e9] [--latency 1.5e-6]
+Usage: mpi_model.py RAW [--nodes-cores 32] [--bandwidth 12.5e9] [--latency 1.5e-6] [--unbatched]
 
-RAW holds eci_bench_mpi_step's lines (N=.. ranks=.. threads=.. layout=.. crk4=.. rk4=.. transforms=.. transposes=..).
+RAW holds eci_bench_mpi_step's lines (N=.. ranks=.. threads=.. layout=.. crk4=.. rk4=.. transforms=.. transposes=..);
+layout is serial, mpi (on more than one rank: the right-hand side's transforms batched) or mpi-unbatched (one field
+at a time), and a table of batched against unbatched is printed where both were measured.
 
 The model (stated in docs/benchmarks.md, "MPI"): a C-RK4 step of an N x N grid on P ranks costs
-    T(N, P) = [16 c_fft N^2 log2(N^2) + c_pt N^2] / P + 16 t_a2a(N, P)
+    T(N, P) = [16 c_fft N^2 log2(N^2) + c_pt N^2] / P + 16 t_vol(N, P) + M a (P - 1)
   - 16 two-dimensional transforms per step (4 right-hand sides, Basdevant's 2 inverse + 2 forward each);
   - c_fft: seconds per point and log2 of a transform's local work, from the 1-rank run (its transforms minus its
     local transposes); c_pt: the rest of the step (pointwise passes, the stepper's combinations) per point;
-  - t_a2a: one global transpose of the n x (n/2 + 1) complex half plane. Each rank sends (P - 1)/P of its 16 N (N/2+1)/P
-    bytes V_rank; ranks share a node's injection bandwidth B in groups of `cores`, so the off-node part of the
-    volume costs cores V_rank (P - cores) / (P - 1) / B; the on-node part moves through shared memory at the
-    per-rank rate b measured by the 2-rank run here (its transposes' volume over their time); every message costs
-    the latency a: t_a2a = a (P - 1) + V_rank (min(P, cores) - 1) / (P - 1) / b + cores V_rank (P - cores)^+ / (P - 1) / B.
+  - t_vol: the volume of one global transpose of the n x (n/2 + 1) complex half plane. Each rank sends (P - 1)/P of
+    its 16 N (N/2+1)/P bytes V_rank; ranks share a node's injection bandwidth B in groups of `cores`, so the off-node
+    part of the volume costs cores V_rank (P - cores) / (P - 1) / B; the on-node part moves through shared memory at
+    the per-rank rate b measured by the 2-rank run here (its transposes' volume over their time):
+    t_vol = V_rank (min(P, cores) - 1) / (P - 1) / b + cores V_rank (P - cores)^+ / (P - 1) / B;
+  - every all-to-all costs P - 1 messages of latency a; a step makes M of them: 8 with the right-hand side's pair
+    of transforms batched (one all-to-all of both fields each way, the default), 16 one field at a time
+    (--unbatched).
 """
 import math
 import re
@@ -46,16 +51,19 @@ def main(argv):
     args = argv[1:]
     opts = {"--nodes-cores": 32.0, "--bandwidth": 12.5e9, "--latency": 1.5e-6}
     path = None
+    messages = 8  # all-to-alls per step: Basdevant's pair batched, one each way per right-hand side
     while args:
         a = args.pop(0)
-        if a in opts:
+        if a == "--unbatched":
+            messages = 16
+        elif a in opts:
             opts[a] = float(args.pop(0))
         elif path is None:
             path = a
         else:
             sys.exit(f"mpi_model.py: unexpected argument {a}")
     if path is None:
-        sys.exit("usage: mpi_model.py RAW [--nodes-cores C] [--bandwidth B] [--latency A]")
+        sys.exit("usage: mpi_model.py RAW [--nodes-cores C] [--bandwidth B] [--latency A] [--unbatched]")
     rows = parse(path)
     cores, bw, lat = opts["--nodes-cores"], opts["--bandwidth"], opts["--latency"]
 
@@ -64,6 +72,7 @@ def main(argv):
           "its transforms | 2 ranks: transposes / transforms |")
     print("|---|---|---|---|---|---|---|---|")
     fit = None
+    batched_lines = []
     for n in sorted({r["N"] for r in rows}):
         s1, m1 = pick(rows, n, 1, 1, "serial"), pick(rows, n, 1, 1, "mpi")
         s2, m12 = pick(rows, n, 1, 2, "serial"), pick(rows, n, 1, 2, "mpi")
@@ -77,11 +86,25 @@ def main(argv):
         print(f"| {n} | " + " | ".join(cells) + " |")
         print(f"|   | seconds: serial {s1['crk4']:.4g}, 1 rank {m1['crk4']:.4g}, 2 ranks {m2['crk4']:.4g} "
               f"(transforms {m2['transforms']:.4g}, transposes {m2['transposes']:.4g}) | | | | | | |")
+        u2 = pick(rows, n, 2, 1, "mpi-unbatched")
+        if u2:
+            batched_lines.append(
+                f"| {n} | {u2['crk4'] / m2['crk4']:.3f} | {u2['rk4'] / m2['rk4']:.3f} | "
+                f"{u2['transforms'] / m2['transforms']:.3f} | {m2['crk4']:.4g} / {u2['crk4']:.4g} | "
+                f"{m2['transforms']:.4g} / {u2['transforms']:.4g} |")
         points = float(n) * n
         c_fft = (m1["transforms"] - m1["transposes"]) / (16 * points * math.log2(points))
         c_pt = (m1["crk4"] - m1["transforms"]) / points
         v2 = 16.0 * n * (n / 2 + 1) / 2 / 2  # bytes a rank sends in one 2-rank transpose
         fit = (n, c_fft, c_pt, v2 / (m2["transposes"] / 16))
+    if batched_lines:
+        # layout=mpi batches the right-hand side's pair of transforms (one FFTW MPI transform of the two fields
+        # interleaved); layout=mpi-unbatched transforms one field at a time: > 1 means batching is faster
+        print("\n| N | 2 ranks, C-RK4: one field at a time / batched | RK4 | transforms | C-RK4 s, batched / one at a time "
+              "| transforms s, batched / one at a time |")
+        print("|---|---|---|---|---|---|")
+        for line in batched_lines:
+            print(line)
     if fit is None:
         print("(no complete set of 1- and 2-rank rows)")
         return 0
@@ -89,7 +112,8 @@ def main(argv):
     n0, c_fft, c_pt, shm = fit
     print(f"\nModel from N = {n0}: c_fft = {c_fft:.3g} s per point per log2, c_pt = {c_pt:.3g} s per point, "
           f"on-node transpose {shm / 1e9:.2f} GB/s per rank (measured); network (assumed): {cores:.0f} ranks per node "
-          f"sharing {bw / 1e9:.1f} GB/s, {lat * 1e6:.1f} us per message")
+          f"sharing {bw / 1e9:.1f} GB/s, {lat * 1e6:.1f} us per message; {messages} all-to-alls per step "
+          f"({'batched pairs' if messages == 8 else 'one field at a time'})")
     print("\n| N | P | compute s/step | all-to-all s/step | step s | parallel efficiency | state per rank |")
     print("|---|---|---|---|---|---|---|")
     for n in (8192, 16384, 32768, 65536):
@@ -102,10 +126,10 @@ def main(argv):
             v_rank = 16.0 * n * (n / 2 + 1) / p * (p - 1) / p
             off_node = max(p - cores, 0.0) / (p - 1)
             on_node = (min(p, cores) - 1) / (p - 1)
-            a2a = lat * (p - 1) + v_rank * on_node / shm + min(cores, p) * v_rank * off_node / bw
-            step = compute + 16 * a2a
+            a2a = 16 * (v_rank * on_node / shm + min(cores, p) * v_rank * off_node / bw) + messages * lat * (p - 1)
+            step = compute + a2a
             state = 16.0 * n * (n / 2 + 1) / p
-            print(f"| {n} | {p} | {compute:.3g} | {16 * a2a:.3g} | {step:.3g} | {compute / step:.2f} | "
+            print(f"| {n} | {p} | {compute:.3g} | {a2a:.3g} | {step:.3g} | {compute / step:.2f} | "
                   f"{state / 2**20:.0f} MiB |")
     return 0
 

@@ -3,12 +3,17 @@
 // inside those transforms (FFTW's MPI r2c/c2r in the transposed layouts: every 2-D transform is the local row
 // transforms, one global transpose of the n x (n/2 + 1) complex half plane, and the column transforms).
 // Run on one process it also times the serial grid (no communicator) in the same process with the same threads,
-// so "1-rank MPI against the serial step" is a ratio of one run.
+// so "1-rank MPI against the serial step" is a ratio of one run. (A communicator of one process takes the serial
+// grid inside the library since issue 23's third session: the two rows then time the same code, and the 1-rank
+// row's transposes are 0; the commit before, 7f70fa3, timed FFTW's MPI plans on one process there.)
 //
 //   mpirun -np P eci_bench_mpi_step N [threads] [reps]
 //
 // Prints one line per layout, key=value, wall seconds per step (the fastest of reps; each rep the slowest rank's
-// time between barriers). bench/mpi.sh runs it for 1 and 2 processes and prints the ratios.
+// time between barriers). bench/mpi.sh runs it for 1 and 2 processes and prints the ratios. On more than one
+// process it times the spread flow twice: layout=mpi, the right-hand side's pair of transforms batched (one FFTW
+// MPI transform of the two fields interleaved each way, the default), and layout=mpi-unbatched, one field at a
+// time (flow_params::batched_transforms = false, the layout before issue 23's third session).
 #include <mpi.h>
 
 #include <fftw3-mpi.h>
@@ -47,12 +52,13 @@ struct result {
 
 // One layout: the flow spread over `comm` (MPI_COMM_NULL: this process alone, the serial grid). Every process of
 // `timing` calls it. A step is timed from the same field at CFL 0.5 each rep, as eci_bench_ns2d_step does.
-result measure(int n, int threads, int reps, MPI_Comm comm, MPI_Comm timing) {
+result measure(int n, int threads, int reps, MPI_Comm comm, MPI_Comm timing, bool batched = true) {
     eci::ns2d_params p;
     p.n = n;
     p.threads = threads;
     p.nu = 1e-4;
     p.comm = comm;
+    p.batched_transforms = batched;
     eci::navier_stokes_2d m(p);
     const state w0 = m.random_field(n / 16.0, 0.5, 1);
     const double dt = 0.5 * (2.0 * std::numbers::pi / n) / m.max_velocity(w0);
@@ -78,16 +84,14 @@ result measure(int n, int threads, int reps, MPI_Comm comm, MPI_Comm timing) {
             st.step(m, w, 0.0, dt);
         });
     }
-    // The transforms of an RK4 step: 4 right-hand sides of Basdevant's form, 2 inverse and 2 forward each.
-    const auto& g = m.grid();
+    // The transforms of an RK4 step: 4 right-hand sides of Basdevant's form, 2 inverse and 2 forward each (as the
+    // right-hand side makes them: batched, the pair as one transform each way, with the pass over the rows that
+    // takes the interleaved fields apart and puts them back).
     r.transforms = timed(timing, reps, [&] {
-        for (int s = 0; s < 4; ++s) {
-            g.inverse(2);
-            g.forward(0, 2);
-        }
+        for (int s = 0; s < 4; ++s) m.execute_transforms();
     });
     // The transposes inside them: 16 of the n x (n/2 + 1) complex half plane per step (one per 2-D transform).
-    if (comm != MPI_COMM_NULL) {
+    if (m.grid().distributed()) {
         const ptrdiff_t dims[2] = {n, n / 2 + 1};
         ptrdiff_t ln0 = 0, l0 = 0, ln1 = 0, l1 = 0;
         const ptrdiff_t count = fftw_mpi_local_size_many_transposed(2, dims, 2, FFTW_MPI_DEFAULT_BLOCK,
@@ -126,7 +130,7 @@ int main(int argc, char** argv) {
                         ranks, threads, layout, r.crk4, r.rk4, r.transforms, r.transposes);
     };
     // Alternated, twice, so a change of load hits both layouts alike; the faster of the two rounds is kept.
-    result mpi, serial;
+    result mpi, serial, unbatched;
     for (int round = 0; round < 2; ++round) {
         const result a = measure(n, threads, reps, MPI_COMM_WORLD, MPI_COMM_WORLD);
         const auto keep = [](result& best, const result& x) {
@@ -137,9 +141,11 @@ int main(int argc, char** argv) {
         };
         keep(mpi, a);
         if (ranks == 1) keep(serial, measure(n, threads, reps, MPI_COMM_NULL, MPI_COMM_WORLD));
+        if (ranks > 1) keep(unbatched, measure(n, threads, reps, MPI_COMM_WORLD, MPI_COMM_WORLD, false));
     }
     print("mpi", mpi);
     if (ranks == 1) print("serial", serial);
+    if (ranks > 1) print("mpi-unbatched", unbatched);
     MPI_Finalize();
     return 0;
 }

@@ -20,6 +20,7 @@ grid_options grid_options_of(const flow_params& p) {
     grid_options o{p.n, 4, p.threads, p.measure, p.pruned_transforms, p.wisdom_file, p.wisdom};
 #ifdef ECI_MPI
     o.comm = p.comm;
+    o.batched = p.batched_transforms;
 #endif
     return o;
 }
@@ -88,11 +89,14 @@ struct flow2d::impl {
     // advective form, i k_x q and i k_y q into 2 and 3), zero outside the retained square; a transform overwrites
     // its input, so every mode the transforms read is rewritten: the columns k_x <= kmax (transform_product takes
     // the rest as zero), every column for the plain inverse transforms.
-    void fill(const cplx* q, int fields, bool all_columns = false) {
+    // (h > 1: spread over processes, the fields interleaved for a batched transform_product, grid::interleaved)
+    void fill(const cplx* q, int fields, bool all_columns = false, int h = 1) {
         cplx* f[4] = {g.spectral(0), g.spectral(1), fields > 2 ? g.spectral(2) : nullptr,
                       fields > 2 ? g.spectral(3) : nullptr};
+        if (h > 1)
+            for (int j = 0; j < fields; ++j) f[j] = g.spectral(0) + j;
         const double* av = a.data();
-        if (g.distributed()) return fill_columns(q, fields, f);
+        if (g.distributed()) return fill_columns(q, fields, f, std::size_t(h));
         const std::size_t end = all_columns || !g.pruned() ? nc : kept;
         const int n = g.n();
         g.for_rows([&](int r0, int r1) {
@@ -123,8 +127,9 @@ struct flow2d::impl {
     }
 
     // fill() on a grid spread over processes: this process's columns of the transposed layout, each a column of
-    // n modes (k_x = c0 + c), every mode written (the MPI transforms read them all).
-    void fill_columns(const cplx* q, int fields, cplx* const* f) {
+    // n modes (k_x = c0 + c), every mode written (the MPI transforms read them all); mode i of field j at
+    // f[j][i h] (h > 1: interleaved).
+    void fill_columns(const cplx* q, int fields, cplx* const* f, std::size_t h) {
         const int n = g.n(), local = g.local_columns();
         if (local == 0) return;
         const double* av = a.data();
@@ -133,7 +138,7 @@ struct flow2d::impl {
                 const double kx = double(c0 + c);
                 const bool col_in = std::size_t(c) < kept;
                 for (int row = 0; row < n; ++row) {
-                    const std::size_t i = std::size_t(c) * std::size_t(n) + std::size_t(row);
+                    const std::size_t i = (std::size_t(c) * std::size_t(n) + std::size_t(row)) * h;
                     const int ky_i = g.ky_of_row(row);
                     if (!col_in || ky_i > kmax || -ky_i > kmax) {
                         for (int j = 0; j < fields; ++j) f[j][i] = cplx{};
@@ -153,10 +158,19 @@ struct flow2d::impl {
         }, local);
     }
 
+    // Where nl_at() reads the transforms' results: mode j (the grid's index) of output k at nl_out[k][j * nl_step]
+    // (nl_step 2: the pair interleaved, a batched transform spread over processes).
+    const cplx* nl_out[2] = {nullptr, nullptr};
+    std::size_t nl_step = 1;
+
     // The transforms of the nonlinear term, leaving in the scratch fields what nl_at() reads.
     void nonlinear_transforms(const cplx* q, nonlinear_form form) {
         if (form == nonlinear_form::basdevant) {
-            fill(q, 2);
+            const int h = g.interleaved(2, 2);
+            nl_out[0] = g.spectral(0);
+            nl_out[1] = h > 1 ? g.spectral(0) + 1 : g.spectral(1);
+            nl_step = std::size_t(h);
+            fill(q, 2, false, h);
             g.transform_product(2, 2, [](double* const* f, std::size_t nx) {
                 double* u = f[0];
                 double* v = f[1];
@@ -167,6 +181,8 @@ struct flow2d::impl {
                 }
             });
         } else {
+            nl_out[0] = g.spectral(0);
+            nl_step = 1;
             fill(q, 4);
             g.transform_product(4, 1, [](double* const* f, std::size_t nx) {
                 for (std::size_t x = 0; x < nx; ++x) f[0][x] = f[0][x] * f[2][x] + f[1][x] * f[3][x];
@@ -180,9 +196,9 @@ struct flow2d::impl {
     template <nonlinear_form F>
     cplx nl_at(std::size_t j, double kx, double ky, double scale) const {
         if constexpr (F == nonlinear_form::basdevant)
-            return scale * ((kx * kx - ky * ky) * g.spectral(0)[j] + (kx * ky) * g.spectral(1)[j]);
+            return scale * ((kx * kx - ky * ky) * nl_out[0][j * nl_step] + (kx * ky) * nl_out[1][j * nl_step]);
         else
-            return -scale * g.spectral(0)[j];
+            return -scale * nl_out[0][j];
     }
 
     template <nonlinear_form F>
@@ -302,7 +318,11 @@ void flow2d::set_form(nonlinear_form f) {
 
 void flow2d::execute_transforms() {
     const spectral::grid& g = d_->g;
-    if (form_ == nonlinear_form::basdevant) {
+    if (form_ == nonlinear_form::basdevant && g.interleaved(2, 2) > 1) {
+        // spread and batched: the right-hand side's one transform of the interleaved pair each way (with its pass
+        // over the rows, which takes the fields apart and puts them back)
+        g.transform_product(2, 2, [](double* const*, std::size_t) {});
+    } else if (form_ == nonlinear_form::basdevant) {
         g.inverse(2);
         g.forward(0, 2);
     } else {

@@ -53,13 +53,16 @@ struct grid::plans {
     // and one row's 1-D c2r and r2c, in place.
     std::vector<double*> rows;
     fftw_plan row_c2r = nullptr, row_r2c = nullptr;
-    // Spread over processes: one field's transforms (a batch is executed field by field on the same plan)
+    // Spread over processes: one field's transforms (inverse() and forward() execute a batch field by field on the
+    // same plan), and the transforms of `batch` interleaved fields (FFTW's howmany; 0: none) for transform_product
     fftw_plan mpi_c2r = nullptr, mpi_r2c = nullptr;
+    fftw_plan mpi_c2r_many = nullptr, mpi_r2c_many = nullptr;
+    int batch = 0;
 #ifdef ECI_MPI
     MPI_Comm comm = MPI_COMM_NULL;
 #endif
     ~plans() {
-        for (fftw_plan p : {mpi_c2r, mpi_r2c})
+        for (fftw_plan p : {mpi_c2r, mpi_r2c, mpi_c2r_many, mpi_r2c_many})
             if (p) fftw_destroy_plan(p);
 #ifdef ECI_MPI
         if (comm != MPI_COMM_NULL) {
@@ -94,8 +97,16 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
     fftw_plan_with_nthreads(o.threads);
 #ifdef ECI_MPI
     if (o.comm != MPI_COMM_NULL) {
-        plan_distributed(o);
-        return;
+        // Spread over two processes or more: FFTW's MPI transforms. A communicator of one process holds the whole
+        // field: the serial plans below (batched, no transposes, the pruned transforms available) give the same
+        // bits as a grid without one; the communicator is kept (comm()) for a caller's own collectives.
+        int size = 1;
+        MPI_Comm_size(o.comm, &size);
+        if (size > 1) {
+            plan_distributed(o);
+            return;
+        }
+        MPI_Comm_dup(o.comm, &p_->comm);
     }
 #endif
     p_->buf = reinterpret_cast<cplx*>(fftw_alloc_complex(std::size_t(fields_) * m));
@@ -175,17 +186,44 @@ void grid::plan_distributed([[maybe_unused]] const grid_options& o) {
     col0_ = int(l1);
     // every field on a 64-byte boundary, as the first (the plans are made on field 0 and executed on the others)
     field_stride_ = (std::size_t(std::max<ptrdiff_t>(alloc, 1)) + 3) / 4 * 4;
-    p_->buf = reinterpret_cast<cplx*>(fftw_alloc_complex(std::size_t(fields_) * field_stride_));
+    // Batched: the pair of a product (Basdevant's form) as one transform of 2 interleaved fields, in the memory of
+    // fields 0 and 1 (FFTW's howmany layout needs 2 x one field's local size; the buffer grows if it needs more)
+    const int batch = o.batched && fields_ >= 2 ? 2 : 0;
+    const ptrdiff_t half[2] = {n_, columns()};
+    ptrdiff_t alloc_many = 0;
+    if (batch) {
+        ptrdiff_t bn0 = 0, b0 = 0, bn1 = 0, b1 = 0;
+        alloc_many = fftw_mpi_local_size_many_transposed(2, half, batch, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK,
+                                                         p_->comm, &bn0, &b0, &bn1, &b1);
+        if (bn0 != ln0 || b0 != l0 || bn1 != ln1 || b1 != l1)
+            throw std::logic_error("FFTW's batched MPI transforms split the grid otherwise than its single ones");
+    }
+    const std::size_t total = std::max(std::size_t(fields_) * field_stride_, std::size_t(std::max<ptrdiff_t>(alloc_many, 0)));
+    p_->buf = reinterpret_cast<cplx*>(fftw_alloc_complex(total));
     if (!p_->buf) throw std::bad_alloc();
-    std::fill(p_->buf, p_->buf + std::size_t(fields_) * field_stride_, cplx{});
+    std::fill(p_->buf, p_->buf + total, cplx{});
     const unsigned flags = o.measure ? FFTW_MEASURE : FFTW_ESTIMATE;
     auto* c = reinterpret_cast<fftw_complex*>(p_->buf);
     auto* r = reinterpret_cast<double*>(p_->buf);
     p_->mpi_c2r = fftw_mpi_plan_dft_c2r_2d(n_, n_, c, r, p_->comm, flags | FFTW_MPI_TRANSPOSED_IN);
     p_->mpi_r2c = fftw_mpi_plan_dft_r2c_2d(n_, n_, r, c, p_->comm, flags | FFTW_MPI_TRANSPOSED_OUT);
     if (!p_->mpi_c2r || !p_->mpi_r2c) throw std::runtime_error("FFTW could not plan the MPI transforms");
-    std::fill(p_->buf, p_->buf + std::size_t(fields_) * field_stride_, cplx{});
-    // the fused pass is not used spread over processes; p_->rows stays empty
+    if (batch) {
+        const ptrdiff_t whole[2] = {n_, n_};
+        p_->mpi_c2r_many = fftw_mpi_plan_many_dft_c2r(2, whole, batch, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK,
+                                                      c, r, p_->comm, flags | FFTW_MPI_TRANSPOSED_IN);
+        p_->mpi_r2c_many = fftw_mpi_plan_many_dft_r2c(2, whole, batch, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK,
+                                                      r, c, p_->comm, flags | FFTW_MPI_TRANSPOSED_OUT);
+        if (!p_->mpi_c2r_many || !p_->mpi_r2c_many)
+            throw std::runtime_error("FFTW could not plan the batched MPI transforms");
+        p_->batch = batch;
+        // each thread's rows of the product pass, taken out of the interleaved fields and put back
+        for (int t = 0; t < threads_; ++t) {
+            p_->rows.push_back(fftw_alloc_real(std::size_t(fields_) * padded()));
+            if (!p_->rows.back()) throw std::bad_alloc();
+        }
+    }
+    std::fill(p_->buf, p_->buf + total, cplx{});
 #endif
 }
 
@@ -274,8 +312,34 @@ void grid::run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const
     omp_rows(threads_, rows, [&](int r0, int r1, int tid) { fn(ctx, r0, r1, tid); });
 }
 
+int grid::interleaved(int in, int out) const {
+    return distributed_ && in == out && in >= 2 && in == p_->batch ? in : 1;
+}
+
 void grid::product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const {
     const std::size_t nc = std::size_t(columns()), pad = padded();
+#ifdef ECI_MPI
+    if (const int h = interleaved(in, out); h > 1) {
+        // one transform of the h interleaved fields each way; between them each row's values of every field are
+        // taken out (in cache) for fn and put back
+        fftw_execute(p_->mpi_c2r_many);
+        const std::size_t hs = std::size_t(h), nx = std::size_t(n_);
+        omp_rows(threads_, local_rows_, [&](int r0, int r1, int tid) {
+            double* b[8];
+            for (int j = 0; j < h; ++j) b[j] = p_->rows[std::size_t(tid)] + std::size_t(j) * pad;
+            for (int y = r0; y < r1; ++y) {
+                double* row = physical(0) + std::size_t(y) * pad * hs;
+                for (std::size_t x = 0; x < nx; ++x)
+                    for (std::size_t j = 0; j < hs; ++j) b[j][x] = row[x * hs + j];
+                fn(ctx, b, nx);
+                for (std::size_t x = 0; x < nx; ++x)
+                    for (std::size_t j = 0; j < hs; ++j) row[x * hs + j] = b[j][x];
+            }
+        });
+        fftw_execute(p_->mpi_r2c_many);
+        return;
+    }
+#endif
     if (!p_->pruned) {  // FFTW's 2-D transforms and a pass over the fields (this process's rows) between them
         inverse(in);
         omp_rows(threads_, local_rows_, [&](int r0, int r1, int) {

@@ -305,7 +305,9 @@ def case_abort(d):
 
 # Runs a command as one MPI process, records its exit status and peak memory (ru_maxrss, KiB) in
 # RC.<rank> ("status kib"); with a limit > 0, the command may write no file beyond that many bytes (RLIMIT_FSIZE, with
-# SIGXFSZ ignored: a write past it fails with EFBIG, "File too large").
+# SIGXFSZ ignored: a write past it fails with EFBIG, "File too large"). The limit does reach the tool under mpirun
+# (Open MPI leaves it alone: /proc/PID/limits of the rank shows it, and strace shows rank 1's pwrite of its block
+# failing with EFBIG); the limit is recorded in RC.<rank>.limit as the tool's process saw it.
 LIMITED = r"""
 import os, resource, signal, subprocess, sys
 rc, limit, cmd = sys.argv[1], int(sys.argv[2]), sys.argv[3:]
@@ -314,15 +316,22 @@ def limited():
     if limit > 0:
         resource.setrlimit(resource.RLIMIT_FSIZE, (limit, limit))
 child = subprocess.Popen(cmd, preexec_fn=limited)
+rank = os.environ.get("OMPI_COMM_WORLD_RANK", "x")
+try:
+    seen = [l for l in open(f"/proc/{child.pid}/limits") if l.startswith("Max file size")][0].split()[3]
+except (OSError, IndexError):
+    seen = "?"
 _, status, usage = os.wait4(child.pid, 0)
-with open(rc + "." + os.environ.get("OMPI_COMM_WORLD_RANK", "x"), "w") as f:
+with open(rc + "." + rank + ".limit", "w") as f:
+    f.write(seen)
+with open(rc + "." + rank, "w") as f:
     f.write(f"{os.waitstatus_to_exitcode(status)} {usage.ru_maxrss}")
 """
 
 
-def ranks_run(d, tag, per_rank, args, env=None):
+def ranks_run(d, tag, per_rank, args, env=None, timeout=240):
     """mpirun of one process per entry of per_rank (a file size limit, 0: none), each through LIMITED; returns
-    mpirun's result and every rank's (status, peak KiB)."""
+    mpirun's result (with .took, seconds, and .hung: killed after `timeout`) and every rank's (status, peak KiB)."""
     with open(os.path.join(d, "limited.py"), "w") as f:
         f.write(LIMITED)
     cmd = [MPIEXEC, "--oversubscribe"]
@@ -332,8 +341,23 @@ def ranks_run(d, tag, per_rank, args, env=None):
         cmd += ["-np", "1", sys.executable, os.path.join(d, "limited.py"), os.path.join(d, tag), str(limit), ECI,
                 "run", "navier-stokes-2d"] + args
     start = time.monotonic()
-    r = subprocess.run(cmd, cwd=d, env=env or ENV, capture_output=True, text=True, timeout=240)
+    # A process left waiting for another (a hang) is a failure of the case, not of the suite: past `timeout`, mpirun
+    # is sent SIGTERM (it ends its processes), then SIGKILL; r.hung says so, and the statuses are then missing.
+    p = subprocess.Popen(cmd, cwd=d, env=env or ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    hung = False
+    try:
+        out, err = p.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        hung = True
+        p.terminate()
+        try:
+            out, err = p.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            out, err = p.communicate()
+    r = subprocess.CompletedProcess(cmd, p.returncode, out, err)
     r.took = time.monotonic() - start
+    r.hung = hung
     out = []
     for k in range(len(per_rank)):
         try:
@@ -345,14 +369,31 @@ def ranks_run(d, tag, per_rank, args, env=None):
 
 
 def case_rank_failure(d):
-    # A write failing on rank 1 alone (its block of the checkpoint, past a file size limit only it has): every
-    # process exits 1 with that reason, at once; one line from rank 0; no temporary or checkpoint left.
+    # A write failing on rank 1 alone (its block of the checkpoint or snapshot, past a file size limit only it has,
+    # RLIMIT_FSIZE of 1 KiB: rank 0 creates the file, header and its own block, with no limit; rank 1's block lies
+    # beyond 1 KiB): every process exits 1 with rank 1's reason, at once (no process left waiting: a hang is killed
+    # after 60 s and fails the case); one line from rank 0; no temporary, checkpoint or snapshot left.
+    # (What hid it before: HDF5 keeps such a small hyperslab write in the dataset's sieve buffer and writes it at
+    # H5Dclose, whose failure the writer did not check; the file's flush and close then succeeded, and rank 1's
+    # columns were silently missing from a checkpoint committed as whole.)
     # (TCP between the processes: the limit would stop shared memory's backing files too.)
     env = dict(ENV, OMPI_MCA_btl="self,tcp", OMPI_MCA_btl_tcp_if_include="lo")
-    for what, args in (("checkpoint", ["--checkpoint-every", "1", "--checkpoint", "ck.h5"]),
-                       ("snapshot", ["--snapshot-every", "1", "--snapshot-dir", "snaps"])):
+    outputs = (("checkpoint", ["--checkpoint-every", "1", "--checkpoint", "ck.h5"]),
+               ("snapshot", ["--snapshot-every", "1", "--snapshot-dir", "snaps"]))
+    # the control: the same runs without a limit succeed in this set-up (so the failure below is the limit's)
+    sub = tempfile.mkdtemp(dir=d)
+    r, ranks = ranks_run(sub, "rc", [0, 0], BASE + ["--steps", "3", "--output", "o.csv"] + outputs[0][1] +
+                         outputs[1][1], env, timeout=120)
+    check(not r.hung and [s for s, _ in ranks] == [0, 0] and os.path.exists(os.path.join(sub, "ck.h5")),
+          f"without a limit the same run succeeds ({ranks}, {r.took:.1f} s)")
+    for what, args in outputs:
         sub = tempfile.mkdtemp(dir=d)
-        r, ranks = ranks_run(sub, "rc", [0, 1024], BASE + ["--steps", "3", "--output", "o.csv"] + args, env)
+        r, ranks = ranks_run(sub, "rc", [0, 1024], BASE + ["--steps", "3", "--output", "o.csv"] + args, env,
+                             timeout=60)
+        limits = [open(os.path.join(sub, f"rc.{k}.limit")).read() if os.path.exists(os.path.join(sub, f"rc.{k}.limit"))
+                  else None for k in (0, 1)]
+        check(limits == ["unlimited", "1024"], f"{what}: the tool's processes run with file size limits {limits}")
+        check(not r.hung, f"{what}: no process left waiting (mpirun returned after {r.took:.1f} s)")
         own = [l for l in r.stderr.splitlines() if l.startswith("eci")]
         check([s for s, _ in ranks] == [1, 1], f"{what} of rank 1 fails: every rank exits 1 ({ranks}) in {r.took:.1f} s")
         check(len(own) == 1 and "File too large" in own[0], f"{what}: one line from rank 0, rank 1's reason: {own}")

@@ -29,7 +29,7 @@ using eci::navier_stokes_2d;
 using state = navier_stokes_2d::state_type;
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
-int rank_ = 0;
+int rank_ = 0, ranks_ = 1;
 bool all_ok = true;
 
 void check(bool ok, const std::string& what) {
@@ -114,6 +114,8 @@ void against_serial(const std::string& name, eci::ns2d_params p, int steps, doub
     const double bound = k * eps * std::sqrt(double(steps)), d = rel_diff(all.half, one.half);
     check(d <= bound, name + ": state after " + std::to_string(steps) + " steps = the serial run's to " + num(d) +
                           " <= " + num(k) + " eps sqrt(steps) = " + num(bound));
+    if (ranks_ == 1)  // a communicator of one process takes the serial grid: the same bits, not only round-off
+        check(same_bits(all.half, one.half), name + ": on a communicator of one process, the serial run bit for bit");
     const run_result again = run<Stepper>(p, MPI_COMM_WORLD, steps, dt);
     check(same_bits(again.half, all.half), name + ": a second run on the same ranks repeats bit for bit");
     if (conservative && p.nu == 0.0 && p.forcing == eci::ns2d_forcing::none) {
@@ -142,6 +144,7 @@ int main(int argc, char** argv) {
     MPI_Comm_rank(MPI_COMM_WORLD, &rank_);
     int ranks = 1;
     MPI_Comm_size(MPI_COMM_WORLD, &ranks);
+    ranks_ = ranks;
     if (rank_ == 0) std::printf("spectral core on %d MPI process(es)\n", ranks);
     {
         eci::ns2d_params p;
@@ -168,6 +171,30 @@ int main(int argc, char** argv) {
         c.beta = 2.0;
         c.deformation = 1.0;
         against_serial<eci::c_rk4<S>>("charney-hasegawa-mima N=32 C-RK4", c, 100, dt, k, true);
+        // The right-hand side's pair of transforms batched (one FFTW MPI transform of the two fields interleaved,
+        // the default) and one field at a time: both the serial run to round-off, and the batch taken where it
+        // should be (2 fields interleaved on more than one process; never on one, nor when switched off).
+        {
+            eci::ns2d_params b = p;
+            b.n = 48;  // (25 columns of the half plane: 13 + 12 on 2 ranks, 9 + 9 + 7 on 3)
+            b.nu = 1e-3;
+            const run_result ser = run<eci::c_rk4<S>>(b, MPI_COMM_NULL, 100, dt);
+            const run_result bat = run<eci::c_rk4<S>>(b, MPI_COMM_WORLD, 100, dt);
+            b.batched_transforms = false;
+            const run_result one = run<eci::c_rk4<S>>(b, MPI_COMM_WORLD, 100, dt);
+            navier_stokes_2d unbatched_flow([&] { auto c = b; c.comm = MPI_COMM_WORLD; return c; }());
+            b.batched_transforms = true;
+            navier_stokes_2d batched_flow([&] { auto c = b; c.comm = MPI_COMM_WORLD; return c; }());
+            const int h = batched_flow.grid().interleaved(2, 2), h1 = unbatched_flow.grid().interleaved(2, 2);
+            check(h == (ranks > 1 ? 2 : 1) && h1 == 1 && batched_flow.grid().interleaved(4, 1) == 1,
+                  "batched transforms: the pair interleaved on " + std::to_string(ranks) + " process(es): " +
+                      std::to_string(h) + " (switched off: " + std::to_string(h1) + ")");
+            const double bound = k * eps * std::sqrt(100.0);
+            const double db = rel_diff(bat.half, ser.half), du = rel_diff(one.half, ser.half);
+            check(db <= bound && du <= bound, "N=48 C-RK4 viscous: batched " + num(db) + ", one field at a time " +
+                                                  num(du) + " from the serial state after 100 steps, <= " + num(bound));
+        }
+
         eci::ns2d_params q = p;
         q.n = 32;
         q.equation = "surface-qg";
@@ -205,6 +232,43 @@ int main(int argc, char** argv) {
         MPI_Bcast(&d_solo, 1, MPI_DOUBLE, 0, MPI_COMM_WORLD);
         check(d_solo <= bound, "restart from " + std::to_string((ranks + 1) / 2) + " rank(s) on 1: continues the run to " +
                                    num(d_solo) + " <= " + num(bound));
+
+        // The library on a communicator of one process (rank 0 alone, at any number of ranks) takes the serial
+        // grid: not spread (the steppers' reductions empty, the conditioned update of issue 19 taken as on one
+        // process), the serial layout, and the serial run's state bit for bit, with the default update and with the
+        // pruned transforms (which the MPI transforms do not have).
+        {
+            int verdict[3] = {1, 1, 1};
+            if (solo != MPI_COMM_NULL) {
+                auto steps_on = [&](MPI_Comm comm, bool pruned, bool& spread, int& same_comm) {
+                    eci::ns2d_params s = f;
+                    s.comm = comm;
+                    s.pruned_transforms = pruned;
+                    navier_stokes_2d m(s);
+                    spread = m.spread() || m.grid().distributed() || m.grid().ranks() != 1;
+                    if (comm != MPI_COMM_NULL) MPI_Comm_compare(m.grid().comm(), comm, &same_comm);
+                    state w = m.random_field(4.0, 0.5, 1);
+                    eci::c_rk4<S> st;  // (the default update: the conditioned one)
+                    eci::ns2d_budget b;
+                    eci::run_stats stats;
+                    for (int i = 0; i < 100; ++i) eci::ns2d_step(st, m, w, i * dt, dt, b, stats);
+                    return m.to_half_plane(w);
+                };
+                bool spread = false, spread_null = false;
+                int same_comm = MPI_UNEQUAL, ignored = 0;
+                for (bool pruned : {false, true}) {
+                    const state alone = steps_on(solo, pruned, spread, same_comm);
+                    const state serial = steps_on(MPI_COMM_NULL, pruned, spread_null, ignored);
+                    verdict[pruned ? 1 : 0] = same_bits(alone, serial) ? 1 : 0;
+                }
+                verdict[2] = !spread && !spread_null && same_comm == MPI_CONGRUENT ? 1 : 0;
+            }
+            MPI_Bcast(verdict, 3, MPI_INT, 0, MPI_COMM_WORLD);
+            check(verdict[2] == 1, "a communicator of one process: not spread, one rank, a duplicate of it in comm()");
+            check(verdict[0] == 1, "a communicator of one process: 100 C-RK4 steps (conditioned update, forced, "
+                                   "viscous) = the serial run bit for bit");
+            check(verdict[1] == 1, "a communicator of one process, pruned transforms: = the serial run bit for bit");
+        }
         if (half != MPI_COMM_NULL) MPI_Comm_free(&half);
         if (solo != MPI_COMM_NULL) MPI_Comm_free(&solo);
 

@@ -47,6 +47,8 @@ struct flow_params {
                                        ///< restart plans the same transforms and continues bit for bit)
 #ifdef ECI_MPI
     MPI_Comm comm = MPI_COMM_NULL;     ///< the processes the flow is spread over (grid_options::comm); MPI build only
+    bool batched_transforms = true;    ///< spread over processes: a right-hand side's transforms of several fields
+                                       ///< as one FFTW MPI transform (grid_options::batched); MPI build only
 #endif
 
     /// Throws std::invalid_argument naming the first bad parameter (the equation's own included).
@@ -145,9 +147,10 @@ class flow2d {
     /// maximum. Collective; no-ops on one process.
     void reduce_sums(std::span<double> v) const { grid().sum_over_ranks(v.data(), v.size()); }
     void reduce_max(std::span<double> v) const { grid().max_over_ranks(v.data(), v.size()); }
-    /// Whether the flow is spread over processes (a communicator was given): on one process the steppers treat it
-    /// as a serial model (the conditioned update of issue 19 included).
-    bool spread() const { return grid().comm() != MPI_COMM_NULL; }
+    /// Whether the flow is spread over processes (a communicator of two or more): otherwise, also on a
+    /// communicator of one process, the steppers treat it as a serial model (the conditioned update of issue 19
+    /// included), and the grid takes the serial path, so the run is the serial one bit for bit.
+    bool spread() const { return grid().distributed(); }
 #endif
     bool retained(std::size_t i) const { return weights_[i] != 0.0; }
     /// How often mode i appears in the full plane: 2 (itself and its conjugate -k, not stored), 1 on the k_x = 0

@@ -43,8 +43,13 @@ struct grid_options {
     /// The processes the grid is spread over (MPI build only; MPI_COMM_NULL: this process alone, as without MPI).
     /// Slab decomposition with FFTW's MPI transforms: each process holds a slab of physical rows (y) and, in
     /// spectral space, FFTW's transposed layout, a slab of k_x columns (see grid). Collective: every process of the
-    /// communicator constructs its grid with the same options.
+    /// communicator constructs its grid with the same options. A communicator of one process is the serial grid
+    /// (its plans, layout and bits; distributed() false), the communicator kept in comm().
     MPI_Comm comm = MPI_COMM_NULL;
+    /// Spread over processes: the transforms of a product whose outputs are its inputs (transform_product(k, k),
+    /// Basdevant's form: k = 2) made as one FFTW MPI transform of the k fields interleaved (howmany = k: one
+    /// all-to-all of k fields' worth instead of k all-to-alls; see interleaved()); false: one field at a time.
+    bool batched = true;
 #endif
 };
 
@@ -77,7 +82,8 @@ class grid {
     int kmax() const { return (n_ - 1) / 3; }
     int threads() const { return threads_; }
 
-    /// Whether the grid is spread over more than this process's memory (an MPI communicator; also for one rank).
+    /// Whether the grid is spread over processes (an MPI communicator of two or more; false on a communicator of
+    /// one process, which takes the serial path).
     bool distributed() const { return distributed_; }
     /// This process's rank and the number of processes (0 and 1 without a communicator).
     int rank() const { return rank_; }
@@ -101,7 +107,7 @@ class grid {
     /// Replaces each v[i] by its maximum over the processes (exact in any order). Collective; a no-op on one.
     void max_over_ranks(double* v, std::size_t count) const;
 #ifdef ECI_MPI
-    /// The grid's communicator (a duplicate of grid_options::comm; MPI_COMM_NULL on one process).
+    /// The grid's communicator (a duplicate of grid_options::comm, also of a one-process one; MPI_COMM_NULL without).
     MPI_Comm comm() const;
 #endif
     /// Whether the transforms skip the columns without retained modes (grid_options::pruned).
@@ -145,10 +151,16 @@ class grid {
     /// pruned transforms only the columns k_x <= kmax are computed; the others hold no meaning.
     void forward(int first, int count) const;
 
+    /// How transform_product(in, out) wants its fields: h = interleaved(in, out) > 1 (spread over processes,
+    /// grid_options::batched, in = out >= 2) means the h fields interleaved, FFTW's MPI `howmany` layout: mode i
+    /// (at()) of field j is spectral(0)[i h + j], both before and after (one transform of h fields each way);
+    /// h = 1: field j is spectral(j), as everywhere else. inverse() and forward() always take separate fields.
+    int interleaved(int in, int out) const;
     /// The transforms of a product term, fused: fields 0 .. in-1 to physical space, then, row by row while the row
     /// is in cache, row(x) -> row(x) by `fn`, then fields 0 .. out-1 back to spectral space (unnormalised). fn gets
     /// `in` pointers to the row's n values of each field and writes the outputs over the first `out`. Only the
-    /// columns k_x <= kmax of the inputs are read (the rest are taken as zero) and of the outputs written.
+    /// columns k_x <= kmax of the inputs are read (the rest are taken as zero) and of the outputs written. The
+    /// fields are laid out as interleaved(in, out) says.
     template <class Fn>
     void transform_product(int in, int out, Fn fn) const {
         product_pass(in, out, [](void* c, double* const* rows, std::size_t nx) { (*static_cast<Fn*>(c))(rows, nx); },
