@@ -150,7 +150,8 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
 
     // The run: fixed steps of --dt, or adaptive control (--rtol/--atol) starting from it; rows every --every
     // steps or at the --output-dt times. Checked before any file is opened.
-    const bool adaptive = settings.rtol.has_value() || settings.atol.has_value();
+    cfg.adaptive = tolerances_from(settings.rtol, settings.atol);  // either given: both, the other's value
+    const bool adaptive = cfg.is_adaptive();
     cfg.dt = plan.dt;
     cfg.t_end = plan.t_end;
     if (plan.fixed_steps) cfg.steps = plan.steps;
@@ -159,38 +160,17 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     cfg.cancel = cancel_flag();  // polled between sub-steps and right-hand-side evaluations
     if (adaptive) {
         if (plan.fixed_steps) throw bad_input("--steps counts fixed steps; an adaptive run (--rtol/--atol) ends at --t-end");
-        adaptive_options tolerances;
-        tolerances.rtol = settings.rtol.value_or(*settings.atol);
-        tolerances.atol = settings.atol.value_or(*settings.rtol);
         try {
-            check_adaptive_options(tolerances, std::ranges::size(x));
+            check_adaptive_options(*cfg.adaptive, std::ranges::size(x));
         } catch (const std::invalid_argument& e) {
             throw bad_input(std::string("--rtol/--atol: ") + e.what());
         }
-        cfg.adaptive = tolerances;
     }
-    if (settings.output_dt) {
-        const double h = *settings.output_dt;
-        if (!(h > 0.0) || !std::isfinite(h))
-            throw bad_input("--output-dt must be a positive finite number, not " + shortest(h));
-        // The output times are built before the first step (8 bytes each, with or without --output): bounded, so
-        // that a typo is an error at once rather than gigabytes and a long wait (issue 21, defect 11).
-        constexpr double max_rows = 1e7;
-        if (plan.t_end / h > max_rows)
-            throw bad_input("--output-dt " + shortest(h) + " to t = " + shortest(plan.t_end) + " asks for " +
-                            shortest(std::floor(plan.t_end / h)) + " rows, more than 10^7: give a larger --output-dt");
-        if (adaptive) {
-            cfg.times.push_back(0.0);  // the initial state, as fixed-step runs write it
-            for (std::uint64_t k = 1; double(k) * h < plan.t_end * (1.0 - 1e-12); ++k) cfg.times.push_back(double(k) * h);
-            cfg.times.push_back(plan.t_end);
-        } else {
-            // fixed steps: rows every k steps, so --output-dt must be a whole number of --dt
-            const double k = std::round(h / plan.dt);
-            if (!(k >= 1.0) || std::abs(h / plan.dt - k) > 1e-9 * k)
-                throw bad_input("--output-dt " + shortest(h) + " is not a multiple of --dt " + shortest(plan.dt) +
-                                " (with fixed steps; --rtol/--atol lifts that)");
-            cfg.every = std::uint64_t(k);
-        }
+    cfg.output_dt = settings.output_dt;  // output times (adaptive) or every k steps (fixed): the library decides
+    try {
+        resolve_output_dt(cfg, {.output_dt = "--output-dt", .dt = "--dt", .tolerances = "--rtol/--atol"});
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(e.what());
     }
     try {
         resolve_method_for<Model>(method.name, adaptive, "model " + info.name);

@@ -51,6 +51,11 @@ struct run_config {
     /// adaptive runs land a step on it or interpolate, as `mode` says.
     std::vector<double> times;
     output_mode mode = output_mode::automatic;  ///< adaptive runs with `times`
+    /// Output every `output_dt` of time instead of `every` / `times`: resolve_output_dt turns it into output times
+    /// t0, t0 + h, ..., t_end (adaptive) or into `every` (fixed steps, of which h must be a whole number). solve()
+    /// resolves it (with setting_names' defaults in its messages); a front end that wants its own option names in
+    /// the messages, or the refusal before it opens files, calls resolve_output_dt itself first.
+    std::optional<double> output_dt;
 
     int max_halvings = run_options{}.max_halvings;      ///< fixed steps: halvings of one failed step
     /// A conservative Runge-Kutta method (fixed steps, or an adaptive pair with plain xi) on a system with declared
@@ -74,6 +79,64 @@ struct run_config {
     /// The end time the run reaches.
     double end_time() const { return steps ? t0 + double(first_step + *steps) * dt : t_end; }
 };
+
+/// How a front end names its settings in the library's messages about them: Python's keywords by default, the
+/// CLI's options ("--output-dt", "--dt", "--rtol/--atol"). The sentences are the library's, the same for both.
+struct setting_names {
+    std::string_view output_dt = "output_dt";
+    std::string_view dt = "dt";
+    std::string_view tolerances = "rtol/atol";
+};
+
+/// The most outputs an output_dt may ask for: its output times are built before the first step (8 bytes each), so
+/// that a typo is an error at once rather than gigabytes and a long wait.
+inline constexpr double max_output_dt_rows = 1e7;
+
+/// Resolves cfg.output_dt (if set; then cleared): an adaptive run gets the output times t0, t0 + h, t0 + 2h, ...
+/// (those more than 1e-12 of the span before its end) and its end; a fixed-step run an output every k = h / dt
+/// steps, h being a whole number of dt to 1e-9 k. Throws std::invalid_argument, one line naming the settings as
+/// `names` says: h not positive and finite, more than max_output_dt_rows outputs, not a multiple of dt, given
+/// together with output times. Call it with cfg's span, step and step control set.
+inline void resolve_output_dt(run_config& cfg, const setting_names& names = {}) {
+    if (!cfg.output_dt) return;
+    const double h = *cfg.output_dt;
+    const std::string name(names.output_dt);
+    if (!(h > 0.0) || !std::isfinite(h))
+        throw std::invalid_argument(name + " must be a positive finite number, not " + detail::shortest_text(h));
+    if (!cfg.times.empty())
+        throw std::invalid_argument(name + " and output times exclude each other: give one of them");
+    const double t_end = cfg.end_time();
+    const double span = std::abs(t_end - cfg.t0);
+    if (span / h > max_output_dt_rows)
+        throw std::invalid_argument(name + " " + detail::shortest_text(h) + " to t = " + detail::shortest_text(t_end) +
+                                    " asks for " + detail::shortest_text(std::floor(span / h)) +
+                                    " rows, more than 10^7: give a larger " + name);
+    if (cfg.adaptive) {
+        const double direction = t_end < cfg.t0 ? -1.0 : 1.0;
+        cfg.times.push_back(cfg.t0);  // the initial state, as fixed-step runs write it
+        for (std::uint64_t k = 1; double(k) * h < span * (1.0 - 1e-12); ++k)
+            cfg.times.push_back(cfg.t0 + direction * (double(k) * h));
+        cfg.times.push_back(t_end);
+    } else {
+        const double k = std::round(h / cfg.dt);
+        if (!(k >= 1.0) || !std::isfinite(k) || std::abs(h / cfg.dt - k) > 1e-9 * k)
+            throw std::invalid_argument(name + " " + detail::shortest_text(h) + " is not a multiple of " +
+                                        std::string(names.dt) + " " + detail::shortest_text(cfg.dt) +
+                                        " (with fixed steps; " + std::string(names.tolerances) + " lifts that)");
+        cfg.every = std::uint64_t(k);
+    }
+    cfg.output_dt.reset();
+}
+
+/// The tolerances of a run given rtol, atol or both: the one not given takes the other's value (`eci run --rtol R`
+/// is rtol = atol = R). Neither given: std::nullopt, fixed steps. Checked by check_adaptive_options, not here.
+inline std::optional<adaptive_options> tolerances_from(std::optional<double> rtol, std::optional<double> atol) {
+    if (!rtol && !atol) return std::nullopt;
+    adaptive_options o;
+    o.rtol = rtol.value_or(*atol);
+    o.atol = atol.value_or(*rtol);
+    return o;
+}
 
 /// Why a run stopped before its end.
 enum class run_failure_kind {
@@ -401,11 +464,17 @@ void check_initial_state(const Model& model, const S& x, const std::function<std
 /// step; a run that cannot go on returns with `failure` set and x at the last state reached; a cancelled run
 /// throws eci::interrupted; whatever the sink throws propagates.
 template <class Dispatch, class F_, class S, class Sink>
-solve_report solve(F_&& system, S& x, std::string_view method, const run_config& cfg, Sink&& sink,
+solve_report solve(F_&& system, S& x, std::string_view method, const run_config& requested, Sink&& sink,
                    std::vector<extra_invariant<S>> extra = {}, std::string_view what = "this system") {
     using F = std::remove_reference_t<F_>;  // const for a const system; a model with step hooks is not
     F& f = system;
-    detail::check_config(cfg);
+    detail::check_config(requested);
+    std::optional<run_config> resolved;  // an output_dt, resolved on a copy with the default names in its messages
+    if (requested.output_dt) {
+        resolve_output_dt(resolved.emplace(requested));
+        detail::check_config(*resolved);
+    }
+    const run_config& cfg = resolved ? *resolved : requested;
     solve_report report;
     report.method = resolve_method_for<Dispatch>(method, cfg.is_adaptive(), what);
     report.t = cfg.t0;

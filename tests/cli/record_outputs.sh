@@ -84,6 +84,33 @@ spectral ns2d-halvings navier-stokes-2d --dt 5 --steps 10 --output "$out/run/ns2
     2> "$out/run/ns2d-blow-up.txt" && exit 1
 "$eci" run navier-stokes-2d --N 32 --method dp54 2> "$out/run/ns2d-refused.txt" && exit 1
 
+# Adaptive step control (--rtol/--atol): every pair, rows per accepted step or at --output-dt times (landing or
+# dense output), and fixed steps with --output-dt (rows every k steps); then the refusals of --output-dt.
+for method in c-dp54 dp54 c-bs32 bs32 c-ck54 c-dp853 dp853 c-f78 f78; do
+  run "three-wave-adaptive-$method" three-wave --method "$method" --rtol 1e-8 --t-end 20 \
+      --output "$out/run/three-wave-adaptive-$method.csv"
+done
+run kepler-adaptive-output-dt kepler --method c-dp54 --rtol 1e-9 --atol 1e-12 --t-end 30 --output-dt 0.5 \
+    --output "$out/run/kepler-adaptive-output-dt.csv"
+run lotka-volterra-adaptive-output-dt lotka-volterra --method c-dp853 --rtol 1e-7 --t-end 20 --output-dt 0.25 \
+    --output "$out/run/lotka-volterra-adaptive-output-dt.csv"
+run n-wave-adaptive n-wave --method c-dp54 --atol 1e-7 --modes 30 --seed 3 --t-end 3 --every 5 \
+    --output "$out/run/n-wave-adaptive.csv"
+run three-wave-output-dt three-wave --method c-rk4 --dt 0.01 --t-end 10 --output-dt 0.25 \
+    --output "$out/run/three-wave-output-dt.csv"
+run three-wave-output-dt-steps three-wave --method c-pc --dt 0.02 --steps 500 --output-dt 0.1 \
+    --output "$out/run/three-wave-output-dt-steps.csv"
+run three-wave-rrk-output-dt three-wave --method rrk-rk4 --dt 0.05 --t-end 10 --output-dt 0.5 \
+    --output "$out/run/three-wave-rrk-output-dt.csv"
+i=0
+for options in "--dt 0.03 --output-dt 0.25" "--output-dt 0" "--output-dt -1" \
+               "--method c-dp54 --rtol 1e-6 --output-dt 1e-7" "--method c-dp54 --rtol 1e-6 --steps 10" \
+               "--method c-dp54 --rtol 0" "--method c-dp54 --atol -1"; do
+  i=$((i + 1))
+  # shellcheck disable=SC2086
+  "$eci" run three-wave $options 2> "$out/run/refused-$i.txt" && exit 1
+done
+
 # The user-facing text: `eci list`, and help (help legitimately changes when defaults are printed exactly).
 "$eci" list > "$out/list.txt"
 for model in three-wave n-wave n-wave-complex lotka-volterra kepler navier-stokes-2d charney-hasegawa-mima surface-qg; do

@@ -299,3 +299,131 @@ TEST(Solve, ALongHorizonDoesNotRaiseTheMinimumStep) {
     EXPECT_GT(r.failure->t, 1.0);
     EXPECT_LT(r.adaptive->dt_largest, 0.14);
 }
+
+// --output-dt is the library's decision (resolve_output_dt), for the CLI and Python alike: output times for an
+// adaptive run, every k steps for fixed steps, and one-line refusals naming the settings as the front end does.
+TEST(Solve, OutputDtIsOutputTimesWhenAdaptiveAndEveryKStepsWhenFixed) {
+    eci::run_config fixed;
+    fixed.t_end = 1.0;
+    fixed.dt = 0.01;
+    fixed.output_dt = 0.25;
+    eci::resolve_output_dt(fixed);
+    EXPECT_EQ(fixed.every, 25u);
+    EXPECT_TRUE(fixed.times.empty());
+    EXPECT_FALSE(fixed.output_dt.has_value());
+
+    eci::run_config adaptive;
+    adaptive.t_end = 1.1;
+    adaptive.dt = 0.01;
+    adaptive.adaptive = eci::adaptive_options{};
+    adaptive.output_dt = 0.25;
+    eci::resolve_output_dt(adaptive);
+    EXPECT_EQ(adaptive.times, (vec{0.0, 0.25, 0.5, 0.75, 1.0, 1.1}));
+    EXPECT_EQ(adaptive.every, 1u);
+
+    // a time within 1e-12 of the span before the end is the end, written once
+    eci::run_config near = adaptive;
+    near.times.clear();
+    near.t_end = 1.0 + 1e-14;
+    near.output_dt = 0.5;
+    eci::resolve_output_dt(near);
+    EXPECT_EQ(near.times, (vec{0.0, 0.5, 1.0 + 1e-14}));
+
+    // backward in time (adaptive only), from t0 = 2
+    eci::run_config back = adaptive;
+    back.times.clear();
+    back.t0 = 2.0;
+    back.t_end = 1.0;
+    back.output_dt = 0.5;
+    eci::resolve_output_dt(back);
+    EXPECT_EQ(back.times, (vec{2.0, 1.5, 1.0}));
+
+    // a step count: the span is steps * dt
+    eci::run_config counted;
+    counted.steps = 500;
+    counted.dt = 0.02;
+    counted.output_dt = 0.1;
+    eci::resolve_output_dt(counted);
+    EXPECT_EQ(counted.every, 5u);
+
+    // solve resolves it too: the outputs of a fixed-step run are those of every = 25
+    const eci::three_wave model;
+    tw_state a = fig5, b = fig5;
+    fixed.output_dt = 0.25;
+    fixed.every = 1;
+    keep_all<tw_state> by_dt, by_every;
+    eci::solve<eci::three_wave>(model, a, "c-rk4", fixed, by_dt);
+    fixed.output_dt.reset();
+    fixed.every = 25;
+    eci::solve<eci::three_wave>(model, b, "c-rk4", fixed, by_every);
+    EXPECT_EQ(by_dt.t, (vec{0.0, 0.25, 0.5, 0.75, 1.0}));
+    EXPECT_EQ(by_dt.t, by_every.t);
+    EXPECT_EQ(by_dt.x, by_every.x);
+}
+
+TEST(Solve, OutputDtRefusalsNameTheSettingsAsTheFrontEndDoes) {
+    auto message = [](eci::run_config c, const eci::setting_names& names) {
+        try {
+            eci::resolve_output_dt(c, names);
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    const eci::setting_names cli{.output_dt = "--output-dt", .dt = "--dt", .tolerances = "--rtol/--atol"};
+    eci::run_config c;
+    c.t_end = 1.0;
+    c.dt = 0.03;
+    c.output_dt = 0.25;
+    EXPECT_EQ(message(c, cli), "--output-dt 0.25 is not a multiple of --dt 0.03 (with fixed steps; --rtol/--atol "
+                               "lifts that)");
+    EXPECT_EQ(message(c, {}), "output_dt 0.25 is not a multiple of dt 0.03 (with fixed steps; rtol/atol lifts that)");
+    c.adaptive = eci::adaptive_options{};
+    EXPECT_EQ(message(c, cli), "accepted");  // adaptive control lifts it
+    c.output_dt = 1e-7;
+    c.t_end = 10.0;
+    EXPECT_EQ(message(c, cli), "--output-dt 1e-07 to t = 10 asks for 1e+08 rows, more than 10^7: give a larger "
+                               "--output-dt");
+    for (double bad : {0.0, -1.0, std::numeric_limits<double>::infinity(), std::nan("")}) {
+        c.output_dt = bad;
+        EXPECT_EQ(message(c, cli).rfind("--output-dt must be a positive finite number, not ", 0), 0u) << bad;
+    }
+    c.output_dt = 0.5;
+    c.times = {0.0, 1.0};
+    EXPECT_EQ(message(c, {}), "output_dt and output times exclude each other: give one of them");
+    // a multiple within 1e-9 k of a whole number of steps: 0.3 / 0.1 is 2.9999999999999996
+    eci::run_config f;
+    f.t_end = 1.0;
+    f.dt = 0.1;
+    f.output_dt = 0.3;
+    EXPECT_EQ(message(f, {}), "accepted");
+    f.output_dt = 0.3 + 1e-6;
+    EXPECT_NE(message(f, {}), "accepted");
+    f.output_dt = 0.05;  // less than one step
+    EXPECT_NE(message(f, {}), "accepted");
+    // solve refuses with the default (Python's) names before any step
+    const eci::three_wave model;
+    tw_state x = fig5;
+    f.output_dt = 0.25;
+    try {
+        eci::solve<eci::three_wave>(model, x, "c-rk4", f, eci::no_sink{});
+        ADD_FAILURE() << "accepted";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_STREQ(e.what(), "output_dt 0.25 is not a multiple of dt 0.1 (with fixed steps; rtol/atol lifts that)");
+    }
+    EXPECT_EQ(x, fig5);
+}
+
+TEST(Solve, AToleranceNotGivenTakesTheOthersValue) {
+    EXPECT_FALSE(eci::tolerances_from(std::nullopt, std::nullopt).has_value());
+    const auto r = eci::tolerances_from(1e-8, std::nullopt);
+    ASSERT_TRUE(r.has_value());
+    EXPECT_EQ(r->rtol, 1e-8);
+    EXPECT_EQ(r->atol, 1e-8);
+    const auto a = eci::tolerances_from(std::nullopt, 1e-5);
+    EXPECT_EQ(a->rtol, 1e-5);
+    EXPECT_EQ(a->atol, 1e-5);
+    const auto both = eci::tolerances_from(1e-6, 1e-9);
+    EXPECT_EQ(both->rtol, 1e-6);
+    EXPECT_EQ(both->atol, 1e-9);
+}
