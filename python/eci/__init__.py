@@ -386,7 +386,7 @@ def _event_list(events):
 def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
           transform=None, max_halvings=40, first_step=None, min_step=0.0, max_step=math.inf, max_steps=None,
           t_eval_mode="auto", jac=None, dense_output=False, events=None, vectorized=False, args=None,
-          update="conditioned", quadratic_invariants=None, **options):
+          update="conditioned", quadratic_invariants=None, output_dt=None, **options):
     """Integrate dy/dt = fun(t, y) from t_span[0] to t_span[1], SciPy's solve_ivp conventions, eci's numerics.
 
     fun: a callable fun(t, y) -> dy/dt (y a real or complex 1-D array, as in SciPy), or a built-in model
@@ -412,6 +412,10 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         system land steps), "dense"
         (conservative dense output interpolates xi and keeps the invariants) or "landing" (a step lands on each
         time). With dense_output or events, t_eval comes from the dense output, as in SciPy.
+    output_dt: store the solution every output_dt of time instead, as `eci run --output-dt` (the library decides
+        both, with the same messages): adaptive, at t0, t0 + output_dt, ... and t1 (as t_eval); fixed steps, every
+        k = output_dt / dt steps (and the last), output_dt being a whole number of dt, else ValueError; at most
+        10^7 outputs. Not with t_eval.
     dense_output: also return result.sol, a DenseSolution (callable like SciPy's OdeSolution) built from every
         step's dense output; for a conservative pair it keeps the invariants at every t. Adaptive runs only.
     events: a callable event(t, y) -> float, or a sequence of them, each optionally with attributes terminal
@@ -537,6 +541,10 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     if isinstance(max_halvings, bool) or not isinstance(max_halvings, numbers.Integral) or not 0 <= max_halvings <= 60:
         raise ValueError(f"max_halvings must be a whole number from 0 to 60, not {max_halvings!r}")
     times = _t_eval_array(t_eval, t0, t1)
+    if output_dt is not None:  # checked and resolved by the library (eci::resolve_output_dt), as the CLI's
+        if times is not None:
+            raise ValueError("give t_eval or output_dt, not both")
+        output_dt = _number(output_dt, "output_dt")
     functions, inv_names = _invariant_list(invariants)
     if transform is not None and not isinstance(transform, Transform):
         raise TypeError(f"transform must be an eci.Transform, not {type(transform).__name__}")
@@ -564,7 +572,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     if update not in ("conditioned", "paper"):
         raise ValueError(f"update must be 'conditioned' or 'paper', not {update!r}")
     settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None, "update": update,
-                "dense_output": bool(dense_output), "events": event_list}
+                "dense_output": bool(dense_output), "events": event_list, "output_dt": output_dt}
     extra_calls = 0
     if weights is not None:
         _check_quadratic_invariants(fun, t0, y, weights)

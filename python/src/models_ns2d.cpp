@@ -108,6 +108,8 @@ class ns2d_object : public model_base {
         if (!settings["adaptive"].is_none())
             throw std::invalid_argument("method " + method + " has no error estimate for rtol/atol; " + name() +
                                         " runs fixed steps (give dt, or none for the CFL 0.5 step)");
+        if (settings.contains("output_dt") && !settings["output_dt"].is_none())  // as `eci run navier-stokes-2d`
+            throw std::invalid_argument(name() + " outputs whole steps at t_eval times: output_dt does not apply");
         std::optional<std::vector<double>> t_eval;
         if (!settings["t_eval"].is_none()) t_eval = settings["t_eval"].cast<std::vector<double>>();
         const int max_halvings = settings["max_halvings"].cast<int>();

@@ -20,9 +20,9 @@
 
 namespace eci::python {
 
-/// What eci.solve asks for, read from the settings dict the Python side builds: t_eval, max_halvings, and for
-/// adaptive control (key "adaptive" not None) rtol, atol, rtol_each, atol_each, min_step, max_step, max_steps,
-/// t_eval_mode. `dt` is the fixed step or the first step.
+/// What eci.solve asks for, read from the settings dict the Python side builds: t_eval, output_dt, max_halvings,
+/// and for adaptive control (key "adaptive" not None) rtol, atol, rtol_each, atol_each, min_step, max_step,
+/// max_steps, t_eval_mode. `dt` is the fixed step or the first step.
 struct python_request {
     run_config config;
     bool dense_output = false;  ///< record every step's dense output (result.sol)
@@ -42,6 +42,8 @@ inline python_request request_from(double t0, double t1, double dt, const py::di
     c.dt = dt;
     c.stop_on_invariant_overflow = true;
     if (!settings["t_eval"].is_none()) c.times = settings["t_eval"].cast<std::vector<double>>();
+    if (settings.contains("output_dt") && !settings["output_dt"].is_none())
+        c.output_dt = settings["output_dt"].cast<double>();  // resolved by eci::solve, as the CLI's --output-dt
     c.max_halvings = settings["max_halvings"].cast<int>();
     if (settings.contains("update") && settings["update"].cast<std::string>() == "paper") c.update = update_kind::paper;
     const py::object a = settings["adaptive"];

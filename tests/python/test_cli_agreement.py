@@ -148,6 +148,73 @@ def test_adaptive_kepler_and_lotka_volterra_match_cli(cli, tmp_path, rtol):
     assert_same_run(r, t, columns, summary, ["r", "v_r", "theta"])
 
 
+# --output-dt and output_dt are one decision of the library (eci::resolve_output_dt): output times when adaptive, a
+# row every k steps with fixed steps, and the same refusals in the same sentence, each front end naming its own
+# settings (the CLI's options, Python's keywords).
+CLI_NAMES_AS_PYTHONS = [("--output-dt", "output_dt"), ("--dt", "dt"), ("--rtol/--atol", "rtol/atol")]
+
+
+def as_python_names(message):
+    for option, keyword in CLI_NAMES_AS_PYTHONS:
+        message = message.replace(option, keyword)
+    return message
+
+
+@pytest.mark.parametrize("dt, t_end, output_dt, tolerance", [
+    (0.03, 1.0, 0.25, None),     # not a multiple of dt with fixed steps
+    (0.1, 1.0, 0.05, None),      # less than one step
+    (0.01, 1.0, 0.0, None),      # not positive
+    (0.01, 1.0, -1.0, 1e-6),
+    (0.01, 1.0, float("inf"), None),
+    (0.01, 10.0, 1e-7, 1e-6),    # more than 10^7 rows
+    (0.01, 1e5, 1e-3, None),
+])
+def test_cli_and_python_refuse_the_same_output_dt(cli, dt, t_end, output_dt, tolerance):
+    from conftest import cli_error
+
+    method = "c-dp54" if tolerance else "c-rk4"
+    adaptive = ["--rtol", repr(tolerance)] if tolerance else []
+    message = cli_error(cli, "run", "three-wave", "--method", method, "--dt", repr(dt), "--t-end", repr(t_end),
+                        "--output-dt", repr(output_dt), *adaptive)
+    assert "--output-dt" in message
+    step = {"rtol": tolerance, "atol": tolerance, "first_step": dt} if tolerance else {"dt": dt}
+    with pytest.raises(ValueError) as e:
+        eci.solve(eci.models.ThreeWave(), (0.0, t_end), method=method, output_dt=output_dt, **step)
+    assert str(e.value) == as_python_names(message)
+
+
+@pytest.mark.parametrize("method, dt, t_end, output_dt, tolerance", [
+    ("c-rk4", 0.01, 10.0, 0.25, None),     # every 25 steps
+    ("c-pc", 0.1, 3.0, 0.3, None),         # 0.3 / 0.1 = 2.9999999999999996: a multiple within round-off
+    ("rk4", 0.03, 1.0, 0.03, None),        # every step; the last one shortened
+    ("c-dp54", 0.01, 10.0, 0.5, 1e-7),     # adaptive: at 0, 0.5, ..., 10
+    ("dp54", 0.01, 7.3, 0.5, 1e-6),        # adaptive: the end is not a multiple
+])
+def test_cli_and_python_accept_the_same_output_dt_with_the_same_rows(cli, tmp_path, method, dt, t_end, output_dt,
+                                                                      tolerance):
+    options = ["--output-dt", repr(output_dt)] + (["--rtol", repr(tolerance)] if tolerance else [])
+    t, columns, summary = cli_run(cli, tmp_path, "three-wave", method, dt, t_end, *options)
+    step = {"rtol": tolerance, "atol": tolerance, "first_step": dt} if tolerance else {"dt": dt}
+    r = eci.solve(eci.models.ThreeWave(), (0.0, t_end), method=method, output_dt=output_dt, **step)
+    assert t[0] == 0.0 and t[-1] == t_end
+    if tolerance:  # the output times themselves
+        k = np.arange(int(np.ceil(t_end / output_dt - 1e-9)))
+        assert np.array_equal(t, np.append(k * output_dt, t_end))
+    else:  # every k = output_dt / dt steps of the grid, and the last
+        assert len(t) == int(np.ceil(summary["steps"] / round(output_dt / dt))) + 1
+    assert_same_run(r, t, columns, summary, ["psi_K", "psi_P", "psi_Q"])
+
+
+def test_output_dt_is_not_t_eval_and_not_navier_stokes():
+    with pytest.raises(ValueError, match="give t_eval or output_dt, not both"):
+        eci.solve(eci.models.ThreeWave(), (0.0, 1.0), dt=0.1, t_eval=[0.0, 1.0], output_dt=0.5)
+    with pytest.raises(TypeError, match="output_dt must be a real number"):
+        eci.solve(eci.models.ThreeWave(), (0.0, 1.0), dt=0.1, output_dt="0.5")
+    if hasattr(M, "NavierStokes2D"):  # as `eci run navier-stokes-2d --output-dt`: whole steps only
+        with pytest.raises(ValueError, match="output_dt does not apply"):
+            eci.solve(M.NavierStokes2D(n=16, fftw_measure=False), (0.0, 1.0), dt=0.1, output_dt=0.5)
+
+
 # --- every model of the C++ model list (include/eci/models/list.hpp) --------------------------------------------
 
 M = eci.models
