@@ -150,14 +150,40 @@ class conservative_rk : public radicand_remedy {
     // conventional phase for a complex mode; remedy_elements then decides.
     void finish_conditioned(double* o, const double* x, const std::array<const double*, s>& k, double dt,
                             std::size_t n) {
-        conditioned_pass pass = begin_conditioned(n / per);
+        conditioned_pass pass = begin_conditioned(n / per, true);
         const std::size_t ne = n / per;
-        for (std::size_t e = 0; e < ne; ++e) {
-            std::array<double, per> c{}, rad{};
-            const auto [c2, xi] = element_update(x, k, e, dt, c, rad);
-            condition_element<per>(o, x, e, c, c2, xi, sign_of(x, k, e, dt, c, xi), pass);
+        constexpr std::size_t B = block_elements;
+        // per block: the conventional update and radicand of each real unknown (vectorized: the operations of
+        // element_update, one unknown at a time), then each element's |c|^2, xi and sign, then the remedy's filing
+        std::array<double, B * per> cv, rv;
+        std::array<double, B> c2v, xiv, sg;
+        constexpr auto J = std::make_index_sequence<s>{};
+        for (std::size_t e0 = 0; e0 < ne; e0 += B) {
+            const std::size_t nb = std::min(B, ne - e0), i0 = e0 * per;
+            for (std::size_t j = 0; j < nb * per; ++j) {
+                cv[j] = conventional(x, k, i0 + j, dt, J);
+                rv[j] = radicand(x, k, i0 + j, dt, J);
+            }
+            for (std::size_t b = 0; b < nb; ++b) {
+                double c2 = 0.0, xi = 0.0;
+                for (std::size_t p = 0; p < per; ++p) c2 += cv[b * per + p] * cv[b * per + p], xi += rv[b * per + p];
+                c2v[b] = c2, xiv[b] = xi;
+                sg[b] = cv[b * per];
+                if constexpr (per == 1 && Sign == sign_rule::of_last_stage)
+                    if (xi >= 0.0) sg[b] = stage_value<s - 1>(x[i0 + b], k, i0 + b, dt);
+            }
+            condition_block<per>(o, x, e0, nb, cv.data(), c2v.data(), xiv.data(), sg.data(), pass);
         }
         end_conditioned(pass);
+    }
+
+    // The conventional update x + dt sum_j b_j k_j at unknown i (element_update's operations).
+    template <std::size_t... J>
+    static double conventional(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt,
+                               std::index_sequence<J...>) {
+        double conv = x[i];
+        ((T.b[J] != 0.0 ? (conv += (dt * T.b[J]) * k[J][i], 0) : 0), ...);
+        return conv;
     }
 
     // The remedy (radicand_remedy.hpp) for the unknowns whose radicand is negative (NaN in o): their conventional

@@ -225,9 +225,10 @@ class radicand_remedy {
         if (!neg_.empty() && !negatives_can_be_taken<Per>(o, x)) return decline();
         // The histogram's bucket sums, cumulated from the worst bucket up: cut b (take every bucket below b) holds
         // hist_[(b - 1) * stride ...]. The share each cut holds is then known without a pass over its elements.
-        const std::size_t m = weights_.size(), stride = 1 + 2 * m;
+        const std::size_t stride = hist_stride();
         for (std::size_t b = 1; b < ratio_buckets; ++b)
             for (std::size_t i = 0; i < stride; ++i) hist_[b * stride + i] += hist_[(b - 1) * stride + i];
+        const std::size_t m = weights_.size();
         std::array<double, max_invariants> held_neg{};
         for (std::size_t k = 0; k < neg_.size(); ++k)
             for (std::size_t a = 0; a < m; ++a) held_neg[a] += std::abs(weights_[a][neg_[k]]) * neg_h_[k];
@@ -240,7 +241,10 @@ class radicand_remedy {
             if (count == 0) break;
             // a subset's rescale would be smaller still: straight to neg_ alone
             limit = too_small_ ? 0 : count / 4;
-            if (limit == 0 && neg_.empty()) return true;  // every radicand positive: the conservative update stands
+            if (limit == 0 && neg_.empty()) {  // every radicand positive: the conservative update stands
+                settle_filed<Per>(o, conv, 0);
+                return true;
+            }
         }
         --stats_.conditioning_declined;  // the last refusal (no ill-conditioned element taken) is a decline
         return decline();
@@ -250,7 +254,7 @@ class radicand_remedy {
     // neg_'s, pass the share cap by the histogram's sums; 0 (neg_ alone) if none does. The sums are the attempt's
     // own in another order: the attempt checks the cap again from its exact sums.
     std::size_t widest_cut(std::size_t limit, const std::array<double, max_invariants>& held_neg) const {
-        const std::size_t m = weights_.size(), stride = 1 + 2 * m;
+        const std::size_t m = weights_.size(), stride = hist_stride();
         for (std::size_t cut = ratio_buckets; cut > 0; --cut) {
             const double* h = hist_.data() + (cut - 1) * stride;
             if (h[0] == 0.0) return 0;  // no element in any bucket below
@@ -298,15 +302,18 @@ class radicand_remedy {
         conventional,  ///< the conventional update (filed in neg_, or a complex mode with no phase staying at zero)
     };
 
-    conditioned_pass begin_conditioned(std::size_t elements) {
+    // predict: the engine reads nothing of o before remedy_elements, so the finishing pass may write the
+    // conventional update of the filed elements the previous step's cut took (see written_cut_).
+    conditioned_pass begin_conditioned(std::size_t elements, bool predict = false) {
         neg_.clear();
         neg_h_.clear();
         cond_.clear();
         // room for every element at once: pages the filing never reaches are never touched (not resident), and
         // no reallocation copies a half-filed list (which held 1.5 lists at its peak)
         if (cond_.capacity() < elements) cond_.reserve(elements);
+        written_cut_ = predict && weights_fused() ? taken_cut_ : 0;
         taken_cut_ = 0;
-        hist_.assign(ratio_buckets * (1 + 2 * weights_.size()), 0.0);
+        hist_.assign(ratio_buckets * hist_stride(), 0.0);
         conditioned_pass p;
         if (weights_fused()) p.w0 = weights_[0].data(), p.w1 = weights_[1].data();
         return p;
@@ -346,30 +353,92 @@ class radicand_remedy {
             const double change = std::abs(xi - x2);
             if (kind == element_kind::conservative && xi < kappa * change &&
                 std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi)) {
-                const std::size_t b = ratio_bucket(xi / change);
-                cond_.push_back((std::uint64_t(e) << bucket_bits) | b);
-                // its count, and its share weight h and change of |o_e|^2 if taken, into its bucket
-                const std::size_t m = weights_.size();
-                double* hb = hist_.data() + b * (1 + 2 * m);
-                const double h = std::max(x2, c2), dq = c2 - q;
-                hb[0] += 1.0;
-                for (std::size_t a = 0; a < m; ++a) {
-                    const double w = std::abs(weights_[a][e]);
-                    hb[1 + a] += w * h, hb[1 + m + a] += w * dq;
-                }
+                file_element<Per>(o, e, ratio_bucket(xi / change), c.data(), std::max(x2, c2), c2 - q, c2 - xi);
             }
         }
-        if (pass.w0) {
-            const double u = pass.w0[e], v = pass.w1[e];
-            pass.g00.add(u * u * q), pass.g01.add(u * v * q), pass.g11.add(v * v * q);
-            pass.a0 += std::abs(u) * q, pass.a1 += std::abs(v) * q;
-        }
+        gram_add(pass, e, q);
         return kind;
     }
 
+    // Files element e (conventional update c) in cond_ with bucket b, and what taking it changes into the bucket's
+    // sums: its count, share weight h, change dq of |o_e|^2 and defect d, weighed (attempt_elements reads a cut's
+    // sums, never its elements). An element the previous step's cut predicts taken gets its conventional update.
+    template <std::size_t Per>
+    void file_element(double* o, std::size_t e, std::size_t b, const double* c, double h, double dq, double d) {
+        cond_.push_back((std::uint64_t(e) << bucket_bits) | b);
+        const std::size_t m = weights_.size();
+        double* hb = hist_.data() + b * hist_stride();
+        hb[0] += 1.0;
+        for (std::size_t a = 0; a < m; ++a) {
+            const double w = weights_[a][e], aw = std::abs(w);
+            hb[1 + a] += aw * h, hb[1 + m + a] += aw * dq, hb[1 + 2 * m + a] += w * d;
+            for (std::size_t bb = 0; bb < m; ++bb) hb[1 + 3 * m + a * m + bb] += w * weights_[bb][e] * dq;
+        }
+        if (b < written_cut_)  // (|o_e|^2 in the Gram sums stays the conservative value's)
+            for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p];
+    }
+
+    /// Elements per block of condition_block.
+    static constexpr std::size_t block_elements = 64;
+
+    /// condition_element for the elements e0 .. e0 + nb (nb <= block_elements) at once, with the same result to
+    /// the bit: c holds their conventional updates (nb * Per values), c2, xi and sign one value per element. The
+    /// common element (xi >= 0, a well-conditioned square root, a complex mode whose moduli differ beyond 2^-46)
+    /// takes its conservative value in a loop the compiler vectorizes; the others go through condition_element.
+    template <std::size_t Per>
+    void condition_block(double* o, const double* x, std::size_t e0, std::size_t nb, const double* c,
+                         const double* c2, const double* xi, const double* sign, conditioned_pass& pass) {
+        const double kappa = remedy.condition;
+        std::array<double, block_elements> q, x2v;
+        std::array<std::uint64_t, block_elements> bucket;
+        std::array<unsigned char, block_elements> special, filed;
+        double* ob = o + e0 * Per;
+        const double* xb = x + e0 * Per;
+        for (std::size_t b = 0; b < nb; ++b) {
+            double x2 = 0.0;
+            for (std::size_t p = 0; p < Per; ++p) x2 += xb[b * Per + p] * xb[b * Per + p];
+            const double v = xi[b], change = std::abs(v - x2);
+            bool plain = v >= 0.0;
+            if constexpr (Per == 2) plain = plain && c2[b] > 0.0 && !(std::abs(v - c2[b]) <= 0x1p-46 * v);
+            special[b] = !plain;
+            filed[b] = plain && v < kappa * change && std::abs(c2[b] - v) > 0x1p-40 * std::max(c2[b], v);
+            bucket[b] = ratio_bucket(v / change);
+            x2v[b] = x2;
+            if constexpr (Per == 1) {
+                ob[b] = std::copysign(std::sqrt(v), sign[b]);
+                q[b] = ob[b] * ob[b];
+            } else {
+                const double root = std::sqrt(v), r = std::sqrt(c2[b]);
+                const double o0 = root * (c[2 * b] / r), o1 = root * (c[2 * b + 1] / r);
+                ob[2 * b] = o0, ob[2 * b + 1] = o1;
+                q[b] = o0 * o0 + o1 * o1;
+            }
+        }
+        for (std::size_t b = 0; b < nb; ++b) {
+            if (special[b]) {
+                std::array<double, Per> cb;
+                for (std::size_t p = 0; p < Per; ++p) cb[p] = c[b * Per + p];
+                condition_element<Per>(o, x, e0 + b, cb, c2[b], xi[b], sign[b], pass);
+                continue;
+            }
+            if (filed[b])
+                file_element<Per>(o, e0 + b, std::size_t(bucket[b]), c + b * Per, std::max(x2v[b], c2[b]),
+                                  c2[b] - q[b], c2[b] - xi[b]);
+            gram_add(pass, e0 + b, q[b]);
+        }
+    }
+
+    // An element's |o_e|^2 into the Gram sums of a fused pass, in element order.
+    static void gram_add(conditioned_pass& pass, std::size_t e, double q) {
+        if (!pass.w0) return;
+        const double u = pass.w0[e], v = pass.w1[e];
+        pass.g00.add(u * u * q), pass.g01.add(u * v * q), pass.g11.add(v * v * q);
+        pass.a0 += std::abs(u) * q, pass.a1 += std::abs(v) * q;
+    }
+
     // An element's conservative value into o_e, returning |o_e|^2: a real unknown sign * sqrt(xi), a complex mode
-    // (c2 > 0) the conventional update c rescaled to modulus sqrt(xi). The finishing pass and a refused attempt's
-    // restore (remedy_elements) form it alike, to the same bits.
+    // (c2 > 0) the conventional update c rescaled to modulus sqrt(xi). The finishing pass and settle_filed
+    // (remedy_elements) form it alike, to the same bits.
     template <std::size_t Per>
     static double conservative_value(double* oe, const std::array<double, Per>& c, double c2, double xi, double sign) {
         if constexpr (Per == 1) {
@@ -429,6 +498,34 @@ class radicand_remedy {
 
     // The last successful remedy_elements gave the conventional update to cond_'s elements in buckets below this.
     std::size_t taken_cut_ = 0;
+    // o holds the conventional update of cond_'s elements in buckets below this, their conservative value above:
+    // the finishing pass writes the split the previous step's cut predicts (0 unless begin_conditioned was asked
+    // to predict), and each attempt moves it to its own cut. Only elements between the two are recomputed, and
+    // both values are recomputed to the finishing pass's bits, so o never depends on the prediction.
+    std::size_t written_cut_ = 0;
+    template <std::size_t Per, class Conv>
+    void settle_filed(double* o, Conv& conv, std::size_t cut) {
+        const std::size_t lo = std::min(cut, written_cut_), hi = std::max(cut, written_cut_);
+        written_cut_ = cut;
+        if (lo == hi) return;
+        for (const std::uint64_t key : cond_) {
+            const std::size_t b = std::size_t(key & bucket_mask);
+            if (b < lo || b >= hi) continue;
+            const std::size_t e = std::size_t(key >> bucket_bits);
+            std::array<double, Per> c{};
+            const auto u = conv(e, c);
+            if (b < cut)
+                for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p];
+            else
+                conservative_value<Per>(o + e * Per, c, u.c2, u.xi, u.sign);
+        }
+    }
+    // Per bucket of hist_: the count, then for each invariant a: sum |w_a| h, sum |w_a| dq, sum w_a d, then the
+    // m x m sums w_a w_b dq.
+    std::size_t hist_stride() const {
+        const std::size_t m = weights_.size();
+        return 1 + 3 * m + m * m;
+    }
     // Calls fn(j) for every j (an index into cond_, in filing order) the last successful remedy_elements took.
     template <class Fn>
     void for_each_taken(Fn&& fn) const {
@@ -576,39 +673,24 @@ class radicand_remedy {
             for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p], x2 += x[e * Per + p] * x[e * Per + p];
             add(e, u.c2 - u.xi, std::max(x2, u.c2), 0.0);
         }
-        // The ill-conditioned elements below the cut, in filing (element) order: their update recomputed from the
-        // stages (the bits of the finishing pass), written into o. A refused attempt restores their conservative
-        // values, recomputed alike.
-        auto restore = [&](std::size_t upto) {
-            for (std::size_t j = 0; j < upto; ++j) {
-                if ((cond_[j] & bucket_mask) >= cut) continue;
-                const std::size_t e = std::size_t(cond_[j] >> bucket_bits);
-                std::array<double, Per> c{};
-                const auto u = conv(e, c);
-                conservative_value<Per>(o + e * Per, c, u.c2, u.xi, u.sign);
+        // The ill-conditioned elements below the cut take their conventional update (written into o by settle_filed,
+        // recomputed from the stages: the bits of the finishing pass); their sums are the histogram's, cumulated.
+        settle_filed<Per>(o, conv, cut);
+        if (cut > 0) {
+            const double* h = hist_.data() + (cut - 1) * hist_stride();
+            taken += std::size_t(h[0]);
+            for (std::size_t a = 0; a < m; ++a) {
+                held[a] += h[1 + a], mag[a] += h[1 + m + a], defect[a] += h[1 + 2 * m + a];
+                for (std::size_t b = 0; b < m; ++b) dg[a * M + b] += h[1 + 3 * m + a * m + b];
             }
-        };
-        if (cut > 0)
-            for (std::size_t j = 0; j < cond_.size(); ++j) {
-                if ((cond_[j] & bucket_mask) >= cut) continue;
-                const std::size_t e = std::size_t(cond_[j] >> bucket_bits);
-                std::array<double, Per> c{};
-                const auto u = conv(e, c);
-                if (!std::isfinite(u.c2) || !std::isfinite(u.xi)) return restore(j), false;
-                double x2 = 0.0, q = 0.0;  // |x_e|^2 and |o_e|^2 of the conservative value, as the finishing pass
-                for (std::size_t p = 0; p < Per; ++p) x2 += x[e * Per + p] * x[e * Per + p];
-                if constexpr (Per == 1)
-                    q = o[e] * o[e];
-                else
-                    q = o[e * Per] * o[e * Per] + o[e * Per + 1] * o[e * Per + 1];
-                for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p];
-                add(e, u.c2 - u.xi, std::max(x2, u.c2), u.c2 - q);
-            }
-        const auto refuse = [&] {
-            restore(cond_.size());
-            return false;
-        };
+        }
+        const auto refuse = [] { return false; };  // (the next attempt, or the caller, settles o again)
         if (taken == 0) return true;
+        for (std::size_t a = 0; a < m; ++a) {  // an element whose update overflowed refuses every set holding it
+            bool finite = std::isfinite(defect[a]) && std::isfinite(held[a]) && std::isfinite(mag[a]);
+            for (std::size_t b = 0; b < m; ++b) finite = finite && std::isfinite(dg[a * M + b]);
+            if (!finite) return refuse();
+        }
         for (std::size_t a = 0; a < m; ++a)
             for (std::size_t b = 0; b < m; ++b) g[a * M + b] += dg[a * M + b];
         for (std::size_t j = 0; j < m; ++j)
