@@ -9,7 +9,7 @@
 #include <string>
 
 #include <eci/eci.hpp>
-#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/spectral/step.hpp>
 
 namespace {
 

@@ -20,7 +20,7 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/spectral/step.hpp>
 #include <eci/solve.hpp>
 
 #include "command.hpp"

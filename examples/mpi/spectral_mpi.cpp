@@ -13,7 +13,7 @@
 #include <limits>
 #include <numbers>
 
-#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/spectral/step.hpp>
 
 int main(int argc, char** argv) {
     MPI_Init(&argc, &argv);

@@ -6,7 +6,7 @@
 #include <numbers>
 
 #include <eci/eci.hpp>
-#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/spectral/step.hpp>
 
 int main() {
     using state = eci::navier_stokes_2d::state_type;

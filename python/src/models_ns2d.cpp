@@ -6,7 +6,7 @@
 #include <mutex>
 #include <numbers>
 
-#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/spectral/step.hpp>
 #include <eci/registry.hpp>
 #include <eci/solve.hpp>
 

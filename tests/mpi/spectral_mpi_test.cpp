@@ -21,7 +21,7 @@
 #include <string>
 #include <vector>
 
-#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/spectral/step.hpp>
 
 namespace {
 

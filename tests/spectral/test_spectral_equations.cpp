@@ -13,7 +13,7 @@
 #include <vector>
 
 #include <eci/eci.hpp>
-#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/spectral/step.hpp>
 
 namespace {
 

@@ -1,22 +1,10 @@
 // The 2-D spectral equations as models the steppers step: Navier-Stokes (and Charney-Hasegawa-Mima, surface QG) on
 // [0, 2pi)^2, pseudo-spectral with FFTW3 and dealiased by the 2/3 rule, so every triad conserves E and Z exactly
 // (§III's truncated Euler equations). The model is eci::spectral::flow2d (spectral/flow.hpp); this header keeps the
-// names of the Navier-Stokes model, the spectral methods and one budgeted step. Link eci::spectral.
+// Navier-Stokes names of it. Its methods and one budgeted step for loops of one's own: spectral/step.hpp.
+// Link eci::spectral.
 #pragma once
 
-#include <algorithm>
-#include <array>
-#include <complex>
-#include <cstddef>
-#include <cstdint>
-#include <limits>
-#include <stdexcept>
-#include <string>
-#include <vector>
-
-#include "../concepts.hpp"
-#include "../integrate.hpp"
-#include "../registry.hpp"
 #include "../spectral/flow.hpp"
 
 namespace eci {
@@ -27,50 +15,5 @@ using ns2d_params = spectral::flow_params;
 using ns2d_rates = spectral::flow_rates;
 using ns2d_budget = spectral::flow_budget;
 using navier_stokes_2d = spectral::flow2d;
-
-/// One step of a Runge-Kutta stepper (conventional or conservative) on a flow, as eci::solve takes it: the step's
-/// stochastic forcing drawn, a failed attempt retried in the advective form and then halved (the forcing held),
-/// and the step's injection and dissipation, integrated with the stepper's own stage values and weights (the
-/// flow's step hooks, spectral/flow.hpp), added to `budget`. Between halvings it throws eci::interrupted if `stop`
-/// (optional) returns true. For loops of one's own; eci::solve runs the same step.
-template <class St>
-void ns2d_step(St& stepper, navier_stokes_2d& m, navier_stokes_2d::state_type& x, double t, double dt,
-               ns2d_budget& budget, run_stats& stats, int max_halvings = 40, bool (*stop)() = nullptr) {
-    // A conservative stepper remedies isolated negative radicands exactly when it knows the invariants' weights
-    // (issue 9); hand it E's and Z's once.
-    if constexpr (requires { stepper.set_quadratic_invariants(m.quadratic_invariant_weights()); }) {
-        if (stepper.quadratic_invariants().empty() || stepper.quadratic_invariants().front().size() != m.size())
-            stepper.set_quadratic_invariants(m.quadratic_invariant_weights());
-    }
-    run_options opt;
-    opt.max_halvings = max_halvings;
-    opt.max_substeps = std::numeric_limits<std::uint64_t>::max();
-    if (stop) opt.stop_between_attempts = stop;
-    m.begin_step(dt);
-    const detail::counting_system<navier_stokes_2d> counted{m, stats.rhs_evals};
-    detail::advance_with_reduction(stepper, counted, x, t, dt, opt, stats);
-    ++stats.steps;
-    const ns2d_budget& b = m.step_budget();
-    budget.energy_injection += b.energy_injection;
-    budget.energy_dissipation += b.energy_dissipation;
-    budget.enstrophy_injection += b.enstrophy_injection;
-    budget.enstrophy_dissipation += b.enstrophy_dissipation;
-}
-
-/// The methods that run on the spectral flows, as the registry computes them (the Runge-Kutta engines over the
-/// fixed-step tableaux, whose weights integrate the budget), the conservative ones first, higher orders first:
-/// the CLI's and the Python module's one list, its first the default.
-inline const std::vector<std::string>& ns2d_methods() {
-    static const std::vector<std::string> names = [] {
-        std::vector<method_info> ms = methods_for<navier_stokes_2d>();
-        std::ranges::stable_sort(ms, [](const method_info& a, const method_info& b) {
-            return a.conservative != b.conservative ? a.conservative : a.order > b.order;
-        });
-        std::vector<std::string> out;
-        for (const method_info& m : ms) out.emplace_back(m.name);
-        return out;
-    }();
-    return names;
-}
 
 }  // namespace eci

@@ -6,7 +6,7 @@
 #include <numbers>
 
 #include <eci/eci.hpp>
-#include <eci/models/navier_stokes_2d.hpp>
+#include <eci/spectral/step.hpp>
 
 int main() {
     eci::ns2d_params p;
