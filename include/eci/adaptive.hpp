@@ -1,5 +1,6 @@
 // Adaptive step-size control for the embedded steppers (steppers/embedded_rk.hpp): the RMS error norm, an I or PI
-// controller, negative radicands as their own kind of rejection, output at requested times by landing or dense.
+// controller (the error controller of the one run loop, detail/run_loop.hpp), negative radicands as their own kind
+// of rejection, output at requested times by landing or dense.
 #pragma once
 
 #include <algorithm>
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "concepts.hpp"
+#include "detail/run_loop.hpp"
 #include "detail/state_ops.hpp"
 #include "integrate.hpp"
 #include "registry.hpp"
@@ -177,12 +179,21 @@ attempt_result attempt_checked(St& st, F& f, const S& x, double t, double dt, co
 }
 
 
-/// The controller and the loop shared by all adaptive drivers. `advance(t_target, on_accept)` steps x from t to
-/// t_target (landing on it); on_accept(t_prev, t_new) sees every accepted step.
+/// An attempt of the error controller: a step of size dt (signed by the run's direction when taken), landing on
+/// the target or not.
+struct adaptive_attempt {
+    double dt;
+    bool landing;
+};
+
+/// The error controller of run_loop, shared by all adaptive drivers: I or PI control of the step from the embedded
+/// error estimate, failed attempts (negative radicand, non-finite error or rate) as their own rejections, the
+/// attempt budget and the minimum step. `advance(t_target, on_accept)` steps x from t to t_target (landing on it);
+/// on_accept(t_prev, t_new) sees every accepted step.
 template <class St, class F, class S>
-class adaptive_loop {
+class error_control {
    public:
-    adaptive_loop(St& st, F& f, S& x, double t0, double dt0, const adaptive_options& o, adaptive_stats& stats)
+    error_control(St& st, F& f, S& x, double t0, double dt0, const adaptive_options& o, adaptive_stats& stats)
         : st_(st), f_(f), x_(x), t_(t0), dt_(std::max(dt0, o.dt_min)), o_(o), stats_(stats) {
         // A step the user set a floor for (dt_min > 0) starts at it at least, and never goes below it but to land.
         const std::size_t n = reals(std::as_const(x)).size();
@@ -204,79 +215,93 @@ class adaptive_loop {
     /// controller works on the step's size, the stepper gets it signed (every eci stepper takes a negative dt).
     template <class OnAccept>
     void advance(double t_target, OnAccept&& on_accept) {
-        constexpr double q1 = double(St::embedded_order + 1);
-        const bool forward = !(t_target < t_);
-        const double dir = forward ? 1.0 : -1.0;
-        while (forward ? t_ < t_target : t_ > t_target) {
-            // Land on the target when the proposed step would (nearly) reach it: no sliver of a last step.
-            double dt = std::min({dt_, o_.dt_max});  // the step's size
-            const bool landing = forward ? t_ + 1.01 * dt >= t_target : t_ - 1.01 * dt <= t_target;
-            if (landing) dt = forward ? t_target - t_ : t_ - t_target;
-            if (stats_.accepted + stats_.rejected() >= o_.max_attempts)
-                throw adaptive_failure(adaptive_failure::reason::too_many_steps, t_, 0, dir * dt, stats_);
-            bool rate_failed = false;
-            const attempt_result r =
-                attempt_checked(st_, f_, std::as_const(x_), t_, dir * dt, &w_, false, rate_failed);
-            const bool finite = r.ok && std::isfinite(r.error);
-            if (finite && r.error <= 1.0) {
-                st_.accept(x_);
-                const double t_prev = t_;
-                t_ = landing ? t_target : t_ + dir * dt;
-                ++stats_.accepted;
-                stats_.dt_smallest = std::min(stats_.dt_smallest, dt);
-                stats_.dt_largest = std::max(stats_.dt_largest, dt);
-                double factor = o_.safety * std::pow(std::max(r.error, 1e-10), -1.0 / q1);
-                if (o_.pi_control) {
-                    const double alpha = 1.0 / q1 - 0.75 * o_.pi_beta;
-                    factor = o_.safety * std::pow(std::max(r.error, 1e-10), -alpha) *
-                             std::pow(std::max(previous_error_, 1e-4), o_.pi_beta);
-                }
-                factor = std::clamp(factor, o_.min_factor, just_rejected_ ? 1.0 : o_.max_factor);
-                previous_error_ = r.error;
-                just_rejected_ = false;
-                // A step cut short to land keeps the controller's proposal for the next one.
-                dt_ = landing && dt < dt_ ? std::max(dt_, dt * factor) : dt * factor;
-                dt_ = std::max(dt_, o_.dt_min);  // below it only a rejection goes, and that stops the run
-                on_accept(t_prev, t_);
-                continue;
+        target_ = t_target;
+        forward_ = !(t_target < t_);
+        dir_ = forward_ ? 1.0 : -1.0;
+        run_loop(*this, [&] { on_accept(t_prev_, t_); });
+    }
+
+    bool more() const { return forward_ ? t_ < target_ : t_ > target_; }
+
+    adaptive_attempt propose() {
+        // Land on the target when the proposed step would (nearly) reach it: no sliver of a last step.
+        double dt = std::min({dt_, o_.dt_max});  // the step's size
+        const bool landing = forward_ ? t_ + 1.01 * dt >= target_ : t_ - 1.01 * dt <= target_;
+        if (landing) dt = forward_ ? target_ - t_ : t_ - target_;
+        if (stats_.accepted + stats_.rejected() >= o_.max_attempts)
+            throw adaptive_failure(adaptive_failure::reason::too_many_steps, t_, 0, dir_ * dt, stats_);
+        return {dt, landing};
+    }
+
+    attempt_result attempt(const adaptive_attempt& a) {
+        return attempt_checked(st_, f_, std::as_const(x_), t_, dir_ * a.dt, &w_, false, rate_failed_);
+    }
+
+    static bool acceptable(const attempt_result& r) { return r.ok && std::isfinite(r.error) && r.error <= 1.0; }
+
+    bool accept(const adaptive_attempt& a, const attempt_result& r) {
+        const double dt = a.dt;
+        st_.accept(x_);
+        t_prev_ = t_;
+        t_ = a.landing ? target_ : t_ + dir_ * dt;
+        ++stats_.accepted;
+        stats_.dt_smallest = std::min(stats_.dt_smallest, dt);
+        stats_.dt_largest = std::max(stats_.dt_largest, dt);
+        double factor = o_.safety * std::pow(std::max(r.error, 1e-10), -1.0 / q1);
+        if (o_.pi_control) {
+            const double alpha = 1.0 / q1 - 0.75 * o_.pi_beta;
+            factor = o_.safety * std::pow(std::max(r.error, 1e-10), -alpha) *
+                     std::pow(std::max(previous_error_, 1e-4), o_.pi_beta);
+        }
+        factor = std::clamp(factor, o_.min_factor, just_rejected_ ? 1.0 : o_.max_factor);
+        previous_error_ = r.error;
+        just_rejected_ = false;
+        // A step cut short to land keeps the controller's proposal for the next one.
+        dt_ = a.landing && dt < dt_ ? std::max(dt_, dt * factor) : dt * factor;
+        dt_ = std::max(dt_, o_.dt_min);  // below it only a rejection goes, and that stops the run
+        return true;
+    }
+
+    void reject(const adaptive_attempt& a, const attempt_result& r) {
+        const double dt = a.dt;
+        const bool finite = r.ok && std::isfinite(r.error);
+        if (!r.ok) {
+            ++stats_.rejected_radicand;
+            last_ = rejection::step_failed;
+            dt_ = dt * o_.radicand_factor;
+        } else if (!finite) {
+            ++stats_.rejected_radicand;  // a non-finite error: the state or f blew up, as for a radicand
+            if (rate_failed_) ++stats_.rejected_non_finite_rate;
+            last_ = rate_failed_ ? rejection::non_finite_rate : rejection::step_failed;
+            dt_ = dt * o_.min_factor;
+        } else {
+            ++stats_.rejected_error;
+            last_ = rejection::error_estimate;
+            dt_ = dt * std::max(o_.min_factor, o_.safety * std::pow(r.error, -1.0 / q1));
+        }
+        just_rejected_ = true;
+        // The default floor is the resolution of time where the run is, 64 eps |t| (not of the end time: a
+        // long horizon must not stop a run early), and never below 2^-30 of the span left (a run at t = 0).
+        const double dt_min = o_.dt_min > 0.0 ? o_.dt_min
+                                              : 64.0 * std::numeric_limits<double>::epsilon() *
+                                                    std::max({std::abs(t_), 0x1p-30 * dir_ * (target_ - t_),
+                                                              std::numeric_limits<double>::min()});
+        if (dt_ < dt_min) {
+            std::size_t component = r.component;
+            if (r.ok && !rate_failed_) {
+                bool again = false;
+                component = attempt_checked(st_, f_, std::as_const(x_), t_, dir_ * dt, &w_, true, again).component;
             }
-            if (!r.ok) {
-                ++stats_.rejected_radicand;
-                last_ = rejection::step_failed;
-                dt_ = dt * o_.radicand_factor;
-            } else if (!finite) {
-                ++stats_.rejected_radicand;  // a non-finite error: the state or f blew up, as for a radicand
-                if (rate_failed) ++stats_.rejected_non_finite_rate;
-                last_ = rate_failed ? rejection::non_finite_rate : rejection::step_failed;
-                dt_ = dt * o_.min_factor;
-            } else {
-                ++stats_.rejected_error;
-                last_ = rejection::error_estimate;
-                dt_ = dt * std::max(o_.min_factor, o_.safety * std::pow(r.error, -1.0 / q1));
-            }
-            just_rejected_ = true;
-            // The default floor is the resolution of time where the run is, 64 eps |t| (not of the end time: a
-            // long horizon must not stop a run early), and never below 2^-30 of the span left (a run at t = 0).
-            const double dt_min = o_.dt_min > 0.0 ? o_.dt_min
-                                                  : 64.0 * std::numeric_limits<double>::epsilon() *
-                                                        std::max({std::abs(t_), 0x1p-30 * dir * (t_target - t_),
-                                                                  std::numeric_limits<double>::min()});
-            if (dt_ < dt_min) {
-                std::size_t component = r.component;
-                if (r.ok && !rate_failed) {
-                    bool again = false;
-                    component =
-                        attempt_checked(st_, f_, std::as_const(x_), t_, dir * dt, &w_, true, again).component;
-                }
-                st_.reset();
-                adaptive_failure e(adaptive_failure::reason::step_too_small, t_, component, dir * dt_, stats_);
-                e.last_rejection = last_;
-                throw e;
-            }
+            st_.reset();
+            adaptive_failure e(adaptive_failure::reason::step_too_small, t_, component, dir_ * dt_, stats_);
+            e.last_rejection = last_;
+            throw e;
         }
     }
 
    private:
+    static constexpr double q1 = double(St::embedded_order + 1);
+
     St& st_;
     F& f_;
     S& x_;
@@ -288,6 +313,9 @@ class adaptive_loop {
     double previous_error_ = 1.0;
     bool just_rejected_ = false;
     rejection last_ = rejection::error_estimate;
+    bool rate_failed_ = false;  // the last attempt failed on a non-finite rate
+    double target_ = 0.0, dir_ = 1.0, t_prev_ = 0.0;
+    bool forward_ = true;
 };
 
 /// Whether b is at or beyond a in the direction of the run (forward: b >= a).
@@ -348,7 +376,7 @@ adaptive_stats integrate_adaptive(St& stepper, F&& f, S& x, double t0, double t_
     detail::attach_quadratic_invariants(stepper, f, x);
     adaptive_stats stats;
     const detail::counted_system<std::remove_reference_t<F>> counted{&f, &stats.rhs_evals};
-    detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
+    detail::error_control loop(stepper, counted, x, t0, dt0, options, stats);
     detail::notify(observe, std::as_const(x), t0, 0);
     loop.advance(t_end, [&](double, double t) { detail::notify(observe, std::as_const(x), t, stats.accepted); });
     return stats;
@@ -374,7 +402,7 @@ adaptive_stats integrate_adaptive_at(St& stepper, F&& f, S& x, double t0, const 
     detail::attach_quadratic_invariants(stepper, f, x);
     adaptive_stats stats;
     const detail::counted_system<std::remove_reference_t<F>> counted{&f, &stats.rhs_evals};
-    detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
+    detail::error_control loop(stepper, counted, x, t0, dt0, options, stats);
     std::size_t next = 0;
     auto emit_until = [&](double t) {  // outputs at or before the current time t that equal it
         while (next < times.size() && detail::reached(times[next], t, forward)) {
@@ -490,7 +518,7 @@ adaptive_stats integrate_adaptive_steps(St& stepper, F&& f, S& x, double t0, dou
     using counted_t = const detail::counted_system<std::remove_reference_t<F>>;
     counted_t counted{&f, &stats.rhs_evals};
     static_assert(dense_stepper<St, counted_t, S>, "integrate_adaptive_steps needs a stepper with dense output");
-    detail::adaptive_loop loop(stepper, counted, x, t0, dt0, options, stats);
+    detail::error_control loop(stepper, counted, x, t0, dt0, options, stats);
     S stop_state{};
     try {
         loop.advance(t_end, [&](double t_prev, double t_new) {

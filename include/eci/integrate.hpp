@@ -1,7 +1,7 @@
-// Drivers: fixed steps to a step count or an end time, an observer (x, t, i) or (x, t) every k steps, run statistics,
-// the model's quadratic invariants handed to the stepper's remedy, the step reduction (public: step_with_reduction)
-// that retries a failed step as two half steps, a bound on the work of one step, a non-finite check of every
-// step and a cancellation hook.
+// Fixed steps to a step count or an end time, through the one run loop (detail/run_loop.hpp) with the fixed-step
+// controller: an observer (x, t, i) or (x, t) every k steps, run statistics, the model's quadratic invariants
+// handed to the stepper's remedy, the step reduction (public: step_with_reduction) that retries a failed step as
+// two half steps, a bound on the work of one step, a non-finite check of every step and a cancellation hook.
 #pragma once
 
 #include <algorithm>
@@ -26,6 +26,7 @@
 #include "invariants.hpp"
 #include "steps.hpp"
 #include "steppers/radicand_remedy.hpp"
+#include "detail/run_loop.hpp"
 #include "detail/state_ops.hpp"
 
 namespace eci {
@@ -268,67 +269,148 @@ step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::opti
     }
 }
 
-/// One step of the grid from t to t + dt (eci::step_with_reduction is the public form). A failed attempt is replaced by two half steps, depth first and
-/// iteratively (an explicit stack of at most max_halvings + 1 depths): at most opt.max_substeps attempts.
+/// An attempt of the fixed-step controller: from t, a step of dt, at halving depth `depth` (0: the whole step).
+struct fixed_attempt {
+    double t;
+    double dt;
+    int depth;
+};
+
+/// The fixed-step controller of run_loop: steps first + 1 .. first + n of the grid t0 + k dt, the last of size
+/// `last` (dt, unless integrate_to shortens it to land on its end time). A failed attempt is first offered to a
+/// model that retries the whole step in another form (retries_attempts), then replaced by two half steps, depth
+/// first (an explicit stack of at most max_halvings + 1 depths): at most opt.max_substeps attempts per step of the
+/// grid. With `announce`, the model's begin_step(size) precedes each step (begins_steps).
 template <class St, class F, class S>
-void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const run_options& opt, run_stats& stats) {
-    poll_cancel(opt, t);
-    std::optional<double> rate;  // the non-finite rate that failed the last attempt, if that was the cause
-    step_result r = attempt_step(stepper, f, x, t, dt, rate);
-    if (r) {
-        check_finite_after<St>(x, t + dt);
-        return;
-    }
-    if constexpr (retries_attempts<std::remove_reference_t<decltype(hook_target(f))>>) {
-        auto& m = hook_target(f);
-        if (m.begin_retry()) {  // the whole step again in the model's other form, halved there if need be
+class fixed_control {
+    using model = std::remove_reference_t<decltype(hook_target(std::declval<F&>()))>;
+
+   public:
+    /// `start`: the time of the first step (t0 + first dt, as the caller computes it).
+    fixed_control(St& stepper, F& f, S& x, double t0, double start, double dt, std::uint64_t first, std::uint64_t n,
+                  double last, bool announce, const run_options& opt, run_stats& stats)
+        : stepper_(stepper), f_(f), x_(x), t0_(t0), dt_(dt), last_(last), k_(first + 1), end_(first + n),
+          t_(start), size_(n == 1 ? last : dt), announce_(announce), opt_(opt), stats_(stats) {}
+
+    /// The index of the last complete step of the grid.
+    std::uint64_t completed() const { return k_ - 1; }
+
+    /// Takes the steps, calling on_step() after each; a model's retry in progress is ended if the run throws.
+    template <class OnStep>
+    void run(OnStep&& on_step) {
+        if constexpr (retries_attempts<model>) {
             try {
-                advance_with_reduction(stepper, f, x, t, dt, opt, stats);
+                run_loop(*this, on_step);
             } catch (...) {
-                m.end_retry(false);
+                for (; retries_ > 0; --retries_) hook_target(f_).end_retry(false);
                 throw;
             }
-            m.end_retry(true);
+        } else {
+            run_loop(*this, on_step);
+        }
+    }
+
+    bool more() const { return k_ <= end_; }
+
+    fixed_attempt propose() {
+        if (!halving_) {
+            if constexpr (begins_steps<model>)
+                if (announce_ && retries_ == 0) hook_target(f_).begin_step(size_);
+            poll_cancel(opt_, t_);
+            return {t_, size_, 0};
+        }
+        const int depth = pending_.back();
+        pending_.pop_back();
+        const double h = std::ldexp(size_, -depth);
+        smallest_ = std::min(smallest_, h);
+        if (++attempts_ > opt_.max_substeps) throw step_work_exceeded(t_, size_, opt_.max_substeps, smallest_);
+        const double ts = t_ + offset_;
+        poll_cancel(opt_, ts);
+        return {ts, h, depth};
+    }
+
+    step_result attempt(const fixed_attempt& a) {
+        rate_.reset();
+        return attempt_step(stepper_, f_, x_, a.t, a.dt, rate_);
+    }
+
+    static bool acceptable(const step_result& r) { return bool(r); }
+
+    bool accept(const fixed_attempt& a, const step_result&) {
+        check_finite_after<St>(x_, a.t + a.dt);
+        if (halving_) {
+            offset_ += a.dt;  // sum of pieces taken: multiples of size 2^-depth, exact
+            if (!pending_.empty()) return false;
+            halving_ = false;
+        }
+        if constexpr (retries_attempts<model>)
+            for (; retries_ > 0; --retries_) hook_target(f_).end_retry(true);
+        ++k_;
+        t_ = t0_ + double(k_ - 1) * dt_;
+        size_ = k_ == end_ ? last_ : dt_;
+        return true;
+    }
+
+    void reject(const fixed_attempt& a, const step_result& r) {
+        if (a.depth == 0) {
+            if constexpr (retries_attempts<model>)
+                if (hook_target(f_).begin_retry()) {  // the whole step again in the model's other form
+                    ++retries_;
+                    return;
+                }
+            if (opt_.max_halvings <= 0) throw underflow(a, r);
+            poll_stop(opt_, a.t);
+            count_reduction();
+            pending_.assign({1, 1});  // depths of the pieces still to take, the next one last
+            halving_ = true;
+            offset_ = 0.0;
+            attempts_ = 1;
+            smallest_ = a.dt;
             return;
         }
-    }
-    auto underflow = [&](double ts, double h) {
-        step_size_underflow e(ts, r.component, h, stats);
-        e.non_finite_rate_value = rate;
-        return e;
-    };
-    auto count_reduction = [&] {
-        ++stats.step_reductions;
-        if (rate) ++stats.non_finite_rate_reductions;
-        rate.reset();
-    };
-    if (opt.max_halvings <= 0) throw underflow(t, dt);
-    poll_stop(opt, t);
-    count_reduction();
-    std::vector<int> pending{1, 1};  // depths of the pieces still to take, the next one last
-    double offset = 0.0;             // sum of pieces taken: multiples of dt 2^-depth, exact
-    std::uint64_t attempts = 1;
-    double smallest = dt;
-    while (!pending.empty()) {
-        const int depth = pending.back();
-        pending.pop_back();
-        const double h = std::ldexp(dt, -depth);
-        smallest = std::min(smallest, h);
-        if (++attempts > opt.max_substeps) throw step_work_exceeded(t, dt, opt.max_substeps, smallest);
-        const double ts = t + offset;
-        poll_cancel(opt, ts);
-        r = attempt_step(stepper, f, x, ts, h, rate);
-        if (r) {
-            check_finite_after<St>(x, ts + h);
-            offset += h;
-            continue;
-        }
-        if (depth >= opt.max_halvings) throw underflow(ts, h);
-        poll_stop(opt, ts);
+        if (a.depth >= opt_.max_halvings) throw underflow(a, r);
+        poll_stop(opt_, a.t);
         count_reduction();
-        pending.push_back(depth + 1);
-        pending.push_back(depth + 1);
+        pending_.push_back(a.depth + 1);
+        pending_.push_back(a.depth + 1);
     }
+
+   private:
+    step_size_underflow underflow(const fixed_attempt& a, const step_result& r) const {
+        step_size_underflow e(a.t, r.component, a.dt, stats_);
+        e.non_finite_rate_value = rate_;
+        return e;
+    }
+    void count_reduction() {
+        ++stats_.step_reductions;
+        if (rate_) ++stats_.non_finite_rate_reductions;
+        rate_.reset();
+    }
+
+    St& stepper_;
+    F& f_;
+    S& x_;
+    double t0_, dt_, last_;
+    std::uint64_t k_, end_;  // the step of the grid being taken, and the last one
+    double t_, size_;        // its start and size
+    bool announce_;
+    const run_options& opt_;
+    run_stats& stats_;
+    std::optional<double> rate_;  // the non-finite rate that failed the last attempt, if that was the cause
+    int retries_ = 0;             // the model's retries of this step in progress
+    bool halving_ = false;        // the step is being taken in pieces
+    std::vector<int> pending_;
+    double offset_ = 0.0;
+    std::uint64_t attempts_ = 0;
+    double smallest_ = 0.0;
+};
+
+/// One step of the grid from t to t + dt (eci::step_with_reduction is the public form): the fixed-step controller
+/// over a single step, halving a failed attempt.
+template <class St, class F, class S>
+void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const run_options& opt, run_stats& stats) {
+    fixed_control<St, F, S> control(stepper, f, x, t, t, dt, 0, 1, dt, false, opt, stats);
+    control.run([] {});
 }
 
 /// The same with the default bounds and `max_halvings` (for tests that take a step without counting it).
@@ -338,7 +420,6 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, int ma
     opt.max_halvings = max_halvings;
     advance_with_reduction(stepper, f, x, t, dt, opt, stats);
 }
-
 
 template <class St>
 void collect_solver_stats(const St& stepper, run_stats& stats) {
@@ -401,30 +482,43 @@ void notify(Observer& observe, const S& x, double t, std::uint64_t i, const run_
         notify(observe, x, t, i);
 }
 
+/// The fixed-step run: steps first + 1 .. first + n of the grid t0 + k dt (first = opt.first_step), the last of
+/// size `last`, through the fixed-step controller. The observer sees the first state, every opt.every steps and
+/// the last (at time t_end if given, else on the grid). A shortened last step (last != dt) is observed with the
+/// run's complete statistics.
 template <class St, class F, class S, class Observer>
-run_stats run_n_steps(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t n, Observer& observe,
-                      const run_options& opt) {
+run_stats run_grid(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t n, double last,
+                   std::optional<double> t_end, Observer& observe, const run_options& opt) {
     run_stats stats;
     const counting_system<F> counted{f, stats.rhs_evals, opt.cancel};
     attach_quadratic_invariants(stepper, f, x);
     const remedy_stats before = remedy_counters(stepper);
-    const std::uint64_t first = opt.first_step;
+    const std::uint64_t first = opt.first_step, end = first + n;
+    const bool shortened = last != dt;
     notify(observe, std::as_const(x), first == 0 ? t0 : t0 + double(first) * dt, first, stats);
+    fixed_control<St, const counting_system<F>, S> control(stepper, counted, x, t0, t0 + double(first) * dt, dt,
+                                                           first, n, last, true, opt, stats);
     try {
-        for (std::uint64_t i = 1; i <= n; ++i) {
-            const std::uint64_t k = first + i;
-            if constexpr (begins_steps<F>) f.begin_step(dt);
-            advance_with_reduction(stepper, counted, x, t0 + double(k - 1) * dt, dt, opt, stats);
+        control.run([&] {
             ++stats.steps;
-            if (k % opt.every == 0 || i == n) notify(observe, std::as_const(x), t0 + double(k) * dt, k, stats);
-        }
+            const std::uint64_t k = control.completed();
+            if (k == end) {
+                if (shortened) {
+                    collect_solver_stats(stepper, stats);
+                    collect_remedy_stats(stepper, before, stats);
+                }
+                notify(observe, std::as_const(x), t_end ? *t_end : t0 + double(k) * dt, k, stats);
+            } else if (k % opt.every == 0) {
+                notify(observe, std::as_const(x), t0 + double(k) * dt, k, stats);
+            }
+        });
     } catch (step_size_underflow& e) {
         collect_solver_stats(stepper, e.stats);
         collect_remedy_stats(stepper, before, e.stats);
         throw;
     }
     collect_solver_stats(stepper, stats);
-    collect_remedy_stats(stepper, before, stats);
+    if (!shortened) collect_remedy_stats(stepper, before, stats);
     return stats;
 }
 
@@ -467,7 +561,7 @@ run_stats integrate_n_steps(St& stepper, F&& f, S& x, double t0, double dt, std:
     detail::check_step(dt);
     if (opt.every == 0) throw std::invalid_argument("observer interval must be at least 1");
     if (!opt.resume) reset_carried_state(stepper);
-    return detail::run_n_steps(stepper, f, x, t0, dt, n, observe, opt);
+    return detail::run_grid(stepper, f, x, t0, dt, n, dt, std::nullopt, observe, opt);
 }
 
 /// Step from t0 to t_end with steps of dt; the last step is shortened to land on t_end exactly. Observer,
@@ -485,29 +579,11 @@ run_stats integrate_to(St& stepper, F&& f, S& x, double t0, double t_end, double
         detail::notify(observe, std::as_const(x), t0, std::uint64_t{0}, run_stats{});
         return {};
     }
-    const double last = t_end - (t0 + double(n - 1) * dt);
-    if (std::abs(last - dt) <= 1e-12 * dt) {
-        // t0 + n dt may miss t_end by round-off (3 * 0.1 != 0.3): the last observation reports t_end itself.
-        auto observe_end = [&](const S& s, double t, std::uint64_t i, const run_stats& st) {
-            detail::notify(observe, s, i == n ? t_end : t, i, st);
-        };
-        return detail::run_n_steps(stepper, f, x, t0, dt, n, observe_end, opt);
-    }
-    // The grid holds n - 1 full steps, then one shorter step to t_end.
-    auto observe_full = [&](const S& s, double t, std::uint64_t i, const run_stats& st) {
-        if (i % opt.every == 0 || i == 0) detail::notify(observe, s, t, i, st);
-    };
-    run_stats stats = detail::run_n_steps(stepper, f, x, t0, dt, n - 1, observe_full, opt);
-    no_observer none;
-    try {
-        accumulate(stats, detail::run_n_steps(stepper, f, x, t0 + double(n - 1) * dt, last, 1, none, opt));
-    } catch (step_size_underflow& e) {
-        accumulate(e.stats, stats);
-        throw;
-    }
-    detail::collect_solver_stats(stepper, stats);
-    detail::notify(observe, std::as_const(x), t_end, n, stats);
-    return stats;
+    // The grid holds n - 1 full steps, then one to t_end: of size dt if t0 + n dt misses t_end by round-off only
+    // (3 * 0.1 != 0.3; the last observation reports t_end itself), else shortened.
+    const double gap = t_end - (t0 + double(n - 1) * dt);
+    const double last = std::abs(gap - dt) <= 1e-12 * dt ? dt : gap;
+    return detail::run_grid(stepper, f, x, t0, dt, n, last, t_end, observe, opt);
 }
 
 }  // namespace eci
