@@ -8,7 +8,6 @@
 
 #include <climits>
 #include <cstdio>
-#include <cstring>
 #include <cstdlib>
 #include <mutex>
 #include <new>
@@ -203,8 +202,8 @@ void grid::plan_distributed([[maybe_unused]] const grid_options& o) {
     col0_ = q.col0[me];
     local_cols_ = rank_ == P - 1 ? columns() - col0_ : q.ncols[me];
     stride_ = std::size_t(q.ncols[me]);
-    // (every message counts complex values in an int)
-    require(std::int64_t(n_ / P + 1) * std::int64_t(K / P + 1) * std::int64_t(fields_) < std::int64_t(INT_MAX),
+    // (a message, one field's block, counts its complex values in an int)
+    require(std::int64_t(n_ / P + 1) * std::int64_t(K / P + 1) < std::int64_t(INT_MAX),
             "grid size N = " + std::to_string(n_) + " is too large for " + std::to_string(P) + " processes");
     // a field: the spectral side (n rows of this process's columns) or the physical one (its rows, padded);
     // every field on a 64-byte boundary, as the first (plans are made on field 0 and executed on the others)
