@@ -1,10 +1,9 @@
 #!/usr/bin/env bash
 # The spectral core on MPI (issue 23), side by side: builds eci_bench_mpi_step (ECI_MPI=ON, Release) and, at each N,
 # times a C-RK4 and an RK4 step of 2-D Navier-Stokes on 1 process (also the serial grid in the same process) with
-# 1 and 2 threads, and on 2 processes of 1 thread (there twice, alternated: the right-hand side's pair of transforms
-# batched, layout=mpi, and one field at a time, layout=mpi-unbatched); then prints the ratios the issue asks for,
-# batched against one field at a time, and a model of larger runs (bench/mpi_model.py). Wall time, the fastest of
-# the repetitions; run it on an otherwise idle machine.
+# 1 and 2 threads, and on 2 processes of 1 thread (the transforms, and the all-to-alls of the retained columns inside
+# them, timed too; also with Open MPI's single-copy mechanism off, layout=mpi-nocma); then prints the ratios the issue asks for and a model of larger runs (bench/mpi_model.py). Wall
+# time, the fastest of the repetitions (each the slowest rank's); run it on an otherwise idle machine.
 # Usage: bench/mpi.sh [--sizes 1024,2048] [--reps 5] [--build-dir DIR] [--out DIR]
 set -euo pipefail
 repo=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
@@ -18,7 +17,7 @@ while [[ $# -gt 0 ]]; do
     --reps) [[ $# -ge 2 ]] || { echo "mpi.sh: --reps needs a number" >&2; exit 2; }; reps=$2; shift ;;
     --build-dir) [[ $# -ge 2 ]] || { echo "mpi.sh: --build-dir needs a directory" >&2; exit 2; }; build=$(realpath -m "$2"); shift ;;
     --out) [[ $# -ge 2 ]] || { echo "mpi.sh: --out needs a directory" >&2; exit 2; }; out=$(realpath -m "$2"); shift ;;
-    -h|--help) sed -n '2,8p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,7p' "$0"; exit 0 ;;
     *) echo "mpi.sh: unknown argument $1" >&2; exit 2 ;;
   esac
   shift
@@ -41,6 +40,10 @@ for n in ${sizes//,/ }; do
   mpirun --oversubscribe --bind-to none -np 1 "$bin" "$n" 1 "$reps" | tee -a "$raw"
   mpirun --oversubscribe --bind-to none -np 1 "$bin" "$n" 2 "$reps" | tee -a "$raw"
   mpirun --oversubscribe --bind-to core -np 2 "$bin" "$n" 1 "$reps" | tee -a "$raw"
+  # the same with Open MPI's shared-memory transport copying through its own buffers (copy in, copy out) instead
+  # of the single-copy mechanism (CMA, process_vm_readv): layout=mpi-nocma
+  mpirun --oversubscribe --bind-to core --mca btl_vader_single_copy_mechanism none -np 2 "$bin" "$n" 1 "$reps" |
+    sed 's/layout=mpi /layout=mpi-nocma /' | tee -a "$raw"
 done
 echo "== load after: $(cut -d' ' -f1-3 /proc/loadavg)" | tee -a "$raw" >&2
 /usr/bin/python3 "$repo/bench/mpi_model.py" "$raw"

@@ -1,22 +1,16 @@
 // Per-step cost of the spectral core spread over MPI processes (ECI_MPI=ON), side by side in one run: a C-RK4
-// and an RK4 step of 2-D Navier-Stokes on MPI_COMM_WORLD, the transforms that step performs, and the transposes
-// inside those transforms (FFTW's MPI r2c/c2r in the transposed layouts: every 2-D transform is the local row
-// transforms, one global transpose of the n x (n/2 + 1) complex half plane, and the column transforms).
+// and an RK4 step of 2-D Navier-Stokes on MPI_COMM_WORLD, the transforms that step performs, and the all-to-alls
+// inside those transforms (every 2-D transform is the 1-D transforms of a process's retained columns along y, an
+// all-to-all of the retained columns, and the 1-D transforms of its rows along x).
 // Run on one process it also times the serial grid (no communicator) in the same process with the same threads,
 // so "1-rank MPI against the serial step" is a ratio of one run. (A communicator of one process takes the serial
-// grid inside the library since issue 23's third session: the two rows then time the same code, and the 1-rank
-// row's transposes are 0; the commit before, 7f70fa3, timed FFTW's MPI plans on one process there.)
+// grid inside the library: the two rows then time the same code, and the 1-rank row's transposes are 0.)
 //
 //   mpirun -np P eci_bench_mpi_step N [threads] [reps]
 //
 // Prints one line per layout, key=value, wall seconds per step (the fastest of reps; each rep the slowest rank's
-// time between barriers). bench/mpi.sh runs it for 1 and 2 processes and prints the ratios. On more than one
-// process it times the spread flow twice: layout=mpi, the right-hand side's pair of transforms batched (one FFTW
-// MPI transform of the two fields interleaved each way, the default), and layout=mpi-unbatched, one field at a
-// time (flow_params::batched_transforms = false, the layout before issue 23's third session).
+// time between barriers). bench/mpi.sh runs it for 1 and 2 processes and prints the ratios.
 #include <mpi.h>
-
-#include <fftw3-mpi.h>
 
 #include <algorithm>
 #include <cstdio>
@@ -52,13 +46,12 @@ struct result {
 
 // One layout: the flow spread over `comm` (MPI_COMM_NULL: this process alone, the serial grid). Every process of
 // `timing` calls it. A step is timed from the same field at CFL 0.5 each rep, as eci_bench_ns2d_step does.
-result measure(int n, int threads, int reps, MPI_Comm comm, MPI_Comm timing, bool batched = true) {
+result measure(int n, int threads, int reps, MPI_Comm comm, MPI_Comm timing) {
     eci::ns2d_params p;
     p.n = n;
     p.threads = threads;
     p.nu = 1e-4;
     p.comm = comm;
-    p.batched_transforms = batched;
     eci::navier_stokes_2d m(p);
     const state w0 = m.random_field(n / 16.0, 0.5, 1);
     const double dt = 0.5 * (2.0 * std::numbers::pi / n) / m.max_velocity(w0);
@@ -85,27 +78,15 @@ result measure(int n, int threads, int reps, MPI_Comm comm, MPI_Comm timing, boo
         });
     }
     // The transforms of an RK4 step: 4 right-hand sides of Basdevant's form, 2 inverse and 2 forward each (as the
-    // right-hand side makes them: batched, the pair as one transform each way, with the pass over the rows that
-    // takes the interleaved fields apart and puts them back).
+    // right-hand side makes them, with the pass over the rows between them).
     r.transforms = timed(timing, reps, [&] {
         for (int s = 0; s < 4; ++s) m.execute_transforms();
     });
-    // The transposes inside them: 16 of the n x (n/2 + 1) complex half plane per step (one per 2-D transform).
-    if (m.grid().distributed()) {
-        const ptrdiff_t dims[2] = {n, n / 2 + 1};
-        ptrdiff_t ln0 = 0, l0 = 0, ln1 = 0, l1 = 0;
-        const ptrdiff_t count = fftw_mpi_local_size_many_transposed(2, dims, 2, FFTW_MPI_DEFAULT_BLOCK,
-                                                                    FFTW_MPI_DEFAULT_BLOCK, comm, &ln0, &l0, &ln1, &l1);
-        double* buf = fftw_alloc_real(std::size_t(std::max<ptrdiff_t>(count, 1)));
-        fftw_plan t = fftw_mpi_plan_many_transpose(dims[0], dims[1], 2, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK,
-                                                   buf, buf, comm, FFTW_MEASURE);
-        std::fill(buf, buf + std::max<ptrdiff_t>(count, 1), 1.0);
+    // The all-to-alls inside them: one of the pair's retained columns each way per right-hand side.
+    if (m.grid().distributed())
         r.transposes = timed(timing, reps, [&] {
-            for (int k = 0; k < 16; ++k) fftw_execute(t);
+            for (int s = 0; s < 4; ++s) m.grid().exchange(2);
         });
-        fftw_destroy_plan(t);
-        fftw_free(buf);
-    }
     return r;
 }
 
@@ -130,22 +111,19 @@ int main(int argc, char** argv) {
                         ranks, threads, layout, r.crk4, r.rk4, r.transforms, r.transposes);
     };
     // Alternated, twice, so a change of load hits both layouts alike; the faster of the two rounds is kept.
-    result mpi, serial, unbatched;
+    result mpi, serial;
+    const auto keep = [](result& best, const result& x) {
+        if (best.crk4 == 0 || x.crk4 < best.crk4) best.crk4 = x.crk4;
+        if (best.rk4 == 0 || x.rk4 < best.rk4) best.rk4 = x.rk4;
+        if (best.transforms == 0 || x.transforms < best.transforms) best.transforms = x.transforms;
+        if (best.transposes == 0 || x.transposes < best.transposes) best.transposes = x.transposes;
+    };
     for (int round = 0; round < 2; ++round) {
-        const result a = measure(n, threads, reps, MPI_COMM_WORLD, MPI_COMM_WORLD);
-        const auto keep = [](result& best, const result& x) {
-            if (best.crk4 == 0 || x.crk4 < best.crk4) best.crk4 = x.crk4;
-            if (best.rk4 == 0 || x.rk4 < best.rk4) best.rk4 = x.rk4;
-            if (best.transforms == 0 || x.transforms < best.transforms) best.transforms = x.transforms;
-            if (best.transposes == 0 || x.transposes < best.transposes) best.transposes = x.transposes;
-        };
-        keep(mpi, a);
+        keep(mpi, measure(n, threads, reps, MPI_COMM_WORLD, MPI_COMM_WORLD));
         if (ranks == 1) keep(serial, measure(n, threads, reps, MPI_COMM_NULL, MPI_COMM_WORLD));
-        if (ranks > 1) keep(unbatched, measure(n, threads, reps, MPI_COMM_WORLD, MPI_COMM_WORLD, false));
     }
     print("mpi", mpi);
     if (ranks == 1) print("serial", serial);
-    if (ranks > 1) print("mpi-unbatched", unbatched);
     MPI_Finalize();
     return 0;
 }

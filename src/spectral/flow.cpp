@@ -20,7 +20,6 @@ grid_options grid_options_of(const flow_params& p) {
     grid_options o{p.n, 4, p.threads, p.measure, p.pruned_transforms, p.wisdom_file, p.wisdom};
 #ifdef ECI_MPI
     o.comm = p.comm;
-    o.batched = p.batched_transforms;
 #endif
     return o;
 }
@@ -56,7 +55,7 @@ struct flow2d::impl {
     int kmax = 0, rows = 0;
     std::size_t kept = 0, nc = 0;  // the state's row length kmax + 1 (on MPI: this process's), the grid's n/2 + 1
     int c0 = 0;                    // k_x of the state's (and the grid's local) first column
-    std::size_t rs = 0, cs = 0;    // the grid's spectral index of (row, column c): row rs + c cs (grid::at)
+    std::size_t rs = 0;            // the grid's spectral index of (row, column c): row rs + c (grid::at)
     // the forced band's modes in the order of the whole state (rows, then k_x), and where each is held in this
     // process's state (npos: another process's); the forcing is drawn over all of them, so it is the same at any
     // number of processes
@@ -82,36 +81,32 @@ struct flow2d::impl {
           kept(std::size_t(std::clamp(g.kmax() + 1 - g.first_column(), 0, g.local_columns()))),
           nc(std::size_t(g.columns())),
           c0(g.first_column()),
-          rs(g.distributed() ? 1 : nc),
-          cs(g.distributed() ? std::size_t(g.n()) : 1) {}
+          rs(g.spectral_stride()) {}
 
     // The streamfunction's velocity (u, v) = (-i k_y psi, i k_x psi) of q into scratch fields 0 and 1 (and, for the
     // advective form, i k_x q and i k_y q into 2 and 3), zero outside the retained square; a transform overwrites
     // its input, so every mode the transforms read is rewritten: the columns k_x <= kmax (transform_product takes
-    // the rest as zero), every column for the plain inverse transforms.
-    // (h > 1: spread over processes, the fields interleaved for a batched transform_product, grid::interleaved)
-    void fill(const cplx* q, int fields, bool all_columns = false, int h = 1) {
+    // the rest as zero), every column for the plain inverse transforms (spread over processes the transforms read
+    // the retained columns alone, which are a row of the grid's spectral fields).
+    void fill(const cplx* q, int fields, bool all_columns = false) {
         cplx* f[4] = {g.spectral(0), g.spectral(1), fields > 2 ? g.spectral(2) : nullptr,
                       fields > 2 ? g.spectral(3) : nullptr};
-        if (h > 1)
-            for (int j = 0; j < fields; ++j) f[j] = g.spectral(0) + j;
         const double* av = a.data();
-        if (g.distributed()) return fill_columns(q, fields, f, std::size_t(h));
-        const std::size_t end = all_columns || !g.pruned() ? nc : kept;
+        const std::size_t end = g.distributed() ? rs : all_columns || !g.pruned() ? nc : kept;
         const int n = g.n();
         g.for_rows([&](int r0, int r1) {
             for (int row = r0; row < r1; ++row) {
                 // the grid's row: a row of the state (k_y = ky_of(r)) or a row of zeros
                 const int ky_i = g.ky_of_row(row);
                 const bool in = ky_i <= kmax && -ky_i <= kmax;
-                const std::size_t i0 = std::size_t(row) * nc;
+                const std::size_t i0 = std::size_t(row) * rs;
                 if (in) {
                     const double ky = ky_i;
                     const cplx* qr = q + std::size_t(ky_i >= 0 ? ky_i : ky_i + rows) * kept;
                     const double* ar = av + (qr - q);
                     for (std::size_t col = 0; col < kept; ++col) {
                         const std::size_t i = i0 + col;
-                        const double kx = double(col), re = qr[col].real(), im = qr[col].imag();
+                        const double kx = double(c0 + int(col)), re = qr[col].real(), im = qr[col].imag();
                         const double pr = ar[col] * re, pi = ar[col] * im;  // psi
                         f[0][i] = cplx(ky * pi, -ky * pr);                   // u = -d psi/dy
                         f[1][i] = cplx(-kx * pi, kx * pr);                   // v = d psi/dx
@@ -126,51 +121,15 @@ struct flow2d::impl {
         }, n);
     }
 
-    // fill() on a grid spread over processes: this process's columns of the transposed layout, each a column of
-    // n modes (k_x = c0 + c), every mode written (the MPI transforms read them all); mode i of field j at
-    // f[j][i h] (h > 1: interleaved).
-    void fill_columns(const cplx* q, int fields, cplx* const* f, std::size_t h) {
-        const int n = g.n(), local = g.local_columns();
-        if (local == 0) return;
-        const double* av = a.data();
-        g.for_rows([&](int l0, int l1) {
-            for (int c = l0; c < l1; ++c) {
-                const double kx = double(c0 + c);
-                const bool col_in = std::size_t(c) < kept;
-                for (int row = 0; row < n; ++row) {
-                    const std::size_t i = (std::size_t(c) * std::size_t(n) + std::size_t(row)) * h;
-                    const int ky_i = g.ky_of_row(row);
-                    if (!col_in || ky_i > kmax || -ky_i > kmax) {
-                        for (int j = 0; j < fields; ++j) f[j][i] = cplx{};
-                        continue;
-                    }
-                    const std::size_t k = std::size_t(ky_i >= 0 ? ky_i : ky_i + rows) * kept + std::size_t(c);
-                    const double ky = ky_i, re = q[k].real(), im = q[k].imag();
-                    const double pr = av[k] * re, pi = av[k] * im;
-                    f[0][i] = cplx(ky * pi, -ky * pr);
-                    f[1][i] = cplx(-kx * pi, kx * pr);
-                    if (fields > 2) {
-                        f[2][i] = cplx(-kx * im, kx * re);
-                        f[3][i] = cplx(-ky * im, ky * re);
-                    }
-                }
-            }
-        }, local);
-    }
-
-    // Where nl_at() reads the transforms' results: mode j (the grid's index) of output k at nl_out[k][j * nl_step]
-    // (nl_step 2: the pair interleaved, a batched transform spread over processes).
+    // Where nl_at() reads the transforms' results: mode j (the grid's index) of output k at nl_out[k][j].
     const cplx* nl_out[2] = {nullptr, nullptr};
-    std::size_t nl_step = 1;
 
     // The transforms of the nonlinear term, leaving in the scratch fields what nl_at() reads.
     void nonlinear_transforms(const cplx* q, nonlinear_form form) {
         if (form == nonlinear_form::basdevant) {
-            const int h = g.interleaved(2, 2);
             nl_out[0] = g.spectral(0);
-            nl_out[1] = h > 1 ? g.spectral(0) + 1 : g.spectral(1);
-            nl_step = std::size_t(h);
-            fill(q, 2, false, h);
+            nl_out[1] = g.spectral(1);
+            fill(q, 2);
             g.transform_product(2, 2, [](double* const* f, std::size_t nx) {
                 double* u = f[0];
                 double* v = f[1];
@@ -182,7 +141,6 @@ struct flow2d::impl {
             });
         } else {
             nl_out[0] = g.spectral(0);
-            nl_step = 1;
             fill(q, 4);
             g.transform_product(4, 1, [](double* const* f, std::size_t nx) {
                 for (std::size_t x = 0; x < nx; ++x) f[0][x] = f[0][x] * f[2][x] + f[1][x] * f[3][x];
@@ -196,7 +154,7 @@ struct flow2d::impl {
     template <nonlinear_form F>
     cplx nl_at(std::size_t j, double kx, double ky, double scale) const {
         if constexpr (F == nonlinear_form::basdevant)
-            return scale * ((kx * kx - ky * ky) * nl_out[0][j * nl_step] + (kx * ky) * nl_out[1][j * nl_step]);
+            return scale * ((kx * kx - ky * ky) * nl_out[0][j] + (kx * ky) * nl_out[1][j]);
         else
             return -scale * nl_out[0][j];
     }
@@ -209,7 +167,7 @@ struct flow2d::impl {
                 const double ky = ky_of(r);
                 const std::size_t j0 = full_row(r) * rs, i0 = std::size_t(r) * kept;
                 for (std::size_t col = 0; col < kept; ++col)
-                    dst[i0 + col] = nl_at<F>(j0 + col * cs, double(c0 + int(col)), ky, scale);
+                    dst[i0 + col] = nl_at<F>(j0 + col, double(c0 + int(col)), ky, scale);
             }
         }, rows);
         if (c0 == 0 && kept > 0) dst[0] = 0.0;  // k = 0
@@ -317,18 +275,12 @@ void flow2d::set_form(nonlinear_form f) {
 }
 
 void flow2d::execute_transforms() {
-    const spectral::grid& g = d_->g;
-    if (form_ == nonlinear_form::basdevant && g.interleaved(2, 2) > 1) {
-        // spread and batched: the right-hand side's one transform of the interleaved pair each way (with its pass
-        // over the rows, which takes the fields apart and puts them back)
-        g.transform_product(2, 2, [](double* const*, std::size_t) {});
-    } else if (form_ == nonlinear_form::basdevant) {
-        g.inverse(2);
-        g.forward(0, 2);
-    } else {
-        g.inverse(4);
-        g.forward(0, 1);
-    }
+    // as the right-hand side makes them (with its pass over the rows, here doing nothing)
+    const auto none = [](double* const*, std::size_t) {};
+    if (form_ == nonlinear_form::basdevant)
+        d_->g.transform_product(2, 2, none);
+    else
+        d_->g.transform_product(4, 1, none);
 }
 
 void flow2d::nonlinear(const state_type& q, state_type& out) {
@@ -366,11 +318,11 @@ std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cp
     return g.template sum_rows<6>([&](int r0, int r1, std::array<double, 6>& acc) {
         for (int r = r0; r < r1; ++r) {
             const double ky = d.ky_of(r);
-            const std::size_t j0 = d.full_row(r) * d.rs, i0 = std::size_t(r) * kept, cs = d.cs;
+            const std::size_t j0 = d.full_row(r) * d.rs, i0 = std::size_t(r) * kept;
             for (std::size_t col = 0; col < kept; ++col) {
                 const std::size_t i = i0 + col;
                 const cplx nk =
-                    wt[i] != 0.0 ? d.template nl_at<F>(j0 + col * cs, double(d.c0 + int(col)), ky, scale) : cplx{};
+                    wt[i] != 0.0 ? d.template nl_at<F>(j0 + col, double(d.c0 + int(col)), ky, scale) : cplx{};
                 cplx v = nk + lin[i] * x[i];
                 if constexpr (Dispersive) v += cplx(-disp[i] * x[i].imag(), disp[i] * x[i].real());
                 if constexpr (Forced) v += Fk[i];
@@ -598,7 +550,7 @@ std::vector<double> flow2d::to_physical_rows(const state_type& q) {
     if (!g.distributed()) return g.to_physical(to_half_plane(q).data());
     // this process's columns into the transposed layout (zero elsewhere), inverse: this process's rows
     cplx* f = g.spectral(0);
-    std::fill(f, f + std::size_t(g.local_columns()) * std::size_t(n_), cplx{});
+    std::fill(f, f + g.spectral_stride() * std::size_t(n_), cplx{});
     for (std::size_t i = 0; i < size(); ++i) {
         const int row = int(i / std::size_t(cols_));
         f[g.at(int(d_->full_row(row)), int(i % std::size_t(cols_)))] = q[i];

@@ -1,13 +1,12 @@
 // The grid of grid.hpp: FFTW plans (in place, batched, threaded, wisdom), wavenumber tables, the rows split between
-// OpenMP threads.
+// OpenMP threads; spread over processes, the 1-D column and row transforms with the all-to-all of the retained
+// columns between them.
 #include "eci/spectral/grid.hpp"
 
 #include <fftw3.h>
 #include <omp.h>
-#ifdef ECI_MPI
-#include <fftw3-mpi.h>
-#endif
 
+#include <climits>
 #include <cstdio>
 #include <cstdlib>
 #include <mutex>
@@ -53,17 +52,22 @@ struct grid::plans {
     // and one row's 1-D c2r and r2c, in place.
     std::vector<double*> rows;
     fftw_plan row_c2r = nullptr, row_r2c = nullptr;
-    // Spread over processes: one field's transforms (inverse() and forward() execute a batch field by field on the
-    // same plan), and the transforms of `batch` interleaved fields (FFTW's howmany; 0: none) for transform_product
-    fftw_plan mpi_c2r = nullptr, mpi_r2c = nullptr;
-    fftw_plan mpi_c2r_many = nullptr, mpi_r2c_many = nullptr;
-    int batch = 0;
+    // Spread over processes. Rank q holds rows row0[q] .. + nrows[q] - 1 and transforms the retained columns
+    // col0[q] .. + ncols[q] - 1 (contiguous in rank order, so col0[q] is also the number before q's). The column
+    // transforms along y run in place on the spectral fields (n rows of ncols[me] modes); the all-to-all sends
+    // each process the rows it holds of every column; recv holds, per field (field_stride apart), what the others
+    // sent: from rank s, nrows[me] rows of ncols[s] modes at nrows[me] col0[s] (its own block is read from, and
+    // written to, the spectral field where it lies, but by inverse() and forward(), which copy it through recv);
+    // the rows are transformed along x one at a time in a thread's buffer (`rows`, row_pad doubles per field).
+    std::vector<int> row0, nrows, col0, ncols;
+    std::vector<fftw_plan> columns_inverse, columns_forward;  // [c]: fields 0 .. c, in place
+    cplx* recv = nullptr;
+    std::size_t recv_stride = 0, row_pad = 0;
 #ifdef ECI_MPI
     MPI_Comm comm = MPI_COMM_NULL;
+    std::vector<MPI_Request> requests;
 #endif
     ~plans() {
-        for (fftw_plan p : {mpi_c2r, mpi_r2c, mpi_c2r_many, mpi_r2c_many})
-            if (p) fftw_destroy_plan(p);
 #ifdef ECI_MPI
         if (comm != MPI_COMM_NULL) {
             int finalized = 0;
@@ -71,12 +75,13 @@ struct grid::plans {
             if (!finalized) MPI_Comm_free(&comm);
         }
 #endif
-        for (auto* v : {&inverse, &forward, &inverse_rows, &forward_columns})
+        for (auto* v : {&inverse, &forward, &inverse_rows, &forward_columns, &columns_inverse, &columns_forward})
             for (fftw_plan p : *v)
                 if (p) fftw_destroy_plan(p);
         for (fftw_plan p : {row_c2r, row_r2c})
             if (p) fftw_destroy_plan(p);
         for (double* r : rows) fftw_free(r);
+        fftw_free(recv);
         fftw_free(buf);
     }
 };
@@ -90,6 +95,7 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
     local_rows_ = n_;
     local_cols_ = columns();
     field_stride_ = m;
+    stride_ = std::size_t(columns());
     std::call_once(fftw_threads_once, [] { fftw_init_threads(); });
     if (!o.wisdom_file.empty()) fftw_import_wisdom_from_filename(o.wisdom_file.c_str());
     if (!o.wisdom.empty() && !fftw_import_wisdom_from_string(o.wisdom.c_str()))
@@ -170,60 +176,75 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
 void grid::plan_distributed([[maybe_unused]] const grid_options& o) {
 #ifdef ECI_MPI
     require(!o.pruned, "pruned transforms are not available on MPI (slab decomposition)");
-    static std::once_flag fftw_mpi_once;
-    std::call_once(fftw_mpi_once, [] { fftw_mpi_init(); });  // after fftw_init_threads, as FFTW asks
     distributed_ = true;
     MPI_Comm_dup(o.comm, &p_->comm);
     MPI_Comm_rank(p_->comm, &rank_);
     MPI_Comm_size(p_->comm, &ranks_);
-    // n x (n/2 + 1) complex, transposed: this process's rows (y) of the real array, columns (k_x) of the spectral
-    ptrdiff_t ln0 = 0, l0 = 0, ln1 = 0, l1 = 0;
-    const ptrdiff_t alloc =
-        fftw_mpi_local_size_2d_transposed(n_, columns(), p_->comm, &ln0, &l0, &ln1, &l1);
-    local_rows_ = int(ln0);
-    row0_ = int(l0);
-    local_cols_ = int(ln1);
-    col0_ = int(l1);
-    // every field on a 64-byte boundary, as the first (the plans are made on field 0 and executed on the others)
-    field_stride_ = (std::size_t(std::max<ptrdiff_t>(alloc, 1)) + 3) / 4 * 4;
-    // Batched: the pair of a product (Basdevant's form) as one transform of 2 interleaved fields, in the memory of
-    // fields 0 and 1 (FFTW's howmany layout needs 2 x one field's local size; the buffer grows if it needs more)
-    const int batch = o.batched && fields_ >= 2 ? 2 : 0;
-    const ptrdiff_t half[2] = {n_, columns()};
-    ptrdiff_t alloc_many = 0;
-    if (batch) {
-        ptrdiff_t bn0 = 0, b0 = 0, bn1 = 0, b1 = 0;
-        alloc_many = fftw_mpi_local_size_many_transposed(2, half, batch, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK,
-                                                         p_->comm, &bn0, &b0, &bn1, &b1);
-        if (bn0 != ln0 || b0 != l0 || bn1 != ln1 || b1 != l1)
-            throw std::logic_error("FFTW's batched MPI transforms split the grid otherwise than its single ones");
+    // Rows split evenly, and the retained columns 0 .. kmax split evenly (the last process also owns the columns
+    // beyond, which are zero): each process's share of the state, of the column transforms and of the all-to-all
+    // is 1/P of the whole.
+    const int P = ranks_, K = kmax() + 1;
+    auto& q = *p_;
+    q.row0.resize(std::size_t(P));
+    q.nrows.resize(std::size_t(P));
+    q.col0.resize(std::size_t(P));
+    q.ncols.resize(std::size_t(P));
+    for (int k = 0; k < P; ++k) {
+        const auto split = [&](int total, int at) { return int(std::int64_t(total) * at / P); };
+        q.row0[std::size_t(k)] = split(n_, k);
+        q.nrows[std::size_t(k)] = split(n_, k + 1) - split(n_, k);
+        q.col0[std::size_t(k)] = split(K, k);
+        q.ncols[std::size_t(k)] = split(K, k + 1) - split(K, k);
     }
-    const std::size_t total = std::max(std::size_t(fields_) * field_stride_, std::size_t(std::max<ptrdiff_t>(alloc_many, 0)));
+    const std::size_t me = std::size_t(rank_);
+    row0_ = q.row0[me];
+    local_rows_ = q.nrows[me];
+    col0_ = q.col0[me];
+    local_cols_ = rank_ == P - 1 ? columns() - col0_ : q.ncols[me];
+    stride_ = std::size_t(q.ncols[me]);
+    // (a message, one field's block, counts its complex values in an int)
+    require(std::int64_t(n_ / P + 1) * std::int64_t(K / P + 1) < std::int64_t(INT_MAX),
+            "grid size N = " + std::to_string(n_) + " is too large for " + std::to_string(P) + " processes");
+    // a field: the spectral side (n rows of this process's columns) or the physical one (its rows, padded);
+    // every field on a 64-byte boundary, as the first (plans are made on field 0 and executed on the others)
+    const std::size_t spec = std::size_t(n_) * stride_, phys = std::size_t(local_rows_) * std::size_t(columns());
+    field_stride_ = (std::max({spec, phys, std::size_t(1)}) + 3) / 4 * 4;
+    const std::size_t recv_stride = (std::max(std::size_t(local_rows_) * std::size_t(K), std::size_t(1)) + 3) / 4 * 4;
+    const std::size_t total = std::size_t(fields_) * field_stride_;
     p_->buf = reinterpret_cast<cplx*>(fftw_alloc_complex(total));
-    if (!p_->buf) throw std::bad_alloc();
+    p_->recv = reinterpret_cast<cplx*>(fftw_alloc_complex(std::size_t(fields_) * recv_stride));
+    if (!p_->buf || !p_->recv) throw std::bad_alloc();
     std::fill(p_->buf, p_->buf + total, cplx{});
+    std::fill(p_->recv, p_->recv + std::size_t(fields_) * recv_stride, cplx{});
+    p_->row_pad = (padded() + 7) / 8 * 8;
     const unsigned flags = o.measure ? FFTW_MEASURE : FFTW_ESTIMATE;
     auto* c = reinterpret_cast<fftw_complex*>(p_->buf);
-    auto* r = reinterpret_cast<double*>(p_->buf);
-    p_->mpi_c2r = fftw_mpi_plan_dft_c2r_2d(n_, n_, c, r, p_->comm, flags | FFTW_MPI_TRANSPOSED_IN);
-    p_->mpi_r2c = fftw_mpi_plan_dft_r2c_2d(n_, n_, r, c, p_->comm, flags | FFTW_MPI_TRANSPOSED_OUT);
-    if (!p_->mpi_c2r || !p_->mpi_r2c) throw std::runtime_error("FFTW could not plan the MPI transforms");
-    if (batch) {
-        const ptrdiff_t whole[2] = {n_, n_};
-        p_->mpi_c2r_many = fftw_mpi_plan_many_dft_c2r(2, whole, batch, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK,
-                                                      c, r, p_->comm, flags | FFTW_MPI_TRANSPOSED_IN);
-        p_->mpi_r2c_many = fftw_mpi_plan_many_dft_r2c(2, whole, batch, FFTW_MPI_DEFAULT_BLOCK, FFTW_MPI_DEFAULT_BLOCK,
-                                                      r, c, p_->comm, flags | FFTW_MPI_TRANSPOSED_OUT);
-        if (!p_->mpi_c2r_many || !p_->mpi_r2c_many)
-            throw std::runtime_error("FFTW could not plan the batched MPI transforms");
-        p_->batch = batch;
-        // each thread's rows of the product pass, taken out of the interleaved fields and put back
-        for (int t = 0; t < threads_; ++t) {
-            p_->rows.push_back(fftw_alloc_real(std::size_t(fields_) * padded()));
-            if (!p_->rows.back()) throw std::bad_alloc();
+    const int kl = int(stride_);
+    if (kl > 0) {
+        // along y, in place: element y of column c at y kl + c (FFTW's layout of a 2-D transform's columns)
+        const fftw_iodim column{n_, kl, kl};
+        for (int k = 1; k <= fields_; ++k) {
+            const fftw_iodim many[2] = {{k, int(field_stride_), int(field_stride_)}, {kl, 1, 1}};
+            p_->columns_inverse.push_back(fftw_plan_guru_dft(1, &column, 2, many, c, c, FFTW_BACKWARD, flags));
+            p_->columns_forward.push_back(fftw_plan_guru_dft(1, &column, 2, many, c, c, FFTW_FORWARD, flags));
+            if (!p_->columns_inverse.back() || !p_->columns_forward.back())
+                throw std::runtime_error("FFTW could not plan the column transforms");
         }
     }
+    // the rows along x: one thread each, in a thread's buffer (every buffer allocated alike, so aligned alike)
+    fftw_plan_with_nthreads(1);
+    for (int t = 0; t < threads_; ++t) {
+        p_->rows.push_back(fftw_alloc_real(std::size_t(fields_) * p_->row_pad));
+        if (!p_->rows.back()) throw std::bad_alloc();
+    }
+    double* r0 = p_->rows[0];
+    p_->row_c2r = fftw_plan_dft_c2r_1d(n_, reinterpret_cast<fftw_complex*>(r0), r0, flags);
+    p_->row_r2c = fftw_plan_dft_r2c_1d(n_, r0, reinterpret_cast<fftw_complex*>(r0), flags);
+    if (!p_->row_c2r || !p_->row_r2c) throw std::runtime_error("FFTW could not plan the row transforms");
+    fftw_plan_with_nthreads(o.threads);
     std::fill(p_->buf, p_->buf + total, cplx{});
+    p_->requests.reserve(std::size_t(2 * P * fields_));
+    p_->recv_stride = recv_stride;
 #endif
 }
 
@@ -276,8 +297,18 @@ bool grid::pruned() const { return p_->pruned; }
 void grid::inverse(int count) const {
 #ifdef ECI_MPI
     if (distributed_) {
-        for (int j = 0; j < count; ++j)
-            fftw_mpi_execute_dft_c2r(p_->mpi_c2r, reinterpret_cast<fftw_complex*>(spectral(j)), physical(j));
+        columns_1d(0, count, true);
+        exchange_to_rows(0, count, true);
+        const std::size_t pad = padded(), nx = std::size_t(n_);
+        omp_rows(threads_, local_rows_, [&](int r0, int r1, int tid) {
+            double* b = p_->rows[std::size_t(tid)];
+            for (int y = r0; y < r1; ++y)
+                for (int j = 0; j < count; ++j) {
+                    gather_row(j, y, b, false);
+                    fftw_execute_dft_c2r(p_->row_c2r, reinterpret_cast<fftw_complex*>(b), b);
+                    std::copy(b, b + nx, physical(j) + std::size_t(y) * pad);
+                }
+        });
         return;
     }
 #endif
@@ -288,8 +319,19 @@ void grid::inverse(int count) const {
 void grid::forward(int first, int count) const {
 #ifdef ECI_MPI
     if (distributed_) {
-        for (int j = first; j < first + count; ++j)
-            fftw_mpi_execute_dft_r2c(p_->mpi_r2c, physical(j), reinterpret_cast<fftw_complex*>(spectral(j)));
+        const std::size_t pad = padded(), nx = std::size_t(n_);
+        omp_rows(threads_, local_rows_, [&](int r0, int r1, int tid) {
+            double* b = p_->rows[std::size_t(tid)];
+            for (int y = r0; y < r1; ++y)
+                for (int j = 0; j < count; ++j) {
+                    const double* row = physical(first + j) + std::size_t(y) * pad;
+                    std::copy(row, row + nx, b);
+                    fftw_execute_dft_r2c(p_->row_r2c, b, reinterpret_cast<fftw_complex*>(b));
+                    scatter_row(j, y, b, false, first + j);
+                }
+        });
+        exchange_to_columns(first, count, true);
+        columns_1d(first, count, false);
         return;
     }
 #endif
@@ -308,38 +350,152 @@ void grid::forward(int first, int count) const {
         fftw_execute_dft(p_->forward_columns[k], c, c);
 }
 
+void grid::columns_1d(int first, int count, bool inverse) const {
+    if (stride_ == 0 || count == 0) return;
+    const fftw_plan plan = (inverse ? p_->columns_inverse : p_->columns_forward).at(std::size_t(count - 1));
+    auto* c = reinterpret_cast<fftw_complex*>(spectral(first));
+    fftw_execute_dft(plan, c, c);
+}
+
+// Row y (this process's) of field j, from every process's block of the retained columns, into a thread's buffer b
+// as FFTW's half-complex row (zero beyond kmax). in_place: this process's own block read from the spectral field
+// (the product pass) rather than from recv (inverse(), whose output overwrites the spectral field).
+void grid::gather_row(int j, int y, double* b, bool in_place) const {
+    auto* row = reinterpret_cast<cplx*>(b);
+    const auto& q = *p_;
+    const cplx* recv = q.recv + std::size_t(j) * q.recv_stride;
+    const std::size_t R = std::size_t(local_rows_);
+    for (int s = 0; s < ranks_; ++s) {
+        const std::size_t cs = std::size_t(q.ncols[std::size_t(s)]), c0 = std::size_t(q.col0[std::size_t(s)]);
+        const cplx* src = in_place && s == rank_ ? spectral(j) + (std::size_t(row0_) + std::size_t(y)) * stride_
+                                                 : recv + R * c0 + std::size_t(y) * cs;
+        std::copy(src, src + cs, row + c0);
+    }
+    const std::size_t K = std::size_t(kmax()) + 1;
+    std::fill(row + K, row + columns(), cplx{});
+}
+
+// The inverse of gather_row: the retained columns of the transformed row b to every process's block (recv, or
+// this process's own in spectral field `field` when in_place).
+void grid::scatter_row(int j, int y, const double* b, bool in_place, int field) const {
+    const auto* row = reinterpret_cast<const cplx*>(b);
+    const auto& q = *p_;
+    cplx* recv = q.recv + std::size_t(j) * q.recv_stride;
+    const std::size_t R = std::size_t(local_rows_);
+    for (int s = 0; s < ranks_; ++s) {
+        const std::size_t cs = std::size_t(q.ncols[std::size_t(s)]), c0 = std::size_t(q.col0[std::size_t(s)]);
+        cplx* dst = in_place && s == rank_ ? spectral(field) + (std::size_t(row0_) + std::size_t(y)) * stride_
+                                           : recv + R * c0 + std::size_t(y) * cs;
+        std::copy(row + c0, row + c0 + cs, dst);
+    }
+}
+
+// Spectral fields first .. first + count - 1 (after their column transforms) to recv: to each process the rows it
+// holds of this process's columns, from each process this process's rows of its columns. self_copy: this
+// process's own block copied to recv too.
+void grid::exchange_to_rows(int first, int count, bool self_copy) const {
+#ifdef ECI_MPI
+    auto& q = *p_;
+    const std::size_t R = std::size_t(local_rows_);
+    q.requests.clear();
+    for (int j = 0; j < count; ++j) {
+        cplx* recv = q.recv + std::size_t(j) * q.recv_stride;
+        const cplx* field = spectral(first + j);
+        for (int s = 0; s < ranks_; ++s) {
+            const std::size_t cs = std::size_t(q.ncols[std::size_t(s)]);
+            if (s == rank_ || cs * R == 0) continue;
+            q.requests.emplace_back();
+            MPI_Irecv(recv + R * std::size_t(q.col0[std::size_t(s)]), int(R * cs), MPI_C_DOUBLE_COMPLEX, s, j, q.comm,
+                      &q.requests.back());
+        }
+        for (int d = 0; d < ranks_; ++d) {
+            const std::size_t rd = std::size_t(q.nrows[std::size_t(d)]);
+            if (d == rank_ || rd * stride_ == 0) continue;
+            q.requests.emplace_back();
+            MPI_Isend(field + std::size_t(q.row0[std::size_t(d)]) * stride_, int(rd * stride_), MPI_C_DOUBLE_COMPLEX,
+                      d, j, q.comm, &q.requests.back());
+        }
+        if (self_copy)
+            std::copy(field + std::size_t(row0_) * stride_, field + (std::size_t(row0_) + R) * stride_,
+                      recv + R * std::size_t(col0_));
+    }
+    MPI_Waitall(int(q.requests.size()), q.requests.data(), MPI_STATUSES_IGNORE);
+#else
+    (void)first, (void)count, (void)self_copy;
+#endif
+}
+
+// The reverse: recv (each process's columns of this process's rows) to the spectral fields first ..
+// (n rows of this process's columns), before their column transforms.
+void grid::exchange_to_columns(int first, int count, bool self_copy) const {
+#ifdef ECI_MPI
+    auto& q = *p_;
+    const std::size_t R = std::size_t(local_rows_);
+    q.requests.clear();
+    for (int j = 0; j < count; ++j) {
+        const cplx* recv = q.recv + std::size_t(j) * q.recv_stride;
+        cplx* field = spectral(first + j);
+        for (int s = 0; s < ranks_; ++s) {
+            const std::size_t rs = std::size_t(q.nrows[std::size_t(s)]);
+            if (s == rank_ || rs * stride_ == 0) continue;
+            q.requests.emplace_back();
+            MPI_Irecv(field + std::size_t(q.row0[std::size_t(s)]) * stride_, int(rs * stride_), MPI_C_DOUBLE_COMPLEX,
+                      s, j, q.comm, &q.requests.back());
+        }
+        for (int d = 0; d < ranks_; ++d) {
+            const std::size_t cd = std::size_t(q.ncols[std::size_t(d)]);
+            if (d == rank_ || cd * R == 0) continue;
+            q.requests.emplace_back();
+            MPI_Isend(recv + R * std::size_t(q.col0[std::size_t(d)]), int(R * cd), MPI_C_DOUBLE_COMPLEX, d, j, q.comm,
+                      &q.requests.back());
+        }
+        if (self_copy)
+            std::copy(recv + R * std::size_t(col0_), recv + R * (std::size_t(col0_) + stride_),
+                      field + std::size_t(row0_) * stride_);
+    }
+    MPI_Waitall(int(q.requests.size()), q.requests.data(), MPI_STATUSES_IGNORE);
+#else
+    (void)first, (void)count, (void)self_copy;
+#endif
+}
+
+void grid::exchange(int count) const {
+    if (!distributed_) return;
+    exchange_to_rows(0, count, false);
+    exchange_to_columns(0, count, false);
+}
+
 void grid::run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const {
     omp_rows(threads_, rows, [&](int r0, int r1, int tid) { fn(ctx, r0, r1, tid); });
 }
 
-int grid::interleaved(int in, int out) const {
-    return distributed_ && in == out && in >= 2 && in == p_->batch ? in : 1;
-}
-
 void grid::product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const {
     const std::size_t nc = std::size_t(columns()), pad = padded();
-#ifdef ECI_MPI
-    if (const int h = interleaved(in, out); h > 1) {
-        // one transform of the h interleaved fields each way; between them each row's values of every field are
-        // taken out (in cache) for fn and put back
-        fftw_execute(p_->mpi_c2r_many);
-        const std::size_t hs = std::size_t(h), nx = std::size_t(n_);
+    if (distributed_) {
+        // along y (this process's columns), the all-to-all, then each row of every field in a thread's buffer:
+        // c2r, fn, r2c while it is in cache; the all-to-all back, along y again. This process's own block stays in
+        // the spectral fields (each row's outputs go where its inputs were read).
+        columns_1d(0, in, true);
+        exchange_to_rows(0, in, false);
         omp_rows(threads_, local_rows_, [&](int r0, int r1, int tid) {
             double* b[8];
-            for (int j = 0; j < h; ++j) b[j] = p_->rows[std::size_t(tid)] + std::size_t(j) * pad;
+            for (int j = 0; j < in; ++j) b[j] = p_->rows[std::size_t(tid)] + std::size_t(j) * p_->row_pad;
             for (int y = r0; y < r1; ++y) {
-                double* row = physical(0) + std::size_t(y) * pad * hs;
-                for (std::size_t x = 0; x < nx; ++x)
-                    for (std::size_t j = 0; j < hs; ++j) b[j][x] = row[x * hs + j];
-                fn(ctx, b, nx);
-                for (std::size_t x = 0; x < nx; ++x)
-                    for (std::size_t j = 0; j < hs; ++j) row[x * hs + j] = b[j][x];
+                for (int j = 0; j < in; ++j) {
+                    gather_row(j, y, b[j], true);
+                    fftw_execute_dft_c2r(p_->row_c2r, reinterpret_cast<fftw_complex*>(b[j]), b[j]);
+                }
+                fn(ctx, b, std::size_t(n_));
+                for (int j = 0; j < out; ++j) {
+                    fftw_execute_dft_r2c(p_->row_r2c, b[j], reinterpret_cast<fftw_complex*>(b[j]));
+                    scatter_row(j, y, b[j], true, j);
+                }
             }
         });
-        fftw_execute(p_->mpi_r2c_many);
+        exchange_to_columns(0, out, false);
+        columns_1d(0, out, false);
         return;
     }
-#endif
     if (!p_->pruned) {  // FFTW's 2-D transforms and a pass over the fields (this process's rows) between them
         inverse(in);
         omp_rows(threads_, local_rows_, [&](int r0, int r1, int) {

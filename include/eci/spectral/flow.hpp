@@ -47,8 +47,6 @@ struct flow_params {
                                        ///< restart plans the same transforms and continues bit for bit)
 #ifdef ECI_MPI
     MPI_Comm comm = MPI_COMM_NULL;     ///< the processes the flow is spread over (grid_options::comm); MPI build only
-    bool batched_transforms = true;    ///< spread over processes: a right-hand side's transforms of several fields
-                                       ///< as one FFTW MPI transform (grid_options::batched); MPI build only
 #endif
 
     /// Throws std::invalid_argument naming the first bad parameter (the equation's own included).

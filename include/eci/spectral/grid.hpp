@@ -41,23 +41,24 @@ struct grid_options {
     std::string wisdom;        ///< FFTW wisdom text imported before planning (a checkpoint's)
 #ifdef ECI_MPI
     /// The processes the grid is spread over (MPI build only; MPI_COMM_NULL: this process alone, as without MPI).
-    /// Slab decomposition with FFTW's MPI transforms: each process holds a slab of physical rows (y) and, in
-    /// spectral space, FFTW's transposed layout, a slab of k_x columns (see grid). Collective: every process of the
-    /// communicator constructs its grid with the same options. A communicator of one process is the serial grid
-    /// (its plans, layout and bits; distributed() false), the communicator kept in comm().
+    /// Slab decomposition: each process holds a slab of physical rows (y) and, in spectral space, a slab of the
+    /// k_x columns (see grid). Collective: every process of the communicator constructs its grid with the same
+    /// options. A communicator of one process is the serial grid (its plans, layout and bits; distributed() false),
+    /// the communicator kept in comm().
     MPI_Comm comm = MPI_COMM_NULL;
-    /// Spread over processes: the transforms of a product whose outputs are its inputs (transform_product(k, k),
-    /// Basdevant's form: k = 2) made as one FFTW MPI transform of the k fields interleaved (howmany = k: one
-    /// all-to-all of k fields' worth instead of k all-to-alls; see interleaved()); false: one field at a time.
-    bool batched = true;
 #endif
 };
 
 /// Spread over processes (grid_options::comm), a process holds physical rows first_row() .. + local_rows() - 1
-/// (each padded to 2 columns(), as above) and the spectral columns k_x = first_column() .. + local_columns() - 1,
-/// each a column of n modes in the row order above (FFTW_MPI_TRANSPOSED_OUT / _IN: no transpose back between an
-/// inverse and a forward transform); at(row, c) is the index of a mode in either layout. On one process
-/// first_row() = first_column() = 0, local_rows() = n, local_columns() = columns().
+/// (each padded to 2 columns(), as above) and the spectral columns k_x = first_column() .. + local_columns() - 1.
+/// Only the columns k_x <= kmax hold retained modes; they are split evenly between the processes (the last one also
+/// owns the columns beyond, which are zero and never transformed nor sent), so every process holds the same share
+/// of the state. A process's spectral scratch holds its transformed columns alone (the first
+/// spectral_stride() of its columns), row-major: n rows of spectral_stride() modes, at(row, c) = row
+/// spectral_stride() + c. A 2-D transform is the 1-D transforms of those columns along y, an all-to-all of the
+/// retained columns alone (a third less than the half plane), and the 1-D transforms of the rows along x; there is
+/// no transpose back between an inverse and a forward transform. On one process first_row() = first_column() = 0,
+/// local_rows() = n, local_columns() = spectral_stride() = columns().
 ///
 /// The storage is FFTW's real-to-complex half plane: n rows (k_y = 0, 1, ..., n/2, -n/2 + 1, ..., -1) of n/2 + 1
 /// columns (k_x = 0 ... n/2), normalised so that f(x) = sum_k f_k exp(i k.x). The retained modes are the square
@@ -94,12 +95,12 @@ class grid {
     /// This process's spectral columns k_x = first_column() .. first_column() + local_columns() - 1.
     int first_column() const { return col0_; }
     int local_columns() const { return local_cols_; }
+    /// Modes per row of a spectral scratch field: columns() on one process; spread over processes, this process's
+    /// transformed columns (its columns k_x <= kmax).
+    std::size_t spectral_stride() const { return stride_; }
     /// The index in a spectral field of the mode in grid row `row` (k_y = ky_of_row(row)) and this process's
-    /// column c (k_x = first_column() + c): row columns() + c on one process, c n + row spread over processes.
-    std::size_t at(int row, int c) const {
-        return distributed_ ? std::size_t(c) * std::size_t(n_) + std::size_t(row)
-                            : std::size_t(row) * std::size_t(columns()) + std::size_t(c);
-    }
+    /// column c (k_x = first_column() + c, c < spectral_stride()).
+    std::size_t at(int row, int c) const { return std::size_t(row) * stride_ + std::size_t(c); }
     /// Replaces each v[i] by its sum over the processes: every process's partial sums gathered, then added in rank
     /// order, so a given number of processes repeats bit for bit (never an MPI_Allreduce, whose order may vary).
     /// Collective; a no-op on one process.
@@ -139,7 +140,7 @@ class grid {
     /// transform of a real field bit for bit.
     void make_hermitian(cplx* f) const;
 
-    /// Scratch field j (0 <= j < fields): its spectral view, n rows of columns() modes...
+    /// Scratch field j (0 <= j < fields): its spectral view, n rows of spectral_stride() modes (at())...
     cplx* spectral(int j) const;
     /// ... and the same memory as a real field: n rows of n values, each row padded to 2 columns() (FFTW's in-place
     /// layout). Entry (row y, column x) is physical(j)[y * padded() + x].
@@ -148,19 +149,17 @@ class grid {
     /// Spectral -> physical for scratch fields 0 .. count-1, in place, one call (FFTW's batch).
     void inverse(int count) const;
     /// Physical -> spectral for scratch fields first .. first + count - 1, in place (unnormalised: n^2 f_k). With
-    /// pruned transforms only the columns k_x <= kmax are computed; the others hold no meaning.
+    /// pruned transforms only the columns k_x <= kmax are computed; the others hold no meaning. Spread over
+    /// processes, the spectral side is this process's transformed columns (at()), read or written alone.
     void forward(int first, int count) const;
 
-    /// How transform_product(in, out) wants its fields: h = interleaved(in, out) > 1 (spread over processes,
-    /// grid_options::batched, in = out >= 2) means the h fields interleaved, FFTW's MPI `howmany` layout: mode i
-    /// (at()) of field j is spectral(0)[i h + j], both before and after (one transform of h fields each way);
-    /// h = 1: field j is spectral(j), as everywhere else. inverse() and forward() always take separate fields.
-    int interleaved(int in, int out) const;
+    /// The all-to-alls of a transform of `count` fields spread over processes, to the rows and back, and nothing
+    /// else (their cost, for benchmarks; the fields' contents are scrambled). A no-op on one process.
+    void exchange(int count) const;
     /// The transforms of a product term, fused: fields 0 .. in-1 to physical space, then, row by row while the row
     /// is in cache, row(x) -> row(x) by `fn`, then fields 0 .. out-1 back to spectral space (unnormalised). fn gets
     /// `in` pointers to the row's n values of each field and writes the outputs over the first `out`. Only the
-    /// columns k_x <= kmax of the inputs are read (the rest are taken as zero) and of the outputs written. The
-    /// fields are laid out as interleaved(in, out) says.
+    /// columns k_x <= kmax of the inputs are read (the rest are taken as zero) and of the outputs written.
     template <class Fn>
     void transform_product(int in, int out, Fn fn) const {
         product_pass(in, out, [](void* c, double* const* rows, std::size_t nx) { (*static_cast<Fn*>(c))(rows, nx); },
@@ -192,10 +191,17 @@ class grid {
     void product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const;
     struct plans;
     void plan_distributed(const grid_options& o);
+    // spread over processes: the column transforms, the all-to-alls and the row passes (grid.cpp)
+    void exchange_to_rows(int first, int count, bool self_copy) const;
+    void exchange_to_columns(int first, int count, bool self_copy) const;
+    void columns_1d(int first, int count, bool inverse) const;
+    void gather_row(int j, int y, double* b, bool in_place) const;
+    void scatter_row(int j, int y, const double* b, bool in_place, int field) const;
     int n_, fields_, threads_;
     bool distributed_ = false;
     int rank_ = 0, ranks_ = 1, row0_ = 0, local_rows_ = 0, col0_ = 0, local_cols_ = 0;
     std::size_t field_stride_ = 0;  // complex values from one scratch field to the next
+    std::size_t stride_ = 0;        // spectral_stride()
     std::unique_ptr<plans> p_;
 };
 
