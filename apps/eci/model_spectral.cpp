@@ -534,16 +534,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (mpi.on && mpi.size > p.n)
         throw bad_input(std::to_string(mpi.size) + " MPI processes for N = " + std::to_string(p.n) +
                         ": at most one process per grid row");
-    // The conditioned update (issue 19) is not distributed yet (its choice of ill-conditioned elements is each
-    // process's own): on more than one process the conservative methods take the paper's update, whose every
-    // decision is agreed over the processes; asking for the conditioned one there is refused, not ignored.
-    std::string update = settings.update.empty() ? "conditioned" : settings.update;
-    if (mpi.on) {
-        if (settings.update == "conditioned")
-            throw bad_input("--update conditioned is not available on more than one MPI process yet (there the "
-                            "default is --update paper)");
-        update = "paper";
-    }
+    // (on any number of processes: its decisions are taken from sums over all of them)
+    const std::string update = settings.update.empty() ? "conditioned" : settings.update;
     // every process has checked the same input: one verdict for all, before the first collective
     if (const std::string why = mpi_refusal({}); !why.empty()) throw bad_input(why);
 #ifdef ECI_MPI

@@ -52,6 +52,19 @@ struct grid::plans {
     // and one row's 1-D c2r and r2c, in place.
     std::vector<double*> rows;
     fftw_plan row_c2r = nullptr, row_r2c = nullptr;
+    // Allocates `threads` such buffers of `fields` rows of `pad` doubles (every one alike, so aligned alike) and
+    // plans a row's transforms single-threaded on the first: each thread transforms rows of its own.
+    void plan_rows(int n, int fields, int threads, std::size_t pad, unsigned flags) {
+        fftw_plan_with_nthreads(1);
+        for (int t = 0; t < threads; ++t) {
+            rows.push_back(fftw_alloc_real(std::size_t(fields) * pad));
+            if (!rows.back()) throw std::bad_alloc();
+        }
+        double* r0 = rows[0];
+        row_c2r = fftw_plan_dft_c2r_1d(n, reinterpret_cast<fftw_complex*>(r0), r0, flags);
+        row_r2c = fftw_plan_dft_r2c_1d(n, r0, reinterpret_cast<fftw_complex*>(r0), flags);
+        if (!row_c2r || !row_r2c) throw std::runtime_error("FFTW could not plan the row transforms");
+    }
     // Spread over processes. Rank q holds rows row0[q] .. + nrows[q] - 1 and transforms the retained columns
     // col0[q] .. + ncols[q] - 1 (contiguous in rank order, so col0[q] is also the number before q's). The column
     // transforms along y run in place on the spectral fields (n rows of ncols[me] modes); the all-to-all sends
@@ -153,17 +166,8 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
         if (!p_->inverse.back() || !p_->inverse_rows.back() || !p_->forward.back() || !p_->forward_columns.back())
             throw std::runtime_error("FFTW could not plan the transforms");
     }
-    // The fused pass's row transforms: one thread each (the rows are split between the threads), planned on the
-    // first thread's rows; every thread's rows are allocated alike, so have the same alignment.
-    fftw_plan_with_nthreads(1);
-    for (int t = 0; t < threads_; ++t) {
-        p_->rows.push_back(fftw_alloc_real(std::size_t(fields_) * padded()));
-        if (!p_->rows.back()) throw std::bad_alloc();
-    }
-    double* r0 = p_->rows[0];
-    p_->row_c2r = fftw_plan_dft_c2r_1d(n_, reinterpret_cast<fftw_complex*>(r0), r0, flags);
-    p_->row_r2c = fftw_plan_dft_r2c_1d(n_, r0, reinterpret_cast<fftw_complex*>(r0), flags);
-    if (!p_->row_c2r || !p_->row_r2c) throw std::runtime_error("FFTW could not plan the transforms");
+    // the fused pass's row transforms (the rows are split between the threads)
+    p_->plan_rows(n_, fields_, threads_, padded(), flags);
     fftw_plan_with_nthreads(o.threads);
     std::fill(p_->buf, p_->buf + std::size_t(fields_) * m, cplx{});
     if (!o.wisdom_file.empty()) {
@@ -231,16 +235,8 @@ void grid::plan_distributed([[maybe_unused]] const grid_options& o) {
                 throw std::runtime_error("FFTW could not plan the column transforms");
         }
     }
-    // the rows along x: one thread each, in a thread's buffer (every buffer allocated alike, so aligned alike)
-    fftw_plan_with_nthreads(1);
-    for (int t = 0; t < threads_; ++t) {
-        p_->rows.push_back(fftw_alloc_real(std::size_t(fields_) * p_->row_pad));
-        if (!p_->rows.back()) throw std::bad_alloc();
-    }
-    double* r0 = p_->rows[0];
-    p_->row_c2r = fftw_plan_dft_c2r_1d(n_, reinterpret_cast<fftw_complex*>(r0), r0, flags);
-    p_->row_r2c = fftw_plan_dft_r2c_1d(n_, r0, reinterpret_cast<fftw_complex*>(r0), flags);
-    if (!p_->row_c2r || !p_->row_r2c) throw std::runtime_error("FFTW could not plan the row transforms");
+    // the rows along x: one thread each, in a thread's buffer
+    p_->plan_rows(n_, fields_, threads_, p_->row_pad, flags);
     fftw_plan_with_nthreads(o.threads);
     std::fill(p_->buf, p_->buf + total, cplx{});
     p_->requests.reserve(std::size_t(2 * P * fields_));

@@ -27,10 +27,8 @@ ECI, MPIEXEC, CASE = sys.argv[1], sys.argv[2], sys.argv[3]
 EPS = np.finfo(float).eps
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1")
-# --update paper: on more than one process the conservative methods take the paper's update (the conditioned one
-# of issue 19 is not distributed yet), so the serial runs compared with them take it too (case_state checks that
-# it is the default there).
-BASE = ["--N", "32", "--dt", "0.002", "--fftw-estimate", "--fftw-wisdom", "none", "--update", "paper"]
+# The conservative methods take their default update (the conditioned one of issue 19) on any number of processes.
+BASE = ["--N", "32", "--dt", "0.002", "--fftw-estimate", "--fftw-wisdom", "none"]
 failures = 0
 
 
@@ -90,12 +88,17 @@ def case_state(d):
                 check(de <= b and dz <= b, f"c-rk4 -np {np_}: E, Z drift {de:.3g}, {dz:.3g} <= 8 eps sqrt(steps) = {b:.3g}")
             check(r.stderr.count("eci: ") <= 1 and "energy" in r.stderr,
                   f"{method} -np {np_}: one summary (rank 0's) on stderr")
-    # without --update, more than one process takes the paper's update: the same bits as --update paper there
-    plain = [a for a in BASE if a not in ("--update", "paper")] + ["--steps", "20", "--checkpoint-every", "20"]
+    # without --update, more than one process takes the conditioned update (the default, as on one process), and
+    # --update paper the paper's: each on 2 processes = the serial tool's to round-off
+    plain = BASE + ["--method", "c-rk4", "--steps", "20", "--checkpoint-every", "20"]
     run(2, plain + ["--checkpoint", "u0.h5"], d)
-    run(2, plain + ["--update", "paper", "--checkpoint", "u1.h5"], d)
+    run(2, plain + ["--update", "conditioned", "--checkpoint", "u1.h5"], d)
     check(np.array_equal(state(os.path.join(d, "u0.h5"))[0], state(os.path.join(d, "u1.h5"))[0]),
-          "-np 2 without --update: the paper's update, bit for bit")
+          "-np 2 without --update: the conditioned update, bit for bit")
+    run(0, plain + ["--update", "paper", "--checkpoint", "u2.h5"], d)
+    run(2, plain + ["--update", "paper", "--checkpoint", "u3.h5"], d)
+    diff = rel(state(os.path.join(d, "u3.h5"))[0], state(os.path.join(d, "u2.h5"))[0])
+    check(diff <= 16 * EPS * np.sqrt(20), f"-np 2 --update paper = the serial tool's to {diff:.3g}")
     # FFTW's and OpenMP's threads inside each process (hybrid MPI + threads): the same state as the serial run
     args = BASE + ["--method", "c-rk4", "--steps", "50", "--checkpoint-every", "50"]
     run(0, args + ["--checkpoint", "t0.h5"], d)
@@ -125,9 +128,9 @@ def case_restart(d):
     check(r.returncode == 0, f"-np 2: 50 steps, checkpoint (exit {r.returncode})")
     bound = 16 * EPS * np.sqrt(100)
     for np_ in (0, 1, 3):
-        # (a checkpoint does not record --update: the same is given again, as docs/turbulence.md says)
+        # (a checkpoint does not record --update: the default, the conditioned update, is taken again)
         r = run(np_, ["--restart", "half.h5", "--steps", "100", "--checkpoint-every", "100",
-                      "--checkpoint", f"r{np_}.h5", "--fftw-wisdom", "none", "--update", "paper"], d)
+                      "--checkpoint", f"r{np_}.h5", "--fftw-wisdom", "none"], d)
         who = "serial tool" if np_ == 0 else f"-np {np_}"
         check(r.returncode == 0, f"restart of the 2-rank checkpoint on {who}: exit {r.returncode} {r.stderr.strip()[-200:]}")
         if r.returncode == 0:
@@ -139,7 +142,7 @@ def case_restart(d):
     r = run(3, args + ["--steps", "50", "--checkpoint-every", "50", "--checkpoint", "third.h5"], d)
     check(r.returncode == 0, f"-np 3: 50 steps, checkpoint (exit {r.returncode})")
     r = run(2, ["--restart", "third.h5", "--steps", "100", "--checkpoint-every", "100", "--checkpoint", "r32.h5",
-                "--fftw-wisdom", "none", "--update", "paper"], d)
+                "--fftw-wisdom", "none"], d)
     check(r.returncode == 0, f"restart of the 3-rank checkpoint on -np 2: exit {r.returncode} {r.stderr.strip()[-200:]}")
     if r.returncode == 0:
         diff = rel(state(os.path.join(d, "r32.h5"))[0], ref)
@@ -220,7 +223,7 @@ def case_bad_input(d):
                             (3, ["--N", "32", "--steps", "5", "--ic", "missing.h5"], "--ic missing.h5"),
                             (2, ["--N", "32", "--restart", "missing.h5"], "--restart missing.h5"),
                             (3, ["--N", "32", "--steps", "5", "--dt", "-1"], "--dt -1"),
-                            (2, ["--N", "32", "--steps", "5", "--update", "conditioned"], "--update conditioned")):
+                            (2, ["--N", "32", "--steps", "5", "--update", "exact"], "--update exact")):
         sub = tempfile.mkdtemp(dir=d)
         start = time.monotonic()
         r = run(np_, args + ["--output", "o.csv", "--summary-json", "o.json", "--checkpoint-every", "1",

@@ -146,8 +146,8 @@ class flow2d {
     void reduce_sums(std::span<double> v) const { grid().sum_over_ranks(v.data(), v.size()); }
     void reduce_max(std::span<double> v) const { grid().max_over_ranks(v.data(), v.size()); }
     /// Whether the flow is spread over processes (a communicator of two or more): otherwise, also on a
-    /// communicator of one process, the steppers treat it as a serial model (the conditioned update of issue 19
-    /// included), and the grid takes the serial path, so the run is the serial one bit for bit.
+    /// communicator of one process, the steppers treat it as a serial model (no reductions), and the grid takes the
+    /// serial path, so the run is the serial one bit for bit.
     bool spread() const { return grid().distributed(); }
 #endif
     bool retained(std::size_t i) const { return weights_[i] != 0.0; }

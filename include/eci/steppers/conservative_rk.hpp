@@ -48,15 +48,14 @@ class conservative_rk : public radicand_remedy {
         double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
         S& out = is_c_pc ? st_.stage : result_;
         double* o = detail::reals(out).data();
-        // (the conditioned update's cascade is not yet made global: a model spread over processes takes the
-        // paper's update, whose decisions are)
-        if (!reduce_ && conditioned_update_applies(n)) {
+        if (conditioned_update_applies(n)) {
             // Issue 19: the modulus of a complex mode, the conventional update where the square root is
-            // ill-conditioned, and one exact rescale (docs/methods.md).
+            // ill-conditioned, and one exact rescale (docs/methods.md). Spread over processes, its every decision
+            // is taken from sums over all of them (remedy_elements), so all take it alike.
             std::array<const double*, s> kp{};
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
             finish_conditioned(o, xr.data(), kp, dt, n);
-            if (!(neg_.empty() && cond_.empty()) &&
+            if (reduce_.any(!(neg_.empty() && cond_.empty())) &&
                 !remedy_elements<per>(o, xr.data(), n, [&](std::size_t e, std::array<double, per>& c) {
                     std::array<double, per> rad{};
                     const auto [c2, xi] = element_update(xr.data(), kp, e, dt, c, rad);
@@ -108,10 +107,14 @@ class conservative_rk : public radicand_remedy {
     // The conditioned update (issue 19) needs the declared weights (the rescale restores them, and they say the
     // invariants of a complex state are sums w_k |psi_k|^2, phase-free), the remedy policy, and a system of at least
     // min_unknowns real unknowns. Otherwise: the paper's per-unknown update (and eq. (30) for C-PC).
+    // Spread over processes, n is this process's share: the size and the weights' fit are decided over all.
     bool conditioned_update_applies(std::size_t n) const {
         const auto& w = quadratic_invariants();
-        return remedy.update == update_kind::conditioned && remedy.policy == radicand_policy::remedy && !w.empty() &&
-               w.front().size() * per == n && n >= remedy.min_unknowns;
+        if (remedy.update != update_kind::conditioned || remedy.policy != radicand_policy::remedy || w.empty())
+            return false;
+        std::array<double, 2> whole{double(n), w.front().size() * per == n ? 0.0 : 1.0};
+        reduce_.sum(whole);
+        return whole[1] == 0.0 && whole[0] >= double(remedy.min_unknowns);
     }
 
     // Element e (one real unknown, or the two parts of a complex mode): its conventional update into c, and

@@ -219,21 +219,51 @@ class radicand_remedy {
             gram_compensated<shift>(o, n, g0_, mag0_);
         }
         gram_valid_ = false;  // the next step's finishing pass sets them again
-        // Negative radicands must be taken: if they alone hold too large a share, or are not finite (a step far
-        // too large), every set fails; decline at once rather than try the cascade (a step of 1e7 on n-wave would
-        // otherwise try it in each of 2^16 attempts).
-        if (!neg_.empty() && !negatives_can_be_taken<Per>(o, x)) return decline();
-        // The histogram's bucket sums, cumulated from the worst bucket up: cut b (take every bucket below b) holds
-        // hist_[(b - 1) * stride ...]. The share each cut holds is then known without a pass over its elements.
-        const std::size_t stride = hist_stride();
-        for (std::size_t b = 1; b < ratio_buckets; ++b)
-            for (std::size_t i = 0; i < stride; ++i) hist_[b * stride + i] += hist_[(b - 1) * stride + i];
-        const std::size_t m = weights_.size();
+        const std::size_t m = weights_.size(), stride = hist_stride();
+        // neg_'s share of each invariant (h = max(|x_e|^2, |c_e|^2)), their count and whether their updates are finite
         std::array<double, max_invariants> held_neg{};
         for (std::size_t k = 0; k < neg_.size(); ++k)
             for (std::size_t a = 0; a < m; ++a) held_neg[a] += std::abs(weights_[a][neg_[k]]) * neg_h_[k];
+        double negatives = double(neg_.size());
+        bool negatives_finite = finite_updates<Per>(o);
+        whole_ = {n / Per, wmax_, weights_nonnegative_};
+        if (reduce_) {
+            // A state spread over processes: every sum and count below is over all of them (one collective each,
+            // every process reaching them), so that each process takes the same cut and solves the same system.
+            std::array<double, max_invariants * max_invariants + 2 * max_invariants + 4> all{};
+            std::size_t j = 0;
+            for (std::size_t a = 0; a < m; ++a)
+                for (std::size_t b = 0; b < m; ++b) all[j++] = g0_[a * max_invariants + b];
+            for (std::size_t a = 0; a < m; ++a) all[j++] = mag0_[a];
+            for (std::size_t a = 0; a < m; ++a) all[j++] = held_neg[a];
+            all[j++] = negatives, all[j++] = negatives_finite ? 0.0 : 1.0, all[j++] = double(whole_.elements);
+            all[j++] = weights_nonnegative_ ? 0.0 : 1.0;
+            reduce_.sum({all.data(), j});
+            j = 0;
+            for (std::size_t a = 0; a < m; ++a)
+                for (std::size_t b = 0; b < m; ++b) g0_[a * max_invariants + b] = all[j++];
+            for (std::size_t a = 0; a < m; ++a) mag0_[a] = all[j++];
+            for (std::size_t a = 0; a < m; ++a) held_neg[a] = all[j++];
+            negatives = all[j++], negatives_finite = all[j++] == 0.0, whole_.elements = std::size_t(all[j++]);
+            whole_.nonnegative = all[j++] == 0.0;
+            reduce_.max({whole_.wmax.data(), m});
+            reduce_.sum(hist_);
+        }
+        // Negative radicands must be taken: if they alone hold too large a share, or are not finite (a step far
+        // too large), every set fails; decline at once rather than try the cascade (a step of 1e7 on n-wave would
+        // otherwise try it in each of 2^16 attempts).
+        if (negatives > 0.0) {
+            if (!negatives_finite) return decline();
+            for (std::size_t a = 0; a < m; ++a)
+                if (!(held_neg[a] <= remedy.max_share * mag0_[a])) return decline();
+        }
+        // The histogram's bucket sums, cumulated from the worst bucket up: cut b (take every bucket below b) holds
+        // hist_[(b - 1) * stride ...]. The share each cut holds is then known without a pass over its elements.
+        for (std::size_t b = 1; b < ratio_buckets; ++b)
+            for (std::size_t i = 0; i < stride; ++i) hist_[b * stride + i] += hist_[(b - 1) * stride + i];
+        const std::size_t filed = std::size_t(hist_[(ratio_buckets - 1) * stride]);  // cond_'s size, over all
         too_small_ = false;
-        for (std::size_t limit = cond_.size();;) {
+        for (std::size_t limit = filed;;) {
             const std::size_t cut = widest_cut(limit, held_neg);
             const std::size_t count = cut == 0 ? 0 : std::size_t(hist_[(cut - 1) * stride]);
             if (attempt_elements<Per>(o, x, n, conv, cut, count)) return true;
@@ -241,7 +271,7 @@ class radicand_remedy {
             if (count == 0) break;
             // a subset's rescale would be smaller still: straight to neg_ alone
             limit = too_small_ ? 0 : count / 4;
-            if (limit == 0 && neg_.empty()) {  // every radicand positive: the conservative update stands
+            if (limit == 0 && negatives == 0.0) {  // every radicand positive: the conservative update stands
                 settle_filed<Per>(o, conv, 0);
                 return true;
             }
@@ -543,23 +573,25 @@ class radicand_remedy {
         gram_valid_ = true;
     }
 
-    // Whether neg_ alone (o holds their conventional update) holds at most max_share of every invariant (the
-    // magnitudes from the Gram sums).
+    // Whether neg_'s conventional updates (in o) are finite.
     template <std::size_t Per>
-    bool negatives_can_be_taken(const double* o, const double* x) const {
-        const std::size_t m = weights_.size();
-        std::array<double, max_invariants> held{};
+    bool finite_updates(const double* o) const {
         for (std::size_t e : neg_) {
-            double x2 = 0.0, c2 = 0.0;
-            for (std::size_t p = 0; p < Per; ++p)
-                x2 += x[e * Per + p] * x[e * Per + p], c2 += o[e * Per + p] * o[e * Per + p];
+            double c2 = 0.0;
+            for (std::size_t p = 0; p < Per; ++p) c2 += o[e * Per + p] * o[e * Per + p];
             if (!std::isfinite(c2)) return false;
-            for (std::size_t j = 0; j < m; ++j) held[j] += std::abs(weights_[j][e]) * std::max(x2, c2);
         }
-        for (std::size_t j = 0; j < m; ++j)
-            if (!(held[j] <= remedy.max_share * mag0_[j])) return false;
         return true;
     }
+
+    // The whole state's element count and largest weights, and whether every weight is >= 0: this process's own on
+    // one process, over all of them when the state is spread (set by remedy_elements).
+    struct whole_state {
+        std::size_t elements = 0;
+        std::array<double, max_invariants> wmax{};
+        bool nonnegative = true;
+    };
+    whole_state whole_;
 
     // The first negative radicand's real unknown after remedy_elements refused.
     template <std::size_t Per>
@@ -653,26 +685,30 @@ class radicand_remedy {
         // rounding against the large entries (see finish_conditioned on why G must be accurate).
         std::array<double, M * M> g = g0_, dg{};
         std::array<double, max_invariants> mag = mag0_;
-        std::size_t taken = 0;
-        // element e given its conventional update: its defect d, share weight h and change dq of |o_e|^2
-        auto add = [&](std::size_t e, double d, double h, double dq) {
-            for (std::size_t a = 0; a < m; ++a) {
-                const double w = weights_[a][e];
-                defect[a] += w * d;
-                held[a] += std::abs(w) * h;
-                mag[a] += std::abs(w) * dq;
-                for (std::size_t b = 0; b < m; ++b) dg[a * M + b] += w * weights_[b][e] * dq;
-            }
-            ++taken;
-        };
-        for (std::size_t e : neg_) {  // (few elements: the update recomputed; o holds it already, |o_e|^2 unchanged)
+        std::size_t taken = neg_.size();
+        // neg_ given their conventional update: each element's defect d and share weight h (|o_e|^2 is unchanged:
+        // few elements, the update recomputed, o holds it already)
+        bool neg_finite = true;
+        for (std::size_t e : neg_) {
             std::array<double, Per> c{};
             const auto u = conv(e, c);
-            if (!std::isfinite(u.c2) || !std::isfinite(u.xi)) return false;
+            if (!std::isfinite(u.c2) || !std::isfinite(u.xi)) {
+                neg_finite = false;
+                break;
+            }
             double x2 = 0.0;
             for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p], x2 += x[e * Per + p] * x[e * Per + p];
-            add(e, u.c2 - u.xi, std::max(x2, u.c2), 0.0);
+            const double d = u.c2 - u.xi, h = std::max(x2, u.c2);
+            for (std::size_t a = 0; a < m; ++a) defect[a] += weights_[a][e] * d, held[a] += std::abs(weights_[a][e]) * h;
         }
+        if (reduce_) {  // over every process
+            std::array<double, 2 * max_invariants + 2> all{double(taken), neg_finite ? 0.0 : 1.0};
+            for (std::size_t a = 0; a < m; ++a) all[2 + a] = defect[a], all[2 + m + a] = held[a];
+            reduce_.sum({all.data(), 2 + 2 * m});
+            taken = std::size_t(all[0]), neg_finite = all[1] == 0.0;
+            for (std::size_t a = 0; a < m; ++a) defect[a] = all[2 + a], held[a] = all[2 + m + a];
+        }
+        if (!neg_finite) return false;
         // The ill-conditioned elements below the cut take their conventional update (written into o by settle_filed,
         // recomputed from the stages: the bits of the finishing pass); their sums are the histogram's, cumulated.
         settle_filed<Per>(o, conv, cut);
@@ -684,19 +720,19 @@ class radicand_remedy {
                 for (std::size_t b = 0; b < m; ++b) dg[a * M + b] += h[1 + 3 * m + a * m + b];
             }
         }
-        const auto refuse = [] { return false; };  // (the next attempt, or the caller, settles o again)
+        // (a refused attempt returns false: the next attempt, or the caller, settles o again)
         if (taken == 0) return true;
         for (std::size_t a = 0; a < m; ++a) {  // an element whose update overflowed refuses every set holding it
             bool finite = std::isfinite(defect[a]) && std::isfinite(held[a]) && std::isfinite(mag[a]);
             for (std::size_t b = 0; b < m; ++b) finite = finite && std::isfinite(dg[a * M + b]);
-            if (!finite) return refuse();
+            if (!finite) return false;
         }
         for (std::size_t a = 0; a < m; ++a)
             for (std::size_t b = 0; b < m; ++b) g[a * M + b] += dg[a * M + b];
         for (std::size_t j = 0; j < m; ++j)
-            if (!(held[j] <= remedy.max_share * mag[j])) return refuse();
+            if (!(held[j] <= remedy.max_share * mag[j])) return false;
         std::array<double, max_invariants> c{};
-        if (!solve(g, mag, defect, c)) return refuse();
+        if (!solve(g, mag, defect, c)) return false;
         const auto commit = [&](double s_bound) {  // the rescale, |s_k| <= s_bound
             s_bound_ = s_bound;
             rescale<Per>(o, n, c);
@@ -717,10 +753,11 @@ class radicand_remedy {
         // elements of largest weight (computed as the pass computes it), which settles the too-small check. The
         // margins (2^-40 on |s|, 2^-20 on the sums, a bound on n) cover the roundings of the pass and of the bounds,
         // so that a check passed here is one the pass would pass: the step's bits are the same either way.
-        if (weights_nonnegative_ && n / Per < (std::size_t(1) << 32)) {
+        if (whole_.nonnegative && whole_.elements < (std::size_t(1) << 32)) {
             double ub = 0.0, lb = 0.0;
-            for (std::size_t j = 0; j < m; ++j) ub += std::abs(c[j]) * wmax_[j];
+            for (std::size_t j = 0; j < m; ++j) ub += std::abs(c[j]) * whole_.wmax[j];
             for (std::size_t j = 0; j < m; ++j) lb = std::max(lb, s_at(c, wargmax_[j]));
+            reduce_.max({&lb, 1});  // (spread: |s| at this process's largest weights, the largest over all)
             bool settled = ub * (1.0 + 0x1p-40) <= 1e-4 && (ncond == 0 || lb >= 0x1p-48);
             for (std::size_t j = 0; settled && j < m; ++j) {
                 double bound = 0.0;
@@ -751,16 +788,20 @@ class radicand_remedy {
                 for (std::size_t j = 0; j < m; ++j) moved[j] += std::abs(weights_[j][i >> shift]) * a;
             });
         }
-        if (!(s_max <= 0.5)) return refuse();
+        if (reduce_) {
+            reduce_.sum({moved.data(), m});
+            reduce_.max({&s_max, 1});
+        }
+        if (!(s_max <= 0.5)) return false;
         // A rescale this small (every |s_k| < 2^-48: no amplitude would move by more than ~8-16 ulps) is not
         // represented: where o h is below half an ulp of o, o + o h rounds back to o, an error of one sign in every
         // such element. Ill-conditioned elements whose whole defect is this small (~4e-15 of every invariant) keep
         // their conservative value rather than drift the invariants by ~eps per step (DP54 at dt = 0.005 on a
         // 45-mode system: defects of 1e-16 of one sign, 15 eps sqrt(n)). Above it the rounding of o + o h is a
         // fraction of an ulp of either sign. (Negative radicands are remedied whatever the size.)
-        if (ncond > 0 && s_max < 0x1p-48) return too_small_ = true, refuse();
+        if (ncond > 0 && s_max < 0x1p-48) return too_small_ = true, false;
         for (std::size_t j = 0; j < m; ++j)
-            if (!(moved[j] <= remedy.max_rescale * mag[j])) return refuse();
+            if (!(moved[j] <= remedy.max_rescale * mag[j])) return false;
         return commit(s_max);
     }
 
