@@ -315,6 +315,10 @@ std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cp
     const double* disp = d.disp.data();
     const double* ea = d.ea.data();
     const cplx* Fk = d.force.data();
+    // The weight is zero at k = 0 alone (index 0 of the process holding the k_x = 0 column): the nonlinear term is
+    // zero there, tested by index rather than by reading the weights, which the pass then reads only when recording
+    // (a state-sized array less per right-hand side).
+    const std::size_t zero_mode = d.c0 == 0 ? 0 : std::size_t(-1);
     return g.template sum_rows<6>([&](int r0, int r1, std::array<double, 6>& acc) {
         for (int r = r0; r < r1; ++r) {
             const double ky = d.ky_of(r);
@@ -322,7 +326,7 @@ std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cp
             for (std::size_t col = 0; col < kept; ++col) {
                 const std::size_t i = i0 + col;
                 const cplx nk =
-                    wt[i] != 0.0 ? d.template nl_at<F>(j0 + col, double(d.c0 + int(col)), ky, scale) : cplx{};
+                    i != zero_mode ? d.template nl_at<F>(j0 + col, double(d.c0 + int(col)), ky, scale) : cplx{};
                 cplx v = nk + lin[i] * x[i];
                 if constexpr (Dispersive) v += cplx(-disp[i] * x[i].imag(), disp[i] * x[i].real());
                 if constexpr (Forced) v += Fk[i];

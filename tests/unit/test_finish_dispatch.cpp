@@ -1,7 +1,8 @@
-// The finishing passes that are also compiled for AVX2 and dispatched at load time (C-PC's and the compensated
-// C-PC's) must round exactly like the inlined baseline loop, so that results never depend on the processor.
+// The finishing passes that are also compiled for AVX2 and dispatched at load time (C-PC's, the compensated
+// C-PC's and the conditioned update's common case) must round exactly like the inlined baseline loop, so that results never depend on the processor.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <random>
@@ -52,6 +53,55 @@ TEST(FinishDispatch, CompensatedDispatchedPassRoundsLikeTheInlinedLoop) {
     // NaN payloads of failed unknowns compare by bits as well: both loops produce the same default NaN.
     EXPECT_TRUE(same_bits(p_dispatched, p_inline));
     EXPECT_TRUE(same_bits(k0_dispatched, k0_inline));
+}
+
+// The conditioned update's common case for complex modes (condition_block, Per = 2): every version (the reference
+// loop, SSE2, AVX2 where the processor has it, the dispatched one) gives the same kinds and the same bits. The data
+// hold every kind: negative xi, a zero conventional update, moduli within 2^-46, ill-conditioned (filed) and
+// well-conditioned modes; 63 modes leave a tail after the vector bodies.
+TEST(FinishDispatch, ConditionedModuliRoundLikeTheReferenceLoop) {
+    constexpr std::size_t nb = 63;
+    const auto x = random_values(2 * nb, 9, -1.0, 1.0), c = random_values(2 * nb, 10, -1.0, 1.0);
+    auto xi = random_values(nb, 11, -0.2, 1.5);
+    std::vector<double> c2(nb);
+    for (std::size_t b = 0; b < nb; ++b) c2[b] = c[2 * b] * c[2 * b] + c[2 * b + 1] * c[2 * b + 1];
+    auto cz = c;
+    cz[2 * 5] = cz[2 * 5 + 1] = 0.0, c2[5] = 0.0;       // no phase
+    xi[7] = c2[7] * (1.0 + 0x1p-50);                     // moduli within 2^-46
+    xi[9] = -0.5;                                        // negative
+    xi[11] = 1e-3 * (x[22] * x[22] + x[23] * x[23]);     // ill-conditioned: filed
+    struct out {
+        std::vector<double> o = std::vector<double>(2 * nb), q = std::vector<double>(nb),
+                            x2 = std::vector<double>(nb), ratio = std::vector<double>(nb);
+        std::vector<unsigned char> kind = std::vector<unsigned char>(nb);
+    };
+    const auto run = [&](auto fn) {
+        out r;
+        fn(r.o.data(), r.q.data(), r.x2.data(), r.ratio.data(), r.kind.data(), x.data(), cz.data(), c2.data(),
+           xi.data(), 16.0, nb);
+        return r;
+    };
+    const out ref = run(eci::detail::condition_moduli_inline);
+    EXPECT_EQ(ref.kind[5], 2);
+    EXPECT_EQ(ref.kind[7], 2);
+    EXPECT_EQ(ref.kind[9], 2);
+    EXPECT_EQ(ref.kind[11], 1);
+    EXPECT_NE(std::count(ref.kind.begin(), ref.kind.end(), 0), 0);
+    std::vector<out> versions{run(eci::detail::condition_moduli)};
+#if ECI_DETAIL_X86_SIMD
+    versions.push_back(run(eci::detail::condition_moduli_sse2));
+    if (__builtin_cpu_supports("avx2")) versions.push_back(run(eci::detail::condition_moduli_avx2));
+#endif
+    for (const out& v : versions) {
+        EXPECT_EQ(v.kind, ref.kind);
+        EXPECT_TRUE(same_bits(v.x2, ref.x2));
+        for (std::size_t b = 0; b < nb; ++b) {
+            if (ref.kind[b] == 2) continue;  // (the caller's: o, q and the ratio are not used)
+            EXPECT_EQ(std::memcmp(&v.o[2 * b], &ref.o[2 * b], 2 * sizeof(double)), 0) << b;
+            EXPECT_EQ(std::memcmp(&v.q[b], &ref.q[b], sizeof(double)), 0) << b;
+            EXPECT_EQ(std::memcmp(&v.ratio[b], &ref.ratio[b], sizeof(double)), 0) << b;
+        }
+    }
 }
 
 }  // namespace
