@@ -35,10 +35,11 @@ struct handle {
     handle(const handle&) = delete;
     handle& operator=(const handle&) = delete;
     operator hid_t() const { return id; }
-    /// Closes now and throws runtime_error(what) if that fails. A written dataset must be closed so: HDF5 may keep
-    /// a write in the dataset's sieve buffer and write it to the file at H5Dclose, whose failure (EFBIG, ENOSPC) is
-    /// reported there alone (seen with serial HDF5: a process's block of a checkpoint, past a file size limit,
-    /// lost without an error while the file's flush and close succeeded).
+    /// Closes now and throws runtime_error(what) if that fails. A written dataset must be closed so: HDF5 keeps a
+    /// small hyperslab write (a process's block of a file) in the dataset's sieve buffer and writes it to the file
+    /// at H5Dclose, whose failure (EFBIG, ENOSPC) is reported there alone: the buffer is dropped, and the file's
+    /// flush and close that follow succeed, the block missing (seen: rank 1's columns of a checkpoint, past a file
+    /// size limit, lost without an error).
     void close_checked(const std::string& what) {
         const hid_t i = id;
         id = -1;
@@ -190,61 +191,31 @@ struct block {
     const double* data;
 };
 
-// The files of an MPI run are written collectively with parallel HDF5 (the MPI-IO file driver): every process makes
-// the same HDF5 calls in the same order, whatever failed on it, so that no process is left waiting in a collective
-// call another one skipped. A failure is therefore noted, not thrown, until the file is closed: `reason` keeps this
-// process's first one.
-struct collective_failure {
-    std::string reason;
-    void note(const std::string& what) {
-        if (reason.empty()) reason = what;
-    }
-};
+// The dataset `name` of the given shape, created as write_dataset creates it, and `part` of it written.
+void create_dataset(hid_t file, const block& part, std::initializer_list<hsize_t> dims);
 
-// Creates the dataset `name` (doubles, shape dims) as write_dataset creates it; metadata, collective (every process
-// creates it alike; its space is allocated at creation, parallel HDF5's rule, in the order the serial writer's
-// first write allocates it).
-void create_dataset_collective(hid_t file, const char* name, std::initializer_list<hsize_t> dims,
-                               collective_failure& failed) {
-    std::vector<hsize_t> d(dims);
-    const hid_t sp = H5Screate_simple(int(d.size()), d.data(), nullptr);
-    const hid_t dcpl = H5Pcreate(H5P_DATASET_CREATE);
-    H5Pset_obj_track_times(dcpl, false);
-    const hid_t ds = H5Dcreate2(file, name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
-    if (ds < 0 || H5Dclose(ds) < 0) failed.note(std::string("HDF5 dataset ") + name);
-    H5Pclose(dcpl);
-    H5Sclose(sp);
+// Writes `part` into its dataset (created by another process, or by create_dataset); an empty block writes nothing.
+void write_block(hid_t file, const block& part) {
+    if (part.count[0] == 0 || part.count[1] == 0) return;
+    handle ds(H5Dopen2(file, part.name, H5P_DEFAULT), H5Dclose, std::string("HDF5 dataset ") + part.name);
+    handle fs(H5Dget_space(ds), H5Sclose, "HDF5 dataspace");
+    if (H5Sselect_hyperslab(fs, H5S_SELECT_SET, part.start, nullptr, part.count, nullptr) < 0)
+        throw std::runtime_error(std::string("HDF5 dataset ") + part.name + ": block outside the dataset");
+    handle ms(H5Screate_simple(2, part.count, nullptr), H5Sclose, "HDF5 dataspace");
+    if (H5Dwrite(ds, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, part.data) < 0)
+        throw std::runtime_error(std::string("HDF5 dataset ") + part.name);
+    ds.close_checked(std::string("HDF5 dataset ") + part.name);
 }
 
-// Writes every process's `part` of its dataset in one collective write (H5FD_MPIO_COLLECTIVE: each process's
-// hyperslab; an empty block selects nothing, but the process still takes part); dims: the dataset's rank, 1 or 2.
-void write_block_collective(hid_t file, const block& part, int dims, collective_failure& failed) {
-    const std::string what = std::string("HDF5 dataset ") + part.name;
-    const hid_t ds = H5Dopen2(file, part.name, H5P_DEFAULT);
-    if (ds < 0) {  // (metadata: the same on every process)
-        failed.note(what);
-        return;
-    }
-    const hid_t fs = H5Dget_space(ds);
-    const bool empty = part.count[0] == 0 || (dims == 2 && part.count[1] == 0);
-    const hsize_t one[2] = {1, 1};
-    const hid_t ms = H5Screate_simple(dims, empty ? one : part.count, nullptr);
-    if (empty) {
-        H5Sselect_none(fs);
-        H5Sselect_none(ms);
-    } else if (H5Sselect_hyperslab(fs, H5S_SELECT_SET, part.start, nullptr, part.count, nullptr) < 0) {
-        failed.note(what + ": block outside the dataset");
-        H5Sselect_none(fs);
-        H5Sselect_none(ms);
-    }
-    const hid_t dxpl = H5Pcreate(H5P_DATASET_XFER);
-    H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE);
-    const double none = 0.0;
-    if (H5Dwrite(ds, H5T_NATIVE_DOUBLE, ms, fs, dxpl, empty ? &none : part.data) < 0) failed.note(what);
-    H5Pclose(dxpl);
-    H5Sclose(ms);
-    H5Sclose(fs);
-    if (H5Dclose(ds) < 0) failed.note(what);
+void create_dataset(hid_t file, const block& part, std::initializer_list<hsize_t> dims) {
+    std::vector<hsize_t> d(dims);
+    handle sp(H5Screate_simple(int(d.size()), d.data(), nullptr), H5Sclose, "HDF5 dataspace");
+    handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "HDF5 dataset properties");
+    H5Pset_obj_track_times(dcpl, false);
+    handle ds(H5Dcreate2(file, part.name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose,
+              std::string("HDF5 dataset ") + part.name);
+    write_block(file, part);
+    ds.close_checked(std::string("HDF5 dataset ") + part.name);  // (the last handle: the sieve buffer written here)
 }
 #endif
 
@@ -429,67 +400,35 @@ std::vector<double> coordinates(int n) {
 }
 
 #ifdef ECI_MPI
-// Every process of comm writes `file` (rank 0's name for it, told to the others; create: a new file, else rank 0's
-// temporary, opened) at once through parallel HDF5: opened with the MPI-IO driver (H5Pset_fapl_mpio), fill(file id,
-// failure) making the same collective calls on every process, flushed and closed by all. root_failure: rank 0 could
-// not even name the file (then no process opens it). Collective; returns, on every process, the reason of the
-// lowest-ranked process that failed (empty: none did), ending with the system's reason as write_h5's messages do.
-std::string write_collectively(MPI_Comm comm, const std::string& file, const std::string& root_failure,
-                               const std::string& what, bool create,
-                               const std::function<void(hid_t, collective_failure&)>& fill) {
-    int rank = 0;
+// The processes of comm write one file in turn, in rank order: rank 0 has written its part (its own failure's
+// reason in root_failure, empty if none) of `file` (rank 0's name for it); each other process then writes its own
+// part, write(file), unless a process before it failed. Collective; returns, on every process, the reason of the
+// lowest-ranked process that failed (empty: none did).
+std::string write_in_turn(MPI_Comm comm, const std::string& file, const std::string& root_failure,
+                          const std::function<void(const std::string&)>& write) {
+    int rank = 0, size = 1;
     MPI_Comm_rank(comm, &rank);
+    MPI_Comm_size(comm, &size);
     std::string name = rank == 0 && root_failure.empty() ? file : std::string();
     unsigned long long length = name.size();
     MPI_Bcast(&length, 1, MPI_UNSIGNED_LONG_LONG, 0, comm);
-    if (length == 0) return first_failure(comm, rank == 0 ? root_failure : std::string());
     name.resize(std::size_t(length));
     MPI_Bcast(name.data(), int(length), MPI_CHAR, 0, comm);
-    quiet_hdf5();
-    hdf5_errno = 0;
-    hdf5_detail.clear();
-    const auto why = [&] {
-        return ": " + write_failure_reason(name, hdf5_errno,
-                                           hdf5_detail.empty() ? "HDF5 gave no reason" : "HDF5: " + hdf5_detail);
-    };
-    const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
-    H5Pset_fapl_mpio(fapl, comm, MPI_INFO_NULL);
-    // Metadata written by rank 0 alone (not spread over the processes, HDF5's default): a process whose metadata
-    // write fails at H5Fclose leaves the cache's sync points early and the others wait there for ever (seen: rank 1
-    // past a file size limit, both processes stuck in H5Fclose). The other processes then write raw data only, whose
-    // failure is agreed before the file is flushed and closed.
-    H5AC_cache_config_t mdc{};
-    mdc.version = H5AC__CURR_CACHE_CONFIG_VERSION;
-    if (H5Pget_mdc_config(fapl, &mdc) >= 0) {
-        mdc.metadata_write_strategy = H5AC_METADATA_WRITE_STRATEGY__PROCESS_0_ONLY;
-        H5Pset_mdc_config(fapl, &mdc);
+    std::string mine = rank == 0 ? root_failure : std::string();
+    constexpr int tag = 2323;
+    int ok = rank == 0 ? (root_failure.empty() ? 1 : 0) : 0;  // the token: whether every process before wrote
+    if (rank > 0) {
+        MPI_Recv(&ok, 1, MPI_INT, rank - 1, tag, comm, MPI_STATUS_IGNORE);
+        if (ok) {
+            try {
+                write(name);
+            } catch (const std::exception& e) {
+                mine = e.what();
+                ok = 0;
+            }
+        }
     }
-    const hid_t id = create ? H5Fcreate(name.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), fapl)
-                            : H5Fopen(name.c_str(), H5F_ACC_RDWR, fapl);
-    H5Pclose(fapl);
-    // The open is collective (MPI_File_open): it fails on every process or on none; agreed before anything else
-    int opened = id >= 0 ? 1 : 0, all_opened = 0;
-    MPI_Allreduce(&opened, &all_opened, 1, MPI_INT, MPI_MIN, comm);
-    if (!all_opened) {
-        std::string mine;
-        if (!opened) mine = "cannot write " + what + ": HDF5 could not " + (create ? "create" : "open") + " the file" + why();
-        if (opened) H5Fclose(id);
-        return first_failure(comm, mine);
-    }
-    collective_failure failed;
-    try {
-        fill(id, failed);
-    } catch (const std::exception& e) {  // (not from a collective call: fill notes those)
-        failed.note(e.what());
-    }
-    std::string mine = failed.reason.empty() ? std::string() : "cannot write " + what + ": " + failed.reason + why();
-    // flushed only if every process wrote its part; closed by all in any case
-    int wrote = mine.empty() ? 1 : 0, all_wrote = 0;
-    MPI_Allreduce(&wrote, &all_wrote, 1, MPI_INT, MPI_MIN, comm);
-    const bool flushed = !all_wrote || H5Fflush(id, H5F_SCOPE_LOCAL) >= 0;
-    const bool closed = H5Fclose(id) >= 0;
-    if (mine.empty() && all_wrote && (!flushed || !closed))
-        mine = "cannot write " + what + ": HDF5 could not " + (flushed ? "close" : "flush") + " the file" + why();
+    if (rank + 1 < size) MPI_Send(&ok, 1, MPI_INT, rank + 1, tag, comm);
     return first_failure(comm, mine);
 }
 
@@ -550,30 +489,35 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c, MPI_Com
                      reinterpret_cast<const double*>(c.state.data())};
     if (c.state.size() != std::size_t(rows) * std::size_t(columns))
         throw std::logic_error("write_checkpoint: the state is not n rows of this process's columns");
-    // every process: the attributes (the same values), the whole dataset, its own columns, in one collective write
-    // (the file: rank 0's temporary, created by write_replacing and truncated as an HDF5 file by every process)
-    const auto fill = [&](hid_t f, collective_failure& failed) {
-        put_checkpoint_attributes(f, c);
-        create_dataset_collective(f, name.c_str(), {rows, cols * 2}, failed);
-        write_block_collective(f, mine, 2, failed);
-    };
     std::string failure;
     if (rank == 0) {
-        // rank 0 names the temporary (write_replacing), every process writes it, and rank 0 syncs and renames it
-        // over the checkpoint once every process has closed it
-        bool written = false;
+        // the temporary, its attributes, the whole dataset and rank 0's columns; then the other processes' columns
+        // in turn; then (rank 0) synced and renamed over the checkpoint
+        bool turned = false;
         try {
             write_replacing(path, "checkpoint", [&](const std::string& tmp) {
-                written = true;
-                if (const std::string first = write_collectively(comm, tmp, {}, what, true, fill); !first.empty())
+                std::string own;
+                try {
+                    write_h5(tmp, what, [&](hid_t f) {
+                        put_checkpoint_attributes(f, c);
+                        create_dataset(f, mine, {rows, cols * 2});
+                    });
+                } catch (const std::exception& e) {
+                    own = e.what();
+                }
+                turned = true;
+                if (const std::string first = write_in_turn(comm, tmp, own, {}); !first.empty())
                     throw run_error(first);
             });
         } catch (const std::exception& e) {
-            if (!written) write_collectively(comm, {}, e.what(), what, true, fill);  // (the others wait for a name)
+            if (!turned) write_in_turn(comm, {}, e.what(), {});
             failure = e.what();
         }
     } else {
-        write_collectively(comm, {}, {}, what, true, fill);
+        write_in_turn(comm, {}, {}, [&](const std::string& tmp) {
+            write_h5(tmp, what, [&](hid_t f) { write_block(f, mine); }, false);
+            sync_file(tmp, "checkpoint");  // (this process's writes, wherever it runs)
+        });
     }
     // rank 0's verdict, the commit's included: the same on every process
     if (failure = from_root(comm, failure); !failure.empty()) throw run_error(failure);
@@ -711,24 +655,27 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
     const std::string name = field_dataset(m.eq());
     if (rows.size() != std::size_t(g.local_rows()) * std::size_t(n))
         throw std::logic_error("write_snapshot_h5: the field is not this process's rows");
+    const block mine{name.c_str(), {hsize_t(g.first_row()), 0}, {hsize_t(g.local_rows()), n}, rows.data()};
     int rank = 0;
     MPI_Comm_rank(comm, &rank);
-    const block mine{name.c_str(), {hsize_t(g.first_row()), 0}, {hsize_t(g.local_rows()), n}, rows.data()};
-    const std::vector<double> x = coordinates(m.n());
-    // x and y: rank 0 writes them, the others take part in the collective write with nothing
-    const block xs{"x", {0, 0}, {rank == 0 ? n : 0, 1}, x.data()}, ys{"y", {0, 0}, {rank == 0 ? n : 0, 1}, x.data()};
-    // `path` is rank 0's (in its staging directory); every process creates the file with it, in the order the
-    // serial writer writes it (attributes, the field, x, y), and writes its rows of the field collectively
-    const std::string first = write_collectively(
-        comm, path, {}, "snapshot '" + path + "'", true, [&](hid_t f, collective_failure& failed) {
-            put_snapshot_attributes(f, m, t, step, method, dt);
-            create_dataset_collective(f, name.c_str(), {n, n}, failed);
-            create_dataset_collective(f, "x", {n}, failed);
-            create_dataset_collective(f, "y", {n}, failed);
-            write_block_collective(f, mine, 2, failed);
-            write_block_collective(f, xs, 1, failed);
-            write_block_collective(f, ys, 1, failed);
-        });
+    // rank 0 creates the file (in the order the serial writer writes it) with its rows; the others add theirs
+    std::string own;
+    if (rank == 0) {
+        try {
+            write_h5(path, "snapshot '" + path + "'", [&](hid_t f) {
+                put_snapshot_attributes(f, m, t, step, method, dt);
+                create_dataset(f, mine, {n, n});
+                const std::vector<double> x = coordinates(m.n());
+                write_dataset(f, "x", x.data(), {n});
+                write_dataset(f, "y", x.data(), {n});
+            });
+        } catch (const std::exception& e) {
+            own = e.what();
+        }
+    }
+    const std::string first = write_in_turn(comm, path, own, [&](const std::string& file) {
+        write_h5(file, "snapshot '" + file + "'", [&](hid_t f) { write_block(f, mine); }, false);
+    });
     if (!first.empty()) throw run_error(first);
 }
 #endif
