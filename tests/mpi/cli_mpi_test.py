@@ -2,7 +2,7 @@
 """`mpirun -np P eci run navier-stokes-2d ...` against the same run of the tool on one process (issue 23).
 
 usage: cli_mpi_test.py ECI MPIEXEC CASE
-       (CASE: state, restart, snapshot, bad-input, signal, abort, rank-failure, memory)
+       (CASE: state, restart, snapshot, bad-input, signal, abort, rank-failure, memory, files, write-failure)
 
 Each case runs in a fresh temporary directory and exits 0 when every check holds; each check prints one line.
 
@@ -427,9 +427,150 @@ def case_memory(d):
               f"{extra} KiB < two fields ({2 * field_kib} KiB); rank 0: {plain[0][1]} + {files[0][1] - plain[0][1]} KiB")
 
 
+def attrs_equal(a, b, skip=(), rtol=0.0, atol=0.0):
+    """The names and values of two files' attributes, as h5py reads them (fixed-length strings as bytes): strings and
+    whole numbers exactly, floating-point values to rtol (the run's sums, added in another order on more processes)."""
+    if sorted(a.attrs) != sorted(b.attrs):
+        return False, f"names differ: {sorted(set(a.attrs) ^ set(b.attrs))}"
+    def same(x, y):
+        if isinstance(x, (float, np.floating)) and isinstance(y, (float, np.floating)):
+            return x == y or abs(x - y) <= rtol * max(abs(x), abs(y)) + atol
+        return type(x) == type(y) and np.array_equal(x, y)
+    bad = [k for k in a.attrs if k not in skip and not same(a.attrs[k], b.attrs[k])]
+    return not bad, f"differ: {[(k, a.attrs[k], b.attrs[k]) for k in bad]}" if bad else "all equal"
+
+
+def case_files(d):
+    # A snapshot and a checkpoint of the same run on 1 (serial tool), 2 and 3 processes: the same datasets, shapes,
+    # types and attributes (every value, but a checkpoint's FFTW wisdom, which an MPI run does not keep), the
+    # values equal to round-off (the distributed transforms; the bound of case_state).
+    steps = 20
+    bound = 16 * EPS * np.sqrt(steps)
+    args = BASE + ["--nu", "1e-3", "--forcing", "stochastic", "--forcing-k", "3", "--steps", str(steps),
+                   "--snapshot-every", str(steps), "--checkpoint-every", str(steps)]
+    for np_ in (0, 2, 3):
+        r = run(np_, args + ["--snapshot-dir", f"s{np_}", "--checkpoint", f"c{np_}.h5"], d)
+        check(r.returncode == 0, f"-np {np_}: {steps} steps with a snapshot and a checkpoint (exit {r.returncode}) "
+                                 f"{r.stderr.strip()[-200:] if r.returncode else ''}")
+        if r.returncode:
+            return
+    snap = [n for n in sorted(os.listdir(os.path.join(d, "s0"))) if n.endswith(".h5")][-1]
+    for np_ in (2, 3):
+        for kind, a_path, b_path, skip in (("snapshot", os.path.join(d, "s0", snap), os.path.join(d, f"s{np_}", snap), ()),
+                                           ("checkpoint", os.path.join(d, "c0.h5"), os.path.join(d, f"c{np_}.h5"),
+                                            ("fftw_wisdom",))):
+            with h5py.File(a_path, "r") as a, h5py.File(b_path, "r") as b:
+                # (a checkpoint's E0, Z0, budgets, drifts and residuals are the run's sums: to round-off, 1e-9
+                # relative or 1e-12 of E0, Z0 absolute; every other attribute, the parameters, step, time, generator
+                # and counters, exactly)
+                scale = max(abs(float(a.attrs.get("energy0", 0))), abs(float(a.attrs.get("enstrophy0", 0))))
+                ok, what = attrs_equal(a, b, skip, *((0.0, 0.0) if kind == "snapshot" else (1e-9, 1e-12 * scale)))
+                check(ok, f"-np {np_} {kind}: attributes as the serial file's ({what})")
+                check(sorted(a.keys()) == sorted(b.keys()), f"-np {np_} {kind}: datasets {sorted(b.keys())}")
+                for k in a.keys():
+                    x, y = np.array(a[k]), np.array(b[k])
+                    same = x.dtype == y.dtype and x.shape == y.shape
+                    diff = float(np.max(np.abs(x - y)) / max(np.max(np.abs(x)), 1e-300)) if same else float("inf")
+                    check(same and diff <= bound, f"-np {np_} {kind}/{k}: {y.dtype} {y.shape}, = serial to {diff:.3g}")
+                if kind == "checkpoint":
+                    check(a.attrs["fftw_wisdom"] != b"" and b.attrs["fftw_wisdom"] == b"",
+                          f"-np {np_} checkpoint: no FFTW wisdom (the serial one's kept)")
+    # Read by rows and written again by other processes: the 2-process snapshot as --ic on 3 processes, whose
+    # snapshot at step 0 is the same field (through the half plane and back: round-off of one transform pair).
+    r = run(3, BASE + ["--steps", "1", "--ic", os.path.join("s2", snap), "--snapshot-every", "1",
+                       "--snapshot-dir", "ic3"], d)
+    check(r.returncode == 0, f"-np 3 from the 2-process snapshot (--ic) with a snapshot at step 0 (exit {r.returncode})")
+    if r.returncode == 0:
+        first = [n for n in sorted(os.listdir(os.path.join(d, "ic3"))) if n.endswith(".h5")][0]
+        with h5py.File(os.path.join(d, "s2", snap), "r") as a, h5py.File(os.path.join(d, "ic3", first), "r") as b:
+            k = a.attrs["field"]
+            k = k.decode() if isinstance(k, bytes) else str(k)
+            x, y = np.array(a[k]), np.array(b[k])
+            diff = float(np.max(np.abs(x - y)) / np.max(np.abs(x)))
+            # (the field goes to the half plane and back: one forward and one inverse transform of round-off)
+            check(x.shape == y.shape and diff <= 16 * EPS, f"-np 3 step-0 snapshot of the --ic field = it to {diff:.3g}")
+
+
+def case_write_failure(d):
+    # A snapshot or checkpoint that cannot be written on 2 or 3 processes: one line (rank 0's), the documented exit
+    # status (2: found before the run, as the serial tool finds it; 1: found by the write), nothing left behind, and
+    # no process left waiting (mpirun under a time limit).
+    def attempt(np_, args, what, statuses, sub, expect_in=None):
+        start = time.monotonic()
+        try:
+            r = subprocess.run([MPIEXEC, "--oversubscribe", "-np", str(np_), ECI, "run", "navier-stokes-2d"] + BASE +
+                               ["--steps", "4", "--output", "o.csv"] + args, cwd=sub, env=ENV, capture_output=True,
+                               text=True, timeout=90)
+        except subprocess.TimeoutExpired:
+            check(False, f"-np {np_} {what}: no process left waiting (killed after 90 s)")
+            return
+        took = time.monotonic() - start
+        own = [l for l in r.stderr.splitlines() if l.startswith("eci")]
+        status = next((s for s in statuses if r.returncode == s or f"exit code: {s}" in r.stderr.lower()), None)
+        check(status is not None, f"-np {np_} {what}: exit {statuses} (mpirun {r.returncode}) in {took:.1f} s")
+        check(len(own) == 1 and (expect_in is None or expect_in in own[0]), f"-np {np_} {what}: one line: {own}")
+        return r
+
+    for np_ in (2, 3):
+        # the checkpoint's path is a directory
+        sub = tempfile.mkdtemp(dir=d)
+        os.mkdir(os.path.join(sub, "ck.h5"))
+        attempt(np_, ["--checkpoint-every", "2", "--checkpoint", "ck.h5"], "--checkpoint DIRECTORY", (2,), sub)
+        left = sorted(os.listdir(sub))
+        check(left == ["ck.h5"] and os.listdir(os.path.join(sub, "ck.h5")) == [],
+              f"-np {np_} --checkpoint DIRECTORY: nothing written ({left})")
+        # a read-only file system under the checkpoint and under the snapshots (root writes to any directory, not to
+        # a read-only mount)
+        m = os.path.join(sub, "ro")
+        os.mkdir(m)
+        if subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", m], capture_output=True).returncode:
+            print("skipped: cannot mount a read-only tmpfs here (not root?)")
+            continue
+        try:
+            for what, args in (("checkpoint on a read-only file system", ["--checkpoint-every", "2", "--checkpoint",
+                                                                           "ro/ck.h5"]),
+                               ("snapshots on a read-only file system", ["--snapshot-every", "2", "--snapshot-dir",
+                                                                         "ro/snaps"])):
+                for n in os.listdir(sub):
+                    if n not in ("ro", "ck.h5"):
+                        os.remove(os.path.join(sub, n))
+                attempt(np_, args, what, (1, 2), sub, "Read-only file system")
+                left = sorted(n for n in os.listdir(sub) if n not in ("ro", "ck.h5"))
+                check(left == [] and os.listdir(m) == [], f"-np {np_} {what}: nothing written ({left}, {os.listdir(m)})")
+        finally:
+            subprocess.run(["umount", "-l", m])
+    # found by the write itself (the run under way): the checkpoint's directory replaced by a file after the run
+    # checked it; every process ends with exit 1 and rank 0's one line, no temporary left
+    for np_ in (2, 3):
+        sub = tempfile.mkdtemp(dir=d)
+        os.mkdir(os.path.join(sub, "out"))
+        p = subprocess.Popen([MPIEXEC, "--oversubscribe", "-np", str(np_), ECI, "run", "navier-stokes-2d", "--N", "64",
+                              "--dt", "1e-4", "--steps", "100000000", "--fftw-estimate", "--fftw-wisdom", "none",
+                              "--update", "paper", "--checkpoint-every", "200000000", "--checkpoint", "out/ck.h5"],
+                             cwd=sub, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        time.sleep(2.0)
+        os.rmdir(os.path.join(sub, "out"))
+        with open(os.path.join(sub, "out"), "w") as f:
+            f.write("x")
+        start = time.monotonic()
+        p.send_signal(signal.SIGINT)  # the interruption's checkpoint: its directory is gone
+        try:
+            out, err = p.communicate(timeout=60)
+            own = [l for l in err.splitlines() if l.startswith("eci")]
+            check(any("cannot write checkpoint" in l for l in own) and len(own) == 1,
+                  f"-np {np_} checkpoint's directory gone mid-run: one line after {time.monotonic() - start:.1f} s: {own}")
+            check(p.returncode != 0, f"-np {np_} checkpoint's directory gone mid-run: exit non-zero ({p.returncode})")
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.communicate()
+            check(False, f"-np {np_} checkpoint's directory gone mid-run: no process left waiting (killed after 60 s)")
+        check(sorted(os.listdir(sub)) == ["out"], f"-np {np_} checkpoint's directory gone mid-run: nothing left "
+                                                  f"({sorted(os.listdir(sub))})")
+
+
 with tempfile.TemporaryDirectory() as d:
     {"state": case_state, "restart": case_restart, "snapshot": case_snapshot, "bad-input": case_bad_input,
      "signal": case_signal, "abort": case_abort, "rank-failure": case_rank_failure,
-     "memory": case_memory}[CASE](d)
+     "memory": case_memory, "files": case_files, "write-failure": case_write_failure}[CASE](d)
 print(f"{CASE}: {'FAILED' if failures else 'passed'} ({failures} failure(s))")
 sys.exit(1 if failures else 0)
