@@ -444,26 +444,17 @@ class radicand_remedy {
         const double* xb = x + e0 * Per;
         if constexpr (Per == 2) {  // complex modes (every spectral model): explicitly vectorized, the same bits
             detail::condition_moduli(ob, q.data(), x2v.data(), ratio.data(), kind.data(), xb, c, c2, xi, kappa, nb);
-        } else {
+        } else {  // real unknowns (Per = 1): the compiler vectorizes this loop
             for (std::size_t b = 0; b < nb; ++b) {
-                double x2 = 0.0;
-                for (std::size_t p = 0; p < Per; ++p) x2 += xb[b * Per + p] * xb[b * Per + p];
+                const double x2 = xb[b] * xb[b];
                 const double v = xi[b], change = std::abs(v - x2);
-                bool plain = v >= 0.0;
-                if constexpr (Per == 2) plain = plain && c2[b] > 0.0 && !(std::abs(v - c2[b]) <= 0x1p-46 * v);
+                const bool plain = v >= 0.0;
                 const bool filed = v < kappa * change && std::abs(c2[b] - v) > 0x1p-40 * std::max(c2[b], v);
                 kind[b] = plain ? (filed ? 1 : 0) : 2;
                 ratio[b] = v / change;  // (its bucket is taken for the filed elements alone, below)
                 x2v[b] = x2;
-                if constexpr (Per == 1) {
-                    ob[b] = std::copysign(std::sqrt(v), sign[b]);
-                    q[b] = ob[b] * ob[b];
-                } else {
-                    const double root = std::sqrt(v), r = std::sqrt(c2[b]);
-                    const double o0 = root * (c[2 * b] / r), o1 = root * (c[2 * b + 1] / r);
-                    ob[2 * b] = o0, ob[2 * b + 1] = o1;
-                    q[b] = o0 * o0 + o1 * o1;
-                }
+                ob[b] = std::copysign(std::sqrt(v), sign[b]);
+                q[b] = ob[b] * ob[b];
             }
         }
         // the filing, in element order (most elements are neither special nor filed)
