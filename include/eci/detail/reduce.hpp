@@ -8,6 +8,7 @@
 #include <cstddef>
 #include <span>
 #include <type_traits>
+#include <vector>
 
 #include "../concepts.hpp"
 
@@ -37,6 +38,18 @@ struct reducer {
     void max(std::span<double> v) const {
         if (maxes) maxes(model, v);
     }
+    /// Sums over every process, in one collective, each of `parts` in place: a double& or a std::span<double>,
+    /// so that the quantities one decision needs travel together (collective when the reducer is not empty).
+    template <class... Parts>
+    void sum_all(Parts&&... parts) const {
+        if (!sums) return;
+        std::vector<double> all;
+        all.reserve((size_of(parts) + ...));
+        (append(all, parts), ...);
+        sums(model, all);
+        std::size_t j = 0;
+        (extract(all, j, parts), ...);
+    }
     /// Whether `b` holds on any process (collective when the reducer is not empty).
     bool any(bool b) const {
         if (!sums) return b;
@@ -45,6 +58,17 @@ struct reducer {
         return v != 0.0;
     }
 
+private:
+    static std::size_t size_of(const double&) { return 1; }
+    static std::size_t size_of(std::span<double> v) { return v.size(); }
+    static void append(std::vector<double>& all, double v) { all.push_back(v); }
+    static void append(std::vector<double>& all, std::span<double> v) { all.insert(all.end(), v.begin(), v.end()); }
+    static void extract(const std::vector<double>& all, std::size_t& j, double& v) { v = all[j++]; }
+    static void extract(const std::vector<double>& all, std::size_t& j, std::span<double> v) {
+        for (double& e : v) e = all[j++];
+    }
+
+public:
     template <class F>
     static reducer of(const F& system) {
         if constexpr (distributed_model<F>) {

@@ -126,10 +126,7 @@ class conservative_rk : public radicand_remedy {
         double xi = 0.0, c2 = 0.0;
         for (std::size_t p = 0; p < per; ++p) {
             const std::size_t i = e * per + p;
-            double conv = x[i];
-            [&]<std::size_t... J>(std::index_sequence<J...>) {
-                ((T.b[J] != 0.0 ? (conv += (dt * T.b[J]) * k[J][i], 0) : 0), ...);
-            }(std::make_index_sequence<s>{});
+            const double conv = conventional(x, k, i, dt, std::make_index_sequence<s>{});
             c[p] = conv;
             c2 += conv * conv;
             rad[p] = radicand(x, k, i, dt, std::make_index_sequence<s>{});
@@ -180,7 +177,8 @@ class conservative_rk : public radicand_remedy {
         end_conditioned(pass);
     }
 
-    // The conventional update x + dt sum_j b_j k_j at unknown i (element_update's operations).
+    // The conventional update x + dt sum_j b_j k_j at unknown i: the one fold of element_update, the conditioned
+    // pass and the remedy (finish_general forms the same products with dt b_j hoisted out of its loop).
     template <std::size_t... J>
     static double conventional(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt,
                                std::index_sequence<J...>) {
@@ -196,10 +194,7 @@ class conservative_rk : public radicand_remedy {
         for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
         auto failed = [&](std::size_t i) { return !(o[i] == o[i]); };
         auto fix = [&](std::size_t i) -> std::pair<double, double> {
-            double conv = x[i];
-            [&]<std::size_t... J>(std::index_sequence<J...>) {
-                ((T.b[J] != 0.0 ? (conv += (dt * T.b[J]) * kp[J][i], 0) : 0), ...);
-            }(std::make_index_sequence<s>{});
+            const double conv = conventional(x, kp, i, dt, std::make_index_sequence<s>{});
             if constexpr (is_c_pc) {
                 const double pred = stage_value<1>(x[i], kp, i, dt);  // psi~, eq. (30a)
                 return {conv, pred * (x[i] + dt * kp[1][i])};         // eq. (30b), factorised

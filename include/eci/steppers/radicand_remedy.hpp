@@ -158,32 +158,19 @@ class radicand_remedy {
         if (reduce_) {
             // Over every process, in one collective each (every process reaches them: the decision to try the
             // remedy was global): the counts, the defects and held shares, the largest weights.
-            std::array<double, 3 + 2 * max_invariants> all{double(failures), double(n), finite ? 0.0 : 1.0};
-            for (std::size_t j = 0; j < m; ++j) all[3 + j] = defect[j], all[3 + m + j] = held[j];
-            reduce_.sum({all.data(), 3 + 2 * m});
+            double count = double(failures), size = double(n), non_finite = finite ? 0.0 : 1.0;
+            reduce_.sum_all(count, size, non_finite, std::span(defect.data(), m), std::span(held.data(), m));
             reduce_.max({wmax.data(), m});
-            failures = std::size_t(all[0]);
-            limit = remedy.max_fraction * all[1];
-            for (std::size_t j = 0; j < m; ++j) defect[j] = all[3 + j], held[j] = all[3 + m + j];
-            if (all[2] != 0.0 || double(failures) > limit) return decline();
+            failures = std::size_t(count);
+            limit = remedy.max_fraction * size;
+            if (non_finite != 0.0 || double(failures) > limit) return decline();
         }
         if (failures == 0) return decline();
         // The Gram matrix G_ij = sum_k w_ik w_jk xi_k and each invariant's magnitude A_j = sum_k |w_jk| xi_k.
         std::array<double, max_invariants * max_invariants> g{};
         std::array<double, max_invariants> mag{};
         gram<shift>(o, n, g, mag);
-        if (reduce_) {
-            std::array<double, max_invariants * max_invariants + max_invariants> all{};
-            for (std::size_t a = 0; a < m; ++a) {
-                all[a] = mag[a];
-                for (std::size_t b = 0; b < m; ++b) all[m + a * m + b] = g[a * max_invariants + b];
-            }
-            reduce_.sum({all.data(), m + m * m});
-            for (std::size_t a = 0; a < m; ++a) {
-                mag[a] = all[a];
-                for (std::size_t b = 0; b < m; ++b) g[a * max_invariants + b] = all[m + a * m + b];
-            }
-        }
+        reduce_.sum_all(std::span(mag.data(), m), std::span(g));  // g's unused entries are 0
         for (std::size_t j = 0; j < m; ++j)
             if (!(held[j] <= remedy.max_fraction * mag[j])) return decline();
         std::array<double, max_invariants> c{};
@@ -231,22 +218,12 @@ class radicand_remedy {
         if (reduce_) {
             // A state spread over processes: every sum and count below is over all of them (one collective each,
             // every process reaching them), so that each process takes the same cut and solves the same system.
-            std::array<double, max_invariants * max_invariants + 2 * max_invariants + 4> all{};
-            std::size_t j = 0;
-            for (std::size_t a = 0; a < m; ++a)
-                for (std::size_t b = 0; b < m; ++b) all[j++] = g0_[a * max_invariants + b];
-            for (std::size_t a = 0; a < m; ++a) all[j++] = mag0_[a];
-            for (std::size_t a = 0; a < m; ++a) all[j++] = held_neg[a];
-            all[j++] = negatives, all[j++] = negatives_finite ? 0.0 : 1.0, all[j++] = double(whole_.elements);
-            all[j++] = weights_nonnegative_ ? 0.0 : 1.0;
-            reduce_.sum({all.data(), j});
-            j = 0;
-            for (std::size_t a = 0; a < m; ++a)
-                for (std::size_t b = 0; b < m; ++b) g0_[a * max_invariants + b] = all[j++];
-            for (std::size_t a = 0; a < m; ++a) mag0_[a] = all[j++];
-            for (std::size_t a = 0; a < m; ++a) held_neg[a] = all[j++];
-            negatives = all[j++], negatives_finite = all[j++] == 0.0, whole_.elements = std::size_t(all[j++]);
-            whole_.nonnegative = all[j++] == 0.0;
+            double non_finite = negatives_finite ? 0.0 : 1.0, elements = double(whole_.elements);
+            double negative_weights = weights_nonnegative_ ? 0.0 : 1.0;
+            reduce_.sum_all(std::span(g0_), std::span(mag0_.data(), m), std::span(held_neg.data(), m), negatives,
+                            non_finite, elements, negative_weights);  // g0_'s unused entries are 0
+            negatives_finite = non_finite == 0.0, whole_.elements = std::size_t(elements);
+            whole_.nonnegative = negative_weights == 0.0;
             reduce_.max({whole_.wmax.data(), m});
             reduce_.sum(hist_);
         }
@@ -744,11 +721,9 @@ class radicand_remedy {
             for (std::size_t a = 0; a < m; ++a) defect[a] += weights_[a][e] * d, held[a] += std::abs(weights_[a][e]) * h;
         }
         if (reduce_) {  // over every process
-            std::array<double, 2 * max_invariants + 2> all{double(taken), neg_finite ? 0.0 : 1.0};
-            for (std::size_t a = 0; a < m; ++a) all[2 + a] = defect[a], all[2 + m + a] = held[a];
-            reduce_.sum({all.data(), 2 + 2 * m});
-            taken = std::size_t(all[0]), neg_finite = all[1] == 0.0;
-            for (std::size_t a = 0; a < m; ++a) defect[a] = all[2 + a], held[a] = all[2 + m + a];
+            double count = double(taken), non_finite = neg_finite ? 0.0 : 1.0;
+            reduce_.sum_all(count, non_finite, std::span(defect.data(), m), std::span(held.data(), m));
+            taken = std::size_t(count), neg_finite = non_finite == 0.0;
         }
         if (!neg_finite) return false;
         // The ill-conditioned elements below the cut take their conventional update (written into o by settle_filed,
