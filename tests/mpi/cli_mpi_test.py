@@ -12,6 +12,7 @@ counting the operations whose round-off enters a step; measured below 1 on 1-3 r
 time (dt = 0.002) so the flow does not amplify the differences. E and Z of C-RK4 (inviscid) change by a few eps per
 step, as a random walk: 8 eps sqrt(s).
 """
+import contextlib
 import csv
 import os
 import signal
@@ -279,15 +280,28 @@ def case_signal(d):
     check(r.returncode == 0, "the serial tool continues from it")
 
 
+@contextlib.contextmanager
+def tmpfs(path, options):
+    """A tmpfs made and mounted at path with `options` for the block, unmounted after it. Yields False, saying why,
+    where mounting is not allowed (not root)."""
+    os.mkdir(path)
+    if subprocess.run(["mount", "-t", "tmpfs", "-o", options, "tmpfs", path], capture_output=True).returncode:
+        print(f"skipped: cannot mount a tmpfs ({options}) here (not root?)")
+        yield False
+        return
+    try:
+        yield True
+    finally:
+        subprocess.run(["umount", "-l", path])
+
+
 def case_abort(d):
     # A failure on rank 0 alone (it creates the checkpoint's file, on a full disk) ends every process: exit
     # non-zero at once, no hang, the reason named, nothing left behind.
     m = os.path.join(d, "m")
-    os.mkdir(m)
-    if subprocess.run(["mount", "-t", "tmpfs", "-o", "size=64k", "tmpfs", m], capture_output=True).returncode:
-        print("skipped: cannot mount a tmpfs here (not root?)")
-        return
-    try:
+    with tmpfs(m, "size=64k") as mounted:
+        if not mounted:
+            return
         try:  # fill the disk (the write, or the close, fails with ENOSPC)
             with open(os.path.join(m, "fill"), "wb") as f:
                 while True:
@@ -302,8 +316,6 @@ def case_abort(d):
         check(r.returncode != 0, f"-np 2, rank 0's write fails: exit {r.returncode} after {took:.1f} s")
         check(len(own) == 1 and "No space left on device" in own[0], f"one line naming the reason: {own}")
         check(sorted(os.listdir(m)) == ["fill"], f"nothing left on the full disk: {os.listdir(m)}")
-    finally:
-        subprocess.run(["umount", "-l", m])
 
 
 # Runs a command as one MPI process, records its exit status and peak memory (ru_maxrss, KiB) in
@@ -522,11 +534,9 @@ def case_write_failure(d):
         # a read-only file system under the checkpoint and under the snapshots (root writes to any directory, not to
         # a read-only mount)
         m = os.path.join(sub, "ro")
-        os.mkdir(m)
-        if subprocess.run(["mount", "-t", "tmpfs", "-o", "ro,size=64k", "tmpfs", m], capture_output=True).returncode:
-            print("skipped: cannot mount a read-only tmpfs here (not root?)")
-            continue
-        try:
+        with tmpfs(m, "ro,size=64k") as mounted:
+            if not mounted:
+                continue
             for what, args in (("checkpoint on a read-only file system", ["--checkpoint-every", "2", "--checkpoint",
                                                                            "ro/ck.h5"]),
                                ("snapshots on a read-only file system", ["--snapshot-every", "2", "--snapshot-dir",
@@ -537,8 +547,6 @@ def case_write_failure(d):
                 attempt(np_, args, what, (1, 2), sub, "Read-only file system")
                 left = sorted(n for n in os.listdir(sub) if n not in ("ro", "ck.h5"))
                 check(left == [] and os.listdir(m) == [], f"-np {np_} {what}: nothing written ({left}, {os.listdir(m)})")
-        finally:
-            subprocess.run(["umount", "-l", m])
     # found by the write itself (the run under way): the checkpoint's directory replaced by a file after the run
     # checked it; every process ends with exit 1 and rank 0's one line, no temporary left
     for np_ in (2, 3):
