@@ -129,7 +129,9 @@ TEST(Run, UnderflowKeepsTheStatisticsOfThePartialRun) {
     EXPECT_EQ(rep.failure->kind, eci::run_failure_kind::step_failed);
     EXPECT_EQ(rep.failure->t, 1.0);
     EXPECT_EQ(rep.failure->component, 2u);
-    EXPECT_EQ(rep.failure->message.rfind("step failed at t = 1 in component x[2] even with the step halved 12 times", 0), 0u)
+    EXPECT_EQ(rep.failure->message.rfind("step failed at t = 1 in component x[2] even with the step halved 12 times",
+                                         0),
+              0u)
         << rep.failure->message;
     EXPECT_EQ(rep.stats.steps, 4u);            // t = 0.25 ... 1
     EXPECT_EQ(rep.stats.step_reductions, 12u);  // one failed attempt per halving level before giving up
