@@ -41,7 +41,7 @@ int main() {
 
     auto drift = [&](const char* method) {
         state L = L0;
-        eci::run_report report;
+        eci::solve_report report;
         // The registry builds the named method for this model (here: the conservative engine on L^2).
         eci::with_stepper<free_rigid_body>(method, [&](auto stepper) {
             report = eci::run(stepper, body, L, eci::run_span::n_steps(steps, dt));

@@ -39,9 +39,9 @@ lv_run run_lv() {
     lv_run out;
     lv_state s = fig7.x0;
     auto keep = [&](const lv_state& x, double) { out.points.push_back(x); };
-    const run_report r =
+    const solve_report r =
         eci::run(stepper, fig7.model, s, run_span::n_steps(fig7.steps(), fig7.dt), keep, {.every = lv_every});
-    if (r.failure) throw std::runtime_error(r.failure->what());
+    if (r.failure) throw std::runtime_error(r.failure->message);
     out.h = r.invariants.front();
     out.stats = r.stats;
     return out;
@@ -107,8 +107,8 @@ kepler_run run_kepler(const preset<kepler>& p) {
         previous = x;
         out.table.add({t, x[0], x[1], x[2], model.position_x(x), model.position_y(x), h, a[0], a[1]});
     };
-    const run_report r = eci::run(stepper, model, s, run_span::n_steps(p.steps(), p.dt), observe);
-    if (r.failure) throw std::runtime_error(r.failure->what());
+    const solve_report r = eci::run(stepper, model, s, run_span::n_steps(p.steps(), p.dt), observe);
+    if (r.failure) throw std::runtime_error(r.failure->message);
     out.stats = r.stats;
     const invariant_record& h = r.invariants.front();
     out.h_max_drift = h.max_rel_drift();

@@ -56,8 +56,8 @@ trajectory run(const preset<three_wave>& p) {
         out.t.push_back(t);
         out.x.push_back(s);
     };
-    const run_report r = eci::run(stepper, p.model, x, run_span::n_steps(p.steps(), p.dt), keep);
-    if (r.failure) throw std::runtime_error(r.failure->what());
+    const solve_report r = eci::run(stepper, p.model, x, run_span::n_steps(p.steps(), p.dt), keep);
+    if (r.failure) throw std::runtime_error(r.failure->message);
     out.stats = r.stats;
     out.invariants = r.invariants;
     return out;

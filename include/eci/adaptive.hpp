@@ -7,8 +7,10 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <initializer_list>
 #include <limits>
 #include <optional>
+#include <ranges>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -602,43 +604,79 @@ std::vector<method_info> adaptive_methods_for() {
     return detail::adaptive_methods<typename detail::as_model<Model>::type>(method_entry_list{});
 }
 
-/// What run_adaptive() reports.
-struct adaptive_report {
-    adaptive_stats stats{};                        ///< steps by outcome, evaluations, step sizes (also if it failed)
-    std::vector<invariant_record> invariants;      ///< every named invariant, at every observed state
-    double t = 0.0;                                ///< the time of the last state observed
-    std::optional<adaptive_failure> failure;       ///< set if the run stopped early
-    bool completed() const { return !failure.has_value(); }
+/// A first step and what choosing it cost.
+struct first_step_choice {
+    double dt = 0.0;             ///< the step's size (> 0; the run goes in the direction of its span)
+    std::uint64_t rhs_evals = 0; ///< evaluations of f the rule made (0, 1 or 2)
 };
 
-/// Runs an adaptive `stepper` on `model` from x (at t0) to t_end, monitoring the model's invariants. Without
-/// output times the observer sees every accepted step; with them, exactly those times (by `mode`). The observer
-/// may be (x, t), (x, t, i) or (x, t, i, monitor) and may throw to stop the run. A run that stops early (minimum
-/// step, step budget) reports `failure` with the statistics and drifts up to there; x is the state reached.
-template <has_named_invariants Model, class St, class Observer = no_observer>
-adaptive_report run_adaptive(St& stepper, const Model& model, typename Model::state_type& x, double t0, double t_end,
-                             double dt0, const adaptive_options& options, const std::vector<double>& times = {},
-                             Observer&& observe = {}, output_mode mode = output_mode::automatic) {
-    using S = typename Model::state_type;
-    invariant_monitor<Model> monitor(model);
-    adaptive_report report;
-    auto watch = [&](const S& s, double t, std::uint64_t i) {
-        monitor.record(s);
-        report.t = t;
-        if constexpr (std::invocable<Observer&, const S&, double, std::uint64_t, const invariant_monitor<Model>&>)
-            observe(s, t, i, std::as_const(monitor));
-        else
-            detail::notify(observe, s, t, i);
-    };
-    try {
-        report.stats = times.empty() ? integrate_adaptive(stepper, model, x, t0, t_end, dt0, options, watch)
-                                     : integrate_adaptive_at(stepper, model, x, t0, times, dt0, options, watch, mode);
-    } catch (const adaptive_failure& e) {
-        report.stats = e.stats;
-        report.failure = e;
+/// The first step of an adaptive run from (t0, x) toward t_end for a method of order `order`, by Hairer, Norsett
+/// & Wanner's rule (I, II.4; SciPy's select_initial_step): the step whose error, estimated from f at x and after a
+/// small Euler step (backward for t_end < t0), is about the tolerance, with scale_i = atol_i + rtol_i |x_i| (the
+/// per-element tolerances where given). Two evaluations of f at most. Edge cases, each a step the run can take
+/// and then report on: an empty span gives 1, an empty state the span, a zero scale or a non-finite rate at x
+/// (a value, or eci::non_finite_rate) 1e-6 of the span, a non-finite rate after the Euler step that step's size,
+/// and a step that underflows (a tolerance like 1e-300) the smallest positive double. The root mean squares are
+/// overflow-safe (scaled by the largest entry when the squares overflow). Never larger than the span.
+template <state S, system<S> F>
+first_step_choice choose_first_step(F&& f, const S& x, double t0, double t_end, int order, const adaptive_options& o) {
+    check_adaptive_options(o, std::ranges::size(x));
+    first_step_choice out;
+    const double span = std::abs(t_end - t0);
+    const double direction = t_end >= t0 ? 1.0 : -1.0;
+    if (span == 0.0) return out.dt = 1.0, out;
+    const std::size_t n = std::ranges::size(x);
+    if (n == 0) return out.dt = span, out;
+    const double fallback = 1e-6 * span;
+    const double smallest = std::numeric_limits<double>::denorm_min();
+    std::vector<double> scale(n), v(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        const double rtol = o.rtol_each.empty() ? o.rtol : o.rtol_each[i];
+        const double atol = o.atol_each.empty() ? o.atol : o.atol_each[i];
+        scale[i] = atol + rtol * std::abs(x[i]);
+        if (scale[i] == 0.0) return out.dt = fallback, out;
     }
-    report.invariants = monitor.records();
-    return report;
+    // The root mean square of |y_i| / scale_i; scaled by the largest entry if the squares overflow.
+    auto rms = [&](auto&& element) {
+        double sum = 0.0, top = 0.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            v[i] = std::abs(element(i)) / scale[i];
+            sum += v[i] * v[i];
+        }
+        const double plain = std::sqrt(sum / double(n));
+        if (std::isfinite(plain)) return plain;
+        for (std::size_t i = 0; i < n; ++i) top = std::max(top, v[i]);
+        if (!std::isfinite(top)) return top;
+        sum = 0.0;
+        for (std::size_t i = 0; i < n; ++i) sum += (v[i] / top) * (v[i] / top);
+        return top * std::sqrt(sum / double(n));
+    };
+    // f at (t, y), or false if its rate is not finite.
+    auto evaluate = [&](double t, const S& y, S& dydt) {
+        ++out.rhs_evals;
+        try {
+            f(y, dydt, t);
+        } catch (const non_finite_rate&) {
+            return false;
+        }
+        return detail::all_finite(dydt);
+    };
+    S f0 = x, f1 = x, y1 = x;
+    if (!evaluate(t0, x, f0)) return out.dt = fallback, out;
+    const double d0 = rms([&](std::size_t i) { return x[i]; });
+    const double d1 = rms([&](std::size_t i) { return f0[i]; });
+    double h0 = d0 < 1e-5 || d1 < 1e-5 ? 1e-6 : 0.01 * d0 / d1;
+    h0 = std::min(h0, span);
+    if (!(h0 > 0.0)) return out.dt = smallest, out;  // f / scale beyond the largest double
+    for (std::size_t i = 0; i < n; ++i) y1[i] = x[i] + direction * h0 * f0[i];
+    if (!evaluate(t0 + direction * h0, y1, f1)) return out.dt = std::min(h0, span), out;
+    const double d2 = rms([&](std::size_t i) { return f1[i] - f0[i]; }) / h0;
+    const double h1 = std::max(d1, d2) <= 1e-15 ? std::max(1e-6, 1e-3 * h0)
+                                                : std::pow(0.01 / std::max(d1, d2), 1.0 / double(order + 1));
+    const double h = std::min({100.0 * h0, h1, span});
+    // a tolerance so tight that the rule's step underflows: the smallest step, and the run says what is wrong
+    out.dt = h > 0.0 && std::isfinite(h) ? h : smallest;
+    return out;
 }
 
 }  // namespace eci

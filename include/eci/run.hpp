@@ -1,5 +1,5 @@
-// The run, owned by the library: a monitor of a model's named invariants (initial, final, largest drift, NaN
-// kept), and run(), which integrates, monitors every step and returns a report, also when a step underflows.
+// What a run watches and how far it goes: the monitor of a system's invariants (initial, final, largest drift,
+// NaN kept) and run_span. The run itself is eci::solve_with (solve.hpp), and eci::run is a wrapper of it.
 #pragma once
 
 #include <algorithm>
@@ -8,6 +8,7 @@
 #include <concepts>
 #include <cstddef>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <optional>
 #include <span>
@@ -42,37 +43,43 @@ concept has_named_invariants = requires {
     M::invariants();
 };
 
-/// Watches a model's named invariants along a run: record(x) at every state (the first one fixes I(t0)).
-/// The one place eci measures drift; the CLI, the figures, the benchmarks and the tests all read it.
-template <has_named_invariants Model>
+/// An invariant given as a function of the state (a Python callable), monitored after the model's own.
+template <class S>
+struct extra_invariant {
+    std::string name;
+    std::function<double(const S&)> value;
+};
+
+/// Watches a system's invariants along a run: the model's named ones (if it declares them), then `extra` ones;
+/// record(x) at every state (the first one fixes I(t0)). The one place eci measures drift: eci::solve and every
+/// run built on it, the CLI, the figures, the benchmarks and the tests all read it. S is the state type (for a
+/// plain system, which has no state_type, give it).
+template <class Model, class S = typename Model::state_type>
 class invariant_monitor {
-    static constexpr auto list = Model::invariants();
-
    public:
-    using state_type = typename Model::state_type;
+    using state_type = S;
 
-    /// A monitor of `model`'s invariants (the model must outlive it).
-    explicit invariant_monitor(const Model& model) : model_(&model) {
-        for (const auto& inv : list) records_.push_back({inv.name});
+    /// A monitor of `model`'s invariants and the extra ones (the model must outlive it).
+    explicit invariant_monitor(const Model& model, std::vector<extra_invariant<S>> extra = {})
+        : model_(&model), extra_(std::move(extra)) {
+        if constexpr (has_named_invariants<Model>)
+            for (const auto& inv : Model::invariants()) records_.push_back({inv.name});
+        for (const auto& e : extra_) records_.push_back({e.name});
+        values_.resize(records_.size());
     }
 
     /// Evaluates every invariant at x and updates its record.
-    void record(const state_type& x) {
-        for (std::size_t j = 0; j < list.size(); ++j) {
-            const double v = (model_->*list[j].value)(x);
-            values_[j] = v;
-            invariant_record& r = records_[j];
-            if (!started_) r.initial = v;
-            r.final = v;
-            const double d = std::abs(v - r.initial);
-            if (d > r.max_abs_drift || std::isnan(d)) r.max_abs_drift = d;  // a NaN, once seen, stays
-        }
+    void record(const S& x) {
+        std::size_t j = 0;
+        if constexpr (has_named_invariants<Model>)
+            for (const auto& inv : Model::invariants()) update(j++, (model_->*inv.value)(x));
+        for (const auto& e : extra_) update(j++, e.value(x));
         started_ = true;
     }
     /// The monitor as an observer (x, t, i).
-    void operator()(const state_type& x, double, std::uint64_t) { record(x); }
+    void operator()(const S& x, double, std::uint64_t) { record(x); }
 
-    /// The records, in the model's invariants() order.
+    /// The records: the model's invariants() in order, then the extra ones.
     const std::vector<invariant_record>& records() const { return records_; }
     /// The invariants' values at the last recorded state, in the same order.
     std::span<const double> values() const { return values_; }
@@ -86,6 +93,12 @@ class invariant_monitor {
         }
         return w;
     }
+    /// The first invariant that is not finite now but was at the start, or none.
+    std::optional<std::size_t> overflowed() const {
+        for (std::size_t j = 0; j < values_.size(); ++j)
+            if (!std::isfinite(values_[j]) && std::isfinite(records_[j].initial)) return j;
+        return std::nullopt;
+    }
     /// Forget everything: the next record() is a new initial state.
     void restart() {
         for (invariant_record& r : records_) r = {r.name};
@@ -93,9 +106,19 @@ class invariant_monitor {
     }
 
    private:
+    void update(std::size_t j, double v) {
+        values_[j] = v;
+        invariant_record& r = records_[j];
+        if (!started_) r.initial = v;
+        r.final = v;
+        const double d = std::abs(v - r.initial);
+        if (d > r.max_abs_drift || std::isnan(d)) r.max_abs_drift = d;  // a NaN, once seen, stays
+    }
+
     const Model* model_;
+    std::vector<extra_invariant<S>> extra_;
     std::vector<invariant_record> records_;
-    std::array<double, list.size()> values_{};
+    std::vector<double> values_;
     bool started_ = false;
 };
 
@@ -121,52 +144,5 @@ struct run_span {
         return {t0, dt, steps_to_reach(t0, t_end, dt), t_end, true};
     }
 };
-
-/// What run() reports.
-struct run_report {
-    run_stats stats{};                              ///< steps, reductions, evaluations, solves (also if it failed)
-    std::vector<invariant_record> invariants;       ///< every named invariant, monitored at every step
-    double t = 0.0;                                 ///< the time of the last state reached
-    std::optional<step_size_underflow> failure;     ///< set if a step could not be completed
-    /// True if the run reached its end.
-    bool completed() const { return !failure.has_value(); }
-};
-
-/// Runs `stepper` on `model` from x over `span`, monitoring the model's invariants at every step (so the drift
-/// is the true maximum, whatever opt.every). The observer sees (x, t, i, monitor), (x, t, i) or (x, t) at step 0,
-/// every opt.every steps and at the last; it may throw to stop the run (the CLI's Ctrl-C). A step that fails even
-/// at the smallest size ends the run without an exception: the report then holds `failure`, and the statistics
-/// and drifts up to the last completed step; x is the state reached.
-template <has_named_invariants Model, class St, class Observer = no_observer>
-    requires stepper<St, const Model&, typename Model::state_type>
-run_report run(St& stepper, const Model& model, typename Model::state_type& x, const run_span& span,
-               Observer&& observe = {}, run_options opt = {}) {
-    using S = typename Model::state_type;
-    if (opt.every == 0) throw std::invalid_argument("observer interval must be at least 1");
-    invariant_monitor<Model> monitor(model);
-    run_report report;
-    const std::uint64_t every = opt.every, last = span.steps;
-    auto watch = [&](const S& s, double t, std::uint64_t i) {
-        monitor.record(s);
-        report.t = t;
-        if (i % every == 0 || i == last) {
-            if constexpr (std::invocable<Observer&, const S&, double, std::uint64_t, const invariant_monitor<Model>&>)
-                observe(s, t, i, std::as_const(monitor));
-            else
-                detail::notify(observe, s, t, i);
-        }
-    };
-    run_options each = opt;
-    each.every = 1;
-    try {
-        report.stats = span.to_end_time ? integrate_to(stepper, model, x, span.t0, span.t_end, span.dt, watch, each)
-                                        : integrate_n_steps(stepper, model, x, span.t0, span.dt, span.steps, watch, each);
-    } catch (const step_size_underflow& e) {
-        report.stats = e.stats;
-        report.failure = e;
-    }
-    report.invariants = monitor.records();
-    return report;
-}
 
 }  // namespace eci

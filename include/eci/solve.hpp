@@ -39,7 +39,9 @@ struct run_config {
     /// With `steps`: the run continues the grid t0 + i dt from step first_step (a restart from a checkpoint), so
     /// it ends at t0 + (first_step + steps) dt; output indices count from there, and `every` is on them.
     std::uint64_t first_step = 0;
-    double dt = 0.0;  ///< the fixed step, or an adaptive run's first step
+    /// The fixed step, or an adaptive run's first step: 0 lets the run choose it (choose_first_step, Hairer,
+    /// Norsett & Wanner's rule; its evaluations are counted in the run's).
+    double dt = 0.0;
     /// A step controller around the method's embedded pair (rtol, atol, limits); none: fixed steps of dt.
     std::optional<adaptive_options> adaptive;
 
@@ -185,13 +187,6 @@ struct output_point {
     const run_stats* stats = nullptr;     ///< fixed steps: the run's statistics so far
 };
 
-/// An invariant given as a function of the state (a Python callable), monitored after the model's own.
-template <class S>
-struct extra_invariant {
-    std::string name;
-    std::function<double(const S&)> value;
-};
-
 /// A sink: output(x, point) at every output; optionally progress(t, steps) after every step (adaptive: before
 /// every attempt), which may throw to stop the run (Ctrl-C). Fixed steps also show every step of the grid to a
 /// sink with after_step(x, point), before output and progress (a per-step record: budgets, drifts, blow-up). An
@@ -276,7 +271,7 @@ inline void check_config(const run_config& c) {
     if (!std::isfinite(c.t0)) throw std::invalid_argument("start time must be finite");
     if (c.adaptive) {
         if (c.steps) throw std::invalid_argument("a step count is for fixed steps; an adaptive run ends at its end time");
-        if (!(c.dt > 0.0) || !std::isfinite(c.dt))
+        if (!(c.dt >= 0.0) || !std::isfinite(c.dt))  // 0: chosen by choose_first_step
             throw std::invalid_argument("initial step must be a positive finite number");
         if (!std::isfinite(c.t_end)) throw std::invalid_argument("end time must be finite");
     } else {
@@ -300,48 +295,18 @@ inline void check_config(const run_config& c) {
                                         "within the span");
 }
 
-/// The monitor of a run: the model's named invariants (if it has them) and the extra ones, with one vector of
-/// current values (the model's first) and one of records.
-template <class Model, class S>
-class run_monitor {
-   public:
-    run_monitor(const Model& model, std::vector<extra_invariant<S>> extra) : model_(model), extra_(std::move(extra)) {
-        if constexpr (has_named_invariants<Model>)
-            for (const auto& inv : Model::invariants()) records_.push_back({inv.name});
-        for (const auto& e : extra_) records_.push_back({e.name});
-        values_.resize(records_.size());
+/// An observer (x, t), (x, t, i) or (x, t, i, monitor) as a sink: eci::run and eci::run_adaptive.
+template <class Model, class Observer>
+struct observer_sink {
+    Observer& observe;
+    const invariant_monitor<Model>& monitor;
+    void output(const typename Model::state_type& x, const output_point& p) {
+        if constexpr (std::invocable<Observer&, const typename Model::state_type&, double, std::uint64_t,
+                                     const invariant_monitor<Model>&>)
+            observe(x, p.t, p.index, monitor);
+        else
+            detail::notify(observe, x, p.t, p.index);
     }
-    void record(const S& x) {
-        std::size_t j = 0;
-        if constexpr (has_named_invariants<Model>)
-            for (const auto& inv : Model::invariants()) update(j++, (model_.*inv.value)(x));
-        for (const auto& e : extra_) update(j++, e.value(x));
-        started_ = true;
-    }
-    std::span<const double> values() const { return values_; }
-    const std::vector<invariant_record>& records() const { return records_; }
-    /// The first invariant that is not finite now but was at the start, or none.
-    std::optional<std::size_t> overflowed() const {
-        for (std::size_t j = 0; j < values_.size(); ++j)
-            if (!std::isfinite(values_[j]) && std::isfinite(records_[j].initial)) return j;
-        return std::nullopt;
-    }
-
-   private:
-    void update(std::size_t j, double v) {
-        values_[j] = v;
-        invariant_record& r = records_[j];
-        if (!started_) r.initial = v;
-        r.final = v;
-        const double d = std::abs(v - r.initial);
-        if (d > r.max_abs_drift || std::isnan(d)) r.max_abs_drift = d;
-    }
-
-    const Model& model_;
-    std::vector<extra_invariant<S>> extra_;
-    std::vector<invariant_record> records_;
-    std::vector<double> values_;
-    bool started_ = false;
 };
 
 /// Thrown inside a run when a monitored invariant overflowed (caught by solve, reported as a failure).
@@ -458,28 +423,112 @@ void check_initial_state(const Model& model, const S& x, const std::function<std
     }
 }
 
-/// Runs `method` (a registry name) on the system f from x over `cfg`, monitoring the model's invariants (and
-/// `extra`) at every step, and hands every output to `sink`. Dispatch is the type the registry builds steppers
-/// for (the model; for a plain function, its state type). Bad settings throw std::invalid_argument before any
-/// step; a run that cannot go on returns with `failure` set and x at the last state reached; a cancelled run
-/// throws eci::interrupted; whatever the sink throws propagates.
-template <class Dispatch, class F_, class S, class Sink>
-solve_report solve(F_&& system, S& x, std::string_view method, const run_config& requested, Sink&& sink,
-                   std::vector<extra_invariant<S>> extra = {}, std::string_view what = "this system") {
-    using F = std::remove_reference_t<F_>;  // const for a const system; a model with step hooks is not
-    F& f = system;
-    detail::check_config(requested);
-    std::optional<run_config> resolved;  // an output_dt, resolved on a copy with the default names in its messages
+namespace detail {
+
+/// The configuration a run goes by: `requested` checked, and its output_dt resolved (on a copy, with the default
+/// setting names in the messages) if it has one.
+inline std::optional<run_config> resolved_config(const run_config& requested) {
+    check_config(requested);
+    std::optional<run_config> resolved;
     if (requested.output_dt) {
         resolve_output_dt(resolved.emplace(requested));
-        detail::check_config(*resolved);
+        check_config(*resolved);
     }
-    const run_config& cfg = resolved ? *resolved : requested;
+    return resolved;
+}
+
+/// A monitored invariant that overflowed, as the report's failure.
+template <class Monitor>
+void overflow_failure(solve_report& report, const Monitor& monitor, const invariant_overflowed& e) {
+    report.failure = run_failure{run_failure_kind::invariant_overflow, e.t, e.index, 0.0,
+                                 "the invariant " + monitor.records()[e.index].name + " overflowed at t = " +
+                                     detail::full_text(e.t) + ": the solution blew up",
+                                 std::nullopt, rejection::step_failed};
+}
+
+/// The adaptive run of solve_with: `stepper` (an embedded pair, as built) under cfg's step controller, the sink
+/// polled between attempts. cfg.dt == 0: the first step by choose_first_step. The stepper ends as the run left it.
+template <class St, class F, class S, class Sink, class Monitor>
+solve_report run_adaptive_on(St& stepper, F& f, S& x, const run_config& given, Sink& sink, Monitor& monitor) {
     solve_report report;
-    report.method = resolve_method_for<Dispatch>(method, cfg.is_adaptive(), what);
-    report.t = cfg.t0;
-    detail::run_monitor<std::remove_cv_t<F>, S> monitor(f, std::move(extra));
+    report.t = given.t0;
+    std::uint64_t first_step_evals = 0;
+    std::optional<run_config> chosen;
+    if (given.dt == 0.0) {
+        const first_step_choice c = choose_first_step(f, std::as_const(x), given.t0, given.end_time(), St::order,
+                                                      *given.adaptive);
+        chosen.emplace(given).dt = c.dt;
+        first_step_evals = c.rhs_evals;
+    }
+    const run_config& cfg = chosen ? *chosen : given;
     const double t_end = cfg.end_time();
+    constexpr bool has_progress = requires(double t, std::uint64_t i) { sink.progress(t, i); };
+    auto check_overflow = [&](double t) {
+        if (!cfg.stop_on_invariant_overflow) return;
+        if (const auto j = monitor.overflowed()) throw detail::invariant_overflowed{t, *j};
+    };
+    try {
+        // Output times: the requested ones, then t_end (run to, not output) if they stop short of it.
+        std::vector<double> times = cfg.times;
+        const std::size_t wanted = times.size();
+        const bool forward = !(t_end < cfg.t0);
+        if (!times.empty() && (forward ? times.back() < t_end : times.back() > t_end)) times.push_back(t_end);
+        auto observe = [&](const S& s, double t, std::uint64_t i) {
+            monitor.record(s);
+            report.t = t;
+            check_overflow(t);
+            const bool out = times.empty() ? (i % cfg.every == 0 || t == t_end) : i < wanted;
+            if (out) sink.output(s, output_point{t, i, monitor.values(), std::nullopt});
+        };
+        auto poll = [&](double t) {
+            if (cfg.cancel && cfg.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
+            if constexpr (has_progress) sink.progress(t, report.adaptive ? report.adaptive->accepted : 0);
+        };
+        bool steps_seen = false;
+        if constexpr (requires { sink.observes_steps(); }) steps_seen = sink.observes_steps();
+        detail::polled_stepper<St, decltype(poll)> st{stepper};
+        st.poll = &poll;
+        adaptive_stats stats;
+        auto run = [&]() -> adaptive_stats {
+            if constexpr (requires { sink.observes_steps(); })
+                if (steps_seen)
+                    return detail::run_steps_seen(st, f, x, cfg, times, wanted, monitor, report, sink, check_overflow);
+            return times.empty() ? integrate_adaptive(st, f, x, cfg.t0, t_end, cfg.dt, *cfg.adaptive, observe)
+                                 : integrate_adaptive_at(st, f, x, cfg.t0, times, cfg.dt, *cfg.adaptive, observe,
+                                                         cfg.mode);
+        };
+        struct give_back {  // the stepper as the run left it, also when the run throws
+            St& to;
+            const St& from;
+            ~give_back() { to = from; }
+        } back{stepper, st};
+        try {
+            stats = run();
+        } catch (const adaptive_failure& e) {
+            stats = e.stats;
+            const bool too_many = e.why == adaptive_failure::reason::too_many_steps;
+            report.failure = run_failure{too_many ? run_failure_kind::too_many_steps : run_failure_kind::step_too_small,
+                                         e.time, e.component, e.dt, e.what(), std::nullopt, e.last_rejection};
+        }
+        stats.rhs_evals += first_step_evals;
+        report.adaptive = stats;
+        report.stats.steps = stats.accepted;
+        report.stats.step_reductions = stats.rejected_radicand;
+        report.stats.non_finite_rate_reductions = stats.rejected_non_finite_rate;
+        report.stats.rhs_evals = stats.rhs_evals;
+    } catch (const detail::invariant_overflowed& e) {
+        overflow_failure(report, monitor, e);
+    }
+    report.invariants = monitor.records();
+    return report;
+}
+
+/// The fixed-step run of solve_with: `stepper` (as built) on the grid of cfg, side steps to output times between
+/// grid points. The stepper ends as the run left it.
+template <class St, class F, class S, class Sink, class Monitor>
+solve_report run_fixed_on(St& stepper, F& f, S& x, const run_config& cfg, Sink& sink, Monitor& monitor) {
+    solve_report report;
+    report.t = cfg.t0;
     constexpr bool has_progress = requires(double t, std::uint64_t i) { sink.progress(t, i); };
     constexpr bool has_after_step = requires(const output_point& p) { sink.after_step(std::as_const(x), p); };
     auto fail = [&](run_failure_kind kind, double t, std::size_t component, double dt, std::string message) {
@@ -490,144 +539,212 @@ solve_report solve(F_&& system, S& x, std::string_view method, const run_config&
         if (const auto j = monitor.overflowed()) throw detail::invariant_overflowed{t, *j};
     };
     try {
-        if (cfg.adaptive) {
-            // Output times: the requested ones, then t_end (run to, not output) if they stop short of it.
-            std::vector<double> times = cfg.times;
-            const std::size_t wanted = times.size();
-            const bool forward = !(t_end < cfg.t0);
-            if (!times.empty() && (forward ? times.back() < t_end : times.back() > t_end)) times.push_back(t_end);
-            auto observe = [&](const S& s, double t, std::uint64_t i) {
-                monitor.record(s);
-                report.t = t;
-                check_overflow(t);
-                const bool out = times.empty() ? (i % cfg.every == 0 || t == t_end) : i < wanted;
-                if (out) sink.output(s, output_point{t, i, monitor.values(), std::nullopt});
-            };
-            auto poll = [&](double t) {
-                if (cfg.cancel && cfg.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
-                if constexpr (has_progress) sink.progress(t, report.adaptive ? report.adaptive->accepted : 0);
-            };
-            bool steps_seen = false;
-            if constexpr (requires { sink.observes_steps(); }) steps_seen = sink.observes_steps();
-            with_adaptive_stepper<Dispatch>(report.method.name, [&](auto stepper) {
-                detail::polled_stepper<decltype(stepper), decltype(poll)> st;
-                st.poll = &poll;
-                if constexpr (requires { st.remedy.update; }) st.remedy.update = cfg.update;
-                adaptive_stats stats;
-                auto run = [&]() -> adaptive_stats {
-                    if constexpr (requires { sink.observes_steps(); })
-                        if (steps_seen)
-                            return detail::run_steps_seen(st, f, x, cfg, times, wanted, monitor, report, sink,
-                                                          check_overflow);
-                    return times.empty()
-                               ? integrate_adaptive(st, f, x, cfg.t0, t_end, cfg.dt, *cfg.adaptive, observe)
-                               : integrate_adaptive_at(st, f, x, cfg.t0, times, cfg.dt, *cfg.adaptive, observe,
-                                                       cfg.mode);
-                };
-                try {
-                    stats = run();
-                } catch (const adaptive_failure& e) {
-                    stats = e.stats;
-                    const bool too_many = e.why == adaptive_failure::reason::too_many_steps;
-                    fail(too_many ? run_failure_kind::too_many_steps : run_failure_kind::step_too_small, e.time,
-                         e.component, e.dt, e.what());
-                    report.failure->last_rejection = e.last_rejection;
+        const run_span span = cfg.steps ? run_span::n_steps(cfg.first_step + *cfg.steps, cfg.dt, cfg.t0)
+                                        : run_span::until(cfg.t_end, cfg.dt, cfg.t0);
+        run_options opt;
+        opt.max_halvings = cfg.max_halvings;
+        opt.max_substeps = cfg.max_substeps;
+        opt.cancel = cfg.cancel;
+        opt.stop_between_attempts = cfg.stop_between_attempts;
+        opt.first_step = cfg.first_step;
+        std::function<std::optional<double>()> lag = [] { return std::optional<double>{}; };
+        if constexpr (detail::stepper_shifts_time<St>())
+            lag = [&stepper] { return std::optional<double>(stepper.time_lag()); };
+        // Output times between grid points: a side step from the earlier grid state, with copies of the
+        // stepper and the state, so that the grid run is untouched.
+        run_stats side{};
+        const detail::counting_system<F> side_f{f, side.rhs_evals, cfg.cancel};
+        std::size_t next = 0;
+        const std::uint64_t last = span.steps;
+        auto grid_time = [&](std::uint64_t i) { return i >= last ? span.t_end : span.t0 + double(i) * span.dt; };
+        auto observe = [&](const S& s, double t, std::uint64_t i, const run_stats& st) {
+            monitor.record(s);
+            report.t = t;
+            check_overflow(t);
+            if constexpr (has_after_step)
+                if (i != cfg.first_step) sink.after_step(s, output_point{t, i, monitor.values(), lag(), &st});
+            if (cfg.times.empty()) {
+                if (i % cfg.every == 0 || i == last || i == cfg.first_step)
+                    sink.output(s, output_point{t, i, monitor.values(), lag(), &st});
+            } else {
+                for (; next < cfg.times.size() && cfg.times[next] == t; ++next)
+                    sink.output(s, output_point{t, next, monitor.values(), lag()});
+                const double t_next = grid_time(i + 1);
+                for (; i < last && next < cfg.times.size() && cfg.times[next] < t_next; ++next) {
+                    St side_stepper = stepper;
+                    S xs = s;
+                    detail::advance_with_reduction(side_stepper, side_f, xs, t, cfg.times[next] - t, opt, side);
+                    ++report.side_steps;
+                    monitor.record(xs);
+                    check_overflow(cfg.times[next]);
+                    sink.output(std::as_const(xs), output_point{cfg.times[next], next, monitor.values(), std::nullopt});
                 }
-                report.adaptive = stats;
-                report.stats.steps = stats.accepted;
-                report.stats.step_reductions = stats.rejected_radicand;
-                report.stats.non_finite_rate_reductions = stats.rejected_non_finite_rate;
-                report.stats.rhs_evals = stats.rhs_evals;
-            });
-        } else {
-            const run_span span = cfg.steps ? run_span::n_steps(cfg.first_step + *cfg.steps, cfg.dt, cfg.t0)
-                                            : run_span::until(cfg.t_end, cfg.dt, cfg.t0);
-            run_options opt;
-            opt.max_halvings = cfg.max_halvings;
-            opt.max_substeps = cfg.max_substeps;
-            opt.cancel = cfg.cancel;
-            opt.stop_between_attempts = cfg.stop_between_attempts;
-            opt.first_step = cfg.first_step;
-            const bool found = with_stepper<Dispatch>(report.method.name, [&](auto stepper) {
-                using St = decltype(stepper);
-                if constexpr (requires { stepper.remedy.update; }) stepper.remedy.update = cfg.update;
-                std::function<std::optional<double>()> lag = [] { return std::optional<double>{}; };
-                if constexpr (detail::stepper_shifts_time<St>())
-                    lag = [&stepper] { return std::optional<double>(stepper.time_lag()); };
-                // Output times between grid points: a side step from the earlier grid state, with copies of the
-                // stepper and the state, so that the grid run is untouched.
-                run_stats side{};
-                const detail::counting_system<F> side_f{f, side.rhs_evals, cfg.cancel};
-                std::size_t next = 0;
-                const std::uint64_t last = span.steps;
-                auto grid_time = [&](std::uint64_t i) { return i >= last ? span.t_end : span.t0 + double(i) * span.dt; };
-                auto observe = [&](const S& s, double t, std::uint64_t i, const run_stats& st) {
-                    monitor.record(s);
-                    report.t = t;
-                    check_overflow(t);
-                    if constexpr (has_after_step)
-                        if (i != cfg.first_step) sink.after_step(s, output_point{t, i, monitor.values(), lag(), &st});
-                    if (cfg.times.empty()) {
-                        if (i % cfg.every == 0 || i == last || i == cfg.first_step)
-                            sink.output(s, output_point{t, i, monitor.values(), lag(), &st});
-                    } else {
-                        for (; next < cfg.times.size() && cfg.times[next] == t; ++next)
-                            sink.output(s, output_point{t, next, monitor.values(), lag()});
-                        const double t_next = grid_time(i + 1);
-                        for (; i < last && next < cfg.times.size() && cfg.times[next] < t_next; ++next) {
-                            St side_stepper = stepper;
-                            S xs = s;
-                            detail::advance_with_reduction(side_stepper, side_f, xs, t, cfg.times[next] - t, opt, side);
-                            ++report.side_steps;
-                            monitor.record(xs);
-                            check_overflow(cfg.times[next]);
-                            sink.output(std::as_const(xs),
-                                        output_point{cfg.times[next], next, monitor.values(), std::nullopt});
-                        }
-                    }
-                    if constexpr (has_progress) sink.progress(t, i);
-                };
-                opt.every = 1;  // the monitor sees every step; the sink's cadence is decided above
-                try {
-                    report.stats = span.to_end_time
-                                       ? integrate_to(stepper, f, x, span.t0, span.t_end, span.dt, observe, opt)
-                                       : integrate_n_steps(stepper, f, x, span.t0, span.dt,
-                                                           span.steps - cfg.first_step, observe, opt);
-                } catch (const step_size_underflow& e) {
-                    report.stats = e.stats;
-                    const std::string name = detail::name_of<S>(cfg, e.component);
-                    const std::string cause = e.non_finite_rate_value
-                                                  ? "the rate of " + name + " is " + detail::full_text(*e.non_finite_rate_value)
-                                                  : std::string("negative radicand, non-invertible transform or non-finite state");
-                    fail(run_failure_kind::step_failed, e.time, e.component, e.dt,
-                         "step failed at t = " + detail::full_text(e.time) + " in component " + name +
-                             " even with the step halved " + std::to_string(cfg.max_halvings) + " times (dt = " +
-                             detail::full_text(e.dt) + "): " + cause);
-                    report.failure->non_finite_rate_value = e.non_finite_rate_value;
-                } catch (const step_work_exceeded& e) {
-                    fail(run_failure_kind::work_exceeded, e.time, 0, e.dt, e.what());
-                } catch (const non_finite_state& e) {
-                    fail(run_failure_kind::non_finite_state, e.time, e.component, 0.0,
-                         "the state became non-finite (" + detail::name_of<S>(cfg, e.component) + ") at t = " +
-                             detail::full_text(e.time));
-                }
-                // Side steps add their evaluations, reductions and solves, not steps of the grid.
-                report.stats.rhs_evals += side.rhs_evals;
-                report.stats.step_reductions += side.step_reductions;
-                report.stats.non_finite_rate_reductions += side.non_finite_rate_reductions;
-                if constexpr (detail::stepper_shifts_time<St>()) report.time_lag = stepper.time_lag();
-            });
-            if (!found)
-                throw std::invalid_argument("method '" + std::string(method) + "' has no stepper for " +
-                                            std::string(what));
+            }
+            if constexpr (has_progress) sink.progress(t, i);
+        };
+        opt.every = 1;  // the monitor sees every step; the sink's cadence is decided above
+        try {
+            report.stats = span.to_end_time ? integrate_to(stepper, f, x, span.t0, span.t_end, span.dt, observe, opt)
+                                            : integrate_n_steps(stepper, f, x, span.t0, span.dt,
+                                                                span.steps - cfg.first_step, observe, opt);
+        } catch (const step_size_underflow& e) {
+            report.stats = e.stats;
+            const std::string name = detail::name_of<S>(cfg, e.component);
+            const std::string cause = e.non_finite_rate_value
+                                          ? "the rate of " + name + " is " + detail::full_text(*e.non_finite_rate_value)
+                                          : std::string("negative radicand, non-invertible transform or non-finite state");
+            fail(run_failure_kind::step_failed, e.time, e.component, e.dt,
+                 "step failed at t = " + detail::full_text(e.time) + " in component " + name +
+                     " even with the step halved " + std::to_string(cfg.max_halvings) + " times (dt = " +
+                     detail::full_text(e.dt) + "): " + cause);
+            report.failure->non_finite_rate_value = e.non_finite_rate_value;
+        } catch (const step_work_exceeded& e) {
+            fail(run_failure_kind::work_exceeded, e.time, 0, e.dt, e.what());
+        } catch (const non_finite_state& e) {
+            fail(run_failure_kind::non_finite_state, e.time, e.component, 0.0,
+                 "the state became non-finite (" + detail::name_of<S>(cfg, e.component) + ") at t = " +
+                     detail::full_text(e.time));
         }
+        // Side steps add their evaluations, reductions and solves, not steps of the grid.
+        report.stats.rhs_evals += side.rhs_evals;
+        report.stats.step_reductions += side.step_reductions;
+        report.stats.non_finite_rate_reductions += side.non_finite_rate_reductions;
+        if constexpr (detail::stepper_shifts_time<St>()) report.time_lag = stepper.time_lag();
     } catch (const detail::invariant_overflowed& e) {
-        fail(run_failure_kind::invariant_overflow, e.t, e.index, 0.0,
-             "the invariant " + monitor.records()[e.index].name + " overflowed at t = " + detail::full_text(e.t) +
-                 ": the solution blew up");
+        overflow_failure(report, monitor, e);
     }
     report.invariants = monitor.records();
     return report;
+}
+
+}  // namespace detail
+
+/// The one run, on a stepper already built (solve() builds it from a registry name; eci::run and
+/// eci::run_adaptive hand theirs): the system f from x over `cfg`, every state recorded by `monitor` (the model's
+/// invariants and any extra ones), every output handed to `sink`. cfg.adaptive: `stepper` must be an embedded pair
+/// (adaptive_stepper), run under the step controller, its first step cfg.dt or, for 0, choose_first_step's; else
+/// fixed steps of cfg.dt. The stepper is run as it is (solve() sets its update from cfg.update) and ends as the
+/// run left it. Bad settings throw std::invalid_argument before any step; a run that cannot go on returns with
+/// `failure` set and x at the last state reached; a cancelled run throws eci::interrupted; whatever the sink
+/// throws propagates. The report's `method` is left empty (solve() fills it).
+template <class St, class F_, class S, class Sink>
+solve_report solve_with(St& stepper, F_&& system, S& x, const run_config& requested, Sink&& sink,
+                        invariant_monitor<std::remove_cvref_t<F_>, S>& monitor) {
+    using F = std::remove_reference_t<F_>;
+    F& f = system;
+    const std::optional<run_config> resolved = detail::resolved_config(requested);
+    const run_config& cfg = resolved ? *resolved : requested;
+    if (cfg.adaptive) {
+        if constexpr (adaptive_stepper<St, F&, S>)
+            return detail::run_adaptive_on(stepper, f, x, cfg, sink, monitor);
+        else
+            throw std::invalid_argument("this stepper has no error estimate for rtol/atol");
+    } else {
+        if constexpr (eci::stepper<St, F&, S>)
+            return detail::run_fixed_on(stepper, f, x, cfg, sink, monitor);
+        else
+            throw std::invalid_argument("this stepper does not take fixed steps");
+    }
+}
+
+/// solve_with, monitoring the model's invariants (if it declares them) and `extra`.
+template <class St, class F_, class S, class Sink>
+solve_report solve_with(St& stepper, F_&& system, S& x, const run_config& cfg, Sink&& sink,
+                        std::vector<extra_invariant<S>> extra = {}) {
+    invariant_monitor<std::remove_cvref_t<F_>, S> monitor(system, std::move(extra));
+    return solve_with(stepper, system, x, cfg, sink, monitor);
+}
+
+/// Runs `method` (a registry name) on the system f from x over `cfg`, monitoring the model's invariants (and
+/// `extra`) at every step, and hands every output to `sink`: solve_with on the stepper the registry builds for
+/// Dispatch (the model; for a plain function, its state type), with its update set to cfg.update. Bad settings
+/// (and an unknown or unavailable method) throw std::invalid_argument before any step; a run that cannot go on
+/// returns with `failure` set and x at the last state reached; a cancelled run throws eci::interrupted; whatever
+/// the sink throws propagates.
+template <class Dispatch, class F_, class S, class Sink>
+solve_report solve(F_&& system, S& x, std::string_view method, const run_config& requested, Sink&& sink,
+                   std::vector<extra_invariant<S>> extra = {}, std::string_view what = "this system") {
+    using F = std::remove_reference_t<F_>;  // const for a const system; a model with step hooks is not
+    F& f = system;
+    const std::optional<run_config> resolved = detail::resolved_config(requested);
+    const run_config& cfg = resolved ? *resolved : requested;
+    const method_info m = resolve_method_for<Dispatch>(method, cfg.is_adaptive(), what);
+    invariant_monitor<std::remove_cv_t<F>, S> monitor(f, std::move(extra));
+    solve_report report;
+    report.t = cfg.t0;
+    auto build = [&](auto stepper) {
+        if constexpr (requires { stepper.remedy.update; }) stepper.remedy.update = cfg.update;
+        return stepper;
+    };
+    if (cfg.adaptive) {
+        with_adaptive_stepper<Dispatch>(m.name, [&](auto stepper) {
+            auto st = build(stepper);
+            report = detail::run_adaptive_on(st, f, x, cfg, sink, monitor);
+        });
+    } else {
+        const bool found = with_stepper<Dispatch>(m.name, [&](auto stepper) {
+            auto st = build(stepper);
+            report = detail::run_fixed_on(st, f, x, cfg, sink, monitor);
+        });
+        if (!found)
+            throw std::invalid_argument("method '" + std::string(method) + "' has no stepper for " + std::string(what));
+    }
+    report.method = m;
+    return report;
+}
+
+/// Runs `stepper` on `model` from x over `span`: solve_with, the observer as its sink. The model's invariants are
+/// monitored at every step (so the drift is the true maximum, whatever opt.every); a monitored invariant that
+/// overflows does not stop the run (it is recorded, NaN kept). The observer sees (x, t, i, monitor), (x, t, i)
+/// or (x, t) at step 0, every opt.every steps and at the last; it may throw to stop the run (the CLI's Ctrl-C).
+/// A run that cannot go on (a step failing even at the smallest size, too much work, a non-finite state) ends
+/// without an exception: the report then holds `failure`, and the statistics and drifts up to the last completed
+/// step; x is the state reached. opt.resume is not supported (a run starts afresh).
+template <has_named_invariants Model, class St, class Observer = no_observer>
+    requires stepper<St, const Model&, typename Model::state_type>
+solve_report run(St& stepper, const Model& model, typename Model::state_type& x, const run_span& span,
+                 Observer&& observe = {}, run_options opt = {}) {
+    if (opt.every == 0) throw std::invalid_argument("observer interval must be at least 1");
+    if (opt.resume) throw std::invalid_argument("eci::run starts a run afresh; resume a run with integrate_n_steps");
+    run_config cfg;
+    cfg.t0 = span.t0;
+    cfg.dt = span.dt;
+    if (span.to_end_time)
+        cfg.t_end = span.t_end;
+    else
+        cfg.steps = span.steps;
+    cfg.every = opt.every;
+    cfg.max_halvings = opt.max_halvings;
+    cfg.max_substeps = opt.max_substeps;
+    cfg.cancel = opt.cancel;
+    cfg.stop_between_attempts = opt.stop_between_attempts;
+    cfg.stop_on_invariant_overflow = false;
+    invariant_monitor<Model> monitor(model);
+    auto sink = detail::observer_sink<Model, Observer>{observe, monitor};
+    return solve_with(stepper, model, x, cfg, sink, monitor);
+}
+
+/// Runs an adaptive `stepper` on `model` from x (at t0) to t_end (or, with output times, to the last of them) with
+/// first step dt0 (0: choose_first_step's), monitoring the model's invariants: solve_with, the observer as its
+/// sink. Without output times the observer sees every accepted step; with them, exactly those times (by `mode`).
+/// The observer may be (x, t), (x, t, i) or (x, t, i, monitor) and may throw to stop the run. A run that stops
+/// early (minimum step, step budget) reports `failure` with the statistics (report.adaptive) and drifts up to
+/// there; x is the state reached. A monitored invariant that overflows does not stop the run.
+template <has_named_invariants Model, class St, class Observer = no_observer>
+solve_report run_adaptive(St& stepper, const Model& model, typename Model::state_type& x, double t0, double t_end,
+                          double dt0, const adaptive_options& options, const std::vector<double>& times = {},
+                          Observer&& observe = {}, output_mode mode = output_mode::automatic) {
+    run_config cfg;
+    cfg.t0 = t0;
+    cfg.t_end = times.empty() ? t_end : times.back();  // with output times the run ends at the last one
+    cfg.dt = dt0;
+    cfg.adaptive = options;
+    cfg.times = times;
+    cfg.mode = mode;
+    cfg.stop_on_invariant_overflow = false;
+    invariant_monitor<Model> monitor(model);
+    auto sink = detail::observer_sink<Model, Observer>{observe, monitor};
+    return solve_with(stepper, model, x, cfg, sink, monitor);
 }
 
 }  // namespace eci

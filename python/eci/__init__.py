@@ -200,64 +200,6 @@ def _tolerance(value, name, n):
     return 0.0, [float(v) for v in a]
 
 
-def _first_step(fun, t0, t1, y0, order, rtol, atol):
-    """A first step for a Python fun, by Hairer, Norsett & Wanner's rule (I, II.4): the step whose error, estimated
-    from fun at y0 and after a small Euler step, is about the tolerance (two evaluations of fun). A fun that returns
-    something unusable gets a small step here; the run itself then reports the problem. Returns the step's size
-    and how often fun was called. The rule is SciPy's (select_initial_step); for a backward span (t1 < t0) the
-    Euler step goes backward."""
-    calls = [0]
-    result = _first_step_size(fun, t0, t1, y0, order, rtol, atol, calls)
-    return result, calls[0]
-
-
-def _first_step_size(fun, t0, t1, y0, order, rtol, atol, calls):
-    span = abs(t1 - t0)
-    direction = 1.0 if t1 >= t0 else -1.0
-    if span == 0.0:
-        return 1.0
-    if y0.size == 0:
-        return span
-    fallback = 1e-6 * span
-
-    def rms(v):
-        # of v / scale; SciPy's formula, unless the squares overflow (a tolerance like 1e-300, where the rule would
-        # give a step of 0): then scaled by the largest entry. An entry beyond the largest double is inf, quietly.
-        with np.errstate(over="ignore", under="ignore"):
-            v = np.abs(v) / scale
-            plain = float(np.sqrt(np.mean(v**2)))
-            if math.isfinite(plain):
-                return plain
-            top = float(np.max(v))
-            return top * float(np.sqrt(np.mean((v / top) ** 2))) if math.isfinite(top) else top
-
-    def evaluate(t, y):
-        calls[0] += 1
-        f = np.asarray(fun(t, y))
-        ok = f.shape == y0.shape and f.dtype.kind in "biufc" and bool(np.all(np.isfinite(f)))
-        return f if ok else None
-
-    scale = atol + rtol * np.abs(y0)
-    if np.any(scale == 0.0):
-        return fallback
-    f0 = evaluate(t0, y0)
-    if f0 is None:
-        return fallback
-    d0, d1 = rms(y0), rms(f0)
-    h0 = 1e-6 if d0 < 1e-5 or d1 < 1e-5 else 0.01 * d0 / d1
-    h0 = min(h0, span)
-    if not h0 > 0.0:  # fun / scale beyond the largest double: see below
-        return float(np.nextafter(0.0, 1.0))
-    f1 = evaluate(t0 + direction * h0, y0 + direction * h0 * f0)
-    if f1 is None:
-        return min(h0, span)
-    d2 = rms(f1 - f0) / h0
-    h1 = max(1e-6, 1e-3 * h0) if max(d1, d2) <= 1e-15 else (0.01 / max(d1, d2)) ** (1.0 / (order + 1))
-    h = min(100.0 * h0, h1, span)
-    # a tolerance so tight that the rule's step underflows: the smallest step, and the run says what is wrong
-    return h if h > 0.0 and math.isfinite(h) else float(np.nextafter(0.0, 1.0))
-
-
 class DenseSolution:
     """result.sol of eci.solve(..., dense_output=True): the solution between every two accepted steps, like SciPy's
     OdeSolution: sol(t) for a number gives y at t (shape (n,)), for an array of times y at each (shape (n, len(t))).
@@ -444,8 +386,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         quadratic_invariants=): "conditioned" (default; at the conventional method's error and, adaptive, its
         evaluations, docs/methods.md) or "paper" (the paper's update, bit for bit as before issue 19).
     first_step, min_step, max_step, max_steps: adaptive control: the first step (no larger than the span;
-        default: the model's default dt, as `eci run --rtol`; for a Python fun, SciPy's rule from two evaluations
-        of fun, counted in nfev), the smallest step (default 0: 64 eps |t|), the largest (default inf) and the most
+        default: the model's default dt, as `eci run --rtol`; for a Python fun, the library's rule
+        (choose_first_step: Hairer, Norsett & Wanner's, SciPy's) from two evaluations of fun, counted in nfev and
+        stats["rhs_evals"]), the smallest step (default 0: 64 eps |t|), the largest (default inf) and the most
         attempts, accepted and rejected (default 50 000 000).
     jac: the Jacobian of a Python fun for method "kahan" (Kahan's linearly implicit method, for quadratic fields):
         jac(t, y) -> (n, n) array, rows the components of fun (SciPy's convention), or a constant (n, n) array;
@@ -583,11 +526,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         h = settings["adaptive"]["first_step"]
         if h is None and is_model:
             h = fun.default_dt
-        elif h is None:
-            order = next((m.order for m in methods() if m.name == method), 4)
-            a = settings["adaptive"]
-            h, extra_calls = _first_step(fun, t0, t1, y, order, max(a["rtol_each"] or [a["rtol"]]),
-                                         np.asarray(a["atol_each"] or a["atol"]))
+        elif h is None:  # the library's rule (choose_first_step, Hairer, Norsett & Wanner), counted in rhs_evals
+            h = 0.0
         dt = h
     if is_model:
         raw = fun._solve(t0, t1, y0, method, dt, settings, functions, inv_names)

@@ -76,7 +76,7 @@ inline double relative_change(double value, double initial) {
 }
 
 /// The record of the invariant called `name` in a run's report (fails the test if there is none).
-inline const invariant_record& record_of(const run_report& report, std::string_view name) {
+inline const invariant_record& record_of(const solve_report& report, std::string_view name) {
     for (const invariant_record& r : report.invariants)
         if (r.name == name) return r;
     ADD_FAILURE() << "no invariant called " << name;
@@ -95,7 +95,7 @@ inline double worst_relative(const invariant_record& r) {
 template <class Method, class Model>
 drift_result measure_drift(const Model& model, typename Model::state_type x, double dt, std::uint64_t steps) {
     typename Method::template stepper<typename Model::state_type> st;
-    const run_report rep = eci::run(st, model, x, run_span::n_steps(steps, dt));
+    const solve_report rep = eci::run(st, model, x, run_span::n_steps(steps, dt));
     drift_result r;
     if (!rep.completed()) {
         // Only the conservative methods can fail a step; such a run has not conserved anything.

@@ -31,7 +31,7 @@ figure1_run run_c_euler(double dt) {
     eci::c_euler<state> st;
     state x = figure1_ic;
     figure1_run r;
-    const eci::run_report rep = eci::run(st, model, x, eci::run_span::until(10.0, dt), [&](const state& s, double t) {
+    const eci::solve_report rep = eci::run(st, model, x, eci::run_span::until(10.0, dt), [&](const state& s, double t) {
         const state e = exact(t);
         for (std::size_t k = 0; k < 3; ++k) r.max_error = std::max(r.max_error, std::abs(s[k] - e[k]));
     });

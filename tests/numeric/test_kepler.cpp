@@ -90,7 +90,7 @@ TEST(Kepler, PaperRunCpcConservesHamiltonianAndRungeLenz) {
     const std::uint64_t n = 1000;
     state x = paper_start;
     c_pc_kepler st;
-    const eci::run_report rep = eci::run(st, model, x, eci::run_span::n_steps(n, 0.105));
+    const eci::solve_report rep = eci::run(st, model, x, eci::run_span::n_steps(n, 0.105));
     ASSERT_TRUE(rep.completed());
     const auto& stats = rep.stats;
     const double dh = eci::test::record_of(rep, "hamiltonian").max_abs_drift;

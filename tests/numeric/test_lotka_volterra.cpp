@@ -44,7 +44,7 @@ TEST(LotkaVolterra, PaperRunCpcKeepsHamiltonian) {
     state x{1.0, 0.4};
     const double h0 = model.hamiltonian(x);
     c_pc_lv st;
-    const eci::run_report rep = eci::run(st, model, x, eci::run_span::n_steps(paper_steps, paper_dt));
+    const eci::solve_report rep = eci::run(st, model, x, eci::run_span::n_steps(paper_steps, paper_dt));
     ASSERT_TRUE(rep.completed());
     const auto& stats = rep.stats;
     const double worst = eci::test::record_of(rep, "hamiltonian").max_abs_drift;

@@ -30,7 +30,7 @@ figure2_run run_figure2(double dt, double t_end) {
     typename Method::template stepper<state> st;
     state x = figure2_ic;
     figure2_run r;
-    const eci::run_report rep = eci::run(st, model, x, eci::run_span::until(t_end, dt), [&](const state& s, double t,
+    const eci::solve_report rep = eci::run(st, model, x, eci::run_span::until(t_end, dt), [&](const state& s, double t,
                                                                                       std::uint64_t i) {
         r.on_grid = r.on_grid && t == (i == 0 ? 0.0 : std::min(double(i) * dt, t_end));
         ++r.observations;

@@ -85,9 +85,9 @@ TEST(Run, MonitorsEveryStepAndMatchesTheDriver) {
     tw_state x = fig5, y = fig5;
     eci::c_pc<tw_state> st;
     std::vector<std::uint64_t> seen;
-    const eci::run_report rep = eci::run(st, model, x, eci::run_span::n_steps(n, 0.01),
-                                         [&](const tw_state&, double, std::uint64_t i) { seen.push_back(i); },
-                                         {.every = 500});
+    const eci::solve_report rep = eci::run(st, model, x, eci::run_span::n_steps(n, 0.01),
+                                           [&](const tw_state&, double, std::uint64_t i) { seen.push_back(i); },
+                                           {.every = 500});
     EXPECT_TRUE(rep.completed());
     EXPECT_EQ(seen, (std::vector<std::uint64_t>{0, 500, 1000, 1500, 2000}));
     double worst = 0.0;
@@ -126,8 +126,13 @@ TEST(Run, UnderflowKeepsTheStatisticsOfThePartialRun) {
     eci::c_pc<std::vector<double>> st;
     const auto rep = eci::run(st, model, x, eci::run_span::n_steps(8, 0.25), eci::no_observer{}, {.max_halvings = 12});
     ASSERT_FALSE(rep.completed());
-    EXPECT_EQ(rep.failure->time, 1.0);
+    EXPECT_EQ(rep.failure->kind, eci::run_failure_kind::step_failed);
+    EXPECT_EQ(rep.failure->t, 1.0);
     EXPECT_EQ(rep.failure->component, 2u);
+    EXPECT_EQ(rep.failure->message.rfind("step failed at t = 1 in component x[2] even with the step halved 12 times",
+                                         0),
+              0u)
+        << rep.failure->message;
     EXPECT_EQ(rep.stats.steps, 4u);            // t = 0.25 ... 1
     EXPECT_EQ(rep.stats.step_reductions, 12u);  // one failed attempt per halving level before giving up
     EXPECT_GE(rep.stats.rhs_evals, 2u * (4u + 13u));
@@ -142,6 +147,9 @@ TEST(Run, UnderflowKeepsTheStatisticsOfThePartialRun) {
         EXPECT_EQ(e.stats.steps, rep.stats.steps);
         EXPECT_EQ(e.stats.step_reductions, rep.stats.step_reductions);
         EXPECT_EQ(e.stats.rhs_evals, rep.stats.rhs_evals);
+        EXPECT_EQ(e.time, rep.failure->t);
+        EXPECT_EQ(e.dt, rep.failure->dt);
+        EXPECT_EQ(e.non_finite_rate_value, rep.failure->non_finite_rate_value);
     }
 }
 
