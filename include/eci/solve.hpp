@@ -699,7 +699,8 @@ solve_report solve(F_&& system, S& x, std::string_view method, const run_config&
 /// or (x, t) at step 0, every opt.every steps and at the last; it may throw to stop the run (the CLI's Ctrl-C).
 /// A run that cannot go on (a step failing even at the smallest size, too much work, a non-finite state) ends
 /// without an exception: the report then holds `failure`, and the statistics and drifts up to the last completed
-/// step; x is the state reached. opt.resume is not supported (a run starts afresh).
+/// step; x is the state reached. opt.first_step continues the grid (a restart); opt.resume is not supported (a
+/// run starts afresh).
 template <has_named_invariants Model, class St, class Observer = no_observer>
     requires stepper<St, const Model&, typename Model::state_type>
 solve_report run(St& stepper, const Model& model, typename Model::state_type& x, const run_span& span,
@@ -713,6 +714,8 @@ solve_report run(St& stepper, const Model& model, typename Model::state_type& x,
         cfg.t_end = span.t_end;
     else
         cfg.steps = span.steps;
+    if (opt.first_step != 0 && span.to_end_time) throw std::invalid_argument("first_step is for integrate_n_steps");
+    cfg.first_step = opt.first_step;  // steps first_step + 1 .. first_step + span.steps of the grid (a restart)
     cfg.every = opt.every;
     cfg.max_halvings = opt.max_halvings;
     cfg.max_substeps = opt.max_substeps;

@@ -105,6 +105,29 @@ TEST(Run, MonitorsEveryStepAndMatchesTheDriver) {
     EXPECT_GT(rep.invariants[0].max_abs_drift, 0.0);  // it did measure something
 }
 
+// run() with opt.first_step continues the grid t0 + i dt (a restart): its observer sees steps first .. first + n at
+// their grid times, and its state equals the driver's continuation, bit for bit; an end-time span refuses it.
+TEST(Run, FirstStepContinuesTheGrid) {
+    const eci::three_wave model;
+    tw_state x = fig5, y = fig5;
+    eci::c_rk4<tw_state> st;
+    std::vector<std::uint64_t> seen;
+    std::vector<double> times;
+    const auto rep = eci::run(st, model, x, eci::run_span::n_steps(6, 0.1),
+                              [&](const tw_state&, double t, std::uint64_t i) { seen.push_back(i), times.push_back(t); },
+                              {.every = 2, .first_step = 5});
+    EXPECT_TRUE(rep.completed());
+    EXPECT_EQ(seen, (std::vector<std::uint64_t>{5, 6, 8, 10, 11}));
+    EXPECT_EQ(times.front(), 0.1 * 5.0);
+    EXPECT_EQ(times.back(), 0.1 * 11.0);
+    EXPECT_EQ(rep.stats.steps, 6u);
+    eci::integrate_n_steps(st, model, y, 0.0, 0.1, 6, eci::no_observer{}, {.first_step = 5});
+    EXPECT_EQ(x, y);
+    tw_state z = fig5;
+    EXPECT_THROW(eci::run(st, model, z, eci::run_span::until(1.0, 0.1), eci::no_observer{}, {.first_step = 5}),
+                 std::invalid_argument);
+}
+
 TEST(Run, ObserverMaySeeTheMonitor) {
     const eci::three_wave model;
     tw_state x = fig5;
