@@ -486,7 +486,9 @@ solve_report run_adaptive_on(St& stepper, F& f, S& x, const run_config& given, S
         };
         bool steps_seen = false;
         if constexpr (requires { sink.observes_steps(); }) steps_seen = sink.observes_steps();
-        detail::polled_stepper<St, decltype(poll)> st{stepper};
+        // The stepper runs inside a polled_stepper: moved in, and moved back when the run ends (also when it throws),
+        // so that its buffers exist once, not twice, during the run and at its end.
+        detail::polled_stepper<St, decltype(poll)> st{std::move(stepper)};
         st.poll = &poll;
         adaptive_stats stats;
         auto run = [&]() -> adaptive_stats {
@@ -499,8 +501,8 @@ solve_report run_adaptive_on(St& stepper, F& f, S& x, const run_config& given, S
         };
         struct give_back {  // the stepper as the run left it, also when the run throws
             St& to;
-            const St& from;
-            ~give_back() { to = from; }
+            St& from;
+            ~give_back() { to = std::move(from); }
         } back{stepper, st};
         try {
             stats = run();
