@@ -437,6 +437,13 @@ inline std::optional<run_config> resolved_config(const run_config& requested) {
     return resolved;
 }
 
+/// Throws invariant_overflowed (at t) if the run stops on an overflowing invariant and one has overflowed.
+template <class Monitor>
+void stop_if_overflowed(const run_config& cfg, const Monitor& monitor, double t) {
+    if (!cfg.stop_on_invariant_overflow) return;
+    if (const auto j = monitor.overflowed()) throw invariant_overflowed{t, *j};
+}
+
 /// A monitored invariant that overflowed, as the report's failure.
 template <class Monitor>
 void overflow_failure(solve_report& report, const Monitor& monitor, const invariant_overflowed& e) {
@@ -463,10 +470,7 @@ solve_report run_adaptive_on(St& stepper, F& f, S& x, const run_config& given, S
     const run_config& cfg = chosen ? *chosen : given;
     const double t_end = cfg.end_time();
     constexpr bool has_progress = requires(double t, std::uint64_t i) { sink.progress(t, i); };
-    auto check_overflow = [&](double t) {
-        if (!cfg.stop_on_invariant_overflow) return;
-        if (const auto j = monitor.overflowed()) throw detail::invariant_overflowed{t, *j};
-    };
+    auto check_overflow = [&](double t) { stop_if_overflowed(cfg, monitor, t); };
     try {
         // Output times: the requested ones, then t_end (run to, not output) if they stop short of it.
         std::vector<double> times = cfg.times;
@@ -536,10 +540,7 @@ solve_report run_fixed_on(St& stepper, F& f, S& x, const run_config& cfg, Sink& 
     auto fail = [&](run_failure_kind kind, double t, std::size_t component, double dt, std::string message) {
         report.failure = run_failure{kind, t, component, dt, std::move(message), std::nullopt, rejection::step_failed};
     };
-    auto check_overflow = [&](double t) {
-        if (!cfg.stop_on_invariant_overflow) return;
-        if (const auto j = monitor.overflowed()) throw detail::invariant_overflowed{t, *j};
-    };
+    auto check_overflow = [&](double t) { stop_if_overflowed(cfg, monitor, t); };
     try {
         const run_span span = cfg.steps ? run_span::n_steps(cfg.first_step + *cfg.steps, cfg.dt, cfg.t0)
                                         : run_span::until(cfg.t_end, cfg.dt, cfg.t0);
@@ -716,8 +717,7 @@ solve_report run(St& stepper, const Model& model, typename Model::state_type& x,
         cfg.t_end = span.t_end;
     else
         cfg.steps = span.steps;
-    if (opt.first_step != 0 && span.to_end_time) throw std::invalid_argument("first_step is for integrate_n_steps");
-    cfg.first_step = opt.first_step;  // steps first_step + 1 .. first_step + span.steps of the grid (a restart)
+    cfg.first_step = opt.first_step;  // check_config refuses it with an end time  // steps first_step + 1 .. first_step + span.steps of the grid (a restart)
     cfg.every = opt.every;
     cfg.max_halvings = opt.max_halvings;
     cfg.max_substeps = opt.max_substeps;
