@@ -660,15 +660,40 @@ class radicand_remedy {
     // psi_k <- psi_k sqrt(1 + s_k), s_k = sum_j c_j w_jk, written psi_k + psi_k h_k with h = sqrt(1 + s) - 1 so that
     // a tiny s is not lost in 1 + s. For |s| <= 1e-4 (the usual case: s ~ defect / invariant) h is its Taylor
     // series to s^4, whose remainder (< 0.03 s^5) is below eps h: no square root, and a loop that vectorizes.
+    // The factor h is formed once per element (a complex mode's two parts share s_k) and the loop runs over
+    // elements, so that with two invariants it vectorizes: the rescale is a whole pass over the state on every
+    // remedied step (most steps of turbulence), and per real unknown with the weights indexed i >> 1 it did not.
+    // The operations per unknown are the ones above, so the bits are too.
     template <std::size_t Per>
     void rescale(double* o, std::size_t n, const std::array<double, max_invariants>& c) const {
-        constexpr std::size_t shift = Per == 2 ? 1 : 0;
         if (s_bound_ <= 1e-4) {
-            for_each_factor<shift>(n, c, [&](std::size_t i, double s) {
-                o[i] += o[i] * (s * (0.5 + s * (-0.125 + s * (0.0625 - s * 0.0390625))));
-            });
+            for_each_element_factor<Per>(n, c, [](double s) {
+                return s * (0.5 + s * (-0.125 + s * (0.0625 - s * 0.0390625)));
+            }, o);
         } else {
-            for_each_factor<shift>(n, c, [&](std::size_t i, double s) { o[i] += o[i] * (s / (1.0 + std::sqrt(1.0 + s))); });
+            for_each_element_factor<Per>(n, c, [](double s) { return s / (1.0 + std::sqrt(1.0 + s)); }, o);
+        }
+    }
+
+    // o_i += o_i h(s_e) for every real unknown i of element e, s_e = sum_j c_j w_je.
+    template <std::size_t Per, class H>
+    void for_each_element_factor(std::size_t n, const std::array<double, max_invariants>& c, H&& h, double* o) const {
+        const std::size_t m = weights_.size(), ne = n / Per;
+        if (m == 2) {  // the common case (energy and enstrophy)
+            const double* w0 = weights_[0].data();
+            const double* w1 = weights_[1].data();
+            const double c0 = c[0], c1 = c[1];
+            for (std::size_t e = 0; e < ne; ++e) {
+                const double f = h(c0 * w0[e] + c1 * w1[e]);
+                for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] += o[e * Per + p] * f;
+            }
+            return;
+        }
+        for (std::size_t e = 0; e < ne; ++e) {
+            double s = 0.0;
+            for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][e];
+            const double f = h(s);
+            for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] += o[e * Per + p] * f;
         }
     }
 
