@@ -1,4 +1,4 @@
-// Adaptive methods against Boost.Odeint (issue 10): work-precision (end-time error and invariant error against
+// Adaptive methods against Boost.Odeint: work-precision (end-time error and invariant error against
 // RHS evaluations and CPU time) on four models, per-step cost C-DP54 / DP54 on a large n-wave system, and the
 // long-run round-off of compensated xi. Usage:
 //   eci_bench_adaptive <quick 0|1> <csv file> [cost modes N, 0 = skip] [long-run steps, 0 = skip]

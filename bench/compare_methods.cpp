@@ -1,4 +1,4 @@
-// Every way to keep invariants, head to head (issue 12): eci's transformation method, relaxation RK (RRK, IDT,
+// Every way to keep invariants, head to head: eci's transformation method, relaxation RK (RRK, IDT,
 // multiple relaxation), orthogonal projection and symplectic splittings, with RK4 as the baseline, on the field's
 // test problems. Usage: eci_bench_compare_methods <quick: 0|1> <csv file> <markdown file>.
 // The CSV holds a work-precision sweep (steps doubling); the markdown one table per problem at its default step,

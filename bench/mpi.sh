@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# The spectral core on MPI (issue 23), side by side: builds eci_bench_mpi_step (ECI_MPI=ON, Release) and, at each N,
+# The spectral core on MPI, side by side: builds eci_bench_mpi_step (ECI_MPI=ON, Release) and, at each N,
 # times a C-RK4 and an RK4 step of 2-D Navier-Stokes on 1 process (also the serial grid in the same process) with
 # 1 and 2 threads, and on 2 processes of 1 thread (the transforms, and the all-to-alls of the retained columns inside
-# them, timed too; also with Open MPI's single-copy mechanism off, layout=mpi-nocma); then prints the ratios the issue asks for and a model of larger runs (bench/mpi_model.py). Wall
+# them, timed too; also with Open MPI's single-copy mechanism off, layout=mpi-nocma); then prints the ratios (2 ranks / 1 rank, MPI / serial) and a model of larger runs (bench/mpi_model.py). Wall
 # time, the fastest of the repetitions (each the slowest rank's); run it on an otherwise idle machine.
 # Usage: bench/mpi.sh [--sizes 1024,2048] [--reps 5] [--build-dir DIR] [--out DIR]
 set -euo pipefail

@@ -20,7 +20,7 @@ void measure(const char* method, const char* label, const eci::ns2d_params& p, i
     eci::navier_stokes_2d m(p);
     state w = m.random_field(p.n / 16.0, 0.5, 1);
     const double dt = 0.5 * (2.0 * std::numbers::pi / p.n) / m.max_velocity(w);  // CFL 0.5
-    St st;  // ns2d_step hands the model's invariant weights to the stepper (the remedy of issue 9 needs them)
+    St st;  // ns2d_step hands the model's invariant weights to the stepper (the negative-radicand remedy needs them)
     eci::run_stats stats;
     eci::ns2d_budget b;
     const double e0 = m.energy(w), z0 = m.enstrophy(w);

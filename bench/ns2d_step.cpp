@@ -38,7 +38,7 @@ double seconds_since(double t) { return now() - t; }
 
 // One attempt of the stepper (success or not: a failed attempt costs the same work), the fastest of `reps`.
 // The state is restored before each attempt, so every method steps the same field at CFL 0.5.
-// update: which finishing pass a conservative stepper takes (issue 19): 0 its default, 1 the paper's update, 2 the
+// update: which finishing pass a conservative stepper takes: 0 its default, 1 the paper's update, 2 the
 // conditioned update. The model's invariants are declared to it, as ns2d_step (the CLI's driver) does.
 template <class St>
 double step_time(eci::navier_stokes_2d& m, const state& w0, double dt, int reps, int update = 0) {
@@ -138,7 +138,7 @@ int main(int argc, char** argv) {
                 p.n, p.threads, use_cpu_clock ? "cpu" : "wall", t_rk4, t_crk4, t_pc, t_cpc, t_fft, t_rhs,
                 t_crk4 / t_rk4, t_cpc / t_pc, t_crk4 / t_fft, t_rhs / t_fft, dt, t_one, t_fft / 4.0 / t_one,
                 m.transforms_per_rhs());
-    // Issue 19: the conservative steppers' two finishing passes side by side (c_rk4 and c_pc above are the default).
+    // The conservative steppers' two finishing passes side by side (c_rk4 and c_pc above are the default).
     std::printf("ns2d-update N=%d c_rk4_paper/rk4=%.4f c_rk4_conditioned/rk4=%.4f c_pc_paper/pc=%.4f "
                 "c_pc_conditioned/pc=%.4f\n",
                 p.n, t_crk4_paper / t_rk4, t_crk4_cond / t_rk4, t_cpc_paper / t_pc, t_cpc_cond / t_pc);

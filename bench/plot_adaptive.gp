@@ -1,4 +1,4 @@
-# Work-precision figure of one model from adaptive.cpp's CSV (issue 10): eci's adaptive pairs against odeint's,
+# Work-precision figure of one model from adaptive.cpp's CSV: eci's adaptive pairs against odeint's,
 # error at t_end and invariant error against RHS evaluations and CPU time. gnuplot -e "csv='adaptive.csv'; model='rigid_body'; out='dir/adaptive_rigid_body'"
 set datafile separator ","
 methods = "c-dp54 dp54 c-f78 dopri5 dopri5_dense fehlberg78"

@@ -1,4 +1,4 @@
-// The cost of exact conservation at the step sizes users choose (issue 9): C-PC / PC and C-RK4 / RK4 on the realistic
+// The cost of exact conservation at the step sizes users choose: C-PC / PC and C-RK4 / RK4 on the realistic
 // n-wave system, in right-hand-side evaluations and CPU time, with the remedy (default) and with halving (before).
 // Usage: eci_bench_remedy [--sizes=N1,N2,...] [--steps=default,cfl,tiny] [--pairs=P] [--before-pairs=Q]
 //                         [--csv=FILE] [--probe-only]
@@ -56,8 +56,8 @@ struct runner {
     std::uint64_t evals = 0, steps = 0;
     eci::run_stats stats{};
 
-    // paper_update: the paper's per-unknown update with the issue-9 remedy instead of the default conditioned
-    // update (issue 19), for the before / after rows.
+    // paper_update: the paper's per-unknown update with the negative-radicand remedy instead of the default
+    // conditioned update, for the before / after rows.
     runner(const model* mod, const state& x0, double step, bool remedy, bool paper_update = false)
         : m(mod), dt(step), x(x0) {
         if constexpr (requires { stepper.remedy; }) {
@@ -233,7 +233,7 @@ int main(int argc, char** argv) {
             };
             compare.template operator()<eci::c_pc<state>, eci::pc<state>>("C-PC / PC", true, pairs, true);
             compare.template operator()<eci::c_rk4<state>, eci::rk4<state>>("C-RK4 / RK4", true, pairs, true);
-            // Issue 19: the paper's update (per-unknown square roots, remedy for isolated failures) beside the
+            // The paper's update (per-unknown square roots, remedy for isolated failures) beside the
             // default conditioned update above, in the same run.
             compare.template operator()<eci::c_pc<state>, eci::pc<state>>("C-PC / PC", true, pairs, false, true);
             compare.template operator()<eci::c_rk4<state>, eci::rk4<state>>("C-RK4 / RK4", true, pairs, false, true);

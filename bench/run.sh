@@ -5,7 +5,7 @@
 #   --quick  smaller large systems and fewer repetitions (under two minutes)
 #   --smoke  every program for a token run (CI: keeps them compiling and running, under a minute); numbers meaningless
 #   --ns2d   also the 2-D Navier-Stokes benchmarks (N = 1024 steps, threads, N = 128..4096 scaling x 3, radicands
-#            at N = 256 and 1024, NumPy; ~30 min) and eci against the pyFFTW script (issue 20: N = 256..4096, 1 and 2
+#            at N = 256 and 1024, NumPy; ~30 min) and eci against the pyFFTW script (N = 256..4096, 1 and 2
 #            threads; --quick 256..1024; --smoke only its check at N = 32; skipped if python3-pyfftw is missing)
 #   --pyfftw-sizes LIST  the N of the pyFFTW comparison, e.g. 256,512,1024
 #   --long   also the 1e7-step round-off runs of compensated C-RK4 / C-DP54 (adaptive bench; minutes)
@@ -126,7 +126,7 @@ echo "negative radicands at the users' step sizes (realistic n-wave, 20 triads/m
 echo "paired steps (median of pair ratios)); targets C-PC/PC and C-RK4/RK4 <= 1.10 in rhs and cpu, no halvings:"
 tee -a "$out/table.txt" < "$out/remedy.txt"
 
-# Python (issue 13): a built-in model through eci.solve against `eci run` (target <= 1.05), and the overhead per
+# Python: a built-in model through eci.solve against `eci run` (target <= 1.05), and the overhead per
 # right-hand-side call of a Python fun against solve_ivp's (target <= 1); each side by side in one process.
 echo "== Python: eci.solve against eci run, and per-call overhead against solve_ivp" >&2
 case $mode in
@@ -151,7 +151,7 @@ if [ "$mode" = smoke ]; then echo "(smoke run: every program ran once, at token 
 grep -h "^wp " "$out/work_precision.txt" | grep -v "lvk=" > "$out/work_precision_summary.txt" || true
 
 if [ $ns2d = 1 ]; then
-  # 2-D Navier-Stokes (issue 11): every ratio measured side by side in one process; the wisdom file keeps plans.
+  # 2-D Navier-Stokes: every ratio measured side by side in one process; the wisdom file keeps plans.
   wisdom="$out/fftw-wisdom"
   case $mode in
     full)  sizes="128 256 512 1024 2048 4096"; big=1024; reps=5; rad="256:100 1024:50"; scal_runs=3 ;;
@@ -177,7 +177,7 @@ if [ $ns2d = 1 ]; then
     /usr/bin/python3 "$repo/bench/ns2d_numpy.py" check "$apps/eci" || echo "ns2d-numpy check FAILED"
     [ "$mode" = smoke ] || /usr/bin/python3 "$repo/bench/ns2d_numpy.py" time "$apps/eci"
   } > "$out/ns2d_numpy.txt"
-  # Issue 20: a careful pyFFTW script (both forms of the nonlinear term) against eci, side by side; its check runs
+  # A careful pyFFTW script (both forms of the nonlinear term) against eci, side by side; its check runs
   # in every mode, the timing outside --smoke. Without python3-pyfftw a line says so and nothing fails.
   case $mode in
     full)  pf_sizes=256,512,1024,2048,4096; pf_rounds=3; pf_reps=5; pf_check="--n 128 --steps 100" ;;

@@ -25,7 +25,7 @@ struct run_settings {
     std::optional<double> atol;          ///< absolute tolerance (adaptive); unset means rtol's value
     std::optional<double> output_dt;     ///< CSV rows at multiples of this time (and the end) instead of steps
     /// Conservative RK methods at fixed steps on large systems (n-wave, the spectral models): "conditioned" (the
-    /// default, when empty) or "paper", the paper's update bit for bit (issue 19; docs/methods.md). Empty: not
+    /// default, when empty) or "paper", the paper's update bit for bit (docs/methods.md). Empty: not
     /// given (a spectral run on more than one MPI process then takes "paper").
     std::string update;
 };

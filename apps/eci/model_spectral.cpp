@@ -307,7 +307,7 @@ int spectral_command::run(const run_settings& settings) {
 }
 
 int spectral_command::run_spread(const run_settings& settings) {
-    // ---- options this command has no use for are refused, not ignored (issue 21, defect 10)
+    // ---- options this command has no use for are refused, not ignored
     if (settings.rtol || settings.atol)
         throw bad_input(name_ + " runs fixed steps (the spectral methods have no error estimate): --rtol and --atol "
                                 "do not apply; give --dt or --cfl");
@@ -394,8 +394,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (given_whole("threads")) p.threads = int(std::min<std::uint64_t>(*given_whole("threads"), 1000));
     p.measure = restart ? ck.params.measure : !*spec("fftw-estimate").flag;
     {
-        // A grid that cannot fit is refused now, with its size, not as std::bad_alloc after planning (issue 21,
-        // defect 15). At least 10 copies of FFTW's half plane: the measured peak of C-RK4 is 9.6 at N = 4096
+        // A grid that cannot fit is refused now, with its size, not as std::bad_alloc after planning. At least
+        // 10 copies of FFTW's half plane: the measured peak of C-RK4 is 9.6 at N = 4096
         // (docs/benchmarks.md); methods with more stages need more, so this refuses only what cannot run.
         const double need = 10.0 * 16.0 * double(p.n) * double(p.n / 2 + 1);
         const double have = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGE_SIZE));
@@ -409,7 +409,7 @@ int spectral_command::run_spread(const run_settings& settings) {
                             " GiB of memory, more than this machine's " + gib(have) + " GiB");
     }
     // The wisdom file is read and written here, through the CLI's checked output path, not opened by FFTW (a FIFO
-    // there would hang it, a device be replaced; a refused run must not create it: issue 21, defects 3, 4, 7).
+    // there would hang it, a device be replaced; a refused run must not create it).
     const std::string wisdom_option = given_text("fftw-wisdom").value_or("");
     const bool default_wisdom = wisdom_option.empty();
     std::string wisdom_path = wisdom_option == "none" ? std::string() : default_wisdom ? default_wisdom_file() : wisdom_option;
@@ -448,7 +448,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (settings.every == 0) throw bad_input("--every must be at least 1");
     check_distinct_outputs(settings);
 
-    // ---- every file the run will write, checked before any work (issue 21, defects 3, 4, 6, 12): a regular file or
+    // ---- every file the run will write, checked before any work: a regular file or
     // a symlink to one (written through), in a directory where a file can be created, no two outputs the same file;
     // FIFOs, devices, directories and read-only files are refused, never replaced
     namespace fs = std::filesystem;
@@ -607,7 +607,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     }
     {
         // E and Z below the smallest normal double lose their precision to subnormal arithmetic (and squares of
-        // the modes underflow): refuse, as the other models' initial-state check does (issue 21, defect 14)
+        // the modes underflow): refuse, as the other models' initial-state check does
         const double e = model.energy(w), z = model.enstrophy(w);
         if ((e != 0.0 && !std::isnormal(e)) || (z != 0.0 && !std::isnormal(z)) || !std::isfinite(e) ||
             !std::isfinite(z))
@@ -642,7 +642,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     // ---- outputs: opened (or their directories created) only now that the input is known to be good
     // The snapshot directory is created now if missing (and removed again if the run fails while it is empty); the
     // snapshots go into a staging directory inside it and are moved in only when the run has succeeded, so a run
-    // that blows up or is stopped creates and replaces none of them (issue 21, defect 7).
+    // that blows up or is stopped creates and replaces none of them.
     std::optional<created_directory> created_snapshot_dir;
     std::optional<staging_dir> staged_snapshots;
     std::optional<output_file> csv_file, json_file;
@@ -900,7 +900,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     cfg.every = settings.every;
     cfg.max_halvings = 40;
     cfg.max_substeps = std::numeric_limits<std::uint64_t>::max();
-    cfg.update = update == "paper" ? update_kind::paper : update_kind::conditioned;  // --update (issue 19)
+    cfg.update = update == "paper" ? update_kind::paper : update_kind::conditioned;  // --update (default: conditioned)
     cfg.stop_on_invariant_overflow = false;  // a blow-up is the sink's, with its own message
     cfg.stop_between_attempts = &stop_requested;  // (collective on MPI)
     // A signal during the set-up: no step was made, so there is nothing for a checkpoint to keep.

@@ -234,7 +234,7 @@ std::vector<double> read_block(hid_t file, const char* name, const hsize_t (&sta
 }
 
 // The dataset's shape is checked against `expected` (when given) before anything is allocated or read: a small
-// file declaring a huge dataset is refused, not read (issue 21, defect 11). read false: the shape alone.
+// file declaring a huge dataset is refused, not read. read false: the shape alone.
 std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize_t>& dims,
                                  const std::vector<hsize_t>& expected = {}, bool read = true) {
     if (H5Lexists(file, name, H5P_DEFAULT) <= 0) throw std::runtime_error(std::string("dataset '") + name + "' missing");
@@ -533,7 +533,7 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     ns2d_checkpoint c;
     ns2d_params& p = c.params;
     p.equation = equation;
-    // Whole numbers are checked before they are narrowed: N = 2^32 + 16 is not 16 (issue 21, defect 9).
+    // Whole numbers are checked before they are narrowed: N = 2^32 + 16 is not 16.
     auto whole = [&](const char* name, std::int64_t lo, std::int64_t hi) {
         const std::int64_t v = get<std::int64_t>(f, name);
         if (v < lo || v > hi)
@@ -541,15 +541,15 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
                                      std::to_string(lo) + ".." + std::to_string(hi));
         return int(v);
     };
-    // written since the spectral core (issue 20); a Navier-Stokes checkpoint of before has none of them
+    // written since the spectral core; Navier-Stokes checkpoints written by older versions have none of them
     if (H5Aexists(f, "beta") > 0) p.beta = get<double>(f, "beta");
     if (H5Aexists(f, "deformation") > 0) p.deformation = get<double>(f, "deformation");
     if (H5Aexists(f, "hypo_nu") > 0) p.hypo_nu = get<double>(f, "hypo_nu");
     if (H5Aexists(f, "hypo_p") > 0) p.hypo_p = whole("hypo_p", 1, 16);
-    // how the run planned its transforms (before issue 20 always FFTW_MEASURE unless --fftw-estimate, not recorded)
+    // how the run planned its transforms (older checkpoints lack it: always FFTW_MEASURE unless --fftw-estimate)
     if (H5Aexists(f, "fftw_measure") > 0) p.measure = whole("fftw_measure", 0, 1) == 1;
     p.n = whole("N", 8, 65536);
-    if (n > 0 && p.n != n)  // before the state is read: it may be gigabytes (issue 21, defect 11)
+    if (n > 0 && p.n != n)  // before the state is read: it may be gigabytes
         throw std::runtime_error(path + " holds a " + std::to_string(p.n) + "^2 grid, not N = " + std::to_string(n));
     p.nu = get<double>(f, "nu");
     p.hyper_nu = get<double>(f, "hyper_nu");
@@ -585,7 +585,7 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     c.max_energy_residual = get<double>(f, "max_energy_residual");
     c.max_enstrophy_residual = get<double>(f, "max_enstrophy_residual");
     // The numbers a continued run computes with: a frozen or backward clock, or a non-finite budget, is a corrupt
-    // file, not a run (issue 21, defect 9).
+    // file, not a run.
     if (!(std::isfinite(c.dt) && c.dt > 0.0)) throw std::runtime_error(path + ": dt must be a positive number");
     if (c.step > c.total_steps) throw std::runtime_error(path + ": step is beyond total_steps");
     for (const auto& [name, v] : {std::pair<const char*, double>{"energy0", c.energy0},

@@ -75,7 +75,7 @@ void check_distinct_outputs(const run_settings& settings) {
     if (settings.output.empty() || settings.summary_json.empty()) return;
     if (settings.output == "-" && settings.summary_json == "-")
         throw bad_input("--output and --summary-json cannot both be standard output");
-    // symlinks followed, dangling ones too (issue 21, defect 12), and hard links
+    // symlinks followed, dangling ones too, and hard links
     check_distinct_files({{"--output", settings.output}, {"--summary-json", settings.summary_json}});
 }
 

@@ -1,4 +1,4 @@
-// The spectral library from a user's own MPI program (issue 23; built with -DECI_MPI=ON): the program owns MPI and
+// The spectral library from a user's own MPI program (built with -DECI_MPI=ON): the program owns MPI and
 // hands eci a communicator. Here the world is split in two and each half runs its own decaying-turbulence case (a
 // different seed), spread over its half's processes, with C-RK4: the communicator is all eci needs to know.
 //

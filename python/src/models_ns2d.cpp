@@ -145,7 +145,7 @@ class ns2d_object : public model_base {
         if (t_eval) cfg.times = *t_eval;
         cfg.max_halvings = max_halvings;
         cfg.max_substeps = std::numeric_limits<std::uint64_t>::max();
-        if (settings.contains("update") && settings["update"].cast<std::string>() == "paper")  // (issue 19)
+        if (settings.contains("update") && settings["update"].cast<std::string>() == "paper")  // else conditioned
             cfg.update = update_kind::paper;
         cfg.stop_on_invariant_overflow = false;
         cfg.stop_between_attempts = &python_interrupt_requested;

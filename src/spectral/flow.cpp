@@ -201,7 +201,7 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
                      (p.hypo_nu != 0.0 ? p.hypo_nu * std::pow(k2, -p.hypo_p) : 0.0));
         const double c = e.dispersion ? (d.disp[i] = e.dispersion(p, x, y)) : 0.0;
         if (c != 0.0) d.dispersive = true;
-        // a coefficient that overflows is a parameter too large for this grid, not a failed step (issue 21, 14)
+        // a coefficient that overflows is a parameter too large for this grid, not a failed step
         require(std::isfinite(d.lin[i]) && std::isfinite(c) && std::isfinite(d.a[i]),
                 "the linear terms overflow at k = (" + std::to_string(kx(i)) + ", " + std::to_string(ky(i)) + ")" +
                     " (viscosity, hyperviscosity, hypoviscosity, drag or beta too large for N = " +

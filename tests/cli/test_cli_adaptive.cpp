@@ -1,4 +1,4 @@
-// `eci run` with adaptive step control (issue 10): --rtol/--atol, rows at --output-dt times, the new counters in
+// `eci run` with adaptive step control: --rtol/--atol, rows at --output-dt times, the new counters in
 // --summary-json, and bad input refused with exit status 2 and no output file.
 #include <gtest/gtest.h>
 

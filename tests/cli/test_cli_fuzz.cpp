@@ -145,7 +145,7 @@ fuzz_case make_case(generator& g) {
         // Small grids (odd and tiny ones are bad input); no wisdom file outside the scratch directory.
         opt("--N", g.chance(0.9) ? std::to_string(2 * (4 + g.below(13))) : g.count(40), 1.0);
         opt("--fftw-estimate", "", 1.0);
-        // The files written by name (issue 21): good names, names of other outputs, missing directories
+        // The files written by name: good names, names of other outputs, missing directories
         opt("--fftw-wisdom", g.chance(0.7) ? "none" : g.pick<std::string>({"w", "o.csv", "ck.h5", "nodir/w"}), 1.0);
         opt("--checkpoint", g.pick<std::string>({"ck.h5", "o.csv", "s.json", "nodir/ck.h5", "snaps"}), 0.3);
         opt("--checkpoint-every", g.count(20), 0.2);

@@ -1,4 +1,4 @@
-// `eci run` with the relaxation, projection and symplectic methods and the comparison problems (issue 12): each
+// `eci run` with the relaxation, projection and symplectic methods and the comparison problems: each
 // method is offered where the model has what it needs, keeps what it promises, and is refused elsewhere.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// `eci run` reads every model from its own description (issue 8): the defaults --help prints are the model's,
+// `eci run` reads every model from its own description: the defaults --help prints are the model's,
 // the methods `eci list` shows are the registry's computation, presets run the paper's set-ups, and the options
 // given override them.
 #include <gtest/gtest.h>

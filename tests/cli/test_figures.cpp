@@ -163,7 +163,7 @@ void check_fig5_single_step_error_is_third_order(const fs::path& dir_) {
         }
         const double n = (m * sxy - sx * sy) / (m * sxx - sx * sx);
         const double a = std::exp((sy - n * sx) / m);
-        // A second-order method makes a local error of order tau^3 (issue 4: within 0.1).
+        // A second-order method makes a local error of order tau^3 (checked within 0.1).
         EXPECT_NEAR(n, 3.0, 0.1) << method;
         EXPECT_NEAR(summary.at(method + "_fit_n"), n, 1e-9) << method;
         EXPECT_NEAR(summary.at(method + "_fit_A"), a, 1e-9 * a) << method;
@@ -253,7 +253,7 @@ TEST(figures_all, reproduces_the_papers_figures_and_key_numbers) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     ASSERT_EQ(r.status, 0) << r.out << r.err;
     EXPECT_EQ(r.err, "");  // gnuplot is installed here: no warning, no gnuplot complaint
-    // The acceptance criterion of issue 4: all nine figures in under a minute on the 2-core machine.
+    // The acceptance criterion: all nine figures in under a minute on the 2-core machine.
     EXPECT_LT(seconds, 60.0);
     EXPECT_NE(r.out.find("Key numbers"), std::string::npos);
     const std::vector<std::pair<const char*, void (*)(const fs::path&)>> checks{

@@ -28,7 +28,7 @@ ECI, MPIEXEC, CASE = sys.argv[1], sys.argv[2], sys.argv[3]
 EPS = np.finfo(float).eps
 ENV = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1",
            OMPI_MCA_rmaps_base_oversubscribe="1")
-# The conservative methods take their default update (the conditioned one of issue 19) on any number of processes.
+# The conservative methods take their default update (the conditioned one) on any number of processes.
 BASE = ["--N", "32", "--dt", "0.002", "--fftw-estimate", "--fftw-wisdom", "none"]
 failures = 0
 

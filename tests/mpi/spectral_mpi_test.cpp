@@ -39,7 +39,7 @@ void check(bool ok, const std::string& what) {
     if (!all) all_ok = false;
 }
 
-// The update the conservative steppers take (the conditioned one of issue 19 by default; some checks take the
+// The update the conservative steppers take (the conditioned one by default; some checks take the
 // paper's), spread over processes and on one alike.
 eci::update_kind update_ = eci::update_kind::conditioned;
 template <class Stepper>
@@ -235,7 +235,7 @@ int main(int argc, char** argv) {
                                    num(d_solo) + " <= " + num(bound));
 
         // The library on a communicator of one process (rank 0 alone, at any number of ranks) takes the serial
-        // grid: not spread (the steppers' reductions empty, the conditioned update of issue 19 taken as on one
+        // grid: not spread (the steppers' reductions empty, the conditioned update taken as on one
         // process), the serial layout, and the serial run's state bit for bit, with the default update and with the
         // pruned transforms (which the MPI transforms do not have).
         {

@@ -1,4 +1,4 @@
-// Adaptive, exactly conservative integration (issue 10): order of each embedded pair, the error estimate's
+// Adaptive, exactly conservative integration: order of each embedded pair, the error estimate's
 // scaling, invariants at every tolerance and at dense-output points, tolerance proportionality, rejections by cause.
 #include <gtest/gtest.h>
 
@@ -661,7 +661,7 @@ TEST(CompensatedXi, CarryIsKeptWhenStepTimesDoNotChain) {
 }
 
 // ---------------------------------------------------------------------------------------------------------------
-// Backward time (issue 22): the controller works on the step's size and hands the stepper a negative step. Every
+// Backward time: the controller works on the step's size and hands the stepper a negative step. Every
 // operation of a step with -h on f is the negation of one with +h on the mirrored system g(x, s) = -f(x, -s), and
 // negation is exact, so a backward run is the forward run of the mirror bit for bit: the same states, times and
 // counts. It also returns to the exact solution's state at t = 0 within what the tolerance buys (1e-6 at 1e-9).

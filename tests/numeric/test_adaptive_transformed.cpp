@@ -1,4 +1,4 @@
-// Adaptive conservative DP54 through the invariant-linearizing transforms (issue 10): Kepler with e = 0.9 over
+// Adaptive conservative DP54 through the invariant-linearizing transforms: Kepler with e = 0.9 over
 // 100 orbits keeps H and the Runge-Lenz vector to round-off and does not precess, where odeint's dopri5 at the same
 // tolerance does; Lotka-Volterra keeps H at every tolerance.
 #include <gtest/gtest.h>

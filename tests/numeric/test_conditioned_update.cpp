@@ -1,4 +1,4 @@
-// Issue 19: the conditioned update of the conservative RK engine (conservative_rk.hpp; docs/methods.md "Zero
+// The conditioned update of the conservative RK engine (conservative_rk.hpp; docs/methods.md "Zero
 // crossings without loss of accuracy"). On random n-wave systems, where many unknowns pass near zero in every
 // span, C-RK4 and C-PC keep the conventional method's error and order while energy and enstrophy stay exact; the
 // paper's update (radicand_policy::halve) is unchanged.
@@ -45,10 +45,10 @@ errors compare(std::size_t modes, std::uint64_t seed, double t_end, const std::v
     for (double dt : dts) {
         typename Conservative::template stepper<S> cs, paper;
         typename Conventional::template stepper<S> cv;
-        // the update before issue 19 (per-part square roots; remedy for at most 1 % of the unknowns), printed as
-        // the "before" column of docs/benchmarks.md
+        // the paper's update, the former default (per-part square roots; remedy for at most 1 % of the
+        // unknowns), printed as the "before" column of docs/benchmarks.md
         paper.remedy.update = eci::update_kind::paper;
-        // cs: the default stepper, as integrate_to, the CLI and Python use it (the conditioned update, issue 19)
+        // cs: the default stepper, as integrate_to, the CLI and Python use it (the conditioned update)
         S x = x0, y = x0, z = x0;
         const eci::run_stats s = eci::integrate_to(cs, model, x, 0.0, t_end, dt);
         eci::integrate_to(cv, model, y, 0.0, t_end, dt);

@@ -1,4 +1,4 @@
-// The invariant sets of the models (issue 12) and the new problems' exact solutions: gradients against central
+// The invariant sets of the models and the new problems' exact solutions: gradients against central
 // differences, invariants constant along the exact solutions, and a user's set built from lambdas.
 #include <gtest/gtest.h>
 

@@ -1,4 +1,4 @@
-// Orthogonal projection and the symplectic splittings (issue 12): order, conservation, the projection's failure
+// Orthogonal projection and the symplectic splittings: order, conservation, the projection's failure
 // path, agreement with Boost.Odeint's symplectic_rkn_sb3a_mclachlan, and Kepler e = 0.5's error growth exponents.
 #include <gtest/gtest.h>
 

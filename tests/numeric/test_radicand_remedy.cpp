@@ -1,4 +1,4 @@
-// The negative-radicand remedy (issue 9): at steps where many components fail every step, energy and enstrophy
+// The negative-radicand remedy: at steps where many components fail every step, energy and enstrophy
 // stay exact to round-off without halvings, C-PC and C-RK4 keep orders 2 and 4, and the fallback still halves.
 #include <gtest/gtest.h>
 

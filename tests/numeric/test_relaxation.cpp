@@ -1,4 +1,4 @@
-// Relaxation Runge-Kutta (issue 12): order by step halving against exact solutions, conservation to round-off,
+// Relaxation Runge-Kutta: order by step halving against exact solutions, conservation to round-off,
 // the rigid body's published contrast (one invariant relaxed drifts the other), and the rejected-step paths.
 #include <gtest/gtest.h>
 

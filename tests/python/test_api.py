@@ -24,7 +24,7 @@ def decay(t, y):
 
 
 # Methods that need more than a right-hand side: Kahan (a Jacobian), relaxation and projection (the model's
-# invariants), symplectic splittings (a separable Hamiltonian); they run on the models that offer it (issue 12).
+# invariants), symplectic splittings (a separable Hamiltonian); they run on the models that offer it.
 MODEL_ONLY = {"kahan", "stormer-verlet", "sb3a"} | {
     m.name for m in eci.methods() if m.name.split("-")[0] in ("rrk", "idt", "mrrk", "projected")}
 

@@ -282,7 +282,7 @@ def test_ctrl_c_interrupts_a_long_run(kind, tmp_path):
     lambda: M.NWave(modes=True),
 ])
 def test_a_bool_is_not_a_number(make):
-    # issue 21, defect 16: True read as 1 (a tolerance of 1.0, one mode) is a mistake, refused by name
+    # True read as 1 (a tolerance of 1.0, one mode) is a mistake, refused by name
     with pytest.raises(TypeError, match="not bool"):
         make()
 

@@ -52,7 +52,7 @@ def test_inviscid_c_rk4_keeps_energy_and_enstrophy_where_rk4_drifts():
 
 
 def test_update_keyword_conditioned_by_default_and_paper_on_request():
-    # issue 19: c-rk4 takes the conditioned update by default (at RK4's error on random phases), update="paper" the
+    # c-rk4 takes the conditioned update by default (at RK4's error on random phases), update="paper" the
     # paper's; N = 32 inviscid, t = 0.05 in 32 steps against 512 RK4 steps. Both keep E and Z to 8 eps sqrt(steps)
     # (each step rounds every sum once, as in tests/spectral).
     m = NS(n=32)

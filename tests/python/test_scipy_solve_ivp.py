@@ -68,8 +68,8 @@ for variant, names in NAMES.items():
 
 
 def test_case_count():
-    # test_ivp's 13 functions that call solve_ivp with an explicit method, times their explicit methods (31: the
-    # cases issue 22 counted), for each of the two mappings
+    # test_ivp's 13 functions that call solve_ivp with an explicit method, times their explicit methods (31 cases),
+    # for each of the two mappings
     assert len(CASES) == 2 * 31, len(CASES)
 
 

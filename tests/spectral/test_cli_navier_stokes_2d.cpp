@@ -76,7 +76,8 @@ TEST(CliNavierStokes2d, RestartIsBitIdentical) {
     EXPECT_NE(0, std::memcmp(full.data(), half.data(), full.size() * sizeof(double)));
 }
 
-// Issue 19, as a user meets it: `eci run navier-stokes-2d --method c-rk4` with no other option is at RK4's error.
+// The conditioned update as a user meets it: `eci run navier-stokes-2d --method c-rk4` with no other option is
+// at RK4's error.
 // N = 64, the CLI's random field (k_p 8), nu 2e-3, to t = 0.1 in 128 steps (CFL ~0.02), against 2048 RK4 steps of
 // the same run (RK4's own error there is ~1e-13 of the error measured). The paper's update (--update paper) was
 // 2.4-8x RK4's error on such runs (docs/benchmarks.md), so the check fails if the default loses the conditioned
@@ -248,7 +249,7 @@ TEST(CliNavierStokes2d, SignalAtStartUpEndsTheRunLeavingNothingPartial) {
         }
 }
 
-// Ctrl-C during steps longer than the signal handler's default allowance (0.3 s of CPU; issue 21, defect 2): at
+// Ctrl-C during steps longer than the signal handler's default allowance (0.3 s of CPU): at
 // N = 2048 one C-RK4 step takes about a second, and the run must still finish the step, write the checkpoint
 // and exit 130 (before, the watchdog exited first and the checkpoint was lost in 2 of 3 tries). The checkpoint
 // then continues the run.
@@ -280,7 +281,7 @@ TEST(CliNavierStokes2d, InterruptDuringLongStepsWritesCheckpoint) {
         EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos) << e.path();
 }
 
-// Ctrl-C while gnuplot draws a snapshot (issue 21, defect 5): gnuplot (here a stand-in that never finishes) is
+// Ctrl-C while gnuplot draws a snapshot: gnuplot (here a stand-in that never finishes) is
 // stopped, not orphaned, the run writes its checkpoint and exits 130, and no temporary (script, data) is left.
 TEST(CliNavierStokes2d, InterruptWhileGnuplotDrawsStopsItAndCheckpoints) {
     scratch_dir dir("ns2d-sigint-gnuplot");
@@ -336,7 +337,7 @@ TEST(CliNavierStokes2d, SnapshotsDrawWithTheProgramEciGnuplotNames) {
 }
 
 // A forced exit (a second, different signal during the run) leaves nothing: not the snapshots staged so far, not the
-// snapshot directory the run created (issue 21: it was left behind, empty).
+// snapshot directory the run created (it used to be left behind, empty).
 TEST(CliNavierStokes2d, ForcedExitRemovesTheSnapshotDirectoryItCreated) {
     scratch_dir dir("ns2d-forced");
     const fs::path d = dir.path();
@@ -380,7 +381,7 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--ic " + q + "/ok.h5 --N 32", "grid"},
         {"--dt 0.1 --cfl 0.5", "not both"},
         {"--method c-euler", "not available"},
-        // issue 21: overflowing parameters, subnormal fields, options that do not apply, a restart's contradictions
+        // overflowing parameters, subnormal fields, options that do not apply, a restart's contradictions
         {"--nu 1e308", "overflow"},
         {"--hyper-nu 1e300 --hyper-p 16", "overflow"},
         {"--energy 1e-310", "normal"},
@@ -391,7 +392,7 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--restart " + q + "/ok.h5 --injection-rate 3", "does not match"},
         {"--restart " + q + "/ok.h5 --seed 4", "initial condition"},
         {"--restart " + q + "/ok.h5 --energy 2", "initial condition"},
-        // issue 21, defect 15: the message names the problem
+        // the message names the problem
         {"--N 65536", "GiB of memory"},
         {"--ic " + q, "is a directory"},
         {"--ic " + q + "/fifo", "is a FIFO"},

@@ -1,7 +1,7 @@
-// Issue 21: every file the spectral commands write (checkpoint, snapshots, spectra, pictures, FFTW wisdom) goes
-// through the CLI's one output path. Each class of defect with several members: special files refused or written
-// through (3), no hang on a FIFO or device (4), no temporaries left (5), unwritable or colliding outputs refused
-// before the run (6, 12), failed runs create or replace nothing (7), full disks reported, never committed (1).
+// Every file the spectral commands write (checkpoint, snapshots, spectra, pictures, FFTW wisdom) goes through
+// the CLI's one output path. Each class of defect with several members: special files refused or written
+// through, no hang on a FIFO or device, no temporaries left, unwritable or colliding outputs refused before the
+// run, failed runs create or replace nothing, full disks reported, never committed.
 #ifdef ECI_CLI_PATH
 
 #include <gtest/gtest.h>
@@ -92,7 +92,7 @@ std::string describe(const fs::path& p) {
     return d;
 }
 
-// Defects 3 and 4: a FIFO, a device, a directory, a read-only file or a link to a FIFO as --checkpoint,
+// Special files, no hang: a FIFO, a device, a directory, a read-only file or a link to a FIFO as --checkpoint,
 // --fftw-wisdom or an existing snapshot name: one line, exit 2, before any work, no hang, the file untouched.
 TEST(CliSpectralOutputs, SpecialFilesAreRefusedBeforeAnyWorkNeverReplaced) {
     work_dir w("spectral-special");
@@ -131,7 +131,7 @@ TEST(CliSpectralOutputs, SpecialFilesAreRefusedBeforeAnyWorkNeverReplaced) {
     EXPECT_GE(tried, 15);
 }
 
-// Defect 3: a symlink to a regular file is written through: the link stays, its target gets the new content.
+// A symlink to a regular file is written through: the link stays, its target gets the new content.
 TEST(CliSpectralOutputs, SymlinksToRegularFilesAreWrittenThrough) {
     work_dir w("spectral-symlink");
     fs::create_directory(w.file("elsewhere"));
@@ -157,7 +157,7 @@ TEST(CliSpectralOutputs, SymlinksToRegularFilesAreWrittenThrough) {
     EXPECT_EQ(run_in(w, "run navier-stokes-2d --restart ck.h5 --steps 3 --checkpoint ck2.h5").status, 0);
 }
 
-// Defect 6: outputs that cannot be written are refused before the run (the endless run would time out).
+// Outputs that cannot be written are refused before the run (the endless run would time out).
 TEST(CliSpectralOutputs, UnwritableOutputsAreRefusedBeforeTheRun) {
     work_dir w("spectral-unwritable");
     write_text(w.file("plain"), "x\n");
@@ -192,7 +192,7 @@ TEST(CliSpectralOutputs, UnwritableOutputsAreRefusedBeforeTheRun) {
     if (::geteuid() != 0) fs::permissions(w.file("ro"), fs::perms::owner_all);
 }
 
-// Defects 6 and 12: two outputs that are one file, by name, through a symlink, a dangling symlink or a hard link.
+// Colliding outputs: two outputs that are one file, by name, through a symlink, a dangling symlink or a hard link.
 TEST(CliSpectralOutputs, CollidingOutputsAreRefused) {
     work_dir w("spectral-collide");
     fs::create_directory(w.file("snaps"));
@@ -224,13 +224,13 @@ TEST(CliSpectralOutputs, CollidingOutputsAreRefused) {
         EXPECT_FALSE(fs::exists(w.file("o.csv"))) << args;
         EXPECT_EQ(read_text(w.file("existing.csv")), "precious\n") << args;
     }
-    // the same for the other models' --output and --summary-json (defect 12)
+    // the same for the other models' --output and --summary-json
     const run_result r = run_in(w, "run kepler --steps 10 --output o.csv --summary-json dangling.json");
     expect_refused(r, "kepler through a dangling symlink");
     EXPECT_FALSE(fs::exists(w.file("o.csv")));
 }
 
-// Defect 7: a refused run creates no wisdom file and no cache directory; a blow-up creates and replaces no snapshot.
+// A refused run creates no wisdom file and no cache directory; a blow-up creates and replaces no snapshot.
 TEST(CliSpectralOutputs, FailedRunsCreateOrReplaceNothing) {
     work_dir w("spectral-failed");
     const fs::path home = w.capture() / "home";
@@ -326,7 +326,7 @@ TEST(CliSpectralOutputs, AFailedCommitLeavesTheEarlierRunsOutputs) {
     }
 }
 
-// Defect 5: no temporary is left after a failure, an interrupt while snapshots are written, or two quick signals.
+// No temporary is left after a failure, an interrupt while snapshots are written, or two quick signals.
 TEST(CliSpectralOutputs, NoTemporariesLeftAfterFailuresAndSignals) {
     work_dir w("spectral-temps");
     // a wisdom file that is a directory: refused (it used to leave w.tmp... even on success)
@@ -357,7 +357,7 @@ TEST(CliSpectralOutputs, NoTemporariesLeftAfterFailuresAndSignals) {
     }
 }
 
-// Defect 1: a full disk (a small tmpfs) is an error naming the file; the good checkpoint is kept, nothing partial
+// A full disk (a small tmpfs) is an error naming the file; the good checkpoint is kept, nothing partial
 // is committed and no temporary is left. Skipped where tmpfs cannot be mounted.
 TEST(CliSpectralOutputs, FullDiskIsAnErrorAndCommitsNothing) {
     work_dir w("spectral-full");
@@ -464,7 +464,7 @@ TEST(CliSpectralOutputs, FullDiskFailuresNameTheReasonForEveryOutput) {
         }
 }
 
-// Defect 11: memory before the first step. Too many --output-dt times and an --ic file declaring a huge dataset
+// Memory before the first step. Too many --output-dt times and an --ic file declaring a huge dataset
 // are refused at once, in little memory (a 400 MB address-space limit: the old behaviour needed gigabytes).
 TEST(CliSpectralOutputs, NoGigabytesBeforeTheFirstStep) {
     work_dir w("spectral-memory");

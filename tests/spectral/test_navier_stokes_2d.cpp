@@ -233,7 +233,7 @@ void check_inviscid(int n, int steps) {
 // The same at N = 32 on every CI run (seconds).
 TEST(NavierStokes2d, InviscidConservativeMethodsKeepEnergyAndEnstrophyRk4Drifts) { check_inviscid(32, 10000); }
 
-// The size, N = 128 and 10^4 steps of each method: about a minute of CPU, three on a loaded machine, too
+// The full size, N = 128 and 10^4 steps of each method: about a minute of CPU, three on a loaded machine, too
 // long for every CI run. DISABLED_ here; ctest runs it as spectral.long.* when configured with
 // -DECI_LONG_TESTS=ON (label "long"; scripts/soak.sh).
 TEST(NavierStokes2dLong, DISABLED_InviscidN128TenThousandSteps) { check_inviscid(128, 10000); }
@@ -396,7 +396,7 @@ void check_budget(eci::ns2d_forcing forcing) {
     }
     std::printf("budget residual per step, relative: E %.3g, Z %.3g (injected %.4g, dissipated %.4g, %llu halvings)\n",
                 worst_e, worst_z, injected, dissipated, (unsigned long long)stats.step_reductions);
-    // Both sides are sums of a few thousand terms rounded once each: the bound 1e-13 is ~450 eps.
+    // Both sides are sums of a few thousand terms rounded once each: the required bound 1e-13 is ~450 eps.
     EXPECT_LE(worst_e, 1e-13);
     EXPECT_LE(worst_z, 1e-13);
     // The budget is not trivially zero: forcing and dissipation both did work comparable to E.

@@ -1,4 +1,4 @@
-// Issue 19: the conservative methods at the conventional method's error and order on turbulence (many modes
+// The conservative methods at the conventional method's error and order on turbulence (many modes
 // passing near zero), and no halvings on smooth fields at CFL 0.5, with E and Z exact. What makes it so is the
 // conditioned update of the conservative engine (conservative_rk.hpp, docs/methods.md "Zero crossings without loss
 // of accuracy"): a complex mode's modulus is transformed, not its real and imaginary parts, and a mode whose square
@@ -39,13 +39,14 @@ struct outcome {
     eci::run_stats stats;
 };
 
-// A run of `steps` steps of dt. paper_update: the conservative engine's update before issue 19 (each real and
-// imaginary part its own square root; the issue-9 remedy for at most 1 % of the unknowns, else halving), kept
-// for systems smaller than remedy.min_unknowns; used here only to print the "before" column of docs/benchmarks.md.
+// A run of `steps` steps of dt. paper_update: the paper's update, the conservative engine's former default (each
+// real and imaginary part its own square root; the negative-radicand remedy for at most 1 % of the unknowns, else
+// halving), kept for systems smaller than remedy.min_unknowns; used here only to print the "before" column of
+// docs/benchmarks.md.
 template <class St>
 outcome run_steps(navier_stokes_2d& m, const state& w0, double dt, int steps, bool paper_update = false) {
     St st;
-    if constexpr (requires { st.remedy; })  // the default stepper is the conditioned update (issue 19)
+    if constexpr (requires { st.remedy; })  // the default stepper is the conditioned update
         if (paper_update) st.remedy.update = eci::update_kind::paper;
     outcome r{w0, {}};
     eci::ns2d_budget b;
@@ -203,7 +204,7 @@ void check_smooth(int n, smooth kind, int steps, bool pruned = false) {
     const double dt = 0.5 * (2.0 * std::numbers::pi / n) / m.max_velocity(w0);
     const double e0 = m.energy(w0), z0 = m.enstrophy(w0);
     St st;
-    // the default stepper, as the CLI's driver steps with it (the conditioned update, issue 19)
+    // the default stepper, as the CLI's driver steps with it (the conditioned update)
     state w = w0;
     eci::ns2d_budget b;
     eci::run_stats stats;

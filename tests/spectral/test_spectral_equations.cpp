@@ -326,7 +326,7 @@ TEST_P(Equation, SpectraSumToInvariantsAndFluxesClose) {
     EXPECT_LE(std::abs(f.enstrophy.back()), 1e3 * eps * pz);
 }
 
-// Navier-Stokes in Basdevant's form continues the advective form's run (the form of before issue 20) to round-off:
+// Navier-Stokes in Basdevant's form continues the advective form's run (the form older versions used) to round-off:
 // 100 RK4 steps at CFL 0.5 from the same random field at N = 64 differ by at most 1e3 eps max|omega| (measured:
 // ~1e-14 relative; the difference grows with the flow's sensitivity, not with the step count alone).
 TEST(SpectralNavierStokes, BasdevantContinuesTheAdvectiveFormsRun) {

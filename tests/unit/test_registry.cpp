@@ -31,7 +31,7 @@ using strings = std::vector<std::string>;
 
 }  // namespace
 
-// The lists the CLI adapters used to type by hand, now computed; Kepler gains implicit-midpoint (issue 8: the
+// The lists the CLI adapters used to type by hand, now computed; Kepler gains implicit-midpoint (the
 // bench ran it, `eci run kepler --method implicit-midpoint` refused it).
 TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     EXPECT_EQ(names_of(eci::methods_for<eci::three_wave>()),
@@ -50,7 +50,7 @@ TEST(Registry, MethodsPerModelAreComputedFromWhatTheModelOffers) {
     // Each with its family on the model: the transform is used on Kepler, the psi^2 engine on three-wave.
     EXPECT_EQ(eci::methods_for<eci::kepler>()[4].family, eci::method_family::transformed);
     EXPECT_EQ(eci::methods_for<eci::three_wave>()[5].family, eci::method_family::conservative);
-    // Issue 12: multiple relaxation where there are two independent invariants, symplectic methods on a separable
+    // Multiple relaxation where there are two independent invariants, symplectic methods on a separable
     // Hamiltonian, and no C-RK on Kepler in Cartesian variables (H is not a sum of squares there).
     EXPECT_EQ(names_of(eci::methods_for<eci::kepler_cartesian>()),
               (strings{"euler", "pc", "rk2", "rk4", "implicit-midpoint", "bs32", "ck54", "dp54", "dp853", "f78", "rrk-rk4",

@@ -142,7 +142,7 @@ TEST(Run, ObserverMaySeeTheMonitor) {
     EXPECT_EQ(rep.stats.steps, 4u);
 }
 
-// A run whose step underflows still reports its work: statistics and drifts up to the failure (issue 8).
+// A run whose step underflows still reports its work: statistics and drifts up to the failure.
 TEST(Run, UnderflowKeepsTheStatisticsOfThePartialRun) {
     const sliding_model model;
     std::vector<double> x{0.8, -0.6, 0.0};

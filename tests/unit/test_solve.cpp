@@ -319,7 +319,7 @@ TEST(Solve, ACancelFlagStopsTheRunBetweenSteps) {
     EXPECT_THROW(eci::solve<eci::three_wave>(model, x, "rk4", cfg, stop_after_10{&cancel}), eci::interrupted);
 }
 
-// Issue 21 (13): the default minimum step is the resolution of time where the run is, not at its end: a tight
+// The default minimum step is the resolution of time where the run is, not at its end: a tight
 // tolerance over a long horizon runs (here until its attempt budget) instead of stopping at the start.
 TEST(Solve, ALongHorizonDoesNotRaiseTheMinimumStep) {
     vec x{1.0, 0.0};

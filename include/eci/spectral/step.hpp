@@ -22,8 +22,8 @@ namespace eci {
 template <class St>
 void ns2d_step(St& stepper, navier_stokes_2d& m, navier_stokes_2d::state_type& x, double t, double dt,
                ns2d_budget& budget, run_stats& stats, int max_halvings = 40, bool (*stop)() = nullptr) {
-    // A conservative stepper remedies isolated negative radicands exactly when it knows the invariants' weights
-    // (issue 9); hand it E's and Z's once.
+    // A conservative stepper remedies isolated negative radicands exactly when it knows the invariants' weights;
+    // hand it E's and Z's once.
     if constexpr (requires { stepper.set_quadratic_invariants(m.quadratic_invariant_weights()); }) {
         if (stepper.quadratic_invariants().empty() || stepper.quadratic_invariants().front().size() != m.size())
             stepper.set_quadratic_invariants(m.quadratic_invariant_weights());
