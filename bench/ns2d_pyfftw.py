@@ -1,6 +1,6 @@
 #!/usr/bin/python3
 """A turbulence researcher's pyFFTW solver of the 2-D vorticity equation, the competitor eci's navier-stokes-2d must
-beat (issue 20), in eci's conventions. Usage:
+beat, in eci's conventions. Usage:
   bench/ns2d_pyfftw.py check ECI [--n 128] [--steps 100]   both nonlinear forms against each other, RK4 against eci's
   bench/ns2d_pyfftw.py time --field H5 [--threads 1] [--form basdevant] [--reps 5] [--dt DT] [--wisdom FILE]
                                                            seconds per RK4 step from an eci checkpoint's field

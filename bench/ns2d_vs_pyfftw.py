@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""eci's navier-stokes-2d step against the pyFFTW script bench/ns2d_pyfftw.py, side by side in one run (issue 20).
+"""eci's navier-stokes-2d step against the pyFFTW script bench/ns2d_pyfftw.py, side by side in one run.
 Usage: bench/ns2d_vs_pyfftw.py --bench BUILD/bench/eci_bench_ns2d_step --eci BUILD/eci [--sizes 256,512,1024]
            [--threads 1,2] [--rounds 3] [--reps 5] [--out DIR] [--no-memory]
 For each N and thread count, `rounds` rounds each run eci_bench_ns2d_step and the script in both forms of the

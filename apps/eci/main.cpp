@@ -206,7 +206,7 @@ int run_cli(int argc, char** argv) {
                         "systems of 16 or more real unknowns with declared invariants (n-wave, the spectral models): "
                         "conditioned (default: at the conventional method's error, docs/methods.md; on more than one "
                         "MPI process: paper) or "
-                        "paper (the paper's update, bit for bit as before issue 19)")
+                        "paper (the paper's update, bit for bit as before the conditioned update)")
             ->check(CLI::IsMember({"conditioned", "paper"}));
         std::string presets;
         for (const auto& [name, what] : i.presets) presets += (presets.empty() ? "" : "; ") + name + ": " + what;

@@ -384,7 +384,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     update: c-pc, c-rk2 or c-rk4 at fixed steps, or an adaptive c- pair, on a system of
         16 or more real unknowns with declared invariants (the n-wave and spectral models, a fun with
         quadratic_invariants=): "conditioned" (default; at the conventional method's error and, adaptive, its
-        evaluations, docs/methods.md) or "paper" (the paper's update, bit for bit as before issue 19).
+        evaluations, docs/methods.md) or "paper" (the paper's update, bit for bit as before the conditioned update).
     first_step, min_step, max_step, max_steps: adaptive control: the first step (no larger than the span;
         default: the model's default dt, as `eci run --rtol`; for a Python fun, the library's rule
         (choose_first_step: Hairer, Norsett & Wanner's, SciPy's) from two evaluations of fun, counted in nfev and

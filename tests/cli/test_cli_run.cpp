@@ -467,7 +467,7 @@ TEST_F(cli, summary_json_reports_iterative_solves_when_there_are_some) {
 // The negative-radicand remedy: at the CLI's default step a 1000-mode n-wave system meets negative radicands;
 // they are remedied in the step (counted in the summary), with no halving and exactly PC's two evaluations per
 // step.
-TEST_F(cli, n_wave_at_default_step_remedies_instead_of_halving_issue_9) {
+TEST_F(cli, n_wave_at_default_step_remedies_instead_of_halving) {
     const run_result r = eci({"run", "n-wave", "--modes", "1000", "--steps", "100", "--summary-json", "-"});
     ASSERT_EQ(r.status, 0) << r.err;
     const json_reader j(r.out);

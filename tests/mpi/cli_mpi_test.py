@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""`mpirun -np P eci run navier-stokes-2d ...` against the same run of the tool on one process (issue 23).
+"""`mpirun -np P eci run navier-stokes-2d ...` against the same run of the tool on one process.
 
 usage: cli_mpi_test.py ECI MPIEXEC CASE
        (CASE: state, restart, snapshot, bad-input, signal, abort, rank-failure, memory, files, write-failure)

@@ -102,7 +102,7 @@ def test_t_eval_points_on_the_grid_are_the_grid_states(cli, tmp_path):
     assert np.array_equal(r.y[0], columns["psi_K"][::100])
 
 
-def test_n_wave_remedy_matches_cli_issue_9(cli, tmp_path):
+def test_n_wave_remedy_matches_cli(cli, tmp_path):
     # 1000 modes at the CLI's default step: negative radicands are remedied inside the step (no halving), by the
     # same computation in both, so the runs still agree bit for bit.
     t, columns, summary = cli_run(cli, tmp_path, "n-wave", "c-pc", 0.01, 1.0, "--modes", 1000)

@@ -99,7 +99,7 @@ def test_bad_parameters(cli):
     ("forcing", "wind", "unknown forcing 'wind'"),
 ])
 def test_corrupt_checkpoint_fields_are_refused(cli, tmp_path, attribute, value, needle):
-    """issue 21, defect 9: a checkpoint whose numbers a continued run would compute with is checked, not trusted."""
+    """A checkpoint whose numbers a continued run would compute with is checked, not trusted."""
     import h5py
 
     ck = tmp_path / "ck.h5"

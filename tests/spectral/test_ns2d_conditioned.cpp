@@ -223,8 +223,8 @@ void check_smooth(int n, smooth kind, int steps, bool pruned = false) {
         before.stats.step_reductions = before.stats.rhs_evals = ~std::uint64_t(0);
     }
     const eci::remedy_stats& rs = st.remedy_statistics();
-    std::printf("%sN = %d %s, %s %d steps at CFL 0.5 (dt %.4g): %llu halvings, %llu rhs (conventional %llu; before "
-                "issue 19 %llu halvings, %llu rhs), %llu remedied steps, %llu components "
+    std::printf("%sN = %d %s, %s %d steps at CFL 0.5 (dt %.4g): %llu halvings, %llu rhs (conventional %llu; paper's "
+                "update %llu halvings, %llu rhs), %llu remedied steps, %llu components "
                 "(%llu ill-conditioned); drift %.2f eps sqrt(steps)\n",
                 pruned ? "pruned transforms, " : "", n, name_of(kind), St::order == 4 ? "C-RK4" : "C-PC", steps, dt,
                 static_cast<unsigned long long>(stats.step_reductions),

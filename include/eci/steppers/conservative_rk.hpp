@@ -49,7 +49,7 @@ class conservative_rk : public radicand_remedy {
         S& out = is_c_pc ? st_.stage : result_;
         double* o = detail::reals(out).data();
         if (conditioned_update_applies(n)) {
-            // Issue 19: the modulus of a complex mode, the conventional update where the square root is
+            // The conditioned update: the modulus of a complex mode, the conventional update where the square root is
             // ill-conditioned, and one exact rescale (docs/methods.md). Spread over processes, its every decision
             // is taken from sums over all of them (remedy_elements), so all take it alike.
             std::array<const double*, s> kp{};
@@ -104,7 +104,7 @@ class conservative_rk : public radicand_remedy {
 
     static constexpr std::size_t per = sizeof(std::ranges::range_value_t<S>) / sizeof(double);
 
-    // The conditioned update (issue 19) needs the declared weights (the rescale restores them, and they say the
+    // The conditioned update needs the declared weights (the rescale restores them, and they say the
     // invariants of a complex state are sums w_k |psi_k|^2, phase-free), the remedy policy, and a system of at least
     // min_unknowns real unknowns. Otherwise: the paper's per-unknown update (and eq. (30) for C-PC).
     // Spread over processes, n is this process's share: the size and the weights' fit are decided over all.

@@ -31,7 +31,7 @@ enum class radicand_policy {
 /// system with declared invariants.
 enum class update_kind {
     conditioned,  ///< from remedy_options::min_unknowns real unknowns on: the conditioned update (the default)
-    paper,        ///< the paper's per-unknown square root on any system (its bits; the issue-9 remedy)
+    paper,        ///< the paper's per-unknown square root on any system (its bits and its per-unknown remedy)
 };
 
 /// Settings of the remedy (docs/methods.md derives each threshold).
