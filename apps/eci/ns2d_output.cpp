@@ -16,6 +16,8 @@
 #include <functional>
 #include <stdexcept>
 #include <string>
+#include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 namespace eci::cli {
@@ -191,31 +193,30 @@ struct block {
     const double* data;
 };
 
-// The dataset `name` of the given shape, created as write_dataset creates it, and `part` of it written.
-void create_dataset(hid_t file, const block& part, std::initializer_list<hsize_t> dims);
-
-// Writes `part` into its dataset (created by another process, or by create_dataset); an empty block writes nothing.
-void write_block(hid_t file, const block& part) {
-    if (part.count[0] == 0 || part.count[1] == 0) return;
-    handle ds(H5Dopen2(file, part.name, H5P_DEFAULT), H5Dclose, std::string("HDF5 dataset ") + part.name);
-    handle fs(H5Dget_space(ds), H5Sclose, "HDF5 dataspace");
-    if (H5Sselect_hyperslab(fs, H5S_SELECT_SET, part.start, nullptr, part.count, nullptr) < 0)
-        throw std::runtime_error(std::string("HDF5 dataset ") + part.name + ": block outside the dataset");
-    handle ms(H5Screate_simple(2, part.count, nullptr), H5Sclose, "HDF5 dataspace");
-    if (H5Dwrite(ds, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, part.data) < 0)
-        throw std::runtime_error(std::string("HDF5 dataset ") + part.name);
-    ds.close_checked(std::string("HDF5 dataset ") + part.name);
-}
-
-void create_dataset(hid_t file, const block& part, std::initializer_list<hsize_t> dims) {
-    std::vector<hsize_t> d(dims);
-    handle sp(H5Screate_simple(int(d.size()), d.data(), nullptr), H5Sclose, "HDF5 dataspace");
+// Creates the two-dimensional dataset `name` (doubles, rows x columns) as write_dataset creates it, and writes zeros
+// into all of it, a block of rows at a time (at most 1 MiB in memory): the file reaches its full size here, in the one
+// process that creates it, so that a full disk or a file size limit fails here and not in the collective write of the
+// blocks, which then only overwrites bytes the file already has. (Not H5D_ALLOC_TIME_EARLY: allocated at creation,
+// the dataset would lie 328 bytes before where the serial writer's first write puts it; the first write of zeros
+// allocates it there, the whole dataset at once, and the file keeps the serial layout byte for byte.)
+void allocate_dataset(hid_t file, const char* name, hsize_t rows, hsize_t columns) {
+    const hsize_t dims[2] = {rows, columns};
+    handle sp(H5Screate_simple(2, dims, nullptr), H5Sclose, "HDF5 dataspace");
     handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "HDF5 dataset properties");
     H5Pset_obj_track_times(dcpl, false);
-    handle ds(H5Dcreate2(file, part.name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose,
-              std::string("HDF5 dataset ") + part.name);
-    write_block(file, part);
-    ds.close_checked(std::string("HDF5 dataset ") + part.name);  // (the last handle: the sieve buffer written here)
+    handle ds(H5Dcreate2(file, name, H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose,
+              std::string("HDF5 dataset ") + name);
+    const hsize_t per = std::max<hsize_t>(1, (hsize_t(1) << 17) / std::max<hsize_t>(columns, 1));
+    const std::vector<double> zeros(std::size_t(std::min(per, rows) * columns), 0.0);
+    for (hsize_t row = 0; row < rows; row += per) {
+        const hsize_t start[2] = {row, 0}, count[2] = {std::min(per, rows - row), columns};
+        handle fs(H5Dget_space(ds), H5Sclose, "HDF5 dataspace");
+        handle ms(H5Screate_simple(2, count, nullptr), H5Sclose, "HDF5 dataspace");
+        if (H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, nullptr, count, nullptr) < 0 ||
+            H5Dwrite(ds, H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, zeros.data()) < 0)
+            throw std::runtime_error(std::string("HDF5 dataset ") + name);
+    }
+    ds.close_checked(std::string("HDF5 dataset ") + name);  // (the last zeros, if they wait in the sieve buffer)
 }
 #endif
 
@@ -400,35 +401,98 @@ std::vector<double> coordinates(int n) {
 }
 
 #ifdef ECI_MPI
-// The processes of comm write one file in turn, in rank order: rank 0 has written its part (its own failure's
-// reason in root_failure, empty if none) of `file` (rank 0's name for it); each other process then writes its own
-// part, write(file), unless a process before it failed. Collective; returns, on every process, the reason of the
-// lowest-ranked process that failed (empty: none did).
-std::string write_in_turn(MPI_Comm comm, const std::string& file, const std::string& root_failure,
-                          const std::function<void(const std::string&)>& write) {
-    int rank = 0, size = 1;
+// The second part of an MPI run's file: rank 0 has created `file` (rank 0's name for it) with every attribute and
+// every dataset at its full size (allocate_dataset; its own failure's reason in root_failure, empty if none); now
+// every process of comm opens it at once with parallel HDF5 (the MPI-IO file driver) and writes `part` of its dataset
+// in one collective write (H5FD_MPIO_COLLECTIVE), then all close it. Nothing in this part changes the file's
+// metadata or size: a full disk was met by rank 0 alone, before. What could still fail here is found first, on each
+// process, and agreed before the collective part (a write past a process's file size limit, RLIMIT_FSIZE, fails
+// wherever in the file it falls: HDF5 1.10's MPI-IO driver then leaves out the collective reset of the file view
+// that follows the write, and the other processes would wait for it). sync: each process syncs the file after
+// (a checkpoint's). what_given: what the messages name (empty: the snapshot `file`). Collective; returns, on every process, the reason of the lowest-ranked process that failed (empty:
+// none did), ending with the system's reason as write_h5's messages do.
+std::string write_collectively(MPI_Comm comm, const std::string& file, const std::string& root_failure,
+                               const std::string& what_given, const block& part, bool sync) {
+    int rank = 0;
     MPI_Comm_rank(comm, &rank);
-    MPI_Comm_size(comm, &size);
+    // the name and size of the file rank 0 created, or nothing if it could not
     std::string name = rank == 0 && root_failure.empty() ? file : std::string();
-    unsigned long long length = name.size();
-    MPI_Bcast(&length, 1, MPI_UNSIGNED_LONG_LONG, 0, comm);
-    name.resize(std::size_t(length));
-    MPI_Bcast(name.data(), int(length), MPI_CHAR, 0, comm);
-    std::string mine = rank == 0 ? root_failure : std::string();
-    constexpr int tag = 2323;
-    int ok = rank == 0 ? (root_failure.empty() ? 1 : 0) : 0;  // the token: whether every process before wrote
-    if (rank > 0) {
-        MPI_Recv(&ok, 1, MPI_INT, rank - 1, tag, comm, MPI_STATUS_IGNORE);
-        if (ok) {
-            try {
-                write(name);
-            } catch (const std::exception& e) {
-                mine = e.what();
-                ok = 0;
-            }
+    unsigned long long head[2] = {name.size(), 0};
+    if (rank == 0 && !name.empty()) {
+        struct stat st {};
+        if (::stat(name.c_str(), &st) == 0) head[1] = static_cast<unsigned long long>(st.st_size);
+    }
+    MPI_Bcast(head, 2, MPI_UNSIGNED_LONG_LONG, 0, comm);
+    if (head[0] == 0) return first_failure(comm, rank == 0 ? root_failure : std::string());
+    name.resize(std::size_t(head[0]));
+    MPI_Bcast(name.data(), int(head[0]), MPI_CHAR, 0, comm);
+    const std::string what = what_given.empty() ? "snapshot '" + name + "'" : what_given;
+    // Before anything collective: this process may write anywhere in the file (MPI-IO's collective buffering lets
+    // any process write any other's bytes), so the whole file must lie within its file size limit.
+    std::string mine;
+    if (struct rlimit fsize {}; ::getrlimit(RLIMIT_FSIZE, &fsize) == 0 && fsize.rlim_cur != RLIM_INFINITY &&
+                                static_cast<unsigned long long>(fsize.rlim_cur) < head[1])
+        mine = "cannot write " + what + ": the file's " + std::to_string(head[1]) +
+               " bytes are beyond this process's file size limit of " + std::to_string(fsize.rlim_cur) + ": " +
+               write_failure_reason(name, EFBIG);
+    if (std::string first = first_failure(comm, mine); !first.empty()) return first;
+
+    quiet_hdf5();
+    hdf5_errno = 0;
+    hdf5_detail.clear();
+    const auto why = [&] {
+        return ": " + write_failure_reason(name, hdf5_errno,
+                                           hdf5_detail.empty() ? "HDF5 gave no reason" : "HDF5: " + hdf5_detail);
+    };
+    const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
+    H5Pset_fapl_mpio(fapl, comm, MPI_INFO_NULL);
+    const hid_t id = H5Fopen(name.c_str(), H5F_ACC_RDWR, fapl);
+    H5Pclose(fapl);
+    // The open is collective (MPI_File_open): it fails on every process or on none; agreed before anything else.
+    // Should it have failed on some alone, the others leave their file open (closing is collective: they would wait
+    // for the processes that have no file to close); the run ends with the failure.
+    int opened = id >= 0 ? 1 : 0, all_opened = 0;
+    MPI_Allreduce(&opened, &all_opened, 1, MPI_INT, MPI_MIN, comm);
+    if (!all_opened)
+        return first_failure(comm, opened ? std::string() : "cannot write " + what + ": HDF5 could not open the file" + why());
+    // Every process makes the same HDF5 calls in the same order, whatever failed on it; a failure is noted, not
+    // thrown, until the file is closed.
+    const auto note = [&](const std::string& failure) {
+        if (mine.empty()) mine = "cannot write " + what + ": " + failure + why();
+    };
+    const std::string dataset = std::string("HDF5 dataset ") + part.name;
+    if (const hid_t ds = H5Dopen2(id, part.name, H5P_DEFAULT); ds < 0) {  // (metadata: the same on every process)
+        note(dataset);
+    } else {
+        const hid_t fs = H5Dget_space(ds);
+        const bool empty = part.count[0] == 0 || part.count[1] == 0;
+        const hsize_t one[2] = {1, 1};
+        const hid_t ms = H5Screate_simple(2, empty ? one : part.count, nullptr);
+        if (empty) {  // (no rows or columns: the process takes part in the write with nothing)
+            H5Sselect_none(fs);
+            H5Sselect_none(ms);
+        } else if (H5Sselect_hyperslab(fs, H5S_SELECT_SET, part.start, nullptr, part.count, nullptr) < 0) {
+            note(dataset + ": block outside the dataset");
+            H5Sselect_none(fs);
+            H5Sselect_none(ms);
+        }
+        const hid_t dxpl = H5Pcreate(H5P_DATASET_XFER);
+        H5Pset_dxpl_mpio(dxpl, H5FD_MPIO_COLLECTIVE);
+        const double none = 0.0;
+        if (H5Dwrite(ds, H5T_NATIVE_DOUBLE, ms, fs, dxpl, empty ? &none : part.data) < 0) note(dataset);
+        H5Pclose(dxpl);
+        H5Sclose(ms);
+        H5Sclose(fs);
+        if (H5Dclose(ds) < 0) note(dataset);
+    }
+    if (H5Fclose(id) < 0) note("HDF5 could not close the file");
+    if (mine.empty() && sync) {
+        try {
+            sync_file(name, what);  // (this process's writes, wherever it runs)
+        } catch (const std::exception& e) {
+            mine = e.what();
         }
     }
-    if (rank + 1 < size) MPI_Send(&ok, 1, MPI_INT, rank + 1, tag, comm);
     return first_failure(comm, mine);
 }
 
@@ -491,33 +555,30 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c, MPI_Com
         throw std::logic_error("write_checkpoint: the state is not n rows of this process's columns");
     std::string failure;
     if (rank == 0) {
-        // the temporary, its attributes, the whole dataset and rank 0's columns; then the other processes' columns
-        // in turn; then (rank 0) synced and renamed over the checkpoint
-        bool turned = false;
+        // the temporary: its attributes and the whole dataset, allocated (rank 0 alone); then every process's
+        // columns, written collectively; then (rank 0) synced and renamed over the checkpoint
+        bool created = false;
         try {
             write_replacing(path, "checkpoint", [&](const std::string& tmp) {
                 std::string own;
                 try {
                     write_h5(tmp, what, [&](hid_t f) {
                         put_checkpoint_attributes(f, c);
-                        create_dataset(f, mine, {rows, cols * 2});
+                        allocate_dataset(f, name.c_str(), rows, cols * 2);
                     });
                 } catch (const std::exception& e) {
                     own = e.what();
                 }
-                turned = true;
-                if (const std::string first = write_in_turn(comm, tmp, own, {}); !first.empty())
+                created = true;
+                if (const std::string first = write_collectively(comm, tmp, own, what, mine, true); !first.empty())
                     throw run_error(first);
             });
         } catch (const std::exception& e) {
-            if (!turned) write_in_turn(comm, {}, e.what(), {});
+            if (!created) write_collectively(comm, {}, e.what(), what, mine, true);  // (the others wait for a name)
             failure = e.what();
         }
     } else {
-        write_in_turn(comm, {}, {}, [&](const std::string& tmp) {
-            write_h5(tmp, what, [&](hid_t f) { write_block(f, mine); }, false);
-            sync_file(tmp, "checkpoint");  // (this process's writes, wherever it runs)
-        });
+        write_collectively(comm, {}, {}, what, mine, true);
     }
     // rank 0's verdict, the commit's included: the same on every process
     if (failure = from_root(comm, failure); !failure.empty()) throw run_error(failure);
@@ -658,13 +719,15 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
     const block mine{name.c_str(), {hsize_t(g.first_row()), 0}, {hsize_t(g.local_rows()), n}, rows.data()};
     int rank = 0;
     MPI_Comm_rank(comm, &rank);
-    // rank 0 creates the file (in the order the serial writer writes it) with its rows; the others add theirs
+    // rank 0 creates the file as the serial writer writes it (attributes, the field, x, y), the field allocated
+    // whole; then every process writes its rows of the field collectively
+    const std::string what = "snapshot '" + path + "'";
     std::string own;
     if (rank == 0) {
         try {
-            write_h5(path, "snapshot '" + path + "'", [&](hid_t f) {
+            write_h5(path, what, [&](hid_t f) {
                 put_snapshot_attributes(f, m, t, step, method, dt);
-                create_dataset(f, mine, {n, n});
+                allocate_dataset(f, name.c_str(), n, n);
                 const std::vector<double> x = coordinates(m.n());
                 write_dataset(f, "x", x.data(), {n});
                 write_dataset(f, "y", x.data(), {n});
@@ -673,9 +736,7 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
             own = e.what();
         }
     }
-    const std::string first = write_in_turn(comm, path, own, [&](const std::string& file) {
-        write_h5(file, "snapshot '" + file + "'", [&](hid_t f) { write_block(f, mine); }, false);
-    });
+    const std::string first = write_collectively(comm, path, own, {}, mine, false);  // (named by rank 0's path)
     if (!first.empty()) throw run_error(first);
 }
 #endif

@@ -65,14 +65,14 @@ std::vector<double> read_vorticity_rows(const std::string& path, int n, int firs
 
 #ifdef ECI_MPI
 // ---- The files of a run spread over MPI processes: the serial layout, no process holding the whole field. Each
-// writer is collective over `comm`: every process gives its own block; rank 0 creates the file with every attribute,
-// the whole datasets and its block, then each other process in rank order opens the file, writes its block and
-// closes it (serial HDF5: one process at a time). A failure on any process is one run_error on every process, with
-// the reason of the lowest-ranked process that failed, and no file is left behind.
+// writer is collective over `comm`: each process gives its block; rank 0 alone creates the file, every dataset at its
+// full size (a full disk fails there), then all processes write their blocks in one parallel HDF5 collective write.
+// A failure on any process is one run_error on every process, with the reason of the lowest-ranked process that
+// failed, and no file is left behind.
 
 /// write_checkpoint from every process's columns: c.state is this process's columns first_column .. + columns - 1
 /// of the half plane (flow2d::to_half_plane_columns). The temporary, its sync and rename are rank 0's, as on one
-/// process; each process syncs what it wrote.
+/// process; each process syncs the file after its write.
 void write_checkpoint(const std::string& path, const ns2d_checkpoint& c, MPI_Comm comm, int first_column,
                       int columns);
 /// write_snapshot_h5 from every process's rows of the field (flow2d::to_physical_rows: m.grid().first_row() ..);
