@@ -406,11 +406,14 @@ std::vector<double> coordinates(int n) {
 // every process of comm opens it at once with parallel HDF5 (the MPI-IO file driver) and writes `part` of its dataset
 // in one collective write (H5FD_MPIO_COLLECTIVE), then all close it. Nothing in this part changes the file's
 // metadata or size: a full disk was met by rank 0 alone, before. What could still fail here is found first, on each
-// process, and agreed before the collective part (a write past a process's file size limit, RLIMIT_FSIZE, fails
-// wherever in the file it falls: HDF5 1.10's MPI-IO driver then leaves out the collective reset of the file view
-// that follows the write, and the other processes would wait for it). sync: each process syncs the file after
-// (a checkpoint's). what_given: what the messages name (empty: the snapshot `file`). Collective; returns, on every process, the reason of the lowest-ranked process that failed (empty:
-// none did), ending with the system's reason as write_h5's messages do.
+// process, and agreed before the collective part: a write past the process's file size limit (RLIMIT_FSIZE) fails
+// wherever in the file it falls, even on bytes the file has. (Left to the collective write, that failure ended every
+// process without a hang, but MPI-IO reports it as a short write, so the reason was lost: "HDF5: file write failed";
+// and had MPI-IO returned an error instead, HDF5 1.10.8 would skip the collective reset of the file view that
+// follows the write, on the failing process alone.) sync: each process syncs the file after (a checkpoint's).
+// what_given: what the messages name (empty: the snapshot `file`). Collective; returns, on every process, the reason
+// of the lowest-ranked process that failed (empty: none did), ending with the system's reason as write_h5's
+// messages do.
 std::string write_collectively(MPI_Comm comm, const std::string& file, const std::string& root_failure,
                                const std::string& what_given, const block& part, bool sync) {
     int rank = 0;
@@ -454,7 +457,8 @@ std::string write_collectively(MPI_Comm comm, const std::string& file, const std
     int opened = id >= 0 ? 1 : 0, all_opened = 0;
     MPI_Allreduce(&opened, &all_opened, 1, MPI_INT, MPI_MIN, comm);
     if (!all_opened)
-        return first_failure(comm, opened ? std::string() : "cannot write " + what + ": HDF5 could not open the file" + why());
+        return first_failure(comm,
+                             opened ? std::string() : "cannot write " + what + ": HDF5 could not open the file" + why());
     // Every process makes the same HDF5 calls in the same order, whatever failed on it; a failure is noted, not
     // thrown, until the file is closed.
     const auto note = [&](const std::string& failure) {

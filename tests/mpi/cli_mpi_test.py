@@ -385,9 +385,12 @@ def ranks_run(d, tag, per_rank, args, env=None, timeout=240):
 
 def case_rank_failure(d):
     # A write failing on rank 1 alone (its block of the checkpoint or snapshot, past a file size limit only it has,
-    # RLIMIT_FSIZE of 1 KiB: rank 0 creates the file, header and its own block, with no limit; rank 1's block lies
-    # beyond 1 KiB): every process exits 1 with rank 1's reason, at once (no process left waiting: a hang is killed
-    # after 60 s and fails the case); one line from rank 0; no temporary, checkpoint or snapshot left.
+    # RLIMIT_FSIZE of 1 KiB: rank 0 creates the whole file, zeros in the field, with no limit; rank 1's block lies
+    # beyond 1 KiB, and a write at an offset past the limit fails even where the file already has its bytes): every
+    # process exits 1 with rank 1's reason, at once (no process left waiting: a hang is killed after 60 s and fails
+    # the case); one line from rank 0; no temporary, checkpoint or snapshot left. (Rank 1 finds it by checking the
+    # file's size against its limit before the collective write; left to that write, it ended both processes too,
+    # but as MPI-IO's short write, whose reason HDF5 does not give: "file write failed".)
     # (What hid it before: HDF5 keeps such a small hyperslab write in the dataset's sieve buffer and writes it at
     # H5Dclose, whose failure the writer did not check; the file's flush and close then succeeded, and rank 1's
     # columns were silently missing from a checkpoint committed as whole.)
