@@ -3,16 +3,19 @@
 # the Python module is built for Debian's /usr/bin/python3, where python3-numpy and the others live; setuptools,
 # wheel, pip, venv and build are for `pip install .` and `python3 -m build` (offline, --no-build-isolation);
 # python3-pyfftw is the competitor of bench/ns2d_pyfftw.py (bench/run.sh --ns2d); ccache lets the test suite's
-# `pip install .` reuse the module's objects from the suite's own build. openmpi-bin, libopenmpi-dev and
-# libfftw3-mpi-dev are for the MPI build (-DECI_MPI=ON, build-mpi in scripts/test.sh); a build without MPI needs none
-# of them. (No parallel HDF5: the MPI run's files are written by rank 0 with the serial HDF5.)
+# `pip install .` reuse the module's objects from the suite's own build. openmpi-bin, libopenmpi-dev,
+# libfftw3-mpi-dev and libhdf5-openmpi-dev (parallel HDF5: every process writes its block of a snapshot or checkpoint
+# at once, through MPI-IO) are for the MPI build (-DECI_MPI=ON, build-mpi in scripts/test.sh); a build without MPI
+# needs none of them and keeps the serial HDF5 (libhdf5-dev, also h5py's). The two HDF5s install side by side; the
+# parallel one takes over Debian's plain hdf5.pc alternative, so the builds ask pkg-config for hdf5-serial and
+# hdf5-openmpi by name (cmake/hdf5.cmake).
 set -euo pipefail
 
 packages=(g++ cmake make libboost-dev libcli11-dev libgtest-dev libbenchmark-dev gnuplot-nox
           python3 python3-dev pybind11-dev python3-pybind11 python3-numpy python3-scipy python3-pytest
           python3-matplotlib pkg-config libfftw3-dev libhdf5-dev python3-h5py python3-pyfftw
           python3-setuptools python3-wheel python3-pip python3-venv python3-build ccache
-          openmpi-bin libopenmpi-dev libfftw3-mpi-dev)
+          openmpi-bin libopenmpi-dev libfftw3-mpi-dev libhdf5-openmpi-dev)
 missing=()
 for p in "${packages[@]}"; do
   dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
