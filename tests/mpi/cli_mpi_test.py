@@ -316,6 +316,22 @@ def case_abort(d):
         check(r.returncode != 0, f"-np 2, rank 0's write fails: exit {r.returncode} after {took:.1f} s")
         check(len(own) == 1 and "No space left on device" in own[0], f"one line naming the reason: {own}")
         check(sorted(os.listdir(m)) == ["fill"], f"nothing left on the full disk: {os.listdir(m)}")
+        # Room for the file's header but not for its field (24 KiB left, a 64^2 checkpoint's field is 33 KiB): rank 0
+        # creates the file and fails while it writes the field's zeros, before any process writes its block; the
+        # same ending, for the checkpoint and for a snapshot.
+        os.remove(os.path.join(m, "fill"))
+        with open(os.path.join(m, "fill"), "wb") as f:
+            f.write(b"x" * 40960)
+        for what, args in (("checkpoint", ["--checkpoint-every", "1", "--checkpoint", "m/ck.h5"]),
+                           ("snapshot", ["--snapshot-every", "1", "--snapshot-dir", "m/snaps"])):
+            start = time.monotonic()
+            r = run(2, ["--N", "64", "--dt", "0.002", "--fftw-estimate", "--fftw-wisdom", "none", "--steps", "2"] +
+                    args, d)
+            took = time.monotonic() - start
+            own = [l for l in r.stderr.splitlines() if l.startswith("eci")]
+            check(r.returncode != 0, f"-np 2, no room for the {what}'s field: exit {r.returncode} after {took:.1f} s")
+            check(len(own) == 1 and "No space left on device" in own[0], f"{what}: one line naming the reason: {own}")
+            check(sorted(os.listdir(m)) == ["fill"], f"{what}: nothing left on the disk: {os.listdir(m)}")
 
 
 # Runs a command as one MPI process, records its exit status and peak memory (ru_maxrss, KiB) in
