@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include <ctime>
 
@@ -58,6 +59,47 @@ double step_time(eci::navier_stokes_2d& m, const state& w0, double dt, int reps,
         best = std::min(best, seconds_since(t));
     }
     return best;
+}
+
+// A model that replays the stage derivatives of one real RK4 step (recorded with `record`): a step of any stepper
+// on it costs its stage combinations, four copies and its finishing pass, with no transform. The difference
+// between two steppers' replayed steps is then the difference of their finishing passes, measured without the
+// noise of the transforms around it (which is larger than the difference itself).
+struct replay_model {
+    std::vector<state> k;
+    bool record = false;
+    eci::navier_stokes_2d* model = nullptr;
+    std::size_t next = 0;
+    void operator()(const state& x, state& dx, double t) {
+        if (record) {
+            (*model)(x, dx, t);
+            k.push_back(dx);
+            return;
+        }
+        dx = k[next++ % k.size()];
+    }
+};
+
+// The median of `reps` replayed steps of St from w0 (each from w0 again, so each files the same elements).
+template <class St>
+double replayed_step(replay_model& f, const eci::navier_stokes_2d& m, const state& w0, double dt, int reps,
+                     int update) {
+    St st;
+    if constexpr (requires { st.remedy; }) {
+        st.set_quadratic_invariants(m.quadratic_invariant_weights());
+        if (update == 1) st.remedy.update = eci::update_kind::paper;
+    }
+    state w = w0;
+    st.step(f, w, 0.0, dt);
+    std::vector<double> t;
+    for (int r = 0; r < reps; ++r) {
+        w = w0;
+        const double t0 = now();
+        st.step(f, w, 0.0, dt);
+        t.push_back(seconds_since(t0));
+    }
+    std::sort(t.begin(), t.end());
+    return t[t.size() / 2];
 }
 
 }  // namespace
@@ -142,6 +184,29 @@ int main(int argc, char** argv) {
     std::printf("ns2d-update N=%d c_rk4_paper/rk4=%.4f c_rk4_conditioned/rk4=%.4f c_pc_paper/pc=%.4f "
                 "c_pc_conditioned/pc=%.4f\n",
                 p.n, t_crk4_paper / t_rk4, t_crk4_cond / t_rk4, t_cpc_paper / t_pc, t_cpc_cond / t_pc);
+    {
+        // The finishing passes alone (replayed stages, one thread's CPU time, median of 31 per stepper, interleaved
+        // in 3 rounds): how much of c_rk4/rk4 each update costs, in ms and as a share of the RK4 step above.
+        replay_model f;
+        f.model = &m;
+        f.record = true;
+        {
+            eci::rk4<state> r;
+            state w = w0;
+            r.step(f, w, 0.0, dt);
+        }
+        f.record = false;
+        double r_rk4 = 1e300, r_cond = 1e300, r_paper = 1e300;
+        for (int round = 0; round < 3; ++round) {
+            r_rk4 = std::min(r_rk4, replayed_step<eci::rk4<state>>(f, m, w0, dt, 31, 0));
+            r_cond = std::min(r_cond, replayed_step<eci::c_rk4<state>>(f, m, w0, dt, 31, 0));
+            r_paper = std::min(r_paper, replayed_step<eci::c_rk4<state>>(f, m, w0, dt, 31, 1));
+        }
+        std::printf("ns2d-finish N=%d replayed_rk4_ms=%.3f conditioned_extra_ms=%.3f paper_extra_ms=%.3f "
+                    "conditioned_extra/rk4_step=%.4f paper_extra/rk4_step=%.4f\n",
+                    p.n, 1e3 * r_rk4, 1e3 * (r_cond - r_rk4), 1e3 * (r_paper - r_rk4), (r_cond - r_rk4) / t_rk4,
+                    (r_paper - r_rk4) / t_rk4);
+    }
     if (p.threads == 1) return 0;
     // Threads: a one-thread model beside this one, C-RK4 steps alternating between them in wall time, so load from
     // other processes hits both alike (on a shared machine it takes cores from the threaded one first).
