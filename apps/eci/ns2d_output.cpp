@@ -84,20 +84,25 @@ void quiet_hdf5() {
     (void)done;
 }
 
+// Starts an HDF5 write of `file`: HDF5 quiet, no reason noted yet. Returns what a failure's message ends with: the
+// system's reason, else the file system's (a full disk whose driver error was not seen), else HDF5's.
+auto begin_hdf5_write(const std::string& file) {
+    quiet_hdf5();
+    hdf5_errno = 0;
+    hdf5_detail.clear();
+    return [file] {
+        return ": " + write_failure_reason(file, hdf5_errno,
+                                           hdf5_detail.empty() ? "HDF5 gave no reason" : "HDF5: " + hdf5_detail);
+    };
+}
+
 // Creates `file` as HDF5, fill(file id) writes it; the flush and the close are checked (a full disk shows up there, in
 // HDF5's buffered writes), so a file that could not be written whole is an error, never a committed file. Every
 // message ends with the reason: the system's, as HDF5's file driver reported it, or what the file system says.
 // (create false: `file` is an HDF5 file another process created, opened to write into.)
 template <class Fill>
 void write_h5(const std::string& file, const std::string& what, Fill fill, bool create = true) {
-    quiet_hdf5();
-    hdf5_errno = 0;
-    hdf5_detail.clear();
-    // the system's reason, else the file system's (a full disk whose driver error was not seen), else HDF5's
-    const auto why = [&] {
-        return ": " + write_failure_reason(file, hdf5_errno,
-                                           hdf5_detail.empty() ? "HDF5 gave no reason" : "HDF5: " + hdf5_detail);
-    };
+    const auto why = begin_hdf5_write(file);
     const hid_t id = create ? H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT)
                             : H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
     if (id < 0)
@@ -440,13 +445,7 @@ std::string write_collectively(MPI_Comm comm, const std::string& file, const std
                write_failure_reason(name, EFBIG);
     if (std::string first = first_failure(comm, mine); !first.empty()) return first;
 
-    quiet_hdf5();
-    hdf5_errno = 0;
-    hdf5_detail.clear();
-    const auto why = [&] {
-        return ": " + write_failure_reason(name, hdf5_errno,
-                                           hdf5_detail.empty() ? "HDF5 gave no reason" : "HDF5: " + hdf5_detail);
-    };
+    const auto why = begin_hdf5_write(name);
     const hid_t fapl = H5Pcreate(H5P_FILE_ACCESS);
     H5Pset_fapl_mpio(fapl, comm, MPI_INFO_NULL);
     const hid_t id = H5Fopen(name.c_str(), H5F_ACC_RDWR, fapl);
