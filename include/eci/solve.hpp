@@ -717,7 +717,8 @@ solve_report run(St& stepper, const Model& model, typename Model::state_type& x,
         cfg.t_end = span.t_end;
     else
         cfg.steps = span.steps;
-    cfg.first_step = opt.first_step;  // check_config refuses it with an end time  // steps first_step + 1 .. first_step + span.steps of the grid (a restart)
+    // steps first_step + 1 .. first_step + span.steps of the grid (a restart); check_config refuses it with an end time
+    cfg.first_step = opt.first_step;
     cfg.every = opt.every;
     cfg.max_halvings = opt.max_halvings;
     cfg.max_substeps = opt.max_substeps;
