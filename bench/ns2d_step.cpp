@@ -37,12 +37,13 @@ double now() {
 }
 double seconds_since(double t) { return now() - t; }
 
-// One attempt of the stepper (success or not: a failed attempt costs the same work), the fastest of `reps`.
-// The state is restored before each attempt, so every method steps the same field at CFL 0.5.
-// update: which finishing pass a conservative stepper takes: 0 its default, 1 the paper's update, 2 the
-// conditioned update. The model's invariants are declared to it, as ns2d_step (the CLI's driver) does.
-template <class St>
-double step_time(eci::navier_stokes_2d& m, const state& w0, double dt, int reps, int update = 0) {
+// `reps` attempts of the stepper on system f (success or not: a failed attempt costs the same work), each from w0
+// again, so every method steps the same field at CFL 0.5; their times, sorted. update: which finishing pass a
+// conservative stepper takes: 0 its default, 1 the paper's update, 2 the conditioned update. The model's invariants
+// are declared to it, as ns2d_step (the CLI's driver) does.
+template <class St, class F>
+std::vector<double> step_times(F& f, const eci::navier_stokes_2d& m, const state& w0, double dt, int reps,
+                               int update) {
     St st;
     if constexpr (requires { st.remedy; }) {
         st.set_quadratic_invariants(m.quadratic_invariant_weights());
@@ -50,15 +51,23 @@ double step_time(eci::navier_stokes_2d& m, const state& w0, double dt, int reps,
         if (update == 2) st.remedy.update = eci::update_kind::conditioned;
     }
     state w = w0;
-    st.step(m, w, 0.0, dt);  // warm up: buffers allocated
-    double best = 1e300;
+    st.step(f, w, 0.0, dt);  // warm up: buffers allocated
+    std::vector<double> t;
+    t.reserve(std::size_t(reps));
     for (int r = 0; r < reps; ++r) {
         w = w0;
-        const double t = now();
-        st.step(m, w, 0.0, dt);
-        best = std::min(best, seconds_since(t));
+        const double t0 = now();
+        st.step(f, w, 0.0, dt);
+        t.push_back(seconds_since(t0));
     }
-    return best;
+    std::sort(t.begin(), t.end());
+    return t;
+}
+
+// One step of St on the model, the fastest of `reps`.
+template <class St>
+double step_time(eci::navier_stokes_2d& m, const state& w0, double dt, int reps, int update = 0) {
+    return step_times<St>(m, m, w0, dt, reps, update).front();
 }
 
 // A model that replays the stage derivatives of one real RK4 step (recorded with `record`): a step of any stepper
@@ -84,22 +93,7 @@ struct replay_model {
 template <class St>
 double replayed_step(replay_model& f, const eci::navier_stokes_2d& m, const state& w0, double dt, int reps,
                      int update) {
-    St st;
-    if constexpr (requires { st.remedy; }) {
-        st.set_quadratic_invariants(m.quadratic_invariant_weights());
-        if (update == 1) st.remedy.update = eci::update_kind::paper;
-    }
-    state w = w0;
-    st.step(f, w, 0.0, dt);
-    std::vector<double> t;
-    for (int r = 0; r < reps; ++r) {
-        w = w0;
-        const double t0 = now();
-        st.step(f, w, 0.0, dt);
-        t.push_back(seconds_since(t0));
-    }
-    std::sort(t.begin(), t.end());
-    return t[t.size() / 2];
+    return step_times<St>(f, m, w0, dt, reps, update)[std::size_t(reps) / 2];
 }
 
 }  // namespace
