@@ -340,9 +340,27 @@ inline py::dict failure_dict(const solve_report& r, const component_namer& name)
     throw std::logic_error("unknown run failure");
 }
 
+/// eci::solve for a system on which only registry entry Entry is ever asked for (Kahan's method with a Python jac):
+/// the same checks, messages and report, with Entry's stepper the only one compiled (solve() compiles every method
+/// that runs on Dispatch, per state size). The method is resolved before the settings are checked (solve() checks
+/// them first): a request wrong in both is refused for its method.
+template <class Dispatch, class Entry, class F, class S, class Sink>
+solve_report solve_entry(const F& f, S& x, std::string_view method, const run_config& cfg, Sink& sink,
+                         std::vector<extra_invariant<S>> extra, std::string_view what) {
+    const method_info m = resolve_method_for<Dispatch>(method, cfg.is_adaptive(), what);
+    if (m.name != Entry::info.name)
+        throw std::invalid_argument("method '" + std::string(method) + "' is not available for " + std::string(what) +
+                                    " (available: " + std::string(Entry::info.name) + ")");
+    stepper_for<Entry, Dispatch> stepper;
+    solve_report report = solve_with(stepper, f, x, cfg, sink, std::move(extra));
+    report.method = m;
+    return report;
+}
+
 /// Runs `method` on f from x through eci::solve with the request, with the GIL released unless `release` is
-/// false (a Python fun or Python invariants need it held), and returns the SolveResult dict.
-template <class Dispatch, class F, class S>
+/// false (a Python fun or Python invariants need it held), and returns the SolveResult dict. Entry: a registry
+/// entry, the only method f is run with (solve_entry), or void for every method that runs on Dispatch.
+template <class Dispatch, class Entry = void, class F, class S>
 py::dict run_python(const F& f, S& x, const std::string& method, python_request req,
                     std::vector<extra_invariant<S>> extra, const component_namer& namer, const std::string& what,
                     bool release) {
@@ -358,7 +376,10 @@ py::dict run_python(const F& f, S& x, const std::string& method, python_request 
         if (release) unlocked.emplace();
         interrupt_check interrupt(!release);
         recording_sink<S> sink{&out, &interrupt, &req, &steps};
-        report = solve<Dispatch>(f, x, method, req.config, sink, std::move(extra), what);
+        if constexpr (std::is_void_v<Entry>)
+            report = solve<Dispatch>(f, x, method, req.config, sink, std::move(extra), what);
+        else
+            report = solve_entry<Dispatch, Entry>(f, x, method, req.config, sink, std::move(extra), what);
     }
     const std::size_t n = std::ranges::size(x);
     py::dict d;

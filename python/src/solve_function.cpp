@@ -58,8 +58,10 @@ py::dict solve_kahan_n(py::object fun, py::object jac, const input_array<double>
     S x{};
     std::copy(y0.data(), y0.data() + N, x.begin());
     const python_jacobian_system<N> f{python_rhs<double>(std::move(fun), N), std::move(jac)};
-    return run_python<python_jacobian_system<N>>(f, x, method, req, python_extra_invariants<S>(std::move(invariants), names),
-                                                 component_namer{}, "fun(t, y) with jac", false);
+    // jac is for Kahan's method alone (eci.solve refuses it with another), so only its stepper is compiled, per N
+    return run_python<python_jacobian_system<N>, method_entries::kahan>(
+        f, x, method, req, python_extra_invariants<S>(std::move(invariants), names), component_namer{},
+        "fun(t, y) with jac", false);
 }
 
 template <std::size_t... I>
