@@ -1,0 +1,245 @@
+// Unit tests of eci::solve's settings (solve.hpp): bad settings refused before any step with the front ends'
+// messages, initial states beyond double precision, the method resolver's messages, cancellation between steps,
+// output_dt and the tolerance defaults. (Its runs and failures: test_solve.cpp.)
+#include <gtest/gtest.h>
+
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+#include "solve_tests.hpp"
+
+using namespace solve_tests;
+
+TEST(Solve, BadSettingsAreRefusedBeforeAnyStep) {
+    const eci::three_wave model;
+    tw_state x = fig5;
+    auto message = [&](eci::run_config cfg, const char* method = "rk4") {
+        tw_state y = x;
+        try {
+            eci::solve<eci::three_wave>(model, y, method, cfg, eci::no_sink{}, {}, "model three-wave");
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    eci::run_config ok;
+    ok.t_end = 1.0;
+    ok.dt = 0.1;
+    EXPECT_EQ(message(ok), "accepted");
+    EXPECT_EQ(message(ok, "rk5").rfind("unknown method 'rk5' (methods: ", 0), 0u);
+    EXPECT_EQ(message(ok, "kahan").rfind("method 'kahan' is not available for model three-wave (available: euler, ", 0),
+              0u);
+    eci::run_config a = ok;
+    a.adaptive = eci::adaptive_options{};
+    EXPECT_EQ(message(a, "c-rk4").rfind("method c-rk4 has no error estimate for rtol/atol; adaptive methods for "
+                                        "model three-wave: ", 0),
+              0u);
+    eci::run_config zero = ok;
+    zero.dt = 0.0;
+    EXPECT_EQ(message(zero), "time step must be a positive finite number");
+    eci::run_config times = ok;
+    times.times = {0.5, 0.2};
+    EXPECT_EQ(message(times), "output times must be finite, sorted in the direction of the run and within the span");
+    EXPECT_EQ(x, fig5);
+}
+
+TEST(Solve, InitialStatesBeyondDoublePrecisionAreRefusedNamingTheComponent) {
+    // A model with no domain check of its own (three-wave's validate_state catches subnormal values first).
+    struct product {
+        using state_type = std::array<double, 2>;
+        void operator()(const state_type& x, state_type& d, double) const { d[0] = x[1] * x[1] * x[1], d[1] = -x[0]; }
+        double energy(const state_type& x) const { return x[0] * x[0] + x[1] * x[1]; }
+        static constexpr auto invariants() {
+            return std::array<eci::named_invariant<product>, 1>{{{"energy", &product::energy}}};
+        }
+    };
+    auto message = [&](product::state_type x) {
+        try {
+            eci::check_initial_state(product{}, x, [](std::size_t i) {
+                std::string name = "u";  // appended: GCC 12 warns falsely (-Wrestrict) on "u" + std::to_string(i)
+                return name.append(std::to_string(i));
+            });
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    EXPECT_EQ(message({1.0, 2.0}), "accepted");
+    EXPECT_EQ(message({1.0, std::nan("")}), "initial condition u1 is not finite");
+    const std::string subnormal = message({1.0, 1e-310});
+    EXPECT_EQ(subnormal.rfind("initial condition u1 = ", 0), 0u) << subnormal;
+    EXPECT_NE(subnormal.find(" is subnormal (below 2.2e-308)"), std::string::npos) << subnormal;
+    EXPECT_EQ(message({1e200, 1.0}).rfind("the initial energy is inf", 0), 0u);
+    // the energy is finite, the rate u1^3 is not
+    EXPECT_EQ(message({1.0, 1e103}).rfind("the rate of u0 overflows at the initial condition", 0), 0u)
+        << message({1.0, 1e103});
+    // without names: x[i]
+    EXPECT_THROW(eci::check_initial_state(product{}, product::state_type{1.0, 1e-310}, {}), std::invalid_argument);
+}
+
+TEST(Solve, ACancelFlagStopsTheRunBetweenSteps) {
+    const eci::three_wave model;
+    tw_state x = fig5;
+    std::atomic<bool> cancel{false};
+    eci::run_config cfg;
+    cfg.t_end = 100.0;
+    cfg.dt = 0.01;
+    cfg.cancel = &cancel;
+    struct stop_after_10 {
+        std::atomic<bool>* flag;
+        void output(const tw_state&, const eci::output_point&) {}
+        void progress(double, std::uint64_t i) {
+            if (i == 10) flag->store(true);
+        }
+    };
+    EXPECT_THROW(eci::solve<eci::three_wave>(model, x, "rk4", cfg, stop_after_10{&cancel}), eci::interrupted);
+}
+
+// The default minimum step is the resolution of time where the run is, not at its end: a tight
+// tolerance over a long horizon runs (here until its attempt budget) instead of stopping at the start.
+TEST(Solve, ALongHorizonDoesNotRaiseTheMinimumStep) {
+    vec x{1.0, 0.0};
+    auto rotation = [](const vec& y, vec& d, double) { d[0] = y[1], d[1] = -y[0]; };
+    eci::run_config cfg;
+    cfg.t_end = 1e13;  // 64 eps 1e13 = 0.14: the old floor, far above the steps (~0.02) rtol 1e-12 needs
+    cfg.dt = 1e-3;
+    cfg.adaptive = eci::adaptive_options{.rtol = 1e-12, .atol = 1e-12, .max_attempts = 2000};
+    const auto r = eci::solve<vec>(rotation, x, "dp54", cfg, eci::no_sink{});
+    ASSERT_FALSE(r.completed());
+    EXPECT_EQ(r.failure->kind, eci::run_failure_kind::too_many_steps) << r.failure->message;
+    EXPECT_GT(r.failure->t, 1.0);
+    EXPECT_LT(r.adaptive->dt_largest, 0.14);
+}
+
+// --output-dt is the library's decision (resolve_output_dt), for the CLI and Python alike: output times for an
+// adaptive run, every k steps for fixed steps, and one-line refusals naming the settings as the front end does.
+TEST(Solve, OutputDtIsOutputTimesWhenAdaptiveAndEveryKStepsWhenFixed) {
+    eci::run_config fixed;
+    fixed.t_end = 1.0;
+    fixed.dt = 0.01;
+    fixed.output_dt = 0.25;
+    eci::resolve_output_dt(fixed);
+    EXPECT_EQ(fixed.every, 25u);
+    EXPECT_TRUE(fixed.times.empty());
+    EXPECT_FALSE(fixed.output_dt.has_value());
+
+    eci::run_config adaptive;
+    adaptive.t_end = 1.1;
+    adaptive.dt = 0.01;
+    adaptive.adaptive = eci::adaptive_options{};
+    adaptive.output_dt = 0.25;
+    eci::resolve_output_dt(adaptive);
+    EXPECT_EQ(adaptive.times, (vec{0.0, 0.25, 0.5, 0.75, 1.0, 1.1}));
+    EXPECT_EQ(adaptive.every, 1u);
+
+    // a time within 1e-12 of the span before the end is the end, written once
+    eci::run_config near = adaptive;
+    near.times.clear();
+    near.t_end = 1.0 + 1e-14;
+    near.output_dt = 0.5;
+    eci::resolve_output_dt(near);
+    EXPECT_EQ(near.times, (vec{0.0, 0.5, 1.0 + 1e-14}));
+
+    // backward in time (adaptive only), from t0 = 2
+    eci::run_config back = adaptive;
+    back.times.clear();
+    back.t0 = 2.0;
+    back.t_end = 1.0;
+    back.output_dt = 0.5;
+    eci::resolve_output_dt(back);
+    EXPECT_EQ(back.times, (vec{2.0, 1.5, 1.0}));
+
+    // a step count: the span is steps * dt
+    eci::run_config counted;
+    counted.steps = 500;
+    counted.dt = 0.02;
+    counted.output_dt = 0.1;
+    eci::resolve_output_dt(counted);
+    EXPECT_EQ(counted.every, 5u);
+
+    // solve resolves it too: the outputs of a fixed-step run are those of every = 25
+    const eci::three_wave model;
+    tw_state a = fig5, b = fig5;
+    fixed.output_dt = 0.25;
+    fixed.every = 1;
+    keep_all<tw_state> by_dt, by_every;
+    eci::solve<eci::three_wave>(model, a, "c-rk4", fixed, by_dt);
+    fixed.output_dt.reset();
+    fixed.every = 25;
+    eci::solve<eci::three_wave>(model, b, "c-rk4", fixed, by_every);
+    EXPECT_EQ(by_dt.t, (vec{0.0, 0.25, 0.5, 0.75, 1.0}));
+    EXPECT_EQ(by_dt.t, by_every.t);
+    EXPECT_EQ(by_dt.x, by_every.x);
+}
+
+TEST(Solve, OutputDtRefusalsNameTheSettingsAsTheFrontEndDoes) {
+    auto message = [](eci::run_config c, const eci::setting_names& names) {
+        try {
+            eci::resolve_output_dt(c, names);
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    const eci::setting_names cli{.output_dt = "--output-dt", .dt = "--dt", .tolerances = "--rtol/--atol"};
+    eci::run_config c;
+    c.t_end = 1.0;
+    c.dt = 0.03;
+    c.output_dt = 0.25;
+    EXPECT_EQ(message(c, cli), "--output-dt 0.25 is not a multiple of --dt 0.03 (with fixed steps; --rtol/--atol "
+                               "lifts that)");
+    EXPECT_EQ(message(c, {}), "output_dt 0.25 is not a multiple of dt 0.03 (with fixed steps; rtol/atol lifts that)");
+    c.adaptive = eci::adaptive_options{};
+    EXPECT_EQ(message(c, cli), "accepted");  // adaptive control lifts it
+    c.output_dt = 1e-7;
+    c.t_end = 10.0;
+    EXPECT_EQ(message(c, cli), "--output-dt 1e-07 to t = 10 asks for 1e+08 rows, more than 10^7: give a larger "
+                               "--output-dt");
+    for (double bad : {0.0, -1.0, std::numeric_limits<double>::infinity(), std::nan("")}) {
+        c.output_dt = bad;
+        EXPECT_EQ(message(c, cli).rfind("--output-dt must be a positive finite number, not ", 0), 0u) << bad;
+    }
+    c.output_dt = 0.5;
+    c.times = {0.0, 1.0};
+    EXPECT_EQ(message(c, {}), "output_dt and output times exclude each other: give one of them");
+    // a multiple within 1e-9 k of a whole number of steps: 0.3 / 0.1 is 2.9999999999999996
+    eci::run_config f;
+    f.t_end = 1.0;
+    f.dt = 0.1;
+    f.output_dt = 0.3;
+    EXPECT_EQ(message(f, {}), "accepted");
+    f.output_dt = 0.3 + 1e-6;
+    EXPECT_NE(message(f, {}), "accepted");
+    f.output_dt = 0.05;  // less than one step
+    EXPECT_NE(message(f, {}), "accepted");
+    // solve refuses with the default (Python's) names before any step
+    const eci::three_wave model;
+    tw_state x = fig5;
+    f.output_dt = 0.25;
+    try {
+        eci::solve<eci::three_wave>(model, x, "c-rk4", f, eci::no_sink{});
+        ADD_FAILURE() << "accepted";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_STREQ(e.what(), "output_dt 0.25 is not a multiple of dt 0.1 (with fixed steps; rtol/atol lifts that)");
+    }
+    EXPECT_EQ(x, fig5);
+}
+
+TEST(Solve, AToleranceNotGivenTakesTheOthersValue) {
+    EXPECT_FALSE(eci::tolerances_from(std::nullopt, std::nullopt).has_value());
+    const auto r = eci::tolerances_from(1e-8, std::nullopt);
+    ASSERT_TRUE(r.has_value());
+    EXPECT_EQ(r->rtol, 1e-8);
+    EXPECT_EQ(r->atol, 1e-8);
+    const auto a = eci::tolerances_from(std::nullopt, 1e-5);
+    EXPECT_EQ(a->rtol, 1e-5);
+    EXPECT_EQ(a->atol, 1e-5);
+    const auto both = eci::tolerances_from(1e-6, 1e-9);
+    EXPECT_EQ(both->rtol, 1e-6);
+    EXPECT_EQ(both->atol, 1e-9);
+}
