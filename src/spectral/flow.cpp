@@ -48,8 +48,9 @@ struct flow2d::impl {
     flow_params p;
     const equation* eq = nullptr;
     spectral::grid g;
-    std::vector<double> a, ea, lin, disp, sigma;  // per stored mode: psi/q, |psi/q|, damping, dispersion, noise
-    state_type force;
+    std::vector<double> a, ea, lin, disp;  // per stored mode: psi/q, |psi/q|, damping, dispersion
+    state_type force;    // F_k (forced runs only: empty otherwise)
+    double sigma = 0.0;  // the stochastic forcing's amplitude on every mode of the band
     bool dispersive = false;
 
     int kmax = 0, rows = 0;
@@ -190,8 +191,8 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
     d.ea.assign(m, 0.0);
     d.lin.assign(m, 0.0);
     if (e.dispersion) d.disp.assign(m, 0.0);  // (only an equation with waves holds the table)
-    d.sigma.assign(m, 0.0);
-    d.force.assign(m, cplx{});
+    // F_k, a state's worth, is held only by a forced run (an unforced run's budgets count no injection)
+    if (p.forcing != forcing_kind::none) d.force.assign(m, cplx{});
     for (std::size_t i = 0; i < m; ++i) {
         if (!retained(i)) continue;
         const double x = kx(i), y = ky(i), k2 = x * x + y * y;
@@ -221,7 +222,6 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
             band_energy_weight += w * std::abs(e.inversion(p, x, y));
             const bool mine = owns_column(x);
             d.band.push_back(mine ? index(x, y) : impl::npos);
-            if (mine) d.sigma[index(x, y)] = 1.0;
         }
     if (p.forcing != forcing_kind::none)
         require(band_count > 0.0, "the forcing band |k| = " + std::to_string(p.forcing_k) +
@@ -239,8 +239,7 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
     } else if (p.forcing == forcing_kind::stochastic) {
         // White noise held over a step of dt: F = sigma g / sqrt(dt) injects, on average, 1/2 sum_full sigma^2 |a_k|
         // per unit time, which is epsilon for this sigma.
-        const double sig = std::sqrt(2.0 * p.injection_rate / band_energy_weight);
-        for (double& v : d.sigma) v *= sig;
+        d.sigma = std::sqrt(2.0 * p.injection_rate / band_energy_weight);
     }
 }
 
@@ -329,12 +328,16 @@ std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cp
                     i != zero_mode ? d.template nl_at<F>(j0 + col, double(d.c0 + int(col)), ky, scale) : cplx{};
                 cplx v = nk + lin[i] * x[i];
                 if constexpr (Dispersive) v += cplx(-disp[i] * x[i].imag(), disp[i] * x[i].real());
-                if constexpr (Forced) v += Fk[i];
+                if constexpr (Forced)
+                    v += Fk[i];
+                else if constexpr (Record)
+                    v += cplx{};  // the zero F_k unforced runs once held, still added: the same bits (-0 becomes +0)
                 f[i] = v;
                 if constexpr (Record) {
                     const double nl = x[i].real() * nk.real() + x[i].imag() * nk.imag();
                     const double diss = -lin[i] * std::norm(x[i]);
-                    const double inj = x[i].real() * Fk[i].real() + x[i].imag() * Fk[i].imag();
+                    double inj = 0.0;
+                    if constexpr (Forced) inj = x[i].real() * Fk[i].real() + x[i].imag() * Fk[i].imag();
                     const double we = wt[i] * ea[i];
                     acc[0] += we * inj;
                     acc[1] += we * diss;
@@ -350,7 +353,8 @@ std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cp
 
 template <nonlinear_form F, bool Dispersive>
 std::array<double, 6> rhs_dispatch(const flow2d& m, const auto& d, const cplx* x, cplx* f, bool forced, bool record) {
-    if (record) return rhs_pass<F, Dispersive, true, true>(m, d, x, f);
+    if (record && forced) return rhs_pass<F, Dispersive, true, true>(m, d, x, f);
+    if (record) return rhs_pass<F, Dispersive, false, true>(m, d, x, f);
     if (forced) return rhs_pass<F, Dispersive, true, false>(m, d, x, f);
     return rhs_pass<F, Dispersive, false, false>(m, d, x, f);
 }
@@ -773,7 +777,7 @@ void flow2d::draw_forcing(double dt) {
     // one draw per mode of the band, in the order of the whole state, kept by the process that holds the mode
     for (std::size_t i : d.band) {
         const cplx g = complex_gaussian(rng_);
-        if (i != impl::npos) d.force[i] = d.sigma[i] * amp * g;
+        if (i != impl::npos) d.force[i] = d.sigma * amp * g;
     }
     d.hermitian(d.force.data());
 }

@@ -238,7 +238,7 @@ class flow2d {
     void draw_forcing(double dt);
     std::uint64_t rng_state() const { return rng_; }
     void set_rng_state(std::uint64_t s) { rng_ = s; }
-    /// The forcing F_k held now.
+    /// The forcing F_k held now (empty for an unforced run).
     const state_type& forcing() const;
 
     /// Starts recording the rates of each right-hand-side evaluation (cleared on each call).
