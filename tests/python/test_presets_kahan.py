@@ -107,3 +107,26 @@ def test_kahan_limits():
         eci.solve(M.LotkaVolterra(), (0.0, 1.0), method="kahan", jac=lv_jac)
     with pytest.raises(ValueError, match="takes up to 8 unknowns"):
         eci.solve(lambda t, y: -y, (0.0, 1.0), np.ones(9), method="kahan", dt=0.1, jac=-np.eye(9))
+
+
+@pytest.mark.parametrize("n", range(1, 9))
+def test_kahan_with_jac_runs_at_every_size_it_takes(n):
+    # each size has its own compiled stepper (a fixed-size linear solve): a rotation in the plane of the first two
+    # unknowns (x' = -x for one), whose quadratic invariant |x|^2 Kahan's method keeps for this linear field
+    A = np.zeros((n, n))
+    if n == 1:
+        A[0, 0] = -1.0
+    else:
+        A[0, 1], A[1, 0] = 1.0, -1.0
+    y0 = np.linspace(1.0, 2.0, n)
+    r = eci.solve(lambda t, y: A @ y, (0.0, 1.0), y0, method="kahan", dt=0.1, jac=A)
+    assert r.success and r.method == "kahan" and r.y.shape == (n, 11)
+    if n > 1:  # the rotation keeps |x|^2 to round-off (eps per step, 10 steps, a factor 8 of slack)
+        assert abs(r.y[:, -1] @ r.y[:, -1] - y0 @ y0) <= 8 * np.finfo(float).eps * np.sqrt(10) * (y0 @ y0)
+    else:  # x' = -x: Kahan's method is the trapezoidal rule here, (1 - h/2) / (1 + h/2) per step
+        assert np.isclose(r.y[0, -1], y0[0] * (0.95 / 1.05) ** 10, rtol=1e-14)
+
+
+def test_kahan_with_jac_has_no_error_estimate():
+    with pytest.raises(ValueError, match="method kahan has no error estimate for rtol/atol"):
+        eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0, 2.0], method="kahan", rtol=1e-6, jac=-np.eye(2))
