@@ -16,7 +16,7 @@ from pathlib import Path
 
 import pytest
 
-from conftest import REPO
+from conftest import BUILD, REPO
 
 SYSTEM_PYTHON = "/usr/bin/python3"
 
@@ -39,6 +39,13 @@ def build_env():
     if shutil.which("ccache"):
         args.append("-DCMAKE_CXX_COMPILER_LAUNCHER=ccache")
     env["ECI_CMAKE_ARGS"] = " ".join(args)
+    # and the suite's generator (a new build-pip/ only): ccache gives back an object only to a compile run from the
+    # same relative directory, which Ninja and Make choose differently (scripts/reproduce.sh makes build/ with Make,
+    # scripts/test.sh with Ninja: either may come first)
+    cache = BUILD / "CMakeCache.txt"
+    generator = re.search(r"^CMAKE_GENERATOR:INTERNAL=(.+)$", cache.read_text(), re.M) if cache.exists() else None
+    if generator:
+        env["CMAKE_GENERATOR"] = generator.group(1)
     env.setdefault("CMAKE_BUILD_PARALLEL_LEVEL", "2")
     return env
 
