@@ -1,5 +1,6 @@
-// `eci run MODEL` as a sink of the library's run: turns the options into an eci::run_config, runs eci::solve
-// (which checks, steps, lands on output times and monitors every invariant) and formats CSV rows and the summary.
+// `eci run MODEL` as a sink of the library's run: turns the options into an eci::run_config, runs the model's
+// compiled eci::solve_model (which checks, steps, lands on output times and monitors every invariant) and formats
+// CSV rows and the summary.
 #pragma once
 
 #include <array>
@@ -18,6 +19,7 @@
 #include <utility>
 #include <vector>
 
+#include <eci/dynamic_sink.hpp>
 #include <eci/solve.hpp>
 
 #include "command.hpp"
@@ -215,36 +217,43 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         std::fputc('\n', out);
     }
 
-    // The CLI's sink: CSV rows, the progress bar, Ctrl-C between steps.
-    struct csv_sink {
-        std::FILE* out;
-        const Model& model;
-        const decltype(derived)& columns_derived;
-        progress_bar bar;
-        void output(const S& state, const output_point& p) {
-            if (!out) return;
+    // The CLI's sink: CSV rows, the progress bar, Ctrl-C between steps. The run itself is the model's compiled
+    // solve_model (src/models), which Python's eci.solve runs as well.
+    class csv_sink final : public dynamic_sink<S> {
+       public:
+        csv_sink(std::FILE* out, const Model& model, const decltype(derived)& columns_derived, std::uint64_t steps,
+                 double t_end)
+            : bar(steps, 4096, t_end), out_(out), model_(model), derived_(columns_derived) {}
+        void output(const S& state, const output_point& p) override {
+            if (!out_) return;
             char buffer[32];
             const std::string_view s = format_double(p.t, buffer);
-            std::fwrite(s.data(), 1, s.size(), out);
-            detail::for_each_real(state, [&](double v) { detail::write_csv_number(out, v); });
-            for (const auto& d : columns_derived) detail::write_csv_number(out, (model.*d.value)(state));
-            for (double v : p.invariants) detail::write_csv_number(out, v);
-            if (p.time_lag) detail::write_csv_number(out, *p.time_lag);
-            std::fputc('\n', out);
+            std::fwrite(s.data(), 1, s.size(), out_);
+            detail::for_each_real(state, [&](double v) { detail::write_csv_number(out_, v); });
+            for (const auto& d : derived_) detail::write_csv_number(out_, (model_.*d.value)(state));
+            for (double v : p.invariants) detail::write_csv_number(out_, v);
+            if (p.time_lag) detail::write_csv_number(out_, *p.time_lag);
+            std::fputc('\n', out_);
         }
-        void progress(double t, std::uint64_t i) {
+        void progress(double t, std::uint64_t i) override {
             bar.update(i, t);
             if (interrupt_requested()) {
                 char buffer[32];
                 throw_if_interrupted("at t = " + std::string(format_double(t, buffer)));
             }
         }
-    } sink{out, model, derived, progress_bar(adaptive ? 0 : plan.steps, 4096, plan.t_end)};
+        progress_bar bar;
+
+       private:
+        std::FILE* out_;
+        const Model& model_;
+        const decltype(derived)& derived_;
+    } sink{out, model, derived, adaptive ? 0 : plan.steps, plan.t_end};
 
     const auto start = std::chrono::steady_clock::now();
     solve_report report;
     try {
-        report = solve<Model>(model, x, method.name, cfg, sink, {}, "model " + info.name);
+        report = solve_model<Model>(model, x, method.name, cfg, sink, {}, "model " + info.name);
     } catch (const eci::interrupted& e) {
         sink.bar.finish();
         char t[32];

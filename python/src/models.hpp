@@ -141,10 +141,10 @@ class model_object : public model_base {
         const component_namer namer{meta_.columns, false};
         check_initial_state(model_, x, std::function<std::string(std::size_t)>(namer));
         const bool release = invariants.empty();  // Python invariants need the GIL at every step
-        // the model itself as the system, as `eci run` passes it: the same bits
-        return run_python<Model>(model_, x, method, request_from(t0, t1, dt, settings),
-                                 python_extra_invariants<S>(std::move(invariants), invariant_names), namer,
-                                 "model " + meta_.name, release);
+        // the model's compiled runs (src/models), which `eci run` runs too: the same bits
+        return run_python_model<Model>(model_, x, method, request_from(t0, t1, dt, settings),
+                                       python_extra_invariants<S>(std::move(invariants), invariant_names), namer,
+                                       "model " + meta_.name, release);
     }
 
     std::vector<std::string> adaptive_methods() const override {

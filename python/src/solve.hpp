@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -13,6 +14,7 @@
 #include <utility>
 #include <vector>
 
+#include <eci/dynamic_sink.hpp>
 #include <eci/solve.hpp>
 
 #include "core.hpp"
@@ -157,10 +159,15 @@ struct step_record {
 };
 
 /// The sink: every output into the arrays, Ctrl-C polled between steps; with dense output or events, every
-/// accepted step too: its dense output sampled, and each event function's sign change located on it.
+/// accepted step too: its dense output sampled, and each event function's sign change located on it. A dynamic
+/// sink, so that a model's compiled runs (solve_model, shared with the CLI) fill it as a plain system's run does.
 template <class S>
-struct recording_sink {
+class recording_sink final : public dynamic_sink<S> {
+   public:
     using value_type = std::ranges::range_value_t<S>;
+    recording_sink(recorded_output<S>* out, interrupt_check* interrupt, const python_request* req,
+                   step_record<S>* steps)
+        : out(out), interrupt(interrupt), req(req), steps(steps) {}
     recorded_output<S>* out;
     interrupt_check* interrupt;
     const python_request* req = nullptr;
@@ -168,9 +175,9 @@ struct recording_sink {
     std::vector<double> g_prev{};  // each event function at the last step's end
     S scratch{}, conventional{};
 
-    void output(const S& x, const output_point& p) { out->record(p.t, x); }
-    void progress(double, std::uint64_t) { (*interrupt)(); }
-    bool observes_steps() const { return req && req->sees_steps(); }
+    void output(const S& x, const output_point& p) override { out->record(p.t, x); }
+    void progress(double, std::uint64_t) override { (*interrupt)(); }
+    bool observes_steps() const override { return req && req->sees_steps(); }
 
     double event_value(std::size_t j, double t, const S& x) const {
         const py::object r = req->events[j](t, to_numpy(std::vector<value_type>(std::ranges::begin(x), std::ranges::end(x))));
@@ -182,15 +189,10 @@ struct recording_sink {
         }
     }
 
-    template <class Step>
-    std::optional<double> step(Step& s) {
+    std::optional<double> accepted(step_view<S>& s) override {
         if (req->dense_output) {
-            using St = typename Step::stepper_type;
-            if constexpr (requires { St::dense_of_squares; }) steps->squared = St::dense_of_squares;
-            if constexpr (requires { St::dense_degree; })
-                steps->choose_nodes(St::dense_degree);
-            else
-                steps->choose_nodes(4);
+            steps->squared = s.dense_of_squares();
+            steps->choose_nodes(s.dense_degree());
             steps->t_start.push_back(s.t_start());
             steps->t_end.push_back(s.t_end());
             auto node_time = [&](double theta) {
@@ -357,13 +359,12 @@ solve_report solve_entry(const F& f, S& x, std::string_view method, const run_co
     return report;
 }
 
-/// Runs `method` on f from x through eci::solve with the request, with the GIL released unless `release` is
-/// false (a Python fun or Python invariants need it held), and returns the SolveResult dict. Entry: a registry
-/// entry, the only method f is run with (solve_entry), or void for every method that runs on Dispatch.
-template <class Dispatch, class Entry = void, class F, class S>
-py::dict run_python(const F& f, S& x, const std::string& method, python_request req,
-                    std::vector<extra_invariant<S>> extra, const component_namer& namer, const std::string& what,
-                    bool release) {
+/// Runs a request with the GIL released unless `release` is false (a Python fun or Python invariants need it
+/// held) and returns the SolveResult dict: run(sink, cfg) is the run itself (eci::solve, or a model's compiled
+/// solve_model), filling the recording sink.
+template <class S>
+py::dict run_recorded(S& x, python_request req, const component_namer& namer, bool release,
+                      const std::function<solve_report(recording_sink<S>&, const run_config&)>& run) {
     req.config.component_name = namer;
     recorded_output<S> out;
     step_record<S> steps;
@@ -375,11 +376,8 @@ py::dict run_python(const F& f, S& x, const std::string& method, python_request 
         std::optional<py::gil_scoped_release> unlocked;
         if (release) unlocked.emplace();
         interrupt_check interrupt(!release);
-        recording_sink<S> sink{&out, &interrupt, &req, &steps};
-        if constexpr (std::is_void_v<Entry>)
-            report = solve<Dispatch>(f, x, method, req.config, sink, std::move(extra), what);
-        else
-            report = solve_entry<Dispatch, Entry>(f, x, method, req.config, sink, std::move(extra), what);
+        recording_sink<S> sink(&out, &interrupt, &req, &steps);
+        report = run(sink, std::as_const(req.config));
     }
     const std::size_t n = std::ranges::size(x);
     py::dict d;
@@ -422,6 +420,32 @@ py::dict run_python(const F& f, S& x, const std::string& method, python_request 
         d["y_events"] = ye;
     }
     return d;
+}
+
+/// Runs `method` on f from x through eci::solve (run_recorded). Entry: a registry entry, the only method f is run
+/// with (solve_entry), or void for every method that runs on Dispatch.
+template <class Dispatch, class Entry = void, class F, class S>
+py::dict run_python(const F& f, S& x, const std::string& method, python_request req,
+                    std::vector<extra_invariant<S>> extra, const component_namer& namer, const std::string& what,
+                    bool release) {
+    return run_recorded<S>(x, std::move(req), namer, release, [&](recording_sink<S>& sink, const run_config& cfg) {
+        if constexpr (std::is_void_v<Entry>)
+            return solve<Dispatch>(f, x, method, cfg, sink, std::move(extra), what);
+        else
+            return solve_entry<Dispatch, Entry>(f, x, method, cfg, sink, std::move(extra), what);
+    });
+}
+
+/// Runs `method` on a model of the list from x through its compiled runs (solve_model, shared with the CLI, so
+/// the same bits as `eci run`), with run_recorded.
+template <class Model>
+py::dict run_python_model(const Model& model, typename Model::state_type& x, const std::string& method,
+                          python_request req, std::vector<extra_invariant<typename Model::state_type>> extra,
+                          const component_namer& namer, const std::string& what, bool release) {
+    using S = typename Model::state_type;
+    return run_recorded<S>(x, std::move(req), namer, release, [&](recording_sink<S>& sink, const run_config& cfg) {
+        return solve_model<Model>(model, x, method, cfg, sink, std::move(extra), what);
+    });
 }
 
 /// The Python callables given as invariants=, as extra invariants of a run on S (the GIL must be held).
