@@ -90,6 +90,7 @@ class dynamic_sink {
 template <class Model>
 solve_report solve_model(const Model& model, typename Model::state_type& x, std::string_view method,
                          const run_config& cfg, dynamic_sink<typename Model::state_type>& sink,
-                         std::vector<extra_invariant<typename Model::state_type>> extra, std::string_view what);
+                         std::vector<extra_invariant<typename Model::state_type>> extra = {},
+                         std::string_view what = "this system");
 
 }  // namespace eci

@@ -7,6 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include <eci/dynamic_sink.hpp>
 #include <eci/eci.hpp>
 #include <eci/models/three_wave.hpp>
 
@@ -154,18 +155,22 @@ TEST(FirstStep, NormsAreOverflowSafe) {
 TEST(FirstStep, SolveChoosesItWhenDtIsZero) {
     const eci::three_wave model;
     const eci::three_wave::state_type x0{1.0, 0.5, -0.8};
+    // the compiled runs of the front ends (eci::solve_model, src/models), with a sink that keeps nothing
+    struct discard final : eci::dynamic_sink<eci::three_wave::state_type> {
+        void output(const eci::three_wave::state_type&, const eci::output_point&) override {}
+    } none;
     eci::run_config cfg;
     cfg.t_end = 2.0;
     cfg.adaptive = tolerances(1e-8, 1e-8);
     cfg.dt = 0.0;
     auto a = x0;
-    const eci::solve_report chosen = eci::solve<eci::three_wave>(model, a, "dp54", cfg, eci::no_sink{});
+    const eci::solve_report chosen = eci::solve_model<eci::three_wave>(model, a, "dp54", cfg, none);
     ASSERT_TRUE(chosen.completed());
     const eci::first_step_choice c = eci::choose_first_step(model, x0, 0.0, 2.0, 5, *cfg.adaptive);
     EXPECT_EQ(c.rhs_evals, 2u);
     cfg.dt = c.dt;
     auto b = x0;
-    const eci::solve_report given = eci::solve<eci::three_wave>(model, b, "dp54", cfg, eci::no_sink{});
+    const eci::solve_report given = eci::solve_model<eci::three_wave>(model, b, "dp54", cfg, none);
     EXPECT_EQ(a, b);
     EXPECT_EQ(chosen.stats.steps, given.stats.steps);
     EXPECT_EQ(chosen.stats.rhs_evals, given.stats.rhs_evals + 2);
@@ -174,7 +179,7 @@ TEST(FirstStep, SolveChoosesItWhenDtIsZero) {
     cfg.dt = -1.0;
     auto c2 = x0;
     try {
-        eci::solve<eci::three_wave>(model, c2, "dp54", cfg, eci::no_sink{});
+        eci::solve_model<eci::three_wave>(model, c2, "dp54", cfg, none);
         ADD_FAILURE() << "expected invalid_argument";
     } catch (const std::invalid_argument& e) {
         EXPECT_STREQ(e.what(), "initial step must be a positive finite number");

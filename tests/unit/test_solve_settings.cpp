@@ -20,8 +20,9 @@ TEST(Solve, BadSettingsAreRefusedBeforeAnyStep) {
     tw_state x = fig5;
     auto message = [&](eci::run_config cfg, const char* method = "rk4") {
         tw_state y = x;
+        discard<tw_state> none;
         try {
-            eci::solve<eci::three_wave>(model, y, method, cfg, eci::no_sink{}, {}, "model three-wave");
+            eci::solve_model<eci::three_wave>(model, y, method, cfg, none, {}, "model three-wave");
         } catch (const std::invalid_argument& e) {
             return std::string(e.what());
         }
@@ -90,14 +91,15 @@ TEST(Solve, ACancelFlagStopsTheRunBetweenSteps) {
     cfg.t_end = 100.0;
     cfg.dt = 0.01;
     cfg.cancel = &cancel;
-    struct stop_after_10 {
+    struct stop_after_10 final : eci::dynamic_sink<tw_state> {
+        explicit stop_after_10(std::atomic<bool>* f) : flag(f) {}
         std::atomic<bool>* flag;
-        void output(const tw_state&, const eci::output_point&) {}
-        void progress(double, std::uint64_t i) {
+        void output(const tw_state&, const eci::output_point&) override {}
+        void progress(double, std::uint64_t i) override {
             if (i == 10) flag->store(true);
         }
-    };
-    EXPECT_THROW(eci::solve<eci::three_wave>(model, x, "rk4", cfg, stop_after_10{&cancel}), eci::interrupted);
+    } sink(&cancel);
+    EXPECT_THROW(eci::solve_model<eci::three_wave>(model, x, "rk4", cfg, sink), eci::interrupted);
 }
 
 // The default minimum step is the resolution of time where the run is, not at its end: a tight
@@ -168,10 +170,10 @@ TEST(Solve, OutputDtIsOutputTimesWhenAdaptiveAndEveryKStepsWhenFixed) {
     fixed.output_dt = 0.25;
     fixed.every = 1;
     keep_all<tw_state> by_dt, by_every;
-    eci::solve<eci::three_wave>(model, a, "c-rk4", fixed, by_dt);
+    eci::solve_model<eci::three_wave>(model, a, "c-rk4", fixed, by_dt);
     fixed.output_dt.reset();
     fixed.every = 25;
-    eci::solve<eci::three_wave>(model, b, "c-rk4", fixed, by_every);
+    eci::solve_model<eci::three_wave>(model, b, "c-rk4", fixed, by_every);
     EXPECT_EQ(by_dt.t, (vec{0.0, 0.25, 0.5, 0.75, 1.0}));
     EXPECT_EQ(by_dt.t, by_every.t);
     EXPECT_EQ(by_dt.x, by_every.x);
@@ -221,8 +223,9 @@ TEST(Solve, OutputDtRefusalsNameTheSettingsAsTheFrontEndDoes) {
     const eci::three_wave model;
     tw_state x = fig5;
     f.output_dt = 0.25;
+    discard<tw_state> none;
     try {
-        eci::solve<eci::three_wave>(model, x, "c-rk4", f, eci::no_sink{});
+        eci::solve_model<eci::three_wave>(model, x, "c-rk4", f, none);
         ADD_FAILURE() << "accepted";
     } catch (const std::invalid_argument& e) {
         EXPECT_STREQ(e.what(), "output_dt 0.25 is not a multiple of dt 0.1 (with fixed steps; rtol/atol lifts that)");
