@@ -112,7 +112,14 @@ TEST_F(reliability, inputs_beyond_double_precision_are_rejected_up_front) {
     }
 }
 
-// A step that needs ever more halvings stops with a clear error after a bounded amount of work.
+// A step that needs ever more halvings stops with a clear error after a bounded amount of work. The bound is on
+// endless work, not on speed: under AddressSanitizer the tool is about 8x slower (n-wave-complex's halvings: 6.4 s
+// against 0.8 s) and a loaded machine doubled that past 10 s once.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr double one_step_work_seconds = 40.0;
+#else
+constexpr double one_step_work_seconds = 10.0;
+#endif
 TEST_F(reliability, the_work_of_one_step_is_bounded) {
     const std::vector<std::vector<std::string>> cases{
         {"run", "three-wave", "--dt", "1e8", "--steps", "1"},
@@ -132,7 +139,7 @@ TEST_F(reliability, the_work_of_one_step_is_bounded) {
             EXPECT_EQ(r.status, 1) << args[1] << " " << args[2] << "\n" << r.err;
             EXPECT_EQ(std::count(r.err.begin(), r.err.end(), '\n'), 1) << r.err;
         }
-        EXPECT_LT(seconds, 10.0) << args[1] << " " << args[2];
+        EXPECT_LT(seconds, one_step_work_seconds) << args[1] << " " << args[2];
     }
 }
 
