@@ -84,7 +84,8 @@ TEST(Ns2dThreads, ReplayedPassesOnTwoThreadsTakeTheOneThreadResults) {
     replay serial{k};
     threaded_replay threaded{{k}, &m};
     serial.next = threaded.next = 0;
-    EXPECT_TRUE(same_bits(step_once<eci::rk4<state>>(threaded, m, w0, dt), step_once<eci::rk4<state>>(serial, m, w0, dt)));
+    EXPECT_TRUE(
+        same_bits(step_once<eci::rk4<state>>(threaded, m, w0, dt), step_once<eci::rk4<state>>(serial, m, w0, dt)));
     eci::remedy_stats s1{}, s2{};
     const state one = step_once<eci::c_rk4<state>>(serial, m, w0, dt, &s1);
     const state two = step_once<eci::c_rk4<state>>(threaded, m, w0, dt, &s2);
@@ -96,7 +97,8 @@ TEST(Ns2dThreads, ReplayedPassesOnTwoThreadsTakeTheOneThreadResults) {
     EXPECT_NEAR(m.energy(two), m.energy(one), 8 * eps * m.energy(one));
     EXPECT_NEAR(m.enstrophy(two), m.enstrophy(one), 8 * eps * m.enstrophy(one));
     EXPECT_TRUE(same_bits(step_once<eci::c_rk4<state>>(threaded, m, w0, dt), two));  // it repeats
-    EXPECT_TRUE(same_bits(step_once<eci::c_pc<state>>(threaded, m, w0, dt), step_once<eci::c_pc<state>>(serial, m, w0, dt)));
+    EXPECT_TRUE(
+        same_bits(step_once<eci::c_pc<state>>(threaded, m, w0, dt), step_once<eci::c_pc<state>>(serial, m, w0, dt)));
 }
 
 // 40 inviscid C-RK4 and C-PC steps on two threads at CFL 0.5: E and Z exact to k eps sqrt(steps), and a second run

@@ -28,10 +28,12 @@ struct split_model {
     int range_threads() const { return ranges; }
     template <class Body>
     void for_ranges(std::size_t n, Body body) const {
-        const auto cut = [&](int r) { return r == ranges ? n : n * std::size_t(r) * std::size_t(r) / std::size_t(ranges * ranges) + 3; };
+        // range r starts at n r^2 / ranges^2 + 3: lengths growing with r
+        const std::size_t rr = std::size_t(ranges) * std::size_t(ranges);
+        const auto start = [&](int r) { return r == 0 ? std::size_t(0) : r == ranges ? n : n * std::size_t(r * r) / rr + 3; };
         for (int k = 0; k < ranges; ++k) {
             const int r = reverse ? ranges - 1 - k : k;
-            body(r == 0 ? 0 : cut(r), cut(r + 1), r);
+            body(start(r), start(r + 1), r);
         }
     }
 };
@@ -153,7 +155,8 @@ void check_conditioned(const M& m, double dt) {
         EXPECT_LE(std::abs(m.energy(x) - e0), bound * e0) << ranges;
         EXPECT_LE(std::abs(m.enstrophy(x) - z0), bound * z0) << ranges;
         double diff = 0.0, norm = 0.0;
-        for (std::size_t i = 0; i < x.size(); ++i) diff += std::norm(a.x[i] - whole.x[i]), norm += std::norm(whole.x[i]);
+        for (std::size_t i = 0; i < x.size(); ++i)
+            diff += std::norm(a.x[i] - whole.x[i]), norm += std::norm(whole.x[i]);
         EXPECT_LE(std::sqrt(diff / norm), 1e-10) << ranges;  // round-off apart, not another trajectory
     }
 }
