@@ -375,9 +375,9 @@ class radicand_remedy {
             neg_h_.insert(neg_h_.end(), part.neg_h.begin(), part.neg_h.end());
             for (std::size_t i = 0; i < hist_.size(); ++i) hist_[i] += part.hist[i];
             const conditioned_pass& p = passes[r];
-            const auto merge = [](compensated_sum& sum, const compensated_sum& part) {
-                sum.add(part.s);
-                sum.err += part.err;
+            const auto merge = [](compensated_sum& sum, const compensated_sum& range_sum) {
+                sum.add(range_sum.s);
+                sum.err += range_sum.err;
             };
             merge(total.g00, p.g00), merge(total.g01, p.g01), merge(total.g11, p.g11);
             total.a0 += p.a0, total.a1 += p.a1;
