@@ -87,6 +87,12 @@ struct replay_model {
         }
         dx = k[next++ % k.size()];
     }
+    // the model's threads for the steppers' element-wise passes, as a step of the model itself has them
+    int range_threads() const { return model->range_threads(); }
+    template <class Body>
+    void for_ranges(std::size_t n, Body body) const {
+        model->for_ranges(n, body);
+    }
 };
 
 // The median of `reps` replayed steps of St from w0 (each from w0 again, so each files the same elements).

@@ -465,6 +465,22 @@ void grid::run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const
     omp_rows(threads_, rows, [&](int r0, int r1, int tid) { fn(ctx, r0, r1, tid); });
 }
 
+void grid::run_ranges(std::size_t n, void (*fn)(void*, std::size_t, std::size_t, int), void* ctx) const {
+    // below this a pass over a few arrays of n doubles takes about as long as waking the threads
+    constexpr std::size_t min_split = 8192;
+    if (threads_ <= 1 || n < min_split) {
+        fn(ctx, 0, n, 0);
+        return;
+    }
+#pragma omp parallel num_threads(std::min(threads_, 64))
+    {
+        const std::size_t tid = std::size_t(omp_get_thread_num()), nth = std::size_t(omp_get_num_threads());
+        // multiples of 8 (a cache line of doubles) between the threads' ranges
+        const auto cut = [&](std::size_t t) { return t == nth ? n : n * t / nth / 8 * 8; };
+        fn(ctx, cut(tid), cut(tid + 1), int(tid));
+    }
+}
+
 void grid::product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const {
     const std::size_t nc = std::size_t(columns()), pad = padded();
     if (distributed_) {

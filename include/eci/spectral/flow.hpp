@@ -150,6 +150,14 @@ class flow2d {
     /// serial path, so the run is the serial one bit for bit.
     bool spread() const { return grid().distributed(); }
 #endif
+    /// The steppers' element-wise passes over the state, split between the flow's threads (detail/ranges.hpp):
+    /// range_threads() ranges at most, body(i0, i1, thread) over each (grid::for_ranges). Spread over processes,
+    /// over this process's share.
+    int range_threads() const { return grid().threads(); }
+    template <class Body>
+    void for_ranges(std::size_t n, Body body) const {
+        grid().for_ranges(n, body);
+    }
     bool retained(std::size_t i) const { return weights_[i] != 0.0; }
     /// How often mode i appears in the full plane: 2 (itself and its conjugate -k, not stored), 1 on the k_x = 0
     /// column (where -k is stored too), 0 for k = 0.

@@ -173,6 +173,12 @@ class grid {
     /// thread order, so a thread count repeats bit for bit.
     template <std::size_t K, class Body>
     std::array<double, K> sum_rows(Body body, int rows = 0) const;
+    /// body(i0, i1, thread) over contiguous ranges of 0 .. n - 1 in order, one per thread (thread 0 first, each
+    /// range but the last a multiple of 8 long), or body(0, n, 0) on the calling thread for one thread or a short
+    /// loop: the steppers' element-wise passes over a state (detail/ranges.hpp). The same n and thread count give
+    /// the same ranges.
+    template <class Body>
+    void for_ranges(std::size_t n, Body body) const;
 
     /// The real field (row-major, n x n, y rows) of a state.
     std::vector<double> to_physical(const cplx* f) const;
@@ -188,6 +194,7 @@ class grid {
 
    private:
     void run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const;
+    void run_ranges(std::size_t n, void (*fn)(void*, std::size_t, std::size_t, int), void* ctx) const;
     void product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const;
     struct plans;
     void plan_distributed(const grid_options& o);
@@ -220,6 +227,12 @@ cplx complex_gaussian(std::uint64_t& s);
 template <class Body>
 void grid::for_rows(Body body, int rows) const {
     run_rows(rows ? rows : n_, [](void* c, int r0, int r1, int) { (*static_cast<Body*>(c))(r0, r1); }, &body);
+}
+
+template <class Body>
+void grid::for_ranges(std::size_t n, Body body) const {
+    run_ranges(n, [](void* c, std::size_t i0, std::size_t i1, int tid) { (*static_cast<Body*>(c))(i0, i1, tid); },
+               &body);
 }
 
 template <std::size_t K, class Body>

@@ -41,6 +41,7 @@ class conservative_rk : public radicand_remedy {
     step_result step(F& f, S& x, double t, double dt) {
         st_.prepare(x);
         reduce_ = detail::reducer::of(f);  // empty unless the model's state is spread over processes
+        split_ = detail::splitter::of(f);  // empty unless the model lends its threads (detail/ranges.hpp)
         if constexpr (!is_c_pc) detail::resize_like(result_, x);
         st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
         const auto xr = detail::reals(std::as_const(x));
@@ -55,7 +56,7 @@ class conservative_rk : public radicand_remedy {
             std::array<const double*, s> kp{};
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
             finish_conditioned(o, xr.data(), kp, dt, n);
-            if (reduce_.any(!(neg_.empty() && cond_.empty())) &&
+            if (reduce_.any(!filed_none()) &&
                 !remedy_elements<per>(o, xr.data(), n, [&](std::size_t e, std::array<double, per>& c) {
                     std::array<double, per> rad{};
                     const auto [c2, xi] = element_update(xr.data(), kp, e, dt, c, rad);
@@ -64,12 +65,17 @@ class conservative_rk : public radicand_remedy {
                 return step_result::failure(first_negative<per>());
         } else if constexpr (is_c_pc) {
             const double* k1 = detail::reals(std::as_const(st_.k[1])).data();
-            bad = n >= 64 ? detail::c_pc_finish(o, xr.data(), k1, dt, n)
-                          : detail::c_pc_finish_inline(o, xr.data(), k1, dt, n);
+            bad = count_over_ranges(n, [&](std::size_t i0, std::size_t i1) {
+                return i1 - i0 >= 64 ? detail::c_pc_finish(o + i0, xr.data() + i0, k1 + i0, dt, i1 - i0)
+                                     : detail::c_pc_finish_inline(o + i0, xr.data() + i0, k1 + i0, dt, i1 - i0);
+            });
         } else {
             std::array<const double*, s> kp{};
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
-            finish_general(o, xr.data(), kp, dt, n, bad, std::make_index_sequence<s>{});
+            bad = count_over_ranges(n, [&](std::size_t i0, std::size_t i1) {
+                return finish_general(o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
+                                      std::make_index_sequence<s>{});
+            });
         }
         // A negative radicand on any process is one on every process (detail/reduce.hpp).
         if constexpr (detail::distributed_model<F>) bad = reduce_.any(bad != 0.0) ? 1.0 : 0.0;
@@ -77,7 +83,9 @@ class conservative_rk : public radicand_remedy {
         if (bad != 0.0 && !remedy_failures(o, xr.data(), dt, n))
             return step_result::failure(first_failure(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
         // An overflow (inf) fails the step as well, never passes as a result.
-        bool finite = detail::all_finite_reals(o, n);
+        bool finite = count_over_ranges(n, [&](std::size_t i0, std::size_t i1) {
+                          return detail::all_finite_reals(o + i0, i1 - i0) ? 0.0 : 1.0;
+                      }) == 0.0;
         if constexpr (detail::distributed_model<F>) finite = !reduce_.any(!finite);
         if (!finite)
             return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); }));
@@ -103,6 +111,18 @@ class conservative_rk : public radicand_remedy {
     }
 
     static constexpr std::size_t per = sizeof(std::ranges::range_value_t<S>) / sizeof(double);
+
+    // count(i0, i1) over the model's ranges of 0 .. n - 1 (one range [0, n) for a model without threads), summed
+    // in range order: the element-wise passes' counts of failures, which are whole numbers, so any split gives
+    // the same sum.
+    template <class Count>
+    double count_over_ranges(std::size_t n, Count&& count) const {
+        std::array<double, detail::max_ranges> part{};
+        split_.for_ranges(n, [&](std::size_t i0, std::size_t i1, int r) { part[std::size_t(r)] = count(i0, i1); });
+        double total = 0.0;
+        for (double v : part) total += v;
+        return total;
+    }
 
     // The conditioned update needs the declared weights (the rescale restores them, and they say the
     // invariants of a complex state are sums w_k |psi_k|^2, phase-free), the remedy policy, and a system of at least
@@ -148,33 +168,43 @@ class conservative_rk : public radicand_remedy {
     // The conditioned finishing pass: each element's conventional update and xi, filed by the remedy's
     // condition_element (radicand_remedy.hpp): the sign rule as in the paper's update for a real unknown, the
     // conventional phase for a complex mode; remedy_elements then decides.
+    // Split over the model's threads (detail/ranges.hpp), each range of elements files into its own lists,
+    // histogram and Gram sums, merged in range order (end_split_conditioned): the elements are filed in element
+    // order whatever the split, and the sums of a given split repeat bit for bit. One range is the unsplit pass.
     void finish_conditioned(double* o, const double* x, const std::array<const double*, s>& k, double dt,
                             std::size_t n) {
-        conditioned_pass pass = begin_conditioned(n / per, true);
         const std::size_t ne = n / per;
-        constexpr std::size_t B = block_elements;
-        // per block: the conventional update and radicand of each real unknown (vectorized: the operations of
-        // element_update, one unknown at a time), then each element's |c|^2, xi and sign, then the remedy's filing
-        std::array<double, B * per> cv, rv;
-        std::array<double, B> c2v, xiv, sg;
-        constexpr auto J = std::make_index_sequence<s>{};
-        for (std::size_t e0 = 0; e0 < ne; e0 += B) {
-            const std::size_t nb = std::min(B, ne - e0), i0 = e0 * per;
-            for (std::size_t j = 0; j < nb * per; ++j) {
-                cv[j] = conventional(x, k, i0 + j, dt, J);
-                rv[j] = radicand(x, k, i0 + j, dt, J);
+        const conditioned_pass start = begin_conditioned(ne, true, split_.threads);
+        std::array<conditioned_pass, detail::max_ranges> passes{};
+        split_.for_ranges(ne, [&](std::size_t e_begin, std::size_t e_end, int r) {
+            const filing into = range_filing(r, e_begin, e_end);
+            conditioned_pass pass = start;
+            constexpr std::size_t B = block_elements;
+            // per block: the conventional update and radicand of each real unknown (vectorized: the operations of
+            // element_update, one unknown at a time), then each element's |c|^2, xi and sign, then the filing
+            std::array<double, B * per> cv, rv;
+            std::array<double, B> c2v, xiv, sg;
+            constexpr auto J = std::make_index_sequence<s>{};
+            for (std::size_t e0 = e_begin; e0 < e_end; e0 += B) {
+                const std::size_t nb = std::min(B, e_end - e0), i0 = e0 * per;
+                for (std::size_t j = 0; j < nb * per; ++j) {
+                    cv[j] = conventional(x, k, i0 + j, dt, J);
+                    rv[j] = radicand(x, k, i0 + j, dt, J);
+                }
+                for (std::size_t b = 0; b < nb; ++b) {
+                    double c2 = 0.0, xi = 0.0;
+                    for (std::size_t p = 0; p < per; ++p)
+                        c2 += cv[b * per + p] * cv[b * per + p], xi += rv[b * per + p];
+                    c2v[b] = c2, xiv[b] = xi;
+                    sg[b] = cv[b * per];
+                    if constexpr (per == 1 && Sign == sign_rule::of_last_stage)
+                        if (xi >= 0.0) sg[b] = stage_value<s - 1>(x[i0 + b], k, i0 + b, dt);
+                }
+                condition_block<per>(o, x, e0, nb, cv.data(), c2v.data(), xiv.data(), sg.data(), pass, into);
             }
-            for (std::size_t b = 0; b < nb; ++b) {
-                double c2 = 0.0, xi = 0.0;
-                for (std::size_t p = 0; p < per; ++p) c2 += cv[b * per + p] * cv[b * per + p], xi += rv[b * per + p];
-                c2v[b] = c2, xiv[b] = xi;
-                sg[b] = cv[b * per];
-                if constexpr (per == 1 && Sign == sign_rule::of_last_stage)
-                    if (xi >= 0.0) sg[b] = stage_value<s - 1>(x[i0 + b], k, i0 + b, dt);
-            }
-            condition_block<per>(o, x, e0, nb, cv.data(), c2v.data(), xiv.data(), sg.data(), pass);
-        }
-        end_conditioned(pass);
+            passes[std::size_t(r)] = pass;
+        });
+        end_split_conditioned(std::span(passes.data(), std::size_t(split_.threads)));
     }
 
     // The conventional update x + dt sum_j b_j k_j at unknown i: the one fold of element_update, the conditioned
@@ -216,10 +246,12 @@ class conservative_rk : public radicand_remedy {
 
     // One pass over x and the k_j: the conventional update (for the sign), the rate of psi^2,
     // sum_j 2 b_j Y_j k_j, from recomputed stages (no per-stage pass, no stored stages), and the new amplitude.
+    // Returns the number of negative (or NaN) radicands, as a double.
     template <std::size_t... J>
-    static void finish_general(double* o, const double* x, const std::array<const double*, s>& k, double dt,
-                               std::size_t n, double& bad, std::index_sequence<J...>) {
+    static double finish_general(double* o, const double* x, const std::array<const double*, s>& k, double dt,
+                                 std::size_t n, std::index_sequence<J...>) {
         const std::array<double, s> w{(dt * T.b[J])...};
+        double bad = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
             double conv = x[i];
             ((T.b[J] != 0.0 ? (conv += w[J] * k[J][i], 0) : 0), ...);
@@ -231,6 +263,7 @@ class conservative_rk : public radicand_remedy {
             const double sign = Sign == sign_rule::of_update ? conv : stage_value<s - 1>(x[i], k, i, dt);
             o[i] = std::copysign(std::sqrt(rad), sign);
         }
+        return bad;
     }
 
     detail::stage_storage<T, S> st_;

@@ -2,6 +2,7 @@
 // Euler (eq. 7), the predictor-corrector (Heun, eq. 18), the midpoint rule and RK4 are its instances.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
@@ -10,6 +11,7 @@
 #include <utility>
 
 #include "../concepts.hpp"
+#include "../detail/ranges.hpp"
 #include "../detail/reduce.hpp"
 #include "../detail/state_ops.hpp"
 #include "../tableaus.hpp"
@@ -46,6 +48,14 @@ bool combine_stages_finite(double* out, const double* x, const std::array<const 
     return none_non_finite(bad);
 }
 
+/// The pointers of k advanced by i0: a range's view of the stage derivatives.
+template <std::size_t N>
+std::array<const double*, N> offset(const std::array<const double*, N>& k, std::size_t i0) {
+    std::array<const double*, N> r{};
+    for (std::size_t j = 0; j < N; ++j) r[j] = k[j] + i0;
+    return r;
+}
+
 /// The stage buffers of an explicit tableau, and the computation of every stage's derivative.
 /// After `run_stages`, k[i] holds f(Y_i) and `stage` holds the last stage value Y_{s-1} (Y_0 = x itself).
 /// `on_stage(i, Y_i, k_i)` is called with the stage's state and derivative after each stage (the transformed
@@ -80,7 +90,12 @@ struct stage_storage {
             std::array<const double*, I> kp{};
             for (std::size_t j = 0; j < I; ++j) kp[j] = reals(std::as_const(k[j])).data();
             const auto xr = reals(x);
-            combine_stages<row<I>>(reals(stage).data(), xr.data(), kp, dt, xr.size(), std::make_index_sequence<I>{});
+            double* out = reals(stage).data();
+            // element-wise, so over the model's threads (detail/ranges.hpp) with the same bits
+            splitter::of(f).for_ranges(xr.size(), [&](std::size_t i0, std::size_t i1, int) {
+                combine_stages<row<I>>(out + i0, xr.data() + i0, offset(kp, i0), dt, i1 - i0,
+                                       std::make_index_sequence<I>{});
+            });
             f(std::as_const(stage), k[I], t + T.c[I] * dt);
             on_stage(I, std::as_const(stage), std::as_const(k[I]));
         }
@@ -118,7 +133,12 @@ class explicit_rk {
         // own update reads element by element before overwriting it), is checked in the same pass, then swaps in.
         S& spare = T.stages > 1 ? st_.stage : st_.k[0];
         double* o = detail::reals(spare).data();
-        bool finite = detail::combine_stages_finite<T.b>(o, xr.data(), kp, dt, n, std::make_index_sequence<T.stages>{});
+        std::array<bool, detail::max_ranges> range_bad{};  // per range of the model's threads (detail/ranges.hpp)
+        detail::splitter::of(f).for_ranges(n, [&](std::size_t i0, std::size_t i1, int r) {
+            range_bad[std::size_t(r)] = !detail::combine_stages_finite<T.b>(
+                o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0, std::make_index_sequence<T.stages>{});
+        });
+        bool finite = std::ranges::none_of(range_bad, [](bool b) { return b; });
         // a state spread over processes fails the step on every process when it fails on one (detail/reduce.hpp)
         if constexpr (detail::distributed_model<F>) finite = !detail::reducer::of(f).any(!finite);
         if (!finite)

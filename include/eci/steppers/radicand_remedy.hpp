@@ -9,12 +9,14 @@
 #include <cstdint>
 #include <cstring>
 #include <limits>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "../compensated_sum.hpp"
+#include "../detail/ranges.hpp"
 #include "../detail/reduce.hpp"
 #include "../detail/simd.hpp"
 #include "../invariants.hpp"
@@ -312,10 +314,16 @@ class radicand_remedy {
 
     // predict: the engine reads nothing of o before remedy_elements, so the finishing pass may write the
     // conventional update of the filed elements the previous step's cut took (see written_cut_).
-    conditioned_pass begin_conditioned(std::size_t elements, bool predict = false) {
+    // ranges: how many ranges the engine files the elements in (conservative_rk splits its pass over the model's
+    // threads): range 0 files into neg_, cond_ and hist_, range r > 0 into parts_[r - 1] (range_filing), and
+    // end_split_conditioned merges them.
+    conditioned_pass begin_conditioned(std::size_t elements, bool predict = false, int ranges = 1) {
         neg_.clear();
         neg_h_.clear();
         cond_.clear();
+        if (parts_.size() < std::size_t(ranges - 1)) parts_.resize(std::size_t(ranges - 1));
+        for (filing_part& part : parts_) part.neg.clear(), part.neg_h.clear(), part.cond.clear(), part.filed = false;
+        parts_used_ = std::size_t(ranges - 1);
         // room for every element at once: pages the filing never reaches are never touched (not resident), and
         // no reallocation copies a half-filed list (which held 1.5 lists at its peak)
         if (cond_.capacity() < elements) cond_.reserve(elements);
@@ -331,11 +339,65 @@ class radicand_remedy {
         if (p.w0) set_gram(p.g00.value(), p.g01.value(), p.g11.value(), p.a0, p.a1);
     }
 
+    // Where a conditioned pass files its elements: the stepper's own lists (an unsplit pass, and range 0 of a split
+    // one), or a part of its own for each further range of a split pass, so that the ranges file concurrently.
+    struct filing {
+        std::vector<std::size_t>& neg;
+        std::vector<double>& neg_h;
+        std::vector<std::uint64_t>& cond;
+        double* hist;
+    };
+    filing own_filing() { return {neg_, neg_h_, cond_, hist_.data()}; }
+
+    // Range r's filing of a pass begun with begin_conditioned(elements, predict, ranges), for its elements
+    // e0 .. e1 - 1 (called on the range's thread: the part's lists grow to the range's share at most, and its
+    // histogram starts from zero here, in parallel).
+    filing range_filing(int r, std::size_t e0, std::size_t e1) {
+        if (r == 0) return own_filing();
+        filing_part& part = parts_[std::size_t(r - 1)];
+        if (part.cond.capacity() < e1 - e0) part.cond.reserve(e1 - e0);
+        part.hist.assign(hist_.size(), 0.0);
+        part.filed = true;
+        return {part.neg, part.neg_h, part.cond, part.hist.data()};
+    }
+
+    // After a split pass whose range r ended with Gram sums passes[r]: the ranges' negative elements appended to
+    // neg_ in range order (so in element order, as an unsplit pass files them), their histograms and Gram sums
+    // added to range 0's in range order (the compensated sums with their error terms). cond_ stays in parts
+    // (settle_filed reads them in range order), so the filing is held once, not twice. For one range:
+    // end_conditioned(passes[0]).
+    void end_split_conditioned(std::span<conditioned_pass> passes) {
+        conditioned_pass total = passes[0];
+        for (std::size_t r = 1; r < passes.size(); ++r) {
+            filing_part& part = parts_[r - 1];
+            if (!part.filed) continue;  // (the model ran fewer ranges)
+            neg_.insert(neg_.end(), part.neg.begin(), part.neg.end());
+            neg_h_.insert(neg_h_.end(), part.neg_h.begin(), part.neg_h.end());
+            for (std::size_t i = 0; i < hist_.size(); ++i) hist_[i] += part.hist[i];
+            const conditioned_pass& p = passes[r];
+            const auto merge = [](compensated_sum& sum, const compensated_sum& range_sum) {
+                sum.add(range_sum.s);
+                sum.err += range_sum.err;
+            };
+            merge(total.g00, p.g00), merge(total.g01, p.g01), merge(total.g11, p.g11);
+            total.a0 += p.a0, total.a1 += p.a1;
+        }
+        end_conditioned(total);
+    }
+
+    // Whether the last conditioned pass filed no element (neg_ and every range's cond_ empty).
+    bool filed_none() const {
+        if (!(neg_.empty() && cond_.empty())) return false;
+        for (std::size_t r = 0; r < parts_used_; ++r)
+            if (!parts_[r].cond.empty()) return false;
+        return true;
+    }
+
     template <std::size_t Per>
     element_kind condition_element(double* o, const double* x, std::size_t e, const std::array<double, Per>& c,
                                    double c2, double xi, double sign, conditioned_pass& pass) {
         double q = 0.0;
-        const element_kind kind = condition_unsummed<Per>(o, x, e, c, c2, xi, sign, q);
+        const element_kind kind = condition_unsummed<Per>(o, x, e, c, c2, xi, sign, q, own_filing());
         gram_add(pass, e, q);
         return kind;
     }
@@ -344,7 +406,7 @@ class radicand_remedy {
     // block's elements after filing them, in element order).
     template <std::size_t Per>
     element_kind condition_unsummed(double* o, const double* x, std::size_t e, const std::array<double, Per>& c,
-                                    double c2, double xi, double sign, double& q) {
+                                    double c2, double xi, double sign, double& q, const filing& into) {
         const double kappa = remedy.condition;
         double x2 = 0.0;
         for (std::size_t p = 0; p < Per; ++p) {
@@ -354,12 +416,12 @@ class radicand_remedy {
         q = c2;  // |o_e|^2 of the value o_e ends with (the conventional one unless changed below)
         element_kind kind = element_kind::conservative;
         if (!(xi >= 0.0)) {
-            neg_.push_back(e);
-            neg_h_.push_back(std::max(x2, c2));
+            into.neg.push_back(e);
+            into.neg_h.push_back(std::max(x2, c2));
             kind = element_kind::conventional;
         } else {
             if (Per == 2 && !(c2 > 0.0)) {  // no phase to give it: a mode that stays at zero, or a conventional zero
-                if (xi > 0.0) neg_.push_back(e), neg_h_.push_back(std::max(x2, c2));
+                if (xi > 0.0) into.neg.push_back(e), into.neg_h.push_back(std::max(x2, c2));
                 kind = element_kind::conventional;
             } else {
                 q = conservative_value<Per>(o + e * Per, c, c2, xi, sign);
@@ -372,7 +434,7 @@ class radicand_remedy {
             const double change = std::abs(xi - x2);
             if (kind == element_kind::conservative && xi < kappa * change &&
                 std::abs(c2 - xi) > 0x1p-40 * std::max(c2, xi)) {
-                file_element<Per>(o, e, ratio_bucket(xi / change), c.data(), std::max(x2, c2), c2 - q, c2 - xi);
+                file_element<Per>(o, e, ratio_bucket(xi / change), c.data(), std::max(x2, c2), c2 - q, c2 - xi, into);
             }
         }
         return kind;
@@ -382,10 +444,11 @@ class radicand_remedy {
     // sums: its count, share weight h, change dq of |o_e|^2 and defect d, weighed (attempt_elements reads a cut's
     // sums, never its elements). An element the previous step's cut predicts taken gets its conventional update.
     template <std::size_t Per>
-    void file_element(double* o, std::size_t e, std::size_t b, const double* c, double h, double dq, double d) {
-        cond_.push_back((std::uint64_t(e) << bucket_bits) | b);
+    void file_element(double* o, std::size_t e, std::size_t b, const double* c, double h, double dq, double d,
+                      const filing& into) {
+        into.cond.push_back((std::uint64_t(e) << bucket_bits) | b);
         const std::size_t m = weights_.size();
-        double* hb = hist_.data() + b * hist_stride();
+        double* hb = into.hist + b * hist_stride();
         hb[0] += 1.0;
         if (m == 2) {  // E and Z (every spectral model): the loop below unrolled, its operations in its order
             const double u = weights_[0][e], v = weights_[1][e], au = std::abs(u), av = std::abs(v);
@@ -413,7 +476,8 @@ class radicand_remedy {
     /// takes its conservative value in a loop the compiler vectorizes; the others go through condition_element.
     template <std::size_t Per>
     void condition_block(double* o, const double* x, std::size_t e0, std::size_t nb, const double* c,
-                         const double* c2, const double* xi, const double* sign, conditioned_pass& pass) {
+                         const double* c2, const double* xi, const double* sign, conditioned_pass& pass,
+                         const filing& into) {
         const double kappa = remedy.condition;
         std::array<double, block_elements> q, x2v, ratio;
         std::array<unsigned char, block_elements> kind;  // 0 plain, 1 plain and filed, 2 special
@@ -440,11 +504,11 @@ class radicand_remedy {
             if (kind[b] == 2) {
                 std::array<double, Per> cb;
                 for (std::size_t p = 0; p < Per; ++p) cb[p] = c[b * Per + p];
-                condition_unsummed<Per>(o, x, e0 + b, cb, c2[b], xi[b], sign[b], q[b]);
+                condition_unsummed<Per>(o, x, e0 + b, cb, c2[b], xi[b], sign[b], q[b], into);
                 continue;
             }
             file_element<Per>(o, e0 + b, ratio_bucket(ratio[b]), c + b * Per, std::max(x2v[b], c2[b]),
-                              c2[b] - q[b], c2[b] - xi[b]);
+                              c2[b] - q[b], c2[b] - xi[b], into);
         }
         gram_block(pass, e0, q.data(), nb);
     }
@@ -557,17 +621,21 @@ class radicand_remedy {
         const std::size_t lo = std::min(cut, written_cut_), hi = std::max(cut, written_cut_);
         written_cut_ = cut;
         if (lo == hi) return;
-        for (const std::uint64_t key : cond_) {
-            const std::size_t b = std::size_t(key & bucket_mask);
-            if (b < lo || b >= hi) continue;
-            const std::size_t e = std::size_t(key >> bucket_bits);
-            std::array<double, Per> c{};
-            const auto u = conv(e, c);
-            if (b < cut)
-                for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p];
-            else
-                conservative_value<Per>(o + e * Per, c, u.c2, u.xi, u.sign);
-        }
+        const auto settle = [&](const std::vector<std::uint64_t>& filed) {
+            for (const std::uint64_t key : filed) {
+                const std::size_t b = std::size_t(key & bucket_mask);
+                if (b < lo || b >= hi) continue;
+                const std::size_t e = std::size_t(key >> bucket_bits);
+                std::array<double, Per> c{};
+                const auto u = conv(e, c);
+                if (b < cut)
+                    for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p];
+                else
+                    conservative_value<Per>(o + e * Per, c, u.c2, u.xi, u.sign);
+            }
+        };
+        settle(cond_);
+        for (std::size_t r = 0; r < parts_used_; ++r) settle(parts_[r].cond);
     }
     // Per bucket of hist_: the count, then for each invariant a: sum |w_a| h, sum |w_a| dq, sum w_a d, then the
     // m x m sums w_a w_b dq.
@@ -575,7 +643,8 @@ class radicand_remedy {
         const std::size_t m = weights_.size();
         return 1 + 3 * m + m * m;
     }
-    // Calls fn(j) for every j (an index into cond_, in filing order) the last successful remedy_elements took.
+    // Calls fn(j) for every j (an index into cond_, in filing order) the last successful remedy_elements took
+    // (after an unsplit pass: a split pass keeps the further ranges' filing in parts_).
     template <class Fn>
     void for_each_taken(Fn&& fn) const {
         if (taken_cut_ == 0) return;
@@ -621,6 +690,8 @@ class radicand_remedy {
     // The model's reductions when its state is spread over processes (set by the stepper at each step; empty
     // otherwise): try_remedy's counts and sums are then over every process, and its decisions the same on all.
     detail::reducer reduce_;
+    // The model's threads for the element-wise passes (set by the stepper at each step; empty: one range).
+    detail::splitter split_;
 
     // The conditioned update's ill-conditioned elements (see remedy_elements), in filing (element) order: each
     // (e << bucket_bits) | its bucket of xi / |change of xi| (smaller is worse). 8 bytes per element, so that on
@@ -629,6 +700,16 @@ class radicand_remedy {
     std::vector<std::size_t> neg_;
     std::vector<double> neg_h_;  // h (below) of each element of neg_
     std::vector<std::uint64_t> cond_;
+    // The filing of ranges 1, 2, ... of a split pass (range_filing); parts_used_ of them belong to the last pass.
+    struct filing_part {
+        std::vector<std::size_t> neg;
+        std::vector<double> neg_h;
+        std::vector<std::uint64_t> cond;
+        std::vector<double> hist;
+        bool filed = false;  // the range ran in the last pass (its histogram and lists are this pass's)
+    };
+    std::vector<filing_part> parts_;
+    std::size_t parts_used_ = 0;
     // The filed elements' histogram over the buckets of their ratio: per bucket, its count, then for each invariant
     // a the sum of |w_ae| h_e (h = max(|x_e|^2, |c_e|^2): the element's weight in the share cap) and the sum of
     // |w_ae| (|c_e|^2 - |o_e|^2) (the change of the invariant's magnitude if taken). 32 buckets per octave of the
@@ -675,26 +756,29 @@ class radicand_remedy {
         }
     }
 
-    // o_i += o_i h(s_e) for every real unknown i of element e, s_e = sum_j c_j w_je.
+    // o_i += o_i h(s_e) for every real unknown i of element e, s_e = sum_j c_j w_je (element by element, so over
+    // the model's threads with the same bits).
     template <std::size_t Per, class H>
     void for_each_element_factor(std::size_t n, const std::array<double, max_invariants>& c, H&& h, double* o) const {
         const std::size_t m = weights_.size(), ne = n / Per;
-        if (m == 2) {  // the common case (energy and enstrophy)
-            const double* w0 = weights_[0].data();
-            const double* w1 = weights_[1].data();
-            const double c0 = c[0], c1 = c[1];
-            for (std::size_t e = 0; e < ne; ++e) {
-                const double f = h(c0 * w0[e] + c1 * w1[e]);
+        split_.for_ranges(ne, [&](std::size_t e0, std::size_t e1, int) {
+            if (m == 2) {  // the common case (energy and enstrophy)
+                const double* w0 = weights_[0].data();
+                const double* w1 = weights_[1].data();
+                const double c0 = c[0], c1 = c[1];
+                for (std::size_t e = e0; e < e1; ++e) {
+                    const double f = h(c0 * w0[e] + c1 * w1[e]);
+                    for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] += o[e * Per + p] * f;
+                }
+                return;
+            }
+            for (std::size_t e = e0; e < e1; ++e) {
+                double s = 0.0;
+                for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][e];
+                const double f = h(s);
                 for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] += o[e * Per + p] * f;
             }
-            return;
-        }
-        for (std::size_t e = 0; e < ne; ++e) {
-            double s = 0.0;
-            for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][e];
-            const double f = h(s);
-            for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] += o[e * Per + p] * f;
-        }
+        });
     }
 
     // Calls fn(i, s_i) for every real unknown i, with s_i = sum_j c_j w_ji (weights per element, i >> Shift).
