@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <type_traits>
 
@@ -43,6 +44,17 @@ struct splitter {
         run(model, n,
             [](void* c, std::size_t i0, std::size_t i1, int r) { (*static_cast<B*>(c))(i0, i1, r); },
             const_cast<void*>(static_cast<const void*>(&body)));
+    }
+
+    /// The sum, in range order, of per_range(i0, i1) over the model's ranges of 0 .. n - 1: the element-wise passes'
+    /// counts of failures, which are whole numbers, so that any split gives the same sum.
+    template <class PerRange>
+    double count(std::size_t n, PerRange&& per_range) const {
+        std::array<double, max_ranges> part{};
+        for_ranges(n, [&](std::size_t i0, std::size_t i1, int r) { part[std::size_t(r)] = per_range(i0, i1); });
+        double total = 0.0;
+        for (double v : part) total += v;
+        return total;
     }
 
     template <class F>

@@ -65,14 +65,14 @@ class conservative_rk : public radicand_remedy {
                 return step_result::failure(first_negative<per>());
         } else if constexpr (is_c_pc) {
             const double* k1 = detail::reals(std::as_const(st_.k[1])).data();
-            bad = count_over_ranges(n, [&](std::size_t i0, std::size_t i1) {
+            bad = split_.count(n, [&](std::size_t i0, std::size_t i1) {
                 return i1 - i0 >= 64 ? detail::c_pc_finish(o + i0, xr.data() + i0, k1 + i0, dt, i1 - i0)
                                      : detail::c_pc_finish_inline(o + i0, xr.data() + i0, k1 + i0, dt, i1 - i0);
             });
         } else {
             std::array<const double*, s> kp{};
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
-            bad = count_over_ranges(n, [&](std::size_t i0, std::size_t i1) {
+            bad = split_.count(n, [&](std::size_t i0, std::size_t i1) {
                 return finish_general(o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
                                       std::make_index_sequence<s>{});
             });
@@ -83,7 +83,7 @@ class conservative_rk : public radicand_remedy {
         if (bad != 0.0 && !remedy_failures(o, xr.data(), dt, n))
             return step_result::failure(first_failure(n, [&](std::size_t i) { return !(o[i] == o[i]); }));
         // An overflow (inf) fails the step as well, never passes as a result.
-        bool finite = count_over_ranges(n, [&](std::size_t i0, std::size_t i1) {
+        bool finite = split_.count(n, [&](std::size_t i0, std::size_t i1) {
                           return detail::all_finite_reals(o + i0, i1 - i0) ? 0.0 : 1.0;
                       }) == 0.0;
         if constexpr (detail::distributed_model<F>) finite = !reduce_.any(!finite);
@@ -111,18 +111,6 @@ class conservative_rk : public radicand_remedy {
     }
 
     static constexpr std::size_t per = sizeof(std::ranges::range_value_t<S>) / sizeof(double);
-
-    // count(i0, i1) over the model's ranges of 0 .. n - 1 (one range [0, n) for a model without threads), summed
-    // in range order: the element-wise passes' counts of failures, which are whole numbers, so any split gives
-    // the same sum.
-    template <class Count>
-    double count_over_ranges(std::size_t n, Count&& count) const {
-        std::array<double, detail::max_ranges> part{};
-        split_.for_ranges(n, [&](std::size_t i0, std::size_t i1, int r) { part[std::size_t(r)] = count(i0, i1); });
-        double total = 0.0;
-        for (double v : part) total += v;
-        return total;
-    }
 
     // The conditioned update needs the declared weights (the rescale restores them, and they say the
     // invariants of a complex state are sums w_k |psi_k|^2, phase-free), the remedy policy, and a system of at least

@@ -2,7 +2,6 @@
 // Euler (eq. 7), the predictor-corrector (Heun, eq. 18), the midpoint rule and RK4 are its instances.
 #pragma once
 
-#include <algorithm>
 #include <array>
 #include <bit>
 #include <cmath>
@@ -133,12 +132,13 @@ class explicit_rk {
         // own update reads element by element before overwriting it), is checked in the same pass, then swaps in.
         S& spare = T.stages > 1 ? st_.stage : st_.k[0];
         double* o = detail::reals(spare).data();
-        std::array<bool, detail::max_ranges> range_bad{};  // per range of the model's threads (detail/ranges.hpp)
-        detail::splitter::of(f).for_ranges(n, [&](std::size_t i0, std::size_t i1, int r) {
-            range_bad[std::size_t(r)] = !detail::combine_stages_finite<T.b>(
-                o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0, std::make_index_sequence<T.stages>{});
-        });
-        bool finite = std::ranges::none_of(range_bad, [](bool b) { return b; });
+        // over the model's threads (detail/ranges.hpp): the ranges that met a non-finite value, counted
+        bool finite = detail::splitter::of(f).count(n, [&](std::size_t i0, std::size_t i1) {
+                          return detail::combine_stages_finite<T.b>(o + i0, xr.data() + i0, detail::offset(kp, i0), dt,
+                                                                    i1 - i0, std::make_index_sequence<T.stages>{})
+                                     ? 0.0
+                                     : 1.0;
+                      }) == 0.0;
         // a state spread over processes fails the step on every process when it fails on one (detail/reduce.hpp)
         if constexpr (detail::distributed_model<F>) finite = !detail::reducer::of(f).any(!finite);
         if (!finite)
