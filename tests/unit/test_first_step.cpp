@@ -7,9 +7,10 @@
 #include <stdexcept>
 #include <vector>
 
-#include <eci/dynamic_sink.hpp>
 #include <eci/eci.hpp>
 #include <eci/models/three_wave.hpp>
+
+#include "solve_tests.hpp"
 
 namespace {
 
@@ -156,9 +157,7 @@ TEST(FirstStep, SolveChoosesItWhenDtIsZero) {
     const eci::three_wave model;
     const eci::three_wave::state_type x0{1.0, 0.5, -0.8};
     // the compiled runs of the front ends (eci::solve_model, src/models), with a sink that keeps nothing
-    struct discard final : eci::dynamic_sink<eci::three_wave::state_type> {
-        void output(const eci::three_wave::state_type&, const eci::output_point&) override {}
-    } none;
+    solve_tests::discard<eci::three_wave::state_type> none;
     eci::run_config cfg;
     cfg.t_end = 2.0;
     cfg.adaptive = tolerances(1e-8, 1e-8);
