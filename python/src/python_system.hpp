@@ -202,7 +202,8 @@ struct python_transformed_system {
 
 /// fun(t, y) with the quadratic invariants sum_k W[j][k] |y_k|^2 it keeps, declared by the user
 /// (eci.solve(..., quadratic_invariants=W)): the conservative fixed-step engines take the weights for their remedy
-/// of negative radicands (as a model's quadratic_invariant_weights()), instead of halving the step.
+/// of negative radicands (as a model's quadratic_invariant_weights()), instead of halving the step. No rows: a fun
+/// that declares none (the remedy then has no weights, and halves), run by the same compiled code.
 template <class T>
 struct python_weighted_system {
     using state_type = std::vector<T>;

@@ -82,6 +82,8 @@ void add_weighted_invariants(std::vector<extra_invariant<S>>& out, const quadrat
                        }});
 }
 
+/// fun(t, y) on a real or complex y, with the quadratic invariants' weights when given (an empty set of rows
+/// otherwise: the same runs as a system that declares none, compiled once for both).
 template <class T>
 py::dict solve_plain(py::object fun, const input_array<T>& y0, const std::string& method, const python_request& req,
                      std::vector<py::object> invariants, const std::vector<std::string>& names,
@@ -89,17 +91,18 @@ py::dict solve_plain(py::object fun, const input_array<T>& y0, const std::string
     using S = std::vector<T>;
     const std::size_t n = static_cast<std::size_t>(y0.shape(0));
     S x(y0.data(), y0.data() + n);
-    python_rhs<T> f(std::move(fun), n);
     const component_namer namer{{}, std::is_same_v<T, std::complex<double>>};
     auto extra = python_extra_invariants<S>(std::move(invariants), names);
-    if (weights.is_none())
-        return run_python<S>(f, x, method, req, std::move(extra), namer, "fun(t, y)", false);
-    // checked by eci.solve: a float64 (m, n) array
-    const auto w = input_array<double>::ensure(weights);
-    quadratic_weights rows(static_cast<std::size_t>(w.shape(0)), std::vector<double>(n));
-    for (std::size_t j = 0; j < rows.size(); ++j) std::copy(w.data() + j * n, w.data() + (j + 1) * n, rows[j].begin());
-    add_weighted_invariants(extra, rows);
-    const python_weighted_system<T> g{std::move(f), std::move(rows)};
+    quadratic_weights rows;
+    if (!weights.is_none()) {
+        // checked by eci.solve: a float64 (m, n) array
+        const auto w = input_array<double>::ensure(weights);
+        rows.assign(static_cast<std::size_t>(w.shape(0)), std::vector<double>(n));
+        for (std::size_t j = 0; j < rows.size(); ++j)
+            std::copy(w.data() + j * n, w.data() + (j + 1) * n, rows[j].begin());
+        add_weighted_invariants(extra, rows);
+    }
+    const python_weighted_system<T> g{python_rhs<T>(std::move(fun), n), std::move(rows)};
     return run_python<python_weighted_system<T>>(g, x, method, req, std::move(extra), namer, "fun(t, y)", false);
 }
 
