@@ -620,6 +620,7 @@ struct first_step_choice {
 /// overflow-safe (scaled by the largest entry when the squares overflow). Never larger than the span.
 template <state S, system<S> F>
 first_step_choice choose_first_step(F&& f, const S& x, double t0, double t_end, int order, const adaptive_options& o) {
+    detail::require_one_process(f, "adaptive step control and its first-step rule");
     check_adaptive_options(o, std::ranges::size(x));
     first_step_choice out;
     const double span = std::abs(t_end - t0);

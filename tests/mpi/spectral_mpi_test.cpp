@@ -17,10 +17,12 @@
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <stdexcept>
 #include <utility>
 #include <string>
 #include <vector>
 
+#include <eci/adaptive.hpp>
 #include <eci/spectral/step.hpp>
 
 namespace {
@@ -402,6 +404,32 @@ int main(int argc, char** argv) {
         const double pair = rel_diff(md.to_half_plane(md.vortex_pair(0.25, 0.7, 10.0)),
                                      ms.to_half_plane(ms.vortex_pair(0.25, 0.7, 10.0)));
         check(pair <= 16.0 * eps, "vortex_pair from each process's rows = the serial one to " + num(pair));
+    }
+    // The embedded pairs decide over this process's unknowns alone (their error norm, their negative radicands,
+    // the first-step rule): on a spread state they are refused on every process before any collective, so none is
+    // left waiting; on one process they step as they do serially.
+    {
+        eci::ns2d_params p;
+        p.n = 32;
+        p.measure = false;
+        p.comm = MPI_COMM_WORLD;
+        navier_stokes_2d m(p);
+        state w = m.random_field(4.0, 0.5, 1);
+        const auto refused = [](auto&& call) {
+            try {
+                call();
+                return false;
+            } catch (const std::invalid_argument&) {
+                return true;
+            }
+        };
+        eci::c_dp54<state> st;
+        const bool step_refused = refused([&] { st.step(m, w, 0.0, 0.002); });
+        const bool first_refused = refused([&] { eci::choose_first_step(m, w, 0.0, 1.0, 5, eci::adaptive_options{}); });
+        check(step_refused == m.spread() && first_refused == m.spread(),
+              std::string("C-DP54 and the first-step rule on ") + (m.spread() ? "a spread state: refused on every "
+                                                                                 "process, none left waiting"
+                                                                               : "one process: they run"));
     }
     MPI_Finalize();
     return all_ok ? 0 : 1;

@@ -7,6 +7,8 @@
 
 #include <cstddef>
 #include <span>
+#include <stdexcept>
+#include <string>
 #include <type_traits>
 #include <vector>
 
@@ -84,5 +86,18 @@ public:
         }
     }
 };
+
+/// For a computation whose sums and decisions are over this process's unknowns alone (the embedded pairs' error
+/// norm and first step): throws std::invalid_argument, naming `what`, when f's state is spread over processes,
+/// on every process alike (spread() is the same on all) and before any collective, so none is left waiting.
+template <class F>
+void require_one_process(const F& f, const char* what) {
+    if constexpr (distributed_model<F>)
+        if (reducer::of(f))
+            throw std::invalid_argument(std::string(what) +
+                                        " run on a state held by one process, and this state is spread over "
+                                        "processes: take a fixed-step method (rk4, c-rk4, ...), whose decisions are "
+                                        "taken over all of them");
+}
 
 }  // namespace eci::detail

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "../concepts.hpp"
+#include "../detail/reduce.hpp"
 #include "../detail/state_ops.hpp"
 #include "../tableaus.hpp"
 #include "compensated_c_pc.hpp"
@@ -195,6 +196,8 @@ class embedded_rk
     template <system<S> F>
     attempt_result attempt(F& f, const S& x, double t, double dt, const error_weights* w = nullptr,
                            bool track_worst = false) {
+        // its error norm and negative radicands are over this process's unknowns (detail/reduce.hpp)
+        detail::require_one_process(f, "the embedded pairs");
         prepare(x);
         if (!have_first_) {
             f(x, k_[0], t);
@@ -219,8 +222,7 @@ class embedded_rk
         finish_sums sums;
         constexpr auto J = std::make_index_sequence<s>{};
         if constexpr (conditioning) {
-            // (a state spread over processes takes the per-unknown update, whose decisions are local)
-            if (!detail::reducer::of(f) && conditioned_update_applies(n)) {
+            if (conditioned_update_applies(n)) {
                 const error_weights none{};
                 const bool ok = w == nullptr ? finish_conditioned<false, false, false>(o, xr.data(), p0, kp, dt, n, none, sums)
                                 : track_worst ? finish_conditioned<true, true, true>(o, xr.data(), p0, kp, dt, n, *w, sums)
