@@ -11,7 +11,9 @@
 #include <cstdio>
 #include <cstdlib>
 #include <numbers>
+#include <span>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include <ctime>
@@ -41,9 +43,22 @@ double seconds_since(double t) { return now() - t; }
 // again, so every method steps the same field at CFL 0.5; their times, sorted. update: which finishing pass a
 // conservative stepper takes: 0 its default, 1 the paper's update, 2 the conditioned update. The model's invariants
 // are declared to it, as ns2d_step (the CLI's driver) does.
+// hooked: each step as a run takes it (eci::solve, the CLI): between the model's begin_attempt and end_attempt, so
+// that every right-hand side also records the budget's rates (f is then the model itself).
 template <class St, class F>
 std::vector<double> step_times(F& f, const eci::navier_stokes_2d& m, const state& w0, double dt, int reps,
-                               int update) {
+                               int update, bool hooked = false) {
+    const auto one_step = [&](St& st, state& w) {
+        if constexpr (std::is_same_v<F, eci::navier_stokes_2d>) {
+            if (hooked) {
+                f.begin_attempt();
+                const bool ok = bool(st.step(f, w, 0.0, dt));
+                f.end_attempt(ok, dt, std::span<const double>(St::tableau.b));
+                return;
+            }
+        }
+        st.step(f, w, 0.0, dt);
+    };
     St st;
     if constexpr (requires { st.remedy; }) {
         st.set_quadratic_invariants(m.quadratic_invariant_weights());
@@ -51,13 +66,13 @@ std::vector<double> step_times(F& f, const eci::navier_stokes_2d& m, const state
         if (update == 2) st.remedy.update = eci::update_kind::conditioned;
     }
     state w = w0;
-    st.step(f, w, 0.0, dt);  // warm up: buffers allocated
+    one_step(st, w);  // warm up: buffers allocated
     std::vector<double> t;
     t.reserve(std::size_t(reps));
     for (int r = 0; r < reps; ++r) {
         w = w0;
         const double t0 = now();
-        st.step(f, w, 0.0, dt);
+        one_step(st, w);
         t.push_back(seconds_since(t0));
     }
     std::sort(t.begin(), t.end());
@@ -66,8 +81,9 @@ std::vector<double> step_times(F& f, const eci::navier_stokes_2d& m, const state
 
 // One step of St on the model, the fastest of `reps`.
 template <class St>
-double step_time(eci::navier_stokes_2d& m, const state& w0, double dt, int reps, int update = 0) {
-    return step_times<St>(m, m, w0, dt, reps, update).front();
+double step_time(eci::navier_stokes_2d& m, const state& w0, double dt, int reps, int update = 0,
+                 bool hooked = false) {
+    return step_times<St>(m, m, w0, dt, reps, update, hooked).front();
 }
 
 // A model that replays the stage derivatives of one real RK4 step (recorded with `record`): a step of any stepper
@@ -122,6 +138,7 @@ int main(int argc, char** argv) {
     // Interleaved: each round times every method once, so load changes hit all alike; the fastest round counts.
     double t_rk4 = 1e300, t_crk4 = 1e300, t_pc = 1e300, t_cpc = 1e300, t_fft = 1e300, t_rhs = 1e300;
     double t_crk4_paper = 1e300, t_cpc_paper = 1e300, t_crk4_cond = 1e300, t_cpc_cond = 1e300;
+    double t_rk4_run = 1e300, t_crk4_run = 1e300;
     state f;
     m(w0, f, 0.0);
     for (int round = 0; round < 3; ++round) {
@@ -133,6 +150,8 @@ int main(int argc, char** argv) {
         t_cpc_paper = std::min(t_cpc_paper, step_time<eci::c_pc<state>>(m, w0, dt, reps, 1));
         t_crk4_cond = std::min(t_crk4_cond, step_time<eci::c_rk4<state>>(m, w0, dt, reps, 2));
         t_cpc_cond = std::min(t_cpc_cond, step_time<eci::c_pc<state>>(m, w0, dt, reps, 2));
+        t_rk4_run = std::min(t_rk4_run, step_time<eci::rk4<state>>(m, w0, dt, reps, 0, true));
+        t_crk4_run = std::min(t_crk4_run, step_time<eci::c_rk4<state>>(m, w0, dt, reps, 0, true));
         for (int r = 0; r < reps; ++r) {
             const double t = now();
             for (int s = 0; s < 4; ++s) m.execute_transforms();  // the transforms of one RK4 step
@@ -180,6 +199,10 @@ int main(int argc, char** argv) {
                 p.n, p.threads, use_cpu_clock ? "cpu" : "wall", t_rk4, t_crk4, t_pc, t_cpc, t_fft, t_rhs,
                 t_crk4 / t_rk4, t_cpc / t_pc, t_crk4 / t_fft, t_rhs / t_fft, dt, t_one, t_fft / 4.0 / t_one,
                 m.transforms_per_rhs());
+    // The steps as a run takes them (the budget's rates recorded at every stage, as eci run and eci.solve do)
+    std::printf("ns2d-run N=%d threads=%d rk4_run=%.6g c_rk4_run=%.6g rk4_run/rk4=%.4f c_rk4_run/rk4_run=%.4f "
+                "c_rk4_run/fft=%.4f\n",
+                p.n, p.threads, t_rk4_run, t_crk4_run, t_rk4_run / t_rk4, t_crk4_run / t_rk4_run, t_crk4_run / t_fft);
     // The conservative steppers' two finishing passes side by side (c_rk4 and c_pc above are the default).
     std::printf("ns2d-update N=%d c_rk4_paper/rk4=%.4f c_rk4_conditioned/rk4=%.4f c_pc_paper/pc=%.4f "
                 "c_pc_conditioned/pc=%.4f\n",
