@@ -3,7 +3,8 @@
 # Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--pyfftw-sizes LIST] [--long] [--json FILE] [--out DIR]
 #                     [--build-dir DIR] [--apps-from DIR]
 #   --quick  smaller large systems and fewer repetitions (under two minutes)
-#   --smoke  every program for a token run (CI: keeps them compiling and running, under a minute); numbers meaningless
+#   --smoke  every program for a token run, compiled at -O1 in build-bench-smoke/ (CI: keeps them compiling and
+#            running); numbers meaningless
 #   --ns2d   also the 2-D Navier-Stokes benchmarks (N = 1024 steps, threads, N = 128..4096 scaling x 3, radicands
 #            at N = 256 and 1024, NumPy; ~30 min) and eci against the pyFFTW script (N = 256..4096, 1 and 2
 #            threads; --quick 256..1024; --smoke only its check at N = 32; skipped if python3-pyfftw is missing)
@@ -33,7 +34,7 @@ while [[ $# -gt 0 ]]; do
     --out) [[ $# -ge 2 ]] || { echo "run.sh: --out needs a directory" >&2; exit 2; }; out=$(realpath -m "$2"); shift ;;
     --build-dir) [[ $# -ge 2 ]] || { echo "run.sh: --build-dir needs a directory" >&2; exit 2; }; build=$(realpath -m "$2"); shift ;;
     --apps-from) [[ $# -ge 2 ]] || { echo "run.sh: --apps-from needs a directory" >&2; exit 2; }; apps=$(realpath -m "$2"); shift ;;
-    -h|--help) sed -n '2,13p' "$0"; exit 0 ;;
+    -h|--help) sed -n '2,14p' "$0"; exit 0 ;;
     *) echo "run.sh: unknown argument $1" >&2; exit 2 ;;
   esac
   shift
