@@ -544,7 +544,7 @@ class embedded_rk
             }
         }
         this->end_conditioned(pass);
-        if (!(this->neg_.empty() && this->cond_.empty())) {
+        if (!this->filed_none()) {
             const bool ok = this->template remedy_elements<per>(o, x, n, [&](std::size_t e, std::array<double, per>& c) {
                 double c2 = 0.0, xi = 0.0;
                 for (std::size_t p = 0; p < per; ++p) {
