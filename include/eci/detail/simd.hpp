@@ -14,6 +14,17 @@
 
 namespace eci::detail {
 
+#if ECI_DETAIL_X86_SIMD
+/// Whether the processor runs AVX2 (asked once).
+inline bool cpu_has_avx2() {
+    static const bool avx2 = [] {
+        __builtin_cpu_init();
+        return __builtin_cpu_supports("avx2") != 0;
+    }();
+    return avx2;
+}
+#endif
+
 /// C-PC's finishing pass, eq. (30b) factorised: o holds psi~ and becomes sgn(psi~) sqrt(psi~ (x + dt S~)).
 /// Returns the number of negative (or NaN) radicands, as a double. The reference loop: the vector versions
 /// below perform the same IEEE operations in the same order (no FMA), so every version gives the same bits.

@@ -19,6 +19,7 @@
 #include "../detail/ranges.hpp"
 #include "../detail/reduce.hpp"
 #include "../detail/simd.hpp"
+#include "../detail/state_ops.hpp"
 #include "../invariants.hpp"
 
 namespace eci {
@@ -444,8 +445,8 @@ class radicand_remedy {
     // sums: its count, share weight h, change dq of |o_e|^2 and defect d, weighed (attempt_elements reads a cut's
     // sums, never its elements). An element the previous step's cut predicts taken gets its conventional update.
     template <std::size_t Per>
-    void file_element(double* o, std::size_t e, std::size_t b, const double* c, double h, double dq, double d,
-                      const filing& into) {
+    [[gnu::always_inline]] void file_element(double* o, std::size_t e, std::size_t b, const double* c, double h,
+                                             double dq, double d, const filing& into) {
         into.cond.push_back((std::uint64_t(e) << bucket_bits) | b);
         const std::size_t m = weights_.size();
         double* hb = into.hist + b * hist_stride();
@@ -498,7 +499,18 @@ class radicand_remedy {
                 q[b] = ob[b] * ob[b];
             }
         }
-        // the filing, in element order (most elements are neither special nor filed)
+        // the filing, in element order (most elements are neither special nor filed). The buckets' sums (180 KB of
+        // histogram, out of L1 once the streams have passed through it) are fetched for the whole block first, so
+        // that their loads overlap rather than stall each filing in turn.
+        const std::size_t stride = hist_stride();
+        std::array<std::uint16_t, block_elements> bucket;
+        for (std::size_t b = 0; b < nb; ++b) {
+            if (kind[b] != 1) continue;
+            bucket[b] = std::uint16_t(ratio_bucket(ratio[b]));
+            const double* hb = into.hist + bucket[b] * stride;
+            __builtin_prefetch(hb, 1);
+            __builtin_prefetch(hb + stride - 1, 1);
+        }
         for (std::size_t b = 0; b < nb; ++b) {
             if (kind[b] == 0) continue;
             if (kind[b] == 2) {
@@ -507,7 +519,7 @@ class radicand_remedy {
                 condition_unsummed<Per>(o, x, e0 + b, cb, c2[b], xi[b], sign[b], q[b], into);
                 continue;
             }
-            file_element<Per>(o, e0 + b, ratio_bucket(ratio[b]), c + b * Per, std::max(x2v[b], c2[b]),
+            file_element<Per>(o, e0 + b, bucket[b], c + b * Per, std::max(x2v[b], c2[b]),
                               c2[b] - q[b], c2[b] - xi[b], into);
         }
         gram_block(pass, e0, q.data(), nb);
@@ -739,46 +751,63 @@ class radicand_remedy {
     }
 
     // psi_k <- psi_k sqrt(1 + s_k), s_k = sum_j c_j w_jk, written psi_k + psi_k h_k with h = sqrt(1 + s) - 1 so that
-    // a tiny s is not lost in 1 + s. For |s| <= 1e-4 (the usual case: s ~ defect / invariant) h is its Taylor
-    // series to s^4, whose remainder (< 0.03 s^5) is below eps h: no square root, and a loop that vectorizes.
+    // a tiny s is not lost in 1 + s. For |s| <= taylor_limit = 2^-10 (the usual case: s ~ defect / invariant, 1e-8
+    // or less; turbulence at CFL 0.5 rescales by up to ~5e-4) h is its Taylor series to s^6, whose remainder
+    // (< 0.017 |s|^7, under 0.04 |s|^6 h < 2^-64 h) is far below eps h: no square root, and a loop that vectorizes.
     // The factor h is formed once per element (a complex mode's two parts share s_k) and the loop runs over
     // elements, so that with two invariants it vectorizes: the rescale is a whole pass over the state on every
     // remedied step (most steps of turbulence), and per real unknown with the weights indexed i >> 1 it did not.
     // The operations per unknown are the ones above, so the bits are too.
+    // The pass also tells whether every rescaled value is finite (rescaled_finite()), so that the engine's blow-up
+    // check needs no pass of its own after it.
+    static constexpr double taylor_limit = 0x1p-10;
     template <std::size_t Per>
-    void rescale(double* o, std::size_t n, const std::array<double, max_invariants>& c) const {
-        if (s_bound_ <= 1e-4) {
-            for_each_element_factor<Per>(n, c, [](double s) {
-                return s * (0.5 + s * (-0.125 + s * (0.0625 - s * 0.0390625)));
-            }, o);
-        } else {
-            for_each_element_factor<Per>(n, c, [](double s) { return s / (1.0 + std::sqrt(1.0 + s)); }, o);
-        }
+    void rescale(double* o, std::size_t n, const std::array<double, max_invariants>& c) {
+        const bool finite = s_bound_ <= taylor_limit ? for_each_element_factor<Per>(n, c, [](double s) {
+            return s * (0.5 + s * (-0.125 + s * (0.0625 + s * (-0.0390625 + s * (0.02734375 - s * 0.0205078125)))));
+        }, o)
+                                                      : for_each_element_factor<Per>(n, c, [](double s) {
+            return s / (1.0 + std::sqrt(1.0 + s));
+        }, o);
+        rescaled_ = finite ? rescaled::finite : rescaled::non_finite;
     }
 
+    // Whether a rescale ran since the engine last set rescaled_ to `no` (at the start of its step), and whether it
+    // left every value finite.
+    enum class rescaled { no, finite, non_finite };
+    rescaled rescaled_ = rescaled::no;
+
     // o_i += o_i h(s_e) for every real unknown i of element e, s_e = sum_j c_j w_je (element by element, so over
-    // the model's threads with the same bits).
+    // the model's threads with the same bits). Returns whether every new o_i is finite.
     template <std::size_t Per, class H>
-    void for_each_element_factor(std::size_t n, const std::array<double, max_invariants>& c, H&& h, double* o) const {
+    bool for_each_element_factor(std::size_t n, const std::array<double, max_invariants>& c, H&& h, double* o) const {
         const std::size_t m = weights_.size(), ne = n / Per;
-        split_.for_ranges(ne, [&](std::size_t e0, std::size_t e1, int) {
+        return split_.count(ne, [&](std::size_t e0, std::size_t e1) {
+            std::uint64_t bad = 0;
             if (m == 2) {  // the common case (energy and enstrophy)
                 const double* w0 = weights_[0].data();
                 const double* w1 = weights_[1].data();
                 const double c0 = c[0], c1 = c[1];
                 for (std::size_t e = e0; e < e1; ++e) {
                     const double f = h(c0 * w0[e] + c1 * w1[e]);
-                    for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] += o[e * Per + p] * f;
+                    for (std::size_t p = 0; p < Per; ++p) {
+                        o[e * Per + p] += o[e * Per + p] * f;
+                        bad |= detail::non_finite_bit(o[e * Per + p]);
+                    }
                 }
-                return;
+            } else {
+                for (std::size_t e = e0; e < e1; ++e) {
+                    double s = 0.0;
+                    for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][e];
+                    const double f = h(s);
+                    for (std::size_t p = 0; p < Per; ++p) {
+                        o[e * Per + p] += o[e * Per + p] * f;
+                        bad |= detail::non_finite_bit(o[e * Per + p]);
+                    }
+                }
             }
-            for (std::size_t e = e0; e < e1; ++e) {
-                double s = 0.0;
-                for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][e];
-                const double f = h(s);
-                for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] += o[e * Per + p] * f;
-            }
-        });
+            return detail::none_non_finite(bad) ? 0.0 : 1.0;
+        }) == 0.0;
     }
 
     // Calls fn(i, s_i) for every real unknown i, with s_i = sum_j c_j w_ji (weights per element, i >> Shift).
@@ -884,7 +913,7 @@ class radicand_remedy {
             for (std::size_t j = 0; j < m; ++j) ub += std::abs(c[j]) * whole_.wmax[j];
             for (std::size_t j = 0; j < m; ++j) lb = std::max(lb, s_at(c, wargmax_[j]));
             reduce_.max({&lb, 1});  // (spread: |s| at this process's largest weights, the largest over all)
-            bool settled = ub * (1.0 + 0x1p-40) <= 1e-4 && (ncond == 0 || lb >= 0x1p-48);
+            bool settled = ub * (1.0 + 0x1p-40) <= taylor_limit && (ncond == 0 || lb >= 0x1p-48);
             for (std::size_t j = 0; settled && j < m; ++j) {
                 double bound = 0.0;
                 for (std::size_t i = 0; i < m; ++i) bound += std::abs(c[i]) * g[j * M + i];
