@@ -53,9 +53,9 @@ mkdir -p "$out"
 # Sizes and repetitions per mode. The large n-wave systems are 3e6 real modes (memory bound); --quick keeps that
 # size for the cheap right-hand side (the C-PC / PC target's size) and takes 3e5 for the realistic one.
 case $mode in
-  full)  big=3000000; big_real=3000000; reps=9; big_pairs=11; min_time=0.1;  mem_n=9999999; mem_reps=3; drift_steps=10000000; drift_members=8; wp_quick=0 ;;
-  quick) big=3000000; big_real=300000;  reps=5; big_pairs=7;  min_time=0.05; mem_n=9999999; mem_reps=1; drift_steps=1000000;  drift_members=4; wp_quick=1 ;;
-  smoke) big=3003;    big_real=3003;    reps=1; big_pairs=1;  min_time=1e-6; mem_n=30000;   mem_reps=1; drift_steps=1000;     drift_members=1; wp_quick=1 ;;
+  full)  big=3000000; big_real=3000000; reps=9; big_pairs=11; odeint_pairs=9; min_time=0.1;  mem_n=9999999; mem_reps=3; drift_steps=10000000; drift_members=8; wp_quick=0 ;;
+  quick) big=3000000; big_real=300000;  reps=5; big_pairs=7;  odeint_pairs=5; min_time=0.05; mem_n=9999999; mem_reps=1; drift_steps=1000000;  drift_members=4; wp_quick=1 ;;
+  smoke) big=3003;    big_real=3003;    reps=1; big_pairs=1;  odeint_pairs=1; min_time=1e-6; mem_n=30000;   mem_reps=1; drift_steps=1000;     drift_members=1; wp_quick=1 ;;
 esac
 # The cost of conservation at the users' step sizes (CLI default dt = 0.01, CFL-like, and the old dt = 1e-5),
 # realistic n-wave system, remedy against the halving it replaces.
@@ -79,7 +79,7 @@ apps=${apps:-$build}
 
 echo "== per-step cost ($reps interleaved repetitions, large systems N=$big and $big_real)" >&2
 "$bin/eci_bench_step" --eci_big=$big --eci_big_realistic=$big_real --eci_big_realistic_pairs=$big_pairs \
-    --eci_min_time=$min_time --benchmark_repetitions=$reps --benchmark_enable_random_interleaving=true --benchmark_report_aggregates_only=true \
+    --eci_odeint_pairs=$odeint_pairs --eci_min_time=$min_time --benchmark_repetitions=$reps --benchmark_enable_random_interleaving=true --benchmark_report_aggregates_only=true \
     --benchmark_out="$out/step.json" --benchmark_out_format=json > "$out/step.txt" 2>&1
 
 echo "== conservation at the users' step sizes: remedy vs halving, N=$remedy_sizes, $remedy_pairs paired steps" >&2

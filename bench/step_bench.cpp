@@ -2,7 +2,8 @@
 // and random n-wave systems (in cache and memory bound, cheap and realistic right-hand sides). run.sh turns the
 // medians into ratios. Own flags: --eci_big=N and --eci_big_realistic=N (modes of the large systems with 1 and 20
 // triads per mode), --eci_min_time=S (per repetition),
-// --eci_big_realistic_pairs=P (paired steps timed on the large system with 20 triads per mode, see run_pair).
+// --eci_big_realistic_pairs=P (paired steps timed on the large system with 20 triads per mode, see run_pair),
+// --eci_odeint_pairs=P (paired batches of eci's PC and RK4 against odeint's per placement, on every other problem).
 #include <benchmark/benchmark.h>
 
 #include <time.h>
@@ -120,31 +121,44 @@ double thread_cpu_seconds() {
 
 // Where one step takes seconds and is all right-hand side (the large realistic system), the other jobs on the
 // machine (memory traffic on the shared L3 and DRAM) move a step's time by +-10% from one second to the next,
-// so a few separate repetitions cannot median it away. Each iteration here times one step of A and one of B back
-// to back (ABBA order, thread CPU time). Interference only ever adds time, so the counter `ratio` compares each
-// stepper's fastest step (its least-disturbed cost); `ratio_median` is the median of the per-pair ratios.
+// so a few separate repetitions cannot median it away. Each iteration here times `batch` steps of A and as many of
+// B back to back (ABBA order, thread CPU time). Interference only ever adds time, so the counter `ratio` compares
+// each stepper's fastest batch (its least-disturbed cost); `ratio_median` is the median of the per-pair ratios.
+// The same holds in the small: on a shared machine the same in-cache step took 6.0 us in one process and 10.2 us in
+// the next (n-wave N = 3000, odeint's Heun), so only steps timed side by side in one process compare two libraries.
+// per_placement > 0: after that many pairs both steppers are built again behind the next placement pad, so that the
+// pairs sample the 7 placements (the 4K aliasing of their buffers) alike; 0 keeps one placement throughout.
 template <class A, class B, class Model>
-void run_pair(benchmark::State& bs, const problem<Model>* pb) {
-    A a{pb};
-    B b{pb};
-    a.step();  // untimed: sizes the buffers
-    b.step();
+void run_pair(benchmark::State& bs, const problem<Model>* pb, int batch, int per_placement) {
+    std::unique_ptr<A> a;
+    std::unique_ptr<B> b;
+    std::vector<char> pad;
+    const auto place = [&] {
+        a.reset(), b.reset();
+        pad = placement_pad();
+        a = std::make_unique<A>(A{pb});
+        b = std::make_unique<B>(B{pb});
+        a->step();  // untimed: sizes the buffers
+        b->step();
+    };
+    place();
     std::vector<double> ratios;
     double best_a = 1e300, best_b = 1e300;
     for (auto _ : bs) {
+        if (per_placement > 0 && !ratios.empty() && ratios.size() % std::size_t(per_placement) == 0) place();
         const bool a_first = ratios.size() % 2 == 0;
         double ta = 0, tb = 0;
         for (int k = 0; k < 2; ++k) {
             const bool run_a = (k == 0) == a_first;
             const double t0 = thread_cpu_seconds();
-            run_a ? a.step() : b.step();
+            for (int s = 0; s < batch; ++s) run_a ? a->step() : b->step();
             (run_a ? ta : tb) = thread_cpu_seconds() - t0;
         }
         ratios.push_back(ta / tb);
         best_a = std::min(best_a, ta);
         best_b = std::min(best_b, tb);
-        benchmark::DoNotOptimize(a.x.data());
-        benchmark::DoNotOptimize(b.x.data());
+        benchmark::DoNotOptimize(a->x.data());
+        benchmark::DoNotOptimize(b->x.data());
     }
     std::sort(ratios.begin(), ratios.end());
     const std::size_t n = ratios.size();
@@ -173,7 +187,8 @@ void register_pairs(const std::string& name, const problem<Model>* pb, int pairs
     using S = typename Model::state_type;
     namespace me = eci::method_entries;
     auto add = [&](const std::string& a, const std::string& b, auto fn) {
-        benchmark::RegisterBenchmark((name + "/pair:" + a + ":" + b).c_str(), fn, pb)
+        benchmark::RegisterBenchmark((name + "/pair:" + a + ":" + b).c_str(),
+                                     [fn](benchmark::State& bs, const problem<Model>* p) { fn(bs, p, 1, 0); }, pb)
             ->Iterations(pairs)
             ->Repetitions(1);
     };
@@ -196,10 +211,35 @@ void register_eci(const std::string& name, const problem<Model>* pb, double min_
      ...);
 }
 
+// eci's PC and RK4 against odeint's Heun and RK4 on one problem, paired (run_pair): `per_placement` pairs behind
+// each of the 7 placement pads, each pair a batch of steps long enough (~0.1 ms) for the thread clock.
 template <class Model>
-void register_problem(const std::string& name, const problem<Model>* pb, double min_time) {
+void register_odeint_pairs(const std::string& name, const problem<Model>* pb, int per_placement) {
+    using S = typename Model::state_type;
+    namespace me = eci::method_entries;
+    const int batch = int(std::max<std::size_t>(1, 60000 / pb->x0.size()));
+    auto add = [&](const std::string& a, const std::string& b, auto fn) {
+        benchmark::RegisterBenchmark((name + "/pair:" + a + ":" + b).c_str(),
+                                     [fn, batch, per_placement](benchmark::State& bs, const problem<Model>* p) {
+                                         fn(bs, p, batch, per_placement);
+                                     },
+                                     pb)
+            ->Iterations(7 * per_placement)
+            ->Repetitions(1);
+    };
+    using e_pc = eci_runner<Model, eci_stepper<me::pc, Model>>;
+    using e_rk4 = eci_runner<Model, eci_stepper<me::rk4, Model>>;
+    add(label<me::pc>(), "odeint_heun",
+        run_pair<e_pc, odeint_runner<Model, odeint_heun<S>, make_odeint_heun<S>>, Model>);
+    add(label<me::rk4>(), "odeint_rk4",
+        run_pair<e_rk4, odeint_runner<Model, odeint_rk4<S>, [] { return odeint_rk4<S>(); }>, Model>);
+}
+
+template <class Model>
+void register_problem(const std::string& name, const problem<Model>* pb, double min_time, int per_placement) {
     using S = typename Model::state_type;
     register_eci(name, pb, min_time, timed_methods{});
+    register_odeint_pairs(name, pb, per_placement);
     auto add = [&](const std::string& method, auto fn) {
         benchmark::RegisterBenchmark((name + "/" + method).c_str(), fn, pb)->MinTime(min_time);
     };
@@ -224,7 +264,7 @@ int main(int argc, char** argv) {
     benchmark::Initialize(&argc, argv);
     std::size_t big = 3000000, big_realistic = 3000000;
     double min_time = 0.2;
-    int big_realistic_pairs = 5;
+    int big_realistic_pairs = 5, odeint_pairs = 5;
     for (int i = 1; i < argc; ++i) {
         if (std::strncmp(argv[i], "--eci_big=", 10) == 0) {
             big = std::strtoull(argv[i] + 10, nullptr, 10);
@@ -232,6 +272,8 @@ int main(int argc, char** argv) {
             big_realistic = std::strtoull(argv[i] + 20, nullptr, 10);
         } else if (std::strncmp(argv[i], "--eci_big_realistic_pairs=", 26) == 0) {
             big_realistic_pairs = std::atoi(argv[i] + 26);
+        } else if (std::strncmp(argv[i], "--eci_odeint_pairs=", 19) == 0) {
+            odeint_pairs = std::atoi(argv[i] + 19);
         } else if (std::strncmp(argv[i], "--eci_min_time=", 15) == 0) {
             min_time = std::strtod(argv[i] + 15, nullptr);
         } else {
@@ -239,13 +281,13 @@ int main(int argc, char** argv) {
             return 2;
         }
     }
-    if (big < 3 || big % 3 != 0 || big_realistic < 3 || !(min_time > 0.0) || big_realistic_pairs < 1) {
+    if (big < 3 || big % 3 != 0 || big_realistic < 3 || !(min_time > 0.0) || big_realistic_pairs < 1 || odeint_pairs < 1) {
         std::fprintf(stderr, "eci_bench_step: --eci_big must be a multiple of 3, --eci_big_realistic at least 3, "
-                             "--eci_min_time and --eci_big_realistic_pairs positive\n");
+                             "--eci_min_time, --eci_big_realistic_pairs and --eci_odeint_pairs positive\n");
         return 2;
     }
     problem<eci::three_wave> three{eci::three_wave{}, {1.0, 0.5, -0.25}};
-    register_problem("three_wave", &three, min_time);
+    register_problem("three_wave", &three, min_time, odeint_pairs);
     std::vector<std::unique_ptr<problem<eci::n_wave<double>>>> keep;
     for (std::size_t per_mode : {std::size_t{1}, std::size_t{20}}) {
         const std::size_t large = per_mode == 1 ? big : big_realistic;
@@ -256,7 +298,7 @@ int main(int argc, char** argv) {
             if (modes == large && per_mode == 20)
                 register_pairs(name, keep.back().get(), big_realistic_pairs);
             else
-                register_problem(name, keep.back().get(), min_time);
+                register_problem(name, keep.back().get(), min_time, odeint_pairs);
         }
     }
     benchmark::RunSpecifiedBenchmarks();
