@@ -499,18 +499,7 @@ class radicand_remedy {
                 q[b] = ob[b] * ob[b];
             }
         }
-        // the filing, in element order (most elements are neither special nor filed). The buckets' sums (180 KB of
-        // histogram, out of L1 once the streams have passed through it) are fetched for the whole block first, so
-        // that their loads overlap rather than stall each filing in turn.
-        const std::size_t stride = hist_stride();
-        std::array<std::uint16_t, block_elements> bucket;
-        for (std::size_t b = 0; b < nb; ++b) {
-            if (kind[b] != 1) continue;
-            bucket[b] = std::uint16_t(ratio_bucket(ratio[b]));
-            const double* hb = into.hist + bucket[b] * stride;
-            __builtin_prefetch(hb, 1);
-            __builtin_prefetch(hb + stride - 1, 1);
-        }
+        // the filing, in element order (most elements are neither special nor filed)
         for (std::size_t b = 0; b < nb; ++b) {
             if (kind[b] == 0) continue;
             if (kind[b] == 2) {
@@ -519,7 +508,7 @@ class radicand_remedy {
                 condition_unsummed<Per>(o, x, e0 + b, cb, c2[b], xi[b], sign[b], q[b], into);
                 continue;
             }
-            file_element<Per>(o, e0 + b, bucket[b], c + b * Per, std::max(x2v[b], c2[b]),
+            file_element<Per>(o, e0 + b, ratio_bucket(ratio[b]), c + b * Per, std::max(x2v[b], c2[b]),
                               c2[b] - q[b], c2[b] - xi[b], into);
         }
         gram_block(pass, e0, q.data(), nb);
