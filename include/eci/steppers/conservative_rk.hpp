@@ -192,9 +192,11 @@ class conservative_rk : public radicand_remedy {
 
     // A block of the conditioned pass (elements e0 .. e0 + nb): the conventional update and radicand of each real
     // unknown (the operations of element_update, one unknown at a time), then each element's |c|^2, xi and sign.
-    static void block_updates(double* __restrict cv, double* __restrict rv, double* __restrict c2v,
-                              double* __restrict xiv, double* __restrict sg, const double* x,
-                              const std::array<const double*, s>& k, std::size_t e0, std::size_t nb, double dt) {
+    // Always inlined, so that each caller below compiles it for its own instruction set.
+    [[gnu::always_inline]] static void block_body(double* __restrict cv, double* __restrict rv, double* __restrict c2v,
+                                                  double* __restrict xiv, double* __restrict sg, const double* x,
+                                                  const std::array<const double*, s>& k, std::size_t e0,
+                                                  std::size_t nb, double dt) {
         constexpr auto J = std::make_index_sequence<s>{};
         const std::size_t i0 = e0 * per;
         for (std::size_t j = 0; j < nb * per; ++j) {
@@ -210,28 +212,18 @@ class conservative_rk : public radicand_remedy {
                 if (xi >= 0.0) sg[b] = stage_value<s - 1>(x[i0 + b], k, i0 + b, dt);
         }
     }
+    static void block_updates(double* cv, double* rv, double* c2v, double* xiv, double* sg, const double* x,
+                              const std::array<const double*, s>& k, std::size_t e0, std::size_t nb, double dt) {
+        block_body(cv, rv, c2v, xiv, sg, x, k, e0, nb, dt);
+    }
 #if ECI_DETAIL_X86_SIMD
     // The same compiled for AVX2 (twice the lanes of the baseline's SSE2; no FMA, so it rounds alike), picked at
     // run time: the pass is compute-bound (a dozen products per unknown for the radicand's recomputed stages).
-    __attribute__((target("avx2"))) static void block_updates_avx2(double* __restrict cv, double* __restrict rv,
-                                                                   double* __restrict c2v, double* __restrict xiv,
-                                                                   double* __restrict sg, const double* x,
+    __attribute__((target("avx2"))) static void block_updates_avx2(double* cv, double* rv, double* c2v, double* xiv,
+                                                                   double* sg, const double* x,
                                                                    const std::array<const double*, s>& k,
                                                                    std::size_t e0, std::size_t nb, double dt) {
-        constexpr auto J = std::make_index_sequence<s>{};
-        const std::size_t i0 = e0 * per;
-        for (std::size_t j = 0; j < nb * per; ++j) {
-            cv[j] = conventional(x, k, i0 + j, dt, J);
-            rv[j] = radicand(x, k, i0 + j, dt, J);
-        }
-        for (std::size_t b = 0; b < nb; ++b) {
-            double c2 = 0.0, xi = 0.0;
-            for (std::size_t p = 0; p < per; ++p) c2 += cv[b * per + p] * cv[b * per + p], xi += rv[b * per + p];
-            c2v[b] = c2, xiv[b] = xi;
-            sg[b] = cv[b * per];
-            if constexpr (per == 1 && Sign == sign_rule::of_last_stage)
-                if (xi >= 0.0) sg[b] = stage_value<s - 1>(x[i0 + b], k, i0 + b, dt);
-        }
+        block_body(cv, rv, c2v, xiv, sg, x, k, e0, nb, dt);
     }
 #endif
 
