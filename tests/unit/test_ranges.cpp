@@ -165,4 +165,31 @@ TEST(SplitRanges, ConditionedUpdateOfComplexModesMergesInRangeOrder) { check_con
 
 TEST(SplitRanges, ConditionedUpdateOfRealUnknownsMergesInRangeOrder) { check_conditioned(real_model(), dt_real); }
 
+// splitter::count: on one range (a model without the hook, or one thread) the pass itself over [0, n), called once;
+// split, the sum in range order of the ranges the model ran, and nothing from the slots it did not use.
+TEST(SplitRanges, CountOnOneRangeIsThePassItselfAndSplitSumsTheUsedRanges) {
+    const auto whole = eci::detail::splitter::of(eci::n_wave<double>::random(6, 1, 1));
+    int calls = 0;
+    EXPECT_EQ(whole.count(10, [&](std::size_t i0, std::size_t i1) {
+        ++calls;
+        EXPECT_EQ(i0, 0u);
+        EXPECT_EQ(i1, 10u);
+        return 2.0;
+    }), 2.0);
+    EXPECT_EQ(calls, 1);
+    const auto m = eci::n_wave<double>::random(6, 1, 1);
+    const split_model<eci::n_wave<double>> three{&m, 3, false};
+    const auto split = eci::detail::splitter::of(three);
+    EXPECT_EQ(split.threads, 3);
+    std::size_t covered = 0;
+    calls = 0;
+    EXPECT_EQ(split.count(100, [&](std::size_t i0, std::size_t i1) {
+        ++calls;
+        covered += i1 - i0;
+        return double(i1 - i0 > 0 ? 1 : 0);
+    }), 3.0);
+    EXPECT_EQ(calls, 3);
+    EXPECT_EQ(covered, 100u);
+}
+
 }  // namespace
