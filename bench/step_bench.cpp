@@ -3,7 +3,8 @@
 // medians into ratios. Own flags: --eci_big=N and --eci_big_realistic=N (modes of the large systems with 1 and 20
 // triads per mode), --eci_min_time=S (per repetition),
 // --eci_big_realistic_pairs=P (paired steps timed on the large system with 20 triads per mode, see run_pair),
-// --eci_odeint_pairs=P (paired batches of eci's PC and RK4 against odeint's per placement, on every other problem).
+// --eci_odeint_pairs=P (paired batches of eci's PC and RK4 against odeint's per placement, on the other n-wave
+// problems).
 #include <benchmark/benchmark.h>
 
 #include <time.h>
@@ -186,9 +187,32 @@ std::string label() {
     return eci::identifier(E::info.name);
 }
 
+// eci's PC and RK4 against odeint's Heun and RK4 on one n-wave problem, paired (run_pair): `pairs` pairs of
+// `batch` steps each, rebuilt behind the next placement pad every `per_placement` pairs (0: never).
+template <class Model>
+void register_odeint_pairs(const std::string& name, const problem<Model>* pb, int pairs, int batch,
+                           int per_placement) {
+    using S = typename Model::state_type;
+    namespace me = eci::method_entries;
+    auto add = [&](const std::string& a, const std::string& b, auto fn) {
+        benchmark::RegisterBenchmark((name + "/pair:" + a + ":" + b).c_str(),
+                                     [fn, batch, per_placement](benchmark::State& bs, const problem<Model>* p) {
+                                         fn(bs, p, batch, per_placement);
+                                     },
+                                     pb)
+            ->Iterations(pairs)
+            ->Repetitions(1);
+    };
+    using e_pc = eci_runner<Model, eci_stepper<me::pc, Model>>;
+    using e_rk4 = eci_runner<Model, eci_stepper<me::rk4, Model>>;
+    add(label<me::pc>(), "odeint_heun",
+        run_pair<e_pc, odeint_runner<Model, odeint_heun<S>, make_odeint_heun<S>>, Model>);
+    add(label<me::rk4>(), "odeint_rk4",
+        run_pair<e_rk4, odeint_runner<Model, odeint_rk4<S>, [] { return odeint_rk4<S>(); }>, Model>);
+}
+
 template <class Model>
 void register_pairs(const std::string& name, const problem<Model>* pb, int pairs) {
-    using S = typename Model::state_type;
     namespace me = eci::method_entries;
     auto add = [&](const std::string& a, const std::string& b, auto fn) {
         benchmark::RegisterBenchmark((name + "/pair:" + a + ":" + b).c_str(),
@@ -201,10 +225,7 @@ void register_pairs(const std::string& name, const problem<Model>* pb, int pairs
     add(label<me::c_pc>(), label<me::pc>(), run_pair<eci_runner<Model, eci_stepper<me::c_pc, Model>>, e_pc, Model>);
     add(label<me::c_rk4>(), label<me::rk4>(),
         run_pair<eci_runner<Model, eci_stepper<me::c_rk4, Model>>, e_rk4, Model>);
-    add(label<me::pc>(), "odeint_heun",
-        run_pair<e_pc, odeint_runner<Model, odeint_heun<S>, make_odeint_heun<S>>, Model>);
-    add(label<me::rk4>(), "odeint_rk4",
-        run_pair<e_rk4, odeint_runner<Model, odeint_rk4<S>, [] { return odeint_rk4<S>(); }>, Model>);
+    register_odeint_pairs(name, pb, pairs, 1, 0);
     add(label<me::pc>(), label<me::pc>(), run_pair<e_pc, e_pc, Model>);  // the noise floor: two identical steppers
 }
 
@@ -215,35 +236,15 @@ void register_eci(const std::string& name, const problem<Model>* pb, double min_
      ...);
 }
 
-// eci's PC and RK4 against odeint's Heun and RK4 on one n-wave problem, paired (run_pair): `per_placement` pairs behind
-// each of the 7 placement pads, each pair a batch of steps long enough (~0.1 ms) for the thread clock.
-template <class Model>
-void register_odeint_pairs(const std::string& name, const problem<Model>* pb, int per_placement) {
-    using S = typename Model::state_type;
-    namespace me = eci::method_entries;
-    const int batch = int(std::max<std::size_t>(1, 60000 / pb->x0.size()));
-    auto add = [&](const std::string& a, const std::string& b, auto fn) {
-        benchmark::RegisterBenchmark((name + "/pair:" + a + ":" + b).c_str(),
-                                     [fn, batch, per_placement](benchmark::State& bs, const problem<Model>* p) {
-                                         fn(bs, p, batch, per_placement);
-                                     },
-                                     pb)
-            ->Iterations(7 * per_placement)
-            ->Repetitions(1);
-    };
-    using e_pc = eci_runner<Model, eci_stepper<me::pc, Model>>;
-    using e_rk4 = eci_runner<Model, eci_stepper<me::rk4, Model>>;
-    add(label<me::pc>(), "odeint_heun",
-        run_pair<e_pc, odeint_runner<Model, odeint_heun<S>, make_odeint_heun<S>>, Model>);
-    add(label<me::rk4>(), "odeint_rk4",
-        run_pair<e_rk4, odeint_runner<Model, odeint_rk4<S>, [] { return odeint_rk4<S>(); }>, Model>);
-}
-
 template <class Model>
 void register_problem(const std::string& name, const problem<Model>* pb, double min_time, int per_placement) {
     using S = typename Model::state_type;
     register_eci(name, pb, min_time, timed_methods{});
-    if (per_placement > 0) register_odeint_pairs(name, pb, per_placement);
+    // per_placement pairs behind each of the 7 placement pads, each a batch of steps long enough (~0.1 ms) for the
+    // thread clock
+    if (per_placement > 0)
+        register_odeint_pairs(name, pb, 7 * per_placement, int(std::max<std::size_t>(1, 60000 / pb->x0.size())),
+                              per_placement);
     auto add = [&](const std::string& method, auto fn) {
         benchmark::RegisterBenchmark((name + "/" + method).c_str(), fn, pb)->MinTime(min_time);
     };

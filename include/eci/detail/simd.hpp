@@ -75,11 +75,7 @@ __attribute__((target("avx2"))) inline double c_pc_finish_avx2(double* o, const 
 /// The same pass, vectorized for the processor it runs on (worth a call only for more than a few modes).
 inline double c_pc_finish(double* o, const double* x, const double* k1, double dt, std::size_t n) {
 #if ECI_DETAIL_X86_SIMD
-    static const bool avx2 = [] {
-        __builtin_cpu_init();
-        return __builtin_cpu_supports("avx2") != 0;
-    }();
-    return avx2 ? c_pc_finish_avx2(o, x, k1, dt, n) : c_pc_finish_sse2(o, x, k1, dt, n);
+    return cpu_has_avx2() ? c_pc_finish_avx2(o, x, k1, dt, n) : c_pc_finish_sse2(o, x, k1, dt, n);
 #else
     return c_pc_finish_inline(o, x, k1, dt, n);
 #endif
@@ -193,11 +189,7 @@ __attribute__((target("avx2"))) inline void condition_moduli_avx2(double* o, dou
 inline void condition_moduli(double* o, double* q, double* x2v, double* ratio, unsigned char* kind, const double* x,
                              const double* c, const double* c2, const double* xi, double kappa, std::size_t nb) {
 #if ECI_DETAIL_X86_SIMD
-    static const bool avx2 = [] {
-        __builtin_cpu_init();
-        return __builtin_cpu_supports("avx2") != 0;
-    }();
-    if (avx2)
+    if (cpu_has_avx2())
         condition_moduli_avx2(o, q, x2v, ratio, kind, x, c, c2, xi, kappa, nb);
     else
         condition_moduli_sse2(o, q, x2v, ratio, kind, x, c, c2, xi, kappa, nb);

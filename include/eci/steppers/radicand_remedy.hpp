@@ -747,8 +747,8 @@ class radicand_remedy {
     // elements, so that with two invariants it vectorizes: the rescale is a whole pass over the state on every
     // remedied step (most steps of turbulence), and per real unknown with the weights indexed i >> 1 it did not.
     // The operations per unknown are the ones above, so the bits are too.
-    // The pass also tells whether every rescaled value is finite (rescaled_finite()), so that the engine's blow-up
-    // check needs no pass of its own after it.
+    // The pass also records whether every rescaled value is finite (rescaled_), so that the engine's blow-up check
+    // needs no pass of its own after it.
     static constexpr double taylor_limit = 0x1p-10;
     template <std::size_t Per>
     void rescale(double* o, std::size_t n, const std::array<double, max_invariants>& c) {
