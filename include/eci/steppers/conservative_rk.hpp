@@ -43,12 +43,15 @@ class conservative_rk : public radicand_remedy {
         rescaled_ = rescaled::no;
         reduce_ = detail::reducer::of(f);  // empty unless the model's state is spread over processes
         split_ = detail::splitter::of(f);  // empty unless the model lends its threads (detail/ranges.hpp)
-        if constexpr (!is_c_pc) detail::resize_like(result_, x);
+        if constexpr (s == 1) detail::resize_like(result_, x);
         st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
         const auto xr = detail::reals(std::as_const(x));
         const std::size_t n = xr.size();
         double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
-        S& out = is_c_pc ? st_.stage : result_;
+        // The new state goes to the stage value's buffer, free once the stages are done: the finishing passes
+        // recompute each stage value from x and the k_j (C-PC's reads its predictor there, element by element before
+        // overwriting it). Only Euler's tableau, with no stage value, holds a buffer of its own.
+        S& out = s > 1 ? st_.stage : result_;
         double* o = detail::reals(out).data();
         if (conditioned_update_applies(n)) {
             // The conditioned update: the modulus of a complex mode, the conventional update where the square root is
@@ -97,9 +100,9 @@ class conservative_rk : public radicand_remedy {
         return step_result::success();
     }
 
-    /// How many state-sized buffers this stepper holds: the conventional method's and, except for C-PC, an
-    /// output buffer (a failed step must leave x untouched).
-    static constexpr std::size_t buffer_count() { return s + (s > 1 ? 1 : 0) + (is_c_pc ? 0 : 1); }
+    /// How many state-sized buffers this stepper holds: the conventional method's (a failed step leaves x untouched:
+    /// the new state is written to the stage value's buffer, or for Euler's tableau to one of its own).
+    static constexpr std::size_t buffer_count() { return s + 1; }
 
    private:
     // Stage value Y_J = x + dt sum_m a[J][m] k_m at one unknown, recomputed exactly as stage_storage formed it
@@ -287,7 +290,7 @@ class conservative_rk : public radicand_remedy {
     }
 
     detail::stage_storage<T, S> st_;
-    S result_{};  // the new state until the step is known to succeed (C-PC reuses its stage buffer)
+    S result_{};  // Euler's tableau: the new state until the step is known to succeed (others use the stage buffer)
 };
 
 /// C-PC, eq. (30): Heun's tableau, the new amplitude takes the predictor's sign.
