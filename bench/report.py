@@ -36,6 +36,8 @@ def load_steps(path):
 def problem_label(p):
     if p == "three_wave":
         return "three-wave"
+    if p == "three_wave_run":
+        return "three-wave, runs of 1000 steps (each library's integrate_n_steps)"
     m = re.fullmatch(r"nwave_(\d+)_t(\d+)", p)
     n, t = int(m.group(1)), int(m.group(2))
     kind = "independent triads" if t == 1 else f"{t} triads/mode"
@@ -46,7 +48,7 @@ def problem_label(p):
 def step_rows(med, pairs):
     rows = []
     problems = {p for p, _ in med} | {p for p, _, _ in pairs}
-    problems = sorted(problems, key=lambda p: (p != "three_wave", len(p), p))
+    problems = sorted(problems, key=lambda p: (not p.startswith("three_wave"), len(p), p))
     for p in problems:
         realistic = p.endswith("_t20")
         is_big = p.startswith("nwave_") and int(p.split("_")[1]) >= 3000000  # the target's size

@@ -256,6 +256,57 @@ void register_problem(const std::string& name, const problem<Model>* pb, double 
     });
 }
 
+// A run as users write one: `run_steps` steps through each library's own loop (eci::integrate_n_steps, odeint's
+// integrate_n_steps) per iteration, the state left where the loop leaves it. On three-wave this is the cost a user
+// meets (the per-step rows above take one step per call, with the state forced to memory between steps).
+constexpr std::uint64_t run_steps = 1000;
+
+template <class Model, class Stepper>
+void run_eci_loop(benchmark::State& bs, const problem<Model>* pb) {
+    Stepper stepper;
+    auto x = pb->x0;
+    rhs<Model> f{&pb->model};
+    double t = 0.0;
+    for (auto _ : bs) {
+        eci::run_options opt;
+        opt.resume = true;  // one run continued: the stepper is not reset between iterations
+        eci::integrate_n_steps(stepper, f, x, t, dt, run_steps, eci::no_observer{}, opt);
+        t += double(run_steps) * dt;
+        benchmark::DoNotOptimize(x.data());
+    }
+    bs.counters["steps"] = double(run_steps);
+}
+
+template <class Model, class Stepper, class Make>
+void run_odeint_loop(benchmark::State& bs, const problem<Model>* pb, Make make) {
+    Stepper stepper = make();
+    auto x = pb->x0;
+    rhs<Model> f{&pb->model};
+    double t = 0.0;
+    for (auto _ : bs) {
+        odeint::integrate_n_steps(stepper, f, x, t, dt, run_steps);
+        t += double(run_steps) * dt;
+        benchmark::DoNotOptimize(x.data());
+    }
+    bs.counters["steps"] = double(run_steps);
+}
+
+template <class Model>
+void register_loops(const std::string& name, const problem<Model>* pb, double min_time) {
+    using S = typename Model::state_type;
+    namespace me = eci::method_entries;
+    benchmark::RegisterBenchmark((name + "/pc").c_str(), run_eci_loop<Model, eci_stepper<me::pc, Model>>, pb)
+        ->MinTime(min_time);
+    benchmark::RegisterBenchmark((name + "/rk4").c_str(), run_eci_loop<Model, eci_stepper<me::rk4, Model>>, pb)
+        ->MinTime(min_time);
+    benchmark::RegisterBenchmark((name + "/odeint_heun").c_str(), [](benchmark::State& bs, const problem<Model>* p) {
+        run_odeint_loop<Model, odeint_heun<S>>(bs, p, [] { return make_odeint_heun<S>(); });
+    }, pb)->MinTime(min_time);
+    benchmark::RegisterBenchmark((name + "/odeint_rk4").c_str(), [](benchmark::State& bs, const problem<Model>* p) {
+        run_odeint_loop<Model, odeint_rk4<S>>(bs, p, [] { return odeint_rk4<S>(); });
+    }, pb)->MinTime(min_time);
+}
+
 std::unique_ptr<problem<eci::n_wave<double>>> make_n_wave(std::size_t modes, std::size_t per_mode) {
     auto pb = std::make_unique<problem<eci::n_wave<double>>>();
     pb->model = eci::n_wave<double>::random(modes, per_mode, 12345);
@@ -296,6 +347,7 @@ int main(int argc, char** argv) {
     // rather than in the harness's locals it cost 16.5 against 10.4 ns for eci's PC and 13.5 against 12.0 for odeint's
     // Heun, a harness effect larger than the difference; its separate runs are steady within 3 % on this machine.
     register_problem("three_wave", &three, min_time, 0);
+    register_loops("three_wave_run", &three, min_time);
     std::vector<std::unique_ptr<problem<eci::n_wave<double>>>> keep;
     for (std::size_t per_mode : {std::size_t{1}, std::size_t{20}}) {
         const std::size_t large = per_mode == 1 ? big : big_realistic;

@@ -153,13 +153,13 @@ TEST(NonFiniteState, NoStepperReturnsOneAsAStep) {
 
 // The drivers trust a stepper that declares checks_finite and skip their own pass: each such stepper must fail
 // (not take) a step whose update overflows, and leave x as it was.
-template <class St>
+template <class St, class S = std::vector<double>>
 void expect_overflow_fails_the_step(const char* name) {
     static_assert(eci::checks_finite<St>);
-    std::vector<double> x{1e300, 1.0, 1e300, 1.0};
-    const std::vector<double> before = x;
-    auto f = [](const std::vector<double>& a, std::vector<double>& d, double) {
-        d.resize(a.size());
+    S x{1e300, 1.0, 1e300, 1.0};
+    const S before = x;
+    auto f = [](const S& a, S& d, double) {
+        if constexpr (!eci::detail::fixed_size_state<S>) d.resize(a.size());
         for (std::size_t i = 0; i < a.size(); ++i) d[i] = (i % 2 == 0 ? 1.0 : -1.0) * a[(i + 1) % a.size()] * 1e8;
     };
     St st;
@@ -177,6 +177,12 @@ TEST(NonFiniteState, SteppersThatCheckFinitenessFailAnOverflowingStep) {
     expect_overflow_fails_the_step<eci::c_rk4<S>>("c-rk4");
     expect_overflow_fails_the_step<eci::c_pc_compensated<S>>("c-pc-compensated");
     static_assert(!eci::checks_finite<eci::implicit_midpoint<S>>);  // the driver checks its results
+    // a small fixed-size state: the conventional steppers' stage buffers live on the stack (explicit_rk.hpp)
+    using A = std::array<double, 4>;
+    expect_overflow_fails_the_step<eci::euler<A>, A>("euler, std::array");
+    expect_overflow_fails_the_step<eci::pc<A>, A>("pc, std::array");
+    expect_overflow_fails_the_step<eci::rk4<A>, A>("rk4, std::array");
+    expect_overflow_fails_the_step<eci::c_rk4<A>, A>("c-rk4, std::array");
 }
 
 // The finiteness test the steppers fuse into their last pass (an add into bit 63, which vectorizes with baseline

@@ -15,6 +15,14 @@ namespace eci::detail {
 
 using eci::reals;  // the public name, for the engines written against detail::reals
 
+/// A state whose size is fixed by its type (std::array: a few unknowns), not resizable like std::vector.
+template <class S>
+concept fixed_size_state = !requires(S& v) { v.resize(std::size_t{}); };
+
+/// A fixed-size state small enough that a stepper's stage buffers may live on the stack, in registers.
+template <class S>
+concept small_fixed_state = fixed_size_state<S> && sizeof(S) <= 64 * sizeof(double);
+
 /// Make `buffer` the same size as `like` (a no-op for fixed-size states such as std::array).
 template <state S>
 void resize_like(S& buffer, const S& like) {
