@@ -267,9 +267,9 @@ void run_eci_loop(benchmark::State& bs, const problem<Model>* pb) {
     auto x = pb->x0;
     rhs<Model> f{&pb->model};
     double t = 0.0;
+    eci::run_options opt;
+    opt.resume = true;  // one run continued: the stepper is not reset between iterations
     for (auto _ : bs) {
-        eci::run_options opt;
-        opt.resume = true;  // one run continued: the stepper is not reset between iterations
         eci::integrate_n_steps(stepper, f, x, t, dt, run_steps, eci::no_observer{}, opt);
         t += double(run_steps) * dt;
         benchmark::DoNotOptimize(x.data());

@@ -26,7 +26,7 @@ concept small_fixed_state = fixed_size_state<S> && sizeof(S) <= 64 * sizeof(doub
 /// Make `buffer` the same size as `like` (a no-op for fixed-size states such as std::array).
 template <state S>
 void resize_like(S& buffer, const S& like) {
-    if constexpr (requires { buffer.resize(std::ranges::size(like)); }) {
+    if constexpr (!fixed_size_state<S>) {
         if (std::ranges::size(buffer) != std::ranges::size(like)) buffer.resize(std::ranges::size(like));
     }
 }

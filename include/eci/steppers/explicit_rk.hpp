@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <type_traits>
 #include <utility>
 
 #include "../concepts.hpp"
@@ -128,7 +129,7 @@ class explicit_rk {
         // keeps them in registers across an inlined right-hand side. Held in the stepper, every stage went through
         // memory, its scalar stores read back by vector loads that cannot be forwarded: in a run of three-wave
         // (bench/step_bench.cpp, three_wave_run) PC took 27 ns per step and RK4 50, against odeint's 6.7 and 15.
-        if constexpr (detail::small_fixed_state<S>) {
+        if constexpr (on_stack) {
             detail::stage_storage<T, S> local;
             return step_in(local, f, x, t, dt);
         } else {
@@ -179,7 +180,10 @@ class explicit_rk {
         while (T.b[j] == 0.0) --j;
         return j;
     }();
-    detail::stage_storage<T, S> st_;  // a resizable state's (a fixed-size one's live on the stack, in step)
+    static constexpr bool on_stack = detail::small_fixed_state<S>;
+    struct none {};
+    // the stage buffers of a state too large for the stack (a small fixed-size one's live in step)
+    [[no_unique_address]] std::conditional_t<on_stack, none, detail::stage_storage<T, S>> st_;
 };
 
 template <state S> using euler = explicit_rk<tableaus::euler, S>;
