@@ -152,7 +152,11 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
 
     // The run: fixed steps of --dt, or adaptive control (--rtol/--atol) starting from it; rows every --every
     // steps or at the --output-dt times. Checked before any file is opened.
-    cfg.adaptive = tolerances_from(settings.rtol, settings.atol);  // either given: both, the other's value
+    try {
+        cfg.adaptive = tolerances_from(settings.rtol, settings.atol);  // either given: both, the other's value
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(std::string("--rtol/--atol: ") + e.what());
+    }
     const bool adaptive = cfg.is_adaptive();
     cfg.dt = plan.dt;
     cfg.t_end = plan.t_end;

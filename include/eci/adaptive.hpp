@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "concepts.hpp"
+#include "detail/format.hpp"
 #include "detail/run_loop.hpp"
 #include "detail/state_ops.hpp"
 #include "integrate.hpp"
@@ -118,8 +119,10 @@ concept adaptive_stepper = system<F, S> && St::has_error_estimate && St::embedde
 /// Checks adaptive settings for a state of `elements` elements; std::invalid_argument naming the bad one.
 inline void check_adaptive_options(const adaptive_options& o, std::size_t elements) {
     auto non_negative_finite = [](double v) { return v >= 0.0 && std::isfinite(v); };
-    if (!non_negative_finite(o.rtol)) throw std::invalid_argument("rtol must be a finite number >= 0");
-    if (!non_negative_finite(o.atol)) throw std::invalid_argument("atol must be a finite number >= 0");
+    for (const auto& [name, v] : {std::pair{"rtol", o.rtol}, std::pair{"atol", o.atol}})
+        if (!non_negative_finite(v))
+            throw std::invalid_argument(std::string(name) + " must be a finite number >= 0, not " +
+                                        detail::shortest_text(v));
     for (const auto* v : {&o.rtol_each, &o.atol_each}) {
         if (!v->empty() && v->size() != elements)
             throw std::invalid_argument("per-component tolerances need one value per state element (" +

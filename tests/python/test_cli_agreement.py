@@ -183,6 +183,25 @@ def test_cli_and_python_refuse_the_same_output_dt(cli, dt, t_end, output_dt, tol
     assert str(e.value) == as_python_names(message)
 
 
+# A bad tolerance is named as the user gave it (atol alone is not reported as rtol, which takes its value), with the
+# value, in the same sentence from both front ends: the CLI prefixes its options.
+@pytest.mark.parametrize("options, keywords", [
+    (["--atol", "nan"], {"atol": float("nan")}),
+    (["--atol", "-1"], {"atol": -1.0}),
+    (["--rtol", "-1e-06"], {"rtol": -1e-6}),
+    (["--rtol", "1e-06", "--atol", "inf"], {"rtol": 1e-6, "atol": float("inf")}),
+    (["--rtol", "nan", "--atol", "1e-06"], {"rtol": float("nan"), "atol": 1e-6}),
+])
+def test_cli_and_python_refuse_the_same_tolerances(cli, options, keywords):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", "three-wave", "--method", "c-dp54", "--t-end", "1", *options)
+    assert message.startswith("--rtol/--atol: "), message
+    with pytest.raises(ValueError) as e:
+        eci.solve(eci.models.ThreeWave(), (0.0, 1.0), method="c-dp54", **keywords)
+    assert str(e.value) == message.removeprefix("--rtol/--atol: ")
+
+
 @pytest.mark.parametrize("method, dt, t_end, output_dt, tolerance", [
     ("c-rk4", 0.01, 10.0, 0.25, None),     # every 25 steps
     ("c-pc", 0.1, 3.0, 0.3, None),         # 0.3 / 0.1 = 2.9999999999999996: a multiple within round-off

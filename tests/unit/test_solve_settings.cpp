@@ -7,8 +7,10 @@
 #include <atomic>
 #include <cmath>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "solve_tests.hpp"
@@ -245,4 +247,30 @@ TEST(Solve, AToleranceNotGivenTakesTheOthersValue) {
     const auto both = eci::tolerances_from(1e-6, 1e-9);
     EXPECT_EQ(both->rtol, 1e-6);
     EXPECT_EQ(both->atol, 1e-9);
+}
+
+TEST(Solve, ABadToleranceIsNamedAsGivenWithItsValue) {
+    // atol alone: rtol takes its value, but the message names atol, the setting the user gave
+    const std::vector<std::tuple<std::optional<double>, std::optional<double>, std::string>> cases{
+        {std::nullopt, std::numeric_limits<double>::quiet_NaN(), "atol must be a finite number >= 0, not nan"},
+        {std::nullopt, -1.0, "atol must be a finite number >= 0, not -1"},
+        {-1e-6, std::nullopt, "rtol must be a finite number >= 0, not -1e-06"},
+        {1e-6, std::numeric_limits<double>::infinity(), "atol must be a finite number >= 0, not inf"},
+    };
+    for (const auto& [rtol, atol, message] : cases) {
+        try {
+            (void)eci::tolerances_from(rtol, atol);
+            ADD_FAILURE() << "accepted " << message;
+        } catch (const std::invalid_argument& e) {
+            EXPECT_EQ(e.what(), message);
+        }
+    }
+    eci::adaptive_options o;
+    o.atol = -2.0;
+    try {
+        eci::check_adaptive_options(o, 3);
+        ADD_FAILURE() << "accepted atol -2";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_STREQ(e.what(), "atol must be a finite number >= 0, not -2");
+    }
 }
