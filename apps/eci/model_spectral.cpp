@@ -368,7 +368,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (!restart) {
         const std::uint64_t n = given_whole("N").value_or(256), hp = given_whole("hyper-p").value_or(2);
         const std::uint64_t hypo_p = given_whole("hypo-p").value_or(1);
-        if (n > 65536 || hp > 16) throw bad_input(n > 65536 ? "--N is too large" : "--hyper-p must be in 1..16");
+        if (n > 65536) throw bad_input("--N must be at most 65536, not " + std::to_string(n));
+        if (hp > 16) throw bad_input("--hyper-p must be in 1..16");
         if (hypo_p > 16) throw bad_input("--hypo-p must be in 1..16");
         p.equation = name_;
         p.n = int(n);
@@ -922,8 +923,16 @@ int spectral_command::run_spread(const run_settings& settings) {
     progress.finish();
     if (report.failure) {
         if (report.failure->kind != run_failure_kind::step_failed) throw run_error(report.failure->message + last_good());
-        throw run_error("step " + std::to_string(done + 1) + " failed at t = " + num(report.failure->t) +
-                        " even with the step halved 40 times (non-finite state?)" + last_good());
+        // the library's cause, without its component (an index into the spectral state, not something to act on)
+        const run_failure& f = *report.failure;
+        const std::string cause = f.non_finite_rate_value
+                                      ? "a rate is " + num(*f.non_finite_rate_value)
+                                      : std::string(report.method.family == method_family::conservative
+                                                        ? "a negative radicand or a non-finite state"
+                                                        : "a non-finite state") +
+                                            "; a smaller --dt or --cfl may pass";
+        throw run_error("step " + std::to_string(done + 1) + " failed at t = " + num(f.t) +
+                        " even with the step halved 40 times (down to dt = " + num(f.dt) + "): " + cause + last_good());
     }
 
     run_summary s;

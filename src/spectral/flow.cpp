@@ -2,6 +2,8 @@
 // fused pass from the transforms to the right-hand side (with the budget rates when recording), diagnostics, fields.
 #include "eci/spectral/flow.hpp"
 
+#include "eci/detail/format.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -224,7 +226,7 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
             d.band.push_back(mine ? index(x, y) : impl::npos);
         }
     if (p.forcing != forcing_kind::none)
-        require(band_count > 0.0, "the forcing band |k| = " + std::to_string(p.forcing_k) +
+        require(band_count > 0.0, "the forcing band |k| = " + eci::detail::shortest_text(p.forcing_k) +
                                       " +- 1/2 holds no retained mode (kmax = " + std::to_string(kmax()) + ")");
     rng_ = p.forcing_seed;
     if (p.forcing == forcing_kind::deterministic) {

@@ -190,6 +190,23 @@ TEST(CliNavierStokes2d, BlowUpKeepsLastGoodCheckpoint) {
     for (double x : v) ASSERT_TRUE(std::isfinite(x));
 }
 
+// A step that fails at every size says why in the method's terms, down to which step, not with a guess.
+TEST(CliNavierStokes2d, AFailedStepNamesItsCauseForTheMethod) {
+    scratch_dir dir("ns2d-step-failed");
+    const fs::path d = dir.path();
+    for (const auto& [method, cause] : std::vector<std::pair<std::string, std::string>>{
+             {"c-rk4", "a negative radicand or a non-finite state"}, {"rk4", "): a non-finite state"}}) {
+        const auto r = run_eci("run navier-stokes-2d --N 16 --steps 2 --dt 1e300 --fftw-estimate --method " + method, d);
+        EXPECT_EQ(r.status, 1) << method;
+        EXPECT_EQ(lines_of(r.err).size(), 1u) << r.err;
+        EXPECT_NE(r.err.find("step 1 failed at t = 0 even with the step halved 40 times (down to dt = "),
+                  std::string::npos)
+            << r.err;
+        EXPECT_NE(r.err.find(cause), std::string::npos) << method << ": " << r.err;
+        EXPECT_NE(r.err.find("a smaller --dt or --cfl may pass"), std::string::npos) << r.err;
+    }
+}
+
 // SIGINT: the run writes its checkpoint atomically and exits 130; the checkpoint restarts.
 TEST(CliNavierStokes2d, InterruptWritesCheckpointThatRestarts) {
     scratch_dir dir("ns2d-sigint");
@@ -394,6 +411,8 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--restart " + q + "/ok.h5 --energy 2", "initial condition"},
         // the message names the problem
         {"--N 65536", "GiB of memory"},
+        {"--N 100000", "--N must be at most 65536, not 100000"},
+        {"--N 8 --forcing deterministic --forcing-k 100", "|k| = 100 +- 1/2 holds no retained mode (kmax = 2)"},
         {"--ic " + q, "is a directory"},
         {"--ic " + q + "/fifo", "is a FIFO"},
     };
