@@ -167,7 +167,8 @@ TEST(Solve, ANonFiniteRateFailsTheAttemptAndIsCountedApart) {
     cfg.t_end = 1.0;
     cfg.dt = 0.3;
     cfg.max_halvings = 3;
-    const auto r = eci::solve<vec>(nan_after_half{}, x, "rk4", cfg, eci::no_sink{});
+    eci::rk4<vec> rk4;  // the run of solve(..., "rk4", ...) on its stepper: every method of a plain system not compiled
+    const auto r = eci::solve_with(rk4, nan_after_half{}, x, cfg, eci::no_sink{});
     ASSERT_FALSE(r.completed());
     EXPECT_EQ(r.failure->kind, eci::run_failure_kind::step_failed);
     ASSERT_TRUE(r.failure->non_finite_rate_value);
@@ -188,7 +189,8 @@ TEST(Solve, AdaptiveRejectsANonFiniteRateAndNamesItTheLastRejection) {
     cfg.t_end = 1.0;
     cfg.dt = 0.01;
     cfg.adaptive = eci::adaptive_options{.rtol = 1e-6, .atol = 1e-6};
-    const auto r = eci::solve<vec>(nan_after_half{}, x, "dp54", cfg, eci::no_sink{});
+    eci::dp54<vec> dp54;
+    const auto r = eci::solve_with(dp54, nan_after_half{}, x, cfg, eci::no_sink{});
     ASSERT_FALSE(r.completed());
     EXPECT_EQ(r.failure->kind, eci::run_failure_kind::step_too_small);
     EXPECT_EQ(r.failure->last_rejection, eci::rejection::non_finite_rate);
@@ -210,7 +212,8 @@ TEST(Solve, AnInvariantThatOverflowsEndsTheRun) {
     eci::run_config cfg;
     cfg.t_end = 2.0;
     cfg.dt = 1e-3;
-    const auto r = eci::solve<blow_up>(blow_up{}, x, "rk4", cfg, eci::no_sink{});
+    eci::rk4<blow_up::state_type> rk4;
+    const auto r = eci::solve_with(rk4, blow_up{}, x, cfg, eci::no_sink{});
     ASSERT_FALSE(r.completed());
     EXPECT_EQ(r.failure->kind, eci::run_failure_kind::invariant_overflow);
     EXPECT_EQ(r.failure->message.rfind("the invariant energy overflowed at t = ", 0), 0u) << r.failure->message;

@@ -113,7 +113,8 @@ TEST(Solve, ALongHorizonDoesNotRaiseTheMinimumStep) {
     cfg.t_end = 1e13;  // 64 eps 1e13 = 0.14: the old floor, far above the steps (~0.02) rtol 1e-12 needs
     cfg.dt = 1e-3;
     cfg.adaptive = eci::adaptive_options{.rtol = 1e-12, .atol = 1e-12, .max_attempts = 2000};
-    const auto r = eci::solve<vec>(rotation, x, "dp54", cfg, eci::no_sink{});
+    eci::dp54<vec> dp54;  // the run of solve(..., "dp54", ...) on its stepper
+    const auto r = eci::solve_with(dp54, rotation, x, cfg, eci::no_sink{});
     ASSERT_FALSE(r.completed());
     EXPECT_EQ(r.failure->kind, eci::run_failure_kind::too_many_steps) << r.failure->message;
     EXPECT_GT(r.failure->t, 1.0);
