@@ -175,8 +175,10 @@ struct counting_system {
     const std::atomic<bool>* cancel = nullptr;  ///< polled before every evaluation (inside Newton iterations too)
     static constexpr bool reports_non_finite_rate = eci::reports_non_finite_rate<F>;
 
+    // (always inlined: in a translation unit that compiles every method of a model the inliner's budget runs out
+    // before this wrapper, which then cost a call per evaluation in the CLI's runs)
     template <class S>
-    void operator()(const S& x, S& dxdt, double t) const {
+    [[gnu::always_inline]] void operator()(const S& x, S& dxdt, double t) const {
         if (cancel && cancel->load(std::memory_order_relaxed)) throw interrupted(t);
         ++count;
         f(x, dxdt, t);
@@ -214,6 +216,25 @@ std::size_t first_non_finite(const S& x) {
     const auto r = reals(x);
     return first_index(r.size(), [&](std::size_t i) { return !std::isfinite(r[i]); });
 }
+
+/// The step indices from `from` on that are multiples of `every`, asked in turn (due(i) for i = from, from + 1,
+/// ...): i % every == 0 without a division at every step of a run.
+class multiples_of {
+   public:
+    multiples_of(std::uint64_t every, std::uint64_t from) : every_(every) {
+        const std::uint64_t q = from / every + (from % every != 0 ? 1 : 0);
+        if (__builtin_mul_overflow(q, every, &next_)) next_ = std::numeric_limits<std::uint64_t>::max();
+    }
+    bool due(std::uint64_t i) {
+        if (i != next_) return false;
+        if (__builtin_add_overflow(next_, every_, &next_)) next_ = std::numeric_limits<std::uint64_t>::max();
+        return true;
+    }
+
+   private:
+    std::uint64_t every_;
+    std::uint64_t next_;
+};
 
 /// After a successful step to time t: a non-finite x stops the run, unless the stepper checked that itself.
 template <class St, state S>
@@ -498,6 +519,7 @@ run_stats run_grid(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t 
     notify(observe, std::as_const(x), first == 0 ? t0 : t0 + double(first) * dt, first, stats);
     fixed_control<St, const counting_system<F>, S> control(stepper, counted, x, t0, t0 + double(first) * dt, dt,
                                                            first, n, last, true, opt, stats);
+    multiples_of observed(opt.every, first + 1);  // the steps observed, k % opt.every == 0
     try {
         control.run([&] {
             ++stats.steps;
@@ -508,7 +530,7 @@ run_stats run_grid(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t 
                     collect_remedy_stats(stepper, before, stats);
                 }
                 notify(observe, std::as_const(x), t_end ? *t_end : t0 + double(k) * dt, k, stats);
-            } else if (k % opt.every == 0) {
+            } else if (observed.due(k)) {
                 notify(observe, std::as_const(x), t0 + double(k) * dt, k, stats);
             }
         });

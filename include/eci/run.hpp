@@ -70,6 +70,7 @@ class invariant_monitor {
 
     /// Evaluates every invariant at x and updates its record.
     void record(const S& x) {
+        finite_now_ = true;
         std::size_t j = 0;
         if constexpr (has_named_invariants<Model>)
             for (const auto& inv : Model::invariants()) update(j++, (model_->*inv.value)(x));
@@ -95,6 +96,7 @@ class invariant_monitor {
     }
     /// The first invariant that is not finite now but was at the start, or none.
     std::optional<std::size_t> overflowed() const {
+        if (finite_now_) return std::nullopt;  // (known from record(): the run asks at every step)
         for (std::size_t j = 0; j < values_.size(); ++j)
             if (!std::isfinite(values_[j]) && std::isfinite(records_[j].initial)) return j;
         return std::nullopt;
@@ -108,6 +110,7 @@ class invariant_monitor {
    private:
     void update(std::size_t j, double v) {
         values_[j] = v;
+        finite_now_ = finite_now_ && std::isfinite(v);
         invariant_record& r = records_[j];
         if (!started_) r.initial = v;
         r.final = v;
@@ -120,6 +123,7 @@ class invariant_monitor {
     std::vector<invariant_record> records_;
     std::vector<double> values_;
     bool started_ = false;
+    bool finite_now_ = true;  // every value of the last record() finite
 };
 
 /// How far a run goes: `steps` steps of dt from t0, or from t0 to t_end with the last step shortened to land

@@ -556,9 +556,13 @@ solve_report run_fixed_on(St& stepper, F& f, S& x, const run_config& cfg, Sink& 
         opt.cancel = cfg.cancel;
         opt.stop_between_attempts = cfg.stop_between_attempts;
         opt.first_step = cfg.first_step;
-        std::function<std::optional<double>()> lag = [] { return std::optional<double>{}; };
-        if constexpr (detail::stepper_shifts_time<St>())
-            lag = [&stepper] { return std::optional<double>(stepper.time_lag()); };
+        // (a lambda the compiler sees through: called at every step, a std::function cost a tenth of a CLI step)
+        auto lag = [&stepper]() -> std::optional<double> {
+            if constexpr (detail::stepper_shifts_time<St>())
+                return stepper.time_lag();
+            else
+                return std::nullopt;
+        };
         // Output times between grid points: a side step from the earlier grid state, with copies of the
         // stepper and the state, so that the grid run is untouched.
         run_stats side{};
@@ -566,6 +570,7 @@ solve_report run_fixed_on(St& stepper, F& f, S& x, const run_config& cfg, Sink& 
         std::size_t next = 0;
         const std::uint64_t last = span.steps;
         auto grid_time = [&](std::uint64_t i) { return i >= last ? span.t_end : span.t0 + double(i) * span.dt; };
+        detail::multiples_of rows(cfg.every, cfg.first_step);  // i % cfg.every == 0
         auto observe = [&](const S& s, double t, std::uint64_t i, const run_stats& st) {
             monitor.record(s);
             report.t = t;
@@ -573,7 +578,7 @@ solve_report run_fixed_on(St& stepper, F& f, S& x, const run_config& cfg, Sink& 
             if constexpr (has_after_step)
                 if (i != cfg.first_step) sink.after_step(s, output_point{t, i, monitor.values(), lag(), &st});
             if (cfg.times.empty()) {
-                if (i % cfg.every == 0 || i == last || i == cfg.first_step)
+                if (rows.due(i) || i == last || i == cfg.first_step)  // (due(i) asked for every i, in turn)
                     sink.output(s, output_point{t, i, monitor.values(), lag(), &st});
             } else {
                 for (; next < cfg.times.size() && cfg.times[next] == t; ++next)

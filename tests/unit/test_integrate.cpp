@@ -4,6 +4,8 @@
 
 #include <array>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -103,6 +105,35 @@ TEST(Observer, CadenceHoldsWithAShortenedLastStep) {
     for (std::size_t j = 0; j < seen.size(); ++j) EXPECT_EQ(seen[j].i, expected[j]);
     EXPECT_EQ(seen[1].t, 0.4);
     EXPECT_EQ(seen.back().t, 1.05);
+}
+
+// A run continued from step 7 (a restart) observes its first state, then the multiples of `every` on the grid's
+// indices, then its end: the cadence is counted, not divided, at every step (detail::multiples_of).
+TEST(Observer, CadenceIsOnTheGridsIndicesAfterARestart) {
+    std::vector<double> calls;
+    std::vector<observation> seen;
+    state x{0.0};
+    eci::rk4<state> st;
+    eci::integrate_n_steps(st, clock_system{&calls}, x, 0.0, 0.5, 10,
+                           [&](const state&, double, std::uint64_t i) { seen.push_back({0.0, i}); },
+                           {.every = 3, .first_step = 7});
+    const std::vector<std::uint64_t> expected{7, 9, 12, 15, 17};
+    ASSERT_EQ(seen.size(), expected.size());
+    for (std::size_t j = 0; j < seen.size(); ++j) EXPECT_EQ(seen[j].i, expected[j]);
+}
+
+TEST(Observer, MultiplesOfEveryAskedInTurn) {
+    for (const std::uint64_t every : {std::uint64_t{1}, std::uint64_t{3}, std::uint64_t{7}}) {
+        for (const std::uint64_t from : {std::uint64_t{0}, std::uint64_t{1}, std::uint64_t{5}, std::uint64_t{21}}) {
+            eci::detail::multiples_of m(every, from);
+            for (std::uint64_t i = from; i < from + 50; ++i) EXPECT_EQ(m.due(i), i % every == 0) << every << " " << i;
+        }
+    }
+    // no multiple left below 2^64: never due (not a wrapped-around small index)
+    const std::uint64_t top = std::numeric_limits<std::uint64_t>::max();
+    eci::detail::multiples_of m(top / 2 + 1, top / 2 + 2);
+    for (std::uint64_t i = top / 2 + 2; i < top / 2 + 100; ++i) EXPECT_FALSE(m.due(i));
+    EXPECT_FALSE(eci::detail::multiples_of(top / 2 + 1, 1).due(1));
 }
 
 // A stepper that fails every attempt longer than `limit` and counts its attempts: with dt = 1 and limit 0.3,
