@@ -116,13 +116,22 @@ concept adaptive_stepper = system<F, S> && St::has_error_estimate && St::embedde
                                st.reset();
                            };
 
+namespace detail {
+
+/// A tolerance, rtol or atol (`name`), is a finite number >= 0: std::invalid_argument "NAME must be a finite number
+/// >= 0, not V" otherwise, the sentence Python's eci.solve says too.
+inline void check_tolerance(const char* name, double v) {
+    if (!(v >= 0.0 && std::isfinite(v)))
+        throw std::invalid_argument(std::string(name) + " must be a finite number >= 0, not " + shortest_text(v));
+}
+
+}  // namespace detail
+
 /// Checks adaptive settings for a state of `elements` elements; std::invalid_argument naming the bad one.
 inline void check_adaptive_options(const adaptive_options& o, std::size_t elements) {
     auto non_negative_finite = [](double v) { return v >= 0.0 && std::isfinite(v); };
-    for (const auto& [name, v] : {std::pair{"rtol", o.rtol}, std::pair{"atol", o.atol}})
-        if (!non_negative_finite(v))
-            throw std::invalid_argument(std::string(name) + " must be a finite number >= 0, not " +
-                                        detail::shortest_text(v));
+    detail::check_tolerance("rtol", o.rtol);
+    detail::check_tolerance("atol", o.atol);
     for (const auto* v : {&o.rtol_each, &o.atol_each}) {
         if (!v->empty() && v->size() != elements)
             throw std::invalid_argument("per-component tolerances need one value per state element (" +

@@ -132,15 +132,12 @@ inline void resolve_output_dt(run_config& cfg, const setting_names& names = {}) 
 
 /// The tolerances of a run given rtol, atol or both: the one not given takes the other's value (`eci run --rtol R`
 /// is rtol = atol = R). Neither given: std::nullopt, fixed steps. Each given value is checked here, under its own
-/// name, before the other takes it (std::invalid_argument "atol must be a finite number >= 0, not nan", as Python's
-/// eci.solve says it); the rest by check_adaptive_options.
+/// name, before the other takes it (detail::check_tolerance); the rest by check_adaptive_options.
 inline std::optional<adaptive_options> tolerances_from(std::optional<double> rtol, std::optional<double> atol) {
     if (!rtol && !atol) return std::nullopt;
     adaptive_options o;
-    for (const auto& [name, v] : {std::pair{"rtol", rtol}, std::pair{"atol", atol}})
-        if (v && !(*v >= 0.0 && std::isfinite(*v)))
-            throw std::invalid_argument(std::string(name) + " must be a finite number >= 0, not " +
-                                        detail::shortest_text(*v));
+    if (rtol) detail::check_tolerance("rtol", *rtol);
+    if (atol) detail::check_tolerance("atol", *atol);
     o.rtol = rtol.value_or(*atol);
     o.atol = atol.value_or(*rtol);
     return o;
