@@ -232,12 +232,16 @@ class error_control {
         target_ = t_target;
         forward_ = !(t_target < t_);
         dir_ = forward_ ? 1.0 : -1.0;
-        run_loop(*this, [&] { on_accept(t_prev_, t_); });
+        run_loop(*this, [&](position) { on_accept(t_prev_, t_); });
     }
 
-    bool more() const { return forward_ ? t_ < target_ : t_ > target_; }
+    /// The controller keeps where the run is itself (run_loop's position is for the fixed-step controller).
+    struct position {};
+    static position start() { return {}; }
 
-    adaptive_attempt propose() {
+    bool more(position) const { return forward_ ? t_ < target_ : t_ > target_; }
+
+    adaptive_attempt propose(position) {
         // Land on the target when the proposed step would (nearly) reach it: no sliver of a last step.
         double dt = std::min({dt_, o_.dt_max});  // the step's size
         const bool landing = forward_ ? t_ + 1.01 * dt >= target_ : t_ - 1.01 * dt <= target_;
@@ -247,13 +251,13 @@ class error_control {
         return {dt, landing};
     }
 
-    attempt_result attempt(const adaptive_attempt& a) {
+    attempt_result attempt(const adaptive_attempt& a, position) {
         return attempt_checked(st_, f_, std::as_const(x_), t_, dir_ * a.dt, &w_, false, rate_failed_);
     }
 
     static bool acceptable(const attempt_result& r) { return r.ok && std::isfinite(r.error) && r.error <= 1.0; }
 
-    bool accept(const adaptive_attempt& a, const attempt_result& r) {
+    bool accept(const adaptive_attempt& a, const attempt_result& r, position) {
         const double dt = a.dt;
         st_.accept(x_);
         t_prev_ = t_;

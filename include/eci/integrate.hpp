@@ -297,26 +297,52 @@ struct fixed_attempt {
     int depth;
 };
 
+/// Whether a stepper takes a small state in registers (explicit_rk on a small_real_array): the fixed-step run then
+/// steps a copy of the state held by the run loop's position, written back to the run's state after every
+/// accepted attempt (a store off the step's chain of dependent arithmetic).
+template <class St, class F>
+concept steps_in_registers = requires { requires St::template in_registers<F>; };
+
+/// The state a fixed-step run steps: the run's own, or (steps_in_registers) a copy in the run loop's position.
+template <class S, bool Copy>
+struct working_state {
+    S* x;
+    S& get() { return *x; }
+    void publish(S&) const {}
+};
+template <class S>
+struct working_state<S, true> {
+    S x;
+    S& get() { return x; }
+    void publish(S& to) const { to = x; }
+};
+
 /// The fixed-step controller of run_loop: steps first + 1 .. first + n of the grid t0 + k dt, the last of size
 /// `last` (dt, unless integrate_to shortens it to land on its end time). A failed attempt is first offered to a
 /// model that retries the whole step in another form (retries_attempts), then replaced by two half steps, depth
 /// first (an explicit stack of at most max_halvings + 1 depths): at most opt.max_substeps attempts per step of the
 /// grid. With `announce`, the model's begin_step(size) precedes each step (begins_steps).
-template <class St, class F, class S>
+template <class St, class F, class S, bool Copy = steps_in_registers<St, F>>
 class fixed_control {
     using model = std::remove_reference_t<decltype(hook_target(std::declval<F&>()))>;
 
    public:
+    /// Where the run is: the step of the grid being taken (k), its start and size, and the state stepped.
+    struct position {
+        std::uint64_t k;
+        double t, size;
+        working_state<S, Copy> state;
+        /// The index of the last complete step of the grid.
+        std::uint64_t completed() const { return k - 1; }
+    };
+
     /// `start`: the time of the first step (t0 + first dt, as the caller computes it).
     fixed_control(St& stepper, F& f, S& x, double t0, double start, double dt, std::uint64_t first, std::uint64_t n,
                   double last, bool announce, const run_options& opt, run_stats& stats)
-        : stepper_(stepper), f_(f), x_(x), t0_(t0), dt_(dt), last_(last), k_(first + 1), end_(first + n),
-          t_(start), size_(n == 1 ? last : dt), announce_(announce), opt_(opt), stats_(stats) {}
+        : stepper_(stepper), f_(f), x_(x), t0_(t0), dt_(dt), last_(last), start_(start), first_(first),
+          end_(first + n), announce_(announce), opt_(opt), stats_(stats) {}
 
-    /// The index of the last complete step of the grid.
-    std::uint64_t completed() const { return k_ - 1; }
-
-    /// Takes the steps, calling on_step() after each; a model's retry in progress is ended if the run throws.
+    /// Takes the steps, calling on_step(position) after each; a model's retry in progress is ended if the run throws.
     template <class OnStep>
     void run(OnStep&& on_step) {
         if constexpr (retries_attempts<model>) {
@@ -331,44 +357,46 @@ class fixed_control {
         }
     }
 
-    bool more() const { return k_ <= end_; }
-
-    fixed_attempt propose() {
-        if (!halving_) {
-            if constexpr (begins_steps<model>)
-                if (announce_ && retries_ == 0) hook_target(f_).begin_step(size_);
-            poll_cancel(opt_, t_);
-            return {t_, size_, 0};
-        }
-        const int depth = pending_.back();
-        pending_.pop_back();
-        const double h = std::ldexp(size_, -depth);
-        smallest_ = std::min(smallest_, h);
-        if (++attempts_ > opt_.max_substeps) throw step_work_exceeded(t_, size_, opt_.max_substeps, smallest_);
-        const double ts = t_ + offset_;
-        poll_cancel(opt_, ts);
-        return {ts, h, depth};
+    position start() const {
+        const double size = end_ == first_ + 1 ? last_ : dt_;
+        if constexpr (Copy)
+            return {first_ + 1, start_, size, {x_}};
+        else
+            return {first_ + 1, start_, size, {&x_}};
     }
 
-    step_result attempt(const fixed_attempt& a) {
-        rate_.reset();
-        return attempt_step(stepper_, f_, x_, a.t, a.dt, rate_);
+    bool more(const position& at) const { return at.k <= end_; }
+
+    fixed_attempt propose(const position& at) {
+        if (!halving_) [[likely]] {
+            if constexpr (begins_steps<model>)
+                if (announce_ && retries_ == 0) hook_target(f_).begin_step(at.size);
+            poll_cancel(opt_, at.t);
+            return {at.t, at.size, 0};
+        }
+        return propose_piece(at.t, at.size);
+    }
+
+    step_result attempt(const fixed_attempt& a, position& at) {
+        if constexpr (reports_non_finite_rate<F>) rate_.reset();  // else never set
+        return attempt_step(stepper_, f_, at.state.get(), a.t, a.dt, rate_);
     }
 
     static bool acceptable(const step_result& r) { return bool(r); }
 
-    bool accept(const fixed_attempt& a, const step_result&) {
+    bool accept(const fixed_attempt& a, const step_result&, position& at) {
+        at.state.publish(x_);
         check_finite_after<St>(x_, a.t + a.dt);
-        if (halving_) {
+        if (halving_) [[unlikely]] {
             offset_ += a.dt;  // sum of pieces taken: multiples of size 2^-depth, exact
             if (!pending_.empty()) return false;
             halving_ = false;
         }
         if constexpr (retries_attempts<model>)
             for (; retries_ > 0; --retries_) hook_target(f_).end_retry(true);
-        ++k_;
-        t_ = t0_ + double(k_ - 1) * dt_;
-        size_ = k_ == end_ ? last_ : dt_;
+        ++at.k;
+        at.t = t0_ + double(at.k - 1) * dt_;
+        at.size = at.k == end_ ? last_ : dt_;
         return true;
     }
 
@@ -397,6 +425,17 @@ class fixed_control {
     }
 
    private:
+    /// The next piece of a step of the grid (from t, of size `size`) being taken in pieces.
+    fixed_attempt propose_piece(double t, double size) {
+        const int depth = pending_.back();
+        pending_.pop_back();
+        const double h = std::ldexp(size, -depth);
+        smallest_ = std::min(smallest_, h);
+        if (++attempts_ > opt_.max_substeps) throw step_work_exceeded(t, size, opt_.max_substeps, smallest_);
+        const double ts = t + offset_;
+        poll_cancel(opt_, ts);
+        return {ts, h, depth};
+    }
     step_size_underflow underflow(const fixed_attempt& a, const step_result& r) const {
         step_size_underflow e(a.t, r.component, a.dt, stats_);
         e.non_finite_rate_value = rate_;
@@ -411,9 +450,8 @@ class fixed_control {
     St& stepper_;
     F& f_;
     S& x_;
-    double t0_, dt_, last_;
-    std::uint64_t k_, end_;  // the step of the grid being taken, and the last one
-    double t_, size_;        // its start and size
+    double t0_, dt_, last_, start_;
+    std::uint64_t first_, end_;  // the steps of the grid are first + 1 .. end
     bool announce_;
     const run_options& opt_;
     run_stats& stats_;
@@ -430,8 +468,8 @@ class fixed_control {
 /// over a single step, halving a failed attempt.
 template <class St, class F, class S>
 void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const run_options& opt, run_stats& stats) {
-    fixed_control<St, F, S> control(stepper, f, x, t, t, dt, 0, 1, dt, false, opt, stats);
-    control.run([] {});
+    fixed_control<St, F, S, false> control(stepper, f, x, t, t, dt, 0, 1, dt, false, opt, stats);
+    control.run([](const auto&) {});
 }
 
 /// The same with the default bounds and `max_halvings` (for tests that take a step without counting it).
@@ -521,9 +559,9 @@ run_stats run_grid(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t 
                                                            first, n, last, true, opt, stats);
     multiples_of observed(opt.every, first + 1);  // the steps observed, k % opt.every == 0
     try {
-        control.run([&] {
+        control.run([&](const auto& at) {
             ++stats.steps;
-            const std::uint64_t k = control.completed();
+            const std::uint64_t k = at.completed();
             if (k == end) {
                 if (shortened) {
                     collect_solver_stats(stepper, stats);

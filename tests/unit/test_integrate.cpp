@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -231,6 +232,74 @@ TEST(StepSizeUnderflow, DefaultAllowsFortyHalvings) {
     } catch (const eci::step_size_underflow& e) {
         EXPECT_EQ(e.dt, 0.25 * std::ldexp(1.0, -40));
     }
+}
+
+// A conventional stepper keeps a few real unknowns (std::array<double, n>) in registers through a fixed-step run:
+// the run steps a copy held by its loop and writes it back after every accepted attempt. The run must be the
+// general engine's bit for bit, through halvings, observations and a cancellation: the same system on a
+// std::vector is stepped by the general engine.
+struct fails_at_call {  // the coupled triad x0' = x1 x2, x1' = -2 x2 x0, x2' = x0 x1; evaluation `bad` gives inf
+    int* calls;
+    int bad;
+    std::atomic<bool>* cancel_at_200 = nullptr;
+    template <class S>
+    void operator()(const S& x, S& d, double) const {
+        d[0] = x[1] * x[2];
+        d[1] = -2.0 * x[2] * x[0];
+        d[2] = x[0] * x[1];
+        if (++*calls == bad) d[1] = std::numeric_limits<double>::infinity();
+        if (cancel_at_200 && *calls == 200) cancel_at_200->store(true);
+    }
+};
+
+template <template <class> class Stepper>
+void expect_registers_match_the_general_engine() {
+    using arr = std::array<double, 3>;
+    using vec = std::vector<double>;
+    static_assert(Stepper<arr>::template in_registers<const eci::detail::counting_system<fails_at_call>>);
+    static_assert(!Stepper<vec>::template in_registers<const eci::detail::counting_system<fails_at_call>>);
+    int ca = 0, cv = 0;
+    arr a{0.9, -0.4, 0.3};
+    vec v(a.begin(), a.end());
+    std::vector<arr> seen_a;
+    std::vector<vec> seen_v;
+    Stepper<arr> sa;
+    Stepper<vec> sv;
+    // evaluation 30 fails a step: it is taken as two halves, whose pieces are observed as one step
+    const auto ra = eci::integrate_n_steps(sa, fails_at_call{&ca, 30}, a, 0.0, 0.05, 40,
+                                           [&](const arr& x, double, std::uint64_t) { seen_a.push_back(x); });
+    const auto rv = eci::integrate_n_steps(sv, fails_at_call{&cv, 30}, v, 0.0, 0.05, 40,
+                                           [&](const vec& x, double, std::uint64_t) { seen_v.push_back(x); });
+    EXPECT_EQ(ra.step_reductions, 1u);
+    EXPECT_EQ(ra.step_reductions, rv.step_reductions);
+    EXPECT_EQ(ra.rhs_evals, rv.rhs_evals);
+    ASSERT_EQ(seen_a.size(), 41u);
+    ASSERT_EQ(seen_a.size(), seen_v.size());
+    for (std::size_t k = 0; k < seen_a.size(); ++k)
+        for (std::size_t i = 0; i < 3; ++i) ASSERT_EQ(seen_a[k][i], seen_v[k][i]) << "step " << k << " element " << i;
+    EXPECT_EQ(vec(a.begin(), a.end()), v) << "the run's state is the last one observed";
+
+    // Cancelled inside a step: the state is the last one completed, as with the general engine.
+    std::atomic<bool> stop_a{false}, stop_v{false};
+    ca = cv = 0;
+    a = {0.9, -0.4, 0.3};
+    v.assign(a.begin(), a.end());
+    EXPECT_THROW(eci::integrate_n_steps(sa, fails_at_call{&ca, -1, &stop_a}, a, 0.0, 0.05, 1000, eci::no_observer{},
+                                        {.cancel = &stop_a}),
+                 eci::interrupted);
+    EXPECT_THROW(eci::integrate_n_steps(sv, fails_at_call{&cv, -1, &stop_v}, v, 0.0, 0.05, 1000, eci::no_observer{},
+                                        {.cancel = &stop_v}),
+                 eci::interrupted);
+    EXPECT_EQ(ca, cv);
+    EXPECT_EQ(vec(a.begin(), a.end()), v);
+    EXPECT_NE(v, vec({0.9, -0.4, 0.3})) << "steps were taken before the cancellation";
+}
+
+TEST(Integrate, ASmallRealStateInRegistersRunsAsTheGeneralEngine) {
+    expect_registers_match_the_general_engine<eci::euler>();
+    expect_registers_match_the_general_engine<eci::pc>();
+    expect_registers_match_the_general_engine<eci::rk2>();
+    expect_registers_match_the_general_engine<eci::rk4>();
 }
 
 TEST(Integrate, RejectsBadArguments) {

@@ -2,10 +2,12 @@
 // buffers, finiteness checks.
 #pragma once
 
+#include <array>
 #include <bit>
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <type_traits>
 #include <vector>
 
 #include "../concepts.hpp"
@@ -22,6 +24,12 @@ concept fixed_size_state = !requires(S& v) { v.resize(std::size_t{}); };
 /// A fixed-size state small enough that a stepper's stage buffers may live on the stack, in registers.
 template <class S>
 concept small_fixed_state = fixed_size_state<S> && sizeof(S) <= 64 * sizeof(double);
+
+/// A few real unknowns, std::array<double, n> with n <= 64: the conventional steppers take such a state through
+/// compile-time indices alone, so that it and the stages stay in registers over a run (explicit_rk.hpp).
+template <class S>
+concept small_real_array =
+    std::is_same_v<S, std::array<double, std::tuple_size<S>::value>> && std::tuple_size<S>::value <= 64;
 
 /// Make `buffer` the same size as `like` (a no-op for fixed-size states such as std::array).
 template <state S>

@@ -51,6 +51,69 @@ bool combine_stages_finite_over(double* io, const double* x, const std::array<co
     return none_non_finite(bad);
 }
 
+/// The stages and update of tableau T on a small real state (small_real_array), written with compile-time indices
+/// and no pointer, span or closure to the state or the stages: the compiler can then keep both in registers across
+/// a run, as it cannot once an element is reached through a pointer. Same operations in the same order as
+/// combine_stages and combine_stages_finite_over (acc = x_i, then acc += (dt a_j) k_j,i over the nonzero a_j in
+/// order), so the same bits as the general engine; the update is summed as each k_j is known, which leaves the
+/// value of the sum unchanged and frees k_j's registers early.
+template <const auto& T, class S>
+struct register_stages {
+    static constexpr std::size_t s = std::remove_cvref_t<decltype(T)>::stages;
+    static constexpr std::size_t n = std::tuple_size_v<S>;
+    using elements = std::make_index_sequence<n>;
+    using stages = std::array<S, s>;
+
+    /// x + dt * sum_{j < J} c_j k_j, element i
+    template <auto c, std::size_t... J>
+    [[gnu::always_inline]] static double combined(const S& x, const stages& k, double dt, std::size_t i,
+                                                  std::index_sequence<J...>) {
+        double acc = x[i];
+        ((c[J] != 0.0 ? (void)(acc += (dt * c[J]) * k[J][i]) : void()), ...);
+        return acc;
+    }
+    template <std::size_t I, std::size_t... i>
+    [[gnu::always_inline]] static S stage_value(const S& x, const stages& k, double dt, std::index_sequence<i...>) {
+        return S{combined<T.a[I]>(x, k, dt, i, std::make_index_sequence<I>{})...};
+    }
+    /// out += (dt b_J) k_J, as the update's sum reaches k_J
+    template <std::size_t J, std::size_t... i>
+    [[gnu::always_inline]] static void add_to_update(S& out, const stages& k, double dt, std::index_sequence<i...>) {
+        if constexpr (T.b[J] != 0.0) ((out[i] += (dt * T.b[J]) * k[J][i]), ...);
+    }
+    template <std::size_t I, class F>
+    [[gnu::always_inline]] static void stage(F& f, const S& x, stages& k, S& out, double t, double dt) {
+        if constexpr (I == 0) {
+            f(x, k[0], t);
+        } else {
+            const S y = stage_value<I>(x, k, dt, elements{});
+            f(y, k[I], t + T.c[I] * dt);
+        }
+        add_to_update<I>(out, k, dt, elements{});
+    }
+    template <std::size_t... i>
+    [[gnu::always_inline]] static std::size_t first_non_finite(const S& v, std::index_sequence<i...>) {
+        std::size_t first = n;
+        ((first == n && !std::isfinite(v[i]) ? (void)(first = i) : void()), ...);
+        return first;
+    }
+    template <std::size_t... i>
+    [[gnu::always_inline]] static bool all_finite(const S& v, std::index_sequence<i...>) {
+        return none_non_finite((non_finite_bit(v[i]) | ...));
+    }
+
+    /// One step of x; a non-finite update fails it and leaves x as it was.
+    template <class F, std::size_t... I>
+    [[gnu::always_inline]] static step_result step(F& f, S& x, double t, double dt, std::index_sequence<I...>) {
+        stages k;
+        S out = x;
+        (stage<I>(f, x, k, out, t, dt), ...);
+        if (!all_finite(out, elements{})) return step_result::failure(first_non_finite(out, elements{}));
+        x = out;
+        return step_result::success();
+    }
+};
+
 /// The pointers of k advanced by i0: a range's view of the stage derivatives.
 template <std::size_t N>
 std::array<const double*, N> offset(const std::array<const double*, N>& k, std::size_t i0) {
@@ -122,6 +185,10 @@ class explicit_rk {
     static constexpr const auto& tableau = T;  ///< the tableau it runs (a run's stage hooks weigh with its b)
     static constexpr int order = T.order;
     static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
+    /// Whether a step keeps the state and the stages in registers (detail::register_stages): a few real unknowns
+    /// of one process (a state spread over processes takes the general engine, with its reduction).
+    template <class F>
+    static constexpr bool in_registers = detail::small_real_array<S> && !detail::distributed_model<F>;
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
@@ -129,7 +196,9 @@ class explicit_rk {
         // keeps them in registers across an inlined right-hand side. Held in the stepper, every stage went through
         // memory, its scalar stores read back by vector loads that cannot be forwarded: in a run of three-wave
         // (bench/step_bench.cpp, three_wave_run) PC took 27 ns per step and RK4 50, against odeint's 6.7 and 15.
-        if constexpr (on_stack) {
+        if constexpr (in_registers<F>) {
+            return detail::register_stages<T, S>::step(f, x, t, dt, std::make_index_sequence<T.stages>{});
+        } else if constexpr (on_stack) {
             detail::stage_storage<T, S> local;
             return step_in(local, f, x, t, dt);
         } else {
