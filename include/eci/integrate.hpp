@@ -252,24 +252,33 @@ inline void poll_stop(const run_options& opt, double t) {
     if (opt.stop_between_attempts && opt.stop_between_attempts()) throw interrupted(t);
 }
 
-template <class St, class F, class S>
+/// stepper.step, or with `Local` (x is the run loop's working copy: steps_in_registers) stepper.step_local.
+template <bool Local, class St, class F, class S>
+step_result step_once(St& stepper, F& f, S& x, double t, double dt) {
+    if constexpr (Local)
+        return stepper.step_local(f, x, t, dt);
+    else
+        return stepper.step(f, x, t, dt);
+}
+
+template <bool Local, class St, class F, class S>
 step_result attempt_unhooked(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
     if constexpr (reports_non_finite_rate<F>) {
         try {
-            return stepper.step(f, x, t, dt);
+            return step_once<Local>(stepper, f, x, t, dt);
         } catch (const non_finite_rate& e) {
             rate = e.value;
             return step_result::failure(e.component);
         }
     } else {
-        return stepper.step(f, x, t, dt);
+        return step_once<Local>(stepper, f, x, t, dt);
     }
 }
 
 /// One attempt of stepper.step; a non-finite rate reported by the system (eci::non_finite_rate) is a failed
 /// attempt whose value is kept in `rate` (left as is otherwise). A model that records its stages (concepts.hpp)
 /// is told where the attempt begins and ends, and given the tableau's weights.
-template <class St, class F, class S>
+template <bool Local, class St, class F, class S>
 step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
     if constexpr (records_stages<std::remove_reference_t<decltype(hook_target(f))>>) {
         auto& m = hook_target(f);
@@ -278,7 +287,7 @@ step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::opti
         m.begin_attempt();
         std::optional<step_result> r;
         try {
-            r = attempt_unhooked(stepper, f, x, t, dt, rate);
+            r = attempt_unhooked<Local>(stepper, f, x, t, dt, rate);
         } catch (...) {
             m.end_attempt(false, dt, std::span<const double>{});
             throw;
@@ -286,7 +295,7 @@ step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::opti
         m.end_attempt(bool(*r), dt, std::span<const double>(tableau_of<St>::value.b));
         return *r;
     } else {
-        return attempt_unhooked(stepper, f, x, t, dt, rate);
+        return attempt_unhooked<Local>(stepper, f, x, t, dt, rate);
     }
 }
 
@@ -379,7 +388,7 @@ class fixed_control {
 
     step_result attempt(const fixed_attempt& a, position& at) {
         if constexpr (reports_non_finite_rate<F>) rate_.reset();  // else never set
-        return attempt_step(stepper_, f_, at.state.get(), a.t, a.dt, rate_);
+        return attempt_step<Copy>(stepper_, f_, at.state.get(), a.t, a.dt, rate_);
     }
 
     static bool acceptable(const step_result& r) { return bool(r); }

@@ -185,8 +185,8 @@ class explicit_rk {
     static constexpr const auto& tableau = T;  ///< the tableau it runs (a run's stage hooks weigh with its b)
     static constexpr int order = T.order;
     static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
-    /// Whether a step keeps the state and the stages in registers (detail::register_stages): a few real unknowns
-    /// of one process (a state spread over processes takes the general engine, with its reduction).
+    /// Whether step_local keeps the state and the stages in registers (detail::register_stages): a few real
+    /// unknowns of one process (a state spread over processes takes the general engine, with its reduction).
     template <class F>
     static constexpr bool in_registers = detail::small_real_array<S> && !detail::distributed_model<F>;
 
@@ -196,14 +196,23 @@ class explicit_rk {
         // keeps them in registers across an inlined right-hand side. Held in the stepper, every stage went through
         // memory, its scalar stores read back by vector loads that cannot be forwarded: in a run of three-wave
         // (bench/step_bench.cpp, three_wave_run) PC took 27 ns per step and RK4 50, against odeint's 6.7 and 15.
-        if constexpr (in_registers<F>) {
-            return detail::register_stages<T, S>::step(f, x, t, dt, std::make_index_sequence<T.stages>{});
-        } else if constexpr (on_stack) {
+        if constexpr (on_stack) {
             detail::stage_storage<T, S> local;
             return step_in(local, f, x, t, dt);
         } else {
             return step_in(st_, f, x, t, dt);
         }
+    }
+
+    /// step() on a state its caller holds in a local across steps (the fixed-step run's working copy,
+    /// detail::working_state): the same bits, with the state and the stages kept in registers. Not step() itself:
+    /// on a state in memory between steps the compiler pairs the register path's loads and stores differently
+    /// (SLP), and a 16-byte load of a state written by two stores the step before cannot be forwarded: one step
+    /// per call took 16.5 ns against 10 (bench/step_bench.cpp, three_wave/pc).
+    template <system<S> F>
+        requires in_registers<F>
+    step_result step_local(F& f, S& x, double t, double dt) {
+        return detail::register_stages<T, S>::step(f, x, t, dt, std::make_index_sequence<T.stages>{});
     }
 
     /// How many state-sized buffers this stepper holds (stage derivatives and one stage value).
