@@ -39,12 +39,76 @@ class conservative_rk : public radicand_remedy {
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
+        begin(f, x);
+        st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
+        return finish(f, x, dt);
+    }
+
+    /// Whether step_local keeps the state and the stages in registers: a few real unknowns of one process.
+    template <class F>
+    static constexpr bool in_registers = detail::small_real_array<S> && !detail::distributed_model<F>;
+
+    /// step() on a state its caller holds in a local across steps (the fixed-step run's working copy): the stages
+    /// and the paper's update in registers (as explicit_rk::step_local), the same operations in the same order, so
+    /// the same bits. A step whose update needs more (a negative radicand or a non-finite value: the remedy or a
+    /// failure), or a system the conditioned update applies to, finishes as step() does, from the same stages.
+    template <system<S> F>
+        requires in_registers<F>
+    [[gnu::always_inline]] step_result step_local(F& f, S& x, double t, double dt) {
+        reduce_ = detail::reducer::of(f);  // this system's (empty: one process), not a system stepped before
+        if (conditioned_update_applies(std::tuple_size_v<S>)) [[unlikely]]
+            return apart(x, step_apart(f, x, t, dt));
+        using regs = detail::register_stages<T, S>;
+        typename regs::stages k;
+        regs::derivatives(f, std::as_const(x), k, t, dt, std::make_index_sequence<s>{});
+        S out;
+        double bad = 0.0;
+        update_in_registers(out, x, k, dt, bad, std::make_index_sequence<std::tuple_size_v<S>>{});
+        if (bad == 0.0 && regs::all_finite(out, typename regs::elements{})) [[likely]] {
+            x = out;
+            return step_result::success();
+        }
+        return apart(x, finish_apart(f, x, k, dt));
+    }
+
+    /// How many state-sized buffers this stepper holds: the conventional method's (a failed step leaves x untouched:
+    /// the new state is written to the stage value's buffer, or for Euler's tableau to one of its own).
+    static constexpr std::size_t buffer_count() { return s + 1; }
+
+   private:
+    // step_local's paths out of line, given copies of the state and the stages (a reference would take the caller's
+    // registers to memory on every step): step() whole, or its finish on the stages already taken.
+    template <class F>
+    [[gnu::noinline]] std::pair<step_result, S> step_apart(F& f, S x, double t, double dt) {
+        const step_result r = step(f, x, t, dt);
+        return {r, x};
+    }
+    template <class F>
+    [[gnu::noinline]] std::pair<step_result, S> finish_apart(F& f, S x, std::array<S, s> k, double dt) {
+        using regs = detail::register_stages<T, S>;
+        begin(f, x);
+        for (std::size_t j = 0; j < s; ++j) st_.k[j] = k[j];
+        if constexpr (s > 1) st_.stage = regs::template stage_value<s - 1>(x, k, dt, typename regs::elements{});
+        const step_result r = finish(f, x, dt);
+        return {r, x};
+    }
+    static step_result apart(S& x, const std::pair<step_result, S>& r) {
+        x = r.second;
+        return r.first;
+    }
+
+    template <class F>
+    void begin(F& f, const S& x) {
         st_.prepare(x);
         rescaled_ = rescaled::no;
         reduce_ = detail::reducer::of(f);  // empty unless the model's state is spread over processes
         split_ = detail::splitter::of(f);  // empty unless the model lends its threads (detail/ranges.hpp)
         if constexpr (s == 1) detail::resize_like(result_, x);
-        st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
+    }
+
+    // The update from the stages in st_ (their derivatives, and the last stage value in st_.stage).
+    template <class F>
+    step_result finish(F&, S& x, double dt) {
         const auto xr = detail::reals(std::as_const(x));
         const std::size_t n = xr.size();
         double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
@@ -100,11 +164,41 @@ class conservative_rk : public radicand_remedy {
         return step_result::success();
     }
 
-    /// How many state-sized buffers this stepper holds: the conventional method's (a failed step leaves x untouched:
-    /// the new state is written to the stage value's buffer, or for Euler's tableau to one of its own).
-    static constexpr std::size_t buffer_count() { return s + 1; }
+    // The paper's update of every unknown of a small real state (finish_general, and eq. (30) for C-PC as
+    // detail::c_pc_finish_inline forms it), element by element with the same operations; negative radicands
+    // counted in `bad`.
+    template <std::size_t... i>
+    [[gnu::always_inline]] static void update_in_registers(S& out, const S& x, const std::array<S, s>& k, double dt,
+                                                           double& bad, std::index_sequence<i...>) {
+        ((out[i] = paper_update<i>(x, k, dt, bad)), ...);
+    }
+    template <std::size_t i>
+    [[gnu::always_inline]] static double paper_update(const S& x, const std::array<S, s>& k, double dt, double& bad) {
+        if constexpr (is_c_pc) {  // the predictor o = Y_1, rad = o (x + dt k_1)
+            const double o = stage_at<1, i>(x, k, dt);
+            const double rad = o * (x[i] + dt * k[1][i]);
+            bad += rad >= 0.0 ? 0.0 : 1.0;
+            return std::copysign(std::sqrt(rad), o);
+        } else {
+            return [&]<std::size_t... J>(std::index_sequence<J...>) {
+                const std::array<double, s> w{(dt * T.b[J])...};
+                double conv = x[i];
+                ((T.b[J] != 0.0 ? (conv += w[J] * k[J][i], 0) : 0), ...);
+                double rate = 2.0 * T.b[0] * x[i] * k[0][i];  // Y_0 = x
+                ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * stage_at<J, i>(x, k, dt) * k[J][i], 0) : 0), ...);
+                const double rad = x[i] * x[i] + dt * rate;
+                bad += rad >= 0.0 ? 0.0 : 1.0;
+                const double sign = Sign == sign_rule::of_update ? conv : stage_at<s - 1, i>(x, k, dt);
+                return std::copysign(std::sqrt(rad), sign);
+            }(std::make_index_sequence<s>{});
+        }
+    }
+    // the stage value Y_J at unknown i (Y_0 is x itself), as the stages formed it
+    template <std::size_t J, std::size_t i>
+    [[gnu::always_inline]] static double stage_at(const S& x, const std::array<S, s>& k, double dt) {
+        return detail::register_stages<T, S>::template combined<T.a[J]>(x, k, dt, i, std::make_index_sequence<J>{});
+    }
 
-   private:
     // Stage value Y_J = x + dt sum_m a[J][m] k_m at one unknown, recomputed exactly as stage_storage formed it
     // (same operations in the same order, so the same bits): the stages need not be kept for the end.
     template <std::size_t J>

@@ -66,7 +66,7 @@ struct register_stages {
 
     /// x + dt * sum_{j < J} c_j k_j, element i
     template <auto c, std::size_t... J>
-    [[gnu::always_inline]] static double combined(const S& x, const stages& k, double dt, std::size_t i,
+    [[gnu::always_inline]] static double combined(const S& x, const stages& k, [[maybe_unused]] double dt, std::size_t i,
                                                   std::index_sequence<J...>) {
         double acc = x[i];
         ((c[J] != 0.0 ? (void)(acc += (dt * c[J]) * k[J][i]) : void()), ...);
@@ -90,6 +90,21 @@ struct register_stages {
             f(y, k[I], t + T.c[I] * dt);
         }
         add_to_update<I>(out, k, dt, elements{});
+    }
+    /// All the stage derivatives k_0 .. k_{s-1} of a step from x (the conservative engine's register path).
+    template <class F, std::size_t... I>
+    [[gnu::always_inline]] static void derivatives(F& f, const S& x, stages& k, double t, double dt,
+                                                   std::index_sequence<I...>) {
+        (derivative<I>(f, x, k, t, dt), ...);
+    }
+    template <std::size_t I, class F>
+    [[gnu::always_inline]] static void derivative(F& f, const S& x, stages& k, double t, double dt) {
+        if constexpr (I == 0) {
+            f(x, k[0], t);
+        } else {
+            const S y = stage_value<I>(x, k, dt, elements{});
+            f(y, k[I], t + T.c[I] * dt);
+        }
     }
     template <std::size_t... i>
     [[gnu::always_inline]] static std::size_t first_non_finite(const S& v, std::index_sequence<i...>) {
@@ -211,7 +226,7 @@ class explicit_rk {
     /// per call took 16.5 ns against 10 (bench/step_bench.cpp, three_wave/pc).
     template <system<S> F>
         requires in_registers<F>
-    step_result step_local(F& f, S& x, double t, double dt) {
+    [[gnu::always_inline]] step_result step_local(F& f, S& x, double t, double dt) {
         return detail::register_stages<T, S>::step(f, x, t, dt, std::make_index_sequence<T.stages>{});
     }
 
