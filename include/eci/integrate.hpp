@@ -254,7 +254,7 @@ inline void poll_stop(const run_options& opt, double t) {
 
 /// stepper.step, or with `Local` (x is the run loop's working copy: steps_in_registers) stepper.step_local.
 template <bool Local, class St, class F, class S>
-[[gnu::always_inline]] inline step_result step_once(St& stepper, F& f, S& x, double t, double dt) {
+step_result step_once(St& stepper, F& f, S& x, double t, double dt) {
     if constexpr (Local)
         return stepper.step_local(f, x, t, dt);
     else
@@ -262,7 +262,7 @@ template <bool Local, class St, class F, class S>
 }
 
 template <bool Local, class St, class F, class S>
-[[gnu::always_inline]] inline step_result attempt_unhooked(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
+step_result attempt_unhooked(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
     if constexpr (reports_non_finite_rate<F>) {
         try {
             return step_once<Local>(stepper, f, x, t, dt);
@@ -279,7 +279,7 @@ template <bool Local, class St, class F, class S>
 /// attempt whose value is kept in `rate` (left as is otherwise). A model that records its stages (concepts.hpp)
 /// is told where the attempt begins and ends, and given the tableau's weights.
 template <bool Local, class St, class F, class S>
-[[gnu::always_inline]] inline step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
+step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
     if constexpr (records_stages<std::remove_reference_t<decltype(hook_target(f))>>) {
         auto& m = hook_target(f);
         static_assert(requires { St::tableau.b; },
@@ -386,7 +386,7 @@ class fixed_control {
         return propose_piece(at.t, at.size);
     }
 
-    [[gnu::always_inline]] step_result attempt(const fixed_attempt& a, position& at) {
+    step_result attempt(const fixed_attempt& a, position& at) {
         if constexpr (reports_non_finite_rate<F>) rate_.reset();  // else never set
         return attempt_step<Copy>(stepper_, f_, at.state.get(), a.t, a.dt, rate_);
     }

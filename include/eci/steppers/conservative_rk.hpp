@@ -39,76 +39,12 @@ class conservative_rk : public radicand_remedy {
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
-        begin(f, x);
-        st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
-        return finish(f, x, dt);
-    }
-
-    /// Whether step_local keeps the state and the stages in registers: a few real unknowns of one process.
-    template <class F>
-    static constexpr bool in_registers = detail::small_real_array<S> && !detail::distributed_model<F>;
-
-    /// step() on a state its caller holds in a local across steps (the fixed-step run's working copy): the stages
-    /// and the paper's update in registers (as explicit_rk::step_local), the same operations in the same order, so
-    /// the same bits. A step whose update needs more (a negative radicand or a non-finite value: the remedy or a
-    /// failure), or a system the conditioned update applies to, finishes as step() does, from the same stages.
-    template <system<S> F>
-        requires in_registers<F>
-    [[gnu::always_inline]] step_result step_local(F& f, S& x, double t, double dt) {
-        reduce_ = detail::reducer::of(f);  // this system's (empty: one process), not a system stepped before
-        if (conditioned_update_applies(std::tuple_size_v<S>)) [[unlikely]]
-            return apart(x, step_apart(f, x, t, dt));
-        using regs = detail::register_stages<T, S>;
-        typename regs::stages k;
-        regs::derivatives(f, std::as_const(x), k, t, dt, std::make_index_sequence<s>{});
-        S out;
-        double bad = 0.0;
-        update_in_registers(out, x, k, dt, bad, std::make_index_sequence<std::tuple_size_v<S>>{});
-        if (bad == 0.0 && regs::all_finite(out, typename regs::elements{})) [[likely]] {
-            x = out;
-            return step_result::success();
-        }
-        return apart(x, finish_apart(f, x, k, dt));
-    }
-
-    /// How many state-sized buffers this stepper holds: the conventional method's (a failed step leaves x untouched:
-    /// the new state is written to the stage value's buffer, or for Euler's tableau to one of its own).
-    static constexpr std::size_t buffer_count() { return s + 1; }
-
-   private:
-    // step_local's paths out of line, given copies of the state and the stages (a reference would take the caller's
-    // registers to memory on every step): step() whole, or its finish on the stages already taken.
-    template <class F>
-    [[gnu::noinline]] std::pair<step_result, S> step_apart(F& f, S x, double t, double dt) {
-        const step_result r = step(f, x, t, dt);
-        return {r, x};
-    }
-    template <class F>
-    [[gnu::noinline]] std::pair<step_result, S> finish_apart(F& f, S x, std::array<S, s> k, double dt) {
-        using regs = detail::register_stages<T, S>;
-        begin(f, x);
-        for (std::size_t j = 0; j < s; ++j) st_.k[j] = k[j];
-        if constexpr (s > 1) st_.stage = regs::template stage_value<s - 1>(x, k, dt, typename regs::elements{});
-        const step_result r = finish(f, x, dt);
-        return {r, x};
-    }
-    static step_result apart(S& x, const std::pair<step_result, S>& r) {
-        x = r.second;
-        return r.first;
-    }
-
-    template <class F>
-    void begin(F& f, const S& x) {
         st_.prepare(x);
         rescaled_ = rescaled::no;
         reduce_ = detail::reducer::of(f);  // empty unless the model's state is spread over processes
         split_ = detail::splitter::of(f);  // empty unless the model lends its threads (detail/ranges.hpp)
         if constexpr (s == 1) detail::resize_like(result_, x);
-    }
-
-    // The update from the stages in st_ (their derivatives, and the last stage value in st_.stage).
-    template <class F>
-    step_result finish(F&, S& x, double dt) {
+        st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
         const auto xr = detail::reals(std::as_const(x));
         const std::size_t n = xr.size();
         double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
@@ -163,6 +99,65 @@ class conservative_rk : public radicand_remedy {
         swap(x, out);
         return step_result::success();
     }
+
+    /// Whether step_local keeps the state and the stages in registers: a few real unknowns of one process.
+    template <class F>
+    static constexpr bool in_registers = detail::small_real_array<S> && !detail::distributed_model<F>;
+
+    /// step() on a state its caller holds in a local across steps (the fixed-step run's working copy): the stages
+    /// and the paper's update in registers (as explicit_rk::step_local), the same operations in the same order, so
+    /// the same bits. A step whose update needs more (a negative radicand or a non-finite value: the remedy or a
+    /// failure), or a system the conditioned update applies to, finishes as step() does, from the same stages.
+    template <system<S> F>
+        requires in_registers<F>
+    [[gnu::always_inline]] step_result step_local(F& f, S& x, double t, double dt) {
+        reduce_ = detail::reducer::of(f);  // this system's (empty: one process), not a system stepped before
+        if (conditioned_update_applies(std::tuple_size_v<S>)) [[unlikely]]
+            return apart(x, step_apart(f, x, t, dt));
+        using regs = detail::register_stages<T, S>;
+        typename regs::stages k;
+        regs::derivatives(f, std::as_const(x), k, t, dt, std::make_index_sequence<s>{});
+        S out;
+        double bad = 0.0;
+        update_in_registers(out, x, k, dt, bad, std::make_index_sequence<std::tuple_size_v<S>>{});
+        if (bad == 0.0 && regs::all_finite(out, typename regs::elements{})) [[likely]] {
+            x = out;
+            return step_result::success();
+        }
+        return apart(x, finish_apart(f, x, k, t, dt));
+    }
+
+    /// How many state-sized buffers this stepper holds: the conventional method's (a failed step leaves x untouched:
+    /// the new state is written to the stage value's buffer, or for Euler's tableau to one of its own).
+    static constexpr std::size_t buffer_count() { return s + 1; }
+
+   private:
+    // step_local's paths out of line, given copies of the state and the stages (a reference would take the caller's
+    // registers to memory on every step): step() whole, or its finish on the stages already taken.
+    template <class F>
+    [[gnu::noinline]] std::pair<step_result, S> step_apart(F& f, S x, double t, double dt) {
+        const step_result r = step(f, x, t, dt);
+        return {r, x};
+    }
+    template <class F>
+    [[gnu::noinline]] std::pair<step_result, S> finish_apart(F&, S x, std::array<S, s> k, double t, double dt) {
+        const replay_stages again{&k};
+        const step_result r = step(again, x, t, dt);
+        return {r, x};
+    }
+    // The stages of a step already taken, given back in order: step() finishes from them without evaluating the
+    // system again (its evaluations are counted once, by the register path that took them).
+    struct replay_stages {
+        const std::array<S, s>* k;
+        mutable std::size_t next = 0;
+        void operator()(const S&, S& d, double) const { d = (*k)[next++]; }
+    };
+    static step_result apart(S& x, const std::pair<step_result, S>& r) {
+        x = r.second;
+        return r.first;
+    }
+
+
 
     // The paper's update of every unknown of a small real state (finish_general, and eq. (30) for C-PC as
     // detail::c_pc_finish_inline forms it), element by element with the same operations; negative radicands

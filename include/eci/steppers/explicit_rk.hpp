@@ -66,8 +66,8 @@ struct register_stages {
 
     /// x + dt * sum_{j < J} c_j k_j, element i
     template <auto c, std::size_t... J>
-    [[gnu::always_inline]] static double combined(const S& x, const stages& k, [[maybe_unused]] double dt, std::size_t i,
-                                                  std::index_sequence<J...>) {
+    [[gnu::always_inline]] static double combined(const S& x, const stages& k, [[maybe_unused]] double dt,
+                                                  std::size_t i, std::index_sequence<J...>) {
         double acc = x[i];
         ((c[J] != 0.0 ? (void)(acc += (dt * c[J]) * k[J][i]) : void()), ...);
         return acc;
