@@ -306,9 +306,9 @@ struct fixed_attempt {
     int depth;
 };
 
-/// Whether a stepper takes a small state in registers (explicit_rk on a small_real_array): the fixed-step run then
-/// steps a copy of the state held by the run loop's position, written back to the run's state after every
-/// accepted attempt (a store off the step's chain of dependent arithmetic).
+/// Whether a stepper takes a small state in registers (step_local: explicit_rk and conservative_rk on a
+/// small_real_array): the fixed-step run then steps a copy of the state held by the run loop's position, written
+/// back to the run's state after every accepted attempt (a store off the step's chain of dependent arithmetic).
 template <class St, class F>
 concept steps_in_registers = requires { requires St::template in_registers<F>; };
 

@@ -157,8 +157,6 @@ class conservative_rk : public radicand_remedy {
         return r.first;
     }
 
-
-
     // The paper's update of every unknown of a small real state (finish_general, and eq. (30) for C-PC as
     // detail::c_pc_finish_inline forms it), element by element with the same operations; negative radicands
     // counted in `bad`.

@@ -83,12 +83,7 @@ struct register_stages {
     }
     template <std::size_t I, class F>
     [[gnu::always_inline]] static void stage(F& f, const S& x, stages& k, S& out, double t, double dt) {
-        if constexpr (I == 0) {
-            f(x, k[0], t);
-        } else {
-            const S y = stage_value<I>(x, k, dt, elements{});
-            f(y, k[I], t + T.c[I] * dt);
-        }
+        derivative<I>(f, x, k, t, dt);
         add_to_update<I>(out, k, dt, elements{});
     }
     /// All the stage derivatives k_0 .. k_{s-1} of a step from x (the conservative engine's register path).
