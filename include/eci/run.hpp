@@ -72,8 +72,16 @@ class invariant_monitor {
     void record(const S& x) {
         finite_now_ = true;
         std::size_t j = 0;
-        if constexpr (has_named_invariants<Model>)
-            for (const auto& inv : Model::invariants()) update(j++, (model_->*inv.value)(x));
+        if constexpr (has_named_invariants<Model>) {
+            // One direct call per invariant (its member pointer a constant of the list), which the compiler can
+            // inline: a run records every step, and on three modes a call through the pointer cost a tenth of
+            // `eci run`'s step.
+            static constexpr auto invariants = Model::invariants();
+            [&]<std::size_t... I>(std::index_sequence<I...>) {
+                (update(I, (model_->*invariants[I].value)(x)), ...);
+            }(std::make_index_sequence<invariants.size()>{});
+            j = invariants.size();
+        }
         for (const auto& e : extra_) update(j++, e.value(x));
         started_ = true;
     }
