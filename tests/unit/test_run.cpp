@@ -42,7 +42,35 @@ struct blow_up_model {
     }
 };
 
+// A user's model whose invariants() is not constexpr (a list built when called): the monitor evaluates it at run
+// time instead of expanding it at compile time, with the same records.
+struct runtime_list_model {
+    using state_type = std::array<double, 2>;
+    void operator()(const state_type& x, state_type& d, double) const { d[0] = x[1], d[1] = -x[0]; }
+    double radius2(const state_type& x) const { return x[0] * x[0] + x[1] * x[1]; }
+    double first(const state_type& x) const { return x[0]; }
+    static auto invariants() {
+        return std::vector<eci::named_invariant<runtime_list_model>>{{"radius2", &runtime_list_model::radius2},
+                                                                     {"first", &runtime_list_model::first}};
+    }
+};
+static_assert(eci::has_named_invariants<runtime_list_model> && !eci::constant_invariant_list<runtime_list_model>);
+static_assert(eci::constant_invariant_list<eci::three_wave>);
+
 }  // namespace
+
+TEST(InvariantMonitor, ListsNotKnownAtCompileTimeAreRecordedAlike) {
+    const runtime_list_model model;
+    eci::invariant_monitor<runtime_list_model> mon(model);
+    mon.record({1.0, 0.0});
+    mon.record({0.0, 2.0});
+    ASSERT_EQ(mon.records().size(), 2u);
+    EXPECT_EQ(mon.records()[0].name, "radius2");
+    EXPECT_EQ(mon.records()[0].initial, 1.0);
+    EXPECT_EQ(mon.records()[0].final, 4.0);
+    EXPECT_EQ(mon.records()[1].max_abs_drift, 1.0);
+    EXPECT_EQ(mon.values()[1], 0.0);
+}
 
 TEST(InvariantMonitor, RecordsInitialFinalAndLargestDrift) {
     const eci::three_wave model;
