@@ -238,6 +238,7 @@ class error_control {
     /// The controller keeps where the run is itself (run_loop's position is for the fixed-step controller).
     struct position {};
     static position start() { return {}; }
+    static void leave(position) {}
 
     bool more(position) const { return forward_ ? t_ < target_ : t_ > target_; }
 
@@ -280,7 +281,7 @@ class error_control {
         return true;
     }
 
-    void reject(const adaptive_attempt& a, const attempt_result& r) {
+    void reject(const adaptive_attempt& a, const attempt_result& r, position) {
         const double dt = a.dt;
         const bool finite = r.ok && std::isfinite(r.error);
         if (!r.ok) {

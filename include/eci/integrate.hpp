@@ -164,6 +164,12 @@ class interrupted : public std::runtime_error {
     }
 };
 
+/// Observer that does nothing.
+struct no_observer {
+    template <class S>
+    void operator()(const S&, double, std::uint64_t) const {}
+};
+
 namespace detail {
 
 /// The drivers' view of a system: counts its evaluations, and exposes it (wrapped()) to steppers that need the
@@ -326,6 +332,47 @@ struct working_state<S, true> {
     void publish(S& to) const { to = x; }
 };
 
+/// The fixed-step run's counting_system: the count is held by value in the run loop's position (a copy of this), so
+/// that it stays in a register across a run of a small system (through a reference it was stored at every
+/// evaluation), and stored at `home` (the run's statistics) where it is read: when the run ends, before an
+/// observer that takes the statistics sees them and before a failed attempt (fixed_control::sync). A run that
+/// throws from within a step (eci::interrupted, a model's exception) returns no statistics, so none is stored then.
+template <class F>
+struct held_count {
+    F& f;
+    std::uint64_t* home;
+    const std::atomic<bool>* cancel;  ///< polled before every evaluation (inside Newton iterations too)
+    mutable std::uint64_t count = *home;
+    static constexpr bool reports_non_finite_rate = eci::reports_non_finite_rate<F>;
+
+    template <class S>
+    [[gnu::always_inline]] void operator()(const S& x, S& dxdt, double t) const {
+        if (cancel && cancel->load(std::memory_order_relaxed)) throw interrupted(t);
+        ++count;
+        f(x, dxdt, t);
+    }
+    void store() const { *home = count; }
+    const F& wrapped() const { return f; }
+    F& hooks() const { return f; }
+};
+
+/// The system a fixed-step run's attempts evaluate, held by its position: F itself (by address), or a copy of a
+/// held_count.
+template <class F>
+struct run_system {
+    F* f;
+    static run_system of(F& f) { return {&f}; }
+    F& get() const { return *f; }
+    void store() const {}
+};
+template <class F>
+struct run_system<const held_count<F>> {
+    held_count<F> h;
+    static run_system of(const held_count<F>& c) { return {c}; }
+    const held_count<F>& get() const { return h; }
+    void store() const { h.store(); }
+};
+
 /// The fixed-step controller of run_loop: steps first + 1 .. first + n of the grid t0 + k dt, the last of size
 /// `last` (dt, unless integrate_to shortens it to land on its end time). A failed attempt is first offered to a
 /// model that retries the whole step in another form (retries_attempts), then replaced by two half steps, depth
@@ -336,11 +383,18 @@ class fixed_control {
     using model = std::remove_reference_t<decltype(hook_target(std::declval<F&>()))>;
 
    public:
-    /// Where the run is: the step of the grid being taken (k), its start and size, and the state stepped.
+    /// Where the run is: the step of the grid being taken (k), its start and size, and the state stepped; with what
+    /// every step reads or counts that the controller would hold in memory (the system, whose evaluation count a
+    /// held_count keeps here, the cancel flag, whether the step is being halved), so that a run keeps it in
+    /// registers. (The grid's constants stay members: in the position they took three more of a small state's
+    /// step's floating-point registers, and the state itself went to memory.)
     struct position {
         std::uint64_t k;
         double t, size;
         working_state<S, Copy> state;
+        run_system<F> system;
+        const std::atomic<bool>* cancel;
+        bool halving;  // the step is being taken in pieces
         /// The index of the last complete step of the grid.
         std::uint64_t completed() const { return k - 1; }
     };
@@ -368,19 +422,30 @@ class fixed_control {
 
     position start() const {
         const double size = end_ == first_ + 1 ? last_ : dt_;
+        auto system = run_system<F>::of(f_);
         if constexpr (Copy)
-            return {first_ + 1, start_, size, {x_}};
+            return {first_ + 1, start_, size, {x_}, system, opt_.cancel, false};
         else
-            return {first_ + 1, start_, size, {&x_}};
+            return {first_ + 1, start_, size, {&x_}, system, opt_.cancel, false};
     }
+
+    /// Stores what the position counts where the run's statistics read it: the evaluations (a held_count's), and
+    /// the last complete step of the grid (completed()).
+    void sync(const position& at) {
+        at.system.store();
+        completed_ = at.completed();
+    }
+    void leave(const position& at) { sync(at); }
+    /// The last complete step of the grid when the run last synced (ended, observed, or failed an attempt).
+    std::uint64_t completed() const { return completed_; }
 
     bool more(const position& at) const { return at.k <= end_; }
 
     fixed_attempt propose(const position& at) {
-        if (!halving_) [[likely]] {
+        if (!at.halving) [[likely]] {
             if constexpr (begins_steps<model>)
                 if (announce_ && retries_ == 0) hook_target(f_).begin_step(at.size);
-            poll_cancel(opt_, at.t);
+            if (at.cancel && at.cancel->load(std::memory_order_relaxed)) throw interrupted(at.t);
             return {at.t, at.size, 0};
         }
         return propose_piece(at.t, at.size);
@@ -388,7 +453,7 @@ class fixed_control {
 
     step_result attempt(const fixed_attempt& a, position& at) {
         if constexpr (reports_non_finite_rate<F>) rate_.reset();  // else never set
-        return attempt_step<Copy>(stepper_, f_, at.state.get(), a.t, a.dt, rate_);
+        return attempt_step<Copy>(stepper_, at.system.get(), at.state.get(), a.t, a.dt, rate_);
     }
 
     static bool acceptable(const step_result& r) { return bool(r); }
@@ -396,10 +461,9 @@ class fixed_control {
     bool accept(const fixed_attempt& a, const step_result&, position& at) {
         at.state.publish(x_);
         check_finite_after<St>(x_, a.t + a.dt);
-        if (halving_) [[unlikely]] {
-            offset_ += a.dt;  // sum of pieces taken: multiples of size 2^-depth, exact
-            if (!pending_.empty()) return false;
-            halving_ = false;
+        if (a.depth != 0) [[unlikely]] {  // a piece of a halved step (at.halving; a.depth is known in registers)
+            if (!piece_taken(a)) return false;
+            at.halving = false;
         }
         if constexpr (retries_attempts<model>)
             for (; retries_ > 0; --retries_) hook_target(f_).end_retry(true);
@@ -409,34 +473,43 @@ class fixed_control {
         return true;
     }
 
-    // Out of line and by value (a failed attempt is rare): inlined into the loop, or taking the result by reference,
-    // the result was built in memory at every step. A three-wave PC run (bench/step_bench.cpp, three_wave_run) took
-    // 130 instructions per step, 122 this way (callgrind; odeint's Heun loop takes 48).
-    [[gnu::noinline]] void reject(fixed_attempt a, step_result r) {
+    void reject(const fixed_attempt& a, const step_result& r, position& at) {
+        sync(at);  // (a step_size_underflow carries the run's statistics)
+        if (reject_attempt(a, r)) at.halving = true;
+    }
+
+   private:
+    // A failed attempt: a model's retry, or the step's halving begun or continued (true when it begins), or
+    // step_size_underflow. Out of line and by value (a failed attempt is rare): inlined into the loop, or taking
+    // the result by reference, the result was built in memory at every step.
+    [[gnu::noinline]] bool reject_attempt(fixed_attempt a, step_result r) {
         if (a.depth == 0) {
             if constexpr (retries_attempts<model>)
                 if (hook_target(f_).begin_retry()) {  // the whole step again in the model's other form
                     ++retries_;
-                    return;
+                    return false;
                 }
             if (opt_.max_halvings <= 0) throw underflow(a, r);
             poll_stop(opt_, a.t);
             count_reduction();
             pending_.assign({1, 1});  // depths of the pieces still to take, the next one last
-            halving_ = true;
             offset_ = 0.0;
             attempts_ = 1;
             smallest_ = a.dt;
-            return;
+            return true;
         }
         if (a.depth >= opt_.max_halvings) throw underflow(a, r);
         poll_stop(opt_, a.t);
         count_reduction();
         pending_.push_back(a.depth + 1);
         pending_.push_back(a.depth + 1);
+        return false;
     }
-
-   private:
+    // A piece of a halved step taken: whether it completes the step of the grid.
+    bool piece_taken(const fixed_attempt& a) {
+        offset_ += a.dt;  // sum of pieces taken: multiples of size 2^-depth, exact
+        return pending_.empty();
+    }
     /// The next piece of a step of the grid (from t, of size `size`) being taken in pieces.
     fixed_attempt propose_piece(double t, double size) {
         const int depth = pending_.back();
@@ -464,12 +537,12 @@ class fixed_control {
     S& x_;
     double t0_, dt_, last_, start_;
     std::uint64_t first_, end_;  // the steps of the grid are first + 1 .. end
+    std::uint64_t completed_ = first_;
     bool announce_;
     const run_options& opt_;
     run_stats& stats_;
     std::optional<double> rate_;  // the non-finite rate that failed the last attempt, if that was the cause
     int retries_ = 0;             // the model's retries of this step in progress
-    bool halving_ = false;        // the step is being taken in pieces
     std::vector<int> pending_;
     double offset_ = 0.0;
     std::uint64_t attempts_ = 0;
@@ -561,34 +634,46 @@ template <class St, class F, class S, class Observer>
 run_stats run_grid(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t n, double last,
                    std::optional<double> t_end, Observer& observe, const run_options& opt) {
     run_stats stats;
-    const counting_system<F> counted{f, stats.rhs_evals, opt.cancel};
+    const held_count<F> counted{f, &stats.rhs_evals, opt.cancel};
     attach_quadratic_invariants(stepper, f, x);
     const remedy_stats before = remedy_counters(stepper);
     const std::uint64_t first = opt.first_step, end = first + n;
     const bool shortened = last != dt;
     notify(observe, std::as_const(x), first == 0 ? t0 : t0 + double(first) * dt, first, stats);
-    fixed_control<St, const counting_system<F>, S> control(stepper, counted, x, t0, t0 + double(first) * dt, dt,
+    fixed_control<St, const held_count<F>, S> control(stepper, counted, x, t0, t0 + double(first) * dt, dt,
                                                            first, n, last, true, opt, stats);
     multiples_of observed(opt.every, first + 1);  // the steps observed, k % opt.every == 0
+    // The steps taken and the evaluations are counted by the run's position, and stored into stats where they are
+    // read (control.sync): before an observer that takes them sees them, when the run ends, and in a
+    // step_size_underflow.
+    constexpr bool observes = !std::is_same_v<std::remove_cvref_t<Observer>, no_observer>;
+    constexpr bool reads_stats = std::invocable<Observer&, const S&, double, std::uint64_t, const run_stats&>;
     try {
         control.run([&, end](const auto& at) {  // (end by value: one load fewer per step)
-            ++stats.steps;
             const std::uint64_t k = at.completed();
             if (k == end) {
+                control.sync(at);
+                stats.steps = k - first;
                 if (shortened) {
                     collect_solver_stats(stepper, stats);
                     collect_remedy_stats(stepper, before, stats);
                 }
                 notify(observe, std::as_const(x), t_end ? *t_end : t0 + double(k) * dt, k, stats);
-            } else if (observed.due(k)) {
+            } else if (observes && observed.due(k)) {
+                if constexpr (reads_stats) {
+                    control.sync(at);
+                    stats.steps = k - first;
+                }
                 notify(observe, std::as_const(x), t0 + double(k) * dt, k, stats);
             }
         });
     } catch (step_size_underflow& e) {
+        e.stats.steps = control.completed() - first;
         collect_solver_stats(stepper, e.stats);
         collect_remedy_stats(stepper, before, e.stats);
         throw;
     }
+    stats.steps = control.completed() - first;
     collect_solver_stats(stepper, stats);
     if (!shortened) collect_remedy_stats(stepper, before, stats);
     return stats;
@@ -617,12 +702,6 @@ void step_with_reduction(St& stepper, F&& f, S& x, double t, double dt, run_stat
     ++stats.steps;
     detail::collect_remedy_stats(stepper, before, stats);
 }
-
-/// Observer that does nothing.
-struct no_observer {
-    template <class S>
-    void operator()(const S&, double, std::uint64_t) const {}
-};
 
 /// Take `n` steps of size dt from (x, t0). The observer sees (x, t, step index), or (x, t), at step 0, every
 /// `opt.every` steps and at step n. Times are t0 + i dt, never accumulated, so they stay on the grid. The
