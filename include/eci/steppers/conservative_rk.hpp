@@ -124,7 +124,7 @@ class conservative_rk : public radicand_remedy {
             x = out;
             return step_result::success();
         }
-        return apart(x, finish_apart(f, x, k, t, dt));
+        return apart(x, finish_apart(x, k, t, dt));
     }
 
     /// How many state-sized buffers this stepper holds: the conventional method's (a failed step leaves x untouched:
@@ -139,8 +139,7 @@ class conservative_rk : public radicand_remedy {
         const step_result r = step(f, x, t, dt);
         return {r, x};
     }
-    template <class F>
-    [[gnu::noinline]] std::pair<step_result, S> finish_apart(F&, S x, std::array<S, s> k, double t, double dt) {
+    [[gnu::noinline]] std::pair<step_result, S> finish_apart(S x, std::array<S, s> k, double t, double dt) {
         const replay_stages again{&k};
         const step_result r = step(again, x, t, dt);
         return {r, x};
