@@ -172,26 +172,40 @@ struct no_observer {
 
 namespace detail {
 
-/// The drivers' view of a system: counts its evaluations, and exposes it (wrapped()) to steppers that need the
-/// model's transform or Jacobian.
+/// What the drivers' views of a system (counting_system, held_count) share: the system, exposed (wrapped()) to
+/// steppers that need the model's transform or Jacobian and (hooks()) for the hooks of a model that takes part in
+/// its steps (concepts.hpp); and an evaluation, counted after the cancel flag is polled.
 template <class F>
-struct counting_system {
+struct system_view {
     F& f;
-    std::uint64_t& count;
-    const std::atomic<bool>* cancel = nullptr;  ///< polled before every evaluation (inside Newton iterations too)
     static constexpr bool reports_non_finite_rate = eci::reports_non_finite_rate<F>;
+    const F& wrapped() const { return f; }
+    F& hooks() const { return f; }
 
+   protected:
     // (always inlined: in a translation unit that compiles every method of a model the inliner's budget runs out
-    // before this wrapper, which then cost a call per evaluation in the CLI's runs)
+    // before the wrappers, which then cost a call per evaluation in the CLI's runs)
     template <class S>
-    [[gnu::always_inline]] void operator()(const S& x, S& dxdt, double t) const {
-        if (cancel && cancel->load(std::memory_order_relaxed)) throw interrupted(t);
+    [[gnu::always_inline]] void evaluate(const S& x, S& dxdt, double t, std::uint64_t& count,
+                                         const std::atomic<bool>* cancel) const {
+        if (cancel && cancel->load(std::memory_order_relaxed)) throw interrupted(t);  // (inside Newton iterations too)
         ++count;
         f(x, dxdt, t);
     }
-    const F& wrapped() const { return f; }
-    /// The system itself, for the hooks of a model that takes part in its steps (concepts.hpp).
-    F& hooks() const { return f; }
+};
+
+/// The drivers' view of a system: counts its evaluations into `count`.
+template <class F>
+struct counting_system : system_view<F> {
+    std::uint64_t& count;
+    const std::atomic<bool>* cancel = nullptr;  ///< polled before every evaluation
+
+    counting_system(F& f, std::uint64_t& count, const std::atomic<bool>* cancel = nullptr)
+        : system_view<F>{f}, count(count), cancel(cancel) {}
+    template <class S>
+    [[gnu::always_inline]] void operator()(const S& x, S& dxdt, double t) const {
+        this->evaluate(x, dxdt, t, count, cancel);
+    }
 };
 
 /// The model whose step hooks the drivers call: f, or the system a counting wrapper counts for.
@@ -338,22 +352,18 @@ struct working_state<S, true> {
 /// observer that takes the statistics sees them and before a failed attempt (fixed_control::sync). A run that
 /// throws from within a step (eci::interrupted, a model's exception) returns no statistics, so none is stored then.
 template <class F>
-struct held_count {
-    F& f;
+struct held_count : system_view<F> {
     std::uint64_t* home;
-    const std::atomic<bool>* cancel;  ///< polled before every evaluation (inside Newton iterations too)
-    mutable std::uint64_t count = *home;
-    static constexpr bool reports_non_finite_rate = eci::reports_non_finite_rate<F>;
+    const std::atomic<bool>* cancel;  ///< polled before every evaluation
+    mutable std::uint64_t count;
 
+    held_count(F& f, std::uint64_t* home, const std::atomic<bool>* cancel = nullptr)
+        : system_view<F>{f}, home(home), cancel(cancel), count(*home) {}
     template <class S>
     [[gnu::always_inline]] void operator()(const S& x, S& dxdt, double t) const {
-        if (cancel && cancel->load(std::memory_order_relaxed)) throw interrupted(t);
-        ++count;
-        f(x, dxdt, t);
+        this->evaluate(x, dxdt, t, count, cancel);
     }
     void store() const { *home = count; }
-    const F& wrapped() const { return f; }
-    F& hooks() const { return f; }
 };
 
 /// The system a fixed-step run's attempts evaluate, held by its position: F itself (by address), or a copy of a
@@ -369,7 +379,11 @@ struct run_system {
 template <class F>
 struct run_system<const held_count<F>> {
     held_count<F> h;
-    static run_system of(const held_count<F>& c) { return {c}; }
+    static run_system of(const held_count<F>& c) {
+        run_system r{c};
+        r.h.count = *c.home;  // from where the count stands (one held_count serves solve's every side step)
+        return r;
+    }
     // A copy for each attempt, its count taken back after: a stepper's cold paths (conservative_rk's step_apart)
     // take the system by reference, and given the position's own, the whole position stayed in memory (three-wave
     // C-PC 195 -> 177 instructions per step, C-RK4 344 -> 292).

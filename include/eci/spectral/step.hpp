@@ -33,7 +33,7 @@ void ns2d_step(St& stepper, navier_stokes_2d& m, navier_stokes_2d::state_type& x
     opt.max_substeps = std::numeric_limits<std::uint64_t>::max();
     if (stop) opt.stop_between_attempts = stop;
     m.begin_step(dt);
-    const detail::counting_system<navier_stokes_2d> counted{m, stats.rhs_evals};
+    const detail::held_count<navier_stokes_2d> counted{m, &stats.rhs_evals};
     detail::advance_with_reduction(stepper, counted, x, t, dt, opt, stats);
     ++stats.steps;
     const ns2d_budget& b = m.step_budget();
