@@ -196,7 +196,8 @@ int run_cli(int argc, char** argv) {
                         "also write the run summary as JSON to this file ('-': standard output)");
         sub->add_option("--rtol", rtol,
                         "relative tolerance: run with adaptive step control (an embedded pair: bs32, ck54, dp54, "
-                        "dp853, f78 and their c- versions); --dt is then the first step");
+                        "dp853, f78 and their c- versions); --dt is then the first step, at most the span. Below "
+                        "100 eps it is raised to 100 eps with a warning, as in Python and SciPy's solve_ivp");
         sub->add_option("--atol", atol, "absolute tolerance of adaptive step control (default: the --rtol value)");
         sub->add_option("--output-dt", output_dt,
                         "write CSV rows at multiples of this time and at the end (adaptive: dense output or steps "

@@ -171,6 +171,13 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         } catch (const std::invalid_argument& e) {
             throw bad_input(std::string("--rtol/--atol: ") + e.what());
         }
+        // a first step the user gives lies within the span, as Python's first_step (solve_ivp's); the default --dt
+        // may exceed a short span: the first step is then shortened to it
+        try {
+            if (settings.dt) check_first_step(*settings.dt, 0.0, plan.t_end, "--dt");
+        } catch (const std::invalid_argument& e) {
+            throw bad_input(e.what());
+        }
     }
     cfg.output_dt = settings.output_dt;  // output times (adaptive) or every k steps (fixed): the library decides
     try {
@@ -182,6 +189,15 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         resolve_method_for<Model>(method.name, adaptive, "model " + info.name);
     } catch (const std::invalid_argument& e) {
         throw bad_input(e.what());
+    }
+    // as Python's solve (and SciPy's solve_ivp): an rtol below 100 eps is raised to it, with a warning
+    if (adaptive) {
+        const double asked = cfg.adaptive->rtol;
+        if (raise_rtol(*cfg.adaptive))
+            std::fprintf(stderr,
+                         "eci: warning: the relative tolerance %s is below 100 eps; raised to %s, as SciPy's "
+                         "solve_ivp does (below it the error estimate is round-off)\n",
+                         shortest(asked).c_str(), shortest(min_rtol).c_str());
     }
 
     // Open both outputs before running: an unwritable path is bad input, reported before any work.

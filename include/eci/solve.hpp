@@ -143,6 +143,33 @@ inline std::optional<adaptive_options> tolerances_from(std::optional<double> rto
     return o;
 }
 
+/// The smallest relative tolerance an adaptive run is given, 100 eps, as SciPy's solve_ivp: below it the error
+/// estimate is the step's own round-off, and the controller shrinks the step until the run's budget runs out
+/// (`eci run three-wave --method dp54 --rtol 1e-30` took its 5e7 attempts, 8 s, to fail). The front ends raise a
+/// smaller one to it and warn (raise_rtol), the CLI and Python alike.
+inline constexpr double min_rtol = 100 * std::numeric_limits<double>::epsilon();
+
+/// Raises o.rtol and every o.rtol_each below min_rtol to it (rtol = 0 with atol > 0 as well, as solve_ivp does);
+/// returns whether it raised any.
+inline bool raise_rtol(adaptive_options& o) {
+    bool raised = o.rtol < min_rtol;
+    o.rtol = std::max(o.rtol, min_rtol);
+    for (double& r : o.rtol_each) raised = raised || r < min_rtol, r = std::max(r, min_rtol);
+    return raised;
+}
+
+/// An adaptive run's first step (the CLI's --dt, Python's first_step), when the user gives it: positive, finite
+/// and at most the span |t_end - t0|, as solve_ivp requires. Throws std::invalid_argument naming it `name`.
+inline void check_first_step(double h, double t0, double t_end, std::string_view name) {
+    if (!(h > 0.0) || !std::isfinite(h))
+        throw std::invalid_argument(std::string(name) + " must be a positive finite number, not " +
+                                    detail::shortest_text(h));
+    const double span = std::abs(t_end - t0);
+    if (h > span)
+        throw std::invalid_argument(std::string(name) + " " + detail::shortest_text(h) +
+                                    " exceeds the span of the run, " + detail::shortest_text(span));
+}
+
 /// Why a run stopped before its end.
 enum class run_failure_kind {
     step_failed,         ///< a step failed at every size (negative radicand, non-invertible transform, rate)

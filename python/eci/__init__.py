@@ -667,12 +667,7 @@ def _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps,
     error estimate is round-off."""
     r, r_each = _tolerance(rtol, "rtol", n)
     a, a_each = _tolerance(atol, "atol", n)
-    floor = 100 * np.finfo(float).eps
-    if (r_each and min(r_each) < floor) or (not r_each and r < floor):
-        warnings.warn(f"At least one element of `rtol` is too small. Setting `rtol = np.maximum(rtol, {floor})`.",
-                      UserWarning, stacklevel=3)
-        r = max(r, floor)
-        r_each = [max(v, floor) for v in r_each]
+    # both zero is refused before rtol is raised (as the CLI refuses it), which would otherwise hide it
     if not r_each and not a_each and r == 0.0 and a == 0.0:
         raise ValueError("rtol and atol cannot both be zero")
     if r_each or a_each:  # the library takes per-component vectors for both or a scalar: expand the scalar
@@ -680,12 +675,18 @@ def _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps,
         a_each = a_each or [a] * n
         if not any(x + y > 0.0 for x, y in zip(r_each, a_each)):
             raise ValueError("rtol and atol cannot both be zero")
+    floor = 100 * np.finfo(float).eps  # eci::min_rtol, which the CLI raises its rtol to alike
+    if (r_each and min(r_each) < floor) or (not r_each and r < floor):
+        warnings.warn(f"At least one element of `rtol` is too small. Setting `rtol = np.maximum(rtol, {floor})`.",
+                      UserWarning, stacklevel=3)
+        r = max(r, floor)
+        r_each = [max(v, floor) for v in r_each]
     if first_step is not None:
         first_step = _number(first_step, "first_step")
         if not (first_step > 0.0) or not math.isfinite(first_step):
             raise ValueError(f"first_step must be a positive finite number, not {_shortest(first_step)}")
         if first_step > abs(t1 - t0):
-            raise ValueError(f"first_step {_shortest(first_step)} exceeds the span |t1 - t0| = "
+            raise ValueError(f"first_step {_shortest(first_step)} exceeds the span of the run, "
                              f"{_shortest(abs(t1 - t0))}")
     min_step = _number(min_step, "min_step")
     if not (min_step >= 0.0) or not math.isfinite(min_step):

@@ -99,6 +99,8 @@ TEST_F(cli_adaptive, BadInputIsRefused) {
         {"--method c-rk4 --rtol 1e-6", "no error estimate"},
         {"--method c-dp54 --rtol 1e-6 --steps 10", "--steps"},
         {"--method c-dp54 --rtol 1e-6 --output-dt 0", "--output-dt"},
+        // a first step given beyond the span, refused as Python's first_step is (the default --dt is not refused)
+        {"--method c-dp54 --rtol 1e-6 --dt 2 --t-end 1", "--dt 2 exceeds the span of the run, 1"},
     };
     for (const auto& [args, what] : cases) {
         const run_result r = eci("run three-wave " + args + " --output bad.csv");
@@ -108,14 +110,43 @@ TEST_F(cli_adaptive, BadInputIsRefused) {
     }
 }
 
-// The minimum-step path from the command line: a tolerance below what double precision can meet stops the run
-// with exit status 1, naming the time and component, and leaves no output file.
+// The minimum-step path from the command line: a step the solution cannot be followed through (a near-collision
+// Kepler orbit: angular momentum 5e-16, its pericentre at ~1e-30) stops the run with exit status 1, naming the
+// time and component, and leaves no output file.
 TEST_F(cli_adaptive, UnreachableToleranceStopsWithAClearError) {
-    const run_result r = eci("run three-wave --method c-dp54 --rtol 0 --atol 1e-300 --t-end 1 --output m.csv");
+    const run_result r =
+        eci("run kepler-cartesian --method dp54 --rtol 1e-10 --q 0.5,0 --p 0,1e-15 --t-end 10 --output m.csv");
     EXPECT_EQ(r.status, 1) << r.err;
     EXPECT_NE(r.err.find("below the minimum at t = "), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find("component psi_"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("[component p"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(file("m.csv")));
+}
+
+// An rtol below 100 eps is raised to it with a one-line warning, as Python's eci.solve and SciPy's solve_ivp do
+// (it ran its 5e7 attempts before, 8 s, and failed): the run is the one asked with rtol = 100 eps, bit for bit,
+// and the summary reports the rtol used. rtol = 0 with atol > 0 is raised alike.
+TEST_F(cli_adaptive, RtolBelowHundredEpsIsRaisedWithAWarning) {
+    const std::string floor = "2.220446049250313e-14";  // 100 eps, eci::min_rtol
+    const run_result raised = eci("run three-wave --method c-dp54 --rtol 1e-30 --t-end 1 --output a.csv "
+                                  "--summary-json a.json");
+    ASSERT_EQ(raised.status, 0) << raised.err;
+    EXPECT_NE(raised.err.find("eci: warning: the relative tolerance 1e-30 is below 100 eps; raised to " + floor),
+              std::string::npos)
+        << raised.err;
+    EXPECT_EQ(json_number(read_text(file("a.json")), "rtol"), 100 * eps);
+    const run_result given =
+        eci("run three-wave --method c-dp54 --rtol " + floor + " --atol 1e-30 --t-end 1 --output b.csv");
+    ASSERT_EQ(given.status, 0) << given.err;
+    EXPECT_EQ(given.err.find("warning"), std::string::npos) << given.err;
+    EXPECT_EQ(read_text(file("a.csv")), read_text(file("b.csv")));
+    const run_result zero = eci("run three-wave --method dp54 --rtol 0 --atol 1e-300 --t-end 1 --output c.csv");
+    EXPECT_EQ(zero.status, 0) << zero.err;
+    EXPECT_NE(zero.err.find("the relative tolerance 0 is below 100 eps"), std::string::npos) << zero.err;
+    // the default --dt (three-wave's 0.01) is the first step, shortened to a shorter span rather than refused
+    const run_result short_span = eci("run three-wave --method c-dp54 --rtol 1e-8 --t-end 0.004 --output d.csv");
+    ASSERT_EQ(short_span.status, 0) << short_span.err;
+    const auto last = split(lines_of(read_text(file("d.csv"))).back());
+    EXPECT_EQ(std::stod(last[0]), 0.004);
 }
 
 }  // namespace

@@ -202,6 +202,37 @@ def test_cli_and_python_refuse_the_same_tolerances(cli, options, keywords):
     assert str(e.value) == message.removeprefix("--rtol/--atol: ")
 
 
+# Tolerances and a first step at their edges: an rtol below 100 eps is raised to it by both front ends (each with its
+# warning) and the runs agree bit for bit; rtol = atol = 0 and a given first step beyond the span are refused by both
+# in one sentence, each naming its own setting.
+@pytest.mark.parametrize("rtol, atol", [(1e-30, 1e-30), (0.0, 1e-10)])
+def test_cli_and_python_raise_a_tiny_rtol_alike(cli, tmp_path, rtol, atol):
+    t, columns, summary = cli_run(cli, tmp_path, "three-wave", "c-dp54", 0.01, 1.0, "--rtol", repr(rtol),
+                                  "--atol", repr(atol))
+    assert summary["rtol"] == 100 * np.finfo(float).eps
+    with pytest.warns(UserWarning, match="rtol"):
+        r = eci.solve(eci.models.ThreeWave(), (0.0, 1.0), method="c-dp54", rtol=rtol, atol=atol, first_step=0.01)
+    assert_same_run(r, t, columns, summary, ["psi_K", "psi_P", "psi_Q"])
+
+
+def test_cli_and_python_refuse_zero_tolerances_and_a_first_step_beyond_the_span(cli):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", "three-wave", "--method", "c-dp54", "--t-end", "1", "--rtol", "0", "--atol", "0")
+    with pytest.raises(ValueError) as e:
+        eci.solve(eci.models.ThreeWave(), (0.0, 1.0), method="c-dp54", rtol=0.0, atol=0.0)
+    assert str(e.value) == message.removeprefix("--rtol/--atol: ")
+    with pytest.raises(ValueError) as e:
+        eci.solve(eci.models.ThreeWave(), (0.0, 1.0), method="c-dp54", rtol=[0.0, 0.0, 0.0], atol=0.0)
+    assert str(e.value) == message.removeprefix("--rtol/--atol: ")
+    message = cli_error(cli, "run", "three-wave", "--method", "c-dp54", "--t-end", "1", "--rtol", "1e-06",
+                        "--dt", "2")
+    assert message == "--dt 2 exceeds the span of the run, 1"
+    with pytest.raises(ValueError) as e:
+        eci.solve(eci.models.ThreeWave(), (0.0, 1.0), method="c-dp54", rtol=1e-6, atol=1e-6, first_step=2.0)
+    assert str(e.value) == message.replace("--dt", "first_step")
+
+
 @pytest.mark.parametrize("method, dt, t_end, output_dt, tolerance", [
     ("c-rk4", 0.01, 10.0, 0.25, None),     # every 25 steps
     ("c-pc", 0.1, 3.0, 0.3, None),         # 0.3 / 0.1 = 2.9999999999999996: a multiple within round-off

@@ -275,3 +275,48 @@ TEST(Solve, ABadToleranceIsNamedAsGivenWithItsValue) {
         EXPECT_STREQ(e.what(), "atol must be a finite number >= 0, not -2");
     }
 }
+
+// An rtol below 100 eps (the error estimate's round-off) is raised to it, scalar and per component, as SciPy's
+// solve_ivp does; the front ends warn when raise_rtol says it raised one.
+TEST(Solve, AnRtolBelowHundredEpsIsRaisedToIt) {
+    const double eps = std::numeric_limits<double>::epsilon();
+    EXPECT_EQ(eci::min_rtol, 100 * eps);
+    eci::adaptive_options o;
+    o.rtol = 1e-30;
+    EXPECT_TRUE(eci::raise_rtol(o));
+    EXPECT_EQ(o.rtol, 100 * eps);
+    EXPECT_FALSE(eci::raise_rtol(o));  // at the floor: kept, nothing to say
+    o.rtol = 0.0;
+    EXPECT_TRUE(eci::raise_rtol(o));
+    EXPECT_EQ(o.rtol, 100 * eps);
+    o.rtol = 1e-9;
+    o.rtol_each = {1e-6, 0.0, 3e-15};
+    EXPECT_TRUE(eci::raise_rtol(o));
+    EXPECT_EQ(o.rtol, 1e-9);
+    EXPECT_EQ(o.rtol_each, (std::vector<double>{1e-6, 100 * eps, 100 * eps}));
+    o.rtol_each = {1e-6, 1e-8};
+    EXPECT_FALSE(eci::raise_rtol(o));
+    EXPECT_EQ(o.rtol_each, (std::vector<double>{1e-6, 1e-8}));
+}
+
+// A first step the user gives is positive, finite and within the span, in either direction, named as the front end
+// names it.
+TEST(Solve, AGivenFirstStepLiesWithinTheSpan) {
+    EXPECT_NO_THROW(eci::check_first_step(1.0, 0.0, 1.0, "first_step"));
+    EXPECT_NO_THROW(eci::check_first_step(0.5, 2.0, 1.0, "first_step"));
+    const std::vector<std::tuple<double, double, double, std::string>> cases{
+        {10.0, 0.0, 1.0, "--dt 10 exceeds the span of the run, 1"},
+        {1.5, 2.0, 1.0, "--dt 1.5 exceeds the span of the run, 1"},
+        {0.01, 0.0, 0.0, "--dt 0.01 exceeds the span of the run, 0"},
+        {0.0, 0.0, 1.0, "--dt must be a positive finite number, not 0"},
+        {std::numeric_limits<double>::quiet_NaN(), 0.0, 1.0, "--dt must be a positive finite number, not nan"},
+    };
+    for (const auto& [h, t0, t1, message] : cases) {
+        try {
+            eci::check_first_step(h, t0, t1, "--dt");
+            ADD_FAILURE() << "accepted " << message;
+        } catch (const std::invalid_argument& e) {
+            EXPECT_EQ(e.what(), message);
+        }
+    }
+}
