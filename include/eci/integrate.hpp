@@ -282,7 +282,8 @@ template <bool Local, class St, class F, class S>
 }
 
 template <bool Local, class St, class F, class S>
-[[gnu::always_inline]] inline step_result attempt_unhooked(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
+[[gnu::always_inline]] inline step_result attempt_unhooked(St& stepper, F& f, S& x, double t, double dt,
+                                                        std::optional<double>& rate) {
     if constexpr (reports_non_finite_rate<F>) {
         try {
             return step_once<Local>(stepper, f, x, t, dt);
@@ -299,7 +300,8 @@ template <bool Local, class St, class F, class S>
 /// attempt whose value is kept in `rate` (left as is otherwise). A model that records its stages (concepts.hpp)
 /// is told where the attempt begins and ends, and given the tableau's weights.
 template <bool Local, class St, class F, class S>
-[[gnu::always_inline]] inline step_result attempt_step(St& stepper, F& f, S& x, double t, double dt, std::optional<double>& rate) {
+[[gnu::always_inline]] inline step_result attempt_step(St& stepper, F& f, S& x, double t, double dt,
+                                                    std::optional<double>& rate) {
     if constexpr (records_stages<std::remove_reference_t<decltype(hook_target(f))>>) {
         auto& m = hook_target(f);
         static_assert(requires { St::tableau.b; },
