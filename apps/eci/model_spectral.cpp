@@ -308,9 +308,17 @@ int spectral_command::run(const run_settings& settings) {
 
 int spectral_command::run_spread(const run_settings& settings) {
     // ---- options this command has no use for are refused, not ignored
-    if (settings.rtol || settings.atol)
-        throw bad_input(name_ + " runs fixed steps (the spectral methods have no error estimate): --rtol and --atol "
-                                "do not apply; give --dt or --cfl");
+    if (settings.rtol || settings.atol) {  // (Python's sentences for its spectral models, the CLI's names in them)
+        try {
+            (void)tolerances_from(settings.rtol, settings.atol);  // a bad value is named first, as for every model
+        } catch (const std::invalid_argument& e) {
+            throw bad_input(std::string("--rtol/--atol: ") + e.what());
+        }
+        throw bad_input("--rtol/--atol: method " +
+                        (settings.method.empty() ? info_.default_method : settings.method) +
+                        " has no error estimate for rtol/atol; " + name_ +
+                        " runs fixed steps (give --dt, or none for the CFL 0.5 step)");
+    }
     if (settings.output_dt)
         throw bad_input(name_ + " writes a CSV row every --every steps: --output-dt does not apply");
     // ---- parameters, from the options or the checkpoint (options that contradict it are an error)
@@ -434,15 +442,15 @@ int spectral_command::run_spread(const run_settings& settings) {
         throw bad_input(name_ + ": " + e.what());
     }
     const std::string method = restart ? ck.method : settings.method.empty() ? info_.default_method : settings.method;
-    if (std::find(info_.methods.begin(), info_.methods.end(), method) == info_.methods.end()) {
-        std::string names;
-        for (const std::string& m : info_.methods) names += (names.empty() ? "" : ", ") + m;
-        throw bad_input("method '" + method + "' is not available for " + name_ + " (one of " + names + ")");
+    try {  // (the library's sentence, as Python's spectral models refuse a method)
+        (void)resolve_named_method(method, info_.methods, "model " + name_);
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(e.what());
     }
     if (settings.dt && cfl_) throw bad_input("give --dt or --cfl, not both");
     if (cfl_ && !(std::isfinite(*cfl_) && *cfl_ > 0.0)) throw bad_input("--cfl must be a positive number");
     if (settings.dt && !(std::isfinite(*settings.dt) && *settings.dt > 0.0))
-        throw bad_input("--dt must be a positive number");
+        throw bad_input("--dt must be a positive finite number, not " + num(*settings.dt));
     if (settings.t_end && settings.steps) throw bad_input("give --t-end or --steps, not both");
     if (settings.t_end && !(std::isfinite(*settings.t_end) && *settings.t_end >= 0.0))
         throw bad_input("--t-end must be a finite number >= 0");
@@ -629,13 +637,20 @@ int spectral_command::run_spread(const run_settings& settings) {
         }
     }
     const std::uint64_t first = restart ? ck.step : 0;
+    // The run's end: --steps whole steps of dt, or an end time (--t-end, the restart file's, the default) landed on
+    // as every model's run and Python's eci.solve land on it, the last step shortened to it. (A checkpoint of an
+    // earlier version holds no end time: its run goes on to its total_steps.)
+    double t_end = std::numeric_limits<double>::quiet_NaN();  // NaN: by steps
     std::uint64_t last = 0;
-    if (settings.steps)
+    if (settings.steps) {
         last = *settings.steps;
-    else if (settings.t_end)
-        last = steps_to_reach(0.0, *settings.t_end, dt);
-    else
-        last = restart ? ck.total_steps : steps_to_reach(0.0, info_.default_t_end, dt);
+    } else {
+        t_end = settings.t_end ? *settings.t_end : restart ? ck.t_end : info_.default_t_end;
+        last = std::isnan(t_end) ? ck.total_steps : steps_to_reach(0.0, t_end, dt);
+    }
+    // whether the last step is shorter than dt: the state at the end is then off the grid t = i dt, and a
+    // checkpoint there keeps the step before it (so that a restart goes on as the uninterrupted run would)
+    const bool short_end = !std::isnan(t_end) && last > 0 && last_step_to_reach(0.0, t_end, dt, last) != dt;
     if (last < first)
         throw bad_input("the restart file is at step " + std::to_string(first) + ", beyond the requested " +
                         std::to_string(last));
@@ -689,6 +704,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     run.method = method;
     run.dt = dt;
     run.total_steps = last;
+    run.t_end = t_end;
     if (!restart) {
         run.energy0 = model.energy(w);
         run.enstrophy0 = model.enstrophy(w);
@@ -701,13 +717,13 @@ int spectral_command::run_spread(const run_settings& settings) {
                        .c_str(),
                    out);
     const bool rows_wanted = !settings.output.empty();  // (the same on every process; `out` is rank 0's)
-    auto row = [&](std::uint64_t i, double e, double z) {  // (e, z: E and Z of w)
+    auto row = [&](std::uint64_t i, double t, double e, double z) {  // (e, z: E and Z of w at time t)
         const double u = model.max_velocity(w);
         const double pal = model.palinstrophy(w);
         const ns2d_budget& b = run.budget;
         if (!out) return;
         std::fprintf(out, "%llu,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%llu\n", (unsigned long long)i,
-                     num(double(i) * dt).c_str(), num(e).c_str(), num(z).c_str(), num(pal).c_str(),
+                     num(t).c_str(), num(e).c_str(), num(z).c_str(), num(pal).c_str(),
                      num(b.energy_injection).c_str(), num(b.energy_dissipation).c_str(),
                      num(b.enstrophy_injection).c_str(), num(b.enstrophy_dissipation).c_str(),
                      num(e - run.energy0 - (b.energy_injection - b.energy_dissipation)).c_str(),
@@ -717,7 +733,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     // Whether the snapshots have pictures (rank 0's plotting program; spread over processes, only then is the field
     // gathered on rank 0 for them), asked at the first snapshot.
     [[maybe_unused]] std::optional<bool> pictures;
-    auto snapshot = [&](std::uint64_t i) {
+    auto snapshot = [&](std::uint64_t i, double t) {
         char stem[32];
         std::snprintf(stem, sizeof stem, "%08llu", (unsigned long long)i);
         // the field (on one process), spectra and fluxes on every process (collective), the files as below
@@ -734,14 +750,14 @@ int spectral_command::run_spread(const run_settings& settings) {
         };
         try {
             if (!mpi.on) {
-                write_snapshot_h5(h5, model, field, double(i) * dt, i, method, dt);
-                if (!plot_vorticity_png(png, p.n, field, double(i) * dt, field_, std::string(eq_.symbol)))
+                write_snapshot_h5(h5, model, field, t, i, method, dt);
+                if (!plot_vorticity_png(png, p.n, field, t, field_, std::string(eq_.symbol)))
                     no_pictures();
             } else {
 #ifdef ECI_MPI
                 // every process writes its rows of the field into the file; the picture is drawn from the field
                 // gathered on rank 0 alone
-                write_snapshot_h5(h5, model, model.to_physical_rows(w), double(i) * dt, i, method, dt,
+                write_snapshot_h5(h5, model, model.to_physical_rows(w), t, i, method, dt,
                                   MPI_COMM_WORLD);
                 if (!pictures) {
                     int yes = mpi.rank == 0 && plotting_available() ? 1 : 0;
@@ -750,7 +766,7 @@ int spectral_command::run_spread(const run_settings& settings) {
                 }
                 const std::vector<double> whole = *pictures ? model.to_physical(w, 0) : std::vector<double>();
                 on_root_agreed([&] {
-                    if (!*pictures || !plot_vorticity_png(png, p.n, whole, double(i) * dt, field_,
+                    if (!*pictures || !plot_vorticity_png(png, p.n, whole, t, field_,
                                                           std::string(eq_.symbol)))
                         no_pictures();
                 });
@@ -758,7 +774,7 @@ int spectral_command::run_spread(const run_settings& settings) {
             }
             on_root_agreed([&] {
                 write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
-                               {es, zs, pi.energy, pi.enstrophy}, double(i) * dt);
+                               {es, zs, pi.energy, pi.enstrophy}, t);
             });
         } catch (const run_error& e) {
             // named where they were to go, not in the staging directory they are written in first
@@ -792,25 +808,28 @@ int spectral_command::run_spread(const run_settings& settings) {
         save_cpu = step_cpu / 8.0, save_wall = step_wall / 8.0;
         update_grace();
     }
-    auto save = [&](std::uint64_t i) {
+    // The checkpoint of step i: the field ws and the generator's state rng there, with c's statistics (the run's
+    // own, or a copy of them as they stood at step i).
+    auto save_of = [&](ns2d_checkpoint& c, std::uint64_t i, const state& ws, std::uint64_t rng) {
         const double c0 = cpu_now(), w0 = wall_now();
-        run.step = i;
-        run.rng_state = model.rng_state();
+        c.step = i;
+        c.rng_state = rng;
         if (!mpi.on) {
-            run.state = model.to_half_plane(w);
-            write_checkpoint(checkpoint_, run);
+            c.state = model.to_half_plane(ws);
+            write_checkpoint(checkpoint_, c);
         } else {
 #ifdef ECI_MPI
             // every process writes its columns of the half plane into the file
-            run.state = model.to_half_plane_columns(w);
-            write_checkpoint(checkpoint_, run, MPI_COMM_WORLD, model.grid().first_column(),
+            c.state = model.to_half_plane_columns(ws);
+            write_checkpoint(checkpoint_, c, MPI_COMM_WORLD, model.grid().first_column(),
                              model.grid().local_columns());
 #endif
         }
-        run.state = state();  // (held only while it is written)
+        c.state = state();  // (held only while it is written)
         save_cpu = std::max(save_cpu, cpu_now() - c0), save_wall = std::max(save_wall, wall_now() - w0);
         update_grace();
     };
+    auto save = [&](std::uint64_t i) { save_of(run, i, w, model.rng_state()); };
 
     progress_bar progress(last - first, 1);  // steps take milliseconds or more: look at the clock every step
     const auto start = std::chrono::steady_clock::now();
@@ -829,18 +848,32 @@ int spectral_command::run_spread(const run_settings& settings) {
     double e_prev = model.energy(w), z_prev = model.enstrophy(w);  // E and Z at the start of the step
     const std::uint64_t halvings0 = run.halvings, rhs_evals0 = run.rhs_evals;
     double c0 = 0.0, w0 = 0.0;  // the clocks at the start of the step
+    // A shortened last step (short_end): the statistics as they stood before it, for the checkpoint of the end,
+    // which keeps the step before it on the grid (w_prev, step `done`).
+    ns2d_checkpoint before_end;
+    // The checkpoint after step i (in on_progress, where w_prev is still the state before it): step i itself, or at
+    // the end of a shortened last step the step before it. Returns the step kept.
+    auto save_step = [&](std::uint64_t i) {
+        if (i == last && short_end) {
+            save_of(before_end, done, w_prev, rng_prev);
+            return done;
+        }
+        save(i);
+        return i;
+    };
     auto interrupted_at = [&](std::uint64_t i) {
         return interrupted("interrupted at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
                            "; checkpoint written to " + checkpoint_ + " (continue with --restart " + checkpoint_ + ")");
     };
     auto on_output = [&](const state&, const output_point& pt) {
-        if (rows_wanted) row(pt.index, pt.invariants[0], pt.invariants[1]);
+        if (rows_wanted) row(pt.index, pt.t, pt.invariants[0], pt.invariants[1]);
     };
     auto on_step = [&](const state&, const output_point& pt) {
         const std::uint64_t i = pt.index;
         if (i == first + 1) step_cpu = step_wall = 0.0;  // measured from now on, not estimated
         step_cpu = std::max(step_cpu, cpu_now() - c0), step_wall = std::max(step_wall, wall_now() - w0);
         update_grace();
+        if (i == last && short_end) before_end = run;  // (the statistics before the shortened step)
         run.halvings = halvings0 + pt.stats->step_reductions;
         run.rhs_evals = rhs_evals0 + pt.stats->rhs_evals;
         const ns2d_budget& b = model.step_budget();
@@ -852,7 +885,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         // A blow-up: non-finite invariants, or energy grown a thousandfold beyond what the forcing put in.
         if (!std::isfinite(e1) || !std::isfinite(z1) || e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
             progress.finish();
-            throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(double(i) * dt) + ": energy " +
+            throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(pt.t) + ": energy " +
                             num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); reduce --dt or --cfl" + last_good());
         }
         run.max_energy_residual = std::max(
@@ -863,16 +896,13 @@ int spectral_command::run_spread(const run_settings& settings) {
         run.max_enstrophy_drift = std::max(run.max_enstrophy_drift, std::abs(z1 - run.enstrophy0));
         e_prev = e1, z_prev = z1;
     };
-    auto on_progress = [&](double, std::uint64_t i) {
+    auto on_progress = [&](double t, std::uint64_t i) {
         if (i == first) {
-            if (snapshot_every_ > 0 && !restart) snapshot(first);
+            if (snapshot_every_ > 0 && !restart) snapshot(first, t);
         } else {
-            if (snapshot_every_ > 0 && (i % snapshot_every_ == 0 || i == last)) snapshot(i);
-            if (checkpoint_every_ > 0 && (i % checkpoint_every_ == 0 || i == last)) {
-                save(i);
-                good_checkpoint = i;
-            }
-            progress.update(i - first, double(i) * dt, [&] {
+            if (snapshot_every_ > 0 && (i % snapshot_every_ == 0 || i == last)) snapshot(i, t);
+            if (checkpoint_every_ > 0 && (i % checkpoint_every_ == 0 || i == last)) good_checkpoint = save_step(i);
+            progress.update(i - first, t, [&] {
                 // drift from the exact budget (pure drift when nothing is forced or dissipated)
                 const ns2d_budget& b = run.budget;
                 char line[160];
@@ -885,8 +915,7 @@ int spectral_command::run_spread(const run_settings& settings) {
             });
             if (stop_requested()) {
                 progress.finish();
-                save(i);
-                throw interrupted_at(i);
+                throw interrupted_at(save_step(i));
             }
         }
         w_prev = w;  // the next step starts here
@@ -897,7 +926,10 @@ int spectral_command::run_spread(const run_settings& settings) {
     run_config cfg;
     cfg.dt = dt;
     cfg.first_step = first;  // a restart continues the grid i dt and its step numbers
-    cfg.steps = last - first;
+    if (std::isnan(t_end))
+        cfg.steps = last - first;
+    else
+        cfg.t_end = t_end;  // (the library lands on it: steps first + 1 .. last, the last one shortened if need be)
     cfg.every = settings.every;
     cfg.max_halvings = 40;
     cfg.max_substeps = std::numeric_limits<std::uint64_t>::max();
@@ -941,7 +973,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     s.order = report.method.order;
     s.conservative = method.rfind("c-", 0) == 0;
     s.dt = dt;
-    s.t_end = double(last) * dt;
+    s.t_end = std::isnan(t_end) ? double(last) * dt : t_end;
     s.stats.steps = last - first;
     s.stats.step_reductions = run.halvings;
     s.stats.rhs_evals = run.rhs_evals;

@@ -4,6 +4,8 @@
 
 #include "output.hpp"
 
+#include <eci/steps.hpp>
+
 #include <hdf5.h>
 
 #include <algorithm>
@@ -371,6 +373,7 @@ void put_checkpoint_attributes(hid_t f, const ns2d_checkpoint& c) {
         put(f, "step", c.step);
         put(f, "time", double(c.step) * c.dt);
         put(f, "total_steps", c.total_steps);
+        put(f, "t_end", c.t_end);
         put(f, "rng_state", c.rng_state);
         put(f, "fftw_wisdom", c.keep_wisdom ? navier_stokes_2d::fftw_wisdom() : std::string());
         put(f, "halvings", c.halvings);
@@ -635,6 +638,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     c.dt = get<double>(f, "dt");
     c.step = get<std::uint64_t>(f, "step");
     c.total_steps = get<std::uint64_t>(f, "total_steps");
+    // (absent from the checkpoints of earlier versions, which ran whole steps to total_steps)
+    c.t_end = H5Aexists(f, "t_end") > 0 ? get<double>(f, "t_end") : std::numeric_limits<double>::quiet_NaN();
     c.rng_state = get<std::uint64_t>(f, "rng_state");
     c.halvings = get<std::uint64_t>(f, "halvings");
     c.rhs_evals = get<std::uint64_t>(f, "rhs_evals");
@@ -652,6 +657,9 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     // file, not a run.
     if (!(std::isfinite(c.dt) && c.dt > 0.0)) throw std::runtime_error(path + ": dt must be a positive number");
     if (c.step > c.total_steps) throw std::runtime_error(path + ": step is beyond total_steps");
+    if (!std::isnan(c.t_end) && !(std::isfinite(c.t_end) && c.t_end >= 0.0 &&
+                                  steps_to_reach(0.0, c.t_end, c.dt) == c.total_steps))
+        throw std::runtime_error(path + ": t_end does not end total_steps steps of dt");
     for (const auto& [name, v] : {std::pair<const char*, double>{"energy0", c.energy0},
                                   {"enstrophy0", c.enstrophy0},
                                   {"energy_injection", c.budget.energy_injection},

@@ -4,6 +4,7 @@
 
 #include <complex>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -23,6 +24,10 @@ struct ns2d_checkpoint {
     double dt = 0.0;
     std::uint64_t step = 0;           ///< steps done; t = step * dt
     std::uint64_t total_steps = 0;    ///< steps the run was asked for
+    /// The end time the run lands on, its last step shortened to it (--t-end, the default end), as steps_to_reach
+    /// and integrate_to take it (total_steps of them); NaN for a run of --steps whole steps. The state is always
+    /// on the grid, t = step * dt: the end of a run whose last step was shortened is kept at the step before it.
+    double t_end = std::numeric_limits<double>::quiet_NaN();
     std::uint64_t rng_state = 0;
     navier_stokes_2d::state_type state;  ///< FFTW's half plane (flow2d::to_half_plane), the file's layout
     /// Store the process's FFTW wisdom (the plans, for a bit-identical restart); false for a run spread over MPI

@@ -74,8 +74,9 @@ struct run_options {
     /// true throws eci::interrupted with x part-way through the step. Being asked at the same points on every
     /// process, it may be collective (MPI: a stop agreed by all). Empty: never asked.
     std::function<bool()> stop_between_attempts{};
-    /// integrate_n_steps: the run continues the grid t0 + i dt from step first_step (a restart from a checkpoint):
-    /// step times and observer indices count from there, and the observer's cadence is on those indices.
+    /// The run continues the grid t0 + i dt from step first_step (a restart from a checkpoint): step times and
+    /// observer indices count from there, and the observer's cadence is on those indices (integrate_n_steps, and
+    /// integrate_to, whose last step is still shortened to land on its end time).
     std::uint64_t first_step = 0;
 };
 
@@ -749,18 +750,19 @@ run_stats integrate_to(St& stepper, F&& f, S& x, double t0, double t_end, double
     if (!(t_end >= t0) || !std::isfinite(t_end)) throw std::invalid_argument("end time must be finite and >= start");
     detail::check_step(dt);
     if (opt.every == 0) throw std::invalid_argument("observer interval must be at least 1");
-    if (opt.first_step != 0) throw std::invalid_argument("first_step is for integrate_n_steps");
     if (!opt.resume) reset_carried_state(stepper);
-    const std::uint64_t n = steps_to_reach(t0, t_end, dt);
-    if (n == 0) {
-        detail::notify(observe, std::as_const(x), t0, std::uint64_t{0}, run_stats{});
+    const std::uint64_t n = steps_to_reach(t0, t_end, dt), first = opt.first_step;
+    if (first > n)
+        throw std::invalid_argument("first_step " + std::to_string(first) + " is beyond the end time's step " +
+                                    std::to_string(n));
+    if (n == first) {  // nothing left to take: the state is the end's (t0 itself, or a restart at the end)
+        detail::notify(observe, std::as_const(x), n == 0 ? t0 : t_end, n, run_stats{});
         return {};
     }
     // The grid holds n - 1 full steps, then one to t_end: of size dt if t0 + n dt misses t_end by round-off only
     // (3 * 0.1 != 0.3; the last observation reports t_end itself), else shortened.
-    const double gap = t_end - (t0 + double(n - 1) * dt);
-    const double last = std::abs(gap - dt) <= 1e-12 * dt ? dt : gap;
-    return detail::run_grid(stepper, f, x, t0, dt, n, last, t_end, observe, opt);
+    const double last = last_step_to_reach(t0, t_end, dt, n);
+    return detail::run_grid(stepper, f, x, t0, dt, n - first, last, t_end, observe, opt);
 }
 
 }  // namespace eci

@@ -36,8 +36,9 @@ struct run_config {
     double t_end = 0.0;
     /// Fixed steps only: take exactly this many steps of dt from t0 (t_end is then t0 + steps * dt).
     std::optional<std::uint64_t> steps;
-    /// With `steps`: the run continues the grid t0 + i dt from step first_step (a restart from a checkpoint), so
-    /// it ends at t0 + (first_step + steps) dt; output indices count from there, and `every` is on them.
+    /// Fixed steps: the run continues the grid t0 + i dt from step first_step (a restart from a checkpoint), so
+    /// it ends at t0 + (first_step + steps) dt, or with `steps` unset at t_end (the last step shortened to land
+    /// on it); output indices count from there, and `every` is on them.
     std::uint64_t first_step = 0;
     /// The fixed step, or an adaptive run's first step: 0 lets the run choose it (choose_first_step, Hairer,
     /// Norsett & Wanner's rule; its evaluations are counted in the run's).
@@ -271,6 +272,28 @@ method_info resolve_method_for(std::string_view method, bool adaptive, std::stri
     return *m;
 }
 
+/// The registry's entry for `name` among the method names `available` (a model whose methods are a list, as the
+/// spectral equations' eci::ns2d_methods()), or std::invalid_argument with resolve_method_for's messages: the
+/// spectral command and Python's spectral models refuse a method in one sentence.
+template <class Names>
+method_info resolve_named_method(std::string_view name, const Names& available, std::string_view what) {
+    auto joined = [](const auto& names) {
+        std::string s;
+        for (const auto& n : names) s.append(s.empty() ? "" : ", ").append(std::string_view(n));
+        return s;
+    };
+    const std::optional<method_info> m = find_method(name);
+    if (!m) {
+        std::vector<std::string_view> all;
+        for (const method_info& i : eci::methods) all.push_back(i.name);
+        throw std::invalid_argument("unknown method '" + std::string(name) + "' (methods: " + joined(all) + ")");
+    }
+    for (const auto& a : available)
+        if (std::string_view(a) == name) return *m;
+    throw std::invalid_argument("method '" + std::string(name) + "' is not available for " + std::string(what) +
+                                " (available: " + joined(available) + ")");
+}
+
 namespace detail {
 
 /// "x[i]", or "re x[i]" / "im x[i]" for a complex state's parts.
@@ -313,8 +336,11 @@ inline void check_config(const run_config& c) {
             throw std::invalid_argument("end time must be finite and >= start");
     }
     if (c.every == 0) throw std::invalid_argument("output interval must be at least 1");
-    if (c.first_step != 0 && (c.adaptive || !c.steps || !c.times.empty()))
-        throw std::invalid_argument("first_step continues a run of fixed steps by count, without output times");
+    if (c.first_step != 0 && (c.adaptive || !c.times.empty()))
+        throw std::invalid_argument("first_step continues a run of fixed steps, without output times");
+    if (c.first_step != 0 && !c.steps && !c.adaptive && c.first_step > steps_to_reach(c.t0, c.t_end, c.dt))
+        throw std::invalid_argument("first_step " + std::to_string(c.first_step) + " is beyond the end time's step " +
+                                    std::to_string(steps_to_reach(c.t0, c.t_end, c.dt)));
     const double t_end = c.end_time();
     const bool forward = !(t_end < c.t0);
     const double lo = forward ? c.t0 : t_end, hi = forward ? t_end : c.t0;

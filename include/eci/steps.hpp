@@ -18,4 +18,11 @@ inline std::uint64_t steps_to_reach(double t0, double t_end, double dt) {
     return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(q - slack)));
 }
 
+/// The size of the last of the n = steps_to_reach(t0, t_end, dt) steps that land on t_end (n >= 1): dt when
+/// t0 + n dt misses t_end by round-off only (3 * 0.1 != 0.3), else the shorter remainder (integrate_to's last step).
+inline double last_step_to_reach(double t0, double t_end, double dt, std::uint64_t n) {
+    const double gap = t_end - (t0 + double(n - 1) * dt);
+    return std::abs(gap - dt) <= 1e-12 * dt ? dt : gap;
+}
+
 }  // namespace eci

@@ -181,27 +181,6 @@ inline py::dict drift_dict(const std::vector<drift_record>& records) {
     return d;
 }
 
-/// The registry's entry for `name` among `available`, or ValueError with the library's message
-/// (eci::resolve_method_for's, for a list of names).
-template <class Names>
-method_info resolve_named_method(const std::string& name, const Names& available, const std::string& what) {
-    auto joined = [](const auto& names) {
-        std::string s;
-        for (const auto& n : names) s.append(s.empty() ? "" : ", ").append(std::string_view(n));
-        return s;
-    };
-    const auto m = find_method(name);
-    if (!m) {
-        std::vector<std::string_view> all;
-        for (const method_info& i : eci::methods) all.push_back(i.name);
-        throw std::invalid_argument("unknown method '" + name + "' (methods: " + joined(all) + ")");
-    }
-    for (const auto& a : available)
-        if (std::string_view(a) == name) return *m;
-    throw std::invalid_argument("method '" + name + "' is not available for " + what + " (available: " +
-                                joined(available) + ")");
-}
-
 /// The recorded output as the arrays (t, and y: n x m, SciPy's layout), taking the recorded vectors over (no copy:
 /// a long run's output is most of its memory).
 template <class S>

@@ -255,6 +255,42 @@ def test_cli_and_python_accept_the_same_output_dt_with_the_same_rows(cli, tmp_pa
     assert_same_run(r, t, columns, summary, ["psi_K", "psi_P", "psi_Q"])
 
 
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("method", ["c-rk4", "rk4"])
+def test_navier_stokes_matches_cli_and_both_land_on_t_end(cli, tmp_path, method):
+    # --t-end 0.1 is no multiple of --dt 0.03: both front ends take 3 steps of dt and one of 0.01 (the CLI went on
+    # to the next multiple of dt before, t = 1.2 for --t-end 1 --dt 0.3, where Python stopped at 1), with the same
+    # E and Z at every step, bit for bit: the same field (the default random one), plans (FFTW_ESTIMATE) and steps
+    csv = tmp_path / "ns.csv"
+    run_cli(cli, "run", "navier-stokes-2d", "--N", "16", "--nu", "1e-3", "--method", method, "--dt", "0.03",
+            "--t-end", "0.1", "--fftw-estimate", "--fftw-wisdom", "none", "--output", csv)
+    header = csv.read_text().splitlines()[0].split(",")
+    data = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)
+    columns = {name: data[:, i] for i, name in enumerate(header)}
+    m = eci.models.NavierStokes2D(n=16, nu=1e-3, fftw_measure=False)
+    r = eci.solve(m, (0.0, 0.1), m.default_y0, method=method, dt=0.03)
+    assert list(columns["t"]) == list(r.t) == [0.0, 0.03, 0.06, 0.09, 0.1]
+    assert [m.energy(r.y[:, i]) for i in range(len(r.t))] == list(columns["energy"])
+    assert [m.enstrophy(r.y[:, i]) for i in range(len(r.t))] == list(columns["enstrophy"])
+
+
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("options, keywords", [
+    (["--method", "dp54", "--dt", "0.01"], {"method": "dp54", "dt": 0.01}),
+    (["--method", "no-such", "--dt", "0.01"], {"method": "no-such", "dt": 0.01}),
+    (["--dt", "-0.01"], {"method": "c-rk4", "dt": -0.01}),
+    (["--method", "c-rk4", "--rtol", "1e-06"], {"method": "c-rk4", "rtol": 1e-6}),
+])
+def test_navier_stokes_refuses_what_the_cli_refuses_in_one_sentence(cli, options, keywords):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", "navier-stokes-2d", "--N", "16", "--t-end", "0.1", "--fftw-estimate",
+                        "--fftw-wisdom", "none", *options)
+    with pytest.raises(ValueError) as e:
+        eci.solve(eci.models.NavierStokes2D(n=16, fftw_measure=False), (0.0, 0.1), **keywords)
+    assert str(e.value) == as_python_names(message).removeprefix("rtol/atol: ")
+
+
 def test_output_dt_is_not_t_eval_and_not_navier_stokes():
     with pytest.raises(ValueError, match="give t_eval or output_dt, not both"):
         eci.solve(eci.models.ThreeWave(), (0.0, 1.0), dt=0.1, t_eval=[0.0, 1.0], output_dt=0.5)

@@ -97,6 +97,7 @@ def test_bad_parameters(cli):
     ("N", 2 ** 32 + 16, "N = 4294967312 is not in 8..65536"),
     ("threads", 0, "threads = 0 is not in 1..64"),
     ("forcing", "wind", "unknown forcing 'wind'"),
+    ("t_end", 5.0, "t_end does not end total_steps steps of dt"),
 ])
 def test_corrupt_checkpoint_fields_are_refused(cli, tmp_path, attribute, value, needle):
     """A checkpoint whose numbers a continued run would compute with is checked, not trusted."""

@@ -402,8 +402,8 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--nu 1e308", "overflow"},
         {"--hyper-nu 1e300 --hyper-p 16", "overflow"},
         {"--energy 1e-310", "normal"},
-        {"--rtol nan", "do not apply"},
-        {"--atol 1e-6", "do not apply"},
+        {"--rtol nan", "rtol must be a finite number >= 0, not nan"},
+        {"--atol 1e-6", "has no error estimate for rtol/atol"},
         {"--output-dt 0", "does not apply"},
         {"--restart " + q + "/ok.h5 --threads 2", "does not match"},
         {"--restart " + q + "/ok.h5 --injection-rate 3", "does not match"},
@@ -493,6 +493,69 @@ TEST(CliSpectralEquations, EachEquationRestartsSnapshotsAndRefusesAnothersCheckp
         EXPECT_NE(r.err.find(std::string("is a ") + e.name + " checkpoint"), std::string::npos) << r.err;
         EXPECT_FALSE(fs::exists(d / "other.h5"));
     }
+}
+
+// An attribute of doubles or whole numbers from an HDF5 file's root (NaN if it cannot be read).
+double read_attribute(const fs::path& file, const char* name) {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    double v = std::nan("");
+    const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) return v;
+    const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
+    if (a >= 0) {
+        if (H5Aread(a, H5T_NATIVE_DOUBLE, &v) < 0) v = std::nan("");
+        H5Aclose(a);
+    }
+    H5Fclose(f);
+    return v;
+}
+
+// --t-end that is no multiple of dt is landed on, the last step shortened, as every model's run and Python's
+// eci.solve land on it (it ended at the next multiple of dt before: t = 1.2 for --t-end 1 --dt 0.3). The checkpoint
+// of such an end keeps the step before it, on the grid: a restart with the same end gives the same last row, bit for
+// bit, and one with a later end goes on as the run to that end does.
+TEST(CliNavierStokes2d, TEndIsLandedOnAndARestartContinuesTheGrid) {
+    scratch_dir dir("ns2d-t-end");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    const std::string run = "run navier-stokes-2d --N 16 --nu 1e-3 --dt 0.03 --every 1 --fftw-wisdom " + q + "/wisdom ";
+    auto r = run_eci(run + "--t-end 0.1 --output " + q + "/a.csv --checkpoint-every 100 --checkpoint " + q + "/a.h5",
+                     d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto a = lines_of(read_text(d / "a.csv"));
+    ASSERT_EQ(a.size(), 1u + 5u);  // header, steps 0 .. 4: t = 0, 0.03, 0.06, 0.09 and 0.1
+    EXPECT_EQ(split(a.back())[0], "4");
+    EXPECT_EQ(std::stod(split(a.back())[1]), 0.1);
+    EXPECT_EQ(std::stod(split(a[4])[1]), 3 * 0.03);
+    EXPECT_NE(r.err.find("t 0 to 0.1"), std::string::npos) << r.err;
+    EXPECT_EQ(read_attribute(d / "a.h5", "step"), 3.0);  // the end's checkpoint: the step before the short one
+    EXPECT_EQ(read_attribute(d / "a.h5", "t_end"), 0.1);
+    // the same end again from the checkpoint: the same last step, bit for bit
+    r = run_eci("run navier-stokes-2d --fftw-wisdom " + q + "/wisdom --restart " + q + "/a.h5 --every 1 --output " + q +
+                    "/again.csv --checkpoint " + q + "/again.h5",
+                d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto again = lines_of(read_text(d / "again.csv"));
+    ASSERT_EQ(again.size(), 1u + 2u);  // steps 3 and 4
+    EXPECT_EQ(again[1], a[4]);
+    EXPECT_EQ(again[2], a[5]);
+    // a later end: the run to it, uninterrupted, and the restart from the first run's checkpoint agree
+    r = run_eci(run + "--t-end 0.2 --output " + q + "/b.csv", d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto b = lines_of(read_text(d / "b.csv"));
+    ASSERT_EQ(b.size(), 1u + 8u);  // steps 0 .. 7: 0.03 .. 0.18, then 0.2
+    EXPECT_EQ(std::stod(split(b.back())[1]), 0.2);
+    r = run_eci("run navier-stokes-2d --fftw-wisdom " + q + "/wisdom --restart " + q + "/a.h5 --t-end 0.2 --every 1 "
+                "--output " + q + "/later.csv --checkpoint " + q + "/later.h5",
+                d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto later = lines_of(read_text(d / "later.csv"));
+    ASSERT_EQ(later.size(), 1u + 5u);  // steps 3 .. 7
+    for (std::size_t i = 1; i < later.size(); ++i) EXPECT_EQ(later[i], b[i + 3]) << i;
+    // --steps still counts whole steps of dt
+    r = run_eci(run + "--steps 4 --output " + q + "/c.csv", d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(std::stod(split(lines_of(read_text(d / "c.csv")).back())[1]), 4 * 0.03);
 }
 
 }  // namespace

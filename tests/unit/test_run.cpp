@@ -134,7 +134,8 @@ TEST(Run, MonitorsEveryStepAndMatchesTheDriver) {
 }
 
 // run() with opt.first_step continues the grid t0 + i dt (a restart): its observer sees steps first .. first + n at
-// their grid times, and its state equals the driver's continuation, bit for bit; an end-time span refuses it.
+// their grid times, and its state equals the driver's continuation, bit for bit; an end-time span continues it to
+// its end, the last step shortened as the whole run's, and refuses a first step beyond the end's.
 TEST(Run, FirstStepContinuesTheGrid) {
     const eci::three_wave model;
     tw_state x = fig5, y = fig5;
@@ -151,9 +152,29 @@ TEST(Run, FirstStepContinuesTheGrid) {
     EXPECT_EQ(rep.stats.steps, 6u);
     eci::integrate_n_steps(st, model, y, 0.0, 0.1, 6, eci::no_observer{}, {.first_step = 5});
     EXPECT_EQ(x, y);
+    // to t = 1.05 in one run, and in two: 5 steps, then a restart at step 5 to the end time (steps 6 .. 11, the
+    // last of 0.05)
+    tw_state whole = fig5, part = fig5;
+    eci::integrate_to(st, model, whole, 0.0, 1.05, 0.1);
+    eci::integrate_n_steps(st, model, part, 0.0, 0.1, 5);
+    seen.clear(), times.clear();
+    const auto rest = eci::run(st, model, part, eci::run_span::until(1.05, 0.1),
+                               [&](const tw_state&, double t, std::uint64_t i) { seen.push_back(i), times.push_back(t); },
+                               {.first_step = 5});
+    EXPECT_EQ(part, whole);
+    EXPECT_EQ(seen, (std::vector<std::uint64_t>{5, 6, 7, 8, 9, 10, 11}));
+    EXPECT_EQ(times.front(), 0.1 * 5.0);
+    EXPECT_EQ(times.back(), 1.05);
+    EXPECT_EQ(rest.stats.steps, 6u);
+    EXPECT_EQ(rest.t, 1.05);
     tw_state z = fig5;
-    EXPECT_THROW(eci::run(st, model, z, eci::run_span::until(1.0, 0.1), eci::no_observer{}, {.first_step = 5}),
+    EXPECT_THROW(eci::run(st, model, z, eci::run_span::until(1.0, 0.1), eci::no_observer{}, {.first_step = 11}),
                  std::invalid_argument);
+    // a restart at the end itself: nothing to take, the state stays
+    const auto none = eci::run(st, model, z, eci::run_span::until(1.0, 0.1), eci::no_observer{}, {.first_step = 10});
+    EXPECT_EQ(z, fig5);
+    EXPECT_EQ(none.stats.steps, 0u);
+    EXPECT_EQ(none.t, 1.0);
 }
 
 TEST(Run, ObserverMaySeeTheMonitor) {
