@@ -453,7 +453,10 @@ int spectral_command::run_spread(const run_settings& settings) {
         throw bad_input("--dt must be a positive finite number, not " + num(*settings.dt));
     if (settings.t_end && settings.steps) throw bad_input("give --t-end or --steps, not both");
     if (settings.t_end && !(std::isfinite(*settings.t_end) && *settings.t_end >= 0.0))
-        throw bad_input("--t-end must be a finite number >= 0");
+        throw bad_input("--t-end must be a finite number >= 0, not " + num(*settings.t_end));
+    // beyond 2^53 steps the grid i dt is no longer exact (and the run would never end): refused as for every model
+    if (settings.steps && *settings.steps > (std::uint64_t{1} << 53))
+        throw bad_input("--steps " + std::to_string(*settings.steps) + " is too many (at most 2^53)");
     if (settings.every == 0) throw bad_input("--every must be at least 1");
     check_distinct_outputs(settings);
 
@@ -646,6 +649,8 @@ int spectral_command::run_spread(const run_settings& settings) {
         last = *settings.steps;
     } else {
         t_end = settings.t_end ? *settings.t_end : restart ? ck.t_end : info_.default_t_end;
+        if (t_end / dt > 0x1p53)  // (a --dt of 1e-20 took one step of the whole span before: the count overflowed)
+            throw bad_input("--t-end / --dt is " + num(t_end / dt) + " steps, too many");
         last = std::isnan(t_end) ? ck.total_steps : steps_to_reach(0.0, t_end, dt);
     }
     // whether the last step is shorter than dt: the state at the end is then off the grid t = i dt, and a

@@ -10,12 +10,6 @@ namespace eci::cli {
 
 namespace {
 
-std::string joined(const std::vector<std::string>& names) {
-    std::string s;
-    for (const std::string& n : names) s += (s.empty() ? "" : ", ") + n;
-    return s;
-}
-
 std::string number(double v) {
     char buffer[32];
     return std::string(format_double(v, buffer));
@@ -34,16 +28,11 @@ column_names indexed_columns(std::string_view prefix, std::size_t size, bool com
 }
 
 method_info resolve_method(const model_info& model, const std::string& name) {
-    const auto m = find_method(name);
-    if (!m) {
-        std::vector<std::string> all;
-        for (const method_info& i : eci::methods) all.emplace_back(i.name);
-        throw bad_input("unknown method '" + name + "' (methods: " + joined(all) + ")");
+    try {  // (the library's sentences, as Python's)
+        return resolve_named_method(name, model.methods, "model " + model.name);
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(e.what());
     }
-    if (std::find(model.methods.begin(), model.methods.end(), name) == model.methods.end())
-        throw bad_input("method '" + name + "' is not available for model " + model.name +
-                        " (available: " + joined(model.methods) + ")");
-    return *m;
 }
 
 run_plan resolve_plan(double default_dt, double default_t_end, const run_settings& settings) {

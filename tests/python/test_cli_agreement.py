@@ -151,7 +151,8 @@ def test_adaptive_kepler_and_lotka_volterra_match_cli(cli, tmp_path, rtol):
 # --output-dt and output_dt are one decision of the library (eci::resolve_output_dt): output times when adaptive, a
 # row every k steps with fixed steps, and the same refusals in the same sentence, each front end naming its own
 # settings (the CLI's options, Python's keywords).
-CLI_NAMES_AS_PYTHONS = [("--output-dt", "output_dt"), ("--dt", "dt"), ("--rtol/--atol", "rtol/atol")]
+CLI_NAMES_AS_PYTHONS = [("--t-end / --dt", "t_span / dt"), ("--output-dt", "output_dt"), ("--dt", "dt"),
+                        ("--rtol/--atol", "rtol/atol")]
 
 
 def as_python_names(message):
@@ -280,6 +281,7 @@ def test_navier_stokes_matches_cli_and_both_land_on_t_end(cli, tmp_path, method)
     (["--method", "no-such", "--dt", "0.01"], {"method": "no-such", "dt": 0.01}),
     (["--dt", "-0.01"], {"method": "c-rk4", "dt": -0.01}),
     (["--method", "c-rk4", "--rtol", "1e-06"], {"method": "c-rk4", "rtol": 1e-6}),
+    (["--dt", "1e-20"], {"method": "c-rk4", "dt": 1e-20}),  # the CLI took one step of the span (the count overflowed)
 ])
 def test_navier_stokes_refuses_what_the_cli_refuses_in_one_sentence(cli, options, keywords):
     from conftest import cli_error
