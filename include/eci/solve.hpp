@@ -234,6 +234,26 @@ struct no_sink {
     void output(const S&, const output_point&) {}
 };
 
+namespace detail {
+
+/// "a, b, c": the names of a method list in one sentence.
+template <class Names>
+std::string joined_names(const Names& names) {
+    std::string s;
+    for (const auto& n : names) s.append(s.empty() ? "" : ", ").append(std::string_view(n));
+    return s;
+}
+
+/// The registry's entry for `name`, or std::invalid_argument "unknown method 'x' (methods: ...)".
+inline method_info known_method(std::string_view name) {
+    if (const std::optional<method_info> m = find_method(name)) return *m;
+    std::vector<std::string_view> all;
+    for (const method_info& i : eci::methods) all.push_back(i.name);
+    throw std::invalid_argument("unknown method '" + std::string(name) + "' (methods: " + joined_names(all) + ")");
+}
+
+}  // namespace detail
+
 /// The registry entry of `method` among those that run on Dispatch (fixed or adaptive), or std::invalid_argument
 /// naming what is available: "unknown method 'x' (methods: ...)", "method 'x' is not available for WHAT
 /// (available: ...)" (with the reason before the list when Dispatch lacks a declaration the method needs, as
@@ -241,25 +261,15 @@ struct no_sink {
 /// methods for WHAT: ...".
 template <class Dispatch>
 method_info resolve_method_for(std::string_view method, bool adaptive, std::string_view what) {
-    auto joined = [](const auto& names) {
-        std::string s;
-        for (const auto& n : names) s.append(s.empty() ? "" : ", ").append(std::string_view(n));
-        return s;
-    };
-    const std::optional<method_info> m = find_method(method);
-    if (!m) {
-        std::vector<std::string_view> all;
-        for (const method_info& i : eci::methods) all.push_back(i.name);
-        throw std::invalid_argument("unknown method '" + std::string(method) + "' (methods: " + joined(all) + ")");
-    }
+    const method_info m = detail::known_method(method);
     std::vector<std::string_view> fixed;
     for (const method_info& i : methods_for<Dispatch>()) fixed.push_back(i.name);
     if (std::ranges::find(fixed, method) == fixed.end()) {
         std::string message = "method '";
         message.append(method).append("' is not available for ").append(what);
-        if (const std::string_view reason = missing_declaration<Dispatch>(*m); !reason.empty())
+        if (const std::string_view reason = missing_declaration<Dispatch>(m); !reason.empty())
             message.append(": ").append(reason);
-        throw std::invalid_argument(message.append(" (available: ").append(joined(fixed)).append(")"));
+        throw std::invalid_argument(message.append(" (available: ").append(detail::joined_names(fixed)).append(")"));
     }
     if (adaptive) {
         std::vector<std::string_view> pairs;
@@ -267,9 +277,9 @@ method_info resolve_method_for(std::string_view method, bool adaptive, std::stri
         if (std::ranges::find(pairs, method) == pairs.end())
             throw std::invalid_argument("method " + std::string(method) +
                                         " has no error estimate for rtol/atol; adaptive methods for " +
-                                        std::string(what) + ": " + joined(pairs));
+                                        std::string(what) + ": " + detail::joined_names(pairs));
     }
-    return *m;
+    return m;
 }
 
 /// The registry's entry for `name` among the method names `available` (a model whose methods are a list, as the
@@ -277,21 +287,11 @@ method_info resolve_method_for(std::string_view method, bool adaptive, std::stri
 /// spectral command and Python's spectral models refuse a method in one sentence.
 template <class Names>
 method_info resolve_named_method(std::string_view name, const Names& available, std::string_view what) {
-    auto joined = [](const auto& names) {
-        std::string s;
-        for (const auto& n : names) s.append(s.empty() ? "" : ", ").append(std::string_view(n));
-        return s;
-    };
-    const std::optional<method_info> m = find_method(name);
-    if (!m) {
-        std::vector<std::string_view> all;
-        for (const method_info& i : eci::methods) all.push_back(i.name);
-        throw std::invalid_argument("unknown method '" + std::string(name) + "' (methods: " + joined(all) + ")");
-    }
+    const method_info m = detail::known_method(name);
     for (const auto& a : available)
-        if (std::string_view(a) == name) return *m;
+        if (std::string_view(a) == name) return m;
     throw std::invalid_argument("method '" + std::string(name) + "' is not available for " + std::string(what) +
-                                " (available: " + joined(available) + ")");
+                                " (available: " + detail::joined_names(available) + ")");
 }
 
 namespace detail {
