@@ -488,14 +488,14 @@ class fixed_control {
     bool accept(const fixed_attempt& a, const step_result&, position& at) {
         at.state.publish(x_);
         check_finite_after<St>(x_, a.t + a.dt);
-        if (a.depth != 0) [[unlikely]] {  // a piece of a halved step (at.halving; a.depth is known in registers)
+        if (at.halving) [[unlikely]] {  // a piece of a halved step (propose tested the same flag)
             if (!piece_taken(a)) return false;
             at.halving = false;
         }
         if constexpr (retries_attempts<model>)
             for (; retries_ > 0; --retries_) hook_target(f_).end_retry(true);
         ++at.k;
-        at.t = t0_ + double(at.k - 1) * dt_;
+        at.t = t0_ + double(std::int64_t(at.k - 1)) * dt_;  // (k <= 2^53, run_grid's check: exact as signed)
         at.size = at.k == end_ ? last_ : dt_;
         return true;
     }
@@ -660,6 +660,12 @@ void notify(Observer& observe, const S& x, double t, std::uint64_t i, const run_
 template <class St, class F, class S, class Observer>
 run_stats run_grid(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t n, double last,
                    std::optional<double> t_end, Observer& observe, const run_options& opt) {
+    // The grid t0 + k dt is exact up to k = 2^53, and a run of more steps would not end in a lifetime
+    constexpr std::uint64_t most = std::uint64_t(1) << 53;
+    if (n > most || opt.first_step > most - n)
+        throw std::invalid_argument("steps " + std::to_string(opt.first_step + 1) + " .. " +
+                                    (n > most ? std::string("beyond 2^53") : std::to_string(opt.first_step + n)) +
+                                    " of the grid t0 + k dt: at most 2^53 steps");
     run_stats stats;
     const held_count<F> counted{f, &stats.rhs_evals, opt.cancel};
     attach_quadratic_invariants(stepper, f, x);

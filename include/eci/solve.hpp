@@ -335,6 +335,18 @@ inline void check_config(const run_config& c) {
         if (!c.steps && (!(c.t_end >= c.t0) || !std::isfinite(c.t_end)))
             throw std::invalid_argument("end time must be finite and >= start");
     }
+    if (!c.adaptive) {
+        // Beyond 2^53 steps the grid t0 + i dt is no longer exact, and the run would not end in a lifetime (the
+        // counts compared as integers: as doubles, 2^53 + 1 steps read as 2^53)
+        constexpr std::uint64_t most = std::uint64_t(1) << 53;
+        if (c.steps && (*c.steps > most || c.first_step > most - *c.steps))
+            throw std::invalid_argument("steps " + std::to_string(*c.steps) +
+                                        (c.first_step ? " from step " + std::to_string(c.first_step) : "") +
+                                        " is too many (at most 2^53)");
+        if (!c.steps && (c.t_end - c.t0) / c.dt > 0x1p53)
+            throw std::invalid_argument("(t_end - t0) / dt is " + detail::shortest_text((c.t_end - c.t0) / c.dt) +
+                                        " steps, too many (at most 2^53)");
+    }
     if (c.every == 0) throw std::invalid_argument("output interval must be at least 1");
     if (c.first_step != 0 && (c.adaptive || !c.times.empty()))
         throw std::invalid_argument("first_step continues a run of fixed steps, without output times");

@@ -10,12 +10,17 @@ namespace eci {
 
 /// The number of steps of size dt that reach t_end from t0: at least one whenever t_end > t0, however short
 /// the span (a shorter last step, see integrate_to). Only a remainder at round-off level, the few eps of q
-/// that (t_end - t0) / dt carries, is not a step of its own (3 * 0.1 reaches 0.3 in 3 steps).
+/// that (t_end - t0) / dt carries, is not a step of its own (3 * 0.1 reaches 0.3 in 3 steps). More than 2^64 - 1
+/// steps (or no count at all: dt zero or NaN) read as 2^64 - 1.
 inline std::uint64_t steps_to_reach(double t0, double t_end, double dt) {
     if (!(t_end > t0)) return 0;
     const double q = (t_end - t0) / dt;
-    const double slack = 8.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, q);
-    return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(q - slack)));
+    // (under half a step: beyond 2^49 steps 8 eps q is a whole step or more, and a step of the grid was dropped)
+    const double slack = std::min(0.5, 8.0 * std::numeric_limits<double>::epsilon() * std::max(1.0, q));
+    const double n = std::ceil(q - slack);
+    // (a count beyond the integers, or a NaN from a zero or NaN dt, saturates: converting it is undefined)
+    if (!(n < 0x1p64)) return std::numeric_limits<std::uint64_t>::max();
+    return std::max<std::uint64_t>(1, static_cast<std::uint64_t>(n));
 }
 
 /// The size of the last of the n = steps_to_reach(t0, t_end, dt) steps that land on t_end (n >= 1): dt when

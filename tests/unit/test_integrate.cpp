@@ -9,6 +9,7 @@
 #include <limits>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <eci/eci.hpp>
@@ -121,6 +122,36 @@ TEST(Observer, CadenceIsOnTheGridsIndicesAfterARestart) {
     const std::vector<std::uint64_t> expected{7, 9, 12, 15, 17};
     ASSERT_EQ(seen.size(), expected.size());
     for (std::size_t j = 0; j < seen.size(); ++j) EXPECT_EQ(seen[j].i, expected[j]);
+}
+
+// The grid t0 + k dt is exact up to k = 2^53 (the step index converts exactly): a run beyond it is refused before
+// any step, the count compared as an integer (2^53 + 1 as a double is 2^53; first_step + n could wrap around).
+// The last step of the 2^53 is taken, on the grid, from a restart at 2^53 - 1.
+TEST(Observer, TheGridEndsAtStepTwoToThe53) {
+    constexpr std::uint64_t most = std::uint64_t(1) << 53;
+    std::vector<double> calls;
+    std::vector<observation> seen;
+    state x{0.0};
+    eci::rk4<state> st;
+    auto observe = [&](const state&, double t, std::uint64_t i) { seen.push_back({t, i}); };
+    eci::integrate_n_steps(st, clock_system{&calls}, x, 0.0, 1.0, 1, observe, {.first_step = most - 1});
+    ASSERT_EQ(seen.size(), 2u);
+    EXPECT_EQ(seen.back().i, most);
+    EXPECT_EQ(seen.back().t, 0x1p53);
+    EXPECT_EQ(calls.front(), 0x1p53 - 1);  // the step's first stage, at the grid time of step 2^53 - 1
+    const std::uint64_t top = std::numeric_limits<std::uint64_t>::max();
+    for (const auto& [n, first] : {std::pair{most + 1, std::uint64_t{0}}, std::pair{std::uint64_t{1}, most},
+                                   std::pair{top, std::uint64_t{2}}}) {
+        calls.clear();
+        EXPECT_THROW(eci::integrate_n_steps(st, clock_system{&calls}, x, 0.0, 1.0, n, eci::no_observer{},
+                                            {.first_step = first}),
+                     std::invalid_argument)
+            << n << " from " << first;
+        EXPECT_TRUE(calls.empty());
+    }
+    // integrate_to's count of steps beyond the integers saturates, and is refused alike
+    EXPECT_THROW(eci::integrate_to(st, clock_system{&calls}, x, 0.0, 1.0, 1e-300), std::invalid_argument);
+    EXPECT_TRUE(calls.empty());
 }
 
 TEST(Observer, MultiplesOfEveryAskedInTurn) {

@@ -320,3 +320,50 @@ TEST(Solve, AGivenFirstStepLiesWithinTheSpan) {
         }
     }
 }
+
+// Beyond 2^53 fixed steps the grid t0 + i dt is no longer exact: refused, the count compared as an integer (as a
+// double 2^53 + 1 reads as 2^53, and a restart's first step plus its steps could wrap around). The accepted edges
+// take one step: the last of the 2^53, from a restart at step 2^53 - 1.
+TEST(Solve, MoreThanTwoToThe53StepsAreRefused) {
+    const eci::three_wave model;
+    constexpr std::uint64_t most = std::uint64_t(1) << 53;
+    auto message = [&](eci::run_config cfg) {
+        tw_state y = fig5;
+        discard<tw_state> none;
+        try {
+            eci::solve_model<eci::three_wave>(model, y, "rk4", cfg, none);
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    auto by_steps = [](std::uint64_t steps, std::uint64_t first) {
+        eci::run_config c;
+        c.dt = 1e-3;
+        c.steps = steps;
+        c.first_step = first;
+        return c;
+    };
+    EXPECT_EQ(message(by_steps(1, most - 1)), "accepted");
+    EXPECT_EQ(message(by_steps(most + 1, 0)), "steps 9007199254740993 is too many (at most 2^53)");
+    EXPECT_EQ(message(by_steps(1, most)), "steps 1 from step 9007199254740992 is too many (at most 2^53)");
+    EXPECT_EQ(message(by_steps(std::numeric_limits<std::uint64_t>::max(), 2)),  // (the sum wraps around to 1)
+              "steps 18446744073709551615 from step 2 is too many (at most 2^53)");
+    auto by_end = [](double t_end, double dt, std::uint64_t first) {
+        eci::run_config c;
+        c.t_end = t_end;
+        c.dt = dt;
+        c.first_step = first;
+        return c;
+    };
+    EXPECT_EQ(message(by_end(0x1p53, 1.0, most - 1)), "accepted");
+    EXPECT_EQ(message(by_end(0x1p53 + 2, 1.0, most - 1)), "(t_end - t0) / dt is 9007199254740994 steps, too many (at "
+                                                          "most 2^53)");
+    EXPECT_EQ(message(by_end(1.0, 1e-20, 0)), "(t_end - t0) / dt is 1e+20 steps, too many (at most 2^53)");
+    // the count itself saturates where it exceeds the integers (converting it would be undefined)
+    EXPECT_EQ(eci::steps_to_reach(0.0, 1.0, 1e-300), std::numeric_limits<std::uint64_t>::max());
+    EXPECT_EQ(eci::steps_to_reach(0.0, 0x1p53, 1.0), most);
+    EXPECT_EQ(eci::steps_to_reach(0.0, 1e15, 1.0), std::uint64_t(1e15));  // (not one fewer, its last step 2 long)
+    EXPECT_EQ(eci::last_step_to_reach(0.0, 1e15, 1.0, std::uint64_t(1e15)), 1.0);
+    EXPECT_EQ(eci::steps_to_reach(0.0, 0.3, 0.1), 3u);  // a remainder at round-off is no step of its own
+}

@@ -118,7 +118,8 @@ struct register_stages {
         stages k;
         S out = x;
         (stage<I>(f, x, k, out, t, dt), ...);
-        if (!all_finite(out, elements{})) return step_result::failure(first_non_finite(out, elements{}));
+        if (!all_finite(out, elements{})) [[unlikely]]
+            return step_result::failure(first_non_finite(out, elements{}));
         x = out;
         return step_result::success();
     }
