@@ -336,8 +336,8 @@ int spectral_command::run_spread(const run_settings& settings) {
             throw bad_input(restart_ + " is a " + ck.params.equation + " checkpoint, not " + name_ + "'s");
         auto same = [&](const char* name, auto given, auto stored) {
             if (given && *given != stored)
-                throw bad_input(std::string("--") + name + " " + num(double(*given)) +
-                                " does not match the restart file's " + num(double(stored)) + " (" + restart_ + ")");
+                throw bad_input(std::string("--") + name + " " + shortest(double(*given)) +
+                                " does not match the restart file's " + shortest(double(stored)) + " (" + restart_ + ")");
         };
         same("N", given_whole("N"), std::uint64_t(ck.params.n));
         same("nu", given_real("nu"), ck.params.nu);
@@ -356,7 +356,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (!settings.method.empty() && settings.method != ck.method)
             throw bad_input("--method " + settings.method + " does not match the restart file's " + ck.method);
         if (settings.dt && *settings.dt != ck.dt)
-            throw bad_input("--dt does not match the restart file's " + num(ck.dt));
+            throw bad_input("--dt does not match the restart file's " + shortest(ck.dt));
         same("forcing-amplitude", given_real("forcing-amplitude"), ck.params.forcing_amplitude);
         same("injection-rate", given_real("injection-rate"), ck.params.injection_rate);
         same("forcing-seed", given_whole("forcing-seed"), ck.params.forcing_seed);
@@ -450,10 +450,10 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (settings.dt && cfl_) throw bad_input("give --dt or --cfl, not both");
     if (cfl_ && !(std::isfinite(*cfl_) && *cfl_ > 0.0)) throw bad_input("--cfl must be a positive number");
     if (settings.dt && !(std::isfinite(*settings.dt) && *settings.dt > 0.0))
-        throw bad_input("--dt must be a positive finite number, not " + num(*settings.dt));
+        throw bad_input("--dt must be a positive finite number, not " + shortest(*settings.dt));
     if (settings.t_end && settings.steps) throw bad_input("give --t-end or --steps, not both");
     if (settings.t_end && !(std::isfinite(*settings.t_end) && *settings.t_end >= 0.0))
-        throw bad_input("--t-end must be a finite number >= 0, not " + num(*settings.t_end));
+        throw bad_input("--t-end must be a finite number >= 0, not " + shortest(*settings.t_end));
     // beyond 2^53 steps the grid i dt is no longer exact (and the run would never end): refused as for every model
     if (settings.steps && *settings.steps > (std::uint64_t{1} << 53))
         throw bad_input("--steps " + std::to_string(*settings.steps) + " is too many (at most 2^53)");
@@ -623,7 +623,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         const double e = model.energy(w), z = model.enstrophy(w);
         if ((e != 0.0 && !std::isnormal(e)) || (z != 0.0 && !std::isnormal(z)) || !std::isfinite(e) ||
             !std::isfinite(z))
-            throw bad_input("initial condition: " + inv_[0] + " " + num(e) + " and " + inv_[1] + " " + num(z) +
+            throw bad_input("initial condition: " + inv_[0] + " " + shortest(e) + " and " + inv_[1] + " " + shortest(z) +
                             " must be finite normal numbers");
     }
 
@@ -650,7 +650,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     } else {
         t_end = settings.t_end ? *settings.t_end : restart ? ck.t_end : info_.default_t_end;
         if (t_end / dt > 0x1p53)  // (a --dt of 1e-20 took one step of the whole span before: the count overflowed)
-            throw bad_input("--t-end / --dt is " + num(t_end / dt) + " steps, too many");
+            throw bad_input("--t-end / --dt is " + shortest(t_end / dt) + " steps, too many");
         last = std::isnan(t_end) ? ck.total_steps : steps_to_reach(0.0, t_end, dt);
     }
     // whether the last step is shorter than dt: the state at the end is then off the grid t = i dt, and a

@@ -879,11 +879,6 @@ void staging_dir::commit() {
 
 // ---- numbers ----
 
-std::string_view format_double(double v, char (&buffer)[32]) {
-    const auto r = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::general, 17);
-    return {buffer, static_cast<std::size_t>(r.ptr - buffer)};
-}
-
 void write_json_number(std::FILE* f, double v) {
     if (!std::isfinite(v)) {
         std::fputs("null", f);

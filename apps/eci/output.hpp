@@ -17,6 +17,8 @@
 #include <utility>
 #include <vector>
 
+#include <eci/format.hpp>
+
 namespace eci::cli {
 
 /// Input the CLI rejects: main prints "eci: error: <what>" and exits with status 2.
@@ -166,8 +168,8 @@ std::string unreadable_reason(const std::string& path);
 /// one file: symlinks followed, dangling ones too, and hard links. Empty paths, "-" and descriptors are skipped.
 void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs);
 
-/// v with 17 significant digits (what %.17g gives: enough to read back the same double).
-std::string_view format_double(double v, char (&buffer)[32]);
+/// v with 17 significant digits (the CSV, the summary): eci::format_double, as the library formats it.
+using eci::format_double;
 
 /// Writes v as a JSON number (17 significant digits), or null if it is not finite.
 void write_json_number(std::FILE* f, double v);

@@ -2,6 +2,8 @@
 // (stderr) and writes (JSON).
 #include "run_model.hpp"
 
+#include <eci/format.hpp>
+
 #include <charconv>
 #include <filesystem>
 #include <limits>
@@ -17,11 +19,7 @@ std::string number(double v) {
 
 }  // namespace
 
-std::string shortest(double v) {
-    char buffer[32];
-    const auto r = std::to_chars(buffer, buffer + sizeof buffer, v);
-    return std::string(buffer, r.ptr);
-}
+std::string shortest(double v) { return eci::shortest_text(v); }
 
 column_names indexed_columns(std::string_view prefix, std::size_t size, bool complex) {
     return column_names(std::string(prefix), size, complex);

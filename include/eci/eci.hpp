@@ -5,6 +5,7 @@
 #include "adaptive.hpp"
 #include "compensated_sum.hpp"
 #include "concepts.hpp"
+#include "format.hpp"
 #include "integrate.hpp"
 #include "invariants.hpp"
 #include "registry.hpp"

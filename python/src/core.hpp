@@ -22,6 +22,7 @@
 #include <vector>
 
 #include <eci/concepts.hpp>
+#include <eci/format.hpp>
 #include <eci/integrate.hpp>
 #include <eci/registry.hpp>
 
@@ -29,19 +30,10 @@ namespace eci::python {
 
 namespace py = pybind11;
 
-/// v with 17 significant digits, as the CLI prints times and values.
-inline std::string full_text(double v) {
-    char buffer[32];
-    const auto r = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::general, 17);
-    return std::string(buffer, r.ptr);
-}
-
-/// The shortest text that reads back as v, as the CLI quotes rejected input.
-inline std::string shortest_text(double v) {
-    char buffer[32];
-    const auto r = std::to_chars(buffer, buffer + sizeof buffer, v);
-    return std::string(buffer, r.ptr);
-}
+// Numbers in messages as the CLI and Python's own code quote them: eci::full_text (17 digits), eci::shortest_text
+// (the shortest text, laid out as Python's repr) from <eci/format.hpp>.
+using eci::full_text;
+using eci::shortest_text;
 
 // NavierStokes2D's fixed-step loop (models_ns2d.cpp) still counts and fails with these; every other run goes through
 // eci::solve (solve.hpp) and its solve_report.

@@ -192,6 +192,9 @@ def test_cli_and_python_refuse_the_same_output_dt(cli, dt, t_end, output_dt, tol
     (["--rtol", "-1e-06"], {"rtol": -1e-6}),
     (["--rtol", "1e-06", "--atol", "inf"], {"rtol": 1e-6, "atol": float("inf")}),
     (["--rtol", "nan", "--atol", "1e-06"], {"rtol": float("nan"), "atol": 1e-6}),
+    # numbers laid out alike (as Python's repr: 0.0001, 1000000000000000; std::to_chars alone wrote 1e-04, 1e+15)
+    (["--atol", "-0.0001"], {"atol": -0.0001}),
+    (["--rtol", "-1e15"], {"rtol": -1e15}),
 ])
 def test_cli_and_python_refuse_the_same_tolerances(cli, options, keywords):
     from conftest import cli_error
@@ -282,6 +285,7 @@ def test_navier_stokes_matches_cli_and_both_land_on_t_end(cli, tmp_path, method)
     (["--dt", "-0.01"], {"method": "c-rk4", "dt": -0.01}),
     (["--method", "c-rk4", "--rtol", "1e-06"], {"method": "c-rk4", "rtol": 1e-6}),
     (["--dt", "1e-20"], {"method": "c-rk4", "dt": 1e-20}),  # the CLI took one step of the span (the count overflowed)
+    (["--dt", "-0.0001"], {"method": "c-rk4", "dt": -0.0001}),  # (the CLI wrote -1e-04)
 ])
 def test_navier_stokes_refuses_what_the_cli_refuses_in_one_sentence(cli, options, keywords):
     from conftest import cli_error

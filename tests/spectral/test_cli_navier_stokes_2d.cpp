@@ -407,6 +407,9 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--output-dt 0", "does not apply"},
         {"--restart " + q + "/ok.h5 --threads 2", "does not match"},
         {"--restart " + q + "/ok.h5 --injection-rate 3", "does not match"},
+        // numbers as the user typed them (0.1, not 0.10000000000000001)
+        {"--restart " + q + "/ok.h5 --nu 0.1", "--nu 0.1 does not match the restart file's 0 ("},
+        {"--dt -0.1", "--dt must be a positive finite number, not -0.1\n"},
         {"--restart " + q + "/ok.h5 --seed 4", "initial condition"},
         {"--restart " + q + "/ok.h5 --energy 2", "initial condition"},
         // the message names the problem

@@ -203,8 +203,8 @@ TEST(Solve, OutputDtRefusalsNameTheSettingsAsTheFrontEndDoes) {
     EXPECT_EQ(message(c, cli), "accepted");  // adaptive control lifts it
     c.output_dt = 1e-7;
     c.t_end = 10.0;
-    EXPECT_EQ(message(c, cli), "--output-dt 1e-07 to t = 10 asks for 1e+08 rows, more than 10^7: give a larger "
-                               "--output-dt");
+    EXPECT_EQ(message(c, cli), "--output-dt 1e-07 to t = 10 asks for 100000000 rows, more than 10^7: give a "
+                               "larger --output-dt");  // (numbers as Python's repr lays them out: eci/format.hpp)
     for (double bad : {0.0, -1.0, std::numeric_limits<double>::infinity(), std::nan("")}) {
         c.output_dt = bad;
         EXPECT_EQ(message(c, cli).rfind("--output-dt must be a positive finite number, not ", 0), 0u) << bad;
