@@ -637,6 +637,10 @@ int spectral_command::run_spread(const run_settings& settings) {
             const double u = model.max_velocity(w);
             if (!(u > 0.0)) throw bad_input("the initial velocity is zero: give --dt");
             dt = cfl_.value_or(0.5) * dx / u;
+            // (refused here, before the wisdom file is written: a --cfl of 4.9e-324 gave dt = 0)
+            if (!(dt > 0.0) || !std::isfinite(dt))
+                throw bad_input("the time step from --cfl " + shortest(cfl_.value_or(0.5)) + ", CFL dx / max|u| = " +
+                                shortest(dt) + ", is not a positive finite number");
         }
     }
     const std::uint64_t first = restart ? ck.step : 0;

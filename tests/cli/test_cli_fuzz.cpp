@@ -85,6 +85,7 @@ class generator {
 struct fuzz_case {
     std::vector<std::string> args;
     std::string model, method;
+    std::string checkpoint, wisdom;  // a spectral run's --checkpoint and --fftw-wisdom, if given
     bool csv = false, json = false, csv_old = false, json_old = false, adaptive = false;
 };
 
@@ -188,6 +189,9 @@ fuzz_case make_case(generator& g) {
         opt("--summary-json", "s.json", 1.0);
     }
     if (g.chance(0.03)) options.emplace_back("--bogus", "1");
+    for (const auto& [flag, value] : options)
+        if (flag == "--checkpoint") c.checkpoint = value;
+        else if (flag == "--fftw-wisdom" && value != "none") c.wisdom = value;
     std::shuffle(options.begin(), options.end(), g.engine());
     c.args = {"run"};
     // Now and then an option before the model name, as `eci run --dt 0.1 three-wave` would have it.
@@ -297,6 +301,10 @@ std::vector<std::string> check(const fuzz_case& c, const run_result& r, const fs
     std::set<std::string> allowed;
     if (is_spectral(c.model) && r.status != 2) {
         allowed = {default_checkpoint(c.model), "ck.h5", "w"};
+        // the checkpoint and the wisdom file by the names given (a run accepted with --checkpoint s.json and no
+        // --summary-json keeps its checkpoint there: only names that two outputs share are refused)
+        for (const std::string& name : {c.checkpoint, c.wisdom})
+            if (!name.empty()) allowed.insert(name);
         if (r.status == 0) {
             allowed.insert("snaps");
             allowed.insert(c.model == "navier-stokes-2d" ? "ns2d-snapshots" : c.model + "-snapshots");

@@ -410,6 +410,7 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         // numbers as the user typed them (0.1, not 0.10000000000000001)
         {"--restart " + q + "/ok.h5 --nu 0.1", "--nu 0.1 does not match the restart file's 0 ("},
         {"--dt -0.1", "--dt must be a positive finite number, not -0.1\n"},
+        {"--cfl 4.9e-324", "the time step from --cfl 5e-324, CFL dx / max|u| = 0, is not a positive finite number"},
         {"--restart " + q + "/ok.h5 --seed 4", "initial condition"},
         {"--restart " + q + "/ok.h5 --energy 2", "initial condition"},
         // the message names the problem
