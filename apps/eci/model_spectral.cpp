@@ -337,7 +337,8 @@ int spectral_command::run_spread(const run_settings& settings) {
         auto same = [&](const char* name, auto given, auto stored) {
             if (given && *given != stored)
                 throw bad_input(std::string("--") + name + " " + shortest(double(*given)) +
-                                " does not match the restart file's " + shortest(double(stored)) + " (" + restart_ + ")");
+                                " does not match the restart file's " + shortest(double(stored)) + " (" + restart_ +
+                                ")");
         };
         same("N", given_whole("N"), std::uint64_t(ck.params.n));
         same("nu", given_real("nu"), ck.params.nu);
@@ -623,8 +624,8 @@ int spectral_command::run_spread(const run_settings& settings) {
         const double e = model.energy(w), z = model.enstrophy(w);
         if ((e != 0.0 && !std::isnormal(e)) || (z != 0.0 && !std::isnormal(z)) || !std::isfinite(e) ||
             !std::isfinite(z))
-            throw bad_input("initial condition: " + inv_[0] + " " + shortest(e) + " and " + inv_[1] + " " + shortest(z) +
-                            " must be finite normal numbers");
+            throw bad_input("initial condition: " + inv_[0] + " " + shortest(e) + " and " + inv_[1] + " " +
+                            shortest(z) + " must be finite normal numbers");
     }
 
     // ---- time step and span
