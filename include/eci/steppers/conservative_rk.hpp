@@ -6,6 +6,7 @@
 #include <array>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <ranges>
 #include <span>
 #include <utility>
@@ -80,6 +81,9 @@ class conservative_rk : public radicand_remedy {
                 return finish_general(o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
                                       std::make_index_sequence<s>{});
             });
+            // a radicand that is not finite: formed again with dt inside its rate where that overflowed
+            if (bad != 0.0) [[unlikely]]
+                bad = refinish_overflowed(o, xr.data(), kp, dt, n);
         }
         // A negative radicand on any process is one on every process (detail/reduce.hpp).
         if constexpr (detail::distributed_model<F>) bad = reduce_.any(bad != 0.0) ? 1.0 : 0.0;
@@ -229,7 +233,7 @@ class conservative_rk : public radicand_remedy {
             const double conv = conventional(x, k, i, dt, std::make_index_sequence<s>{});
             c[p] = conv;
             c2 += conv * conv;
-            rad[p] = radicand(x, k, i, dt, std::make_index_sequence<s>{});
+            rad[p] = finite_radicand(x, k, i, dt);
             xi += rad[p];
         }
         return {c2, xi};
@@ -295,6 +299,11 @@ class conservative_rk : public radicand_remedy {
         for (std::size_t b = 0; b < nb; ++b) {
             double c2 = 0.0, xi = 0.0;
             for (std::size_t p = 0; p < per; ++p) c2 += cv[b * per + p] * cv[b * per + p], xi += rv[b * per + p];
+            if (!(std::abs(xi) <= std::numeric_limits<double>::max())) [[unlikely]] {  // as element_update forms it
+                xi = 0.0;
+                for (std::size_t p = 0; p < per; ++p)
+                    xi += rv[b * per + p] = finite_radicand(x, k, i0 + b * per + p, dt);
+            }
             c2v[b] = c2, xiv[b] = xi;
             sg[b] = cv[b * per];
             if constexpr (per == 1 && Sign == sign_rule::of_last_stage)
@@ -338,7 +347,7 @@ class conservative_rk : public radicand_remedy {
                 const double pred = stage_value<1>(x[i], kp, i, dt);  // psi~, eq. (30a)
                 return {conv, pred * (x[i] + dt * kp[1][i])};         // eq. (30b), factorised
             } else {
-                return {conv, radicand(x, kp, i, dt, std::make_index_sequence<s>{})};
+                return {conv, finite_radicand(x, kp, i, dt)};
             }
         };
         return try_remedy<per>(o, x, n, failed, fix, [&](const auto& c) { rescale<per>(o, n, c); });
@@ -353,9 +362,46 @@ class conservative_rk : public radicand_remedy {
         return x[i] * x[i] + dt * rate;
     }
 
+    // The radicand with dt inside its rate, psi^2 + sum_j 2 b_j Y_j (dt k_j), for an unknown whose rate overflowed:
+    // |psi| |S| beyond the largest double while psi^2 and the update are finite (a quadratic S at |psi| ~ 1e120).
+    // Taken only where the usual form is not finite (finite_radicand), so that every other step keeps its bits.
+    template <std::size_t... J>
+    static double radicand_scaled(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt,
+                                  std::index_sequence<J...>) {
+        double rate = 2.0 * T.b[0] * x[i] * (dt * k[0][i]);
+        ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * stage_value<J>(x[i], k, i, dt) * (dt * k[J][i]), 0) : 0),
+         ...);
+        return x[i] * x[i] + rate;
+    }
+    // radicand(), or radicand_scaled() where that is not finite: the one rule of every finishing path
+    static double finite_radicand(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt) {
+        const double r = radicand(x, k, i, dt, std::make_index_sequence<s>{});
+        return std::abs(r) <= std::numeric_limits<double>::max()
+                   ? r
+                   : radicand_scaled(x, k, i, dt, std::make_index_sequence<s>{});
+    }
+    // finish_general's unknowns whose radicand was not finite or negative (NaN or inf in o), finished again with
+    // finite_radicand. Returns the number of negative radicands left (NaN in o, for the remedy); an unknown still
+    // infinite (a non-finite stage) fails the step's finiteness check as before.
+    double refinish_overflowed(double* o, const double* x, const std::array<const double*, s>& k, double dt,
+                               std::size_t n) const {
+        double bad = 0.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            if (std::abs(o[i]) <= std::numeric_limits<double>::max()) continue;
+            const double rad = finite_radicand(x, k, i, dt);
+            const double sign = Sign == sign_rule::of_update
+                                    ? conventional(x, k, i, dt, std::make_index_sequence<s>{})
+                                    : stage_value<s - 1>(x[i], k, i, dt);
+            o[i] = std::copysign(std::sqrt(rad), sign);
+            bad += rad >= 0.0 ? 0.0 : 1.0;
+        }
+        return bad;
+    }
+
     // One pass over x and the k_j: the conventional update (for the sign), the rate of psi^2,
     // sum_j 2 b_j Y_j k_j, from recomputed stages (no per-stage pass, no stored stages), and the new amplitude.
-    // Returns the number of negative (or NaN) radicands, as a double.
+    // Returns the number of radicands that are negative or not finite (NaN, or inf from an overflowed rate), as a
+    // double.
     template <std::size_t... J>
     static double finish_general(double* o, const double* x, const std::array<const double*, s>& k, double dt,
                                  std::size_t n, std::index_sequence<J...>) {
@@ -368,7 +414,7 @@ class conservative_rk : public radicand_remedy {
             ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * stage_value<J>(x[i], k, i, dt) * k[J][i], 0) : 0),
              ...);
             const double rad = x[i] * x[i] + dt * rate;
-            bad += rad >= 0.0 ? 0.0 : 1.0;
+            bad += rad >= 0.0 && rad <= std::numeric_limits<double>::max() ? 0.0 : 1.0;
             const double sign = Sign == sign_rule::of_update ? conv : stage_value<s - 1>(x[i], k, i, dt);
             o[i] = std::copysign(std::sqrt(rad), sign);
         }
