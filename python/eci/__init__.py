@@ -34,6 +34,11 @@ def __getattr__(name):  # eci.scipy (SciPy's solve_ivp with eci's pairs) is impo
         return importlib.import_module(".scipy", __name__)
     raise AttributeError(f"module 'eci' has no attribute {name!r}")
 
+
+def __dir__():  # what eci offers (dir(), tab completion): not the modules it imports (math, np, warnings, ...)
+    return sorted(set(__all__) | {"scipy", "Model", "__version__", "__doc__", "__name__", "__file__"})
+
+
 MethodInfo = namedtuple("MethodInfo", "name order conservative description")
 MethodInfo.__doc__ = "A method of the registry: its name, global order, whether it is exactly conservative, one line."
 

@@ -11,6 +11,15 @@ from conftest import run_cli
 M = eci.models
 
 
+def test_dir_lists_what_eci_offers_not_what_it_imports():
+    names = dir(eci)
+    for name in eci.__all__ + ["scipy", "__version__"]:
+        assert name in names
+    for name in ("math", "np", "numbers", "warnings", "namedtuple"):  # listed before
+        assert name not in names
+    assert not [name for name in names if name.startswith("_") and not name.startswith("__")]
+
+
 def test_methods_are_the_registry_as_eci_list_shows_it(cli):
     listed = run_cli(cli, "list").stdout.split("Models")[0]
     # name, order, conservative or conventional, family (how it is built: one word), description
