@@ -201,7 +201,8 @@ int run_cli(int argc, char** argv) {
         sub->add_option("--atol", atol, "absolute tolerance of adaptive step control (default: the --rtol value)");
         sub->add_option("--output-dt", output_dt,
                         "write CSV rows at multiples of this time and at the end (adaptive: dense output or steps "
-                        "landing on them; fixed steps: a multiple of --dt)");
+                        "landing on them; fixed steps: a multiple of --dt, and without --dt a spectral equation's CFL "
+                        "step is shortened to divide it); not with --every");
         sub->add_option("--update", settings.update,
                         "conservative methods (c-pc, c-rk2, c-rk4 at fixed steps, the c- pairs with --rtol) on "
                         "systems of 16 or more real unknowns with declared invariants (n-wave, the spectral models): "
@@ -290,6 +291,8 @@ int run_cli(int argc, char** argv) {
         if (sub->count("--rtol")) settings.rtol = rtol;
         if (sub->count("--atol")) settings.atol = atol;
         if (sub->count("--output-dt")) settings.output_dt = output_dt;
+        // (--output-dt sets the rows' interval itself: a --every beside it was silently replaced before)
+        if (sub->count("--every") && settings.output_dt) throw bad_input("give --every or --output-dt, not both");
         for (option_spec& o : model->options()) o.given = sub->count("--" + o.name) > 0;
         check_process_count("eci run " + model->info().name, model.get());
         return model->run(settings);

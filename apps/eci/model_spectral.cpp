@@ -319,8 +319,6 @@ int spectral_command::run_spread(const run_settings& settings) {
                         " has no error estimate for rtol/atol; " + name_ +
                         " runs fixed steps (give --dt, or none for the CFL 0.5 step)");
     }
-    if (settings.output_dt)
-        throw bad_input(name_ + " writes a CSV row every --every steps: --output-dt does not apply");
     // ---- parameters, from the options or the checkpoint (options that contradict it are an error)
     ns2d_checkpoint ck;
     const std::string restart_ = given_text("restart").value_or("");
@@ -455,8 +453,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (settings.t_end && settings.steps) throw bad_input("give --t-end or --steps, not both");
     if (settings.t_end && !(std::isfinite(*settings.t_end) && *settings.t_end >= 0.0))
         throw bad_input("--t-end must be a finite number >= 0, not " + shortest(*settings.t_end));
-    // beyond 2^53 steps the grid i dt is no longer exact (and the run would never end): refused as for every model
-    if (settings.steps && *settings.steps > (std::uint64_t{1} << 53))
+    // beyond max_grid_steps (2^53) the grid i dt is no longer exact (and the run would never end): as for every model
+    if (settings.steps && *settings.steps > max_grid_steps)
         throw bad_input("--steps " + std::to_string(*settings.steps) + " is too many (at most 2^53)");
     if (settings.every == 0) throw bad_input("--every must be at least 1");
     check_distinct_outputs(settings);
@@ -642,6 +640,8 @@ int spectral_command::run_spread(const run_settings& settings) {
             if (!(dt > 0.0) || !std::isfinite(dt))
                 throw bad_input("the time step from --cfl " + shortest(cfl_.value_or(0.5)) + ", CFL dx / max|u| = " +
                                 shortest(dt) + ", is not a positive finite number");
+            // rows every --output-dt of time: the CFL step shortened to divide it (steps.hpp), as Python's
+            if (settings.output_dt) dt = step_dividing(*settings.output_dt, dt);
         }
     }
     const std::uint64_t first = restart ? ck.step : 0;
@@ -654,7 +654,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         last = *settings.steps;
     } else {
         t_end = settings.t_end ? *settings.t_end : restart ? ck.t_end : info_.default_t_end;
-        if (t_end / dt > 0x1p53)  // (a --dt of 1e-20 took one step of the whole span before: the count overflowed)
+        if (t_end / dt > double(max_grid_steps))  // (a --dt of 1e-20 took one step of the whole span before: the count overflowed)
             throw bad_input("--t-end / --dt is " + shortest(t_end / dt) + " steps, too many");
         last = std::isnan(t_end) ? ck.total_steps : steps_to_reach(0.0, t_end, dt);
     }
@@ -664,6 +664,26 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (last < first)
         throw bad_input("the restart file is at step " + std::to_string(first) + ", beyond the requested " +
                         std::to_string(last));
+    // rows every --output-dt of time: every k = output-dt / dt steps, k whole (the library's rule and sentences)
+    std::uint64_t every = settings.every;
+    if (settings.output_dt) {
+        run_config rows;
+        rows.dt = dt;
+        rows.first_step = first;
+        if (std::isnan(t_end))
+            rows.steps = last - first;
+        else
+            rows.t_end = t_end;
+        rows.output_dt = settings.output_dt;
+        try {
+            resolve_output_dt(rows, {.output_dt = "--output-dt",
+                                     .dt = restart ? "the restart file's time step" : "--dt",
+                                     .tolerances = ""});
+        } catch (const std::invalid_argument& e) {
+            throw bad_input(e.what());
+        }
+        every = rows.every;
+    }
 
     // ---- outputs: opened (or their directories created) only now that the input is known to be good
     // The snapshot directory is created now if missing (and removed again if the run fails while it is empty); the
@@ -940,7 +960,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         cfg.steps = last - first;
     else
         cfg.t_end = t_end;  // (the library lands on it: steps first + 1 .. last, the last one shortened if need be)
-    cfg.every = settings.every;
+    cfg.every = every;
     cfg.max_halvings = 40;
     cfg.max_substeps = std::numeric_limits<std::uint64_t>::max();
     cfg.update = update == "paper" ? update_kind::paper : update_kind::conditioned;  // --update (default: conditioned)

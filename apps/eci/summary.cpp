@@ -40,11 +40,11 @@ run_plan resolve_plan(double default_dt, double default_t_end, const run_setting
         throw bad_input("--dt must be a positive finite number, not " + shortest(span.dt));
     if (settings.every == 0) throw bad_input("--every must be at least 1");
     if (settings.t_end && settings.steps) throw bad_input("--t-end and --steps cannot be used together");
-    // Beyond 2^53 steps the time grid t0 + i dt is no longer exact (and the run would never end anyway).
+    // More than max_grid_steps (2^53): the time grid t0 + i dt is no longer exact (and the run would never end).
     if (settings.steps) {
         span.fixed_steps = true;
         span.steps = *settings.steps;
-        if (span.steps > (std::uint64_t{1} << 53))
+        if (span.steps > max_grid_steps)
             throw bad_input("--steps " + std::to_string(span.steps) + " is too many (at most 2^53)");
         span.t_end = double(span.steps) * span.dt;
         return span;
@@ -52,7 +52,7 @@ run_plan resolve_plan(double default_dt, double default_t_end, const run_setting
     span.t_end = settings.t_end.value_or(default_t_end);
     if (!(span.t_end >= 0.0) || !std::isfinite(span.t_end))
         throw bad_input("--t-end must be a finite number >= 0, not " + shortest(span.t_end));
-    if (span.t_end / span.dt > 0x1p53)
+    if (span.t_end / span.dt > double(max_grid_steps))
         throw bad_input("--t-end / --dt is " + shortest(span.t_end / span.dt) + " steps, too many");
     span.steps = steps_to_reach(0.0, span.t_end, span.dt);
     return span;

@@ -495,7 +495,7 @@ class fixed_control {
         if constexpr (retries_attempts<model>)
             for (; retries_ > 0; --retries_) hook_target(f_).end_retry(true);
         ++at.k;
-        at.t = t0_ + double(std::int64_t(at.k - 1)) * dt_;  // (k <= 2^53, run_grid's check: exact as signed)
+        at.t = t0_ + double(std::int64_t(at.k - 1)) * dt_;  // (k <= max_grid_steps, run_grid's check: exact as signed)
         at.size = at.k == end_ ? last_ : dt_;
         return true;
     }
@@ -660,8 +660,7 @@ void notify(Observer& observe, const S& x, double t, std::uint64_t i, const run_
 template <class St, class F, class S, class Observer>
 run_stats run_grid(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t n, double last,
                    std::optional<double> t_end, Observer& observe, const run_options& opt) {
-    // The grid t0 + k dt is exact up to k = 2^53, and a run of more steps would not end in a lifetime
-    constexpr std::uint64_t most = std::uint64_t(1) << 53;
+    constexpr std::uint64_t most = max_grid_steps;  // (steps.hpp)
     if (n > most || opt.first_step > most - n)
         throw std::invalid_argument("steps " + std::to_string(opt.first_step + 1) + " .. " +
                                     (n > most ? std::string("beyond 2^53") : std::to_string(opt.first_step + n)) +

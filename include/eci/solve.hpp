@@ -88,7 +88,7 @@ struct run_config {
 struct setting_names {
     std::string_view output_dt = "output_dt";
     std::string_view dt = "dt";
-    std::string_view tolerances = "rtol/atol";
+    std::string_view tolerances = "rtol/atol";  ///< empty: the run has no step control (spectral equations)
 };
 
 /// The most outputs an output_dt may ask for: its output times are built before the first step (8 bytes each), so
@@ -122,10 +122,12 @@ inline void resolve_output_dt(run_config& cfg, const setting_names& names = {}) 
         cfg.times.push_back(t_end);
     } else {
         const double k = std::round(h / cfg.dt);
+        const std::string why = names.tolerances.empty()
+                                    ? std::string(" (fixed steps)")
+                                    : " (with fixed steps; " + std::string(names.tolerances) + " lifts that)";
         if (!(k >= 1.0) || !std::isfinite(k) || std::abs(h / cfg.dt - k) > 1e-9 * k)
             throw std::invalid_argument(name + " " + detail::shortest_text(h) + " is not a multiple of " +
-                                        std::string(names.dt) + " " + detail::shortest_text(cfg.dt) +
-                                        " (with fixed steps; " + std::string(names.tolerances) + " lifts that)");
+                                        std::string(names.dt) + " " + detail::shortest_text(cfg.dt) + why);
         cfg.every = std::uint64_t(k);
     }
     cfg.output_dt.reset();
@@ -336,14 +338,13 @@ inline void check_config(const run_config& c) {
             throw std::invalid_argument("end time must be finite and >= start");
     }
     if (!c.adaptive) {
-        // Beyond 2^53 steps the grid t0 + i dt is no longer exact, and the run would not end in a lifetime (the
-        // counts compared as integers: as doubles, 2^53 + 1 steps read as 2^53)
-        constexpr std::uint64_t most = std::uint64_t(1) << 53;
+        // (the counts compared as integers: as doubles, 2^53 + 1 steps read as 2^53)
+        constexpr std::uint64_t most = max_grid_steps;
         if (c.steps && (*c.steps > most || c.first_step > most - *c.steps))
             throw std::invalid_argument("steps " + std::to_string(*c.steps) +
                                         (c.first_step ? " from step " + std::to_string(c.first_step) : "") +
                                         " is too many (at most 2^53)");
-        if (!c.steps && (c.t_end - c.t0) / c.dt > 0x1p53)
+        if (!c.steps && (c.t_end - c.t0) / c.dt > double(max_grid_steps))
             throw std::invalid_argument("(t_end - t0) / dt is " + detail::shortest_text((c.t_end - c.t0) / c.dt) +
                                         " steps, too many (at most 2^53)");
     }

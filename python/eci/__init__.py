@@ -361,8 +361,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         time). With dense_output or events, t_eval comes from the dense output, as in SciPy.
     output_dt: store the solution every output_dt of time instead, as `eci run --output-dt` (the library decides
         both, with the same messages): adaptive, at t0, t0 + output_dt, ... and t1 (as t_eval); fixed steps, every
-        k = output_dt / dt steps (and the last), output_dt being a whole number of dt, else ValueError; at most
-        10^7 outputs. Not with t_eval.
+        k = output_dt / dt steps (and the last), output_dt being a whole number of dt, else ValueError (a spectral
+        model given no dt takes its CFL 0.5 step shortened to divide output_dt); at most 10^7 outputs. Not with
+        t_eval.
     dense_output: also return result.sol, a DenseSolution (callable like SciPy's OdeSolution) built from every
         step's dense output; for a conservative pair it keeps the invariants at every t. Adaptive runs only.
     events: a callable event(t, y) -> float, or a sequence of them, each optionally with attributes terminal
@@ -479,12 +480,14 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             raise ValueError(f"t_span[1] = {_shortest(t1)} is before t_span[0] = {_shortest(t0)}: fixed steps of a "
                              f"built-in model run forward only; backward time needs adaptive control (rtol/atol, "
                              f"no dt)")
-        if dt is None:  # NavierStokes2D: the CFL 0.5 step of the initial state, as `eci run navier-stokes-2d`
+        if dt is None:  # a spectral model: the CFL 0.5 step of the initial state, as `eci run navier-stokes-2d`
             dt = fun.cfl_step(y0) if y0 is not None and hasattr(fun, "cfl_step") else fun.default_dt
+            if hasattr(fun, "cfl_step") and output_dt is not None:  # shortened to divide output_dt, as the CLI's
+                dt = _eci._step_dividing(_number(output_dt, "output_dt"), dt)
         dt = _number(dt, "dt")
         if not (dt > 0.0) or not math.isfinite(dt):
             raise ValueError(f"dt must be a positive finite number, not {_shortest(dt)}")
-        if (t1 - t0) / dt > 2.0 ** 53:  # beyond 2^53 steps the grid t0 + i dt is no longer exact
+        if (t1 - t0) / dt > _eci._max_grid_steps:  # beyond 2^53 steps the grid t0 + i dt is no longer exact
             raise ValueError(f"t_span / dt is {_shortest((t1 - t0) / dt)} steps, too many")
     if isinstance(max_halvings, bool) or not isinstance(max_halvings, numbers.Integral) or not 0 <= max_halvings <= 60:
         raise ValueError(f"max_halvings must be a whole number from 0 to 60, not {max_halvings!r}")

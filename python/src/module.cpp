@@ -51,6 +51,9 @@ PYBIND11_MODULE(_eci, m) {
     m.doc() = "The compiled part of eci (use the package eci: eci.solve, eci.models, eci.methods).";
     m.attr("__version__") = ECI_VERSION_STRING;  // project(eci VERSION ...), the one version source
     m.def("_methods", &method_list, "Every registered method as (name, order, conservative, description).");
+    m.attr("_max_grid_steps") = eci::max_grid_steps;  // the most fixed steps of a run (steps.hpp)
+    m.def("_step_dividing", &eci::step_dividing, py::arg("h"), py::arg("dt"),
+          "The largest step of at most dt that divides h into whole steps (the spectral CFL step with output_dt).");
     bind_model_base(m);
     init_models(m);
     init_functions(m);

@@ -99,6 +99,8 @@ TEST_F(cli_adaptive, BadInputIsRefused) {
         {"--method c-rk4 --rtol 1e-6", "no error estimate"},
         {"--method c-dp54 --rtol 1e-6 --steps 10", "--steps"},
         {"--method c-dp54 --rtol 1e-6 --output-dt 0", "--output-dt"},
+        // --output-dt sets the rows' interval: a --every beside it was silently replaced by it
+        {"--method c-rk4 --dt 0.01 --every 5 --output-dt 0.25", "give --every or --output-dt, not both"},
         // a first step given beyond the span, refused as Python's first_step is (the default --dt is not refused)
         {"--method c-dp54 --rtol 1e-6 --dt 2 --t-end 1", "--dt 2 exceeds the span of the run, 1"},
     };

@@ -297,14 +297,54 @@ def test_navier_stokes_refuses_what_the_cli_refuses_in_one_sentence(cli, options
     assert str(e.value) == as_python_names(message).removeprefix("rtol/atol: ")
 
 
-def test_output_dt_is_not_t_eval_and_not_navier_stokes():
+def test_output_dt_is_not_t_eval():
     with pytest.raises(ValueError, match="give t_eval or output_dt, not both"):
         eci.solve(eci.models.ThreeWave(), (0.0, 1.0), dt=0.1, t_eval=[0.0, 1.0], output_dt=0.5)
     with pytest.raises(TypeError, match="output_dt must be a real number"):
         eci.solve(eci.models.ThreeWave(), (0.0, 1.0), dt=0.1, output_dt="0.5")
-    if hasattr(M, "NavierStokes2D"):  # as `eci run navier-stokes-2d --output-dt`: whole steps only
-        with pytest.raises(ValueError, match="output_dt does not apply"):
-            eci.solve(M.NavierStokes2D(n=16, fftw_measure=False), (0.0, 1.0), dt=0.1, output_dt=0.5)
+
+
+def csv_columns(path):
+    header = path.read_text().splitlines()[0].split(",")
+    data = np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+    return {name: data[:, i] for i, name in enumerate(header)}
+
+
+# --output-dt on a spectral equation (refused before): rows every k = H / dt steps. Given --dt, H must be a multiple
+# of it; without, the CFL step is shortened to H / ceil(H / dt_CFL). Python's output_dt takes the same step and rows,
+# bit for bit, and refuses what the CLI refuses in the same sentence.
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("dt", [None, 0.01])
+def test_navier_stokes_output_dt_matches_cli(cli, tmp_path, dt):
+    csv = tmp_path / "ns.csv"
+    step = [] if dt is None else ["--dt", repr(dt)]
+    run_cli(cli, "run", "navier-stokes-2d", "--N", "16", "--t-end", "0.25", "--output-dt", "0.05", *step,
+            "--fftw-estimate", "--fftw-wisdom", "none", "--output", csv)
+    columns = csv_columns(csv)
+    m = eci.models.NavierStokes2D(n=16, fftw_measure=False)
+    r = eci.solve(m, (0.0, 0.25), m.default_y0, dt=dt, output_dt=0.05)
+    assert list(columns["t"]) == list(r.t)
+    assert len(r.t) == 6  # 0, 0.05, ..., 0.25: each within round-off of a multiple of H
+    assert np.max(np.abs(r.t - 0.05 * np.arange(6))) <= 8 * np.finfo(float).eps
+    if dt is None:  # the CFL 0.5 step shortened to divide H: at most it, and no shorter than it needs
+        cfl = m.cfl_step(m.default_y0)
+        k = r.stats["steps"] // 5
+        assert r.stats["steps"] == 5 * k and 0.05 / k <= cfl and (k == 1 or cfl < 0.05 / (k - 1))
+    assert [m.energy(r.y[:, i]) for i in range(len(r.t))] == list(columns["energy"])
+    assert [m.enstrophy(r.y[:, i]) for i in range(len(r.t))] == list(columns["enstrophy"])
+
+
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("dt, output_dt", [(0.03, 0.1), (0.01, 0.0), (0.01, -1.0), (1e-6, 1e-9), (0.01, float("nan"))])
+def test_navier_stokes_refuses_the_same_output_dt(cli, dt, output_dt):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", "navier-stokes-2d", "--N", "16", "--t-end", "0.1", "--dt", repr(dt),
+                        "--output-dt", repr(output_dt), "--fftw-estimate", "--fftw-wisdom", "none")
+    assert "--output-dt" in message
+    with pytest.raises(ValueError) as e:
+        eci.solve(eci.models.NavierStokes2D(n=16, fftw_measure=False), (0.0, 0.1), dt=dt, output_dt=output_dt)
+    assert str(e.value) == as_python_names(message)
 
 
 # --- every model of the C++ model list (include/eci/models/list.hpp) --------------------------------------------

@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <limits>
 #include <string>
 #include <thread>
 #include <vector>
@@ -404,7 +405,10 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--energy 1e-310", "normal"},
         {"--rtol nan", "rtol must be a finite number >= 0, not nan"},
         {"--atol 1e-6", "has no error estimate for rtol/atol"},
-        {"--output-dt 0", "does not apply"},
+        {"--output-dt 0", "--output-dt must be a positive finite number, not 0\n"},
+        {"--dt 0.1 --output-dt 0.25", "--output-dt 0.25 is not a multiple of --dt 0.1 (fixed steps)\n"},
+        {"--restart " + q + "/ok.h5 --output-dt 0.1234567", "is not a multiple of the restart file's time step"},
+        {"--every 2 --output-dt 0.5", "give --every or --output-dt, not both\n"},
         {"--restart " + q + "/ok.h5 --threads 2", "does not match"},
         {"--restart " + q + "/ok.h5 --injection-rate 3", "does not match"},
         // numbers as the user typed them (0.1, not 0.10000000000000001)
@@ -431,6 +435,43 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         EXPECT_FALSE(fs::exists(d / "new.csv")) << args;
         EXPECT_EQ(read_text(d / "keep.csv"), "precious\n") << args;
         EXPECT_FALSE(fs::exists(d / "ns2d-checkpoint.h5")) << args;
+    }
+}
+
+// --output-dt H: rows every k = H / dt steps, the very rows of --every k; without --dt the CFL step is shortened to
+// H / ceil(H / dt_CFL), so that the rows fall on the grid (it was refused: "--output-dt does not apply").
+TEST(CliNavierStokes2d, OutputDtWritesEveryKStepsAndShortensTheCflStep) {
+    scratch_dir dir("ns2d-output-dt");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string()) + "/";
+    const std::string run = "run navier-stokes-2d --N 16 --t-end 1 --fftw-estimate --fftw-wisdom none ";
+    auto r = run_eci(run + "--dt 0.05 --output-dt 0.25 --output " + q + "a.csv", d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = run_eci(run + "--dt 0.05 --every 5 --output " + q + "b.csv", d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(read_text(d / "a.csv"), read_text(d / "b.csv"));
+    EXPECT_EQ(lines_of(read_text(d / "a.csv")).size(), 1u + 5u);
+
+    const auto dt_of = [&](const char* json) {
+        const std::string text = read_text(d / json);
+        const std::size_t at = text.find("\"dt\": ");
+        return at == std::string::npos ? 0.0 : std::strtod(text.c_str() + at + 6, nullptr);
+    };
+    r = run_eci(run + "--summary-json " + q + "cfl.json", d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const double cfl = dt_of("cfl.json");  // the CFL 0.5 step of the default field (0.09 at N = 16)
+    ASSERT_GT(cfl, 0.25 / 8);
+    r = run_eci(run + "--output-dt 0.25 --output " + q + "c.csv --summary-json " + q + "c.json", d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const double k = std::ceil(0.25 / cfl), dt = dt_of("c.json");
+    EXPECT_EQ(dt, 0.25 / k);
+    EXPECT_LE(dt, cfl);
+    const auto rows = lines_of(read_text(d / "c.csv"));
+    ASSERT_EQ(rows.size(), 1u + 5u);
+    for (std::size_t i = 1; i < rows.size(); ++i) {  // step j k, t = j k dt: within a few roundings of j H
+        const std::vector<std::string> row = split(rows[i]);
+        EXPECT_EQ(std::stod(row.at(0)), double(i - 1) * k) << rows[i];
+        EXPECT_NEAR(std::stod(row.at(1)), 0.25 * double(i - 1), 8 * std::numeric_limits<double>::epsilon()) << rows[i];
     }
 }
 
