@@ -108,6 +108,21 @@ def case_state(d):
     if r.returncode == 0:
         diff = rel(state(os.path.join(d, "t2.h5"))[0], state(os.path.join(d, "t0.h5"))[0])
         check(diff <= 16 * EPS * np.sqrt(50), f"-np 2 --threads 2: state = serial to {diff:.3g}")
+    # --output-dt without --dt: the CFL step (max|u| over every process) shortened to divide it, the same on 1 and 2
+    # processes, so the same rows at the same steps and times
+    timed = [a for a in BASE if a not in ("--dt", "0.002")] + ["--method", "c-rk4", "--t-end", "0.3",
+                                                                 "--output-dt", "0.1"]
+    rows = []
+    for np_ in (0, 2):
+        r = run(np_, timed + ["--output", f"od{np_}.csv"], d)
+        check(r.returncode == 0, f"--output-dt -np {np_}: exit {r.returncode} {r.stderr.strip()[-200:]}")
+        if r.returncode == 0:
+            with open(os.path.join(d, f"od{np_}.csv")) as f:
+                rows.append([(row["step"], row["t"]) for row in csv.DictReader(f)])
+        else:
+            rows.append(None)
+    check(rows[0] is not None and rows[0] == rows[1] and len(rows[0]) == 4,
+          f"--output-dt 0.1 to t = 0.3: the same 4 rows' steps and times on 1 and 2 processes ({rows})")
     # the other equations run distributed from the same code
     for eq, extra in (("charney-hasegawa-mima", ["--beta", "2", "--deformation", "1"]), ("surface-qg", [])):
         args = BASE + extra + ["--steps", "50", "--checkpoint-every", "50"]
