@@ -296,11 +296,15 @@ TEST(CliSpectralOutputs, AFailedCommitLeavesTheEarlierRunsOutputs) {
                                         "o.json"}) {
         const pid_t pid = start_eci(w.path(), later, err);
         ASSERT_GT(pid, 0);
-        // once the run is under way (its staged snapshots' directory exists), the output becomes a directory
+        // once the run is under way (its first snapshot is staged: the staging directory is made before the CSV
+        // and JSON outputs are opened, and a directory there then is bad input, exit 2), the output becomes a
+        // directory
         bool staged = false;
         for (int i = 0; i < 20000 && !staged; ++i) {
+            std::error_code gone;  // (a staging directory may vanish while it is looked at)
             for (const auto& e : fs::directory_iterator(w.file("snaps")))
-                staged = staged || e.path().filename().string().rfind(".eci-tmp-", 0) == 0;
+                staged = staged || (e.path().filename().string().rfind(".eci-tmp-", 0) == 0 &&
+                                    !fs::is_empty(e.path(), gone) && !gone);
             if (!staged) ::usleep(1000);
         }
         ASSERT_TRUE(staged) << sabotaged;
