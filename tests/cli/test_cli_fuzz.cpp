@@ -154,6 +154,7 @@ fuzz_case make_case(generator& g) {
         opt("--snapshot-dir", g.pick<std::string>({"snaps", "o.csv", "nodir/snaps"}), 0.1);
         if (c.model == "charney-hasegawa-mima") opt("--beta", g.number(1, false), 0.3), opt("--deformation", g.number(1, true), 0.3);
         opt("--nu", g.number(0.01, true), 0.3), opt("--cfl", g.number(0.5, true), 0.3);
+        opt("--output-dt", g.number(0.05, true), 0.15);  // the CFL step shortened to divide it, or a --dt checked
         opt("--ic", g.pick<std::string>({"random", "vortex-pair", "taylor-green", "missing.h5"}), 0.5);
         opt("--forcing", g.pick<std::string>({"none", "deterministic", "stochastic", "x"}), 0.3);
     } else {
@@ -176,6 +177,8 @@ fuzz_case make_case(generator& g) {
         opt("--rtol", g.chance(0.85) ? generator::text(std::pow(10.0, g.uniform(-12, -1))) : g.number(1e-6, true), 1.0);
         opt("--atol", generator::text(std::pow(10.0, g.uniform(-12, -1))), 0.3);
         opt("--output-dt", g.number(0.5, true), 0.3);
+    } else if (!is_spectral(c.model)) {
+        opt("--output-dt", g.number(0.1, true), 0.05);  // fixed steps: a multiple of --dt, or refused
     }
     if (g.chance(0.5)) {
         c.csv = true;
