@@ -918,10 +918,18 @@ int spectral_command::run_spread(const run_settings& settings) {
             throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(pt.t) + ": energy " +
                             num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); reduce --dt or --cfl" + last_good());
         }
+        // relative to the invariant after the step; to the one before it where a decayed flow reached exactly 0
+        // (the residual was inf there), and absolute where both are 0
+        const auto relative = [](double r, double after, double before) {
+            const double scale = after != 0.0 ? after : before;
+            return scale != 0.0 ? r / scale : r;
+        };
         run.max_energy_residual = std::max(
-            run.max_energy_residual, std::abs(e1 - e_prev - (b.energy_injection - b.energy_dissipation)) / e1);
+            run.max_energy_residual,
+            relative(std::abs(e1 - e_prev - (b.energy_injection - b.energy_dissipation)), e1, e_prev));
         run.max_enstrophy_residual = std::max(
-            run.max_enstrophy_residual, std::abs(z1 - z_prev - (b.enstrophy_injection - b.enstrophy_dissipation)) / z1);
+            run.max_enstrophy_residual,
+            relative(std::abs(z1 - z_prev - (b.enstrophy_injection - b.enstrophy_dissipation)), z1, z_prev));
         run.max_energy_drift = std::max(run.max_energy_drift, std::abs(e1 - run.energy0));
         run.max_enstrophy_drift = std::max(run.max_enstrophy_drift, std::abs(z1 - run.enstrophy0));
         e_prev = e1, z_prev = z1;

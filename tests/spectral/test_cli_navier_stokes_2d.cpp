@@ -475,6 +475,23 @@ TEST(CliNavierStokes2d, OutputDtWritesEveryKStepsAndShortensTheCflStep) {
     }
 }
 
+// A flow that decays to exactly zero (Euler's step with drag mu dt = 1 on the steady Taylor-Green flow: energy
+// 2e-33 after one step, 0 after two) reports finite per-step budget residuals; they divided by the energy after the
+// step, inf in the summary and null in the JSON (found by the CLI fuzz test, seed 3084687999).
+TEST(CliNavierStokes2d, AFlowDecayedToZeroHasFiniteBudgetResiduals) {
+    scratch_dir dir("ns2d-decayed");
+    const fs::path d = dir.path();
+    const auto r = run_eci("run navier-stokes-2d --N 16 --ic taylor-green --drag 1 --dt 1 --method euler --steps 4 "
+                           "--fftw-estimate --fftw-wisdom none --summary-json " +
+                               shell_quote((d / "s.json").string()),
+                           d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string json = read_text(d / "s.json");
+    EXPECT_NE(json.find("\"energy\": {\"initial\": 0.25, \"final\": 0,"), std::string::npos) << json;  // it did reach 0
+    EXPECT_EQ(json.find("null"), std::string::npos) << json;
+    EXPECT_EQ(r.err.find("inf"), std::string::npos) << r.err;
+}
+
 // `eci list` and --help say where the default dt comes from (the CFL number), not "default dt 0".
 TEST(CliNavierStokes2d, ListAndHelpTellTheDefaultDt) {
     scratch_dir dir("ns2d-list");
