@@ -6,7 +6,7 @@ default_t_end and the methods it accepts. Invalid parameters raise ValueError wi
 set-ups are named presets: ThreeWave.preset("fig2").solve() is `eci run three-wave --preset fig2`.
 """
 
-from collections import namedtuple
+from collections import namedtuple as _namedtuple
 
 import numpy as _np
 
@@ -32,7 +32,7 @@ except ImportError:
     pass
 
 
-class Preset(namedtuple("Preset", "name description model y0 method dt t_end")):
+class Preset(_namedtuple("Preset", "name description model y0 method dt t_end")):
     """A named set-up of a model (the paper's figures): the model with its parameters, the initial state y0, the
     method, the step dt and the span [0, t_end], as `eci run MODEL --preset NAME` runs it."""
 

@@ -18,6 +18,8 @@ def test_dir_lists_what_eci_offers_not_what_it_imports():
     for name in ("math", "np", "numbers", "warnings", "namedtuple"):  # listed before
         assert name not in names
     assert not [name for name in names if name.startswith("_") and not name.startswith("__")]
+    models = [name for name in dir(eci.models) if not name.startswith("_")]
+    assert set(eci.models.__all__) <= set(models) and "namedtuple" not in models and "np" not in models
 
 
 def test_methods_are_the_registry_as_eci_list_shows_it(cli):
