@@ -654,7 +654,8 @@ int spectral_command::run_spread(const run_settings& settings) {
         last = *settings.steps;
     } else {
         t_end = settings.t_end ? *settings.t_end : restart ? ck.t_end : info_.default_t_end;
-        if (t_end / dt > double(max_grid_steps))  // (a --dt of 1e-20 took one step of the whole span before: the count overflowed)
+        // (a --dt of 1e-20 took one step of the whole span before: the count overflowed)
+        if (t_end / dt > double(max_grid_steps))
             throw bad_input("--t-end / --dt is " + shortest(t_end / dt) + " steps, too many");
         last = std::isnan(t_end) ? ck.total_steps : steps_to_reach(0.0, t_end, dt);
     }
@@ -664,25 +665,23 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (last < first)
         throw bad_input("the restart file is at step " + std::to_string(first) + ", beyond the requested " +
                         std::to_string(last));
+    // The run's span and rows, here, before any output is opened (its other settings below, with the sink)
+    run_config cfg;
+    cfg.dt = dt;
+    cfg.first_step = first;  // a restart continues the grid i dt and its step numbers
+    if (std::isnan(t_end))
+        cfg.steps = last - first;
+    else
+        cfg.t_end = t_end;  // (the library lands on it: steps first + 1 .. last, the last one shortened if need be)
+    cfg.every = settings.every;
     // rows every --output-dt of time: every k = output-dt / dt steps, k whole (the library's rule and sentences)
-    std::uint64_t every = settings.every;
-    if (settings.output_dt) {
-        run_config rows;
-        rows.dt = dt;
-        rows.first_step = first;
-        if (std::isnan(t_end))
-            rows.steps = last - first;
-        else
-            rows.t_end = t_end;
-        rows.output_dt = settings.output_dt;
-        try {
-            resolve_output_dt(rows, {.output_dt = "--output-dt",
-                                     .dt = restart ? "the restart file's time step" : "--dt",
-                                     .tolerances = ""});
-        } catch (const std::invalid_argument& e) {
-            throw bad_input(e.what());
-        }
-        every = rows.every;
+    cfg.output_dt = settings.output_dt;
+    try {
+        resolve_output_dt(cfg, {.output_dt = "--output-dt",
+                                .dt = restart ? "the restart file's time step" : "--dt",
+                                .tolerances = ""});
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(e.what());
     }
 
     // ---- outputs: opened (or their directories created) only now that the input is known to be good
@@ -961,14 +960,6 @@ int spectral_command::run_spread(const run_settings& settings) {
         done = i;
         c0 = cpu_now(), w0 = wall_now();
     };
-    run_config cfg;
-    cfg.dt = dt;
-    cfg.first_step = first;  // a restart continues the grid i dt and its step numbers
-    if (std::isnan(t_end))
-        cfg.steps = last - first;
-    else
-        cfg.t_end = t_end;  // (the library lands on it: steps first + 1 .. last, the last one shortened if need be)
-    cfg.every = every;
     cfg.max_halvings = 40;
     cfg.max_substeps = std::numeric_limits<std::uint64_t>::max();
     cfg.update = update == "paper" ? update_kind::paper : update_kind::conditioned;  // --update (default: conditioned)
