@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <cstddef>
 #include <initializer_list>
+#include <limits>
 #include <ranges>
 #include <span>
 #include <stdexcept>
@@ -153,7 +154,12 @@ double rounding_scale(const Set& inv, const S& x, std::size_t i, S& g) {
     const auto a = reals(x), b = reals(std::as_const(g));
     double xx = 0.0, gg = 0.0;
     for (std::size_t j = 0; j < a.size(); ++j) xx += a[j] * a[j], gg += b[j] * b[j];
-    return std::sqrt(xx * gg);
+    // |x|^2 |grad I|^2 is of the scale of I^2: beyond the range where I is near its ends (a quadratic I at |x| ~
+    // 2^300), there the product of the norms
+    const double p = xx * gg;
+    return p >= std::numeric_limits<double>::min() && p <= std::numeric_limits<double>::max()
+               ? std::sqrt(p)
+               : std::sqrt(xx) * std::sqrt(gg);
 }
 
 /// Solve the m x m system A y = r in place (Gaussian elimination, partial pivoting); false if A is singular

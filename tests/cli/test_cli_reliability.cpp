@@ -130,7 +130,9 @@ TEST_F(reliability, the_work_of_one_step_is_bounded) {
     };
     for (const auto& args : cases) {
         const auto start = std::chrono::steady_clock::now();
-        const run_result r = eci(args);
+        // bounded beyond the bound asserted below, so that a slow run fails on it rather than being interrupted
+        // (the harness's 20 s stopped n-wave-complex under AddressSanitizer with a build beside it, at 35 s)
+        const run_result r = eci(args, int(2.0 * one_step_work_seconds));
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         // Either the step is taken (the halvings reach a size that works within the bound) or it is refused.
         if (r.status == 0) {

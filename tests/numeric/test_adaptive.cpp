@@ -364,6 +364,55 @@ TEST(AdaptiveDense, AutomaticModeIsDenseOnlyWhereItMatchesTheSteps) {
 // where steps end near zero crossings, see docs/methods.md), so a four-decade fit is dominated by that
 // scatter (C-F78: 0.73 over 1e-5..1e-9, 0.85 over 1e-4..1e-10).
 
+// A quadratic system is free of scale (psi(t) solves it, so does a psi(a t)): with a = 2^k and the state, the
+// first step, the output times and atol scaled, each product of an adaptive run is the unscaled run's times a power
+// of two, so the run, its step sizes, its rejections and its dense output are the unscaled ones scaled, bit for
+// bit, while nothing leaves the range of double. The conservative pairs' rate of xi = psi^2 (sum_j 2 b_j Y_j S_j,
+// cubic in the scale, and the dense output's end rates 2 psi S) overflowed at |psi| ~ 2^400 ("adaptive step fell
+// below the minimum" where dp54 ran) and underflowed at 2^-400 (the state left where it was); they are formed with
+// the step's power of two inside (detail::split_step). Three-wave (the paper's update) and the random real n-wave
+// system (45 unknowns: the conditioned update), rows at fixed times by dense output.
+template <class St, class Model>
+void expect_the_scaled_adaptive_run(const Model& m, const typename Model::state_type& x0, int k, const char* label) {
+    const double a = std::ldexp(1.0, k);
+    std::vector<double> times, scaled_times;
+    for (int i = 1; i <= 40; ++i) times.push_back(0.05 * i), scaled_times.push_back(0.05 * i / a);
+    std::vector<typename Model::state_type> rows, scaled_rows;
+    auto run = [&](typename Model::state_type x, double scale, const std::vector<double>& at,
+                   std::vector<typename Model::state_type>& out) {
+        St st;
+        eci::adaptive_options o;
+        o.rtol = 1e-8;
+        o.atol = 1e-8 * scale;
+        return eci::integrate_adaptive_at(st, m, x, 0.0, at, 1e-3 / scale, o,
+                                          [&](const typename Model::state_type& s, double) { out.push_back(s); },
+                                          eci::output_mode::dense);
+    };
+    auto big = x0;
+    for (auto& v : big) v *= a;
+    const eci::adaptive_stats s = run(x0, 1.0, times, rows);
+    const eci::adaptive_stats b = run(big, a, scaled_times, scaled_rows);
+    EXPECT_EQ(b.accepted, s.accepted) << label << ", 2^" << k;
+    EXPECT_EQ(b.rejected_error, s.rejected_error) << label << ", 2^" << k;
+    EXPECT_EQ(b.rejected_radicand, s.rejected_radicand) << label << ", 2^" << k;
+    EXPECT_EQ(b.dense_points, s.dense_points) << label << ", 2^" << k;
+    ASSERT_EQ(rows.size(), scaled_rows.size()) << label << ", 2^" << k;
+    std::size_t differ = 0;
+    for (std::size_t r = 0; r < rows.size(); ++r)
+        for (std::size_t i = 0; i < rows[r].size(); ++i) differ += scaled_rows[r][i] / a == rows[r][i] ? 0 : 1;
+    EXPECT_EQ(differ, 0u) << label << " scaled by 2^" << k << ": values of the rows differ from the unscaled run's";
+}
+
+TYPED_TEST(AdaptivePair, AScaledRunIsTheRunScaledBitForBit) {
+    const auto nw = eci::n_wave<double>::random(45, 4, 3);
+    for (int k : {-400, 400}) {
+        expect_the_scaled_adaptive_run<typename TypeParam::template stepper<state>>(model, figure5_ic, k,
+                                                                                     "three-wave");
+        expect_the_scaled_adaptive_run<typename TypeParam::template stepper<rvec>>(nw, nw.random_state(4), k,
+                                                                                    "real n-wave");
+    }
+}
+
 TYPED_TEST(AdaptivePair, GlobalErrorIsProportionalToTheTolerance) {
     using St = typename TypeParam::template stepper<state>;
     const eci::three_wave_exact exact(model, figure5_ic);

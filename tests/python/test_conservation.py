@@ -154,3 +154,47 @@ def test_user_transform_keeps_a_hamiltonian_that_is_not_a_sum_of_squares(transfo
     # while the conventional method drifts
     rk = eci.solve(lv_fun, (0.0, 20.0), [1.0, 0.4], method=method.replace("c-", ""), dt=0.02, invariants={"H": H})
     assert rk.invariants["H"]["max_rel_drift"] > 100 * bound(steps)
+
+
+# A quadratic system is free of scale: if y(t) solves it, so does a y(a t). With a = 2^k, the state times a and
+# every time over a, each product a method forms is the unscaled run's times a power of two, exactly, so the run is
+# the unscaled run times a, bit for bit, while nothing leaves the range of double. The conservative methods' rate of
+# psi^2 (sum 2 b Y S, cubic in the scale) overflowed at 2^400 and underflowed at 2^-400, where C-RK4 and the
+# conservative pairs silently left the state unchanged; the relaxation and projection methods failed or stopped
+# their Newton early (docs/methods.md, "Across the range of double"; the C++ test EveryMethodAcrossTheRange runs
+# every method of the library). Here through both Python paths: a built-in model (the run in C++) and a NumPy fun.
+SCALED_ON_MODEL = ["rk4", "c-rk2", "c-rk4", "c-pc-compensated", "c-dp54", "rrk-rk4", "mrrk-rk4", "projected-rk4"]
+SCALED_ON_FUN = ["c-rk4", "c-pc-compensated", "c-dp54"]
+
+
+def scaled_pair(fun, method, k, adaptive):
+    a = 2.0 ** k
+    y0 = np.array([1.0, 0.5, -0.3])
+    times = np.linspace(0.3, 3.0, 10)
+
+    def run(s):
+        if adaptive:  # the first step given (the initial-step rule takes a root of a scaled quantity: not exact)
+            return eci.solve(fun, (0.0, 3.0 / s), y0 * s, method=method, rtol=1e-8, atol=1e-8 * s, t_eval=times / s,
+                             first_step=1e-3 / s)
+        return eci.solve(fun, (0.0, 3.0 / s), y0 * s, method=method, dt=0.01 / s)
+    return run(1.0), run(a), a
+
+
+@pytest.mark.parametrize("k", [-400, 400])
+@pytest.mark.parametrize("method", SCALED_ON_MODEL)
+def test_a_scaled_run_of_a_model_is_the_run_scaled(method, k):
+    for adaptive in (False, True) if method == "c-dp54" else (False,):
+        r, s, a = scaled_pair(M.ThreeWave(), method, k, adaptive)
+        assert r.success and s.success, (r.message, s.message)
+        assert r.nfev == s.nfev and np.array_equal(s.t * a, r.t)
+        assert np.array_equal(s.y / a, r.y), (method, adaptive, np.max(np.abs(s.y / a - r.y)))
+
+
+@pytest.mark.parametrize("k", [-400, 400])
+@pytest.mark.parametrize("method", SCALED_ON_FUN)
+def test_a_scaled_run_of_a_numpy_fun_is_the_run_scaled(method, k):
+    for adaptive in (False, True) if method == "c-dp54" else (False,):
+        r, s, a = scaled_pair(three_wave_fun, method, k, adaptive)
+        assert r.success and s.success, (r.message, s.message)
+        assert r.nfev == s.nfev and np.array_equal(s.t * a, r.t)
+        assert np.array_equal(s.y / a, r.y), (method, adaptive, np.max(np.abs(s.y / a - r.y)))

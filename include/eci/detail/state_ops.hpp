@@ -57,6 +57,27 @@ inline bool all_finite_reals(const double* v, std::size_t n) {
     return none_non_finite(bad);
 }
 
+/// A step tau as p m with p a power of two and m in [1, 2): multiplying by p is exact (short of the ends of the
+/// range) and m is tau / p exactly. The rate of psi^2, sum_j 2 b_j Y_j S_j, is cubic in the state's scale for a
+/// quadratic system and over- or underflows within the cube root of the range (|psi| beyond 2^341 or below
+/// 2^-341) while psi^2 and its increment tau 2 b_j Y_j S_j are representable. Formed as sum_j (2 b_j p Y_j) S_j and
+/// multiplied by m, it is of the increment's size, and since every product is the old one times p exactly, the same
+/// bits wherever the old form was representable: a run of the state scaled by 2^k and the step by 2^-k then equals
+/// the unscaled run scaled, bit for bit, across the range.
+struct step_split {
+    double p;  ///< the power of two
+    double m;  ///< tau / p, in [1, 2)
+};
+inline step_split split_step(double tau) {
+    constexpr std::uint64_t exponent = 0x7ff0000000000000u, one = 0x3ff0000000000000u;
+    const std::uint64_t b = std::bit_cast<std::uint64_t>(tau);
+    const std::uint64_t e = b & exponent;
+    // tau = 2^e' 1.f: p = 2^e' (the exponent field alone), m = +-1.f (the sign and fraction with 1's exponent).
+    // Zero, subnormal and non-finite tau are left as they are (p = 1, m = tau): the unscaled form.
+    const bool normal = e != 0 && e != exponent;
+    return {normal ? std::bit_cast<double>(e) : 1.0, normal ? std::bit_cast<double>((b & ~exponent) | one) : tau};
+}
+
 /// Index of the first real unknown for which `bad(i)` holds; called only after a step has failed.
 template <class Pred>
 std::size_t first_index(std::size_t n, Pred bad) {

@@ -42,11 +42,14 @@ inline void two_sum(double a, double b, double& s, double& e) {
 inline double compensated_c_pc_finish_inline(double* p, double* k0, const double* x, const double* k1,
                                              const double* r, double dt, std::size_t n) {
     double bad = 0.0;
+    const step_split sp = split_step(dt);
     for (std::size_t i = 0; i < n; ++i) {
         const double psi = x[i];
         double sq, sq_err;
         two_product(psi, psi, sq, sq_err);
-        const double inc = dt * (psi * k0[i] + p[i] * k1[i]);  // eq. (30b), the increment of psi^2
+        // eq. (30b), the increment of psi^2, with dt = p m (split_step): (p psi) S is p psi S exactly, of the
+        // increment's size where psi S itself would over- or underflow, and the same bits wherever it does not
+        const double inc = sp.m * ((sp.p * psi) * k0[i] + (sp.p * p[i]) * k1[i]);
         double hi, lo;
         two_sum(sq, inc, hi, lo);
         lo += sq_err + r[i];
@@ -143,10 +146,11 @@ class c_pc_compensated : public radicand_remedy {
     bool remedy_failures(double* p, double* k0, const double* x, const double* k1, const double* r, double dt,
                          std::size_t n) {
         auto failed = [&](std::size_t i) { return !(p[i] == p[i]); };
+        const detail::step_split sp = detail::split_step(dt);
         auto fix = [&](std::size_t i) -> std::pair<double, double> {
             const double pred = x[i] + dt * k0[i];  // eq. (30a)
             const double conv = x[i] + 0.5 * dt * (k0[i] + k1[i]);
-            const double rad = x[i] * x[i] + r[i] + dt * (x[i] * k0[i] + pred * k1[i]);  // eq. (30b)
+            const double rad = x[i] * x[i] + r[i] + sp.m * ((sp.p * x[i]) * k0[i] + (sp.p * pred) * k1[i]);  // (30b)
             k0[i] = 0.0;  // conv^2 is taken as exact: no residual
             return {conv, rad};
         };

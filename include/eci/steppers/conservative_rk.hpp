@@ -45,12 +45,7 @@ class conservative_rk : public radicand_remedy {
         split_ = detail::splitter::of(f);  // empty unless the model lends its threads (detail/ranges.hpp)
         if constexpr (s == 1) detail::resize_like(result_, x);
         st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
-        const step_result r = finish<F>(x, dt, false);
-        // A step that failed where a radicand is not finite (its rate overflowed: |psi| |S| beyond the largest
-        // double, a state within the cube root of the range) is finished again with every radicand formed by
-        // finite_radicand. Only failed steps look, so every other step keeps its bits and its cost.
-        if (r || !radicand_overflowed<F>(x, dt)) return r;
-        return finish<F>(x, dt, true);
+        return finish<F>(x, dt);
     }
 
     /// Whether step_local keeps the state and the stages in registers: a few real unknowns of one process.
@@ -86,11 +81,10 @@ class conservative_rk : public radicand_remedy {
 
    private:
     // The finishing passes of step() from the stages taken, and the remedy; on success the new state is swapped
-    // into x. `overflow`: every radicand by finite_radicand (the retry of a step whose rate overflowed).
+    // into x.
     template <class F>
-    step_result finish(S& x, double dt, bool overflow) {
+    step_result finish(S& x, double dt) {
         rescaled_ = rescaled::no;
-        overflow_ = overflow;
         const auto xr = detail::reals(std::as_const(x));
         const std::size_t n = xr.size();
         double bad = 0.0;  // a double count keeps the loop vectorizable; any non-zero value fails the step
@@ -103,13 +97,12 @@ class conservative_rk : public radicand_remedy {
             // The conditioned update: the modulus of a complex mode, the conventional update where the square root is
             // ill-conditioned, and one exact rescale (docs/methods.md). Spread over processes, its every decision
             // is taken from sums over all of them (remedy_elements), so all take it alike.
-            std::array<const double*, s> kp{};
-            for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
+            const std::array<const double*, s> kp = stage_pointers();
             finish_conditioned(o, xr.data(), kp, dt, n);
             if (reduce_.any(!filed_none()) &&
                 !remedy_elements<per>(o, xr.data(), n, [&](std::size_t e, std::array<double, per>& c) {
                     std::array<double, per> rad{};
-                    const auto [c2, xi] = element_update(xr.data(), kp, e, dt, c, rad, overflow_);
+                    const auto [c2, xi] = element_update(xr.data(), kp, e, dt, c, rad);
                     return radicand_remedy::element_update{c2, xi, sign_of(xr.data(), kp, e, dt, c, xi)};
                 }))
                 return step_result::failure(first_negative<per>());
@@ -120,13 +113,10 @@ class conservative_rk : public radicand_remedy {
                                      : detail::c_pc_finish_inline(o + i0, xr.data() + i0, k1 + i0, dt, i1 - i0);
             });
         } else {
-            std::array<const double*, s> kp{};
-            for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
+            const std::array<const double*, s> kp = stage_pointers();
             bad = split_.count(n, [&](std::size_t i0, std::size_t i1) {
-                return overflow_ ? finish_general<true>(o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
-                                                        std::make_index_sequence<s>{})
-                                 : finish_general<false>(o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
-                                                         std::make_index_sequence<s>{});
+                return finish_general(o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
+                                      std::make_index_sequence<s>{});
             });
         }
         // A negative radicand on any process is one on every process (detail/reduce.hpp).
@@ -146,27 +136,6 @@ class conservative_rk : public radicand_remedy {
         using std::swap;
         swap(x, out);
         return step_result::success();
-    }
-
-    // Whether a radicand of the step just finished is not finite although x is (its rate overflowed), on any
-    // process. C-PC's own finishing pass forms eq. (30)'s factorised radicand, which does not overflow there.
-    template <class F>
-    bool radicand_overflowed(const S& x, double dt) const {
-        const auto xr = detail::reals(x);
-        const std::size_t n = xr.size();
-        if (is_c_pc && !conditioned_update_applies(n)) return false;
-        std::array<const double*, s> kp{};
-        for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
-        constexpr double top = std::numeric_limits<double>::max();
-        double any = split_.count(n, [&](std::size_t i0, std::size_t i1) {
-            for (std::size_t i = i0; i < i1; ++i)
-                if (std::abs(xr[i]) <= top &&
-                    !(std::abs(radicand(xr.data(), kp, i, dt, std::make_index_sequence<s>{})) <= top))
-                    return 1.0;
-            return 0.0;
-        });
-        if constexpr (detail::distributed_model<F>) any = reduce_.any(any != 0.0) ? 1.0 : 0.0;
-        return any != 0.0;
     }
 
     // step_local's paths out of line, given copies of the state and the stages (a reference would take the caller's
@@ -213,9 +182,11 @@ class conservative_rk : public radicand_remedy {
                 const std::array<double, s> w{(dt * T.b[J])...};
                 double conv = x[i];
                 ((T.b[J] != 0.0 ? (conv += w[J] * k[J][i], 0) : 0), ...);
-                double rate = 2.0 * T.b[0] * x[i] * k[0][i];  // Y_0 = x
-                ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * stage_at<J, i>(x, k, dt) * k[J][i], 0) : 0), ...);
-                const double rad = x[i] * x[i] + dt * rate;
+                const detail::step_split sp = detail::split_step(dt);  // as radicand() forms it
+                double rate = 2.0 * T.b[0] * sp.p * x[i] * k[0][i];  // Y_0 = x
+                ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * sp.p * stage_at<J, i>(x, k, dt) * k[J][i], 0) : 0),
+                 ...);
+                const double rad = x[i] * x[i] + sp.m * rate;
                 bad += rad >= 0.0 ? 0.0 : 1.0;
                 const double sign = Sign == sign_rule::of_update ? conv : stage_at<s - 1, i>(x, k, dt);
                 return std::copysign(std::sqrt(rad), sign);
@@ -259,14 +230,15 @@ class conservative_rk : public radicand_remedy {
     // For a complex mode xi_e is the modulus squared: every invariant sum_k w_k |psi_k|^2 is linear in it.
     static std::pair<double, double> element_update(const double* x, const std::array<const double*, s>& k,
                                                     std::size_t e, double dt, std::array<double, per>& c,
-                                                    std::array<double, per>& rad, bool overflow) {
+                                                    std::array<double, per>& rad) {
+        const detail::step_split sp = detail::split_step(dt);
         double xi = 0.0, c2 = 0.0;
         for (std::size_t p = 0; p < per; ++p) {
             const std::size_t i = e * per + p;
             const double conv = conventional(x, k, i, dt, std::make_index_sequence<s>{});
             c[p] = conv;
             c2 += conv * conv;
-            rad[p] = overflow ? finite_radicand(x, k, i, dt) : radicand(x, k, i, dt, std::make_index_sequence<s>{});
+            rad[p] = radicand(x, k, i, dt, sp, std::make_index_sequence<s>{});
             xi += rad[p];
         }
         return {c2, xi};
@@ -301,16 +273,15 @@ class conservative_rk : public radicand_remedy {
             // element_update, one unknown at a time), then each element's |c|^2, xi and sign, then the filing
             std::array<double, B * per> cv, rv;
             std::array<double, B> c2v, xiv, sg;
+            const detail::step_split sp = detail::split_step(dt);
             for (std::size_t e0 = e_begin; e0 < e_end; e0 += B) {
                 const std::size_t nb = std::min(B, e_end - e0);
-                if (overflow_) [[unlikely]]
-                    block_updates_overflow(cv.data(), rv.data(), c2v.data(), xiv.data(), sg.data(), x, k, e0, nb, dt);
 #if ECI_DETAIL_X86_SIMD
-                else if (detail::cpu_has_avx2())
-                    block_updates_avx2(cv.data(), rv.data(), c2v.data(), xiv.data(), sg.data(), x, k, e0, nb, dt);
-#endif
+                if (detail::cpu_has_avx2())
+                    block_updates_avx2(cv.data(), rv.data(), c2v.data(), xiv.data(), sg.data(), x, k, e0, nb, dt, sp);
                 else
-                    block_updates(cv.data(), rv.data(), c2v.data(), xiv.data(), sg.data(), x, k, e0, nb, dt);
+#endif
+                    block_updates(cv.data(), rv.data(), c2v.data(), xiv.data(), sg.data(), x, k, e0, nb, dt, sp);
                 condition_block<per>(o, x, e0, nb, cv.data(), c2v.data(), xiv.data(), sg.data(), pass, into);
             }
             passes[std::size_t(r)] = pass;
@@ -321,19 +292,15 @@ class conservative_rk : public radicand_remedy {
     // A block of the conditioned pass (elements e0 .. e0 + nb): the conventional update and radicand of each real
     // unknown (the operations of element_update, one unknown at a time), then each element's |c|^2, xi and sign.
     // Always inlined, so that each caller below compiles it for its own instruction set.
-    template <bool Overflow = false>
     [[gnu::always_inline]] static void block_body(double* __restrict cv, double* __restrict rv, double* __restrict c2v,
                                                   double* __restrict xiv, double* __restrict sg, const double* x,
                                                   const std::array<const double*, s>& k, std::size_t e0,
-                                                  std::size_t nb, double dt) {
+                                                  std::size_t nb, double dt, detail::step_split sp) {
         constexpr auto J = std::make_index_sequence<s>{};
         const std::size_t i0 = e0 * per;
         for (std::size_t j = 0; j < nb * per; ++j) {
             cv[j] = conventional(x, k, i0 + j, dt, J);
-            if constexpr (Overflow)
-                rv[j] = finite_radicand(x, k, i0 + j, dt);
-            else
-                rv[j] = radicand(x, k, i0 + j, dt, J);
+            rv[j] = radicand(x, k, i0 + j, dt, sp, J);
         }
         for (std::size_t b = 0; b < nb; ++b) {
             double c2 = 0.0, xi = 0.0;
@@ -345,14 +312,9 @@ class conservative_rk : public radicand_remedy {
         }
     }
     static void block_updates(double* cv, double* rv, double* c2v, double* xiv, double* sg, const double* x,
-                              const std::array<const double*, s>& k, std::size_t e0, std::size_t nb, double dt) {
-        block_body(cv, rv, c2v, xiv, sg, x, k, e0, nb, dt);
-    }
-    // The same with every radicand by finite_radicand (a step retried for a rate that overflowed).
-    [[gnu::noinline]] static void block_updates_overflow(double* cv, double* rv, double* c2v, double* xiv, double* sg,
-                                                         const double* x, const std::array<const double*, s>& k,
-                                                         std::size_t e0, std::size_t nb, double dt) {
-        block_body<true>(cv, rv, c2v, xiv, sg, x, k, e0, nb, dt);
+                              const std::array<const double*, s>& k, std::size_t e0, std::size_t nb, double dt,
+                              detail::step_split sp) {
+        block_body(cv, rv, c2v, xiv, sg, x, k, e0, nb, dt, sp);
     }
 #if ECI_DETAIL_X86_SIMD
     // The same compiled for AVX2 (twice the lanes of the baseline's SSE2; no FMA, so it rounds alike), picked at
@@ -360,8 +322,9 @@ class conservative_rk : public radicand_remedy {
     __attribute__((target("avx2"))) static void block_updates_avx2(double* cv, double* rv, double* c2v, double* xiv,
                                                                    double* sg, const double* x,
                                                                    const std::array<const double*, s>& k,
-                                                                   std::size_t e0, std::size_t nb, double dt) {
-        block_body(cv, rv, c2v, xiv, sg, x, k, e0, nb, dt);
+                                                                   std::size_t e0, std::size_t nb, double dt,
+                                                                   detail::step_split sp) {
+        block_body(cv, rv, c2v, xiv, sg, x, k, e0, nb, dt, sp);
     }
 #endif
 
@@ -375,72 +338,56 @@ class conservative_rk : public radicand_remedy {
         return conv;
     }
 
+    // The stage derivatives k_j of the step just taken, as arrays of real unknowns.
+    std::array<const double*, s> stage_pointers() const {
+        std::array<const double*, s> kp{};
+        for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
+        return kp;
+    }
+
     // The remedy (radicand_remedy.hpp) for the unknowns whose radicand is negative (NaN in o): their conventional
     // update, recomputed with the very operations of the stage and finishing passes, and their radicand.
     bool remedy_failures(double* o, const double* x, double dt, std::size_t n) {
-        std::array<const double*, s> kp{};
-        for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
+        const std::array<const double*, s> kp = stage_pointers();
         auto failed = [&](std::size_t i) { return !(o[i] == o[i]); };
+        const detail::step_split sp = detail::split_step(dt);
         auto fix = [&](std::size_t i) -> std::pair<double, double> {
             const double conv = conventional(x, kp, i, dt, std::make_index_sequence<s>{});
             if constexpr (is_c_pc) {
                 const double pred = stage_value<1>(x[i], kp, i, dt);  // psi~, eq. (30a)
                 return {conv, pred * (x[i] + dt * kp[1][i])};         // eq. (30b), factorised
             } else {
-                return {conv, overflow_ ? finite_radicand(x, kp, i, dt)
-                                        : radicand(x, kp, i, dt, std::make_index_sequence<s>{})};
+                return {conv, radicand(x, kp, i, dt, sp, std::make_index_sequence<s>{})};
             }
         };
         return try_remedy<per>(o, x, n, failed, fix, [&](const auto& c) { rescale<per>(o, n, c); });
     }
 
-    // psi^2 + dt sum_j 2 b_j Y_j k_j at unknown i, as finish_general forms it.
+    // psi^2 + dt sum_j 2 b_j Y_j k_j at unknown i (every finishing path forms it here), with dt = p m
+    // (detail::split_step): the rate sum_j (2 b_j p Y_j) k_j is p times the rate, of the size of the increment, so
+    // that it neither overflows nor underflows where psi^2 and the update are representable (the rate alone is
+    // cubic in the state's scale for a quadratic S), and has the bits of the unscaled form wherever that is.
     template <std::size_t... J>
     static double radicand(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt,
-                           std::index_sequence<J...>) {
-        double rate = 2.0 * T.b[0] * x[i] * k[0][i];
-        ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * stage_value<J>(x[i], k, i, dt) * k[J][i], 0) : 0), ...);
-        return x[i] * x[i] + dt * rate;
-    }
-
-    // The radicand with dt inside its rate, psi^2 + sum_j 2 b_j Y_j (dt k_j), for an unknown whose rate overflowed:
-    // |psi| |S| beyond the largest double while psi^2 and the update are finite (a quadratic S at |psi| ~ 1e120).
-    // Taken only in a step retried for it, where the usual form is not finite (finite_radicand).
-    template <std::size_t... J>
-    static double radicand_scaled(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt,
-                                  std::index_sequence<J...>) {
-        double rate = 2.0 * T.b[0] * x[i] * (dt * k[0][i]);
-        ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * stage_value<J>(x[i], k, i, dt) * (dt * k[J][i]), 0) : 0),
+                           detail::step_split sp, std::index_sequence<J...>) {
+        double rate = 2.0 * T.b[0] * sp.p * x[i] * k[0][i];  // Y_0 = x
+        ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * sp.p * stage_value<J>(x[i], k, i, dt) * k[J][i], 0) : 0),
          ...);
-        return x[i] * x[i] + rate;
+        return x[i] * x[i] + sp.m * rate;
     }
-    // radicand(), or radicand_scaled() where that is not finite: the one rule of every finishing path
-    static double finite_radicand(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt) {
-        const double r = radicand(x, k, i, dt, std::make_index_sequence<s>{});
-        return std::abs(r) <= std::numeric_limits<double>::max()
-                   ? r
-                   : radicand_scaled(x, k, i, dt, std::make_index_sequence<s>{});
-    }
-    // One pass over x and the k_j: the conventional update (for the sign), the rate of psi^2,
-    // sum_j 2 b_j Y_j k_j, from recomputed stages (no per-stage pass, no stored stages), and the new amplitude.
-    // Returns the number of negative (or NaN) radicands, as a double. Overflow: each radicand by finite_radicand.
-    template <bool Overflow, std::size_t... J>
+    // One pass over x and the k_j: the conventional update (for the sign), the radicand from recomputed stages (no
+    // per-stage pass, no stored stages), and the new amplitude. Returns the number of negative (or NaN) radicands,
+    // as a double.
+    template <std::size_t... J>
     static double finish_general(double* o, const double* x, const std::array<const double*, s>& k, double dt,
                                  std::size_t n, std::index_sequence<J...>) {
         const std::array<double, s> w{(dt * T.b[J])...};
+        const detail::step_split sp = detail::split_step(dt);
         double bad = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
             double conv = x[i];
             ((T.b[J] != 0.0 ? (conv += w[J] * k[J][i], 0) : 0), ...);
-            double rad;
-            if constexpr (Overflow) {
-                rad = finite_radicand(x, k, i, dt);
-            } else {
-                double rate = 2.0 * T.b[0] * x[i] * k[0][i];  // Y_0 = x
-                ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * stage_value<J>(x[i], k, i, dt) * k[J][i], 0) : 0),
-                 ...);
-                rad = x[i] * x[i] + dt * rate;
-            }
+            const double rad = radicand(x, k, i, dt, sp, std::index_sequence<J...>{});
             bad += rad >= 0.0 ? 0.0 : 1.0;
             const double sign = Sign == sign_rule::of_update ? conv : stage_value<s - 1>(x[i], k, i, dt);
             o[i] = std::copysign(std::sqrt(rad), sign);
@@ -449,7 +396,6 @@ class conservative_rk : public radicand_remedy {
     }
 
     detail::stage_storage<T, S> st_;
-    bool overflow_ = false;  // this pass forms every radicand by finite_radicand (finish)
     S result_{};  // Euler's tableau: the new state until the step is known to succeed (others use the stage buffer)
 };
 

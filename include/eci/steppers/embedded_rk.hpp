@@ -340,12 +340,18 @@ class embedded_rk
         auto interpolant = [&](double y0, double y1, double f0, double f1, const std::array<double, R>& fd) {
             return detail::dense_value<R>(theta, h, y0, y1, f0, f1, fd);
         };
+        // xi's: the rates 2 Y_i S(Y_i) times p and the step as m, h = p m (detail::split_step), as the steps form
+        // them: no over- or underflow where xi and its change are representable, the same bits wherever they were
+        const detail::step_split hs = detail::split_step(h);
+        auto interpolant_xi = [&](double y0, double y1, double f0, double f1, const std::array<double, R>& fd) {
+            return detail::dense_value<R>(theta, hs.m, y0, y1, f0, f1, fd);
+        };
         double bad = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
             std::array<double, R> kd{}, rd{};  // sum_j d[r][j] k_j and sum_j d[r][j] 2 Y_j k_j
             if constexpr (R > 0) {
                 [&]<std::size_t... J>(std::index_sequence<J...>) {
-                    (add_dense_terms<J>(p0[i], x0[i], k, i, h, kd, rd), ...);
+                    (add_dense_terms<J>(p0[i], x0[i], k, i, h, hs.p, kd, rd), ...);
                 }(std::make_index_sequence<s>{});
                 if constexpr (E > 0)
                     for (std::size_t e = 0; e < E; ++e)
@@ -353,7 +359,7 @@ class embedded_rk
                             const double dv = T.d[r][s + e];
                             if (dv == 0.0) continue;
                             kd[r] += dv * ky[e][i];
-                            if constexpr (conservative) rd[r] += dv * 2.0 * yy[e][i] * ky[e][i];
+                            if constexpr (conservative) rd[r] += dv * 2.0 * hs.p * yy[e][i] * ky[e][i];
                         }
             }
             // conventional interpolant of psi: between x0 and the conventional update (x1 itself if conventional)
@@ -364,7 +370,8 @@ class embedded_rk
             } else {
                 double xi0 = x0[i] * x0[i], xi1 = x1[i] * x1[i];
                 if constexpr (compensated) xi0 += r0[i], xi1 += r1[i];
-                const double xi = interpolant(xi0, xi1, 2.0 * p0[i] * k[0][i], 2.0 * p1[i] * k_end[i], rd);
+                const double xi =
+                    interpolant_xi(xi0, xi1, 2.0 * hs.p * p0[i] * k[0][i], 2.0 * hs.p * p1[i] * k_end[i], rd);
                 bad += xi >= 0.0 ? 0.0 : 1.0;
                 o[i] = std::copysign(std::sqrt(xi), psi);
             }
@@ -449,7 +456,7 @@ class embedded_rk
     };
     template <bool Est, std::size_t... J>
     static part_values part_update(const double* p0, const double* x, const std::array<const double*, s>& k,
-                                   std::size_t i, double dt, std::index_sequence<J...>) {
+                                   std::size_t i, double dt, detail::step_split sp, std::index_sequence<J...>) {
         constexpr auto d = error_weights_of_tableau;
         constexpr auto dl = low_error_weights_of_tableau;
         (void)dl;
@@ -457,8 +464,8 @@ class embedded_rk
         part_values v{x[i], 0.0, 0.0, 0.0, 0.0, 0.0};
         ((T.b[J] != 0.0 ? (v.conv += wb[J] * k[J][i], 0) : 0), ...);
         double rate = 0.0;
-        (add_rate<J, Est>(p0[i], x[i], k, i, dt, wb, rate, v.a), ...);
-        v.inc = dt * rate;
+        (add_rate<J, Est>(p0[i], x[i], k, i, dt, 2.0 * sp.p, wb, rate, v.a), ...);
+        v.inc = sp.m * rate;
         if constexpr (Est) {
             ((d[J] != 0.0 ? (v.dconv += (dt * d[J]) * k[J][i], 0) : 0), ...);
             ((T.b[J] != 0.0 ? (v.bt += wb[J] * k[J][i], 0) : 0), ...);
@@ -484,13 +491,14 @@ class embedded_rk
         cond_err_.clear();
         double sq = 0.0, sq_low = 0.0;
         const std::size_t ne = n / per;
+        const detail::step_split sp = detail::split_step(dt);
         for (std::size_t e = 0; e < ne; ++e) {
             std::array<part_values, per> v;
             std::array<double, per> c{};
             double c2 = 0.0, xi = 0.0;
             for (std::size_t p = 0; p < per; ++p) {
                 const std::size_t i = e * per + p;
-                v[p] = part_update<est>(p0, x, k, i, dt, J);
+                v[p] = part_update<est>(p0, x, k, i, dt, sp, J);
                 c[p] = v[p].conv;
                 c2 += c[p] * c[p];
                 xi += x[i] * x[i] + v[p].inc;
@@ -549,7 +557,7 @@ class embedded_rk
                 double c2 = 0.0, xi = 0.0;
                 for (std::size_t p = 0; p < per; ++p) {
                     const std::size_t i = e * per + p;
-                    const part_values v = part_update<false>(p0, x, k, i, dt, J);
+                    const part_values v = part_update<false>(p0, x, k, i, dt, sp, J);
                     c[p] = v.conv;
                     c2 += c[p] * c[p];
                     xi += x[i] * x[i] + v.inc;
@@ -656,8 +664,8 @@ class embedded_rk
     // d[r][J] 2 Y_J k_J into rd[r], Y_J recomputed once (Y_0: p0, the point k_0 was taken at).
     template <std::size_t J>
     static void add_dense_terms(double p0, double x0, const std::array<const double*, s>& k, std::size_t i, double h,
-                                std::array<double, R>& kd, std::array<double, R>& rd) {
-        (void)p0, (void)x0, (void)h, (void)rd;
+                                double hp, std::array<double, R>& kd, std::array<double, R>& rd) {
+        (void)p0, (void)x0, (void)h, (void)hp, (void)rd;
         constexpr bool used = [] {
             for (std::size_t r = 0; r < R; ++r)
                 if (T.d[r][J] != 0.0) return true;
@@ -670,7 +678,7 @@ class embedded_rk
             for (std::size_t r = 0; r < R; ++r) {
                 if (T.d[r][J] == 0.0) continue;
                 kd[r] += T.d[r][J] * kj;
-                if constexpr (conservative) rd[r] += T.d[r][J] * 2.0 * y * kj;
+                if constexpr (conservative) rd[r] += T.d[r][J] * 2.0 * hp * y * kj;
             }
         }
     }
@@ -700,11 +708,11 @@ class embedded_rk
     // error estimate (see finish).
     template <std::size_t J, bool Est>
     static void add_rate(double p0, double x, const std::array<const double*, s>& k, std::size_t i, double dt,
-                         const std::array<double, s>& wb, double& rate, double& a_acc) {
+                         double twop, const std::array<double, s>& wb, double& rate, double& a_acc) {
         (void)wb, (void)a_acc;
         if constexpr (T.b[J] != 0.0) {
             const double y = stage_or_start<J>(p0, x, k, i, dt);
-            rate += T.b[J] * (2.0 * y * k[J][i]);
+            rate += T.b[J] * (twop * y * k[J][i]);
             if constexpr (Est) a_acc += wb[J] * k[J][i] * (y - x);
         }
     }
@@ -716,13 +724,13 @@ class embedded_rk
     // eps |increment| per step.
     template <std::size_t J, bool Est>
     static void add_rate_compensated(double p0, double x, const std::array<const double*, s>& k, std::size_t i,
-                                     double dt, const std::array<double, s>& c, const std::array<double, s>& wb,
-                                     double& hi, double& lo, double& a_acc) {
+                                     double dt, double scale, const std::array<double, s>& c,
+                                     const std::array<double, s>& wb, double& hi, double& lo, double& a_acc) {
         (void)wb, (void)a_acc;
         if constexpr (T.b[J] != 0.0) {
             const double y = stage_or_start<J>(p0, x, k, i, dt);
             double p, e, q, f, sum, g;
-            detail::two_product(y, k[J][i], p, e);
+            detail::two_product(scale * y, k[J][i], p, e);
             detail::two_product(c[J], p, q, f);
             detail::two_sum(hi, q, sum, g);
             hi = sum;
@@ -740,7 +748,11 @@ class embedded_rk
         constexpr auto dl = low_error_weights_of_tableau;
         (void)w, (void)rn, (void)r, (void)p0, (void)dl;
         const std::array<double, s> wb{(dt * T.b[J])...};
-        [[maybe_unused]] const std::array<double, s> c2{(2.0 * wb[J])...};  // c_J = 2 dt b_J (compensated)
+        // dt = p m (detail::split_step): the rate of xi summed as p times itself and multiplied by m, the
+        // compensated products as (p Y_J) k_J times c_J = 2 m b_J, so that neither over- nor underflows where xi
+        // and its increment are representable, with the bits of the unscaled forms wherever those are
+        const detail::step_split sp = detail::split_step(dt);
+        [[maybe_unused]] const std::array<double, s> c2{(2.0 * (sp.m * T.b[J]))...};  // c_J (compensated)
         double bad = 0.0, sq = 0.0, sq_low = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
             double conv = x[i];  // the conventional update: the state, or the sign of the conservative one
@@ -752,7 +764,7 @@ class embedded_rk
                 if constexpr (compensated) {
                     // xi = psi^2 + r + dt sum_j b_j 2 Y_j k_j, every term carried in double-double
                     double inc_hi = 0.0, inc_lo = 0.0;
-                    (add_rate_compensated<J, est>(p0[i], x[i], k, i, dt, c2, wb, inc_hi, inc_lo, a_acc), ...);
+                    (add_rate_compensated<J, est>(p0[i], x[i], k, i, dt, sp.p, c2, wb, inc_hi, inc_lo, a_acc), ...);
                     inc = inc_hi;
                     double sq0, sq_err, hi, lo;
                     detail::two_product(x[i], x[i], sq0, sq_err);
@@ -768,8 +780,8 @@ class embedded_rk
                     next = std::copysign(root, conv);
                 } else {
                     double rate = 0.0;  // sum_j b_j 2 Y_j k_j
-                    (add_rate<J, est>(p0[i], x[i], k, i, dt, wb, rate, a_acc), ...);
-                    inc = dt * rate;
+                    (add_rate<J, est>(p0[i], x[i], k, i, dt, 2.0 * sp.p, wb, rate, a_acc), ...);
+                    inc = sp.m * rate;
                     xi = x[i] * x[i] + inc;  // errata item 9: the tableau applied to d(psi^2)/dt = 2 psi S
                     bad += xi >= 0.0 ? 0.0 : 1.0;
                     next = std::copysign(std::sqrt(xi), conv);

@@ -185,13 +185,17 @@ class relaxation_rk {
         detail::resize_like(w_, x);
         detail::resize_like(g_, x);
         if constexpr (explicit_gamma<I>) detail::resize_like(diff_, x);
-        double production = 0.0;  // sum_i b_i B(Y_i - x, k_i)
+        // sum_i b_i B(Y_i - x, k_i) times p, with tau = p m (detail::split_step): of the size of B(d, d), where the
+        // unscaled sum, |d| |S| with a quadratic S, over- or underflows within the cube root of the range; the same
+        // bits as the unscaled form wherever that is representable (each term is p times it exactly)
+        double production = 0.0;
+        [[maybe_unused]] const detail::step_split sp = detail::split_step(tau);
         st_.template run_stages<used_stages>(f, x, ta, tau, [&](std::size_t i, const S& y, const S& k) {
             if constexpr (explicit_gamma<I>) {
                 if (T.b[i] == 0.0 || i == 0) return;  // Y_0 = x
                 const auto yr = detail::reals(y), xr = detail::reals(x);
                 const auto dr = detail::reals(diff_);
-                for (std::size_t j = 0; j < dr.size(); ++j) dr[j] = yr[j] - xr[j];
+                for (std::size_t j = 0; j < dr.size(); ++j) dr[j] = (yr[j] - xr[j]) * sp.p;
                 production += T.b[i] * inv.inner(std::as_const(diff_), k, 0);
             } else {
                 (void)i, (void)y, (void)k;
@@ -204,7 +208,7 @@ class relaxation_rk {
         gamma[0] = 1.0;
         if constexpr (explicit_gamma<I>) {
             const double dd = inv.inner(std::as_const(d_[0]), std::as_const(d_[0]), 0);
-            gamma[0] = dd != 0.0 ? 2.0 * tau * production / dd : 1.0;  // d = 0: nothing moves, any gamma will do
+            gamma[0] = dd != 0.0 ? 2.0 * sp.m * production / dd : 1.0;  // d = 0: nothing moves, any gamma will do
         } else if (!solve_gammas(inv, x, gamma)) {
             ++stats_.rejected_solver;
             return step_result::failure(0);
