@@ -1018,7 +1018,8 @@ int spectral_command::run_spread(const run_settings& settings) {
                  {"max_" + inv_[1] + "_budget_residual_per_step", run.max_enstrophy_residual},
                  {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(last, 1))},
                  {"advective_form_retries", double(model.form_retries())},
-                 {"final_cfl", model.cfl(w, dt)}};
+                 // at the run's step; a span shorter than it was one step of the span (--cfl 1e308 gave dt 6e307)
+                 {"final_cfl", model.cfl(w, last > first ? std::min(dt, s.t_end - double(first) * dt) : dt)}};
     // The run's outputs are committed together: the snapshots first, the CSV and JSON that describe the run last, and
     // a failure takes back what was moved in (a failed or interrupted run keeps its checkpoint, not a partial time
     // series).

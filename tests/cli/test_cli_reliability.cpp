@@ -145,6 +145,26 @@ TEST_F(reliability, the_work_of_one_step_is_bounded) {
     }
 }
 
+// A summary holds finite numbers only, at the edges of what is accepted (both found by the long CLI fuzz run, seed
+// 1658050189): a Runge-Lenz component whose initial value is subnormal (theta = the smallest normal double) had a
+// relative drift of inf (now "n/a", as from an initial 0; fewer steps gave 6.7e307), and --cfl 1.7e308 over a span shorter than its step
+// (one step of the span) a final_cfl of inf, the CFL number formed with the nominal step 6e307.
+TEST_F(reliability, a_summary_at_the_edges_of_the_input_is_finite) {
+    const std::vector<std::vector<std::string>> cases{
+        {"run", "kepler", "--ell", "0.50128047720752678", "--method", "pc", "--steps", "5292", "--theta",
+         "2.2250738585072014e-308", "--m", "0.16258044851166423", "--output", "o.csv"},
+        {"run", "navier-stokes-2d", "--N", "8", "--cfl", "1.7e308", "--fftw-estimate", "--fftw-wisdom", "none",
+         "--t-end", "0.22570070421402308", "--output", "o.csv"},
+    };
+    for (const auto& args : cases) {
+        const run_result r = eci(args);
+        ASSERT_EQ(r.status, 0) << args[1] << "\n" << r.err;
+        const std::string summary = r.out + r.err;
+        for (const char* bad : {"inf", "nan"})
+            EXPECT_EQ(summary.find(bad), std::string::npos) << args[1] << "\n" << summary;
+    }
+}
+
 // SIGINT, SIGTERM, SIGHUP and SIGQUIT stop a run within a fraction of a second, with 128 + signal and no file, at
 // 0.2 s (start-up, which under ASan on a loaded machine once took longer than 0.4 s, and bash's `cmd &` hands
 // SIGINT and SIGQUIT over ignored) as at 1 s.
