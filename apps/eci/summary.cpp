@@ -76,7 +76,6 @@ std::string underflow_message(const step_size_underflow& e, const column_names& 
            "): negative radicand, non-invertible transform or non-finite state";
 }
 
-
 // An invariant's relative drift where it means something: from I(0) = 0, or from a subnormal I(0) (a Runge-Lenz
 // component at theta = 2.2e-308, where the quotient reached 6.7e307 and inf), it does not: NaN, written "n/a" in the
 // text and null in the JSON rather than inf.
@@ -87,6 +86,7 @@ static double relative_drift(const invariant_record& r) {
                ? d
                : std::numeric_limits<double>::quiet_NaN();
 }
+
 void print_summary(std::FILE* f, const run_summary& s) {
     std::fprintf(f, "eci run %s: method %s (order %d, %s), dt %s, t 0 to %s\n", s.model.c_str(), s.method.c_str(),
                  s.order, s.conservative ? "conservative" : "conventional", shortest(s.dt).c_str(),
