@@ -168,10 +168,12 @@ class conservative_rk : public radicand_remedy {
     template <std::size_t... i>
     [[gnu::always_inline]] static void update_in_registers(S& out, const S& x, const std::array<S, s>& k, double dt,
                                                            double& bad, std::index_sequence<i...>) {
-        ((out[i] = paper_update<i>(x, k, dt, bad)), ...);
+        const detail::step_split sp = detail::split_step(dt);  // once per step, as radicand() forms it
+        ((out[i] = paper_update<i>(x, k, dt, sp, bad)), ...);
     }
     template <std::size_t i>
-    [[gnu::always_inline]] static double paper_update(const S& x, const std::array<S, s>& k, double dt, double& bad) {
+    [[gnu::always_inline]] static double paper_update(const S& x, const std::array<S, s>& k, double dt,
+                                                      [[maybe_unused]] detail::step_split sp, double& bad) {
         if constexpr (is_c_pc) {  // the predictor o = Y_1, rad = o (x + dt k_1)
             const double o = stage_at<1, i>(x, k, dt);
             const double rad = o * (x[i] + dt * k[1][i]);
@@ -182,7 +184,6 @@ class conservative_rk : public radicand_remedy {
                 const std::array<double, s> w{(dt * T.b[J])...};
                 double conv = x[i];
                 ((T.b[J] != 0.0 ? (conv += w[J] * k[J][i], 0) : 0), ...);
-                const detail::step_split sp = detail::split_step(dt);  // as radicand() forms it
                 double rate = 2.0 * T.b[0] * sp.p * x[i] * k[0][i];  // Y_0 = x
                 ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * sp.p * stage_at<J, i>(x, k, dt) * k[J][i], 0) : 0),
                  ...);

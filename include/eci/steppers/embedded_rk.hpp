@@ -336,16 +336,10 @@ class embedded_rk
                 ky[e] = detail::reals(std::as_const(k_extra_[e])).data();
                 yy[e] = detail::reals(std::as_const(y_extra_[e])).data();
             }
-        // One interpolant, given the end values, the end rates and (continuous extension) sum_i d[r][i] rate_i.
-        auto interpolant = [&](double y0, double y1, double f0, double f1, const std::array<double, R>& fd) {
-            return detail::dense_value<R>(theta, h, y0, y1, f0, f1, fd);
-        };
-        // xi's: the rates 2 Y_i S(Y_i) times p and the step as m, h = p m (detail::split_step), as the steps form
-        // them: no over- or underflow where xi and its change are representable, the same bits wherever they were
+        // psi's interpolant takes the step h and the rates k_i; xi's takes the rates 2 Y_i S(Y_i) times p and the
+        // step as m, h = p m (detail::split_step), as the steps form them: no over- or underflow where xi and its
+        // change are representable, the same bits wherever they were
         const detail::step_split hs = detail::split_step(h);
-        auto interpolant_xi = [&](double y0, double y1, double f0, double f1, const std::array<double, R>& fd) {
-            return detail::dense_value<R>(theta, hs.m, y0, y1, f0, f1, fd);
-        };
         double bad = 0.0;
         for (std::size_t i = 0; i < n; ++i) {
             std::array<double, R> kd{}, rd{};  // sum_j d[r][j] k_j and sum_j d[r][j] 2 Y_j k_j
@@ -363,15 +357,15 @@ class embedded_rk
                         }
             }
             // conventional interpolant of psi: between x0 and the conventional update (x1 itself if conventional)
-            const double psi = interpolant(x0[i], p1[i], k[0][i], k_end[i], kd);
+            const double psi = detail::dense_value<R>(theta, h, x0[i], p1[i], k[0][i], k_end[i], kd);
             if (c) c[i] = psi;
             if constexpr (!conservative) {
                 o[i] = psi;
             } else {
                 double xi0 = x0[i] * x0[i], xi1 = x1[i] * x1[i];
                 if constexpr (compensated) xi0 += r0[i], xi1 += r1[i];
-                const double xi =
-                    interpolant_xi(xi0, xi1, 2.0 * hs.p * p0[i] * k[0][i], 2.0 * hs.p * p1[i] * k_end[i], rd);
+                const double xi = detail::dense_value<R>(theta, hs.m, xi0, xi1, 2.0 * hs.p * p0[i] * k[0][i],
+                                                         2.0 * hs.p * p1[i] * k_end[i], rd);
                 bad += xi >= 0.0 ? 0.0 : 1.0;
                 o[i] = std::copysign(std::sqrt(xi), psi);
             }
