@@ -1006,6 +1006,9 @@ int spectral_command::run_spread(const run_settings& settings) {
     s.stats.steps = last - first;
     s.stats.step_reductions = run.halvings;
     s.stats.rhs_evals = run.rhs_evals;
+    // this run's steps finished by the remedy or the conditioned update's conventional elements (as its steps)
+    s.stats.remedied_steps = report.stats.remedied_steps;
+    s.stats.components_remedied = report.stats.components_remedied;
     s.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     s.invariants.push_back({inv_[0], run.energy0, model.energy(w), run.max_energy_drift});
     s.invariants.push_back({inv_[1], run.enstrophy0, model.enstrophy(w), run.max_enstrophy_drift});

@@ -30,10 +30,24 @@ struct invariant_record {
     double initial = 0.0;        ///< I(t0)
     double final = 0.0;          ///< I at the last state recorded
     double max_abs_drift = 0.0;  ///< max over every recorded state of |I(t) - I(t0)|; NaN once it went NaN
-    /// max_abs_drift / |I(t0)|: 0 if it never moved, infinite if I(t0) = 0 and it moved, NaN if it went NaN.
+
+    /// Takes the value v at the next state (the first one fixes I(t0)).
+    void record(double v, bool first) {
+        if (first) initial = v;
+        final = v;
+        const double d = std::abs(v - initial);
+        if (d > max_abs_drift || std::isnan(d)) max_abs_drift = d;  // a NaN, once seen, stays
+    }
+    /// max_abs_drift / |I(t0)| where that means something: 0 if it never moved; NaN (the CLI's "n/a", JSON null,
+    /// Python nan) if it moved from I(t0) = 0 or from a subnormal I(t0) (a Runge-Lenz component at theta =
+    /// 2.2e-308, where the quotient reached 6.7e307 and inf), if the quotient overflows, or once it went NaN. Every
+    /// front end reports this one value.
     double max_rel_drift() const {
         if (max_abs_drift == 0.0) return 0.0;
-        return max_abs_drift / std::abs(initial);
+        const double d = max_abs_drift / std::abs(initial);
+        return std::abs(initial) >= std::numeric_limits<double>::min() && std::isfinite(d)
+                   ? d
+                   : std::numeric_limits<double>::quiet_NaN();
     }
 };
 
@@ -101,7 +115,8 @@ class invariant_monitor {
     const std::vector<invariant_record>& records() const { return records_; }
     /// The invariants' values at the last recorded state, in the same order.
     std::span<const double> values() const { return values_; }
-    /// The largest max_rel_drift() over all invariants, a NaN counted as infinite (a run that blew up).
+    /// The largest max_rel_drift() over all invariants, a NaN counted as infinite (a run that blew up, or an
+    /// invariant that moved from 0).
     double worst_rel_drift() const {
         double w = 0.0;
         for (const invariant_record& r : records_) {
@@ -128,11 +143,7 @@ class invariant_monitor {
     void update(std::size_t j, double v) {
         values_[j] = v;
         finite_now_ = finite_now_ && std::isfinite(v);
-        invariant_record& r = records_[j];
-        if (!started_) r.initial = v;
-        r.final = v;
-        const double d = std::abs(v - r.initial);
-        if (d > r.max_abs_drift || std::isnan(d)) r.max_abs_drift = d;  // a NaN, once seen, stays
+        records_[j].record(v, !started_);
     }
 
     const Model* model_;

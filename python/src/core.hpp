@@ -25,6 +25,7 @@
 #include <eci/format.hpp>
 #include <eci/integrate.hpp>
 #include <eci/registry.hpp>
+#include <eci/run.hpp>
 
 namespace eci::python {
 
@@ -113,19 +114,6 @@ class interrupt_check {
     std::chrono::steady_clock::time_point last_;
 };
 
-/// One invariant's record over a run, as the CLI keeps it: measured after every step.
-struct drift_record {
-    std::string name;
-    double initial = 0.0, final = 0.0, max_abs_drift = 0.0;
-
-    void update(double v, bool first) {
-        if (first) initial = v;
-        final = v;
-        const double d = std::abs(v - initial);
-        if (d > max_abs_drift || std::isnan(d)) max_abs_drift = d;
-    }
-};
-
 /// The sampled solution: times and states in the order they were recorded.
 template <class S>
 struct recorded_output {
@@ -158,16 +146,16 @@ inline py::dict stats_dict(const step_counts& r) {
     return d;
 }
 
-/// The drift records as the dict `result.invariants`: name -> initial, final, max_abs_drift, max_rel_drift.
-inline py::dict drift_dict(const std::vector<drift_record>& records) {
+/// The drift records as the dict `result.invariants`: name -> initial, final, max_abs_drift, max_rel_drift (the
+/// library's, as the CLI's summary reports it: 0 if it never moved, nan where a relative drift means nothing).
+inline py::dict drift_dict(const std::vector<invariant_record>& records) {
     py::dict d;
-    for (const drift_record& r : records) {
+    for (const invariant_record& r : records) {
         py::dict e;
         e["initial"] = r.initial;
         e["final"] = r.final;
         e["max_abs_drift"] = r.max_abs_drift;
-        // as the CLI's summary: 0 if it never moved, infinite if it moved from 0
-        e["max_rel_drift"] = r.max_abs_drift == 0.0 ? 0.0 : r.max_abs_drift / std::abs(r.initial);
+        e["max_rel_drift"] = r.max_rel_drift();
         d[py::str(r.name)] = e;
     }
     return d;
@@ -202,7 +190,7 @@ inline void add_method(py::dict& d, const method_info& method) {
 /// NavierStokes2D's result as the dict eci.solve turns into a SolveResult.
 template <class S>
 py::dict result_dict(recorded_output<S>& out, std::size_t n, const step_counts& report,
-                     const std::vector<drift_record>& drift, const method_info& method) {
+                     const std::vector<invariant_record>& drift, const method_info& method) {
     py::dict d;
     add_arrays(d, out, n);
     d["stats"] = stats_dict(report);

@@ -125,7 +125,7 @@ class ns2d_object : public model_base {
                     throw std::invalid_argument("t_eval time " + full_text(te) + " is not on the step grid t0 + i dt "
                                                 "(" + name() + " outputs whole steps)");
             }
-        std::vector<drift_record> drift{{names_[0]}, {names_[1]}};
+        std::vector<invariant_record> drift{{names_[0]}, {names_[1]}};
         for (const std::string& nm : invariant_names) drift.push_back({nm});
         const python_invariants<cplx> user{std::move(invariants)};
         const bool release = user.functions.empty();
@@ -160,15 +160,15 @@ class ns2d_object : public model_base {
             gil_released_in_run = release;
             interrupt_pending = false;
             interrupt_check interrupt(!release);
-            drift[0].update(m.energy(x), true);
-            drift[1].update(m.enstrophy(x), true);
+            drift[0].record(m.energy(x), true);
+            drift[1].record(m.enstrophy(x), true);
             if (!release) user.measure(x, drift, 2, true);
             auto on_output = [&](const state& s, const output_point& pt) {
                 if (!no_outputs) out.record(pt.t, s);
             };
             auto on_step = [&](const state& s, const output_point& pt) {
-                drift[0].update(pt.invariants[0], false);
-                drift[1].update(pt.invariants[1], false);
+                drift[0].record(pt.invariants[0], false);
+                drift[1].record(pt.invariants[1], false);
                 if (!release) user.measure(s, drift, 2, false);
                 const ns2d_budget& b = m.step_budget();
                 budget.energy_injection += b.energy_injection;
@@ -182,9 +182,7 @@ class ns2d_object : public model_base {
             try {
                 const solve_report r = eci::solve<navier_stokes_2d>(m, x, method, cfg,
                                                                     flow_sink{on_output, on_step, on_progress});
-                report.stats.steps = r.stats.steps;
-                report.stats.step_reductions = r.stats.step_reductions;
-                report.stats.rhs_evals = r.stats.rhs_evals;
+                report.stats = r.stats;  // (steps, halvings, evaluations, the remedy's counts)
                 if (r.failure) {
                     const run_failure& e = *r.failure;
                     report.rejected.step_failed = report.stats.step_reductions;

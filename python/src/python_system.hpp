@@ -98,7 +98,7 @@ template <class T>
 struct python_invariants {
     std::vector<py::object> functions;
 
-    void measure(const std::vector<T>& x, std::vector<drift_record>& records, std::size_t first_record,
+    void measure(const std::vector<T>& x, std::vector<invariant_record>& records, std::size_t first_record,
                  bool first) const {
         if (functions.empty()) return;
         py::array_t<T> y = to_numpy(x);
@@ -111,7 +111,7 @@ struct python_invariants {
                 throw py::type_error("invariant " + records[first_record + j].name + " returned " +
                                      std::string(py::repr(v)) + ", expected a real number");
             }
-            records[first_record + j].update(value, first);
+            records[first_record + j].record(value, first);
         }
     }
 };

@@ -285,19 +285,6 @@ inline py::dict stats_dict(const solve_report& r) {
     return d;
 }
 
-/// The drift records as the dict `result.invariants`: name -> initial, final, max_abs_drift, max_rel_drift.
-inline py::dict drift_dict(const std::vector<invariant_record>& records) {
-    py::dict d;
-    for (const invariant_record& r : records) {
-        py::dict e;
-        e["initial"] = r.initial;
-        e["final"] = r.final;
-        e["max_abs_drift"] = r.max_abs_drift;
-        e["max_rel_drift"] = r.max_rel_drift();  // as the CLI's summary: 0 if it never moved, inf if it moved from 0
-        d[py::str(r.name)] = e;
-    }
-    return d;
-}
 
 /// A run that stopped early, as SciPy reports it (status -1 and a message, no exception): the dict
 /// result["failure"], with the kind of eci's exception that describes it (StepSizeUnderflow, TooManySteps,

@@ -1,6 +1,7 @@
 # The Python module runs the C++ library's numerics: the same integration through eci.solve and through `eci run`
 # (CSV at 17 significant digits, which reads back as the same doubles) agrees bit for bit, state, time and drift.
 import json
+import math
 
 import numpy as np
 import pytest
@@ -32,6 +33,9 @@ def assert_same_run(r, t, columns, summary, state_columns, complex_state=False):
         assert r.invariants[name]["initial"] == record["initial"], name
         assert r.invariants[name]["final"] == record["final"], name
         assert r.invariants[name]["max_abs_drift"] == record["max_abs_drift"], name
+        # the library's one rule: JSON null where Python has nan (a drift relative to 0 or a subnormal I(0))
+        rel = r.invariants[name]["max_rel_drift"]
+        assert (math.isnan(rel) and record["max_rel_drift"] is None) or rel == record["max_rel_drift"], name
 
 
 @pytest.mark.parametrize("method", [m for m in eci.models.ThreeWave().methods])
@@ -93,6 +97,20 @@ def test_kepler_matches_cli(cli, tmp_path, method):
     # the same angle from the same states; only the conversion to degrees may round differently
     turn = model.runge_lenz_turn(r.y[:, 0], r.y[:, -1]) * 180.0 / np.pi
     assert turn == pytest.approx(summary["runge_lenz_turn_degrees"], rel=4 * 2.0 ** -52, abs=1e-300)
+
+
+def test_a_relative_drift_from_a_subnormal_invariant_is_nan_as_the_cli_says_n_a(cli, tmp_path):
+    # theta = the smallest normal double: a Runge-Lenz component starts subnormal and moves (long CLI fuzz, seed
+    # 1658050189): its relative drift was 6.7e307 or inf in Python while the CLI said n/a; one rule now
+    theta = 2.2250738585072014e-308
+    t, columns, summary = cli_run(cli, tmp_path, "kepler", "pc", 0.01, 2.0, "--theta", repr(theta))
+    r = eci.solve(eci.models.Kepler(), (0.0, 2.0), [1.0, 0.0, theta], method="pc", dt=0.01)
+    assert_same_run(r, t, columns, summary, ["r", "v_r", "theta"])
+    undefined = [n for n, v in r.invariants.items() if math.isnan(v["max_rel_drift"])]
+    assert undefined, r.invariants
+    for name in undefined:
+        assert r.invariants[name]["max_abs_drift"] > 0 and abs(r.invariants[name]["initial"]) < 2.3e-308
+    assert all(math.isfinite(v["max_rel_drift"]) for n, v in r.invariants.items() if n not in undefined)
 
 
 def test_t_eval_points_on_the_grid_are_the_grid_states(cli, tmp_path):
@@ -276,6 +294,28 @@ def test_navier_stokes_matches_cli_and_both_land_on_t_end(cli, tmp_path, method)
     assert list(columns["t"]) == list(r.t) == [0.0, 0.03, 0.06, 0.09, 0.1]
     assert [m.energy(r.y[:, i]) for i in range(len(r.t))] == list(columns["energy"])
     assert [m.enstrophy(r.y[:, i]) for i in range(len(r.t))] == list(columns["enstrophy"])
+
+
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("method", ["c-rk4", "c-pc", "rk4"])
+def test_navier_stokes_counts_and_drifts_match_cli(cli, tmp_path, method):
+    # the CFL 0.5 step of the default field, 20 steps: the conditioned update takes conventional elements in most
+    # steps; both front ends count them alike (both reported 0 before), and give the same drifts and evaluations
+    summary = tmp_path / "ns.json"
+    run_cli(cli, "run", "navier-stokes-2d", "--N", "32", "--method", method, "--steps", "20", "--fftw-estimate",
+            "--fftw-wisdom", "none", "--summary-json", summary)
+    s = json.loads(summary.read_text())
+    m = eci.models.NavierStokes2D(n=32, fftw_measure=False)
+    dt = m.cfl_step(m.default_y0, 0.5)
+    assert dt == s["dt"]
+    r = eci.solve(m, (0.0, 20 * dt), m.default_y0, method=method, dt=dt)
+    for key in ("steps", "rhs_evals", "remedied_steps", "components_remedied"):
+        assert r.stats[key] == s[key], key
+    assert r.stats["rejected_steps"]["step_failed"] == s["step_reductions"]
+    assert (r.stats["remedied_steps"] > 0) == method.startswith("c-"), r.stats
+    for name, record in s["invariants"].items():
+        for key in ("initial", "final", "max_abs_drift", "max_rel_drift"):
+            assert r.invariants[name][key] == record[key], (name, key)
 
 
 @pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")

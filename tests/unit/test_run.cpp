@@ -105,6 +105,29 @@ TEST(InvariantMonitor, KeepsANaNOnceSeen) {
     EXPECT_EQ(mon.worst_rel_drift(), std::numeric_limits<double>::infinity());
 }
 
+// One rule for the relative drift, which the CLI's summary, its JSON and Python all report: the quotient where
+// I(t0) is a normal number and the quotient finite; 0 if I never moved; NaN (n/a, null, nan) where a relative
+// drift means nothing: from I(t0) = 0 or a subnormal I(t0), an overflowing quotient, a NaN.
+TEST(InvariantRecord, RelativeDriftOnlyWhereItMeansSomething) {
+    const double tiny = std::numeric_limits<double>::min(), sub = tiny / 4.0;
+    auto rel = [](double i0, double v) {
+        eci::invariant_record r{"I"};
+        r.record(i0, true);
+        r.record(v, false);
+        return r.max_rel_drift();
+    };
+    EXPECT_EQ(rel(2.0, 3.0), 0.5);
+    EXPECT_EQ(rel(-2.0, -3.0), 0.5);
+    EXPECT_EQ(rel(0.0, 0.0), 0.0);
+    EXPECT_EQ(rel(sub, sub), 0.0);
+    EXPECT_EQ(rel(tiny, 2.0 * tiny), 1.0);  // the smallest normal I(t0)
+    EXPECT_TRUE(std::isnan(rel(0.0, 1.0)));
+    EXPECT_TRUE(std::isnan(rel(sub, 2.0 * sub)));
+    EXPECT_GT(rel(tiny, 1.0), 4e307);              // large, but from a normal I(t0)
+    EXPECT_TRUE(std::isnan(rel(1e-300, 1e10)));  // the quotient overflows
+    EXPECT_TRUE(std::isnan(rel(1.0, std::numeric_limits<double>::quiet_NaN())));
+}
+
 // run() watches every step whatever the observer's cadence: its drift equals the one seen by an observer of
 // every step, bit for bit, and its state and statistics equal integrate_n_steps' own.
 TEST(Run, MonitorsEveryStepAndMatchesTheDriver) {
