@@ -196,6 +196,9 @@ class spectral_command final : public model_command {
                             "$XDG_CACHE_HOME/eci/fftw-wisdom, else ~/.cache/eci/fftw-wisdom)");
         flag("fftw-estimate", "FFTW_ESTIMATE plans instead of FFTW_MEASURE (no planning time; not bit-identical "
                               "across FFTW versions or machines either way)");
+        flag("full-transforms", "FFTW's 2-D transforms of the whole half plane instead of the transforms of the "
+                                "retained columns fused with the products (the default: the same terms to round-off, "
+                                "10-40 % faster); --update paper on a field symmetric about grid points needs them");
     }
 
     const model_info& info() const override { return info_; }
@@ -364,6 +367,9 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (*spec("fftw-estimate").flag && ck.params.measure)
             throw bad_input("--fftw-estimate does not match the restart file's FFTW_MEASURE plans (" + restart_ +
                             "; the run continues bit for bit only with the plans it started with)");
+        if (*spec("full-transforms").flag && ck.params.pruned_transforms)
+            throw bad_input("--full-transforms does not match the restart file's transforms of the retained columns (" +
+                            restart_ + "; the run continues bit for bit only with the transforms it started with)");
         if (given_real("cfl")) throw bad_input("--cfl cannot be combined with --restart (the time step is the checkpoint's)");
         if (given_text("ic")) throw bad_input("--ic cannot be combined with --restart");
         for (const char* o : {"seed", "energy", "k-peak", "vortex-radius", "vortex-separation", "vortex-peak"})
@@ -401,6 +407,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     }
     if (given_whole("threads")) p.threads = int(std::min<std::uint64_t>(*given_whole("threads"), 1000));
     p.measure = restart ? ck.params.measure : !*spec("fftw-estimate").flag;
+    p.pruned_transforms = restart ? ck.params.pruned_transforms : !*spec("full-transforms").flag;
     {
         // A grid that cannot fit is refused now, with its size, not as std::bad_alloc after planning. At least
         // 10 copies of FFTW's half plane: the measured peak of C-RK4 is 9.6 at N = 4096

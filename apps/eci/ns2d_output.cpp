@@ -291,6 +291,7 @@ void put_params(hid_t f, const ns2d_params& p) {
     put(f, "hypo_nu", p.hypo_nu);
     put(f, "hypo_p", std::int64_t(p.hypo_p));
     put(f, "fftw_measure", std::int64_t(p.measure ? 1 : 0));
+    put(f, "pruned_transforms", std::int64_t(p.pruned_transforms ? 1 : 0));
 }
 
 // The format attribute of an equation's checkpoints and snapshots ("eci navier-stokes-2d checkpoint", ...).
@@ -615,6 +616,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     if (H5Aexists(f, "hypo_p") > 0) p.hypo_p = whole("hypo_p", 1, 16);
     // how the run planned its transforms (older checkpoints lack it: always FFTW_MEASURE unless --fftw-estimate)
     if (H5Aexists(f, "fftw_measure") > 0) p.measure = whole("fftw_measure", 0, 1) == 1;
+    // which transforms (older checkpoints lack it: FFTW's 2-D plans, the only ones a run took then)
+    p.pruned_transforms = H5Aexists(f, "pruned_transforms") > 0 && whole("pruned_transforms", 0, 1) == 1;
     p.n = whole("N", 8, 65536);
     if (n > 0 && p.n != n)  // before the state is read: it may be gigabytes
         throw std::runtime_error(path + " holds a " + std::to_string(p.n) + "^2 grid, not N = " + std::to_string(n));

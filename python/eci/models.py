@@ -79,7 +79,7 @@ def _is_bool(v):
 def _refuse_bools(cls, flags=()):
     """A parameter given as True or False is a mistake the compiled constructor would read as 1 or 0 (nu=True as
     a viscosity of 1, threads=True as one thread): refused with TypeError naming it. `flags` are the parameters
-    that are booleans (fftw_measure); with flags, positional arguments are not checked (their names are unknown)."""
+    that are booleans (fftw_measure, full_transforms); with flags, positional arguments are not checked (their names are unknown)."""
     init = cls.__init__
 
     def __init__(self, *args, **kwargs):
@@ -98,7 +98,7 @@ for _cls in ode_models:
     _refuse_bools(_cls)
 for _name in ("NavierStokes2D", "CharneyHasegawaMima", "SurfaceQG"):
     if _name in globals():
-        _refuse_bools(globals()[_name], flags=("fftw_measure",))
+        _refuse_bools(globals()[_name], flags=("fftw_measure", "full_transforms"))
 
 
 def NWave(*args, complex=False, **kwargs):

@@ -358,7 +358,7 @@ void add_flow_methods(Class& c) {
 ns2d_params flow_params_from(const std::string& equation, long long n, double nu, double hyper_nu, long long hyper_p,
                              double hypo_nu, long long hypo_p, double drag, const std::string& forcing,
                              double forcing_k, double forcing_amplitude, double injection_rate,
-                             long long forcing_seed, long long threads, bool fftw_measure) {
+                             long long forcing_seed, long long threads, bool fftw_measure, bool full_transforms) {
     // Python ints are unbounded: a value that does not fit is an error, not a wrapped or truncated grid
     auto fits = [&](long long v, long long lo, long long hi, const char* what) {
         if (v < lo || v > hi)
@@ -378,6 +378,7 @@ ns2d_params flow_params_from(const std::string& equation, long long n, double nu
     p.forcing = forcing_named(forcing), p.forcing_k = forcing_k, p.forcing_amplitude = forcing_amplitude;
     p.injection_rate = injection_rate, p.forcing_seed = std::uint64_t(forcing_seed);
     p.threads = int(threads), p.measure = fftw_measure;
+    p.pruned_transforms = !full_transforms;  // (the CLI's --full-transforms)
     return p;
 }
 
@@ -386,7 +387,8 @@ ns2d_params flow_params_from(const std::string& equation, long long n, double nu
     py::arg("n") = 256, py::arg("nu") = 0.0, py::arg("hyper_nu") = 0.0, py::arg("hyper_p") = 2,                \
         py::arg("hypo_nu") = 0.0, py::arg("hypo_p") = 1, py::arg("drag") = 0.0, py::arg("forcing") = "none",   \
         py::arg("forcing_k") = 4.0, py::arg("forcing_amplitude") = 1.0, py::arg("injection_rate") = 1.0,        \
-        py::arg("forcing_seed") = 1, py::arg("threads") = 1, py::arg("fftw_measure") = false
+        py::arg("forcing_seed") = 1, py::arg("threads") = 1, py::arg("fftw_measure") = false, \
+        py::arg("full_transforms") = false
 
 // One C++ type per Python class (pybind11 registers a type once).
 struct chm_object final : ns2d_object {
@@ -409,10 +411,10 @@ void init_ns2d(py::module_& m) {
         "(inviscid, unforced).");
     ns.def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double hypo_nu, long long hypo_p,
                        double drag, const std::string& forcing, double forcing_k, double forcing_amplitude,
-                       double injection_rate, long long forcing_seed, long long threads, bool fftw_measure) {
+                       double injection_rate, long long forcing_seed, long long threads, bool fftw_measure, bool full_transforms) {
                return std::make_unique<o>(flow_params_from("navier-stokes-2d", n, nu, hyper_nu, hyper_p, hypo_nu,
                                                            hypo_p, drag, forcing, forcing_k, forcing_amplitude,
-                                                           injection_rate, forcing_seed, threads, fftw_measure));
+                                                           injection_rate, forcing_seed, threads, fftw_measure, full_transforms));
            }),
            ECI_FLOW_KEYWORDS);
     add_flow_methods(ns);
@@ -425,10 +427,10 @@ void init_ns2d(py::module_& m) {
     chm.def(py::init([](double beta, double deformation, long long n, double nu, double hyper_nu, long long hyper_p,
                         double hypo_nu, long long hypo_p, double drag, const std::string& forcing, double forcing_k,
                         double forcing_amplitude, double injection_rate, long long forcing_seed, long long threads,
-                        bool fftw_measure) {
+                        bool fftw_measure, bool full_transforms) {
                 ns2d_params p = flow_params_from("charney-hasegawa-mima", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
                                                  drag, forcing, forcing_k, forcing_amplitude, injection_rate,
-                                                 forcing_seed, threads, fftw_measure);
+                                                 forcing_seed, threads, fftw_measure, full_transforms);
                 p.beta = beta, p.deformation = deformation;
                 return std::make_unique<chm_object>(p);
             }),
@@ -441,10 +443,10 @@ void init_ns2d(py::module_& m) {
         "Invariants energy 1/2 sum |theta_k|^2 / |k| and variance 1/2 sum |theta_k|^2.");
     sqg.def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double hypo_nu, long long hypo_p,
                         double drag, const std::string& forcing, double forcing_k, double forcing_amplitude,
-                        double injection_rate, long long forcing_seed, long long threads, bool fftw_measure) {
+                        double injection_rate, long long forcing_seed, long long threads, bool fftw_measure, bool full_transforms) {
                 return std::make_unique<sqg_object>(flow_params_from("surface-qg", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
                                                             drag, forcing, forcing_k, forcing_amplitude,
-                                                            injection_rate, forcing_seed, threads, fftw_measure));
+                                                            injection_rate, forcing_seed, threads, fftw_measure, full_transforms));
             }),
             ECI_FLOW_KEYWORDS);
     add_flow_methods(sqg);

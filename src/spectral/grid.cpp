@@ -179,7 +179,6 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
 
 void grid::plan_distributed([[maybe_unused]] const grid_options& o) {
 #ifdef ECI_MPI
-    require(!o.pruned, "pruned transforms are not available on MPI (slab decomposition)");
     distributed_ = true;
     MPI_Comm_dup(o.comm, &p_->comm);
     MPI_Comm_rank(p_->comm, &rank_);

@@ -10,6 +10,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <limits>
@@ -75,6 +76,110 @@ TEST(CliNavierStokes2d, RestartIsBitIdentical) {
     // and the forcing did something: the run without the restart's generator state would differ
     const auto half = read_doubles(d / "half.h5", "omega_hat");
     EXPECT_NE(0, std::memcmp(full.data(), half.data(), full.size() * sizeof(double)));
+}
+
+// An HDF5 file's whole-number attribute (-1 if it has none).
+long long read_whole_attribute(const fs::path& file, const char* name) {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    long long v = -1;
+    const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) return v;
+    if (H5Aexists(f, name) > 0) {
+        const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
+        if (H5Aread(a, H5T_NATIVE_LLONG, &v) < 0) v = -1;
+        H5Aclose(a);
+    }
+    H5Fclose(f);
+    return v;
+}
+
+// The transforms of the retained columns (the default) and FFTW's 2-D plans (--full-transforms) give the same run
+// to round-off, not the same bits; the checkpoint says which a run took, and a restart takes the same, so each
+// continues bit for bit, a checkpoint of an older version (no such attribute: 2-D plans, all it had) included.
+TEST(CliNavierStokes2d, FullTransformsAreKeptByTheCheckpointAndRestartBitForBit) {
+    scratch_dir dir("ns2d-transforms");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    const std::string forced = ::forced + "--fftw-estimate ";
+    auto run = [&](const std::string& args, const std::string& name) {
+        const auto r = run_eci(forced + args + " --output " + q + "/" + name + ".csv --checkpoint " + q + "/" + name +
+                                   ".h5",
+                               d);
+        EXPECT_EQ(r.status, 0) << args << "\n" << r.err;
+        return read_doubles(d / (name + ".h5"), "omega_hat");
+    };
+    const auto pruned = run("--steps 40 --checkpoint-every 40", "pruned");
+    const auto full = run("--steps 40 --checkpoint-every 40 --full-transforms", "full");
+    EXPECT_EQ(read_whole_attribute(d / "pruned.h5", "pruned_transforms"), 1);
+    EXPECT_EQ(read_whole_attribute(d / "full.h5", "pruned_transforms"), 0);
+    ASSERT_EQ(pruned.size(), 32u * 17u * 2u);
+    ASSERT_EQ(full.size(), pruned.size());
+    double diff = 0.0, size = 0.0;
+    for (std::size_t i = 0; i < full.size(); ++i)
+        diff = std::max(diff, std::abs(full[i] - pruned[i])), size = std::max(size, std::abs(full[i]));
+    EXPECT_GT(diff, 0.0) << "the same transforms: the test compares nothing";
+    // round-off of transforms of length 32^2 (8 eps log2(N^2) per step) grown over 40 steps of a forced flow:
+    // measured 1e-14 of max |omega_k|; a wrong term would be O(1)
+    EXPECT_LE(diff, 1e-10 * size);
+    // half the run with --full-transforms, then a restart that is not told: it takes the checkpoint's transforms
+    run("--steps 20 --checkpoint-every 20 --full-transforms", "half");
+    auto r = run_eci("run navier-stokes-2d --restart " + q + "/half.h5 --steps 40 --every 1 --output " + q +
+                         "/rest.csv --checkpoint-every 40 --checkpoint " + q + "/rest.h5",
+                     d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    auto rest = read_doubles(d / "rest.h5", "omega_hat");
+    ASSERT_EQ(rest.size(), full.size());
+    EXPECT_EQ(0, std::memcmp(full.data(), rest.data(), full.size() * sizeof(double)));
+    // the same checkpoint as an older version wrote it, without the attribute
+    {
+        const hid_t f = H5Fopen((d / "half.h5").c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+        ASSERT_GE(f, 0);
+        ASSERT_GE(H5Adelete(f, "pruned_transforms"), 0);
+        H5Fclose(f);
+    }
+    r = run_eci("run navier-stokes-2d --restart " + q + "/half.h5 --steps 40 --every 1 --output " + q +
+                    "/old.csv --checkpoint-every 40 --checkpoint " + q + "/old.h5",
+                d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    rest = read_doubles(d / "old.h5", "omega_hat");
+    ASSERT_EQ(rest.size(), full.size());
+    EXPECT_EQ(0, std::memcmp(full.data(), rest.data(), full.size() * sizeof(double)));
+}
+
+// A whole number of a summary JSON, by its key (-1 if absent).
+long long json_whole(const std::string& json, const std::string& key) {
+    const std::size_t at = json.find("\"" + key + "\": ");
+    return at == std::string::npos ? -1 : std::atoll(json.c_str() + at + key.size() + 4);
+}
+
+// The summary counts the steps the conditioned update finished with conventional elements, and those elements, as
+// for the ODE models (the spectral summary and JSON said 0 before): C-RK4 at the default CFL 0.5 on the random
+// field takes some in every step; RK4 none.
+TEST(CliNavierStokes2d, TheSummaryCountsTheStepsOfTheRemedy) {
+    scratch_dir dir("ns2d-remedied");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    for (const std::string method : {"c-rk4", "rk4"}) {
+        const auto r = run_eci("run navier-stokes-2d --N 32 --steps 20 --fftw-estimate --fftw-wisdom none --method " +
+                                   method + " --summary-json " + q + "/" + method + ".json",
+                               d);
+        ASSERT_EQ(r.status, 0) << r.err;
+        const std::string json = read_text(d / (method + ".json"));
+        const long long steps = json_whole(json, "remedied_steps"), parts = json_whole(json, "components_remedied");
+        if (method == "rk4") {
+            EXPECT_EQ(steps, 0) << json;
+            EXPECT_EQ(parts, 0) << json;
+            EXPECT_EQ(r.err.find("remedied steps"), std::string::npos) << r.err;  // (the summary: on stderr)
+            continue;
+        }
+        EXPECT_GT(steps, 0) << json;
+        EXPECT_LE(steps, 20) << json;
+        EXPECT_GE(parts, steps) << json;
+        EXPECT_NE(r.err.find("remedied steps " + std::to_string(steps) + ", components remedied " +
+                             std::to_string(parts)),
+                  std::string::npos)
+            << r.err;
+    }
 }
 
 // The conditioned update as a user meets it: `eci run navier-stokes-2d --method c-rk4` with no other option is
@@ -411,6 +516,7 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--every 2 --output-dt 0.5", "give --every or --output-dt, not both\n"},
         {"--restart " + q + "/ok.h5 --threads 2", "does not match"},
         {"--restart " + q + "/ok.h5 --injection-rate 3", "does not match"},
+        {"--restart " + q + "/ok.h5 --full-transforms", "--full-transforms does not match the restart file's"},
         // numbers as the user typed them (0.1, not 0.10000000000000001)
         {"--restart " + q + "/ok.h5 --nu 0.1", "--nu 0.1 does not match the restart file's 0 ("},
         {"--dt -0.1", "--dt must be a positive finite number, not -0.1\n"},

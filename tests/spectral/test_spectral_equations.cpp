@@ -99,11 +99,13 @@ TEST_P(Equation, NonlinearFormsAgree) {
     }
 }
 
-// The pruned transforms (columns without retained modes skipped, rows fused with the products; opt-in) give the
-// same term as FFTW's 2-D plans to the transforms' round-off (8 eps log2(n^2) max|N|, as above), and a pruned run
-// keeps both invariants as exactly (8 eps sqrt(steps)).
+// The pruned transforms (columns without retained modes skipped, rows fused with the products; the default) give
+// the same term as FFTW's 2-D plans to the transforms' round-off (8 eps log2(n^2) max|N|, as above), and a pruned
+// run keeps both invariants as exactly (8 eps sqrt(steps)).
 TEST_P(Equation, PrunedTransformsAgreeAndConserve) {
     flow_params p = params(GetParam(), 64);
+    EXPECT_TRUE(p.pruned_transforms) << "the default";
+    p.pruned_transforms = false;
     flow2d plain(p);
     p.pruned_transforms = true;
     flow2d pruned(p);

@@ -40,8 +40,8 @@ struct flow_params {
     std::uint64_t forcing_seed = 1;    ///< seed of the deterministic phases and of the stochastic generator
     int threads = 1;                   ///< FFTW and OpenMP threads
     bool measure = true;               ///< FFTW_MEASURE plans (FFTW_ESTIMATE when false)
-    bool pruned_transforms = false;    ///< transform only the columns with retained modes, rows fused with the
-                                       ///< products (5-10 % faster; off by default: see grid_options::pruned)
+    bool pruned_transforms = true;     ///< transform only the columns with retained modes, rows fused with the
+                                       ///< products (grid_options::pruned); false: FFTW's 2-D plans
     std::string wisdom_file;           ///< FFTW wisdom read before planning and written after; empty: none
     std::string wisdom;                ///< FFTW wisdom text imported before planning (a checkpoint's, so that a
                                        ///< restart plans the same transforms and continues bit for bit)

@@ -31,12 +31,15 @@ struct grid_options {
     int threads = 1;           ///< FFTW and OpenMP threads
     bool measure = true;       ///< FFTW_MEASURE plans (FFTW_ESTIMATE when false)
     /// Transform only the columns that hold retained modes (2/3 of them), each row's inverse, product and forward
-    /// transform fused in cache; false: FFTW's 2-D plans. The same terms to round-off, 5-10 % faster, but not the
-    /// same round-off: a field with an exact mirror symmetry about a grid point (two Gaussian vortices centred on
-    /// grid points) has components that are exactly zero with right-hand sides of round-off, and the pruned
-    /// transforms' round-off there makes the paper's radicand negative at every step size, where FFTW's 2-D plans
-    /// happen to give exact zeros. Off by default until the conservative update handles exact zeros.
-    bool pruned = false;
+    /// transform fused in cache (the default); false: FFTW's 2-D plans of the whole half plane. The same terms to
+    /// round-off, not the same round-off, and a step 10-20 % faster at N = 512-1024 and 30-40 % at N = 2048, on
+    /// one thread and on two (docs/benchmarks.md). A field with an exact mirror symmetry about a grid point (two
+    /// Gaussian vortices centred on grid points) has components that are exactly zero with right-hand sides of
+    /// round-off; the conditioned update (every conservative method's default) takes them without a halving, but
+    /// the paper's update (`--update paper`) cannot (its radicand is negative at every step size there), where
+    /// FFTW's 2-D plans happen to give exact zeros: such a run wants pruned = false. A grid spread over two
+    /// processes or more has transforms of its own (of the retained columns as well) and does not read it.
+    bool pruned = true;
     std::string wisdom_file;   ///< FFTW wisdom read before planning and written after; empty: none
     std::string wisdom;        ///< FFTW wisdom text imported before planning (a checkpoint's)
 #ifdef ECI_MPI
