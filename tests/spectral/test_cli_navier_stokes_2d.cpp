@@ -78,15 +78,15 @@ TEST(CliNavierStokes2d, RestartIsBitIdentical) {
     EXPECT_NE(0, std::memcmp(full.data(), half.data(), full.size() * sizeof(double)));
 }
 
-// An HDF5 file's whole-number attribute (-1 if it has none).
-long long read_whole_attribute(const fs::path& file, const char* name) {
+// An attribute of doubles or whole numbers from an HDF5 file's root (NaN if it cannot be read).
+double read_attribute(const fs::path& file, const char* name) {
     H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-    long long v = -1;
+    double v = std::nan("");
     const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
     if (f < 0) return v;
-    if (H5Aexists(f, name) > 0) {
-        const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
-        if (H5Aread(a, H5T_NATIVE_LLONG, &v) < 0) v = -1;
+    const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
+    if (a >= 0) {
+        if (H5Aread(a, H5T_NATIVE_DOUBLE, &v) < 0) v = std::nan("");
         H5Aclose(a);
     }
     H5Fclose(f);
@@ -110,8 +110,8 @@ TEST(CliNavierStokes2d, FullTransformsAreKeptByTheCheckpointAndRestartBitForBit)
     };
     const auto pruned = run("--steps 40 --checkpoint-every 40", "pruned");
     const auto full = run("--steps 40 --checkpoint-every 40 --full-transforms", "full");
-    EXPECT_EQ(read_whole_attribute(d / "pruned.h5", "pruned_transforms"), 1);
-    EXPECT_EQ(read_whole_attribute(d / "full.h5", "pruned_transforms"), 0);
+    EXPECT_EQ(read_attribute(d / "pruned.h5", "pruned_transforms"), 1.0);
+    EXPECT_EQ(read_attribute(d / "full.h5", "pruned_transforms"), 0.0);
     ASSERT_EQ(pruned.size(), 32u * 17u * 2u);
     ASSERT_EQ(full.size(), pruned.size());
     double diff = 0.0, size = 0.0;
@@ -661,21 +661,6 @@ TEST(CliSpectralEquations, EachEquationRestartsSnapshotsAndRefusesAnothersCheckp
         EXPECT_NE(r.err.find(std::string("is a ") + e.name + " checkpoint"), std::string::npos) << r.err;
         EXPECT_FALSE(fs::exists(d / "other.h5"));
     }
-}
-
-// An attribute of doubles or whole numbers from an HDF5 file's root (NaN if it cannot be read).
-double read_attribute(const fs::path& file, const char* name) {
-    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
-    double v = std::nan("");
-    const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
-    if (f < 0) return v;
-    const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
-    if (a >= 0) {
-        if (H5Aread(a, H5T_NATIVE_DOUBLE, &v) < 0) v = std::nan("");
-        H5Aclose(a);
-    }
-    H5Fclose(f);
-    return v;
 }
 
 // --t-end that is no multiple of dt is landed on, the last step shortened, as every model's run and Python's
