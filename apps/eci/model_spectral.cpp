@@ -1010,12 +1010,10 @@ int spectral_command::run_spread(const run_settings& settings) {
     s.conservative = method.rfind("c-", 0) == 0;
     s.dt = dt;
     s.t_end = std::isnan(t_end) ? double(last) * dt : t_end;
+    // this run's counts (after --restart, of the steps it took: steps, halvings, evaluations, the remedy's steps
+    // and elements alike; halvings_per_step below is over the whole run, the checkpoint's counts included)
+    s.stats = report.stats;
     s.stats.steps = last - first;
-    s.stats.step_reductions = run.halvings;
-    s.stats.rhs_evals = run.rhs_evals;
-    // this run's steps finished by the remedy or the conditioned update's conventional elements (as its steps)
-    s.stats.remedied_steps = report.stats.remedied_steps;
-    s.stats.components_remedied = report.stats.components_remedied;
     s.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     s.invariants.push_back({inv_[0], run.energy0, model.energy(w), run.max_energy_drift});
     s.invariants.push_back({inv_[1], run.enstrophy0, model.enstrophy(w), run.max_enstrophy_drift});

@@ -182,6 +182,26 @@ TEST(CliNavierStokes2d, TheSummaryCountsTheStepsOfTheRemedy) {
     }
 }
 
+// After --restart the summary counts the steps this run took and what they cost, all alike (the evaluations and
+// halvings counted the checkpoint's too, beside this run's steps): RK4, 10 steps then 20 more, 4 evaluations each.
+TEST(CliNavierStokes2d, ARestartsSummaryCountsItsOwnSteps) {
+    scratch_dir dir("ns2d-restart-counts");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    auto r = run_eci("run navier-stokes-2d --N 16 --method rk4 --dt 0.01 --steps 10 --fftw-estimate --fftw-wisdom none "
+                     "--checkpoint-every 10 --checkpoint " + q + "/a.h5",
+                     d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = run_eci("run navier-stokes-2d --restart " + q + "/a.h5 --steps 30 --fftw-wisdom none --summary-json " + q +
+                    "/b.json",
+                d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string json = read_text(d / "b.json");
+    EXPECT_EQ(json_whole(json, "steps"), 20) << json;
+    EXPECT_EQ(json_whole(json, "rhs_evals"), 80) << json;
+    EXPECT_EQ(json_whole(json, "step_reductions"), 0) << json;
+}
+
 // The conditioned update as a user meets it: `eci run navier-stokes-2d --method c-rk4` with no other option is
 // at RK4's error.
 // N = 64, the CLI's random field (k_p 8), nu 2e-3, to t = 0.1 in 128 steps (CFL ~0.02), against 2048 RK4 steps of
