@@ -79,7 +79,9 @@ def _is_bool(v):
 def _refuse_bools(cls, flags=()):
     """A parameter given as True or False is a mistake the compiled constructor would read as 1 or 0 (nu=True as
     a viscosity of 1, threads=True as one thread): refused with TypeError naming it. `flags` are the parameters
-    that are booleans (fftw_measure, full_transforms); with flags, positional arguments are not checked (their names are unknown)."""
+    that are booleans (fftw_measure, full_transforms), and only True or False is taken for them (the compiled
+    constructor read any object with a truth value, 1.5 or "no", as True); with flags, positional arguments are not
+    checked (their names are unknown)."""
     init = cls.__init__
 
     def __init__(self, *args, **kwargs):
@@ -88,6 +90,9 @@ def _refuse_bools(cls, flags=()):
             if _is_bool(v):
                 what = f"argument {name + 1}" if isinstance(name, int) else name
                 raise TypeError(f"{cls.__name__}: {what} must be a number, not bool")
+        for name in flags:
+            if name in kwargs and not isinstance(kwargs[name], (bool, _np.bool_)):
+                raise TypeError(f"{cls.__name__}: {name} must be True or False, not {type(kwargs[name]).__name__}")
         init(self, *args, **kwargs)
 
     __init__.__doc__ = init.__doc__

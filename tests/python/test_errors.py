@@ -293,3 +293,8 @@ def test_a_bool_is_not_a_spectral_parameter_but_flags_are_bools():
         with pytest.raises(TypeError, match="not bool"):
             M.NavierStokes2D(n=16, **kwargs)
     assert M.NavierStokes2D(n=16, fftw_measure=False).n == 16
+    assert M.NavierStokes2D(n=16, full_transforms=np.True_).n == 16
+    # and a flag is True or False, not anything with a truth value (1.5 and "no" were taken as True)
+    for kwargs in ({"fftw_measure": 1.5}, {"full_transforms": "no"}, {"full_transforms": 1}):
+        with pytest.raises(TypeError, match="must be True or False"):
+            M.NavierStokes2D(n=16, **kwargs)
