@@ -155,6 +155,9 @@ TEST_F(reliability, a_summary_at_the_edges_of_the_input_is_finite) {
          "2.2250738585072014e-308", "--m", "0.16258044851166423", "--output", "o.csv"},
         {"run", "navier-stokes-2d", "--N", "8", "--cfl", "1.7e308", "--fftw-estimate", "--fftw-wisdom", "none",
          "--t-end", "0.22570070421402308", "--output", "o.csv"},
+        // (seed 843848237) E and Z finite, the palinstrophy ~1e310: "overflow", not inf
+        {"run", "charney-hasegawa-mima", "--N", "26", "--fftw-estimate", "--deformation", "1.7e308", "--t-end",
+         "2.7186903277205183", "--dt", "0.28966007442928421", "--fftw-wisdom", "none", "--output", "o.csv"},
     };
     for (const auto& args : cases) {
         const run_result r = eci(args);
@@ -162,6 +165,9 @@ TEST_F(reliability, a_summary_at_the_edges_of_the_input_is_finite) {
         const std::string summary = r.out + r.err;
         for (const char* bad : {"inf", "nan"})
             EXPECT_EQ(summary.find(bad), std::string::npos) << args[1] << "\n" << summary;
+        if (args[1] == "charney-hasegawa-mima") {
+            EXPECT_NE(summary.find("palinstrophy overflow\n"), std::string::npos) << summary;
+        }
     }
 }
 
