@@ -387,7 +387,7 @@ ns2d_params flow_params_from(const std::string& equation, long long n, double nu
     py::arg("n") = 256, py::arg("nu") = 0.0, py::arg("hyper_nu") = 0.0, py::arg("hyper_p") = 2,                \
         py::arg("hypo_nu") = 0.0, py::arg("hypo_p") = 1, py::arg("drag") = 0.0, py::arg("forcing") = "none",   \
         py::arg("forcing_k") = 4.0, py::arg("forcing_amplitude") = 1.0, py::arg("injection_rate") = 1.0,        \
-        py::arg("forcing_seed") = 1, py::arg("threads") = 1, py::arg("fftw_measure") = false, \
+        py::arg("forcing_seed") = 1, py::arg("threads") = 1, py::arg("fftw_measure") = false,                  \
         py::arg("full_transforms") = false
 
 // One C++ type per Python class (pybind11 registers a type once).
@@ -411,10 +411,12 @@ void init_ns2d(py::module_& m) {
         "(inviscid, unforced).");
     ns.def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double hypo_nu, long long hypo_p,
                        double drag, const std::string& forcing, double forcing_k, double forcing_amplitude,
-                       double injection_rate, long long forcing_seed, long long threads, bool fftw_measure, bool full_transforms) {
+                       double injection_rate, long long forcing_seed, long long threads, bool fftw_measure,
+                       bool full_transforms) {
                return std::make_unique<o>(flow_params_from("navier-stokes-2d", n, nu, hyper_nu, hyper_p, hypo_nu,
                                                            hypo_p, drag, forcing, forcing_k, forcing_amplitude,
-                                                           injection_rate, forcing_seed, threads, fftw_measure, full_transforms));
+                                                           injection_rate, forcing_seed, threads, fftw_measure,
+                                                           full_transforms));
            }),
            ECI_FLOW_KEYWORDS);
     add_flow_methods(ns);
@@ -443,10 +445,12 @@ void init_ns2d(py::module_& m) {
         "Invariants energy 1/2 sum |theta_k|^2 / |k| and variance 1/2 sum |theta_k|^2.");
     sqg.def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double hypo_nu, long long hypo_p,
                         double drag, const std::string& forcing, double forcing_k, double forcing_amplitude,
-                        double injection_rate, long long forcing_seed, long long threads, bool fftw_measure, bool full_transforms) {
+                        double injection_rate, long long forcing_seed, long long threads, bool fftw_measure,
+                        bool full_transforms) {
                 return std::make_unique<sqg_object>(flow_params_from("surface-qg", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
                                                             drag, forcing, forcing_k, forcing_amplitude,
-                                                            injection_rate, forcing_seed, threads, fftw_measure, full_transforms));
+                                                            injection_rate, forcing_seed, threads, fftw_measure,
+                                                            full_transforms));
             }),
             ECI_FLOW_KEYWORDS);
     add_flow_methods(sqg);

@@ -285,7 +285,6 @@ inline py::dict stats_dict(const solve_report& r) {
     return d;
 }
 
-
 /// A run that stopped early, as SciPy reports it (status -1 and a message, no exception): the dict
 /// result["failure"], with the kind of eci's exception that describes it (StepSizeUnderflow, TooManySteps,
 /// NonFiniteSolution), the message, the cause, and where.
