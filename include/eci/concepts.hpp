@@ -76,6 +76,13 @@ void reset_carried_state(St& st) {
 template <class St>
 concept checks_finite = requires { requires St::checks_finite; };
 
+/// A stepper whose step evaluates the system a fixed number of times (no iteration within a step: the explicit
+/// Runge-Kutta engines) says so with `static constexpr bool fixed_evaluations = true`; a run then polls its cancel
+/// flag before each step only. Any other stepper (an implicit one's Newton iterations) is polled before every
+/// evaluation too.
+template <class St>
+concept fixed_evaluations = requires { requires St::fixed_evaluations; };
+
 /// A system that wraps another (the drivers' evaluation counter, a user's adaptor) exposes it as `wrapped()`,
 /// so that a stepper reaches the model being integrated through any number of wrappers.
 template <class F>

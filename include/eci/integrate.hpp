@@ -264,6 +264,12 @@ void check_finite_after(const S& x, double t) {
         if (!all_finite(x)) throw non_finite_state(t, first_non_finite(x));
 }
 
+/// The run's cancel flag, or one never set: a run polls it without testing for null first.
+inline const std::atomic<bool>* cancel_flag(const run_options& opt) {
+    static const std::atomic<bool> never{false};
+    return opt.cancel ? opt.cancel : &never;
+}
+
 inline void poll_cancel(const run_options& opt, double t) {
     if (opt.cancel && opt.cancel->load(std::memory_order_relaxed)) throw interrupted(t);
 }
@@ -322,9 +328,9 @@ template <bool Local, class St, class F, class S>
     }
 }
 
-/// An attempt of the fixed-step controller: from t, a step of dt, at halving depth `depth` (0: the whole step).
+/// An attempt of the fixed-step controller: a step of dt at halving depth `depth` (0: the whole step). Where it
+/// starts the controller computes from its position (fixed_control::time_of).
 struct fixed_attempt {
-    double t;
     double dt;
     int depth;
 };
@@ -354,17 +360,18 @@ struct working_state<S, true> {
 /// evaluation), and stored at `home` (the run's statistics) where it is read: when the run ends, before an
 /// observer that takes the statistics sees them and before a failed attempt (fixed_control::sync). A run that
 /// throws from within a step (eci::interrupted, a model's exception) returns no statistics, so none is stored then.
-template <class F>
+/// PollsEach: whether the cancel flag is polled before every evaluation (else the run polls it before each step).
+template <class F, bool PollsEach = true>
 struct held_count : system_view<F> {
     std::uint64_t* home;
-    const std::atomic<bool>* cancel;  ///< polled before every evaluation
+    const std::atomic<bool>* cancel;
     mutable std::uint64_t count;
 
     held_count(F& f, std::uint64_t* home, const std::atomic<bool>* cancel = nullptr)
         : system_view<F>{f}, home(home), cancel(cancel), count(*home) {}
     template <class S>
     [[gnu::always_inline]] void operator()(const S& x, S& dxdt, double t) const {
-        this->evaluate(x, dxdt, t, count, cancel);
+        this->evaluate(x, dxdt, t, count, PollsEach ? cancel : nullptr);
     }
     void store() const { *home = count; }
 };
@@ -379,10 +386,10 @@ struct run_system {
     void attempted(F&) {}
     void store() const {}
 };
-template <class F>
-struct run_system<const held_count<F>> {
-    held_count<F> h;
-    static run_system of(const held_count<F>& c) {
+template <class F, bool P>
+struct run_system<const held_count<F, P>> {
+    held_count<F, P> h;
+    static run_system of(const held_count<F, P>& c) {
         run_system r{c};
         r.h.count = *c.home;  // from where the count stands (one held_count serves solve's every side step)
         return r;
@@ -390,10 +397,16 @@ struct run_system<const held_count<F>> {
     // A copy for each attempt, its count taken back after: a stepper's cold paths (conservative_rk's step_apart)
     // take the system by reference, and given the position's own, the whole position stayed in memory (three-wave
     // C-PC 195 -> 177 instructions per step, C-RK4 344 -> 292).
-    held_count<F> attempt() const { return h; }
-    void attempted(const held_count<F>& a) { h.count = a.count; }
+    held_count<F, P> attempt() const { return h; }
+    void attempted(const held_count<F, P>& a) { h.count = a.count; }
     void store() const { h.store(); }
 };
+
+/// The system a fixed-step run of stepper St evaluates: F counted, and polled for a cancellation before every
+/// evaluation unless St's steps evaluate a fixed number of times (then propose polls before each step: one poll
+/// per RK4 step instead of five, a tenth of a three-wave step).
+template <class St, class F>
+using run_count = held_count<F, !fixed_evaluations<St>>;
 
 /// The fixed-step controller of run_loop: steps first + 1 .. first + n of the grid t0 + k dt, the last of size
 /// `last` (dt, unless integrate_to shortens it to land on its end time). A failed attempt is first offered to a
@@ -405,26 +418,25 @@ class fixed_control {
     using model = std::remove_reference_t<decltype(hook_target(std::declval<F&>()))>;
 
    public:
-    /// Where the run is: the step of the grid being taken (k), its start and size, and the state stepped; with what
+    /// Where the run is: the step of the grid being taken (k), its size, and the state stepped; with what
     /// every step reads or counts that the controller would hold in memory (the system, whose evaluation count a
     /// held_count keeps here, the cancel flag, whether the step is being halved), so that a run keeps it in
     /// registers. (The grid's constants stay members: in the position they took three more of a small state's
     /// step's floating-point registers, and the state itself went to memory.)
     struct position {
         std::uint64_t k;
-        double t, size;
+        double size;
         working_state<S, Copy> state;
         run_system<F> system;
-        const std::atomic<bool>* cancel;
+        const std::atomic<bool>* cancel;  // never null (cancel_flag)
         bool halving;  // the step is being taken in pieces
         /// The index of the last complete step of the grid.
         std::uint64_t completed() const { return k - 1; }
     };
 
-    /// `start`: the time of the first step (t0 + first dt, as the caller computes it).
-    fixed_control(St& stepper, F& f, S& x, double t0, double start, double dt, std::uint64_t first, std::uint64_t n,
-                  double last, bool announce, const run_options& opt, run_stats& stats)
-        : stepper_(stepper), f_(f), x_(x), t0_(t0), dt_(dt), last_(last), start_(start), first_(first),
+    fixed_control(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t first, std::uint64_t n, double last,
+                  bool announce, const run_options& opt, run_stats& stats)
+        : stepper_(stepper), f_(f), x_(x), t0_(t0), dt_(dt), last_(last), first_(first),
           end_(first + n), announce_(announce), opt_(opt), stats_(stats) {}
 
     /// Takes the steps, calling on_step(position) after each; a model's retry in progress is ended if the run throws.
@@ -446,9 +458,9 @@ class fixed_control {
         const double size = end_ == first_ + 1 ? last_ : dt_;
         auto system = run_system<F>::of(f_);
         if constexpr (Copy)
-            return {first_ + 1, start_, size, {x_}, system, opt_.cancel, false};
+            return {first_ + 1, size, {x_}, system, cancel_flag(opt_), false};
         else
-            return {first_ + 1, start_, size, {&x_}, system, opt_.cancel, false};
+            return {first_ + 1, size, {&x_}, system, cancel_flag(opt_), false};
     }
 
     /// Stores what the position counts where the run's statistics read it: the evaluations (a held_count's), and
@@ -467,10 +479,10 @@ class fixed_control {
         if (!at.halving) [[likely]] {
             if constexpr (begins_steps<model>)
                 if (announce_ && retries_ == 0) hook_target(f_).begin_step(at.size);
-            if (at.cancel && at.cancel->load(std::memory_order_relaxed)) throw interrupted(at.t);
-            return {at.t, at.size, 0};
+            if (at.cancel->load(std::memory_order_relaxed)) throw interrupted(start_of(at));
+            return {at.size, 0};
         }
-        return propose_piece(at.t, at.size);
+        return propose_piece(start_of(at), at.size);
     }
 
     // (always inlined, as the attempt's wrappers above: a conservative stepper's step made the inliner stop at this
@@ -478,7 +490,7 @@ class fixed_control {
     [[gnu::always_inline]] step_result attempt(const fixed_attempt& a, position& at) {
         if constexpr (reports_non_finite_rate<F>) rate_.reset();  // else never set
         auto&& system = at.system.attempt();
-        const step_result r = attempt_step<Copy>(stepper_, system, at.state.get(), a.t, a.dt, rate_);
+        const step_result r = attempt_step<Copy>(stepper_, system, at.state.get(), time_of(a, at), a.dt, rate_);
         at.system.attempted(system);
         return r;
     }
@@ -487,7 +499,7 @@ class fixed_control {
 
     bool accept(const fixed_attempt& a, const step_result&, position& at) {
         at.state.publish(x_);
-        check_finite_after<St>(x_, a.t + a.dt);
+        check_finite_after<St>(x_, time_of(a, at) + a.dt);
         if (at.halving) [[unlikely]] {  // a piece of a halved step (propose tested the same flag)
             if (!piece_taken(a)) return false;
             at.halving = false;
@@ -495,29 +507,38 @@ class fixed_control {
         if constexpr (retries_attempts<model>)
             for (; retries_ > 0; --retries_) hook_target(f_).end_retry(true);
         ++at.k;
-        at.t = t0_ + double(std::int64_t(at.k - 1)) * dt_;  // (k <= max_grid_steps, run_grid's check: exact as signed)
-        at.size = at.k == end_ ? last_ : dt_;
+        if (at.k == end_) at.size = last_;  // (every earlier step is of size dt)
         return true;
     }
 
     void reject(const fixed_attempt& a, const step_result& r, position& at) {
         sync(at);  // (a step_size_underflow carries the run's statistics)
-        if (reject_attempt(a, r)) at.halving = true;
+        if (reject_attempt(a, r, time_of(a, at))) at.halving = true;
     }
 
    private:
+    // The start of step k of the grid, t0 + (k - 1) dt (k <= max_grid_steps, run_grid's check: exact as signed),
+    // and of an attempt (a piece of a halved step starts offset_ later). Computed where each use needs it, not
+    // carried in the position or the attempt: a system that ignores t (three-wave) then computes it only on the cold
+    // paths that report it (carried, it cost a three-wave PC step in a run's loop 3 %).
+    double start_of(const position& at) const { return t0_ + double(std::int64_t(at.k - 1)) * dt_; }
+    double time_of(const fixed_attempt& a, const position& at) const {
+        const double t = start_of(at);
+        return a.depth == 0 ? t : t + offset_;
+    }
+
     // A failed attempt: a model's retry, or the step's halving begun or continued (true when it begins), or
     // step_size_underflow. Out of line and by value (a failed attempt is rare): inlined into the loop, or taking
     // the result by reference, the result was built in memory at every step.
-    [[gnu::noinline]] bool reject_attempt(fixed_attempt a, step_result r) {
+    [[gnu::noinline]] bool reject_attempt(fixed_attempt a, step_result r, double t) {
         if (a.depth == 0) {
             if constexpr (retries_attempts<model>)
                 if (hook_target(f_).begin_retry()) {  // the whole step again in the model's other form
                     ++retries_;
                     return false;
                 }
-            if (opt_.max_halvings <= 0) throw underflow(a, r);
-            poll_stop(opt_, a.t);
+            if (opt_.max_halvings <= 0) throw underflow(a, r, t);
+            poll_stop(opt_, t);
             count_reduction();
             pending_.assign({1, 1});  // depths of the pieces still to take, the next one last
             offset_ = 0.0;
@@ -525,8 +546,8 @@ class fixed_control {
             smallest_ = a.dt;
             return true;
         }
-        if (a.depth >= opt_.max_halvings) throw underflow(a, r);
-        poll_stop(opt_, a.t);
+        if (a.depth >= opt_.max_halvings) throw underflow(a, r, t);
+        poll_stop(opt_, t);
         count_reduction();
         pending_.push_back(a.depth + 1);
         pending_.push_back(a.depth + 1);
@@ -546,10 +567,10 @@ class fixed_control {
         if (++attempts_ > opt_.max_substeps) throw step_work_exceeded(t, size, opt_.max_substeps, smallest_);
         const double ts = t + offset_;
         poll_cancel(opt_, ts);
-        return {ts, h, depth};
+        return {h, depth};
     }
-    step_size_underflow underflow(const fixed_attempt& a, const step_result& r) const {
-        step_size_underflow e(a.t, r.component, a.dt, stats_);
+    step_size_underflow underflow(const fixed_attempt& a, const step_result& r, double t) const {
+        step_size_underflow e(t, r.component, a.dt, stats_);
         e.non_finite_rate_value = rate_;
         return e;
     }
@@ -562,7 +583,7 @@ class fixed_control {
     St& stepper_;
     F& f_;
     S& x_;
-    double t0_, dt_, last_, start_;
+    double t0_, dt_, last_;
     std::uint64_t first_, end_;  // the steps of the grid are first + 1 .. end
     std::uint64_t completed_ = first_;
     bool announce_;
@@ -580,7 +601,7 @@ class fixed_control {
 /// over a single step, halving a failed attempt.
 template <class St, class F, class S>
 void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const run_options& opt, run_stats& stats) {
-    fixed_control<St, F, S, false> control(stepper, f, x, t, t, dt, 0, 1, dt, false, opt, stats);
+    fixed_control<St, F, S, false> control(stepper, f, x, t, dt, 0, 1, dt, false, opt, stats);
     control.run([](const auto&) {});
 }
 
@@ -666,14 +687,14 @@ run_stats run_grid(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t 
                                     (n > most ? std::string("beyond 2^53") : std::to_string(opt.first_step + n)) +
                                     " of the grid t0 + k dt: at most 2^53 steps");
     run_stats stats;
-    const held_count<F> counted{f, &stats.rhs_evals, opt.cancel};
+    const run_count<St, F> counted{f, &stats.rhs_evals, opt.cancel};
     attach_quadratic_invariants(stepper, f, x);
     const remedy_stats before = remedy_counters(stepper);
     const std::uint64_t first = opt.first_step, end = first + n;
     const bool shortened = last != dt;
     notify(observe, std::as_const(x), first == 0 ? t0 : t0 + double(first) * dt, first, stats);
-    fixed_control<St, const held_count<F>, S> control(stepper, counted, x, t0, t0 + double(first) * dt, dt,
-                                                           first, n, last, true, opt, stats);
+    fixed_control<St, const run_count<St, F>, S> control(stepper, counted, x, t0, dt, first, n, last, true, opt,
+                                                           stats);
     multiples_of observed(opt.every, first + 1);  // the steps observed, k % opt.every == 0
     // The steps taken and the evaluations are counted by the run's position, and stored into stats where they are
     // read (control.sync): before an observer that takes them sees them, when the run ends, and in a

@@ -630,7 +630,7 @@ solve_report run_fixed_on(St& stepper, F& f, S& x, const run_config& cfg, Sink& 
         // stepper and the state, so that the grid run is untouched.
         run_stats side{};
         // (a held_count, as the grid run's: the steppers' code is instantiated for one system type, not two)
-        const detail::held_count<F> side_f{f, &side.rhs_evals, cfg.cancel};
+        const detail::run_count<St, F> side_f{f, &side.rhs_evals, cfg.cancel};
         std::size_t next = 0;
         const std::uint64_t last = span.steps;
         auto grid_time = [&](std::uint64_t i) { return i >= last ? span.t_end : span.t0 + double(i) * span.dt; };

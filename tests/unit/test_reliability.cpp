@@ -120,6 +120,43 @@ TEST(Cancellation, TheFlagStopsARunBetweenSubStepsAndInsideIterations) {
     }
 }
 
+// A stepper of a fixed number of evaluations (explicit Runge-Kutta, conservative or not) is polled before each
+// step only: a flag set during a step lets that step finish, and the run stops before the next with the state of a
+// complete step, on the general engine (std::vector) and in registers (std::array) alike.
+template <class S, class St>
+void expect_stop_at_the_next_step(St stepper) {
+    std::atomic<bool> cancel{false};
+    eci::run_options opt;
+    opt.cancel = &cancel;
+    int evaluations = 0;
+    auto f = [&](const S& x, S& d, double) {
+        d[0] = x[1] * x[2], d[1] = -2.0 * x[2] * x[0], d[2] = x[0] * x[1];
+        if (++evaluations == 6) cancel.store(true);  // inside the second step of RK4 and of C-PC's third
+    };
+    const S x0{0.9, -0.4, 0.3};
+    S x = x0;
+    constexpr int stages = int(St::tableau.stages);
+    const int steps = (6 + stages - 1) / stages;  // the step the flag was set in completes
+    try {
+        eci::integrate_n_steps(stepper, f, x, 0.0, 0.1, 1000, eci::no_observer{}, opt);
+        ADD_FAILURE() << "expected eci::interrupted";
+    } catch (const eci::interrupted& e) {
+        EXPECT_EQ(evaluations, steps * stages);
+        EXPECT_DOUBLE_EQ(e.time, 0.1 * steps);
+    }
+    S y = x0;
+    auto g = [](const S& v, S& d, double) { d[0] = v[1] * v[2], d[1] = -2.0 * v[2] * v[0], d[2] = v[0] * v[1]; };
+    eci::integrate_n_steps(stepper, g, y, 0.0, 0.1, std::uint64_t(steps));
+    EXPECT_EQ(x, y) << "the state is that of the last complete step";
+}
+
+TEST(Cancellation, AnExplicitStepperFinishesItsStepAndStopsBeforeTheNext) {
+    expect_stop_at_the_next_step<std::vector<double>>(eci::rk4<std::vector<double>>{});
+    expect_stop_at_the_next_step<std::array<double, 3>>(eci::rk4<std::array<double, 3>>{});
+    expect_stop_at_the_next_step<std::vector<double>>(eci::c_pc<std::vector<double>>{});
+    expect_stop_at_the_next_step<std::array<double, 3>>(eci::c_pc<std::array<double, 3>>{});
+}
+
 TEST(NonFiniteState, NoStepperReturnsOneAsAStep) {
     // Three-wave from Figure 1's start with steps far too large: every registered method either recovers by
     // halving (every value finite) or throws; none returns inf or NaN.

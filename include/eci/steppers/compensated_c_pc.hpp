@@ -100,6 +100,7 @@ class c_pc_compensated : public radicand_remedy {
    public:
     static constexpr int order = 2;
     static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
+    static constexpr bool fixed_evaluations = true;  ///< two evaluations per step
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {

@@ -37,6 +37,7 @@ class conservative_rk : public radicand_remedy {
     static constexpr const auto& tableau = T;  ///< the tableau it runs (a run's stage hooks weigh with its b)
     static constexpr int order = T.order;
     static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
+    static constexpr bool fixed_evaluations = true;  ///< s evaluations per step (the remedy evaluates nothing)
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {

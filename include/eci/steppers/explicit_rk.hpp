@@ -196,6 +196,7 @@ class explicit_rk {
     static constexpr const auto& tableau = T;  ///< the tableau it runs (a run's stage hooks weigh with its b)
     static constexpr int order = T.order;
     static constexpr bool checks_finite = true;  ///< a non-finite update fails the step
+    static constexpr bool fixed_evaluations = true;  ///< T.stages evaluations per step, no iteration
     /// Whether step_local keeps the state and the stages in registers (detail::register_stages): a few real
     /// unknowns of one process (a state spread over processes takes the general engine, with its reduction).
     template <class F>

@@ -55,6 +55,7 @@ class symplectic_splitting {
 
    public:
     static constexpr int order = C.order;
+    static constexpr bool fixed_evaluations = true;  ///< one evaluation per stage
 
     template <system<S> F>
     step_result step(F& f, S& x, double t, double dt) {
