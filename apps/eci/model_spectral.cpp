@@ -936,8 +936,9 @@ int spectral_command::run_spread(const run_settings& settings) {
         run.max_enstrophy_residual = std::max(
             run.max_enstrophy_residual,
             relative(std::abs(z1 - z_prev - (b.enstrophy_injection - b.enstrophy_dissipation)), z1, z_prev));
-        run.max_energy_drift = std::max(run.max_energy_drift, std::abs(e1 - run.energy0));
-        run.max_enstrophy_drift = std::max(run.max_enstrophy_drift, std::abs(z1 - run.enstrophy0));
+        // (kept in the checkpoint's record across a restart, by the library's rule)
+        run.max_energy_drift = eci::invariant_record::widened_drift(run.max_energy_drift, run.energy0, e1);
+        run.max_enstrophy_drift = eci::invariant_record::widened_drift(run.max_enstrophy_drift, run.enstrophy0, z1);
         e_prev = e1, z_prev = z1;
     };
     auto on_progress = [&](double t, std::uint64_t i) {

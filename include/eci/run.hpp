@@ -35,8 +35,13 @@ struct invariant_record {
     void record(double v, bool first) {
         if (first) initial = v;
         final = v;
+        max_abs_drift = widened_drift(max_abs_drift, initial, v);
+    }
+    /// The largest drift so far, max_abs_drift, taken on to the value v of an invariant that started at `initial`
+    /// (record's rule, for a front end that keeps the drift elsewhere: the spectral command's checkpoint).
+    static double widened_drift(double max_abs_drift, double initial, double v) {
         const double d = std::abs(v - initial);
-        if (d > max_abs_drift || std::isnan(d)) max_abs_drift = d;  // a NaN, once seen, stays
+        return d > max_abs_drift || std::isnan(d) ? d : max_abs_drift;  // a NaN, once seen, stays
     }
     /// max_abs_drift / |I(t0)| where that means something: 0 if it never moved; NaN (the CLI's "n/a", JSON null,
     /// Python nan) if it moved from I(t0) = 0 or from a subnormal I(t0) (a Runge-Lenz component at theta =
