@@ -520,7 +520,6 @@ class radicand_remedy {
     static void gram_block(conditioned_pass& pass, std::size_t e0, const double* q, std::size_t nb) {
         if (!pass.w0) return;
 #if ECI_DETAIL_X86_SIMD
-        if (detail::cpu_has_avx2()) return gram_block_avx2(pass, e0, q, nb);
         const double* w0 = pass.w0 + e0;
         const double* w1 = pass.w1 + e0;
         __m128d s = _mm_set_pd(pass.g01.s, pass.g00.s), err = _mm_set_pd(pass.g01.err, pass.g00.err);
@@ -542,35 +541,6 @@ class radicand_remedy {
         for (std::size_t b = 0; b < nb; ++b) gram_add(pass, e0 + b, q[b]);
 #endif
     }
-
-#if ECI_DETAIL_X86_SIMD
-    // The same with AVX2: the three error-free sums G_00, G_01, G_11 side by side in three lanes of one vector, and
-    // A_0, A_1 in the two lanes of another (the same operations in the same order lane by lane, so the same bits).
-    // A third of gram_block's instructions: the sums were most of condition_block's time at N = 1024.
-    __attribute__((target("avx2"))) static void gram_block_avx2(conditioned_pass& pass, std::size_t e0,
-                                                                 const double* q, std::size_t nb) {
-        const double* w0 = pass.w0 + e0;
-        const double* w1 = pass.w1 + e0;
-        __m256d s = _mm256_set_pd(0.0, pass.g11.s, pass.g01.s, pass.g00.s);
-        __m256d err = _mm256_set_pd(0.0, pass.g11.err, pass.g01.err, pass.g00.err);
-        __m128d a = _mm_set_pd(pass.a1, pass.a0);
-        const __m128d absmask = _mm_castsi128_pd(_mm_set1_epi64x(0x7fffffffffffffffLL));
-        for (std::size_t b = 0; b < nb; ++b) {
-            const double u = w0[b], v = w1[b];
-            const __m256d qb = _mm256_set1_pd(q[b]);
-            // lanes (u u, u v, v v) times q
-            const __m256d val = _mm256_mul_pd(_mm256_mul_pd(_mm256_set_pd(0.0, v, u, u), _mm256_set_pd(0.0, v, v, u)), qb);
-            const __m256d t = _mm256_add_pd(s, val), z = _mm256_sub_pd(t, s);  // compensated_sum::add, lane by lane
-            err = _mm256_add_pd(err, _mm256_add_pd(_mm256_sub_pd(s, _mm256_sub_pd(t, z)), _mm256_sub_pd(val, z)));
-            s = t;
-            a = _mm_add_pd(a, _mm_mul_pd(_mm_and_pd(_mm_set_pd(v, u), absmask), _mm256_castpd256_pd128(qb)));
-        }
-        alignas(32) double sv[4], ev[4];
-        _mm256_store_pd(sv, s), _mm256_store_pd(ev, err);
-        pass.g00 = {sv[0], ev[0]}, pass.g01 = {sv[1], ev[1]}, pass.g11 = {sv[2], ev[2]};
-        pass.a0 = _mm_cvtsd_f64(a), pass.a1 = _mm_cvtsd_f64(_mm_unpackhi_pd(a, a));
-    }
-#endif
 
     // An element's |o_e|^2 into the Gram sums of a fused pass, in element order.
     static void gram_add(conditioned_pass& pass, std::size_t e, double q) {
