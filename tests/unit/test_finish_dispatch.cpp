@@ -30,12 +30,20 @@ constexpr std::size_t n = 1001;
 constexpr double dt = 0.3;
 
 TEST(FinishDispatch, CpcDispatchedPassRoundsLikeTheInlinedLoop) {
-    const auto x = random_values(n, 1, -1.0, 1.0), k1 = random_values(n, 2, -2.0, 2.0);
+    auto x = random_values(n, 1, -1.0, 1.0);
+    const auto k1 = random_values(n, 2, -2.0, 2.0);
     auto o_dispatched = random_values(n, 3, -1.0, 1.0), o_inline = o_dispatched;
-    const double bad_dispatched = eci::detail::c_pc_finish(o_dispatched.data(), x.data(), k1.data(), dt, n);
-    const double bad_inline = eci::detail::c_pc_finish_inline(o_inline.data(), x.data(), k1.data(), dt, n);
-    EXPECT_GT(bad_inline, 0.0);  // the data exercise the failure count too
-    EXPECT_EQ(bad_dispatched, bad_inline);
+    // three radicands of +inf (1e200 * 1e200), one in the vector body, two in the tail, and one of 1e300 (finite)
+    for (const std::size_t i : {std::size_t{100}, n - 2, n - 1}) x[i] = 1e200, o_dispatched[i] = o_inline[i] = 1e200;
+    x[200] = 1e150, o_dispatched[200] = o_inline[200] = 1e150;
+    const eci::detail::radicand_counts dispatched =
+        eci::detail::c_pc_finish(o_dispatched.data(), x.data(), k1.data(), dt, n);
+    const eci::detail::radicand_counts inlined =
+        eci::detail::c_pc_finish_inline(o_inline.data(), x.data(), k1.data(), dt, n);
+    EXPECT_GT(inlined.negative, 0.0);  // the data exercise the failure count too
+    EXPECT_EQ(inlined.infinite, 3.0);
+    EXPECT_EQ(dispatched.negative, inlined.negative);
+    EXPECT_EQ(dispatched.infinite, inlined.infinite);
     EXPECT_TRUE(same_bits(o_dispatched, o_inline));
 }
 
@@ -44,12 +52,13 @@ TEST(FinishDispatch, CompensatedDispatchedPassRoundsLikeTheInlinedLoop) {
     const auto r = random_values(n, 6, -1e-17, 1e-17);
     auto p_dispatched = random_values(n, 7, -1.0, 1.0), p_inline = p_dispatched;
     auto k0_dispatched = random_values(n, 8, -2.0, 2.0), k0_inline = k0_dispatched;
-    const double bad_dispatched = eci::detail::compensated_c_pc_finish(p_dispatched.data(), k0_dispatched.data(),
-                                                                       x.data(), k1.data(), r.data(), dt, n);
-    const double bad_inline = eci::detail::compensated_c_pc_finish_inline(p_inline.data(), k0_inline.data(),
-                                                                          x.data(), k1.data(), r.data(), dt, n);
-    EXPECT_GT(bad_inline, 0.0);
-    EXPECT_EQ(bad_dispatched, bad_inline);
+    const eci::detail::radicand_counts dispatched = eci::detail::compensated_c_pc_finish(
+        p_dispatched.data(), k0_dispatched.data(), x.data(), k1.data(), r.data(), dt, n);
+    const eci::detail::radicand_counts inlined = eci::detail::compensated_c_pc_finish_inline(
+        p_inline.data(), k0_inline.data(), x.data(), k1.data(), r.data(), dt, n);
+    EXPECT_GT(inlined.negative, 0.0);
+    EXPECT_EQ(dispatched.negative, inlined.negative);
+    EXPECT_EQ(dispatched.infinite, inlined.infinite);
     // NaN payloads of failed unknowns compare by bits as well: both loops produce the same default NaN.
     EXPECT_TRUE(same_bits(p_dispatched, p_inline));
     EXPECT_TRUE(same_bits(k0_dispatched, k0_inline));

@@ -222,6 +222,42 @@ TEST(NonFiniteState, SteppersThatCheckFinitenessFailAnOverflowingStep) {
     expect_overflow_fails_the_step<eci::c_rk4<A>, A>("c-rk4, std::array");
 }
 
+// The paper's update counts infinite radicands in its own pass (and checks no more where none is negative): one
+// radicand of +inf, at the start, middle or end of states short and long enough for the vectorized passes and their
+// tails, fails the step and leaves x as it was; a radicand of 1e300 (a root of 1e150) does not.
+template <class St>
+void expect_an_infinite_radicand_fails_the_step(const char* name) {
+    using S = std::vector<double>;
+    for (const std::size_t n : {5u, 64u, 67u, 1001u})
+        for (const std::size_t at : {std::size_t{0}, n / 2, n - 1})
+            for (const double rate : {1e300, 1e150}) {
+                S x(n, 1.0);
+                const S before = x;
+                auto f = [&](const S& a, S& d, double) {
+                    d.assign(a.size(), 0.0);
+                    d[at] = rate;
+                };
+                St st;
+                const eci::step_result r = st.step(f, x, 0.0, 1.0);
+                if (rate == 1e300) {
+                    EXPECT_FALSE(r) << name << " n=" << n << " at " << at;
+                    EXPECT_EQ(x, before) << name << " n=" << n << " at " << at;
+                } else {
+                    EXPECT_TRUE(r) << name << " n=" << n << " at " << at;
+                    for (double v : x) EXPECT_TRUE(std::isfinite(v)) << name;
+                    EXPECT_GT(x[at], 1e149) << name;
+                }
+            }
+}
+
+TEST(NonFiniteState, AnInfiniteRadicandFailsTheStepOfThePapersUpdate) {
+    using S = std::vector<double>;
+    expect_an_infinite_radicand_fails_the_step<eci::c_pc<S>>("c-pc");
+    expect_an_infinite_radicand_fails_the_step<eci::c_rk2<S>>("c-rk2");
+    expect_an_infinite_radicand_fails_the_step<eci::c_rk4<S>>("c-rk4");
+    expect_an_infinite_radicand_fails_the_step<eci::c_pc_compensated<S>>("c-pc-compensated");
+}
+
 // The finiteness test the steppers fuse into their last pass (an add into bit 63, which vectorizes with baseline
 // SSE2): exactly the infinities and NaNs, at every position of a long array and at the edges of the exponent range.
 TEST(NonFiniteState, TheFusedFinitenessBitIsExactlyIsfinite) {

@@ -4,6 +4,9 @@
 
 #include <cmath>
 #include <cstddef>
+#include <limits>
+
+#include "state_ops.hpp"
 
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
@@ -26,54 +29,62 @@ inline bool cpu_has_avx2() {
 #endif
 
 /// C-PC's finishing pass, eq. (30b) factorised: o holds psi~ and becomes sgn(psi~) sqrt(psi~ (x + dt S~)).
-/// Returns the number of negative (or NaN) radicands, as a double. The reference loop: the vector versions
+/// Returns the counts of negative (or NaN) and of infinite radicands. The reference loop: the vector versions
 /// below perform the same IEEE operations in the same order (no FMA), so every version gives the same bits.
-inline double c_pc_finish_inline(double* o, const double* x, const double* k1, double dt, std::size_t n) {
-    double bad = 0.0;
+inline radicand_counts c_pc_finish_inline(double* o, const double* x, const double* k1, double dt, std::size_t n) {
+    constexpr double most = std::numeric_limits<double>::max();
+    radicand_counts c;
     for (std::size_t i = 0; i < n; ++i) {
         const double rad = o[i] * (x[i] + dt * k1[i]);
-        bad += rad >= 0.0 ? 0.0 : 1.0;
+        c.negative += rad >= 0.0 ? 0.0 : 1.0;
+        c.infinite += rad > most ? 1.0 : 0.0;
         o[i] = std::copysign(std::sqrt(rad), o[i]);
     }
-    return bad;
+    return c;
 }
 
 #if ECI_DETAIL_X86_SIMD
 /// Two lanes (SSE2, every x86-64 processor).
-inline double c_pc_finish_sse2(double* o, const double* x, const double* k1, double dt, std::size_t n) {
+inline radicand_counts c_pc_finish_sse2(double* o, const double* x, const double* k1, double dt, std::size_t n) {
     const __m128d step = _mm_set1_pd(dt), zero = _mm_setzero_pd(), sign = _mm_set1_pd(-0.0);
-    int bad = 0;
+    const __m128d most = _mm_set1_pd(std::numeric_limits<double>::max());
+    std::size_t bad = 0, inf = 0;
     std::size_t i = 0;
     for (; i + 2 <= n; i += 2) {
         const __m128d p = _mm_loadu_pd(o + i);
         const __m128d rad = _mm_mul_pd(p, _mm_add_pd(_mm_loadu_pd(x + i), _mm_mul_pd(step, _mm_loadu_pd(k1 + i))));
-        bad += __builtin_popcount(unsigned(_mm_movemask_pd(_mm_cmpnge_pd(rad, zero))));  // NaN counts as bad
+        bad += std::size_t(__builtin_popcount(unsigned(_mm_movemask_pd(_mm_cmpnge_pd(rad, zero)))));  // NaN: bad
+        inf += std::size_t(__builtin_popcount(unsigned(_mm_movemask_pd(_mm_cmpgt_pd(rad, most)))));  // +inf
         const __m128d root = _mm_sqrt_pd(rad);
         _mm_storeu_pd(o + i, _mm_or_pd(_mm_andnot_pd(sign, root), _mm_and_pd(sign, p)));  // copysign(root, p)
     }
-    return double(bad) + c_pc_finish_inline(o + i, x + i, k1 + i, dt, n - i);
+    radicand_counts c{double(bad), double(inf)};
+    return c += c_pc_finish_inline(o + i, x + i, k1 + i, dt, n - i);
 }
 
 /// Four lanes (AVX2 without FMA, so it rounds like the others).
-__attribute__((target("avx2"))) inline double c_pc_finish_avx2(double* o, const double* x, const double* k1,
-                                                               double dt, std::size_t n) {
+__attribute__((target("avx2"))) inline radicand_counts c_pc_finish_avx2(double* o, const double* x,
+                                                                        const double* k1, double dt, std::size_t n) {
     const __m256d step = _mm256_set1_pd(dt), zero = _mm256_setzero_pd(), sign = _mm256_set1_pd(-0.0);
-    int bad = 0;
+    const __m256d most = _mm256_set1_pd(std::numeric_limits<double>::max());
+    std::size_t bad = 0, inf = 0;
     std::size_t i = 0;
     for (; i + 4 <= n; i += 4) {
         const __m256d p = _mm256_loadu_pd(o + i);
         const __m256d rad =
             _mm256_mul_pd(p, _mm256_add_pd(_mm256_loadu_pd(x + i), _mm256_mul_pd(step, _mm256_loadu_pd(k1 + i))));
-        bad += __builtin_popcount(unsigned(_mm256_movemask_pd(_mm256_cmp_pd(rad, zero, _CMP_NGE_UQ))));
+        bad += std::size_t(__builtin_popcount(unsigned(_mm256_movemask_pd(_mm256_cmp_pd(rad, zero, _CMP_NGE_UQ)))));
+        inf += std::size_t(__builtin_popcount(unsigned(_mm256_movemask_pd(_mm256_cmp_pd(rad, most, _CMP_GT_OQ)))));
         const __m256d root = _mm256_sqrt_pd(rad);
         _mm256_storeu_pd(o + i, _mm256_or_pd(_mm256_andnot_pd(sign, root), _mm256_and_pd(sign, p)));
     }
-    return double(bad) + c_pc_finish_inline(o + i, x + i, k1 + i, dt, n - i);
+    radicand_counts c{double(bad), double(inf)};
+    return c += c_pc_finish_inline(o + i, x + i, k1 + i, dt, n - i);
 }
 #endif
 
 /// The same pass, vectorized for the processor it runs on (worth a call only for more than a few modes).
-inline double c_pc_finish(double* o, const double* x, const double* k1, double dt, std::size_t n) {
+inline radicand_counts c_pc_finish(double* o, const double* x, const double* k1, double dt, std::size_t n) {
 #if ECI_DETAIL_X86_SIMD
     return cpu_has_avx2() ? c_pc_finish_avx2(o, x, k1, dt, n) : c_pc_finish_sse2(o, x, k1, dt, n);
 #else

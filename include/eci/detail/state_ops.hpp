@@ -39,6 +39,19 @@ void resize_like(S& buffer, const S& like) {
     }
 }
 
+/// What a finishing pass of the paper's update counted among its radicands, as doubles (whole numbers, so that the
+/// ranges of a split pass sum to the same counts): the negative or NaN ones (their unknowns are NaN, for the remedy)
+/// and the infinite ones (an overflow). Where both are zero every new value is the root of a finite radicand >= 0,
+/// finite: the step needs no second pass to check it.
+struct radicand_counts {
+    double negative = 0.0;
+    double infinite = 0.0;
+    radicand_counts& operator+=(const radicand_counts& o) {
+        negative += o.negative, infinite += o.infinite;
+        return *this;
+    }
+};
+
 /// Bit 63 set iff v is infinite or NaN (its exponent field all ones), for OR-accumulation over a loop. Written
 /// as an add, not a compare: adding one to the exponent field carries into bit 63 exactly when the field is all
 /// ones, and a 64-bit add and OR vectorize with baseline x86-64 (SSE2), where the 64-bit compare of

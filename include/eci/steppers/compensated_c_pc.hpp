@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <ranges>
 #include <utility>
 
@@ -38,10 +39,11 @@ inline void two_sum(double a, double b, double& s, double& e) {
 
 /// The finishing pass of compensated C-PC over n real unknowns: p holds psi~ and becomes the new psi; k0 holds
 /// S(psi) and becomes the new residual, except where the radicand is negative (p is then NaN and k0 keeps S, for
-/// the remedy). Returns the number of negative radicands (a double keeps it vectorizable).
-inline double compensated_c_pc_finish_inline(double* p, double* k0, const double* x, const double* k1,
-                                             const double* r, double dt, std::size_t n) {
-    double bad = 0.0;
+/// the remedy). Returns the counts of negative (or NaN) and of infinite radicands (doubles keep it vectorizable).
+inline radicand_counts compensated_c_pc_finish_inline(double* p, double* k0, const double* x, const double* k1,
+                                                      const double* r, double dt, std::size_t n) {
+    constexpr double most = std::numeric_limits<double>::max();
+    double bad = 0.0, inf = 0.0;
     const step_split sp = split_step(dt);
     for (std::size_t i = 0; i < n; ++i) {
         const double psi = x[i];
@@ -56,6 +58,7 @@ inline double compensated_c_pc_finish_inline(double* p, double* k0, const double
         const double xi = hi + lo;  // renormalise (|lo| is below an ulp of hi)
         lo -= xi - hi;
         bad += xi >= 0.0 ? 0.0 : 1.0;
+        inf += xi > most ? 1.0 : 0.0;
         const double root = std::sqrt(xi);
         double root_sq, root_err;
         two_product(root, root, root_sq, root_err);
@@ -64,7 +67,7 @@ inline double compensated_c_pc_finish_inline(double* p, double* k0, const double
         k0[i] = xi >= 0.0 ? residual : k0[i];  // k0[i] is read above and, where the step succeeds, no longer needed
         p[i] = std::copysign(root, p[i]);  // the predictor's sign, eq. (30b)
     }
-    return bad;
+    return {bad, inf};
 }
 
 // x86-64 Linux GCC builds that do not already target AVX2 also compile the pass for AVX2 (twice the lanes for its
@@ -78,9 +81,9 @@ inline double compensated_c_pc_finish_inline(double* p, double* k0, const double
 #endif
 
 /// The same, dispatched at load time to the best compiled version.
-ECI_DETAIL_COMPENSATED_CLONES inline double compensated_c_pc_finish(double* p, double* k0, const double* x,
-                                                                    const double* k1, const double* r, double dt,
-                                                                    std::size_t n) {
+ECI_DETAIL_COMPENSATED_CLONES inline radicand_counts compensated_c_pc_finish(double* p, double* k0, const double* x,
+                                                                             const double* k1, const double* r,
+                                                                             double dt, std::size_t n) {
     return compensated_c_pc_finish_inline(p, k0, x, k1, r, dt, n);
 }
 
@@ -120,12 +123,16 @@ class c_pc_compensated : public radicand_remedy {
         const double* k1 = detail::reals(std::as_const(k1_)).data();
         const double* r = detail::reals(std::as_const(res_)).data();
         // a call only pays off beyond a few modes
-        const double bad = n >= 64 ? detail::compensated_c_pc_finish(p, k0, xr.data(), k1, r, dt, n)
-                                   : detail::compensated_c_pc_finish_inline(p, k0, xr.data(), k1, r, dt, n);
+        const detail::radicand_counts counts =
+            n >= 64 ? detail::compensated_c_pc_finish(p, k0, xr.data(), k1, r, dt, n)
+                    : detail::compensated_c_pc_finish_inline(p, k0, xr.data(), k1, r, dt, n);
         // Only steps with failures pay for the remedy; the failed unknowns are NaN in p.
-        if (bad != 0.0 && !remedy_failures(p, k0, xr.data(), k1, r, dt, n))
+        const bool bad = counts.negative != 0.0;
+        if (bad && !remedy_failures(p, k0, xr.data(), k1, r, dt, n))
             return step_result::failure(first_failure(n, [&](std::size_t i) { return !(p[i] == p[i]); }));
-        if (!detail::all_finite_reals(p, n))  // an overflow (inf) fails the step too
+        // An overflow (inf) fails the step too: counted by the pass where no radicand was negative (every new value
+        // is then the root of one in [0, max]), else checked over the remedied state.
+        if (bad ? !detail::all_finite_reals(p, n) : counts.infinite != 0.0)
             return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(p[i]); }));
         using std::swap;
         swap(x, pred_);
