@@ -5,6 +5,7 @@
 
 #include <array>
 #include <atomic>
+#include <cfenv>
 #include <cmath>
 #include <limits>
 #include <stdexcept>
@@ -274,6 +275,43 @@ TEST(NonFiniteState, TheFusedFinitenessBitIsExactlyIsfinite) {
                 EXPECT_EQ(eci::detail::all_finite_reals(x.data(), n), bool(std::isfinite(v))) << v << " n=" << n;
             }
     }
+}
+
+// The vectorized update loops' form of that test (the OR of the bits of v - v, explicit_rk's
+// combine_stages_finite_over): exactly the infinities and NaNs as well, also under downward rounding, where v - v
+// is -0 for a finite v; and the conventional steppers' update on a vector state fails an overflow at any position.
+TEST(NonFiniteState, TheDifferenceTestIsExactlyIsfinite) {
+    using lim = std::numeric_limits<double>;
+    const double values[] = {0.0, -0.0, lim::denorm_min(), -lim::denorm_min(), lim::min(), lim::max(), -lim::max(),
+                             1.0, -3.5, std::nextafter(lim::max(), 0.0), lim::infinity(), -lim::infinity(),
+                             lim::quiet_NaN(), -lim::quiet_NaN(), lim::signaling_NaN()};
+    const int mode = std::fegetround();
+    for (const int rounding : {FE_TONEAREST, FE_DOWNWARD, FE_UPWARD, FE_TOWARDZERO}) {
+        std::fesetround(rounding);
+        for (const double c : values) {
+            volatile double keep = c;  // computed at run time, under the rounding mode set
+            const double v = keep;
+            EXPECT_EQ(eci::detail::none_non_finite_diff(eci::detail::non_finite_diff(v)), bool(std::isfinite(v)))
+                << v << " rounding " << rounding;
+        }
+    }
+    std::fesetround(mode);
+    using S = std::vector<double>;
+    for (const std::size_t n : {1u, 2u, 3u, 7u, 64u, 1001u})
+        for (const std::size_t at : {std::size_t{0}, n / 2, n - 1}) {
+            S x(n, 1.0);
+            const S before = x;
+            auto f = [&](const S& a, S& d, double) {
+                d.assign(a.size(), 1.0);
+                d[at] = 0.75 * lim::max();  // x + dt S overflows at `at` alone (dt = 2)
+            };
+            eci::pc<S> pc;
+            EXPECT_FALSE(pc.step(f, x, 0.0, 2.0)) << "n=" << n << " at " << at;
+            EXPECT_EQ(x, before);
+            eci::rk4<S> rk4;
+            EXPECT_FALSE(rk4.step(f, x, 0.0, 2.0)) << "n=" << n << " at " << at;
+            EXPECT_EQ(x, before);
+        }
 }
 
 TEST(ModelRanges, OverflowingSquaresAndProductsAreRejected) {

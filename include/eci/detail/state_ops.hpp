@@ -63,6 +63,21 @@ inline std::uint64_t non_finite_bit(double v) {
 /// Whether an OR of non_finite_bit() values saw no infinite or NaN value.
 inline bool none_non_finite(std::uint64_t accumulated) { return (accumulated >> 63) == 0; }
 
+/// The same test in two vector operations instead of three, for the vectorized update loops: v - v is +-0 for every
+/// finite v (-0 only under downward rounding) and NaN for an infinity or a NaN, so the OR of its bits over a loop has
+/// a nonzero exponent field iff some value was not finite (none_non_finite_diff). A build that assumes finite math
+/// (-ffast-math, -ffinite-math-only) may fold v - v to zero: there it is the integer test, whose bits no
+/// floating-point assumption touches.
+inline std::uint64_t non_finite_diff(double v) {
+#if defined(__FINITE_MATH_ONLY__) && __FINITE_MATH_ONLY__
+    return non_finite_bit(v) >> 11;  // bit 63 moved into the exponent field
+#else
+    return std::bit_cast<std::uint64_t>(v - v);
+#endif
+}
+/// Whether an OR of non_finite_diff() values saw no infinite or NaN value.
+inline bool none_non_finite_diff(std::uint64_t accumulated) { return (accumulated & 0x7ff0000000000000ull) == 0; }
+
 /// Whether all n values are finite: one vectorized pass over the exponent bits.
 inline bool all_finite_reals(const double* v, std::size_t n) {
     std::uint64_t bad = 0;
