@@ -130,8 +130,9 @@ void expect_stop_at_the_next_step(St stepper) {
     eci::run_options opt;
     opt.cancel = &cancel;
     int evaluations = 0;
-    auto f = [&](const S& x, S& d, double) {
-        d[0] = x[1] * x[2], d[1] = -2.0 * x[2] * x[0], d[2] = x[0] * x[1];
+    auto g = [](const S& v, S& d, double) { d[0] = v[1] * v[2], d[1] = -2.0 * v[2] * v[0], d[2] = v[0] * v[1]; };
+    auto f = [&](const S& x, S& d, double t) {
+        g(x, d, t);
         if (++evaluations == 6) cancel.store(true);  // inside the second step of RK4 and of C-PC's third
     };
     const S x0{0.9, -0.4, 0.3};
@@ -146,7 +147,6 @@ void expect_stop_at_the_next_step(St stepper) {
         EXPECT_DOUBLE_EQ(e.time, 0.1 * steps);
     }
     S y = x0;
-    auto g = [](const S& v, S& d, double) { d[0] = v[1] * v[2], d[1] = -2.0 * v[2] * v[0], d[2] = v[0] * v[1]; };
     eci::integrate_n_steps(stepper, g, y, 0.0, 0.1, std::uint64_t(steps));
     EXPECT_EQ(x, y) << "the state is that of the last complete step";
 }

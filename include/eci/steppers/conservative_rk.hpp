@@ -91,13 +91,13 @@ class conservative_rk : public radicand_remedy {
         // the paper's update's counts (doubles keep the loops vectorizable): negative radicands go to the remedy, and
         // where there are none its pass saw every new value; the conditioned update leaves them zero and unread
         detail::radicand_counts counts;
-        bool counted = false;
+        const bool conditioned = conditioned_update_applies(n);
         // The new state goes to the stage value's buffer, free once the stages are done: the finishing passes
         // recompute each stage value from x and the k_j (C-PC's reads its predictor there, element by element before
         // overwriting it). Only Euler's tableau, with no stage value, holds a buffer of its own.
         S& out = s > 1 ? st_.stage : result_;
         double* o = detail::reals(out).data();
-        if (conditioned_update_applies(n)) {
+        if (conditioned) {
             // The conditioned update: the modulus of a complex mode, the conventional update where the square root is
             // ill-conditioned, and one exact rescale (docs/methods.md). Spread over processes, its every decision
             // is taken from sums over all of them (remedy_elements), so all take it alike.
@@ -116,14 +116,12 @@ class conservative_rk : public radicand_remedy {
                 return i1 - i0 >= 64 ? detail::c_pc_finish(o + i0, xr.data() + i0, k1 + i0, dt, i1 - i0)
                                      : detail::c_pc_finish_inline(o + i0, xr.data() + i0, k1 + i0, dt, i1 - i0);
             });
-            counted = true;
         } else {
             const std::array<const double*, s> kp = stage_pointers();
             counts = split_.count(n, [&](std::size_t i0, std::size_t i1) {
                 return finish_general(o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
                                       std::make_index_sequence<s>{});
             });
-            counted = true;
         }
         // A negative radicand on any process is one on every process (detail/reduce.hpp).
         double bad = counts.negative;
@@ -135,11 +133,11 @@ class conservative_rk : public radicand_remedy {
         // remedy's, on most steps of turbulence) checked every value in its own pass; the paper's update, where no
         // radicand was negative, counted the infinite ones in its own (a second pass over the state cost 7 % of a
         // C-PC step on 3e6 unknowns, bench/step_bench.cpp); anything else is checked here.
-        bool finite = rescaled_ != rescaled::no     ? rescaled_ == rescaled::finite
-                      : counted && bad == 0.0 ? counts.infinite == 0.0
-                                              : split_.count(n, [&](std::size_t i0, std::size_t i1) {
-                                                    return detail::all_finite_reals(o + i0, i1 - i0) ? 0.0 : 1.0;
-                                                }) == 0.0;
+        bool finite = rescaled_ != rescaled::no      ? rescaled_ == rescaled::finite
+                      : !conditioned && bad == 0.0 ? counts.infinite == 0.0
+                                                   : split_.count(n, [&](std::size_t i0, std::size_t i1) {
+                                                         return detail::all_finite_reals(o + i0, i1 - i0) ? 0.0 : 1.0;
+                                                     }) == 0.0;
         if constexpr (detail::distributed_model<F>) finite = !reduce_.any(!finite);
         if (!finite)
             return step_result::failure(detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); }));
