@@ -474,6 +474,20 @@ int spectral_command::run_spread(const run_settings& settings) {
         {"--output", settings.output}, {"--summary-json", settings.summary_json}, {"--checkpoint", checkpoint_}};
     if (!default_wisdom) named.emplace_back("--fftw-wisdom", wisdom_path);
     check_distinct_files(named);
+    // ... nor one of the files the run reads: --ic and --restart (the wisdom file, read and written, is in `named`).
+    // A checkpoint written over the one the run restarts from is the run continued in place, replaced whole once
+    // read: allowed, as with the default name.
+    std::vector<std::pair<std::string, std::string>> inputs;
+    if (restart) inputs.emplace_back("--restart", restart_);
+    if (const std::string ic = given_text("ic").value_or("");
+        !ic.empty() && ic != "random" && ic != "vortex-pair" && ic != "taylor-green")
+        inputs.emplace_back("--ic", ic);
+    {
+        std::vector<std::pair<std::string, std::string>> outputs;
+        for (const auto& o : named)
+            if (!(restart && o.first == "--checkpoint")) outputs.push_back(o);
+        check_outputs_spare_inputs(outputs, inputs);
+    }
     check_output_path(checkpoint_, "checkpoint");
     std::optional<std::string> wisdom_text;
     if (!wisdom_path.empty()) {
@@ -672,6 +686,24 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (last < first)
         throw bad_input("the restart file is at step " + std::to_string(first) + ", beyond the requested " +
                         std::to_string(last));
+    // No snapshot this run writes may replace its --ic or --restart file (nor a file a snapshot's name links to).
+    if (snapshot_every_ > 0 && !inputs.empty()) {
+        const auto written = [&](std::uint64_t i) {
+            return restart ? i > first && i <= last && (i % snapshot_every_ == 0 || i == last)
+                           : i == first || (i <= last && (i % snapshot_every_ == 0 || i == last));
+        };
+        std::error_code ec;
+        for (const auto& entry : fs::directory_iterator(snapshot_dir_.empty() ? "." : snapshot_dir_, ec)) {
+            const std::string file = entry.path().filename().string();
+            const auto step = snapshot_step(file, stem_);
+            if (!step || !written(*step)) continue;
+            char digits[32];
+            std::snprintf(digits, sizeof digits, "%08llu", (unsigned long long)*step);
+            const std::string ext = entry.path().extension().string();
+            if (file != stem_ + "_" + digits + ext && file != std::string("spectrum_") + digits + ext) continue;
+            check_outputs_spare_inputs({{"--snapshot-dir", entry.path().string()}}, inputs);
+        }
+    }
     // The run's span and rows, here, before any output is opened (its other settings below, with the sink)
     run_config cfg;
     cfg.dt = dt;

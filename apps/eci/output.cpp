@@ -716,17 +716,26 @@ std::optional<std::string> read_small_file(const std::string& path, std::string_
     return text;
 }
 
-void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs) {
-    struct key {
-        const std::string* name;
-        const std::string* path;
-        std::string canonical;
-        bool exists;
-        dev_t dev;
-        ino_t ino;
-    };
-    std::vector<key> keys;
-    for (const auto& [name, path] : outputs) {
+namespace {
+
+/// What makes two names one file: the absolute path with symlinks resolved (dangling ones too) and normalised, and,
+/// for an existing file, its device and inode (hard links, bind mounts).
+struct file_key {
+    const std::string* name;
+    const std::string* path;
+    std::string canonical;
+    bool exists;
+    dev_t dev;
+    ino_t ino;
+    bool same(const file_key& o) const {
+        return canonical == o.canonical || (exists && o.exists && dev == o.dev && ino == o.ino);
+    }
+};
+
+/// The keys of the named files; empty paths, "-" and descriptors have none (they name no file of their own).
+std::vector<file_key> file_keys(const std::vector<std::pair<std::string, std::string>>& files) {
+    std::vector<file_key> keys;
+    for (const auto& [name, path] : files) {
         if (path.empty() || path == "-" || named_descriptor(path) >= 0) continue;
         std::string target;
         if (!resolve_links(path, target)) target = path;
@@ -737,12 +746,28 @@ void check_distinct_files(const std::vector<std::pair<std::string, std::string>>
         const bool exists = ::stat(target.c_str(), &st) == 0;
         keys.push_back({&name, &path, c.lexically_normal().string(), exists, st.st_dev, st.st_ino});
     }
+    return keys;
+}
+
+}  // namespace
+
+void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs) {
+    const std::vector<file_key> keys = file_keys(outputs);
     for (std::size_t i = 0; i < keys.size(); ++i)
-        for (std::size_t j = i + 1; j < keys.size(); ++j) {
-            const key &a = keys[i], &b = keys[j];
-            if (a.canonical == b.canonical || (a.exists && b.exists && a.dev == b.dev && a.ino == b.ino))
-                throw bad_input(message({*a.name, " and ", *b.name, " name the same file '", *a.path, "'"}));
-        }
+        for (std::size_t j = i + 1; j < keys.size(); ++j)
+            if (keys[i].same(keys[j]))
+                throw bad_input(message({*keys[i].name, " and ", *keys[j].name, " name the same file '",
+                                         *keys[i].path, "'"}));
+}
+
+void check_outputs_spare_inputs(const std::vector<std::pair<std::string, std::string>>& outputs,
+                                const std::vector<std::pair<std::string, std::string>>& inputs) {
+    const std::vector<file_key> out = file_keys(outputs), in = file_keys(inputs);
+    for (const file_key& o : out)
+        for (const file_key& i : in)
+            if (o.same(i))
+                throw bad_input(message({*o.name, " and ", *i.name, " name the same file '", *o.path,
+                                         "': the run would overwrite its own input"}));
 }
 
 // ---- staging_dir ----

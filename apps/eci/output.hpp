@@ -168,6 +168,11 @@ std::string unreadable_reason(const std::string& path);
 /// one file: symlinks followed, dangling ones too, and hard links. Empty paths, "-" and descriptors are skipped.
 void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs);
 
+/// Refuses (bad_input "<output> and <input> name the same file '<path>': the run would overwrite its own input") an
+/// output (option, path) that is one of the run's input files, by the same test as check_distinct_files.
+void check_outputs_spare_inputs(const std::vector<std::pair<std::string, std::string>>& outputs,
+                                const std::vector<std::pair<std::string, std::string>>& inputs);
+
 /// v with 17 significant digits (the CSV, the summary): eci::format_double, as the library formats it.
 using eci::format_double;
 

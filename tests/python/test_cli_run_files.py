@@ -66,6 +66,68 @@ def temporaries(d):
     return [p for p in Path(d).rglob("*") if ".eci-" in p.name]
 
 
+# ---- 2. no output may be one of the run's inputs
+
+@pytest.fixture
+def checkpoint(cli, tmp_path):
+    run_cli(cli, *small("--steps", 2, "--checkpoint-every", 2, "--checkpoint", tmp_path / "a2.h5"))
+    return tmp_path / "a2.h5"
+
+
+@pytest.mark.parametrize("option", ["--output", "--summary-json", "--fftw-wisdom"])
+@pytest.mark.parametrize("how", ["same", "normalised", "symlink", "hardlink"])
+def test_an_output_naming_the_restart_file_is_refused(cli, tmp_path, checkpoint, option, how):
+    name = {"same": checkpoint, "normalised": tmp_path / "x" / ".." / "a2.h5", "symlink": tmp_path / "link.h5",
+            "hardlink": tmp_path / "hard.h5"}[how]
+    (tmp_path / "x").mkdir()
+    if how == "symlink":
+        name.symlink_to(checkpoint)
+    if how == "hardlink":
+        os.link(checkpoint, name)
+    before = checkpoint.read_bytes()
+    msg = cli_error(cli, "run", "navier-stokes-2d", "--restart", checkpoint, "--t-end", 0.05, option, name,
+                    "--checkpoint", tmp_path / "cc.h5")
+    assert msg == f"{option} and --restart name the same file '{name}': the run would overwrite its own input"
+    assert checkpoint.read_bytes() == before
+    assert not (tmp_path / "cc.h5").exists()
+
+
+@pytest.mark.parametrize("option", ["--output", "--summary-json", "--fftw-wisdom", "--checkpoint"])
+def test_an_output_naming_the_ic_file_is_refused(cli, tmp_path, checkpoint, option):
+    run_cli(cli, *small("--steps", 1, "--snapshot-every", 1, "--snapshot-dir", tmp_path / "sd"))
+    for ic in [checkpoint, tmp_path / "sd" / "vorticity_00000001.h5"]:
+        before = ic.read_bytes()
+        msg = cli_error(cli, *small("--ic", ic, "--steps", 1, option, ic, wisdom=option != "--fftw-wisdom" and "none"))
+        assert msg == f"{option} and --ic name the same file '{ic}': the run would overwrite its own input"
+        assert ic.read_bytes() == before
+
+
+def test_a_snapshot_over_the_ic_or_restart_file_is_refused(cli, tmp_path, checkpoint):
+    sd = tmp_path / "sd"
+    run_cli(cli, *small("--steps", 2, "--snapshot-every", 1, "--snapshot-dir", sd))
+    snap = sd / "vorticity_00000000.h5"
+    before = snap.read_bytes()
+    msg = cli_error(cli, *small("--ic", snap, "--snapshot-dir", sd, "--snapshot-every", 1, "--steps", 1))
+    assert msg == (f"--snapshot-dir and --ic name the same file '{snap}': the run would overwrite its own input")
+    assert snap.read_bytes() == before
+    # a snapshot name that links to the input (the restart at step 2 writes step 4)
+    (sd / "vorticity_00000004.h5").symlink_to(checkpoint)
+    msg = cli_error(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
+                    "--snapshot-every", 1, "--snapshot-dir", sd, "--checkpoint", tmp_path / "cc.h5")
+    assert msg.startswith("--snapshot-dir and --restart name the same file "), msg
+    (sd / "vorticity_00000004.h5").unlink()
+    # a snapshot the run does not write may be its input: steps 0 and 4 are written, not 1
+    run_cli(cli, *small("--ic", sd / "vorticity_00000001.h5", "--snapshot-dir", sd, "--snapshot-every", 5,
+                        "--steps", 4, "--output", tmp_path / "o.csv"))
+
+
+def test_the_checkpoint_may_continue_the_restart_file_in_place(cli, tmp_path, checkpoint):
+    run_cli(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
+            "--checkpoint-every", 4, "--checkpoint", checkpoint)
+    with h5py.File(checkpoint, "r") as f:
+        assert int(f.attrs["step"]) == 4
+
+
 # ---- 5. numbers are decimal
 
 @pytest.mark.parametrize("args, value", [
