@@ -247,9 +247,9 @@ int run_cli(int argc, char** argv) {
         sub->add_option("--update", settings.update,
                         "conservative methods (c-pc, c-rk2, c-rk4 at fixed steps, the c- pairs with --rtol) on "
                         "systems of 16 or more real unknowns with declared invariants (n-wave, the spectral models): "
-                        "conditioned (default: at the conventional method's error, docs/methods.md; on more than one "
-                        "MPI process: paper) or "
-                        "paper (the paper's update, bit for bit as before the conditioned update)")
+                        "conditioned (default: at the conventional method's error, docs/methods.md) or "
+                        "paper (the paper's update, bit for bit as before the conditioned update); a spectral "
+                        "checkpoint records it, and a --restart takes the checkpoint's")
             ->check(CLI::IsMember({"conditioned", "paper"}));
         std::string presets;
         for (const auto& [name, what] : i.presets) presets += (presets.empty() ? "" : "; ") + name + ": " + what;

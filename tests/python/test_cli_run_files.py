@@ -128,6 +128,64 @@ def test_the_checkpoint_may_continue_the_restart_file_in_place(cli, tmp_path, ch
         assert int(f.attrs["step"]) == 4
 
 
+# ---- 3. the checkpoint records every option that changes the numbers
+
+def last_row(path):
+    return Path(path).read_text().splitlines()[-1]
+
+
+def test_the_checkpoint_records_update_and_a_restart_takes_it(cli, tmp_path):
+    base = ["run", "navier-stokes-2d", "--N", "32", "--fftw-wisdom", "none", "--fftw-estimate", "--dt", "0.01",
+            "--method", "c-rk4", "--update", "paper"]
+    run_cli(cli, *base, "--t-end", 1, "--output", tmp_path / "full.csv")
+    run_cli(cli, *base, "--t-end", 0.5, "--checkpoint-every", 50, "--checkpoint", tmp_path / "half.h5")
+    with h5py.File(tmp_path / "half.h5", "r") as f:
+        assert f.attrs["update"] == b"paper"
+    rest = ["run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", tmp_path / "half.h5", "--t-end", 1]
+    run_cli(cli, *rest, "--output", tmp_path / "rest.csv", "--checkpoint", tmp_path / "r.h5")
+    assert last_row(tmp_path / "rest.csv") == last_row(tmp_path / "full.csv")
+    msg = cli_error(cli, *rest, "--update", "conditioned", "--checkpoint", tmp_path / "r.h5")
+    assert msg.startswith(f"--update conditioned does not match the restart file's paper ({tmp_path / 'half.h5'}"), msg
+    # a checkpoint of an earlier version records none: its run took the default, conditioned
+    with h5py.File(tmp_path / "half.h5", "r+") as f:
+        del f.attrs["update"]
+    msg = cli_error(cli, *rest, "--update", "paper", "--checkpoint", tmp_path / "r.h5")
+    assert msg.startswith("--update paper does not match the restart file's conditioned"), msg
+    run_cli(cli, *rest, "--update", "conditioned", "--checkpoint", tmp_path / "r.h5")
+
+
+# ---- 4. every checkpoint attribute read on restart is checked
+
+@pytest.mark.parametrize("name, value, says", [
+    ("step", np.int64(-5), "attribute 'step' is -5, not a count >= 0"),
+    ("step", np.float64(2.0), "attribute 'step' is not a whole number"),
+    ("step", np.uint64(1), "time 0.02 is not step * dt = 1 * 0.01"),
+    ("time", np.float64(7.0), "time 7 is not step * dt = 2 * 0.01"),
+    ("total_steps", np.int64(-1), "attribute 'total_steps' is -1, not a count >= 0"),
+    ("halvings", np.int64(-3), "attribute 'halvings' is -3, not a count >= 0"),
+    ("rhs_evals", np.uint64(1), "rhs_evals 1 is fewer than the 2 steps taken"),
+    ("rng_state", np.int64(-1), "attribute 'rng_state' is -1, not a count >= 0"),
+    ("forcing_seed", np.float64(1.5), "attribute 'forcing_seed' is not a whole number"),
+    ("N", np.float64(16.0), "attribute 'N' is not a whole number"),
+    ("threads", np.int64(-2), "threads = -2 is not in 1..64"),
+    ("dt", np.float64(np.inf), "dt must be a positive number"),
+    ("energy0", np.float64(-1.0), "energy0 -1 is negative"),
+    ("max_enstrophy_drift", np.float64(-1e-3), "max_enstrophy_drift -0.001 is negative"),
+    ("energy_injection", np.float64(np.nan), "energy_injection is not finite"),
+    ("update", "fast", "unknown update 'fast'"),
+])
+def test_a_corrupt_checkpoint_attribute_is_refused(cli, tmp_path, checkpoint, name, value, says):
+    with h5py.File(checkpoint, "r+") as f:
+        if isinstance(value, str):
+            f.attrs.create(name, np.bytes_(value))
+        else:
+            f.attrs[name] = value
+    msg = cli_error(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
+                    "--checkpoint", tmp_path / "cc.h5")
+    assert msg.startswith("cannot restart: ") and says in msg, msg
+    assert not (tmp_path / "cc.h5").exists()
+
+
 # ---- 5. numbers are decimal
 
 @pytest.mark.parametrize("args, value", [
