@@ -33,11 +33,16 @@ constexpr const char* exit_status_help =
     "Exit status: 0 success; 1 a run that could not finish (a step failed even at dt * 2^-40, needed too many "
     "sub-steps or blew up; a write failed, e.g. a full disk) or a feature not built; 2 bad input (unknown model "
     "or method, bad number, invalid coefficients, unwritable output, ...); 128+N stopped by signal N (130 "
-    "Ctrl-C; SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE). On any failure no output file or directory is created "
+    "Ctrl-C; SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE). A run stopped by SIGINT, SIGTERM, SIGHUP or SIGQUIT "
+    "after its first step keeps its outputs up to where it stopped, as complete files committed together (the CSV's "
+    "rows so far, the snapshots taken, a summary JSON with \"interrupted\": true and t_stopped) and says what it "
+    "kept; stopped before its first step, by SIGPIPE or by a second signal, it keeps nothing. On any other failure "
+    "no output file or directory is created "
     "or replaced (files of one run appear together), except what goes directly to standard output, a device "
     "or a FIFO (for --output and --summary-json; other outputs refuse devices and FIFOs), and a spectral run's "
     "checkpoint (replaced whole at each --checkpoint-every and on a stop, so the last good one stays) and FFTW "
-    "wisdom file (written once the input is known good).";
+    "wisdom file (written once the input is known good). No output may name an input file (--ic, --restart; "
+    "--checkpoint may name the --restart file, continuing it in place).";
 
 void print_error(std::string_view message) {
     std::string line(message);

@@ -426,9 +426,9 @@ std::string commit_state(const std::vector<std::string>& committed, const std::v
 
 }  // namespace
 
-void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged) {
+void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged, bool interrupted_run) {
     const auto name = [](const output_file* o) { return message({o->what_, " '", o->path_, "'"}); };
-    throw_if_interrupted("before its output was committed");
+    if (!interrupted_run) throw_if_interrupted("before its output was committed");
     for (output_file* o : outputs) {
         if (!o) continue;
         try {
@@ -442,7 +442,7 @@ void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* st
     sigset_t previous;
     ::pthread_sigmask(SIG_BLOCK, &block, &previous);
     try {
-        throw_if_interrupted("before its output was committed");
+        if (!interrupted_run) throw_if_interrupted("before its output was committed");
         // The staged files (snapshots) first, the files that describe the run last: a CSV or JSON is never
         // committed for a run whose other files are not.
         const auto staged_name = [&] { return message({"the ", staged->what_, " in '", staged->final_, "'"}); };
@@ -960,6 +960,15 @@ void throw_if_interrupted(std::string_view where) {
     std::string m = message({"interrupted by ", signal_name(interrupt_signal())});
     if (!where.empty()) m.append(" ").append(where);
     throw interrupted(m);
+}
+
+bool interrupt_keeps_outputs() { return interrupt_requested() && interrupt_signal() != SIGPIPE; }
+
+std::string interrupt_message(std::string_view where) {
+    std::string m = interrupt_requested() ? message({"interrupted by ", signal_name(interrupt_signal())})
+                                          : std::string("interrupted");
+    if (!where.empty()) m.append(" ").append(where);
+    return m;
 }
 
 void register_child(pid_t pid) { child_pid.store(pid); }

@@ -66,6 +66,72 @@ def temporaries(d):
     return [p for p in Path(d).rglob("*") if ".eci-" in p.name]
 
 
+# ---- 1. an interrupted run keeps what it produced up to the step it stopped at
+
+def test_interrupted_spectral_run_keeps_its_snapshots_rows_and_summary(cli, tmp_path):
+    status, err = interrupted_run(cli, ["run", "navier-stokes-2d", "--N", "32", "--t-end", "100000", "--fftw-wisdom",
+                                        "none", "--fftw-estimate", "--snapshot-every", "200", "--snapshot-dir",
+                                        "snapd", "--checkpoint", "ck.h5", "--output", "ts.csv", "--summary-json",
+                                        "s.json"], tmp_path, after=2.5)
+    assert status == 130, err
+    line = error_line(err)
+    assert line.startswith("eci: error: interrupted at step "), err
+    step = int(line[len("eci: error: interrupted at step "):].split(",")[0])
+    assert step > 0, err
+    assert "checkpoint written to ck.h5" in err
+    assert "kept: the snapshots in 'snapd' to step %d, CSV output 'ts.csv' (rows to step %d), summary JSON " \
+           "'s.json'" % (step, step) in err, err
+    rows = complete_csv(tmp_path / "ts.csv")
+    assert [int(r[0]) for r in rows] == list(range(0, step + 1))
+    with h5py.File(tmp_path / "ck.h5", "r") as f:
+        assert int(f.attrs["step"]) == step
+    taken = sorted(p.name for p in (tmp_path / "snapd").glob("vorticity_*.h5"))
+    assert taken == ["vorticity_%08d.h5" % i for i in range(0, step + 1, 200)]
+    for name in taken:
+        with h5py.File(tmp_path / "snapd" / name, "r") as f:
+            assert f["vorticity"].shape == (32, 32)
+    s = json.loads((tmp_path / "s.json").read_text())
+    assert s["interrupted"] is True and s["steps"] == step
+    assert s["t_stopped"] == float(rows[-1][1])
+    assert s["invariants"]["energy"]["final"] == float(rows[-1][2])
+    assert not temporaries(tmp_path)
+
+
+@pytest.mark.parametrize("extra", [[], ["--rtol", "1e-9", "--method", "c-dp54"]], ids=["fixed", "adaptive"])
+def test_interrupted_ode_run_keeps_its_rows_and_summary(cli, tmp_path, extra):
+    (tmp_path / "x.csv").write_text("precious\n")
+    status, err = interrupted_run(cli, ["run", "three-wave", "--t-end", "1e12", "--every", "1000", "--output",
+                                        "x.csv", "--summary-json", "x.json", *extra], tmp_path)
+    assert status == 130, err
+    line = error_line(err)
+    assert line.startswith("eci: error: interrupted by SIGINT at t = "), err
+    rows = complete_csv(tmp_path / "x.csv")
+    assert len(rows) > 1
+    kept = re.search(r"; kept: CSV output 'x.csv' \(rows to t = ([^)]*)\), summary JSON 'x.json'$", line)
+    assert kept and float(kept.group(1)) == float(rows[-1][0]), err
+    s = json.loads((tmp_path / "x.json").read_text())
+    assert s["interrupted"] is True and s["t_stopped"] == float(rows[-1][0])
+    assert s["invariants"]["energy"]["final"] == float(rows[-1][4])
+    assert s["invariants"]["energy"]["initial"] == float(rows[0][4])
+    assert ("steps" in s) == (not extra)  # counts of an adaptive run are not known between its steps
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.csv", "x.json"]
+
+
+def test_run_stopped_before_its_first_step_keeps_nothing(cli, tmp_path):
+    (tmp_path / "x.csv").write_text("precious\n")
+
+    def pending_interrupt():  # SIGINT pending from the start: the run never steps
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        os.kill(os.getpid(), signal.SIGINT)
+
+    p = subprocess.Popen([str(cli), "run", "three-wave", "--t-end", "1e9", "--output", "x.csv", "--summary-json",
+                          "x.json"], cwd=tmp_path, stderr=subprocess.PIPE, text=True, preexec_fn=pending_interrupt)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert (tmp_path / "x.csv").read_text() == "precious\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.csv"]
+
+
 # ---- 2. no output may be one of the run's inputs
 
 @pytest.fixture
