@@ -261,7 +261,8 @@ TEST_F(reliability, a_signal_at_any_moment_of_start_up_ends_the_run) {
 }
 
 // The moment eci's handler exists (before its libraries' constructors and main, and long before the run), a signal
-// is an interrupt like one during the run: exit 128 + N, "interrupted by SIG...", no file. Also when the parent
+// is an interrupt like one during the run: exit 128 + N, "interrupted by SIG...", no file (or, if the signal only
+// arrives once the run has stepped, its outputs so far, whole). Also when the parent
 // ignored SIGINT and SIGQUIT (a shell's `cmd &`).
 TEST_F(reliability, a_signal_as_soon_as_the_handler_exists_is_an_interrupt) {
     for (const handed_signals how : {handed_signals::defaults, handed_signals::interrupts_ignored})
@@ -279,7 +280,9 @@ TEST_F(reliability, a_signal_as_soon_as_the_handler_exists_is_an_interrupt) {
             EXPECT_LT(end.seconds, 3.0) << name;
             EXPECT_EQ(err.rfind("eci: error: interrupted by " + std::string(name), 0), 0u) << name << ": " << err;
             EXPECT_EQ(lines_of(err).size(), 1u) << err;
-            EXPECT_TRUE(work_files().empty()) << name << ": " << *work_files().begin();
+            // (on a loaded machine the signal may come after the run has stepped: its outputs are then kept whole)
+            EXPECT_EQ(kept_whole(work_), "") << name;
+            dir_.clear();
         }
 }
 
