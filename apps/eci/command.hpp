@@ -26,7 +26,7 @@ struct run_settings {
     std::optional<double> output_dt;     ///< CSV rows at multiples of this time (and the end) instead of steps
     /// Conservative RK methods at fixed steps on large systems (n-wave, the spectral models): "conditioned" (the
     /// default, when empty) or "paper", the paper's update bit for bit (docs/methods.md). Empty: not
-    /// given (a spectral run on more than one MPI process then takes "paper").
+    /// given (a spectral --restart then takes its checkpoint's).
     std::string update;
 };
 

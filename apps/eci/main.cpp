@@ -1,6 +1,7 @@
 // The `eci` command: parses `eci run MODEL ...`, `eci list` and `eci figures ...` with CLI11 and turns every
 // error into one line "eci: error: ..." on stderr with a documented exit status.
 #include <algorithm>
+#include <cctype>
 #include <charconv>
 #include <cstdio>
 #include <cstdlib>
@@ -32,11 +33,16 @@ constexpr const char* exit_status_help =
     "Exit status: 0 success; 1 a run that could not finish (a step failed even at dt * 2^-40, needed too many "
     "sub-steps or blew up; a write failed, e.g. a full disk) or a feature not built; 2 bad input (unknown model "
     "or method, bad number, invalid coefficients, unwritable output, ...); 128+N stopped by signal N (130 "
-    "Ctrl-C; SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE). On any failure no output file or directory is created "
+    "Ctrl-C; SIGINT, SIGTERM, SIGHUP, SIGQUIT, SIGPIPE). A run stopped by SIGINT, SIGTERM, SIGHUP or SIGQUIT "
+    "after its first step keeps its outputs up to where it stopped, as complete files committed together (the CSV's "
+    "rows so far, the snapshots taken, a summary JSON with \"interrupted\": true and t_stopped) and says what it "
+    "kept; stopped before its first step, by SIGPIPE or by a second signal, it keeps nothing. On any other failure "
+    "no output file or directory is created "
     "or replaced (files of one run appear together), except what goes directly to standard output, a device "
     "or a FIFO (for --output and --summary-json; other outputs refuse devices and FIFOs), and a spectral run's "
     "checkpoint (replaced whole at each --checkpoint-every and on a stop, so the last good one stays) and FFTW "
-    "wisdom file (written once the input is known good).";
+    "wisdom file (written once the input is known good). No output may name an input file (--ic, --restart; "
+    "--checkpoint may name the --restart file, continuing it in place).";
 
 void print_error(std::string_view message) {
     std::string line(message);
@@ -67,6 +73,38 @@ CLI::Validator whole_number(std::uint64_t min) {
         "INT>=" + std::to_string(min));
 }
 
+/// A CLI11 check that an option is a decimal number: an optional sign, digits with an optional point, an optional
+/// exponent ("1", "-0.5", ".5", "2.", "1e-3"); CLI11 alone would also take hexadecimal ("0x10" as 16, "0x1p-4" as
+/// 0.0625), which the whole-number options and Python refuse. "inf" and "nan" (any case, signed) still reach the run,
+/// which refuses them with the same sentence as Python. A list ("1,0,2") is checked number by number.
+CLI::Validator decimal_number() {
+    return CLI::Validator(
+        [](std::string& s) -> std::string {
+            const auto decimal = [](std::string_view v) {
+                std::size_t i = 0;
+                if (i < v.size() && (v[i] == '+' || v[i] == '-')) ++i;
+                std::string lower;
+                for (char c : v.substr(i)) lower.push_back(char(std::tolower(static_cast<unsigned char>(c))));
+                if (lower == "inf" || lower == "infinity" || lower == "nan") return true;
+                std::size_t digits = 0;
+                for (; i < v.size() && std::isdigit(static_cast<unsigned char>(v[i])); ++i) ++digits;
+                if (i < v.size() && v[i] == '.')
+                    for (++i; i < v.size() && std::isdigit(static_cast<unsigned char>(v[i])); ++i) ++digits;
+                if (digits == 0) return false;
+                if (i < v.size() && (v[i] == 'e' || v[i] == 'E')) {
+                    ++i;
+                    if (i < v.size() && (v[i] == '+' || v[i] == '-')) ++i;
+                    std::size_t exponent = 0;
+                    for (; i < v.size() && std::isdigit(static_cast<unsigned char>(v[i])); ++i) ++exponent;
+                    if (exponent == 0) return false;
+                }
+                return i == v.size();
+            };
+            return decimal(s) ? std::string() : "must be a decimal number, not '" + s + "'";
+        },
+        "NUMBER");
+}
+
 /// Binds a model's own options (its parameters, initial state or generator settings) on its subcommand.
 void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
     for (option_spec& o : options) {
@@ -79,9 +117,13 @@ void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
             sub.add_option(flag, *o.whole, o.help)->check(whole_number(o.min));
         } else if (o.count == 1) {
             o.reals->resize(1);
-            sub.add_option(flag, o.reals->front(), o.help);
+            sub.add_option(flag, o.reals->front(), o.help)->check(decimal_number());
         } else {
-            sub.add_option(flag, *o.reals, o.help)->expected(int(o.count))->delimiter(',')->allow_extra_args(false);
+            sub.add_option(flag, *o.reals, o.help)
+                ->expected(int(o.count))
+                ->delimiter(',')
+                ->allow_extra_args(false)
+                ->check(decimal_number());
         }
     }
 }
@@ -183,8 +225,9 @@ int run_cli(int argc, char** argv) {
         const model_info& i = model->info();
         CLI::App* sub = run->add_subcommand(i.name, i.description);
         sub->add_option("--method", settings.method, "integrator, one of `eci list` (default " + i.default_method + ")");
-        sub->add_option("--dt", dt, "time step (default " + i.dt_text(shortest) + ")");
-        sub->add_option("--t-end", t_end, "end time, starting at t = 0 (default " + shortest(i.default_t_end) + ")");
+        sub->add_option("--dt", dt, "time step (default " + i.dt_text(shortest) + ")")->check(decimal_number());
+        sub->add_option("--t-end", t_end, "end time, starting at t = 0 (default " + shortest(i.default_t_end) + ")")
+            ->check(decimal_number());
         sub->add_option("--steps", steps, "number of steps instead of --t-end")->check(whole_number(0));
         sub->add_option("--every", settings.every, "write a CSV row every K steps; the first and last always "
                                                    "(default 1)")
@@ -197,18 +240,21 @@ int run_cli(int argc, char** argv) {
         sub->add_option("--rtol", rtol,
                         "relative tolerance: run with adaptive step control (an embedded pair: bs32, ck54, dp54, "
                         "dp853, f78 and their c- versions); --dt is then the first step, at most the span. Below "
-                        "100 eps it is raised to 100 eps with a warning, as in Python and SciPy's solve_ivp");
-        sub->add_option("--atol", atol, "absolute tolerance of adaptive step control (default: the --rtol value)");
+                        "100 eps it is raised to 100 eps with a warning, as in Python and SciPy's solve_ivp")
+            ->check(decimal_number());
+        sub->add_option("--atol", atol, "absolute tolerance of adaptive step control (default: the --rtol value)")
+            ->check(decimal_number());
         sub->add_option("--output-dt", output_dt,
                         "write CSV rows at multiples of this time and at the end (adaptive: dense output or steps "
                         "landing on them; fixed steps: a multiple of --dt, and without --dt a spectral equation's CFL "
-                        "step is shortened to divide it); not with --every");
+                        "step is shortened to divide it); not with --every")
+            ->check(decimal_number());
         sub->add_option("--update", settings.update,
                         "conservative methods (c-pc, c-rk2, c-rk4 at fixed steps, the c- pairs with --rtol) on "
                         "systems of 16 or more real unknowns with declared invariants (n-wave, the spectral models): "
-                        "conditioned (default: at the conventional method's error, docs/methods.md; on more than one "
-                        "MPI process: paper) or "
-                        "paper (the paper's update, bit for bit as before the conditioned update)")
+                        "conditioned (default: at the conventional method's error, docs/methods.md) or "
+                        "paper (the paper's update, bit for bit as before the conditioned update); a spectral "
+                        "checkpoint records it, and a --restart takes the checkpoint's")
             ->check(CLI::IsMember({"conditioned", "paper"}));
         std::string presets;
         for (const auto& [name, what] : i.presets) presets += (presets.empty() ? "" : "; ") + name + ": " + what;
@@ -228,7 +274,7 @@ int run_cli(int argc, char** argv) {
     eci::figures::options figure_options;
     figures->add_option("--out", figure_options.out, "output directory (default figures)");
     int only = 0;
-    figures->add_option("--only", only, "make only figure N (1-9)")->check(CLI::Range(1, 9));
+    figures->add_option("--only", only, "make only figure N (1-9)")->check(whole_number(1))->check(CLI::Range(1, 9));
 
     // CLI11 would say only that a subcommand is required, or call an unknown model an unexpected argument.
     if (argc == 1) throw bad_input("missing command (commands: run, list, figures; see eci --help)");

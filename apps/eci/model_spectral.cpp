@@ -87,6 +87,20 @@ bool stop_requested() {
     return interrupt_requested();
 }
 
+// Whether the interrupt that stopped the run keeps its outputs (interrupt_keeps_outputs), agreed over every process
+// (collective): SIGPIPE on any process keeps nothing.
+bool agreed_keeps_outputs() {
+#ifdef ECI_MPI
+    if (mpi.on) {
+        // 0: keeps nothing (SIGPIPE), 1: keeps, 2: no interrupt here (another process's)
+        int mine = interrupt_requested() ? (interrupt_keeps_outputs() ? 1 : 0) : 2, least = 2;
+        MPI_Allreduce(&mine, &least, 1, MPI_INT, MPI_MIN, MPI_COMM_WORLD);
+        return least != 0;
+    }
+#endif
+    return interrupt_keeps_outputs();
+}
+
 // fn() on rank 0 only, its failure known to every process (collective): each throws run_error with its reason.
 template <class Fn>
 void on_root_agreed(Fn&& fn) {
@@ -370,6 +384,12 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (*spec("full-transforms").flag && ck.params.pruned_transforms)
             throw bad_input("--full-transforms does not match the restart file's transforms of the retained columns (" +
                             restart_ + "; the run continues bit for bit only with the transforms it started with)");
+        // the conservative methods' update changes the numbers: the checkpoint's (an earlier version's recorded
+        // none: its runs took the default, conditioned)
+        if (const std::string stored = ck.update.empty() ? "conditioned" : ck.update;
+            !settings.update.empty() && settings.update != stored)
+            throw bad_input("--update " + settings.update + " does not match the restart file's " + stored + " (" +
+                            restart_ + "; the run continues bit for bit only with the update it started with)");
         if (given_real("cfl")) throw bad_input("--cfl cannot be combined with --restart (the time step is the checkpoint's)");
         if (given_text("ic")) throw bad_input("--ic cannot be combined with --restart");
         for (const char* o : {"seed", "energy", "k-peak", "vortex-radius", "vortex-separation", "vortex-peak"})
@@ -474,6 +494,20 @@ int spectral_command::run_spread(const run_settings& settings) {
         {"--output", settings.output}, {"--summary-json", settings.summary_json}, {"--checkpoint", checkpoint_}};
     if (!default_wisdom) named.emplace_back("--fftw-wisdom", wisdom_path);
     check_distinct_files(named);
+    // ... nor one of the files the run reads: --ic and --restart (the wisdom file, read and written, is in `named`).
+    // A checkpoint written over the one the run restarts from is the run continued in place, replaced whole once
+    // read: allowed, as with the default name.
+    std::vector<std::pair<std::string, std::string>> inputs;
+    if (restart) inputs.emplace_back("--restart", restart_);
+    if (const std::string ic = given_text("ic").value_or("");
+        !ic.empty() && ic != "random" && ic != "vortex-pair" && ic != "taylor-green")
+        inputs.emplace_back("--ic", ic);
+    {
+        std::vector<std::pair<std::string, std::string>> outputs;
+        for (const auto& o : named)
+            if (!(restart && o.first == "--checkpoint")) outputs.push_back(o);
+        check_outputs_spare_inputs(outputs, inputs);
+    }
     check_output_path(checkpoint_, "checkpoint");
     std::optional<std::string> wisdom_text;
     if (!wisdom_path.empty()) {
@@ -553,7 +587,9 @@ int spectral_command::run_spread(const run_settings& settings) {
         throw bad_input(std::to_string(mpi.size) + " MPI processes for N = " + std::to_string(p.n) +
                         ": at most one process per grid row");
     // (on any number of processes: its decisions are taken from sums over all of them)
-    const std::string update = settings.update.empty() ? "conditioned" : settings.update;
+    // (a restart takes the checkpoint's, checked above)
+    const std::string update = restart ? (ck.update.empty() ? "conditioned" : ck.update)
+                                       : settings.update.empty() ? "conditioned" : settings.update;
     // every process has checked the same input: one verdict for all, before the first collective
     if (const std::string why = mpi_refusal({}); !why.empty()) throw bad_input(why);
 #ifdef ECI_MPI
@@ -672,6 +708,24 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (last < first)
         throw bad_input("the restart file is at step " + std::to_string(first) + ", beyond the requested " +
                         std::to_string(last));
+    // No snapshot this run writes may replace its --ic or --restart file (nor a file a snapshot's name links to).
+    if (snapshot_every_ > 0 && !inputs.empty()) {
+        const auto written = [&](std::uint64_t i) {
+            return restart ? i > first && i <= last && (i % snapshot_every_ == 0 || i == last)
+                           : i == first || (i <= last && (i % snapshot_every_ == 0 || i == last));
+        };
+        std::error_code ec;
+        for (const auto& entry : fs::directory_iterator(snapshot_dir_.empty() ? "." : snapshot_dir_, ec)) {
+            const std::string file = entry.path().filename().string();
+            const auto step = snapshot_step(file, stem_);
+            if (!step || !written(*step)) continue;
+            char digits[32];
+            std::snprintf(digits, sizeof digits, "%08llu", (unsigned long long)*step);
+            const std::string ext = entry.path().extension().string();
+            if (file != stem_ + "_" + digits + ext && file != std::string("spectrum_") + digits + ext) continue;
+            check_outputs_spare_inputs({{"--snapshot-dir", entry.path().string()}}, inputs);
+        }
+    }
     // The run's span and rows, here, before any output is opened (its other settings below, with the sink)
     run_config cfg;
     cfg.dt = dt;
@@ -738,6 +792,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     run.params = p;
     run.keep_wisdom = !mpi.on;
     run.method = method;
+    run.update = update;
     run.dt = dt;
     run.total_steps = last;
     run.t_end = t_end;
@@ -901,6 +956,9 @@ int spectral_command::run_spread(const run_settings& settings) {
         return interrupted("interrupted at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
                            "; checkpoint written to " + checkpoint_ + " (continue with --restart " + checkpoint_ + ")");
     };
+    std::uint64_t done_outputs = first;  // the step an interrupt in on_progress stopped at
+    // The statistics of the run at its last whole step (after_step's), for the summary of an interrupted run.
+    run_stats stats_so_far{};
     auto on_output = [&](const state&, const output_point& pt) {
         if (rows_wanted) row(pt.index, pt.t, pt.invariants[0], pt.invariants[1]);
     };
@@ -910,6 +968,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         step_cpu = std::max(step_cpu, cpu_now() - c0), step_wall = std::max(step_wall, wall_now() - w0);
         update_grace();
         if (i == last && short_end) before_end = run;  // (the statistics before the shortened step)
+        stats_so_far = *pt.stats;
         run.halvings = halvings0 + pt.stats->step_reductions;
         run.rhs_evals = rhs_evals0 + pt.stats->rhs_evals;
         const ns2d_budget& b = model.step_budget();
@@ -960,6 +1019,7 @@ int spectral_command::run_spread(const run_settings& settings) {
             });
             if (stop_requested()) {
                 progress.finish();
+                done_outputs = i;  // (its row and snapshot made above)
                 throw interrupted_at(save_step(i));
             }
         }
@@ -978,18 +1038,80 @@ int spectral_command::run_spread(const run_settings& settings) {
         throw_if_interrupted("before the first step");  // (names the signal)
         throw interrupted("interrupted before the first step");  // (another process's)
     }
+    // The summary of the run up to step `reached` (its end, or where an interrupt stopped it), with `stats` its
+    // counts (after --restart, of the steps it took: steps, halvings, evaluations, the remedy's steps and elements
+    // alike; halvings_per_step is over the whole run, the checkpoint's counts included). Collective on MPI.
+    auto summary_of = [&](const run_stats& stats, std::uint64_t reached) {
+        run_summary s;
+        s.model = info_.name;
+        s.method = method;
+        s.order = find_method(method) ? find_method(method)->order : 0;
+        s.conservative = method.rfind("c-", 0) == 0;
+        s.dt = dt;
+        s.t_end = std::isnan(t_end) ? double(last) * dt : t_end;
+        s.stats = stats;
+        s.stats.steps = reached - first;
+        s.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        s.invariants.push_back({inv_[0], run.energy0, model.energy(w), run.max_energy_drift});
+        s.invariants.push_back({inv_[1], run.enstrophy0, model.enstrophy(w), run.max_enstrophy_drift});
+        // (final_cfl at the run's step; a span shorter than it was one step of the span: --cfl 1e308 gave dt 6e307)
+        const double last_dt = reached == last && last > first ? std::min(dt, s.t_end - double(first) * dt) : dt;
+        s.figures = {{"palinstrophy", model.palinstrophy(w)},
+                     {inv_[0] + "_injection", run.budget.energy_injection},
+                     {inv_[0] + "_dissipation", run.budget.energy_dissipation},
+                     {inv_[1] + "_injection", run.budget.enstrophy_injection},
+                     {inv_[1] + "_dissipation", run.budget.enstrophy_dissipation},
+                     {"max_" + inv_[0] + "_budget_residual_per_step", run.max_energy_residual},
+                     {"max_" + inv_[1] + "_budget_residual_per_step", run.max_enstrophy_residual},
+                     {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(reached, 1))},
+                     {"advective_form_retries", double(model.form_retries())},
+                     {"final_cfl", model.cfl(w, last_dt)}};
+        return s;
+    };
+    // Ctrl-C (SIGINT, SIGTERM, SIGHUP, SIGQUIT) at step `reached`, the checkpoint written: the outputs up to that
+    // step are kept, committed as for a finished run (the snapshots taken, the CSV's rows, a summary of the run so
+    // far), and the message says what was kept. A run stopped before its first step, or by SIGPIPE (an output that
+    // failed), keeps nothing but its checkpoint.
+    auto keep_interrupted = [&](const std::string& stop, std::uint64_t reached) {
+        if (!agreed_keeps_outputs() || reached == first) throw interrupted(stop);
+        run_summary s = summary_of(stats_so_far, reached);
+        s.interrupted = true;
+        s.t_stopped = reached == last && short_end ? t_end : double(reached) * dt;
+        std::string kept;
+        const auto add = [&](const std::string& what) { kept += (kept.empty() ? "; kept: " : ", ") + what; };
+        if (staged_snapshots) add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(reached));
+        if (csv.replaces()) add("CSV output '" + settings.output + "' (rows to step " + std::to_string(reached) + ")");
+        if (json.replaces()) add("summary JSON '" + settings.summary_json + "'");
+        try {
+            on_root_agreed([&] {
+                if (std::FILE* j = json.get()) write_summary_json(j, s);
+                commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr, true);
+                if (created_snapshot_dir) created_snapshot_dir->keep();
+            });
+        } catch (const std::exception& e) {
+            throw interrupted(stop + "; " + e.what());
+        }
+        throw interrupted(stop + kept);
+    };
     solve_report report;
+    std::string stop;  // an interrupt's message (the checkpoint written)
+    std::uint64_t stopped_at = 0;  // the last step whose state and outputs the run has made
     try {
         report = solve<navier_stokes_2d>(model, w, method, cfg, callback_sink{on_output, on_step, on_progress}, {},
                                          name_);
-    } catch (const eci::interrupted&) {
+    } catch (const eci::interrupted&) {  // (between the halvings of a step: back to the last whole step)
         progress.finish();
         w = w_prev;
         model.set_rng_state(rng_prev);
         save(done);
-        throw interrupted_at(done);
+        stop = interrupted_at(done).what();
+        stopped_at = done;
+    } catch (const interrupted& e) {  // (between steps, in on_progress: step `done`, its outputs made)
+        stop = e.what();
+        stopped_at = done_outputs;
     }
     progress.finish();
+    if (!stop.empty()) keep_interrupted(stop, stopped_at);
     if (report.failure) {
         if (report.failure->kind != run_failure_kind::step_failed) throw run_error(report.failure->message + last_good());
         // the library's cause, without its component (an index into the spectral state, not something to act on)
@@ -1004,34 +1126,9 @@ int spectral_command::run_spread(const run_settings& settings) {
                         " even with the step halved 40 times (down to dt = " + num(f.dt) + "): " + cause + last_good());
     }
 
-    run_summary s;
-    s.model = info_.name;
-    s.method = method;
-    s.order = report.method.order;
-    s.conservative = method.rfind("c-", 0) == 0;
-    s.dt = dt;
-    s.t_end = std::isnan(t_end) ? double(last) * dt : t_end;
-    // this run's counts (after --restart, of the steps it took: steps, halvings, evaluations, the remedy's steps
-    // and elements alike; halvings_per_step below is over the whole run, the checkpoint's counts included)
-    s.stats = report.stats;
-    s.stats.steps = last - first;
-    s.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    s.invariants.push_back({inv_[0], run.energy0, model.energy(w), run.max_energy_drift});
-    s.invariants.push_back({inv_[1], run.enstrophy0, model.enstrophy(w), run.max_enstrophy_drift});
-    s.figures = {{"palinstrophy", model.palinstrophy(w)},
-                 {inv_[0] + "_injection", run.budget.energy_injection},
-                 {inv_[0] + "_dissipation", run.budget.energy_dissipation},
-                 {inv_[1] + "_injection", run.budget.enstrophy_injection},
-                 {inv_[1] + "_dissipation", run.budget.enstrophy_dissipation},
-                 {"max_" + inv_[0] + "_budget_residual_per_step", run.max_energy_residual},
-                 {"max_" + inv_[1] + "_budget_residual_per_step", run.max_enstrophy_residual},
-                 {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(last, 1))},
-                 {"advective_form_retries", double(model.form_retries())},
-                 // at the run's step; a span shorter than it was one step of the span (--cfl 1e308 gave dt 6e307)
-                 {"final_cfl", model.cfl(w, last > first ? std::min(dt, s.t_end - double(first) * dt) : dt)}};
+    const run_summary s = summary_of(report.stats, last);
     // The run's outputs are committed together: the snapshots first, the CSV and JSON that describe the run last, and
-    // a failure takes back what was moved in (a failed or interrupted run keeps its checkpoint, not a partial time
-    // series).
+    // a failure takes back what was moved in (a failed run keeps its checkpoint, not a partial time series).
     on_root([&] {
         if (std::FILE* j = json.get()) write_summary_json(j, s);
         commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr);

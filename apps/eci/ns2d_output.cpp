@@ -2,6 +2,7 @@
 // readable by h5py), and gnuplot figures of the field and of E(k). Every file is written under a temporary name, renamed.
 #include "ns2d_output.hpp"
 
+#include "command.hpp"
 #include "output.hpp"
 
 #include <eci/steps.hpp>
@@ -16,8 +17,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <limits>
 #include <stdexcept>
 #include <string>
+#include <type_traits>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -147,13 +150,37 @@ void put(hid_t obj, const char* name, const std::string& v) {
     if (H5Awrite(a, t, data.data()) < 0) throw std::runtime_error(std::string("HDF5 attribute ") + name);
 }
 
+// An attribute as T. HDF5 would convert any number to any other (a step of -5 written by hand became 0, a grid of
+// 32.7 became 32): a whole number must be stored as an integer, a count (unsigned T) must not be negative, and a
+// real must be stored as a number.
 template <class T>
 T get(hid_t obj, const char* name) {
-    if (H5Aexists(obj, name) <= 0) throw std::runtime_error(std::string("attribute '") + name + "' missing");
+    const auto bad = [&](const std::string& why) {
+        return std::runtime_error(std::string("attribute '") + name + "' " + why);
+    };
+    if (H5Aexists(obj, name) <= 0) throw bad("missing");
     handle a(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
-    T v{};
-    if (H5Aread(a, native<T>(), &v) < 0) throw std::runtime_error(std::string("attribute '") + name + "' unreadable");
-    return v;
+    handle t(H5Aget_type(a), H5Tclose, "attribute type");
+    const H5T_class_t kind = H5Tget_class(t);
+    if constexpr (std::is_integral_v<T>) {
+        if (kind != H5T_INTEGER) throw bad("is not a whole number");
+        if (H5Tget_sign(t) == H5T_SGN_2) {
+            std::int64_t v = 0;
+            if (H5Aread(a, H5T_NATIVE_INT64, &v) < 0) throw bad("unreadable");
+            if (std::is_unsigned_v<T> && v < 0) throw bad("is " + std::to_string(v) + ", not a count >= 0");
+            return T(v);
+        }
+        std::uint64_t v = 0;
+        if (H5Aread(a, H5T_NATIVE_UINT64, &v) < 0) throw bad("unreadable");
+        if (std::is_signed_v<T> && v > std::uint64_t(std::numeric_limits<std::int64_t>::max()))
+            throw bad("is " + std::to_string(v) + ", too large");
+        return T(v);
+    } else {
+        if (kind != H5T_FLOAT && kind != H5T_INTEGER) throw bad("is not a number");
+        T v{};
+        if (H5Aread(a, native<T>(), &v) < 0) throw bad("unreadable");
+        return v;
+    }
 }
 
 std::string get_string(hid_t obj, const char* name) {
@@ -370,6 +397,7 @@ void put_checkpoint_attributes(hid_t f, const ns2d_checkpoint& c) {
         put_params(f, c.params);
         put(f, "threads", std::int64_t(c.params.threads));
         put(f, "method", c.method);
+        put(f, "update", c.update);
         put(f, "dt", c.dt);
         put(f, "step", c.step);
         put(f, "time", double(c.step) * c.dt);
@@ -638,6 +666,11 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     p.threads = whole("threads", 1, 64);
     p.wisdom = get_string(f, "fftw_wisdom");
     c.method = get_string(f, "method");
+    if (H5Aexists(f, "update") > 0) {  // (absent from earlier versions' checkpoints: conditioned)
+        c.update = get_string(f, "update");
+        if (c.update != "conditioned" && c.update != "paper")
+            throw std::runtime_error(path + ": unknown update '" + c.update + "' (conditioned or paper)");
+    }
     c.dt = get<double>(f, "dt");
     c.step = get<std::uint64_t>(f, "step");
     c.total_steps = get<std::uint64_t>(f, "total_steps");
@@ -660,6 +693,19 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     // file, not a run.
     if (!(std::isfinite(c.dt) && c.dt > 0.0)) throw std::runtime_error(path + ": dt must be a positive number");
     if (c.step > c.total_steps) throw std::runtime_error(path + ": step is beyond total_steps");
+    if (c.total_steps > max_grid_steps)
+        throw std::runtime_error(path + ": total_steps " + std::to_string(c.total_steps) + " is beyond 2^53");
+    // the time the file states is the step's on the grid, step * dt, as written
+    if (H5Aexists(f, "time") > 0) {
+        const double time = get<double>(f, "time");
+        if (!(time == double(c.step) * c.dt))
+            throw std::runtime_error(path + ": time " + shortest(time) + " is not step * dt = " +
+                                     std::to_string(c.step) + " * " + shortest(c.dt));
+    }
+    // counts of the steps taken: every step takes at least one evaluation, and each halving is a step taken again
+    if (c.rhs_evals < c.step)
+        throw std::runtime_error(path + ": rhs_evals " + std::to_string(c.rhs_evals) + " is fewer than the " +
+                                 std::to_string(c.step) + " steps taken");
     if (!std::isnan(c.t_end) && !(std::isfinite(c.t_end) && c.t_end >= 0.0 &&
                                   steps_to_reach(0.0, c.t_end, c.dt) == c.total_steps))
         throw std::runtime_error(path + ": t_end does not end total_steps steps of dt");
@@ -674,6 +720,14 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
                                   {"max_energy_residual", c.max_energy_residual},
                                   {"max_enstrophy_residual", c.max_enstrophy_residual}})
         if (!std::isfinite(v)) throw std::runtime_error(path + ": " + name + " is not finite");
+    // sums of squares and largest deviations, never negative
+    for (const auto& [name, v] : {std::pair<const char*, double>{"energy0", c.energy0},
+                                  {"enstrophy0", c.enstrophy0},
+                                  {"max_energy_drift", c.max_energy_drift},
+                                  {"max_enstrophy_drift", c.max_enstrophy_drift},
+                                  {"max_energy_residual", c.max_energy_residual},
+                                  {"max_enstrophy_residual", c.max_enstrophy_residual}})
+        if (!(v >= 0.0)) throw std::runtime_error(path + ": " + name + " " + shortest(v) + " is negative");
     std::vector<hsize_t> dims;
     const std::string name = state_dataset(spectral::find_equation(equation));
     const std::vector<double> v =

@@ -21,6 +21,9 @@ namespace eci::cli {
 struct ns2d_checkpoint {
     ns2d_params params;
     std::string method;
+    /// The conservative methods' update, "conditioned" or "paper" (--update); empty in a checkpoint of an earlier
+    /// version, which did not record it: those runs took the default, conditioned.
+    std::string update;
     double dt = 0.0;
     std::uint64_t step = 0;           ///< steps done; t = step * dt
     std::uint64_t total_steps = 0;    ///< steps the run was asked for

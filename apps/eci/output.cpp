@@ -426,9 +426,9 @@ std::string commit_state(const std::vector<std::string>& committed, const std::v
 
 }  // namespace
 
-void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged) {
+void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged, bool interrupted_run) {
     const auto name = [](const output_file* o) { return message({o->what_, " '", o->path_, "'"}); };
-    throw_if_interrupted("before its output was committed");
+    if (!interrupted_run) throw_if_interrupted("before its output was committed");
     for (output_file* o : outputs) {
         if (!o) continue;
         try {
@@ -442,7 +442,7 @@ void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* st
     sigset_t previous;
     ::pthread_sigmask(SIG_BLOCK, &block, &previous);
     try {
-        throw_if_interrupted("before its output was committed");
+        if (!interrupted_run) throw_if_interrupted("before its output was committed");
         // The staged files (snapshots) first, the files that describe the run last: a CSV or JSON is never
         // committed for a run whose other files are not.
         const auto staged_name = [&] { return message({"the ", staged->what_, " in '", staged->final_, "'"}); };
@@ -716,17 +716,26 @@ std::optional<std::string> read_small_file(const std::string& path, std::string_
     return text;
 }
 
-void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs) {
-    struct key {
-        const std::string* name;
-        const std::string* path;
-        std::string canonical;
-        bool exists;
-        dev_t dev;
-        ino_t ino;
-    };
-    std::vector<key> keys;
-    for (const auto& [name, path] : outputs) {
+namespace {
+
+/// What makes two names one file: the absolute path with symlinks resolved (dangling ones too) and normalised, and,
+/// for an existing file, its device and inode (hard links, bind mounts).
+struct file_key {
+    const std::string* name;
+    const std::string* path;
+    std::string canonical;
+    bool exists;
+    dev_t dev;
+    ino_t ino;
+    bool same(const file_key& o) const {
+        return canonical == o.canonical || (exists && o.exists && dev == o.dev && ino == o.ino);
+    }
+};
+
+/// The keys of the named files; empty paths, "-" and descriptors have none (they name no file of their own).
+std::vector<file_key> file_keys(const std::vector<std::pair<std::string, std::string>>& files) {
+    std::vector<file_key> keys;
+    for (const auto& [name, path] : files) {
         if (path.empty() || path == "-" || named_descriptor(path) >= 0) continue;
         std::string target;
         if (!resolve_links(path, target)) target = path;
@@ -737,12 +746,28 @@ void check_distinct_files(const std::vector<std::pair<std::string, std::string>>
         const bool exists = ::stat(target.c_str(), &st) == 0;
         keys.push_back({&name, &path, c.lexically_normal().string(), exists, st.st_dev, st.st_ino});
     }
+    return keys;
+}
+
+}  // namespace
+
+void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs) {
+    const std::vector<file_key> keys = file_keys(outputs);
     for (std::size_t i = 0; i < keys.size(); ++i)
-        for (std::size_t j = i + 1; j < keys.size(); ++j) {
-            const key &a = keys[i], &b = keys[j];
-            if (a.canonical == b.canonical || (a.exists && b.exists && a.dev == b.dev && a.ino == b.ino))
-                throw bad_input(message({*a.name, " and ", *b.name, " name the same file '", *a.path, "'"}));
-        }
+        for (std::size_t j = i + 1; j < keys.size(); ++j)
+            if (keys[i].same(keys[j]))
+                throw bad_input(message({*keys[i].name, " and ", *keys[j].name, " name the same file '",
+                                         *keys[i].path, "'"}));
+}
+
+void check_outputs_spare_inputs(const std::vector<std::pair<std::string, std::string>>& outputs,
+                                const std::vector<std::pair<std::string, std::string>>& inputs) {
+    const std::vector<file_key> out = file_keys(outputs), in = file_keys(inputs);
+    for (const file_key& o : out)
+        for (const file_key& i : in)
+            if (o.same(i))
+                throw bad_input(message({*o.name, " and ", *i.name, " name the same file '", *o.path,
+                                         "': the run would overwrite its own input"}));
 }
 
 // ---- staging_dir ----
@@ -935,6 +960,15 @@ void throw_if_interrupted(std::string_view where) {
     std::string m = message({"interrupted by ", signal_name(interrupt_signal())});
     if (!where.empty()) m.append(" ").append(where);
     throw interrupted(m);
+}
+
+bool interrupt_keeps_outputs() { return interrupt_requested() && interrupt_signal() != SIGPIPE; }
+
+std::string interrupt_message(std::string_view where) {
+    std::string m = interrupt_requested() ? message({"interrupted by ", signal_name(interrupt_signal())})
+                                          : std::string("interrupted");
+    if (!where.empty()) m.append(" ").append(where);
+    return m;
 }
 
 void register_child(pid_t pid) { child_pid.store(pid); }

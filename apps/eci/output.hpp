@@ -64,7 +64,7 @@ class output_file {
     bool replaces() const { return !temp_.empty(); }
 
    private:
-    friend void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged);
+    friend void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged, bool interrupted_run);
     void discard();
 
     std::string path_;    ///< as the user wrote it (messages)
@@ -82,9 +82,19 @@ class output_file {
 /// its target, the files that describe the run (CSV, JSON) last. If any step fails, what was already replaced gets
 /// its old content back (a new file is removed) and run_error is thrown, naming the failure and ending in
 /// "; no output was replaced", or, if something could not be taken back, "; committed: ...; not committed: ...".
-/// If an interrupt has arrived, nothing is committed and `interrupted` is thrown. On success the interrupt signals
-/// stay blocked: the run is complete.
-void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged = nullptr);
+/// If an interrupt has arrived, nothing is committed and `interrupted` is thrown, unless `interrupted_run`: the
+/// outputs of a run stopped by an interrupt, complete up to where it stopped, kept (interrupt_keeps_outputs). On
+/// success the interrupt signals stay blocked: the run is complete.
+void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged = nullptr,
+                    bool interrupted_run = false);
+
+/// Whether a run stopped by the interrupt that arrived keeps what it wrote so far (its rows, snapshots, summary):
+/// SIGINT, SIGTERM, SIGHUP and SIGQUIT ask the run to stop, and it keeps them; SIGPIPE is an output that failed
+/// (its reader went away), and keeps nothing.
+bool interrupt_keeps_outputs();
+
+/// The interrupt's message, "interrupted by SIGINT <where>" ("interrupted <where>" if none arrived).
+std::string interrupt_message(std::string_view where);
 
 /// A temporary directory beside `final_dir` whose contents replace `final_dir`'s files of the same names on
 /// commit(); removed with its contents unless committed, and by the signal handler on a forced exit.
@@ -105,7 +115,7 @@ class staging_dir {
     void commit();
 
    private:
-    friend void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged);
+    friend void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged, bool interrupted_run);
     // The commit in two phases, so that a later failure (another output's rename) can take the files back.
     /// Moves the files in, keeping the replaced ones aside; on a failure takes back what it moved (partly_moved_in_
     /// if it could not all) and throws run_error. Signals must be blocked.
@@ -167,6 +177,11 @@ std::string unreadable_reason(const std::string& path);
 /// Refuses (bad_input "<a> and <b> name the same file '<path>'") two of the named outputs (option, path) that are
 /// one file: symlinks followed, dangling ones too, and hard links. Empty paths, "-" and descriptors are skipped.
 void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs);
+
+/// Refuses (bad_input "<output> and <input> name the same file '<path>': the run would overwrite its own input") an
+/// output (option, path) that is one of the run's input files, by the same test as check_distinct_files.
+void check_outputs_spare_inputs(const std::vector<std::pair<std::string, std::string>>& outputs,
+                                const std::vector<std::pair<std::string, std::string>>& inputs);
 
 /// v with 17 significant digits (the CSV, the summary): eci::format_double, as the library formats it.
 using eci::format_double;

@@ -43,6 +43,11 @@ struct run_summary {
     bool adaptive = false;  ///< --rtol/--atol: adaptive step control (dt is then the first step)
     double rtol = 0.0, atol = 0.0;
     adaptive_stats adaptive_counts{};  ///< accepted and rejected steps, step sizes, dense outputs
+    /// An interrupted run (Ctrl-C): the summary describes it up to t_stopped, its last output; the invariants'
+    /// drifts are then over its outputs (every --every steps), and the step counts are given only if `counted`.
+    bool interrupted = false;
+    double t_stopped = 0.0;
+    bool counted = true;
 };
 
 /// The names of a state's real unknowns (CSV header, error messages), made one at a time when asked for: a run
@@ -245,6 +250,12 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
                  double t_end)
             : bar(steps, 4096, t_end), out_(out), model_(model), derived_(columns_derived) {}
         void output(const S& state, const output_point& p) override {
+            // what an interrupted run's summary says: its outputs (the CSV's rows, written or not) up to the last
+            records.resize(p.invariants.size());
+            for (std::size_t k = 0; k < records.size(); ++k) records[k].record(p.invariants[k], outputs == 0);
+            last_t = p.t;
+            if (p.stats) last_stats = *p.stats;
+            ++outputs;
             if (!out_) return;
             char buffer[32];
             const std::string_view s = format_double(p.t, buffer);
@@ -256,6 +267,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             std::fputc('\n', out_);
         }
         void progress(double t, std::uint64_t i) override {
+            if (t != t0) stepped = true;
             bar.update(i, t);
             if (interrupt_requested()) {
                 char buffer[32];
@@ -263,6 +275,11 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             }
         }
         progress_bar bar;
+        std::uint64_t outputs = 0;
+        std::vector<invariant_record> records;  ///< the invariants at the outputs
+        double last_t = 0.0, t0 = 0.0;
+        std::optional<run_stats> last_stats;  ///< fixed steps: the run's counts at the last output
+        bool stepped = false;                 ///< whether the run has taken a step
 
        private:
         std::FILE* out_;
@@ -272,18 +289,45 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
 
     const auto start = std::chrono::steady_clock::now();
     solve_report report;
+    std::string stop;  // an interrupt's message
     try {
         report = solve_model<Model>(model, x, method.name, cfg, sink, {}, "model " + info.name);
-    } catch (const eci::interrupted& e) {
-        sink.bar.finish();
+    } catch (const eci::interrupted& e) {  // (the library's poll, between steps or evaluations)
         char t[32];
-        throw_if_interrupted("at t = " + std::string(format_double(e.time, t)));
-        throw interrupted(e.what());
+        stop = interrupt_message("at t = " + std::string(format_double(e.time, t)));
+    } catch (const interrupted& e) {  // (the sink's, between steps)
+        stop = e.what();
     } catch (const std::invalid_argument& e) {
         sink.bar.finish();
         throw bad_input(e.what());
     }
     sink.bar.finish();
+    if (!stop.empty()) {
+        // Stopped by Ctrl-C: the outputs as they stand, complete up to the last output, are kept (the CSV's rows
+        // are whole: a row is written between steps, never cut by the signal). Nothing is kept by a run stopped
+        // before its first step, or by SIGPIPE (an output that failed).
+        if (!interrupt_keeps_outputs() || !sink.stepped || sink.outputs == 0) throw interrupted(stop);
+        summary.interrupted = true;
+        summary.t_stopped = sink.last_t;
+        summary.counted = sink.last_stats.has_value();
+        if (sink.last_stats) summary.stats = *sink.last_stats;
+        summary.invariants = sink.records;
+        const auto names = Model::invariants();
+        for (std::size_t k = 0; k < names.size() && k < summary.invariants.size(); ++k)
+            summary.invariants[k].name = names[k].name;
+        summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::string kept;
+        if (csv.replaces()) kept += "CSV output '" + settings.output + "' (rows to t = " + shortest(sink.last_t) + ")";
+        if (json.replaces())
+            kept += (kept.empty() ? "" : ", ") + std::string("summary JSON '") + settings.summary_json + "'";
+        try {
+            if (std::FILE* j = json.get()) write_summary_json(j, summary);
+            commit_outputs({&csv, &json}, nullptr, true);
+        } catch (const std::exception& e) {
+            throw interrupted(stop + "; " + e.what());
+        }
+        throw interrupted(stop + (kept.empty() ? std::string() : "; kept: " + kept));
+    }
     if (report.failure) {
         const eci::run_failure& f = *report.failure;
         switch (f.kind) {

@@ -135,22 +135,30 @@ void write_summary_json(std::FILE* f, const run_summary& s) {
     key("conservative"), std::fputs(s.conservative ? "true,\n" : "false,\n", f);
     key("dt"), write_json_number(f, s.dt), std::fputs(",\n", f);
     key("t_end"), write_json_number(f, s.t_end), std::fputs(",\n", f);
-    key("steps"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.steps));
-    key("step_reductions"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.step_reductions));
-    key("rhs_evals"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.rhs_evals));
-    key("remedied_steps"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.remedied_steps));
-    key("components_remedied"),
-        std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.components_remedied));
+    if (s.interrupted) {  // stopped by a signal: what it reached, its last output
+        key("interrupted"), std::fputs("true,\n", f);
+        key("t_stopped"), write_json_number(f, s.t_stopped), std::fputs(",\n", f);
+    }
+    if (s.counted) {
+        key("steps"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.steps));
+        key("step_reductions"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.step_reductions));
+        key("rhs_evals"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.rhs_evals));
+        key("remedied_steps"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.remedied_steps));
+        key("components_remedied"),
+            std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(s.stats.components_remedied));
+    }
     key("wall_seconds"), write_json_number(f, s.wall_seconds), std::fputs(",\n", f);
     if (s.time_lag) {
         key("time_lag"), write_json_number(f, *s.time_lag), std::fputs(",\n", f);
         key("t_reached"), write_json_number(f, s.t_end + *s.time_lag), std::fputs(",\n", f);
     }
     if (s.adaptive) {
-        const adaptive_stats& a = s.adaptive_counts;
         key("adaptive"), std::fputs("true,\n", f);
         key("rtol"), write_json_number(f, s.rtol), std::fputs(",\n", f);
         key("atol"), write_json_number(f, s.atol), std::fputs(",\n", f);
+    }
+    if (s.adaptive && s.counted) {
+        const adaptive_stats& a = s.adaptive_counts;
         key("accepted_steps"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(a.accepted));
         key("rejected_error"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(a.rejected_error));
         key("rejected_radicand"), std::fprintf(f, "%llu,\n", static_cast<unsigned long long>(a.rejected_radicand));

@@ -52,6 +52,25 @@ inline std::vector<std::string> split(const std::string& line, char sep = ',') {
     return parts;
 }
 
+/// Why `text` is not a complete CSV (a header and rows of as many fields, each ending in a newline), or "" if it is:
+/// what an interrupted run keeps must never end in a half-written row.
+inline std::string incomplete_csv(const std::string& text) {
+    if (text.empty() || text.back() != '\n') return "the last row is cut";
+    const auto lines = lines_of(text);
+    const std::size_t width = split(lines.front()).size();
+    for (const std::string& line : lines)
+        if (split(line).size() != width) return "row '" + line + "' has not the header's " + std::to_string(width) +
+                                                " fields";
+    return "";
+}
+
+/// Why `text` is not a complete JSON summary of an interrupted run, or "" if it is.
+inline std::string incomplete_interrupted_json(const std::string& text) {
+    if (text.rfind("{\n", 0) != 0 || text.size() < 4 || text.substr(text.size() - 4) != "}\n}\n") return "cut";
+    if (text.find("\"interrupted\": true") == std::string::npos) return "no \"interrupted\": true";
+    return "";
+}
+
 /// `s` single-quoted for the shell.
 inline std::string shell_quote(const std::string& s) {
     // Appends only: GCC 12 warns (-Wrestrict, falsely) on some operator+ chains of literals and strings.

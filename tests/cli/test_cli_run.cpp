@@ -286,7 +286,8 @@ TEST_F(cli, an_initial_condition_that_overflows_is_bad_input_and_leaves_nothing)
     EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
 }
 
-TEST_F(cli, interrupt_removes_partial_output_and_exits_130) {
+// Ctrl-C keeps what the run produced until then, as complete files (the old file replaced, no row cut), and says so.
+TEST_F(cli, interrupt_keeps_the_complete_output_so_far_and_exits_130) {
     std::ofstream(work("out.csv")) << "precious csv\n";
     // A run of ~10^7 steps of 300 modes (minutes), stopped by SIGINT after 1.5 s: well inside the run (a signal
     // in the first half second, before main() installs the handler, was lost under ASan: an open defect).
@@ -295,8 +296,13 @@ TEST_F(cli, interrupt_removes_partial_output_and_exits_130) {
                              "timeout -s INT --preserve-status 1.5");
     expect_one_error_line(r, 130);
     EXPECT_NE(r.err.find("interrupted by SIGINT at t = "), std::string::npos) << r.err;
-    EXPECT_EQ(read_text(work("out.csv")), "precious csv\n");
-    EXPECT_EQ(work_files(), std::set<std::string>{"out.csv"});
+    EXPECT_NE(r.err.find("; kept: CSV output 'out.csv' (rows to t = "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("), summary JSON 'out.json'"), std::string::npos) << r.err;
+    const std::string csv = read_text(work("out.csv")), json = read_text(work("out.json"));
+    EXPECT_EQ(eci::test_cli::incomplete_csv(csv), "");
+    EXPECT_GT(lines_of(csv).size(), 2u);
+    EXPECT_EQ(eci::test_cli::incomplete_interrupted_json(json), "") << json;
+    EXPECT_EQ(work_files(), (std::set<std::string>{"out.csv", "out.json"}));
 }
 
 // ---------------------------------------------------------------------------------------------------------

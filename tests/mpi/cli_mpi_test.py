@@ -290,6 +290,11 @@ def case_signal(d):
     check("checkpoint written to sig.h5" in err, "the interruption is reported once, with the checkpoint")
     w, attrs = state(os.path.join(d, "sig.h5"))
     check(int(attrs["step"]) > 0, f"the checkpoint holds step {int(attrs['step'])}")
+    # the rows so far are kept, complete, to the checkpoint's step (rank 0 commits them on every process's word)
+    rows = open(os.path.join(d, "sig.csv")).read() if os.path.exists(os.path.join(d, "sig.csv")) else ""
+    check(rows.endswith("\n") and rows.splitlines()[-1].split(",")[0] == str(int(attrs["step"])),
+          "the interrupted run keeps its CSV, complete, to the checkpoint's step")
+    check("kept: CSV output 'sig.csv'" in err, "the message says what was kept")
     r = run(0, ["--restart", "sig.h5", "--steps", str(int(attrs["step"]) + 2), "--fftw-wisdom", "none",
                 "--checkpoint", "again.h5"], d)
     check(r.returncode == 0, "the serial tool continues from it")

@@ -353,8 +353,8 @@ TEST(CliNavierStokes2d, InterruptWritesCheckpointThatRestarts) {
 
 // A signal at start-up (at once, 20 ms, 100 ms, 300 ms, or as soon as eci's handler exists), while the plans and
 // the initial field are made, ends the run at once: 128 + N (or killed by the signal itself, before the handler
-// exists), nothing left but, if the run had made a step, a whole checkpoint: no CSV, JSON, snapshot, snapshot
-// directory or temporary.
+// exists), nothing left but, if the run had made a step, a whole checkpoint and its outputs so far, complete (CSV
+// rows, JSON, the snapshots taken): nothing partial, no temporary.
 TEST(CliNavierStokes2d, SignalAtStartUpEndsTheRunLeavingNothingPartial) {
     scratch_dir dir("ns2d-early");
     const fs::path d = dir.path() / "work", err = dir.path() / "err";
@@ -386,9 +386,28 @@ TEST(CliNavierStokes2d, SignalAtStartUpEndsTheRunLeavingNothingPartial) {
             if (fs::exists(d / "c.h5")) {
                 EXPECT_EQ(read_doubles(d / "c.h5", "omega_hat").size(), 2u * 64u * 33u) << at;
             }
-            for (const auto& e : fs::directory_iterator(d))
-                if (e.path().filename() != "c.h5") ADD_FAILURE() << at << "left behind: " << e.path();
-            fs::remove(d / "c.h5");
+            // kept by a run that had stepped: together, complete
+            const bool kept = fs::exists(d / "o.csv");
+            EXPECT_EQ(kept, fs::exists(d / "o.json")) << at;
+            EXPECT_EQ(kept, fs::exists(d / "snaps")) << at;
+            if (kept) {
+                EXPECT_EQ(incomplete_csv(read_text(d / "o.csv")), "") << at;
+                EXPECT_EQ(incomplete_interrupted_json(read_text(d / "o.json")), "") << at;
+                EXPECT_NE(read_text(err).find("; kept: "), std::string::npos) << at;
+                for (const auto& e : fs::directory_iterator(d / "snaps"))
+                    if (e.path().extension() == ".h5") {
+                        EXPECT_EQ(read_doubles(e.path(), "vorticity").size(), 64u * 64u) << at << e.path();
+                    } else if (e.path().extension() != ".csv" && e.path().extension() != ".png") {
+                        ADD_FAILURE() << at << "left behind: " << e.path();
+                    }
+            }
+            for (const auto& e : fs::directory_iterator(d)) {
+                const std::string name = e.path().filename().string();
+                if (name != "c.h5" && !(kept && (name == "o.csv" || name == "o.json" || name == "snaps")))
+                    ADD_FAILURE() << at << "left behind: " << e.path();
+            }
+            fs::remove_all(d);
+            fs::create_directory(d);
         }
 }
 

@@ -1,0 +1,273 @@
+# The CLI's files through the real binary: what an interrupted run keeps (complete files up to where it stopped),
+# outputs that would overwrite the run's own inputs, what a checkpoint records and how its attributes are checked on
+# --restart, and the numbers the options take (decimal only).
+import json
+import re
+import os
+import signal
+import subprocess
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from conftest import cli_error
+
+h5py = pytest.importorskip("h5py")
+
+# no pictures (ECI_GNUPLOT names no program): the snapshots' HDF5 files alone
+NO_PICTURES = {**os.environ, "ECI_GNUPLOT": "/nonexistent/gnuplot"}
+
+
+def small(*args, wisdom="none"):
+    """A small spectral run: 16^2, FFTW_ESTIMATE plans, no wisdom file, dt 0.01."""
+    return ["run", "navier-stokes-2d", "--N", "16", "--fftw-estimate", "--dt", "0.01",
+            *(["--fftw-wisdom", wisdom] if wisdom else []), *args]
+
+
+def run_cli(cli_path, *args, check=True):
+    """Runs `eci ARGS...` (no pictures) and returns the CompletedProcess."""
+    r = subprocess.run([str(cli_path), *map(str, args)], capture_output=True, text=True, timeout=120, env=NO_PICTURES)
+    if check and r.returncode != 0:
+        raise AssertionError(f"eci {' '.join(map(str, args))} failed: {r.stderr}")
+    return r
+
+
+def error_line(err):
+    """The one error line of a failed run (a warning about pictures may come before it)."""
+    errors = [line for line in err.strip().splitlines() if line.startswith("eci: error: ")]
+    assert len(errors) == 1, err
+    return errors[0]
+
+
+def interrupted_run(cli, args, cwd, after=1.5):
+    """Runs `eci ARGS` in cwd, sends SIGINT after `after` seconds; returns (status, stderr)."""
+    p = subprocess.Popen([str(cli), *map(str, args)], cwd=cwd, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
+                         stderr=subprocess.PIPE, text=True, env=NO_PICTURES)
+    time.sleep(after)
+    p.send_signal(signal.SIGINT)
+    _, err = p.communicate(timeout=60)
+    return p.returncode, err
+
+
+def complete_csv(path):
+    """The rows of a CSV whose every line is whole: ends with a newline, as many fields as the header."""
+    text = Path(path).read_text()
+    assert text.endswith("\n"), "the last row is cut"
+    lines = text.splitlines()
+    width = len(lines[0].split(","))
+    for line in lines[1:]:
+        assert len(line.split(",")) == width, line
+    return [line.split(",") for line in lines[1:]]
+
+
+def temporaries(d):
+    return [p for p in Path(d).rglob("*") if ".eci-" in p.name]
+
+
+# ---- 1. an interrupted run keeps what it produced up to the step it stopped at
+
+def test_interrupted_spectral_run_keeps_its_snapshots_rows_and_summary(cli, tmp_path):
+    status, err = interrupted_run(cli, ["run", "navier-stokes-2d", "--N", "32", "--t-end", "100000", "--fftw-wisdom",
+                                        "none", "--fftw-estimate", "--snapshot-every", "200", "--snapshot-dir",
+                                        "snapd", "--checkpoint", "ck.h5", "--output", "ts.csv", "--summary-json",
+                                        "s.json"], tmp_path, after=2.5)
+    assert status == 130, err
+    line = error_line(err)
+    assert line.startswith("eci: error: interrupted at step "), err
+    step = int(line[len("eci: error: interrupted at step "):].split(",")[0])
+    assert step > 0, err
+    assert "checkpoint written to ck.h5" in err
+    assert "kept: the snapshots in 'snapd' to step %d, CSV output 'ts.csv' (rows to step %d), summary JSON " \
+           "'s.json'" % (step, step) in err, err
+    rows = complete_csv(tmp_path / "ts.csv")
+    assert [int(r[0]) for r in rows] == list(range(0, step + 1))
+    with h5py.File(tmp_path / "ck.h5", "r") as f:
+        assert int(f.attrs["step"]) == step
+    taken = sorted(p.name for p in (tmp_path / "snapd").glob("vorticity_*.h5"))
+    assert taken == ["vorticity_%08d.h5" % i for i in range(0, step + 1, 200)]
+    for name in taken:
+        with h5py.File(tmp_path / "snapd" / name, "r") as f:
+            assert f["vorticity"].shape == (32, 32)
+    s = json.loads((tmp_path / "s.json").read_text())
+    assert s["interrupted"] is True and s["steps"] == step
+    assert s["t_stopped"] == float(rows[-1][1])
+    assert s["invariants"]["energy"]["final"] == float(rows[-1][2])
+    assert not temporaries(tmp_path)
+
+
+@pytest.mark.parametrize("extra", [[], ["--rtol", "1e-9", "--method", "c-dp54"]], ids=["fixed", "adaptive"])
+def test_interrupted_ode_run_keeps_its_rows_and_summary(cli, tmp_path, extra):
+    (tmp_path / "x.csv").write_text("precious\n")
+    status, err = interrupted_run(cli, ["run", "three-wave", "--t-end", "1e12", "--every", "1000", "--output",
+                                        "x.csv", "--summary-json", "x.json", *extra], tmp_path)
+    assert status == 130, err
+    line = error_line(err)
+    assert line.startswith("eci: error: interrupted by SIGINT at t = "), err
+    rows = complete_csv(tmp_path / "x.csv")
+    assert len(rows) > 1
+    kept = re.search(r"; kept: CSV output 'x.csv' \(rows to t = ([^)]*)\), summary JSON 'x.json'$", line)
+    assert kept and float(kept.group(1)) == float(rows[-1][0]), err
+    s = json.loads((tmp_path / "x.json").read_text())
+    assert s["interrupted"] is True and s["t_stopped"] == float(rows[-1][0])
+    assert s["invariants"]["energy"]["final"] == float(rows[-1][4])
+    assert s["invariants"]["energy"]["initial"] == float(rows[0][4])
+    assert ("steps" in s) == (not extra)  # counts of an adaptive run are not known between its steps
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.csv", "x.json"]
+
+
+def test_run_stopped_before_its_first_step_keeps_nothing(cli, tmp_path):
+    (tmp_path / "x.csv").write_text("precious\n")
+
+    def pending_interrupt():  # SIGINT pending from the start: the run never steps
+        signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+        os.kill(os.getpid(), signal.SIGINT)
+
+    p = subprocess.Popen([str(cli), "run", "three-wave", "--t-end", "1e9", "--output", "x.csv", "--summary-json",
+                          "x.json"], cwd=tmp_path, stderr=subprocess.PIPE, text=True, preexec_fn=pending_interrupt)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 130, err
+    assert (tmp_path / "x.csv").read_text() == "precious\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.csv"]
+
+
+# ---- 2. no output may be one of the run's inputs
+
+@pytest.fixture
+def checkpoint(cli, tmp_path):
+    run_cli(cli, *small("--steps", 2, "--checkpoint-every", 2, "--checkpoint", tmp_path / "a2.h5"))
+    return tmp_path / "a2.h5"
+
+
+@pytest.mark.parametrize("option", ["--output", "--summary-json", "--fftw-wisdom"])
+@pytest.mark.parametrize("how", ["same", "normalised", "symlink", "hardlink"])
+def test_an_output_naming_the_restart_file_is_refused(cli, tmp_path, checkpoint, option, how):
+    name = {"same": checkpoint, "normalised": tmp_path / "x" / ".." / "a2.h5", "symlink": tmp_path / "link.h5",
+            "hardlink": tmp_path / "hard.h5"}[how]
+    (tmp_path / "x").mkdir()
+    if how == "symlink":
+        name.symlink_to(checkpoint)
+    if how == "hardlink":
+        os.link(checkpoint, name)
+    before = checkpoint.read_bytes()
+    msg = cli_error(cli, "run", "navier-stokes-2d", "--restart", checkpoint, "--t-end", 0.05, option, name,
+                    "--checkpoint", tmp_path / "cc.h5")
+    assert msg == f"{option} and --restart name the same file '{name}': the run would overwrite its own input"
+    assert checkpoint.read_bytes() == before
+    assert not (tmp_path / "cc.h5").exists()
+
+
+@pytest.mark.parametrize("option", ["--output", "--summary-json", "--fftw-wisdom", "--checkpoint"])
+def test_an_output_naming_the_ic_file_is_refused(cli, tmp_path, checkpoint, option):
+    run_cli(cli, *small("--steps", 1, "--snapshot-every", 1, "--snapshot-dir", tmp_path / "sd"))
+    for ic in [checkpoint, tmp_path / "sd" / "vorticity_00000001.h5"]:
+        before = ic.read_bytes()
+        msg = cli_error(cli, *small("--ic", ic, "--steps", 1, option, ic, wisdom=option != "--fftw-wisdom" and "none"))
+        assert msg == f"{option} and --ic name the same file '{ic}': the run would overwrite its own input"
+        assert ic.read_bytes() == before
+
+
+def test_a_snapshot_over_the_ic_or_restart_file_is_refused(cli, tmp_path, checkpoint):
+    sd = tmp_path / "sd"
+    run_cli(cli, *small("--steps", 2, "--snapshot-every", 1, "--snapshot-dir", sd))
+    snap = sd / "vorticity_00000000.h5"
+    before = snap.read_bytes()
+    msg = cli_error(cli, *small("--ic", snap, "--snapshot-dir", sd, "--snapshot-every", 1, "--steps", 1))
+    assert msg == (f"--snapshot-dir and --ic name the same file '{snap}': the run would overwrite its own input")
+    assert snap.read_bytes() == before
+    # a snapshot name that links to the input (the restart at step 2 writes step 4)
+    (sd / "vorticity_00000004.h5").symlink_to(checkpoint)
+    msg = cli_error(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
+                    "--snapshot-every", 1, "--snapshot-dir", sd, "--checkpoint", tmp_path / "cc.h5")
+    assert msg.startswith("--snapshot-dir and --restart name the same file "), msg
+    (sd / "vorticity_00000004.h5").unlink()
+    # a snapshot the run does not write may be its input: steps 0 and 4 are written, not 1
+    run_cli(cli, *small("--ic", sd / "vorticity_00000001.h5", "--snapshot-dir", sd, "--snapshot-every", 5,
+                        "--steps", 4, "--output", tmp_path / "o.csv"))
+
+
+def test_the_checkpoint_may_continue_the_restart_file_in_place(cli, tmp_path, checkpoint):
+    run_cli(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
+            "--checkpoint-every", 4, "--checkpoint", checkpoint)
+    with h5py.File(checkpoint, "r") as f:
+        assert int(f.attrs["step"]) == 4
+
+
+# ---- 3. the checkpoint records every option that changes the numbers
+
+def last_row(path):
+    return Path(path).read_text().splitlines()[-1]
+
+
+def test_the_checkpoint_records_update_and_a_restart_takes_it(cli, tmp_path):
+    base = ["run", "navier-stokes-2d", "--N", "32", "--fftw-wisdom", "none", "--fftw-estimate", "--dt", "0.01",
+            "--method", "c-rk4", "--update", "paper"]
+    run_cli(cli, *base, "--t-end", 1, "--output", tmp_path / "full.csv")
+    run_cli(cli, *base, "--t-end", 0.5, "--checkpoint-every", 50, "--checkpoint", tmp_path / "half.h5")
+    with h5py.File(tmp_path / "half.h5", "r") as f:
+        assert f.attrs["update"] == b"paper"
+    rest = ["run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", tmp_path / "half.h5", "--t-end", 1]
+    run_cli(cli, *rest, "--output", tmp_path / "rest.csv", "--checkpoint", tmp_path / "r.h5")
+    assert last_row(tmp_path / "rest.csv") == last_row(tmp_path / "full.csv")
+    msg = cli_error(cli, *rest, "--update", "conditioned", "--checkpoint", tmp_path / "r.h5")
+    assert msg.startswith(f"--update conditioned does not match the restart file's paper ({tmp_path / 'half.h5'}"), msg
+    # a checkpoint of an earlier version records none: its run took the default, conditioned
+    with h5py.File(tmp_path / "half.h5", "r+") as f:
+        del f.attrs["update"]
+    msg = cli_error(cli, *rest, "--update", "paper", "--checkpoint", tmp_path / "r.h5")
+    assert msg.startswith("--update paper does not match the restart file's conditioned"), msg
+    run_cli(cli, *rest, "--update", "conditioned", "--checkpoint", tmp_path / "r.h5")
+
+
+# ---- 4. every checkpoint attribute read on restart is checked
+
+@pytest.mark.parametrize("name, value, says", [
+    ("step", np.int64(-5), "attribute 'step' is -5, not a count >= 0"),
+    ("step", np.float64(2.0), "attribute 'step' is not a whole number"),
+    ("step", np.uint64(1), "time 0.02 is not step * dt = 1 * 0.01"),
+    ("time", np.float64(7.0), "time 7 is not step * dt = 2 * 0.01"),
+    ("total_steps", np.int64(-1), "attribute 'total_steps' is -1, not a count >= 0"),
+    ("halvings", np.int64(-3), "attribute 'halvings' is -3, not a count >= 0"),
+    ("rhs_evals", np.uint64(1), "rhs_evals 1 is fewer than the 2 steps taken"),
+    ("rng_state", np.int64(-1), "attribute 'rng_state' is -1, not a count >= 0"),
+    ("forcing_seed", np.float64(1.5), "attribute 'forcing_seed' is not a whole number"),
+    ("N", np.float64(16.0), "attribute 'N' is not a whole number"),
+    ("threads", np.int64(-2), "threads = -2 is not in 1..64"),
+    ("dt", np.float64(np.inf), "dt must be a positive number"),
+    ("energy0", np.float64(-1.0), "energy0 -1 is negative"),
+    ("max_enstrophy_drift", np.float64(-1e-3), "max_enstrophy_drift -0.001 is negative"),
+    ("energy_injection", np.float64(np.nan), "energy_injection is not finite"),
+    ("update", "fast", "unknown update 'fast'"),
+])
+def test_a_corrupt_checkpoint_attribute_is_refused(cli, tmp_path, checkpoint, name, value, says):
+    with h5py.File(checkpoint, "r+") as f:
+        if isinstance(value, str):
+            f.attrs.create(name, np.bytes_(value))
+        else:
+            f.attrs[name] = value
+    msg = cli_error(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
+                    "--checkpoint", tmp_path / "cc.h5")
+    assert msg.startswith("cannot restart: ") and says in msg, msg
+    assert not (tmp_path / "cc.h5").exists()
+
+
+# ---- 5. numbers are decimal
+
+@pytest.mark.parametrize("args, value", [
+    (["three-wave", "--dt", "0x10"], "0x10"), (["three-wave", "--dt", "0x1p-4"], "0x1p-4"),
+    (["three-wave", "--t-end", "0X1"], "0X1"), (["three-wave", "--rtol", "0x1p-20"], "0x1p-20"),
+    (["three-wave", "--atol", "1e"], "1e"), (["three-wave", "--output-dt", ".e1"], ".e1"),
+    (["three-wave", "--psi", "1,0x1,1"], "0x1"), (["three-wave", "--M", "0x1,1,-2"], "0x1"),
+    (["three-wave", "--dt", "1.5x"], "1.5x"), (["three-wave", "--dt", "1_0"], "1_0"),
+    (["navier-stokes-2d", "--nu", "0x1p-3"], "0x1p-3"), (["navier-stokes-2d", "--cfl", "0x.8"], "0x.8"),
+])
+def test_numbers_are_decimal(cli, args, value):
+    msg = cli_error(cli, "run", *args)
+    assert f"must be a decimal number, not '{value}'" in msg, msg
+
+
+@pytest.mark.parametrize("value", ["16", "+16", "-0.5", ".5", "2.", "1e-3", "1E+2", "1.5e0"])
+def test_decimal_numbers_are_taken(cli, value):
+    r = run_cli(cli, "run", "three-wave", "--steps", 1, "--dt", value, check=False)
+    assert "decimal" not in r.stderr, r.stderr
