@@ -18,6 +18,7 @@
 
 #include <eci/models/description.hpp>
 #include <eci/registry.hpp>
+#include <eci/solve.hpp>
 
 #include "command.hpp"
 #include "output.hpp"
@@ -60,6 +61,7 @@ class model_command_for final : public model_command {
         info_.description = std::string(Model::description);
         for (const method_info& m : methods_for<Model>()) info_.methods.emplace_back(m.name);
         info_.default_method = std::string(p.method);
+        if (const auto m = default_adaptive_method_for<Model>()) info_.default_adaptive_method = std::string(m->name);
         info_.default_dt = p.dt;
         info_.default_t_end = p.t_end;
         for (const auto& q : Model::presets())
@@ -135,7 +137,17 @@ class model_command_for final : public model_command {
                 if (o.given) std::copy(o.reals->begin(), o.reals->end(), p.x0.begin() + std::ptrdiff_t(f.first));
             }
         }
-        const std::string method_name = settings.method.empty() ? std::string(p.method) : settings.method;
+        // no --method: the library's rule, Python's too (the preset's method; with --rtol/--atol the model's
+        // default adaptive method)
+        std::string method_name = settings.method;
+        if (method_name.empty()) {
+            try {
+                const bool adaptive = settings.rtol || settings.atol;
+                method_name = default_method_for<Model>(p.method, adaptive, "model " + info_.name);
+            } catch (const std::invalid_argument& e) {
+                throw bad_input(e.what());
+            }
+        }
         const method_info method = resolve_method(info_, method_name);
         const run_plan plan = resolve_plan(p.dt, p.t_end, settings);
         return run_model(info_, p.model, p.x0, columns(p.model), method, plan, settings);

@@ -152,7 +152,8 @@ class spectral_command final : public model_command {
                 10.0,
                 {{"default", "random field peaked at k = 8, inviscid, dt from CFL 0.5 (see --help for the "
                              "initial conditions, forcing and outputs)"}},
-                "from --cfl 0.5: 0.5 dx / max|u| at t = 0"} {
+                "from --cfl 0.5: 0.5 dx / max|u| at t = 0",
+                ""} {
         const bool ns = name_ == "navier-stokes-2d";
         default_snapshot_dir_ = ns ? "ns2d-snapshots" : name_ + "-snapshots";
         default_checkpoint_ = ns ? "ns2d-checkpoint.h5" : name_ + "-checkpoint.h5";
@@ -317,9 +318,14 @@ int spectral_command::run_spread(const run_settings& settings) {
         } catch (const std::invalid_argument& e) {
             throw bad_input(std::string("--rtol/--atol: ") + e.what());
         }
-        throw bad_input("--rtol/--atol: method " +
-                        (settings.method.empty() ? info_.default_method : settings.method) +
-                        " has no error estimate for rtol/atol; " + name_ +
+        if (settings.method.empty()) {  // the library's rule for a run that names no method, as Python's
+            try {
+                (void)default_method_for<navier_stokes_2d>(info_.default_method, true, "model " + name_);
+            } catch (const std::invalid_argument& e) {
+                throw bad_input(e.what());
+            }
+        }
+        throw bad_input("--rtol/--atol: method " + settings.method + " has no error estimate for rtol/atol; " + name_ +
                         " runs fixed steps (give --dt, or none for the CFL 0.5 step)");
     }
     // ---- parameters, from the options or the checkpoint (options that contradict it are an error)

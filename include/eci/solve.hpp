@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <concepts>
@@ -294,6 +295,37 @@ method_info resolve_named_method(std::string_view name, const Names& available, 
         if (std::string_view(a) == name) return m;
     throw std::invalid_argument("method '" + std::string(name) + "' is not available for " + std::string(what) +
                                 " (available: " + detail::joined_names(available) + ")");
+}
+
+/// The pairs a run with a tolerance and no method named prefers, in this order, where they run adaptively on the
+/// model: Dormand-Prince 5(4), SciPy's RK45 pair, conservative first (default_adaptive_method_for).
+inline constexpr std::array<std::string_view, 2> preferred_adaptive_methods{"c-dp54", "dp54"};
+
+/// The method an adaptive run on Dispatch (a model type) takes when its user names none: the first of
+/// preferred_adaptive_methods that runs adaptively on it, else its first conservative adaptive method, else its
+/// first adaptive method in the registry's order; none if no method has an error estimate on it.
+template <class Dispatch>
+std::optional<method_info> default_adaptive_method_for() {
+    const std::vector<method_info> pairs = adaptive_methods_for<Dispatch>();
+    for (std::string_view preferred : preferred_adaptive_methods)
+        for (const method_info& m : pairs)
+            if (m.name == preferred) return m;
+    for (const method_info& m : pairs)
+        if (m.conservative) return m;
+    if (!pairs.empty()) return pairs.front();
+    return std::nullopt;
+}
+
+/// The method a run on Dispatch (a model type) takes when its user names none: the one rule of every front end
+/// (`eci run MODEL` without --method, Python's eci.solve(model) without method=). Fixed steps: `model_default`, the
+/// model's own (its preset's method); adaptive (a tolerance given): default_adaptive_method_for, or
+/// std::invalid_argument "WHAT has no method with an error estimate for rtol/atol; it runs fixed steps only".
+template <class Dispatch>
+std::string default_method_for(std::string_view model_default, bool adaptive, std::string_view what) {
+    if (!adaptive) return std::string(model_default);
+    if (const std::optional<method_info> m = default_adaptive_method_for<Dispatch>()) return std::string(m->name);
+    throw std::invalid_argument(std::string(what) +
+                                " has no method with an error estimate for rtol/atol; it runs fixed steps only");
 }
 
 namespace detail {

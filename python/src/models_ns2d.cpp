@@ -101,6 +101,9 @@ class ns2d_object : public model_base {
     }
 
     std::vector<std::string> adaptive_methods() const override { return {}; }
+    std::string default_method(bool adaptive) const override {
+        return default_method_for<navier_stokes_2d>(eci::ns2d_methods().front(), adaptive, "model " + name());
+    }
     /// Fixed steps t0 + i dt (the last one shortened to land on t1), by eci::solve as the CLI takes them.
     py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
                    const py::dict& settings, std::vector<py::object> invariants,

@@ -490,3 +490,81 @@ def test_every_models_keywords_are_its_cli_parameters(cli, cls):
         shown = line.rsplit("(default ", 1)[1].rstrip(")")
         assert [float(v) for v in shown.split(",")] == list(np.atleast_1d(default)), option
         assert getattr(cls(**{keyword: default}), keyword) == default
+
+
+# The method of a run that names none is the library's one rule (eci::default_method_for) for both front ends: the
+# model's default method (its first preset's), and with a tolerance the model's default adaptive method. Python
+# used to run c-rk4 (refused on kepler-cartesian, c-pc elsewhere in the CLI) and c-dp54 (refused on kepler-cartesian),
+# and the CLI refused --rtol without --method ("method c-pc has no error estimate").
+@pytest.mark.parametrize("cls", M.ode_models, ids=lambda c: c().name)
+@pytest.mark.parametrize("adaptive", [False, True], ids=["fixed", "rtol"])
+def test_every_model_runs_the_clis_method_when_none_is_named(cli, tmp_path, cls, adaptive):
+    model = cls()
+    y0, dt = model.default_y0, model.default_dt
+    t_end = 7.5 * dt
+    csv, summary = tmp_path / "run.csv", tmp_path / "run.json"
+    tolerance = ["--rtol", "1e-06"] if adaptive else ["--dt", repr(dt)]
+    run_cli(cli, "run", model.name, "--t-end", repr(t_end), *tolerance, *cli_options(model, y0), "--output", csv,
+            "--summary-json", summary)
+    s = json.loads(summary.read_text())
+    step = {"rtol": 1e-6, "atol": 1e-6} if adaptive else {"dt": dt}
+    r = eci.solve(model, (0.0, t_end), y0, **step)
+    assert r.method == s["method"] == model._default_method(adaptive)
+    if adaptive:
+        assert r.method in model.adaptive_methods
+        assert r.method == ("c-dp54" if "c-dp54" in model.adaptive_methods else "dp54")
+    else:
+        assert r.method == model.default_method == cls.presets()[0].method
+    columns = csv_columns(csv)
+    assert_same_run(r, columns["t"], columns, s, state_columns(list(columns), model),
+                    complex_state=np.iscomplexobj(y0))
+
+
+def test_the_defaults_named_by_the_tester_run_in_python():
+    # (raised "method 'c-rk4' is not available for model kepler-cartesian", and 'c-dp54' with rtol)
+    assert eci.solve(M.KeplerCartesian(), (0.0, 1.0)).method == "rrk-rk4"
+    assert eci.solve(M.KeplerCartesian(), (0.0, 1.0), rtol=1e-6).method == "dp54"
+    assert eci.solve(M.ThreeWave(), (0.0, 10.0), dt=0.3).method == "c-pc"
+    assert eci.solve(M.Kepler(), (0.0, 1.0)).method == "c-pc"
+    assert eci.solve(M.NonlinearOscillator(), (0.0, 1.0)).method == "rrk-rk4"
+    # a Python fun keeps its own defaults: c-rk4 at fixed steps; dp54, or c-dp54 with declared invariants
+    f = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    assert eci.solve(f, (0.0, 1.0), [1.0, 0.0], dt=0.1).method == "c-rk4"
+    assert eci.solve(f, (0.0, 1.0), [1.0, 0.0]).method == "dp54"
+    assert eci.solve(f, (0.0, 1.0), [1.0, 0.0], quadratic_invariants=[1.0, 1.0]).method == "c-dp54"
+
+
+@pytest.mark.parametrize("cls", M.ode_models, ids=lambda c: c().name)
+def test_every_preset_with_a_tolerance_runs_the_clis_method(cli, tmp_path, cls):
+    # `eci run MODEL --preset NAME --rtol R` and Preset.solve(rtol=R): the model's default adaptive method for both
+    for p in cls.presets():
+        summary = tmp_path / "run.json"
+        run_cli(cli, "run", p.model.name, "--preset", p.name, "--rtol", "1e-06", "--t-end", repr(5.5 * p.dt),
+                "--summary-json", summary)
+        # (the CLI's first step is the preset's --dt)
+        r = eci.solve(p.model, (0.0, 5.5 * p.dt), p.y0, rtol=1e-6, atol=1e-6, first_step=p.dt)
+        s = json.loads(summary.read_text())
+        assert r.method == s["method"] == p.model._default_method(True)
+        assert r.stats["steps"] == s["steps"] and r.stats["rhs_evals"] == s["rhs_evals"]
+        assert p.solve(rtol=1e-6, atol=1e-6, t_eval=[0.0]).method == s["method"]
+
+
+def test_the_cli_help_names_both_default_methods(cli):
+    for model in (M.ThreeWave(), M.KeplerCartesian()):
+        help_text = run_cli(cli, "run", model.name, "--help").stdout
+        line = " ".join(help_text.split("--method", 1)[1].split("\n  --", 1)[0].split())
+        assert f"(default {model.default_method}; with --rtol/--atol {model._default_method(True)})" in line, line
+
+
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+def test_navier_stokes_refuses_a_tolerance_without_a_method_as_the_cli(cli):
+    from conftest import cli_error
+
+    for options, keywords in ((["--rtol", "1e-06"], {"rtol": 1e-6}), (["--atol", "1e-06"], {"atol": 1e-6})):
+        message = cli_error(cli, "run", "navier-stokes-2d", "--N", "16", "--fftw-estimate", "--fftw-wisdom",
+                            "none", *options)
+        assert message == "model navier-stokes-2d has no method with an error estimate for rtol/atol; it runs " \
+                          "fixed steps only"
+        with pytest.raises(ValueError) as e:
+            eci.solve(eci.models.NavierStokes2D(n=16, fftw_measure=False), (0.0, 0.1), **keywords)
+        assert str(e.value) == message

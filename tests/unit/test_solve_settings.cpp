@@ -13,6 +13,9 @@
 #include <tuple>
 #include <vector>
 
+#include <eci/models/kepler.hpp>
+#include <eci/models/kepler_cartesian.hpp>
+
 #include "solve_tests.hpp"
 
 using namespace solve_tests;
@@ -367,3 +370,16 @@ TEST(Solve, MoreThanTwoToThe53StepsAreRefused) {
     EXPECT_EQ(eci::last_step_to_reach(0.0, 1e15, 1.0, std::uint64_t(1e15)), 1.0);
     EXPECT_EQ(eci::steps_to_reach(0.0, 0.3, 0.1), 3u);  // a remainder at round-off is no step of its own
 }
+
+// The one rule of the front ends for a run that names no method (eci::default_method_for): the model's own method at
+// fixed steps; with a tolerance c-dp54, else dp54, else the first conservative pair; a refusal where none has an
+// error estimate.
+TEST(Solve, TheDefaultMethodIsTheModelsAndWithATolerancePrefersDormandPrince) {
+    EXPECT_EQ(eci::default_method_for<eci::three_wave>("c-pc", false, "model three-wave"), "c-pc");
+    EXPECT_EQ(eci::default_method_for<eci::three_wave>("c-pc", true, "model three-wave"), "c-dp54");
+    EXPECT_EQ(eci::default_method_for<eci::kepler>("c-pc", true, "model kepler"), "c-dp54");  // (transformed)
+    // H is not quadratic: no conservative pair runs on it, the conventional one does
+    EXPECT_EQ(eci::default_method_for<eci::kepler_cartesian>("rrk-rk4", true, "model kepler-cartesian"), "dp54");
+    EXPECT_EQ(eci::default_method_for<eci::kepler_cartesian>("rrk-rk4", false, "model kepler-cartesian"), "rrk-rk4");
+}
+
