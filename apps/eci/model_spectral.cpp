@@ -621,22 +621,10 @@ int spectral_command::run_spread(const run_settings& settings) {
     } catch (const std::invalid_argument& e) {
         throw bad_input(std::string("initial condition: ") + e.what());
     }
-    {
-        // (each process checks its own modes; the verdict is every process's, so that all refuse together)
-        double bad = 0.0;
-        for (const auto& v : w)
-            if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) bad = 1.0;
-        model.grid().sum_over_ranks(&bad, 1);
-        if (bad != 0.0) throw bad_input("initial condition is not finite");
-    }
-    {
-        // E and Z below the smallest normal double lose their precision to subnormal arithmetic (and squares of
-        // the modes underflow): refuse, as the other models' initial-state check does
-        const double e = model.energy(w), z = model.enstrophy(w);
-        if ((e != 0.0 && !std::isnormal(e)) || (z != 0.0 && !std::isnormal(z)) || !std::isfinite(e) ||
-            !std::isfinite(z))
-            throw bad_input("initial condition: " + inv_[0] + " " + shortest(e) + " and " + inv_[1] + " " +
-                            shortest(z) + " must be finite normal numbers");
+    try {  // the library's check, as Python's (collective: every process gives the same verdict)
+        model.check_initial_state(w);
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(e.what());
     }
 
     // ---- time step and span
@@ -646,13 +634,13 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (settings.dt) {
             dt = *settings.dt;
         } else {
-            const double u = model.max_velocity(w);
-            if (!(u > 0.0)) throw bad_input("the initial velocity is zero: give --dt");
-            dt = cfl_.value_or(0.5) * dx / u;
-            // (refused here, before the wisdom file is written: a --cfl of 4.9e-324 gave dt = 0)
-            if (!(dt > 0.0) || !std::isfinite(dt))
-                throw bad_input("the time step from --cfl " + shortest(cfl_.value_or(0.5)) + ", CFL dx / max|u| = " +
-                                shortest(dt) + ", is not a positive finite number");
+            // the library's rule and sentences, as Python's default dt (refused here, before the wisdom file is
+            // written: a --cfl of 4.9e-324 gave dt = 0)
+            try {
+                dt = model.initial_cfl_step(w, cfl_.value_or(0.5), "--dt", "--cfl");
+            } catch (const std::invalid_argument& e) {
+                throw bad_input(e.what());
+            }
             // rows every --output-dt of time: the CFL step shortened to divide it (steps.hpp), as Python's
             if (settings.output_dt) dt = step_dividing(*settings.output_dt, dt);
         }

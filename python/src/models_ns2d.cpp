@@ -115,10 +115,11 @@ class ns2d_object : public model_base {
         if (!settings["t_eval"].is_none()) t_eval = settings["t_eval"].cast<std::vector<double>>();
         const int max_halvings = settings["max_halvings"].cast<int>();
         state x = y0.is_none() ? y0_ : to_state(y0);
-        for (const cplx& v : x)
-            if (!std::isfinite(v.real()) || !std::isfinite(v.imag()))
-                throw std::invalid_argument("initial condition is not finite");
         const method_info info = resolve_named_method(method, eci::ns2d_methods(), "model " + name());
+        {
+            const auto lock_ = lock();
+            model_->check_initial_state(x);  // the library's check and sentences, as the CLI's
+        }
         const std::uint64_t n = steps_to_reach(t0, t1, dt);
         auto grid_time = [&](std::uint64_t i) { return i == n ? t1 : t0 + double(i) * dt; };
         if (t_eval)
@@ -215,12 +216,9 @@ class ns2d_object : public model_base {
         return d;
     }
 
-    /// The step of CFL number `cfl` at w: cfl dx / max|u|, dx = 2 pi / n (the CLI's --cfl).
-    double cfl_step(const state& w, double cfl) const {
-        const double u = model_->max_velocity(w);
-        if (!(u > 0.0)) throw std::invalid_argument("the initial velocity is zero: give dt");
-        return cfl * 2.0 * std::numbers::pi / model_->n() / u;
-    }
+    /// The step of CFL number `cfl` at w: cfl dx / max|u|, dx = 2 pi / n (the CLI's --cfl), w checked first: the
+    /// library's rule and sentences (flow2d::initial_cfl_step), the CLI's default step.
+    double cfl_step(const state& w, double cfl) const { return model_->initial_cfl_step(w, cfl, "dt", "cfl"); }
 
     state to_state(const py::object& y) const {
         const auto a = as_vector<cplx>(y, model_->size(), "y", false, "the " + name() + " state ((2 kmax + 1) (kmax + 1) modes)");

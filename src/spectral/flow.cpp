@@ -482,6 +482,39 @@ double flow2d::max_velocity(const state_type& q) {
     return std::sqrt(vmax);
 }
 
+void flow2d::check_initial_state(const state_type& q) const {
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    // (each process checks its own modes; the verdict is every process's, so that all refuse together)
+    double bad = 0.0;
+    for (const auto& v : q)
+        if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) bad = 1.0;
+    d_->g.sum_over_ranks(&bad, 1);
+    if (bad != 0.0) throw std::invalid_argument("initial condition is not finite");
+    // E and Z below the smallest normal double lose their precision to subnormal arithmetic (and squares of the
+    // modes underflow): refused, as the other models' initial-state check does
+    const double e = energy(q), z = enstrophy(q);
+    if ((e != 0.0 && !std::isnormal(e)) || (z != 0.0 && !std::isnormal(z)) || !std::isfinite(e) || !std::isfinite(z)) {
+        const auto names = invariant_names();
+        throw std::invalid_argument("initial condition: " + names[0] + " " + eci::detail::shortest_text(e) + " and " +
+                                    names[1] + " " + eci::detail::shortest_text(z) + " must be finite normal numbers");
+    }
+}
+
+double flow2d::initial_cfl_step(const state_type& q, double cfl, std::string_view dt_name,
+                                std::string_view cfl_name) {
+    if (!(std::isfinite(cfl) && cfl > 0.0))
+        throw std::invalid_argument(std::string(cfl_name) + " must be a positive number");
+    check_initial_state(q);
+    const double u = max_velocity(q);
+    if (!(u > 0.0)) throw std::invalid_argument("the initial velocity is zero: give " + std::string(dt_name));
+    const double dt = cfl * (2.0 * std::numbers::pi / n_) / u;
+    if (!(dt > 0.0) || !std::isfinite(dt))
+        throw std::invalid_argument("the time step from " + std::string(cfl_name) + " " +
+                                    eci::detail::shortest_text(cfl) + ", CFL dx / max|u| = " +
+                                    eci::detail::shortest_text(dt) + ", is not a positive finite number");
+    return dt;
+}
+
 double flow2d::cfl(const state_type& q, double dt) { return max_velocity(q) * dt * double(n_) / (2.0 * std::numbers::pi); }
 
 template <class Value>

@@ -568,3 +568,58 @@ def test_navier_stokes_refuses_a_tolerance_without_a_method_as_the_cli(cli):
         with pytest.raises(ValueError) as e:
             eci.solve(eci.models.NavierStokes2D(n=16, fftw_measure=False), (0.0, 0.1), **keywords)
         assert str(e.value) == message
+
+
+# The initial-state checks of the spectral models are the library's (flow2d::check_initial_state), made before the
+# initial step (flow2d::initial_cfl_step): Python used to take the CFL step of an overflowing field first ("dt must
+# be a positive finite number, not 0"), run it to a StepSizeUnderflow when given dt, and call a NaN field "the initial
+# velocity is zero".
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("scale", [1e200, float("nan"), 0.0, 1e-160], ids=["overflow", "nan", "zero", "subnormal"])
+@pytest.mark.parametrize("dt", [None, 0.01])
+def test_navier_stokes_refuses_the_same_initial_states(cli, tmp_path, scale, dt):
+    import h5py
+    from conftest import cli_error
+
+    m = eci.models.NavierStokes2D(n=32, fftw_measure=False)
+    field = m.to_physical(m.random_field()) * scale
+    ic = tmp_path / "ic.h5"
+    with h5py.File(ic, "w") as f:
+        f["vorticity"] = field
+    step = ["--dt", "0.01"] if dt else []
+    if scale == 0.0 and dt:  # a zero field is a state: it runs
+        run_cli(cli, "run", "navier-stokes-2d", "--N", "32", "--ic", ic, "--t-end", "0.02", "--fftw-estimate",
+                "--fftw-wisdom", "none", *step)
+        assert eci.solve(m, (0.0, 0.02), m.from_physical(field), dt=dt).success
+        return
+    message = cli_error(cli, "run", "navier-stokes-2d", "--N", "32", "--ic", ic, "--t-end", "0.1",
+                        "--fftw-estimate", "--fftw-wisdom", "none", *step)
+    with pytest.raises(ValueError) as e:
+        eci.solve(m, (0.0, 0.1), m.from_physical(field), dt=dt)
+    assert str(e.value) == as_python_names(message)
+    if scale == 1e200:  # the tester's field, scaled as a state
+        with pytest.raises(ValueError) as e:
+            eci.solve(m, (0.0, 0.1), m.random_field() * 1e200, dt=dt)
+        assert str(e.value) == "initial condition: energy inf and enstrophy inf must be finite normal numbers"
+    if scale != scale:
+        with pytest.raises(ValueError, match="^initial condition is not finite$"):
+            eci.solve(m, (0.0, 0.1), np.full(m.size, np.nan, dtype=complex), dt=dt)
+
+
+# The ODE models' initial check (eci::check_initial_state) comes before any step rule for both front ends, whatever
+# the step control: fixed steps of the default dt, or adaptive from the default first step.
+@pytest.mark.parametrize("cls", [c for c in M.ode_models if c._initial_condition()], ids=lambda c: c().name)
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), 1e-310], ids=["nan", "inf", "subnormal"])
+def test_every_model_refuses_the_same_initial_state_under_any_step_control(cli, cls, bad):
+    from conftest import cli_error
+
+    model = cls()
+    option, first, count = cls._initial_condition()[0]
+    y0 = model.default_y0.copy()
+    y0[first] = bad
+    values = ",".join(repr(float(v)) for v in y0[first:first + count])
+    for options, keywords in (([], {}), (["--rtol", "1e-06"], {"rtol": 1e-6, "atol": 1e-6})):
+        message = cli_error(cli, "run", model.name, "--" + option, values, "--t-end", 1, *options)
+        with pytest.raises(ValueError) as e:
+            eci.solve(model, (0.0, 1.0), y0, **keywords)
+        assert str(e.value) == message, options

@@ -10,6 +10,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "../models/invariant.hpp"
@@ -213,6 +214,16 @@ class flow2d {
     }
     /// max over the grid of |u|.
     double max_velocity(const state_type& q);
+    /// Refuses an initial state whose arithmetic is beyond double precision with the one line every front end
+    /// gives (std::invalid_argument): "initial condition is not finite" (a mode inf or nan), "initial condition:
+    /// energy E and enstrophy Z must be finite normal numbers" (by invariant_names(); 0 is allowed). Collective:
+    /// every process of a spread flow gives the same verdict.
+    void check_initial_state(const state_type& q) const;
+    /// The step of CFL number `cfl` at the initial state q, cfl dx / max|u| (the front ends' default step), after
+    /// check_initial_state(q). std::invalid_argument naming the settings as the front end does (`dt_name`,
+    /// `cfl_name`): "CFL must be a positive number", "the initial velocity is zero: give DT", "the time step from
+    /// CFL c, CFL dx / max|u| = h, is not a positive finite number".
+    double initial_cfl_step(const state_type& q, double cfl, std::string_view dt_name, std::string_view cfl_name);
     /// The CFL number max|u| dt / dx with dx = 2 pi / n.
     double cfl(const state_type& q, double dt);
     /// The shell-summed spectra E(k) and Z(k), k = 0, 1, ...: sums over modes with round(|k|) = k.
