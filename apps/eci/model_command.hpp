@@ -4,8 +4,6 @@
 // include/eci/models/list.hpp.
 #pragma once
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstddef>
@@ -16,6 +14,7 @@
 #include <tuple>
 #include <vector>
 
+#include <eci/memory.hpp>
 #include <eci/models/description.hpp>
 #include <eci/registry.hpp>
 #include <eci/solve.hpp>
@@ -154,24 +153,20 @@ class model_command_for final : public model_command {
     }
 
    private:
-    // A huge request says what it costs before it starts, and one beyond this machine's memory is refused.
+    // A huge request says what it costs before it starts; one beyond this machine's memory is refused with the
+    // library's sentence (check_fits_in_memory, which the generator applies for Python too).
     template <class Recipe>
     void check_memory(const Recipe& r) const {
         double bytes = 0.0;
         try {
             bytes = Model::bytes_needed(r);
+            check_fits_in_memory(bytes, "the system");
         } catch (const std::invalid_argument& e) {
             throw bad_input(info_.name + ": " + e.what());
         }
-        const double gib = bytes / double(1ull << 30);
-        const double physical = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
-        char size[32], have[32];
-        std::snprintf(size, sizeof size, "%.3g GiB", gib);
-        std::snprintf(have, sizeof have, "%.3g GiB", physical / double(1ull << 30));
-        if (physical > 0 && bytes > physical)
-            throw bad_input(info_.name + " needs about " + size + " of memory, more than this machine's " + have);
         if (bytes > double(256ull << 20))
-            std::fprintf(stderr, "eci: note: %s needs about %s of memory\n", info_.name.c_str(), size);
+            std::fprintf(stderr, "eci: note: %s needs about %s of memory\n", info_.name.c_str(),
+                         gib_text(bytes).c_str());
     }
 
     /// The CSV names of the real unknowns: the model's component names, or psi_0, ... (re_/im_ when complex).

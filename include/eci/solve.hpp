@@ -24,6 +24,7 @@
 #include "adaptive.hpp"
 #include "detail/format.hpp"
 #include "integrate.hpp"
+#include "memory.hpp"
 #include "registry.hpp"
 #include "run.hpp"
 
@@ -77,6 +78,10 @@ struct run_config {
     std::function<bool()> stop_between_attempts{};
     /// Names real unknown i in messages (a CSV column, "y[i]"); empty: "x[i]" (re/im for complex states).
     std::function<std::string(std::size_t)> component_name;
+    /// The bytes a sink keeps in memory per output (Python's arrays: the state and its time); 0: it keeps none. A
+    /// fixed-step run whose outputs would not fit in this machine's memory is then refused before its first step
+    /// (check_stored_outputs), rather than failing part-way (std::bad_alloc, the OOM killer).
+    std::size_t output_bytes = 0;
 
     /// Whether the run is adaptive.
     bool is_adaptive() const { return adaptive.has_value(); }
@@ -396,6 +401,25 @@ inline void check_config(const run_config& c) {
                                         "within the span");
 }
 
+/// The outputs a checked fixed-step run gives: one per output time, else the first, every `every`-th step and the
+/// last; none for an adaptive run (its step count is not known before it runs).
+inline std::optional<double> fixed_step_outputs(const run_config& c) {
+    if (c.adaptive) return std::nullopt;
+    if (!c.times.empty()) return double(c.times.size());
+    const std::uint64_t steps = c.steps ? *c.steps : steps_to_reach(c.t0, c.t_end, c.dt) - c.first_step;
+    return double(steps / c.every) + 1.0 + (steps % c.every != 0 ? 1.0 : 0.0);
+}
+
+/// Refuses a fixed-step run whose outputs a sink keeping c.output_bytes each could not hold in this machine's memory:
+/// std::invalid_argument "storing the solution at N times needs about X GiB of memory, more than this machine's Y
+/// GiB". A run that fits is never refused.
+inline void check_stored_outputs(const run_config& c) {
+    if (c.output_bytes == 0) return;
+    if (const std::optional<double> n = fixed_step_outputs(c))
+        check_fits_in_memory(*n * double(c.output_bytes),
+                             "storing the solution at " + detail::shortest_text(*n) + " times");
+}
+
 /// An observer (x, t), (x, t, i) or (x, t, i, monitor) as a sink: eci::run and eci::run_adaptive.
 template <class Model, class Observer>
 struct observer_sink {
@@ -535,6 +559,7 @@ inline std::optional<run_config> resolved_config(const run_config& requested) {
         resolve_output_dt(resolved.emplace(requested));
         check_config(*resolved);
     }
+    check_stored_outputs(resolved ? *resolved : requested);
     return resolved;
 }
 

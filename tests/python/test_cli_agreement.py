@@ -606,6 +606,53 @@ def test_navier_stokes_refuses_the_same_initial_states(cli, tmp_path, scale, dt)
             eci.solve(m, (0.0, 0.1), np.full(m.size, np.nan, dtype=complex), dt=dt)
 
 
+# Parameters are checked by the library alone (flow_params::whole, validate), so both front ends refuse them in the
+# same sentence, the CLI's: Python said "n must be in 8..65536, not 6".
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("option, value, keyword", [
+    ("--N", 6, "n"), ("--N", 7, "n"), ("--N", 100000, "n"), ("--hyper-p", 17, "hyper_p"), ("--hyper-p", 0, "hyper_p"),
+    ("--hypo-p", 40, "hypo_p"), ("--threads", 65, "threads"), ("--nu", -1, "nu"),
+])
+def test_navier_stokes_refuses_the_same_parameters(cli, option, value, keyword):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", "navier-stokes-2d", option, value, "--fftw-estimate", "--fftw-wisdom", "none")
+    assert message.startswith("navier-stokes-2d: "), message
+    with pytest.raises(ValueError) as e:
+        eci.models.NavierStokes2D(**{keyword: value}, fftw_measure=False)
+    assert str(e.value) == message
+
+
+# What cannot fit in memory is refused by the library's one guard (eci::check_fits_in_memory), for both front ends.
+def test_n_wave_beyond_memory_is_refused_alike(cli):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", "n-wave", "--modes", str(10 ** 8))
+    assert message.startswith("n-wave: the system needs about ") and "more than this machine's" in message
+    with pytest.raises(ValueError) as e:  # (was a bare MemoryError, std::bad_alloc)
+        eci.models.NWave(modes=10 ** 8)
+    assert str(e.value) == message
+
+
+def test_a_stored_solution_beyond_memory_is_refused_up_front():
+    import os
+
+    memory = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    steps = 2 * memory // 32 + 1  # three doubles and the time per output: twice the memory
+    with pytest.raises(ValueError) as e:
+        eci.solve(M.ThreeWave(), (0.0, steps * 1e-5), dt=1e-5)
+    message = str(e.value)
+    assert message.startswith("storing the solution at ") and " GiB of memory, more than this machine's " in message
+    assert "\n" not in message
+    f = lambda t, y: -y  # noqa: E731  (a Python fun's arrays alike)
+    with pytest.raises(ValueError, match="^storing the solution at "):
+        eci.solve(f, (0.0, steps * 1e-5), [1.0, 2.0, 3.0], dt=1e-5)
+    # what fits runs: t_eval stores two states; a short run all of them
+    r = eci.solve(M.ThreeWave(), (0.0, 1.0), dt=1e-5, t_eval=[0.0, 1.0])
+    assert r.success and r.y.shape == (3, 2)
+    assert eci.solve(M.ThreeWave(), (0.0, 1.0), dt=1e-3).y.shape == (3, 1001)
+
+
 # The ODE models' initial check (eci::check_initial_state) comes before any step rule for both front ends, whatever
 # the step control: fixed steps of the default dt, or adaptive from the default first step.
 @pytest.mark.parametrize("cls", [c for c in M.ode_models if c._initial_condition()], ids=lambda c: c().name)

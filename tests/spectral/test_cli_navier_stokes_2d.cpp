@@ -548,7 +548,7 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--restart " + q + "/ok.h5 --energy 2", "initial condition"},
         // the message names the problem
         {"--N 65536", "GiB of memory"},
-        {"--N 100000", "--N must be at most 65536, not 100000"},
+        {"--N 100000", "navier-stokes-2d: grid size N must be at most 65536, not 100000"},
         {"--N 8 --forcing deterministic --forcing-k 100", "|k| = 100 +- 1/2 holds no retained mode (kmax = 2)"},
         {"--ic " + q, "is a directory"},
         {"--ic " + q + "/fifo", "is a FIFO"},

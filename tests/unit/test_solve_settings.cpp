@@ -13,6 +13,7 @@
 #include <tuple>
 #include <vector>
 
+#include <eci/memory.hpp>
 #include <eci/models/kepler.hpp>
 #include <eci/models/kepler_cartesian.hpp>
 
@@ -383,3 +384,28 @@ TEST(Solve, TheDefaultMethodIsTheModelsAndWithATolerancePrefersDormandPrince) {
     EXPECT_EQ(eci::default_method_for<eci::kepler_cartesian>("rrk-rk4", false, "model kepler-cartesian"), "rrk-rk4");
 }
 
+// A sink that keeps every output in memory says how much per output; a fixed-step run whose outputs cannot fit is
+// refused before its first step, in one line naming the size, and one that fits is not.
+TEST(Solve, StoredOutputsBeyondMemoryAreRefusedBeforeAnyStep) {
+    const eci::three_wave model;
+    eci::run_config cfg;
+    cfg.dt = 1e-5;
+    cfg.t_end = 2.0 * eci::physical_memory() / 32.0 * cfg.dt;
+    cfg.output_bytes = 32;
+    tw_state y = fig5;
+    discard<tw_state> none;
+    try {
+        eci::solve_model<eci::three_wave>(model, y, "rk4", cfg, none, {}, "model three-wave");
+        ADD_FAILURE() << "accepted";
+    } catch (const std::invalid_argument& e) {
+        const std::string m = e.what();
+        EXPECT_EQ(m.rfind("storing the solution at ", 0), 0u) << m;
+        EXPECT_NE(m.find(" GiB of memory, more than this machine's "), std::string::npos) << m;
+    }
+    EXPECT_EQ(y, fig5);
+    cfg.times = {0.0, cfg.t_end};  // two outputs fit: not refused up front (the run itself is not taken here)
+    EXPECT_NO_THROW(eci::detail::check_stored_outputs(cfg));
+    cfg.times.clear();
+    cfg.output_bytes = 0;  // a sink that keeps nothing
+    EXPECT_NO_THROW(eci::detail::check_stored_outputs(cfg));
+}

@@ -50,9 +50,15 @@ struct flow_params {
     MPI_Comm comm = MPI_COMM_NULL;     ///< the processes the flow is spread over (grid_options::comm); MPI build only
 #endif
 
-    /// Throws std::invalid_argument naming the first bad parameter (the equation's own included).
+    /// Throws std::invalid_argument naming the first bad parameter (the equation's own included), and a grid
+    /// that cannot fit in this machine's memory ("grid size N = 65536 needs about X GiB of memory, more than this
+    /// machine's Y GiB": check_fits_in_memory of about 10 copies of FFTW's half plane, the measured peak of C-RK4).
     void validate() const;
     void validate(const spectral::equation& e) const;
+    /// A whole-number field ("n", "hyper_p", "hypo_p", "threads") given as a wider integer (a CLI option, a Python
+    /// int): `v` as an int when validate() would take it, else std::invalid_argument with validate()'s sentence, so
+    /// that every front end refuses a value too wide for int as any other out of range.
+    static int whole(std::string_view field, long long v);
 };
 
 /// What the linear terms and the forcing did to E and Z at one right-hand-side evaluation (rates, per unit time).
