@@ -40,6 +40,7 @@ struct model_info {
     double default_t_end = 0.0;
     std::vector<std::pair<std::string, std::string>> presets;  ///< name and one line of each preset
     std::string default_dt_text;  ///< the default dt when it is no fixed number (e.g. "from CFL 0.5"); else empty
+    std::string default_adaptive_method;  ///< with --rtol/--atol and no --method (empty: the model has none)
 
     /// The default dt as `eci list` and --help print it.
     std::string dt_text(std::string (*number)(double)) const {

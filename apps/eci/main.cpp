@@ -224,7 +224,11 @@ int run_cli(int argc, char** argv) {
     for (const auto& model : models) {
         const model_info& i = model->info();
         CLI::App* sub = run->add_subcommand(i.name, i.description);
-        sub->add_option("--method", settings.method, "integrator, one of `eci list` (default " + i.default_method + ")");
+        sub->add_option("--method", settings.method,
+                        "integrator, one of `eci list` (default " + i.default_method +
+                            (i.default_adaptive_method.empty() ? std::string()
+                                                               : "; with --rtol/--atol " + i.default_adaptive_method) +
+                            ")");
         sub->add_option("--dt", dt, "time step (default " + i.dt_text(shortest) + ")")->check(decimal_number());
         sub->add_option("--t-end", t_end, "end time, starting at t = 0 (default " + shortest(i.default_t_end) + ")")
             ->check(decimal_number());

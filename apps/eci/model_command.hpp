@@ -4,8 +4,6 @@
 // include/eci/models/list.hpp.
 #pragma once
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
 #include <cstddef>
@@ -16,8 +14,10 @@
 #include <tuple>
 #include <vector>
 
+#include <eci/memory.hpp>
 #include <eci/models/description.hpp>
 #include <eci/registry.hpp>
+#include <eci/solve.hpp>
 
 #include "command.hpp"
 #include "output.hpp"
@@ -60,6 +60,7 @@ class model_command_for final : public model_command {
         info_.description = std::string(Model::description);
         for (const method_info& m : methods_for<Model>()) info_.methods.emplace_back(m.name);
         info_.default_method = std::string(p.method);
+        if (const auto m = default_adaptive_method_for<Model>()) info_.default_adaptive_method = std::string(m->name);
         info_.default_dt = p.dt;
         info_.default_t_end = p.t_end;
         for (const auto& q : Model::presets())
@@ -135,31 +136,37 @@ class model_command_for final : public model_command {
                 if (o.given) std::copy(o.reals->begin(), o.reals->end(), p.x0.begin() + std::ptrdiff_t(f.first));
             }
         }
-        const std::string method_name = settings.method.empty() ? std::string(p.method) : settings.method;
+        // no --method: the library's rule, Python's too (the preset's method; with --rtol/--atol the model's
+        // default adaptive method)
+        std::string method_name = settings.method;
+        if (method_name.empty()) {
+            try {
+                const bool adaptive = settings.rtol || settings.atol;
+                method_name = default_method_for<Model>(p.method, adaptive, "model " + info_.name);
+            } catch (const std::invalid_argument& e) {
+                throw bad_input(e.what());
+            }
+        }
         const method_info method = resolve_method(info_, method_name);
         const run_plan plan = resolve_plan(p.dt, p.t_end, settings);
         return run_model(info_, p.model, p.x0, columns(p.model), method, plan, settings);
     }
 
    private:
-    // A huge request says what it costs before it starts, and one beyond this machine's memory is refused.
+    // A huge request says what it costs before it starts; one beyond this machine's memory is refused with the
+    // library's sentence (check_fits_in_memory, which the generator applies for Python too).
     template <class Recipe>
     void check_memory(const Recipe& r) const {
         double bytes = 0.0;
         try {
             bytes = Model::bytes_needed(r);
+            check_fits_in_memory(bytes, "the system");
         } catch (const std::invalid_argument& e) {
             throw bad_input(info_.name + ": " + e.what());
         }
-        const double gib = bytes / double(1ull << 30);
-        const double physical = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
-        char size[32], have[32];
-        std::snprintf(size, sizeof size, "%.3g GiB", gib);
-        std::snprintf(have, sizeof have, "%.3g GiB", physical / double(1ull << 30));
-        if (physical > 0 && bytes > physical)
-            throw bad_input(info_.name + " needs about " + size + " of memory, more than this machine's " + have);
         if (bytes > double(256ull << 20))
-            std::fprintf(stderr, "eci: note: %s needs about %s of memory\n", info_.name.c_str(), size);
+            std::fprintf(stderr, "eci: note: %s needs about %s of memory\n", info_.name.c_str(),
+                         gib_text(bytes).c_str());
     }
 
     /// The CSV names of the real unknowns: the model's component names, or psi_0, ... (re_/im_ when complex).

@@ -3,6 +3,7 @@
 // snapshots (PNG, HDF5), spectra and fluxes, checkpoint/restart, blow-up detection.
 #include <algorithm>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <complex>
 #include <cstdio>
@@ -166,7 +167,8 @@ class spectral_command final : public model_command {
                 10.0,
                 {{"default", "random field peaked at k = 8, inviscid, dt from CFL 0.5 (see --help for the "
                              "initial conditions, forcing and outputs)"}},
-                "from --cfl 0.5: 0.5 dx / max|u| at t = 0"} {
+                "from --cfl 0.5: 0.5 dx / max|u| at t = 0",
+                ""} {
         const bool ns = name_ == "navier-stokes-2d";
         default_snapshot_dir_ = ns ? "ns2d-snapshots" : name_ + "-snapshots";
         default_checkpoint_ = ns ? "ns2d-checkpoint.h5" : name_ + "-checkpoint.h5";
@@ -331,9 +333,14 @@ int spectral_command::run_spread(const run_settings& settings) {
         } catch (const std::invalid_argument& e) {
             throw bad_input(std::string("--rtol/--atol: ") + e.what());
         }
-        throw bad_input("--rtol/--atol: method " +
-                        (settings.method.empty() ? info_.default_method : settings.method) +
-                        " has no error estimate for rtol/atol; " + name_ +
+        if (settings.method.empty()) {  // the library's rule for a run that names no method, as Python's
+            try {
+                (void)default_method_for<navier_stokes_2d>(info_.default_method, true, "model " + name_);
+            } catch (const std::invalid_argument& e) {
+                throw bad_input(e.what());
+            }
+        }
+        throw bad_input("--rtol/--atol: method " + settings.method + " has no error estimate for rtol/atol; " + name_ +
                         " runs fixed steps (give --dt, or none for the CFL 0.5 step)");
     }
     // ---- parameters, from the options or the checkpoint (options that contradict it are an error)
@@ -398,23 +405,27 @@ int spectral_command::run_spread(const run_settings& settings) {
                                 restart_ + "'s state");
     }
     ns2d_params p = restart ? ck.params : ns2d_params{};
+    // (the library's range and sentence for each whole number, as Python's: flow_params::whole)
+    const auto whole_setting = [&](const char* option, const char* field, std::uint64_t fallback) {
+        const std::uint64_t v = given_whole(option).value_or(fallback);
+        try {
+            return ns2d_params::whole(field, (long long)std::min<std::uint64_t>(v, LLONG_MAX));
+        } catch (const std::invalid_argument& e) {
+            throw bad_input(name_ + ": " + e.what());
+        }
+    };
     if (!restart) {
-        const std::uint64_t n = given_whole("N").value_or(256), hp = given_whole("hyper-p").value_or(2);
-        const std::uint64_t hypo_p = given_whole("hypo-p").value_or(1);
-        if (n > 65536) throw bad_input("--N must be at most 65536, not " + std::to_string(n));
-        if (hp > 16) throw bad_input("--hyper-p must be in 1..16");
-        if (hypo_p > 16) throw bad_input("--hypo-p must be in 1..16");
         p.equation = name_;
-        p.n = int(n);
+        p.n = whole_setting("N", "n", 256);
+        p.hyper_p = whole_setting("hyper-p", "hyper_p", 2);
+        p.hypo_p = whole_setting("hypo-p", "hypo_p", 1);
         p.hypo_nu = given_real("hypo-nu").value_or(0.0);
-        p.hypo_p = int(hypo_p);
         if (eq_.dispersion) {
             p.beta = given_real("beta").value_or(0.0);
             p.deformation = given_real("deformation").value_or(0.0);
         }
         p.nu = given_real("nu").value_or(0.0);
         p.hyper_nu = given_real("hyper-nu").value_or(0.0);
-        p.hyper_p = int(hp);
         p.drag = given_real("drag").value_or(0.0);
         const std::string forcing = given_text("forcing").value_or("none");
         if (forcing != "none" && forcing != "deterministic" && forcing != "stochastic")
@@ -425,24 +436,10 @@ int spectral_command::run_spread(const run_settings& settings) {
         p.injection_rate = given_real("injection-rate").value_or(1.0);
         p.forcing_seed = given_whole("forcing-seed").value_or(1);
     }
-    if (given_whole("threads")) p.threads = int(std::min<std::uint64_t>(*given_whole("threads"), 1000));
+    if (given_whole("threads")) p.threads = whole_setting("threads", "threads", 1);
     p.measure = restart ? ck.params.measure : !*spec("fftw-estimate").flag;
     p.pruned_transforms = restart ? ck.params.pruned_transforms : !*spec("full-transforms").flag;
-    {
-        // A grid that cannot fit is refused now, with its size, not as std::bad_alloc after planning. At least
-        // 10 copies of FFTW's half plane: the measured peak of C-RK4 is 9.6 at N = 4096
-        // (docs/benchmarks.md); methods with more stages need more, so this refuses only what cannot run.
-        const double need = 10.0 * 16.0 * double(p.n) * double(p.n / 2 + 1);
-        const double have = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGE_SIZE));
-        const auto gib = [](double b) {
-            char text[32];
-            std::snprintf(text, sizeof text, "%.1f", b / double(1 << 30));
-            return std::string(text);
-        };
-        if (have > 0.0 && need > have)
-            throw bad_input("--N " + std::to_string(p.n) + " needs at least " + gib(need) +
-                            " GiB of memory, more than this machine's " + gib(have) + " GiB");
-    }
+    // (a grid that cannot fit in memory is refused by p.validate(), below, as Python's models refuse it)
     // The wisdom file is read and written here, through the CLI's checked output path, not opened by FFTW (a FIFO
     // there would hang it, a device be replaced; a refused run must not create it).
     const std::string wisdom_option = given_text("fftw-wisdom").value_or("");
@@ -651,22 +648,10 @@ int spectral_command::run_spread(const run_settings& settings) {
     } catch (const std::invalid_argument& e) {
         throw bad_input(std::string("initial condition: ") + e.what());
     }
-    {
-        // (each process checks its own modes; the verdict is every process's, so that all refuse together)
-        double bad = 0.0;
-        for (const auto& v : w)
-            if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) bad = 1.0;
-        model.grid().sum_over_ranks(&bad, 1);
-        if (bad != 0.0) throw bad_input("initial condition is not finite");
-    }
-    {
-        // E and Z below the smallest normal double lose their precision to subnormal arithmetic (and squares of
-        // the modes underflow): refuse, as the other models' initial-state check does
-        const double e = model.energy(w), z = model.enstrophy(w);
-        if ((e != 0.0 && !std::isnormal(e)) || (z != 0.0 && !std::isnormal(z)) || !std::isfinite(e) ||
-            !std::isfinite(z))
-            throw bad_input("initial condition: " + inv_[0] + " " + shortest(e) + " and " + inv_[1] + " " +
-                            shortest(z) + " must be finite normal numbers");
+    try {  // the library's check, as Python's (collective: every process gives the same verdict)
+        model.check_initial_state(w);
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(e.what());
     }
 
     // ---- time step and span
@@ -676,13 +661,13 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (settings.dt) {
             dt = *settings.dt;
         } else {
-            const double u = model.max_velocity(w);
-            if (!(u > 0.0)) throw bad_input("the initial velocity is zero: give --dt");
-            dt = cfl_.value_or(0.5) * dx / u;
-            // (refused here, before the wisdom file is written: a --cfl of 4.9e-324 gave dt = 0)
-            if (!(dt > 0.0) || !std::isfinite(dt))
-                throw bad_input("the time step from --cfl " + shortest(cfl_.value_or(0.5)) + ", CFL dx / max|u| = " +
-                                shortest(dt) + ", is not a positive finite number");
+            // the library's rule and sentences, as Python's default dt (refused here, before the wisdom file is
+            // written: a --cfl of 4.9e-324 gave dt = 0)
+            try {
+                dt = model.initial_cfl_step(w, cfl_.value_or(0.5), "--dt", "--cfl");
+            } catch (const std::invalid_argument& e) {
+                throw bad_input(e.what());
+            }
             // rows every --output-dt of time: the CFL step shortened to divide it (steps.hpp), as Python's
             if (settings.output_dt) dt = step_dividing(*settings.output_dt, dt);
         }

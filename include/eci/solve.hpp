@@ -4,6 +4,7 @@
 #pragma once
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <cmath>
 #include <concepts>
@@ -23,6 +24,7 @@
 #include "adaptive.hpp"
 #include "detail/format.hpp"
 #include "integrate.hpp"
+#include "memory.hpp"
 #include "registry.hpp"
 #include "run.hpp"
 
@@ -76,6 +78,10 @@ struct run_config {
     std::function<bool()> stop_between_attempts{};
     /// Names real unknown i in messages (a CSV column, "y[i]"); empty: "x[i]" (re/im for complex states).
     std::function<std::string(std::size_t)> component_name;
+    /// The bytes a sink keeps in memory per output (Python's arrays: the state and its time); 0: it keeps none. A
+    /// fixed-step run whose outputs would not fit in this machine's memory is then refused before its first step
+    /// (check_stored_outputs), rather than failing part-way (std::bad_alloc, the OOM killer).
+    std::size_t output_bytes = 0;
 
     /// Whether the run is adaptive.
     bool is_adaptive() const { return adaptive.has_value(); }
@@ -296,6 +302,37 @@ method_info resolve_named_method(std::string_view name, const Names& available, 
                                 " (available: " + detail::joined_names(available) + ")");
 }
 
+/// The pairs a run with a tolerance and no method named prefers, in this order, where they run adaptively on the
+/// model: Dormand-Prince 5(4), SciPy's RK45 pair, conservative first (default_adaptive_method_for).
+inline constexpr std::array<std::string_view, 2> preferred_adaptive_methods{"c-dp54", "dp54"};
+
+/// The method an adaptive run on Dispatch (a model type) takes when its user names none: the first of
+/// preferred_adaptive_methods that runs adaptively on it, else its first conservative adaptive method, else its
+/// first adaptive method in the registry's order; none if no method has an error estimate on it.
+template <class Dispatch>
+std::optional<method_info> default_adaptive_method_for() {
+    const std::vector<method_info> pairs = adaptive_methods_for<Dispatch>();
+    for (std::string_view preferred : preferred_adaptive_methods)
+        for (const method_info& m : pairs)
+            if (m.name == preferred) return m;
+    for (const method_info& m : pairs)
+        if (m.conservative) return m;
+    if (!pairs.empty()) return pairs.front();
+    return std::nullopt;
+}
+
+/// The method a run on Dispatch (a model type) takes when its user names none: the one rule of every front end
+/// (`eci run MODEL` without --method, Python's eci.solve(model) without method=). Fixed steps: `model_default`, the
+/// model's own (its preset's method); adaptive (a tolerance given): default_adaptive_method_for, or
+/// std::invalid_argument "WHAT has no method with an error estimate for rtol/atol; it runs fixed steps only".
+template <class Dispatch>
+std::string default_method_for(std::string_view model_default, bool adaptive, std::string_view what) {
+    if (!adaptive) return std::string(model_default);
+    if (const std::optional<method_info> m = default_adaptive_method_for<Dispatch>()) return std::string(m->name);
+    throw std::invalid_argument(std::string(what) +
+                                " has no method with an error estimate for rtol/atol; it runs fixed steps only");
+}
+
 namespace detail {
 
 /// "x[i]", or "re x[i]" / "im x[i]" for a complex state's parts.
@@ -362,6 +399,25 @@ inline void check_config(const run_config& c) {
             (i > 0 && (forward ? c.times[i] < c.times[i - 1] : c.times[i] > c.times[i - 1])))
             throw std::invalid_argument("output times must be finite, sorted in the direction of the run and "
                                         "within the span");
+}
+
+/// The outputs a checked fixed-step run gives: one per output time, else the first, every `every`-th step and the
+/// last; none for an adaptive run (its step count is not known before it runs).
+inline std::optional<double> fixed_step_outputs(const run_config& c) {
+    if (c.adaptive) return std::nullopt;
+    if (!c.times.empty()) return double(c.times.size());
+    const std::uint64_t steps = c.steps ? *c.steps : steps_to_reach(c.t0, c.t_end, c.dt) - c.first_step;
+    return double(steps / c.every) + 1.0 + (steps % c.every != 0 ? 1.0 : 0.0);
+}
+
+/// Refuses a fixed-step run whose outputs a sink keeping c.output_bytes each could not hold in this machine's memory:
+/// std::invalid_argument "storing the solution at N times needs about X GiB of memory, more than this machine's Y
+/// GiB". A run that fits is never refused.
+inline void check_stored_outputs(const run_config& c) {
+    if (c.output_bytes == 0) return;
+    if (const std::optional<double> n = fixed_step_outputs(c))
+        check_fits_in_memory(*n * double(c.output_bytes),
+                             "storing the solution at " + detail::shortest_text(*n) + " times");
 }
 
 /// An observer (x, t), (x, t, i) or (x, t, i, monitor) as a sink: eci::run and eci::run_adaptive.
@@ -503,6 +559,7 @@ inline std::optional<run_config> resolved_config(const run_config& requested) {
         resolve_output_dt(resolved.emplace(requested));
         check_config(*resolved);
     }
+    check_stored_outputs(resolved ? *resolved : requested);
     return resolved;
 }
 

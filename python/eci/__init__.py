@@ -341,10 +341,13 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         invariants, events or dense output need it).
     t_span: (t0, t1). t1 < t0 integrates backward in time (a built-in model's fixed steps run forward only).
     y0: the initial state (may be empty); for a model, None means its default initial condition.
-    method: a name from eci.methods(). Default: "c-rk4" (conservative classical Runge-Kutta) with fixed steps,
-        "c-dp54" (conservative Dormand-Prince 5(4)) with adaptive control, but "dp54" (the conventional pair, SciPy's
-        RK45) for a Python fun that declares no invariant (none of invariants=, quadratic_invariants=, transform=):
-        nothing is conserved there, and the conventional pair is the more accurate at equal work.
+    method: a name from eci.methods(). Default for a built-in model: the CLI's, by the library's one rule
+        (`eci run MODEL` without --method): model.default_method with fixed steps, and with rtol/atol the model's
+        default adaptive method (c-dp54 where it runs, else dp54, else its first conservative pair); ValueError if
+        it has none. For a Python fun: "c-rk4" (conservative classical Runge-Kutta) with fixed steps, "c-dp54"
+        (conservative Dormand-Prince 5(4)) with adaptive control, but "dp54" (the conventional pair, SciPy's RK45)
+        for a fun that declares no invariant (none of invariants=, quadratic_invariants=, transform=): nothing is
+        conserved there, and the conventional pair is the more accurate at equal work.
     dt: the fixed step. Steps land on t0 + i dt, the last one shortened to end at t1, exactly as `eci run`, so the
         states are the CLI's bit for bit. For a model, None means its default step (model.default_dt).
     rtol, atol: adaptive step control (an embedded pair: bs32, ck54, dp54, dp853, f78 and their c- versions), each a
@@ -466,8 +469,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     if adaptive:  # SciPy's defaults for the one not given
         rtol = _SCIPY_RTOL if rtol is None else rtol
         atol = _SCIPY_ATOL if atol is None else atol
-    if method is None:
-        declares = is_model or invariants is not None or quadratic_invariants is not None or transform is not None
+    if method is None and not is_model:  # (a model's default is the library's rule, the CLI's: below)
+        declares = invariants is not None or quadratic_invariants is not None or transform is not None
         method = ("c-rk4" if not adaptive else _DEFAULT_ADAPTIVE if declares else _DEFAULT_ADAPTIVE_PLAIN)
     if not adaptive:
         for name, value, default in (("first_step", first_step, None), ("min_step", min_step, 0.0),
@@ -538,6 +541,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             h = 0.0
         dt = h
     if is_model:
+        if method is None:  # the model's default method, with rtol/atol its default adaptive one: as `eci run`
+            method = fun._default_method(adaptive)
         raw = fun._solve(t0, t1, y0, method, dt, settings, functions, inv_names)
     else:
         if method == "kahan":

@@ -39,12 +39,15 @@ class Preset(_namedtuple("Preset", "name description model y0 method dt t_end"))
     __slots__ = ()
 
     def solve(self, **overrides):
-        """eci.solve on this set-up; keyword arguments (method, dt, t_eval, rtol, ...) override its settings."""
+        """eci.solve on this set-up; keyword arguments (method, dt, t_eval, rtol, ...) override its settings (with
+        rtol/atol and no method, the model's default adaptive method, as `eci run MODEL --preset NAME --rtol R`)."""
         from . import solve
 
         settings = {"method": self.method, "dt": self.dt}
         if "rtol" in overrides or "atol" in overrides:
             settings.pop("dt")
+            if self.method not in self.model.adaptive_methods:  # the model's default adaptive method, as the CLI's
+                settings.pop("method")                           # `--preset NAME --rtol R` without --method
         settings.update(overrides)
         return solve(self.model, (0.0, self.t_end), self.y0, **settings)
 

@@ -59,6 +59,9 @@ class model_base {
                            const std::vector<std::string>& invariant_names) const = 0;
     /// The methods with an error estimate, for eci.solve(model, ..., rtol=...).
     virtual std::vector<std::string> adaptive_methods() const = 0;
+    /// The method eci.solve runs when given none: the library's rule, the CLI's (eci::default_method_for: the
+    /// model's default method, or with a tolerance its default adaptive method; ValueError if it has none).
+    virtual std::string default_method(bool adaptive) const = 0;
 };
 
 /// A model of eci's library behind model_base; the registry builds the stepper each method is on it.
@@ -72,6 +75,7 @@ class model_object : public model_base {
     struct meta {
         std::string name;
         std::vector<std::string> methods;
+        std::string default_method;  ///< its first preset's method, `eci run NAME`'s
         double default_dt, default_t_end;
         std::vector<std::string> columns;  ///< the real unknowns' names, for messages
     };
@@ -153,6 +157,10 @@ class model_object : public model_base {
         return v;
     }
 
+    std::string default_method(bool adaptive) const override {
+        return default_method_for<Model>(meta_.default_method, adaptive, "model " + meta_.name);
+    }
+
    private:
     std::size_t size() const { return std::ranges::size(y0_); }
 
@@ -178,7 +186,8 @@ class model_object : public model_base {
 template <class Model, class Meta>
 Meta describe(std::vector<std::string> columns) {
     const auto standard = Model::presets()[0];
-    return {std::string(Model::name), registry_methods<Model>(), standard.dt, standard.t_end, std::move(columns)};
+    return {std::string(Model::name), registry_methods<Model>(), std::string(standard.method), standard.dt,
+            standard.t_end, std::move(columns)};
 }
 
 /// The CLI's column names for a state of `size` modes: psi_0... or re_psi_0, im_psi_0, ...

@@ -101,6 +101,9 @@ class ns2d_object : public model_base {
     }
 
     std::vector<std::string> adaptive_methods() const override { return {}; }
+    std::string default_method(bool adaptive) const override {
+        return default_method_for<navier_stokes_2d>(eci::ns2d_methods().front(), adaptive, "model " + name());
+    }
     /// Fixed steps t0 + i dt (the last one shortened to land on t1), by eci::solve as the CLI takes them.
     py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
                    const py::dict& settings, std::vector<py::object> invariants,
@@ -112,10 +115,11 @@ class ns2d_object : public model_base {
         if (!settings["t_eval"].is_none()) t_eval = settings["t_eval"].cast<std::vector<double>>();
         const int max_halvings = settings["max_halvings"].cast<int>();
         state x = y0.is_none() ? y0_ : to_state(y0);
-        for (const cplx& v : x)
-            if (!std::isfinite(v.real()) || !std::isfinite(v.imag()))
-                throw std::invalid_argument("initial condition is not finite");
         const method_info info = resolve_named_method(method, eci::ns2d_methods(), "model " + name());
+        {
+            const auto lock_ = lock();
+            model_->check_initial_state(x);  // the library's check and sentences, as the CLI's
+        }
         const std::uint64_t n = steps_to_reach(t0, t1, dt);
         auto grid_time = [&](std::uint64_t i) { return i == n ? t1 : t0 + double(i) * dt; };
         if (t_eval)
@@ -153,6 +157,8 @@ class ns2d_object : public model_base {
         cfg.stop_on_invariant_overflow = false;
         cfg.stop_between_attempts = &python_interrupt_requested;
         const bool no_outputs = t_eval && t_eval->empty();
+        // the arrays keep every output: a run whose outputs cannot fit is refused before it starts
+        cfg.output_bytes = no_outputs ? 0 : m.size() * sizeof(cplx) + sizeof(double);
         std::optional<underflow_error> failure;
         {
             std::optional<py::gil_scoped_release> unlocked;
@@ -212,12 +218,9 @@ class ns2d_object : public model_base {
         return d;
     }
 
-    /// The step of CFL number `cfl` at w: cfl dx / max|u|, dx = 2 pi / n (the CLI's --cfl).
-    double cfl_step(const state& w, double cfl) const {
-        const double u = model_->max_velocity(w);
-        if (!(u > 0.0)) throw std::invalid_argument("the initial velocity is zero: give dt");
-        return cfl * 2.0 * std::numbers::pi / model_->n() / u;
-    }
+    /// The step of CFL number `cfl` at w: cfl dx / max|u|, dx = 2 pi / n (the CLI's --cfl), w checked first: the
+    /// library's rule and sentences (flow2d::initial_cfl_step), the CLI's default step.
+    double cfl_step(const state& w, double cfl) const { return model_->initial_cfl_step(w, cfl, "dt", "cfl"); }
 
     state to_state(const py::object& y) const {
         const auto a = as_vector<cplx>(y, model_->size(), "y", false, "the " + name() + " state ((2 kmax + 1) (kmax + 1) modes)");
@@ -229,7 +232,7 @@ class ns2d_object : public model_base {
         try {
             return std::make_unique<navier_stokes_2d>(p);
         } catch (const std::invalid_argument& e) {
-            throw std::invalid_argument("invalid " + p.equation + " model: " + e.what());
+            throw std::invalid_argument(p.equation + ": " + e.what());  // as `eci run EQUATION`
         }
     }
 
@@ -359,25 +362,23 @@ ns2d_params flow_params_from(const std::string& equation, long long n, double nu
                              double hypo_nu, long long hypo_p, double drag, const std::string& forcing,
                              double forcing_k, double forcing_amplitude, double injection_rate,
                              long long forcing_seed, long long threads, bool fftw_measure, bool full_transforms) {
-    // Python ints are unbounded: a value that does not fit is an error, not a wrapped or truncated grid
-    auto fits = [&](long long v, long long lo, long long hi, const char* what) {
-        if (v < lo || v > hi)
-            throw std::invalid_argument("invalid " + equation + " model: " + what + " must be in " + std::to_string(lo) + ".." +
-                                        std::to_string(hi) + ", not " + std::to_string(v));
+    // Python ints are unbounded: a value beyond int is refused with the library's sentence for the field (the
+    // CLI's), not wrapped or truncated
+    auto whole = [&](const char* field, long long v) {
+        try {
+            return ns2d_params::whole(field, v);
+        } catch (const std::invalid_argument& e) {
+            throw std::invalid_argument(equation + ": " + e.what());
+        }
     };
-    fits(n, 8, 65536, "n");
-    fits(hyper_p, 1, 16, "hyper_p");
-    fits(hypo_p, 1, 16, "hypo_p");
-    fits(threads, 1, 64, "threads");
-    if (forcing_seed < 0)
-        throw std::invalid_argument("invalid " + equation + " model: forcing_seed must be a whole number >= 0");
+    if (forcing_seed < 0) throw std::invalid_argument(equation + ": forcing_seed must be a whole number >= 0");
     ns2d_params p;
     p.equation = equation;
-    p.n = int(n), p.nu = nu, p.hyper_nu = hyper_nu, p.hyper_p = int(hyper_p), p.drag = drag;
-    p.hypo_nu = hypo_nu, p.hypo_p = int(hypo_p);
+    p.n = whole("n", n), p.nu = nu, p.hyper_nu = hyper_nu, p.hyper_p = whole("hyper_p", hyper_p), p.drag = drag;
+    p.hypo_nu = hypo_nu, p.hypo_p = whole("hypo_p", hypo_p);
     p.forcing = forcing_named(forcing), p.forcing_k = forcing_k, p.forcing_amplitude = forcing_amplitude;
     p.injection_rate = injection_rate, p.forcing_seed = std::uint64_t(forcing_seed);
-    p.threads = int(threads), p.measure = fftw_measure;
+    p.threads = whole("threads", threads), p.measure = fftw_measure;
     p.pruned_transforms = !full_transforms;  // (the CLI's --full-transforms)
     return p;
 }

@@ -32,7 +32,13 @@ void bind_model_base(py::module_& m) {
              "The integration behind eci.solve(model, ...): fixed steps of dt, or adaptive control from a first "
              "step dt (settings['adaptive']).")
         .def_property_readonly("adaptive_methods", &model_base::adaptive_methods,
-                               "the methods with an error estimate, for eci.solve(model, ..., rtol=...)");
+                               "the methods with an error estimate, for eci.solve(model, ..., rtol=...)")
+        .def_property_readonly(
+            "default_method", [](const model_base& m) { return m.default_method(false); },
+            "the method eci.solve runs when given none, as `eci run NAME` without --method")
+        .def("_default_method", &model_base::default_method, py::arg("adaptive"),
+             "The method eci.solve runs when given none: with adaptive=True (rtol/atol given) the model's default "
+             "adaptive method, as `eci run NAME --rtol R`; ValueError if it has none.");
 }
 
 py::list method_list() {

@@ -352,6 +352,8 @@ template <class S>
 py::dict run_recorded(S& x, python_request req, const component_namer& namer, bool release,
                       const std::function<solve_report(recording_sink<S>&, const run_config&)>& run) {
     req.config.component_name = namer;
+    // the arrays keep every output: a fixed-step run whose outputs cannot fit is refused before it starts
+    req.config.output_bytes = std::ranges::size(x) * sizeof(std::ranges::range_value_t<S>) + sizeof(double);
     recorded_output<S> out;
     step_record<S> steps;
     solve_report report;

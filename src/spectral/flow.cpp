@@ -3,6 +3,7 @@
 #include "eci/spectral/flow.hpp"
 
 #include "eci/detail/format.hpp"
+#include "eci/memory.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -30,20 +31,40 @@ grid_options grid_options_of(const flow_params& p) {
 
 void flow_params::validate() const { validate(find_equation(equation)); }
 
+int flow_params::whole(std::string_view field, long long v) {
+    const std::string value = std::to_string(v);
+    if (field == "n") {
+        require(v >= 8 && v % 2 == 0, "grid size N must be even and at least 8, not " + value);
+        require(v <= 65536, "grid size N must be at most 65536, not " + value);
+    } else if (field == "hyper_p") {
+        require(v >= 1 && v <= 16, "hyperviscosity power p must be in 1..16, not " + value);
+    } else if (field == "hypo_p") {
+        require(v >= 1 && v <= 16, "hypoviscosity power must be in 1..16, not " + value);
+    } else if (field == "threads") {
+        require(v >= 1 && v <= 64, "threads must be in 1..64, not " + value);
+    } else {
+        throw std::logic_error("flow_params has no whole-number field " + std::string(field));
+    }
+    return int(v);
+}
+
 void flow_params::validate(const spectral::equation& e) const {
-    require(n >= 8 && n % 2 == 0, "grid size N must be even and at least 8, not " + std::to_string(n));
-    require(n <= 65536, "grid size N = " + std::to_string(n) + " is too large");
+    whole("n", n);
     require(std::isfinite(nu) && nu >= 0.0, "viscosity nu must be finite and >= 0");
     require(std::isfinite(hyper_nu) && hyper_nu >= 0.0, "hyperviscosity must be finite and >= 0");
-    require(hyper_p >= 1 && hyper_p <= 16, "hyperviscosity power p must be in 1..16");
+    whole("hyper_p", hyper_p);
     require(std::isfinite(hypo_nu) && hypo_nu >= 0.0, "hypoviscosity must be finite and >= 0");
-    require(hypo_p >= 1 && hypo_p <= 16, "hypoviscosity power must be in 1..16");
+    whole("hypo_p", hypo_p);
     require(std::isfinite(drag) && drag >= 0.0, "drag must be finite and >= 0");
     require(std::isfinite(forcing_k) && forcing_k > 0.0, "forcing wavenumber k_f must be positive");
     require(std::isfinite(forcing_amplitude) && forcing_amplitude >= 0.0, "forcing amplitude must be >= 0");
     require(std::isfinite(injection_rate) && injection_rate >= 0.0, "injection rate must be >= 0");
-    require(threads >= 1 && threads <= 64, "threads must be in 1..64");
+    whole("threads", threads);
     if (e.validate) e.validate(*this);
+    // A grid that cannot fit is refused now, with its size, not as std::bad_alloc after planning: at least 10
+    // copies of FFTW's half plane, the measured peak of C-RK4 at N = 4096 (docs/benchmarks.md); methods with more
+    // stages need more, so this refuses only what cannot run.
+    check_fits_in_memory(10.0 * 16.0 * double(n) * double(n / 2 + 1), "grid size N = " + std::to_string(n));
 }
 
 struct flow2d::impl {
@@ -480,6 +501,39 @@ double flow2d::max_velocity(const state_type& q) {
             vmax = std::max(vmax, u[j] * u[j] + v[j] * v[j]);
     d.g.max_over_ranks(&vmax, 1);
     return std::sqrt(vmax);
+}
+
+void flow2d::check_initial_state(const state_type& q) const {
+    if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    // (each process checks its own modes; the verdict is every process's, so that all refuse together)
+    double bad = 0.0;
+    for (const auto& v : q)
+        if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) bad = 1.0;
+    d_->g.sum_over_ranks(&bad, 1);
+    if (bad != 0.0) throw std::invalid_argument("initial condition is not finite");
+    // E and Z below the smallest normal double lose their precision to subnormal arithmetic (and squares of the
+    // modes underflow): refused, as the other models' initial-state check does
+    const double e = energy(q), z = enstrophy(q);
+    if ((e != 0.0 && !std::isnormal(e)) || (z != 0.0 && !std::isnormal(z)) || !std::isfinite(e) || !std::isfinite(z)) {
+        const auto names = invariant_names();
+        throw std::invalid_argument("initial condition: " + names[0] + " " + eci::detail::shortest_text(e) + " and " +
+                                    names[1] + " " + eci::detail::shortest_text(z) + " must be finite normal numbers");
+    }
+}
+
+double flow2d::initial_cfl_step(const state_type& q, double cfl, std::string_view dt_name,
+                                std::string_view cfl_name) {
+    if (!(std::isfinite(cfl) && cfl > 0.0))
+        throw std::invalid_argument(std::string(cfl_name) + " must be a positive number");
+    check_initial_state(q);
+    const double u = max_velocity(q);
+    if (!(u > 0.0)) throw std::invalid_argument("the initial velocity is zero: give " + std::string(dt_name));
+    const double dt = cfl * (2.0 * std::numbers::pi / n_) / u;
+    if (!(dt > 0.0) || !std::isfinite(dt))
+        throw std::invalid_argument("the time step from " + std::string(cfl_name) + " " +
+                                    eci::detail::shortest_text(cfl) + ", CFL dx / max|u| = " +
+                                    eci::detail::shortest_text(dt) + ", is not a positive finite number");
+    return dt;
 }
 
 double flow2d::cfl(const state_type& q, double dt) { return max_velocity(q) * dt * double(n_) / (2.0 * std::numbers::pi); }

@@ -127,7 +127,7 @@ def test_invariants_of_a_fun_by_name_or_position():
 
 
 def test_result_reads_like_scipys():
-    r = eci.solve(M.Kepler(), (0.0, 1.05))
-    assert r.method == "c-rk4" and r["t"] is r.t and "invariants" in dir(r)
+    r = eci.solve(M.Kepler(), (0.0, 1.05))  # the CLI's default method, c-pc
+    assert r.method == "c-pc" and r["t"] is r.t and "invariants" in dir(r)
     assert r.t.shape == (11,) and r.y.shape == (3, 11)
-    assert "SolveResult(method='c-rk4', 11 points" in repr(r)
+    assert "SolveResult(method='c-pc', 11 points" in repr(r)

@@ -490,3 +490,183 @@ def test_every_models_keywords_are_its_cli_parameters(cli, cls):
         shown = line.rsplit("(default ", 1)[1].rstrip(")")
         assert [float(v) for v in shown.split(",")] == list(np.atleast_1d(default)), option
         assert getattr(cls(**{keyword: default}), keyword) == default
+
+
+# The method of a run that names none is the library's one rule (eci::default_method_for) for both front ends: the
+# model's default method (its first preset's), and with a tolerance the model's default adaptive method. Python
+# used to run c-rk4 (refused on kepler-cartesian, c-pc elsewhere in the CLI) and c-dp54 (refused on kepler-cartesian),
+# and the CLI refused --rtol without --method ("method c-pc has no error estimate").
+@pytest.mark.parametrize("cls", M.ode_models, ids=lambda c: c().name)
+@pytest.mark.parametrize("adaptive", [False, True], ids=["fixed", "rtol"])
+def test_every_model_runs_the_clis_method_when_none_is_named(cli, tmp_path, cls, adaptive):
+    model = cls()
+    y0, dt = model.default_y0, model.default_dt
+    t_end = 7.5 * dt
+    csv, summary = tmp_path / "run.csv", tmp_path / "run.json"
+    tolerance = ["--rtol", "1e-06"] if adaptive else ["--dt", repr(dt)]
+    run_cli(cli, "run", model.name, "--t-end", repr(t_end), *tolerance, *cli_options(model, y0), "--output", csv,
+            "--summary-json", summary)
+    s = json.loads(summary.read_text())
+    step = {"rtol": 1e-6, "atol": 1e-6} if adaptive else {"dt": dt}
+    r = eci.solve(model, (0.0, t_end), y0, **step)
+    assert r.method == s["method"] == model._default_method(adaptive)
+    if adaptive:
+        assert r.method in model.adaptive_methods
+        assert r.method == ("c-dp54" if "c-dp54" in model.adaptive_methods else "dp54")
+    else:
+        assert r.method == model.default_method == cls.presets()[0].method
+    columns = csv_columns(csv)
+    assert_same_run(r, columns["t"], columns, s, state_columns(list(columns), model),
+                    complex_state=np.iscomplexobj(y0))
+
+
+def test_the_defaults_named_by_the_tester_run_in_python():
+    # (raised "method 'c-rk4' is not available for model kepler-cartesian", and 'c-dp54' with rtol)
+    assert eci.solve(M.KeplerCartesian(), (0.0, 1.0)).method == "rrk-rk4"
+    assert eci.solve(M.KeplerCartesian(), (0.0, 1.0), rtol=1e-6).method == "dp54"
+    assert eci.solve(M.ThreeWave(), (0.0, 10.0), dt=0.3).method == "c-pc"
+    assert eci.solve(M.Kepler(), (0.0, 1.0)).method == "c-pc"
+    assert eci.solve(M.NonlinearOscillator(), (0.0, 1.0)).method == "rrk-rk4"
+    # a Python fun keeps its own defaults: c-rk4 at fixed steps; dp54, or c-dp54 with declared invariants
+    f = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    assert eci.solve(f, (0.0, 1.0), [1.0, 0.0], dt=0.1).method == "c-rk4"
+    assert eci.solve(f, (0.0, 1.0), [1.0, 0.0]).method == "dp54"
+    assert eci.solve(f, (0.0, 1.0), [1.0, 0.0], quadratic_invariants=[1.0, 1.0]).method == "c-dp54"
+
+
+@pytest.mark.parametrize("cls", M.ode_models, ids=lambda c: c().name)
+def test_every_preset_with_a_tolerance_runs_the_clis_method(cli, tmp_path, cls):
+    # `eci run MODEL --preset NAME --rtol R` and Preset.solve(rtol=R): the model's default adaptive method for both
+    for p in cls.presets():
+        summary = tmp_path / "run.json"
+        run_cli(cli, "run", p.model.name, "--preset", p.name, "--rtol", "1e-06", "--t-end", repr(5.5 * p.dt),
+                "--summary-json", summary)
+        # (the CLI's first step is the preset's --dt)
+        r = eci.solve(p.model, (0.0, 5.5 * p.dt), p.y0, rtol=1e-6, atol=1e-6, first_step=p.dt)
+        s = json.loads(summary.read_text())
+        assert r.method == s["method"] == p.model._default_method(True)
+        assert r.stats["steps"] == s["steps"] and r.stats["rhs_evals"] == s["rhs_evals"]
+        assert p.solve(rtol=1e-6, atol=1e-6, t_eval=[0.0]).method == s["method"]
+
+
+def test_the_cli_help_names_both_default_methods(cli):
+    for model in (M.ThreeWave(), M.KeplerCartesian()):
+        help_text = run_cli(cli, "run", model.name, "--help").stdout
+        line = " ".join(help_text.split("--method", 1)[1].split("\n  --", 1)[0].split())
+        assert f"(default {model.default_method}; with --rtol/--atol {model._default_method(True)})" in line, line
+
+
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+def test_navier_stokes_refuses_a_tolerance_without_a_method_as_the_cli(cli):
+    from conftest import cli_error
+
+    for options, keywords in ((["--rtol", "1e-06"], {"rtol": 1e-6}), (["--atol", "1e-06"], {"atol": 1e-6})):
+        message = cli_error(cli, "run", "navier-stokes-2d", "--N", "16", "--fftw-estimate", "--fftw-wisdom",
+                            "none", *options)
+        assert message == "model navier-stokes-2d has no method with an error estimate for rtol/atol; it runs " \
+                          "fixed steps only"
+        with pytest.raises(ValueError) as e:
+            eci.solve(eci.models.NavierStokes2D(n=16, fftw_measure=False), (0.0, 0.1), **keywords)
+        assert str(e.value) == message
+
+
+# The initial-state checks of the spectral models are the library's (flow2d::check_initial_state), made before the
+# initial step (flow2d::initial_cfl_step): Python used to take the CFL step of an overflowing field first ("dt must
+# be a positive finite number, not 0"), run it to a StepSizeUnderflow when given dt, and call a NaN field "the initial
+# velocity is zero".
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("scale", [1e200, float("nan"), 0.0, 1e-160], ids=["overflow", "nan", "zero", "subnormal"])
+@pytest.mark.parametrize("dt", [None, 0.01])
+def test_navier_stokes_refuses_the_same_initial_states(cli, tmp_path, scale, dt):
+    import h5py
+    from conftest import cli_error
+
+    m = eci.models.NavierStokes2D(n=32, fftw_measure=False)
+    field = m.to_physical(m.random_field()) * scale
+    ic = tmp_path / "ic.h5"
+    with h5py.File(ic, "w") as f:
+        f["vorticity"] = field
+    step = ["--dt", "0.01"] if dt else []
+    if scale == 0.0 and dt:  # a zero field is a state: it runs
+        run_cli(cli, "run", "navier-stokes-2d", "--N", "32", "--ic", ic, "--t-end", "0.02", "--fftw-estimate",
+                "--fftw-wisdom", "none", *step)
+        assert eci.solve(m, (0.0, 0.02), m.from_physical(field), dt=dt).success
+        return
+    message = cli_error(cli, "run", "navier-stokes-2d", "--N", "32", "--ic", ic, "--t-end", "0.1",
+                        "--fftw-estimate", "--fftw-wisdom", "none", *step)
+    with pytest.raises(ValueError) as e:
+        eci.solve(m, (0.0, 0.1), m.from_physical(field), dt=dt)
+    assert str(e.value) == as_python_names(message)
+    if scale == 1e200:  # the tester's field, scaled as a state
+        with pytest.raises(ValueError) as e:
+            eci.solve(m, (0.0, 0.1), m.random_field() * 1e200, dt=dt)
+        assert str(e.value) == "initial condition: energy inf and enstrophy inf must be finite normal numbers"
+    if scale != scale:
+        with pytest.raises(ValueError, match="^initial condition is not finite$"):
+            eci.solve(m, (0.0, 0.1), np.full(m.size, np.nan, dtype=complex), dt=dt)
+
+
+# Parameters are checked by the library alone (flow_params::whole, validate), so both front ends refuse them in the
+# same sentence, the CLI's: Python said "n must be in 8..65536, not 6".
+@pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("option, value, keyword", [
+    ("--N", 6, "n"), ("--N", 7, "n"), ("--N", 100000, "n"), ("--hyper-p", 17, "hyper_p"), ("--hyper-p", 0, "hyper_p"),
+    ("--hypo-p", 40, "hypo_p"), ("--threads", 65, "threads"), ("--nu", -1, "nu"),
+])
+def test_navier_stokes_refuses_the_same_parameters(cli, option, value, keyword):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", "navier-stokes-2d", option, value, "--fftw-estimate", "--fftw-wisdom", "none")
+    assert message.startswith("navier-stokes-2d: "), message
+    with pytest.raises(ValueError) as e:
+        eci.models.NavierStokes2D(**{keyword: value}, fftw_measure=False)
+    assert str(e.value) == message
+
+
+# What cannot fit in memory is refused by the library's one guard (eci::check_fits_in_memory), for both front ends.
+def test_n_wave_beyond_memory_is_refused_alike(cli):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", "n-wave", "--modes", str(10 ** 8))
+    assert message.startswith("n-wave: the system needs about ") and "more than this machine's" in message
+    with pytest.raises(ValueError) as e:  # (was a bare MemoryError, std::bad_alloc)
+        eci.models.NWave(modes=10 ** 8)
+    assert str(e.value) == message
+
+
+def test_a_stored_solution_beyond_memory_is_refused_up_front():
+    import os
+
+    memory = os.sysconf("SC_PHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+    steps = 2 * memory // 32 + 1  # three doubles and the time per output: twice the memory
+    with pytest.raises(ValueError) as e:
+        eci.solve(M.ThreeWave(), (0.0, steps * 1e-5), dt=1e-5)
+    message = str(e.value)
+    assert message.startswith("storing the solution at ") and " GiB of memory, more than this machine's " in message
+    assert "\n" not in message
+    f = lambda t, y: -y  # noqa: E731  (a Python fun's arrays alike)
+    with pytest.raises(ValueError, match="^storing the solution at "):
+        eci.solve(f, (0.0, steps * 1e-5), [1.0, 2.0, 3.0], dt=1e-5)
+    # what fits runs: t_eval stores two states; a short run all of them
+    r = eci.solve(M.ThreeWave(), (0.0, 1.0), dt=1e-5, t_eval=[0.0, 1.0])
+    assert r.success and r.y.shape == (3, 2)
+    assert eci.solve(M.ThreeWave(), (0.0, 1.0), dt=1e-3).y.shape == (3, 1001)
+
+
+# The ODE models' initial check (eci::check_initial_state) comes before any step rule for both front ends, whatever
+# the step control: fixed steps of the default dt, or adaptive from the default first step.
+@pytest.mark.parametrize("cls", [c for c in M.ode_models if c._initial_condition()], ids=lambda c: c().name)
+@pytest.mark.parametrize("bad", [float("nan"), float("inf"), 1e-310], ids=["nan", "inf", "subnormal"])
+def test_every_model_refuses_the_same_initial_state_under_any_step_control(cli, cls, bad):
+    from conftest import cli_error
+
+    model = cls()
+    option, first, count = cls._initial_condition()[0]
+    y0 = model.default_y0.copy()
+    y0[first] = bad
+    values = ",".join(repr(float(v)) for v in y0[first:first + count])
+    for options, keywords in (([], {}), (["--rtol", "1e-06"], {"rtol": 1e-6, "atol": 1e-6})):
+        message = cli_error(cli, "run", model.name, "--" + option, values, "--t-end", 1, *options)
+        with pytest.raises(ValueError) as e:
+            eci.solve(model, (0.0, 1.0), y0, **keywords)
+        assert str(e.value) == message, options

@@ -89,7 +89,7 @@ def test_viscous_decay_budget_and_default_step():
 
 
 def test_bad_input():
-    with pytest.raises(ValueError, match="invalid navier-stokes-2d model"):
+    with pytest.raises(ValueError, match="^navier-stokes-2d: grid size N must be even and at least 8, not 7$"):
         NS(n=7)
     with pytest.raises(ValueError, match="forcing must be none, deterministic or stochastic"):
         NS(n=32, forcing="wind")

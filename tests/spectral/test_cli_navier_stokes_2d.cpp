@@ -548,7 +548,10 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--hyper-nu 1e300 --hyper-p 16", "overflow"},
         {"--energy 1e-310", "normal"},
         {"--rtol nan", "rtol must be a finite number >= 0, not nan"},
-        {"--atol 1e-6", "has no error estimate for rtol/atol"},
+        // (no --method: the library's rule for a tolerance, which finds no pair on a spectral equation)
+        {"--atol 1e-6", "model navier-stokes-2d has no method with an error estimate for rtol/atol; it runs fixed "
+                        "steps only"},
+        {"--method c-rk4 --atol 1e-6", "method c-rk4 has no error estimate for rtol/atol"},
         {"--output-dt 0", "--output-dt must be a positive finite number, not 0\n"},
         {"--dt 0.1 --output-dt 0.25", "--output-dt 0.25 is not a multiple of --dt 0.1 (fixed steps)\n"},
         {"--restart " + q + "/ok.h5 --output-dt 0.1234567", "is not a multiple of the restart file's time step"},
@@ -564,7 +567,7 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--restart " + q + "/ok.h5 --energy 2", "initial condition"},
         // the message names the problem
         {"--N 65536", "GiB of memory"},
-        {"--N 100000", "--N must be at most 65536, not 100000"},
+        {"--N 100000", "navier-stokes-2d: grid size N must be at most 65536, not 100000"},
         {"--N 8 --forcing deterministic --forcing-k 100", "|k| = 100 +- 1/2 holds no retained mode (kmax = 2)"},
         {"--ic " + q, "is a directory"},
         {"--ic " + q + "/fifo", "is a FIFO"},

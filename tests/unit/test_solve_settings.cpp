@@ -13,6 +13,10 @@
 #include <tuple>
 #include <vector>
 
+#include <eci/memory.hpp>
+#include <eci/models/kepler.hpp>
+#include <eci/models/kepler_cartesian.hpp>
+
 #include "solve_tests.hpp"
 
 using namespace solve_tests;
@@ -366,4 +370,42 @@ TEST(Solve, MoreThanTwoToThe53StepsAreRefused) {
     EXPECT_EQ(eci::steps_to_reach(0.0, 1e15, 1.0), std::uint64_t(1e15));  // (not one fewer, its last step 2 long)
     EXPECT_EQ(eci::last_step_to_reach(0.0, 1e15, 1.0, std::uint64_t(1e15)), 1.0);
     EXPECT_EQ(eci::steps_to_reach(0.0, 0.3, 0.1), 3u);  // a remainder at round-off is no step of its own
+}
+
+// The one rule of the front ends for a run that names no method (eci::default_method_for): the model's own method at
+// fixed steps; with a tolerance c-dp54, else dp54, else the first conservative pair; a refusal where none has an
+// error estimate.
+TEST(Solve, TheDefaultMethodIsTheModelsAndWithATolerancePrefersDormandPrince) {
+    EXPECT_EQ(eci::default_method_for<eci::three_wave>("c-pc", false, "model three-wave"), "c-pc");
+    EXPECT_EQ(eci::default_method_for<eci::three_wave>("c-pc", true, "model three-wave"), "c-dp54");
+    EXPECT_EQ(eci::default_method_for<eci::kepler>("c-pc", true, "model kepler"), "c-dp54");  // (transformed)
+    // H is not quadratic: no conservative pair runs on it, the conventional one does
+    EXPECT_EQ(eci::default_method_for<eci::kepler_cartesian>("rrk-rk4", true, "model kepler-cartesian"), "dp54");
+    EXPECT_EQ(eci::default_method_for<eci::kepler_cartesian>("rrk-rk4", false, "model kepler-cartesian"), "rrk-rk4");
+}
+
+// A sink that keeps every output in memory says how much per output; a fixed-step run whose outputs cannot fit is
+// refused before its first step, in one line naming the size, and one that fits is not.
+TEST(Solve, StoredOutputsBeyondMemoryAreRefusedBeforeAnyStep) {
+    const eci::three_wave model;
+    eci::run_config cfg;
+    cfg.dt = 1e-5;
+    cfg.t_end = 2.0 * eci::physical_memory() / 32.0 * cfg.dt;
+    cfg.output_bytes = 32;
+    tw_state y = fig5;
+    discard<tw_state> none;
+    try {
+        eci::solve_model<eci::three_wave>(model, y, "rk4", cfg, none, {}, "model three-wave");
+        ADD_FAILURE() << "accepted";
+    } catch (const std::invalid_argument& e) {
+        const std::string m = e.what();
+        EXPECT_EQ(m.rfind("storing the solution at ", 0), 0u) << m;
+        EXPECT_NE(m.find(" GiB of memory, more than this machine's "), std::string::npos) << m;
+    }
+    EXPECT_EQ(y, fig5);
+    cfg.times = {0.0, cfg.t_end};  // two outputs fit: not refused up front (the run itself is not taken here)
+    EXPECT_NO_THROW(eci::detail::check_stored_outputs(cfg));
+    cfg.times.clear();
+    cfg.output_bytes = 0;  // a sink that keeps nothing
+    EXPECT_NO_THROW(eci::detail::check_stored_outputs(cfg));
 }

@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "../concepts.hpp"
+#include "../memory.hpp"
 #include "description.hpp"
 
 namespace eci {
@@ -66,8 +67,11 @@ struct n_wave {
         const double triads = double(triad_count(r.modes, r.triads_per_mode));
         return triads * double(sizeof(triad)) + double(r.modes) * (double(sizeof(double)) + 8.0 * double(sizeof(T)));
     }
-    /// The system and initial state a recipe draws; throws std::invalid_argument as random() does.
+    /// The system and initial state a recipe draws; throws std::invalid_argument as random() does, and, before
+    /// drawing anything, "the system needs about X GiB of memory, more than this machine's Y GiB" for a recipe
+    /// whose bytes_needed exceed this machine's memory (every front end's refusal: check_fits_in_memory).
     static std::pair<n_wave, state_type> generate(const recipe& r) {
+        check_fits_in_memory(bytes_needed(r), "the system");
         n_wave w = random(r.modes, r.triads_per_mode, r.seed);
         state_type x = w.random_state(r.seed);
         return {std::move(w), std::move(x)};

@@ -10,6 +10,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "../models/invariant.hpp"
@@ -49,9 +50,15 @@ struct flow_params {
     MPI_Comm comm = MPI_COMM_NULL;     ///< the processes the flow is spread over (grid_options::comm); MPI build only
 #endif
 
-    /// Throws std::invalid_argument naming the first bad parameter (the equation's own included).
+    /// Throws std::invalid_argument naming the first bad parameter (the equation's own included), and a grid
+    /// that cannot fit in this machine's memory ("grid size N = 65536 needs about X GiB of memory, more than this
+    /// machine's Y GiB": check_fits_in_memory of about 10 copies of FFTW's half plane, the measured peak of C-RK4).
     void validate() const;
     void validate(const spectral::equation& e) const;
+    /// A whole-number field ("n", "hyper_p", "hypo_p", "threads") given as a wider integer (a CLI option, a Python
+    /// int): `v` as an int when validate() would take it, else std::invalid_argument with validate()'s sentence, so
+    /// that every front end refuses a value too wide for int as any other out of range.
+    static int whole(std::string_view field, long long v);
 };
 
 /// What the linear terms and the forcing did to E and Z at one right-hand-side evaluation (rates, per unit time).
@@ -213,6 +220,16 @@ class flow2d {
     }
     /// max over the grid of |u|.
     double max_velocity(const state_type& q);
+    /// Refuses an initial state whose arithmetic is beyond double precision with the one line every front end
+    /// gives (std::invalid_argument): "initial condition is not finite" (a mode inf or nan), "initial condition:
+    /// energy E and enstrophy Z must be finite normal numbers" (by invariant_names(); 0 is allowed). Collective:
+    /// every process of a spread flow gives the same verdict.
+    void check_initial_state(const state_type& q) const;
+    /// The step of CFL number `cfl` at the initial state q, cfl dx / max|u| (the front ends' default step), after
+    /// check_initial_state(q). std::invalid_argument naming the settings as the front end does (`dt_name`,
+    /// `cfl_name`): "CFL must be a positive number", "the initial velocity is zero: give DT", "the time step from
+    /// CFL c, CFL dx / max|u| = h, is not a positive finite number".
+    double initial_cfl_step(const state_type& q, double cfl, std::string_view dt_name, std::string_view cfl_name);
     /// The CFL number max|u| dt / dx with dx = 2 pi / n.
     double cfl(const state_type& q, double dt);
     /// The shell-summed spectra E(k) and Z(k), k = 0, 1, ...: sums over modes with round(|k|) = k.
