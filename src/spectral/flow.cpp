@@ -63,8 +63,18 @@ void flow_params::validate(const spectral::equation& e) const {
     if (e.validate) e.validate(*this);
     // A grid that cannot fit is refused now, with its size, not as std::bad_alloc after planning: at least 10
     // copies of FFTW's half plane, the measured peak of C-RK4 at N = 4096 (docs/benchmarks.md); methods with more
-    // stages need more, so this refuses only what cannot run.
-    check_fits_in_memory(10.0 * 16.0 * double(n) * double(n / 2 + 1), "grid size N = " + std::to_string(n));
+    // stages need more, so this refuses only what cannot run. Spread over P processes each holds 1/P of it.
+    double processes = 1.0;
+#ifdef ECI_MPI
+    if (comm != MPI_COMM_NULL) {
+        int size = 1;
+        MPI_Comm_size(comm, &size);
+        processes = double(size);
+    }
+#endif
+    check_fits_in_memory(10.0 * 16.0 * double(n) * double(n / 2 + 1) / processes,
+                         "grid size N = " + std::to_string(n) +
+                             (processes > 1.0 ? " on " + std::to_string(int(processes)) + " processes" : ""));
 }
 
 struct flow2d::impl {

@@ -23,6 +23,7 @@
 #include <vector>
 
 #include <eci/adaptive.hpp>
+#include <eci/memory.hpp>
 #include <eci/spectral/step.hpp>
 
 namespace {
@@ -430,6 +431,34 @@ int main(int argc, char** argv) {
               std::string("C-DP54 and the first-step rule on ") + (m.spread() ? "a spread state: refused on every "
                                                                                  "process, none left waiting"
                                                                                : "one process: they run"));
+    }
+    // The memory guard counts a process's share: a grid whose whole does not fit in one machine's memory but whose
+    // 1/P share does is refused on one process and taken spread over P (the smallest such N, from this machine's
+    // memory; none where N = 65536 still fits whole).
+    if (ranks_ > 1) {
+        const double have = eci::physical_memory();
+        const auto need = [](int n) { return 10.0 * 16.0 * double(n) * double(n / 2 + 1); };
+        int n = 8;
+        while (n < 65536 && need(n) <= have) n *= 2;
+        while (n > 8 && need(n - 2) > have) n -= 2;
+        if (have > 0.0 && need(n) > have && need(n) / ranks_ <= have) {
+            eci::ns2d_params big;
+            big.n = n;
+            bool alone = false, spread = true;
+            try {
+                big.validate();
+            } catch (const std::invalid_argument&) {
+                alone = true;
+            }
+            big.comm = MPI_COMM_WORLD;
+            try {
+                big.validate();
+            } catch (const std::invalid_argument&) {
+                spread = false;
+            }
+            check(alone && spread, "N = " + std::to_string(n) + ", beyond this machine's memory whole: refused on one "
+                                   "process, taken spread over " + std::to_string(ranks_));
+        }
     }
     MPI_Finalize();
     return all_ok ? 0 : 1;
