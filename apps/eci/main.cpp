@@ -164,8 +164,11 @@ void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
         std::printf("  %-15s %s\n", i.name.c_str(), i.description.c_str());
         std::string methods;
         for (const std::string& n : i.methods) methods += (methods.empty() ? "" : " ") + n;
-        std::printf("  %-15s methods: %s (default %s); default dt %s, t-end %s\n", "", methods.c_str(),
-                    i.default_method.c_str(), i.dt_text(shortest).c_str(), shortest(i.default_t_end).c_str());
+        const std::string adaptive =
+            i.default_adaptive_method.empty() ? std::string() : "; with --rtol/--atol " + i.default_adaptive_method;
+        std::printf("  %-15s methods: %s (default %s%s); default dt %s, t-end %s\n", "", methods.c_str(),
+                    i.default_method.c_str(), adaptive.c_str(), i.dt_text(shortest).c_str(),
+                    shortest(i.default_t_end).c_str());
         std::string presets;
         for (const auto& p : i.presets) presets += (presets.empty() ? "" : " ") + p.first;
         std::printf("  %-15s presets (--preset): %s\n", "", presets.c_str());

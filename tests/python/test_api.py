@@ -69,10 +69,12 @@ def test_every_method_of_every_model(make):
 def test_model_defaults_are_the_clis(cli):
     listing = run_cli(cli, "list").stdout
     for model in (M.ThreeWave(), M.NWave(), M.NWave(complex=True), M.LotkaVolterra(), M.Kepler()):
-        line = re.search(rf"^\s+methods: (.+) \(default \S+\); default dt (\S+), t-end (\S+)$",
-                         listing.split(f"  {model.name} ")[1], re.M)
+        line = re.search(rf"^\s+methods: (.+) \(default ([^;)]+)(?:; with --rtol/--atol (\S+))?\); "
+                         rf"default dt (\S+), t-end (\S+)$", listing.split(f"  {model.name} ")[1], re.M)
         assert line.group(1).split() == model.methods
-        assert float(line.group(2)) == model.default_dt and float(line.group(3)) == model.default_t_end
+        # both defaults the run takes: without a method, and with a tolerance and no method
+        assert line.group(2) == model.default_method and line.group(3) == model._default_method(True)
+        assert float(line.group(4)) == model.default_dt and float(line.group(5)) == model.default_t_end
 
 
 def test_model_is_a_scipy_fun_with_the_cpp_right_hand_side():
