@@ -391,11 +391,9 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (*spec("full-transforms").flag && ck.params.pruned_transforms)
             throw bad_input("--full-transforms does not match the restart file's transforms of the retained columns (" +
                             restart_ + "; the run continues bit for bit only with the transforms it started with)");
-        // the conservative methods' update changes the numbers: the checkpoint's (an earlier version's recorded
-        // none: its runs took the default, conditioned)
-        if (const std::string stored = ck.update.empty() ? "conditioned" : ck.update;
-            !settings.update.empty() && settings.update != stored)
-            throw bad_input("--update " + settings.update + " does not match the restart file's " + stored + " (" +
+        // the conservative methods' update changes the numbers: the checkpoint's
+        if (!settings.update.empty() && settings.update != ck.update)
+            throw bad_input("--update " + settings.update + " does not match the restart file's " + ck.update + " (" +
                             restart_ + "; the run continues bit for bit only with the update it started with)");
         if (given_real("cfl")) throw bad_input("--cfl cannot be combined with --restart (the time step is the checkpoint's)");
         if (given_text("ic")) throw bad_input("--ic cannot be combined with --restart");
@@ -585,8 +583,7 @@ int spectral_command::run_spread(const run_settings& settings) {
                         ": at most one process per grid row");
     // (on any number of processes: its decisions are taken from sums over all of them)
     // (a restart takes the checkpoint's, checked above)
-    const std::string update = restart ? (ck.update.empty() ? "conditioned" : ck.update)
-                                       : settings.update.empty() ? "conditioned" : settings.update;
+    const std::string update = restart ? ck.update : settings.update.empty() ? "conditioned" : settings.update;
     // every process has checked the same input: one verdict for all, before the first collective
     if (const std::string why = mpi_refusal({}); !why.empty()) throw bad_input(why);
 #ifdef ECI_MPI

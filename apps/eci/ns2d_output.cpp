@@ -666,7 +666,7 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     p.threads = whole("threads", 1, 64);
     p.wisdom = get_string(f, "fftw_wisdom");
     c.method = get_string(f, "method");
-    if (H5Aexists(f, "update") > 0) {  // (absent from earlier versions' checkpoints: conditioned)
+    if (H5Aexists(f, "update") > 0) {  // (absent from earlier versions' checkpoints: the default, conditioned)
         c.update = get_string(f, "update");
         if (c.update != "conditioned" && c.update != "paper")
             throw std::runtime_error(path + ": unknown update '" + c.update + "' (conditioned or paper)");

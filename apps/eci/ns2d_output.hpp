@@ -21,9 +21,9 @@ namespace eci::cli {
 struct ns2d_checkpoint {
     ns2d_params params;
     std::string method;
-    /// The conservative methods' update, "conditioned" or "paper" (--update); empty in a checkpoint of an earlier
-    /// version, which did not record it: those runs took the default, conditioned.
-    std::string update;
+    /// The conservative methods' update, "conditioned" or "paper" (--update); a checkpoint of an earlier version
+    /// recorded none and reads as "conditioned", the default its run took.
+    std::string update = "conditioned";
     double dt = 0.0;
     std::uint64_t step = 0;           ///< steps done; t = step * dt
     std::uint64_t total_steps = 0;    ///< steps the run was asked for
