@@ -198,7 +198,7 @@ class spectral_command final : public model_command {
         whole("hypo-p", "hypoviscosity power p' (default 1)", 0);
         whole("forcing-seed", "seed of the forcing (default 1)", 0);
         whole("seed", "random: seed of the initial field (default 1)", 0);
-        whole("threads", "FFTW and OpenMP threads (default 1)", 1);
+        whole("threads", "FFTW and OpenMP threads (default 1)", 0);
         whole("snapshot-every", "vorticity PNG + HDF5 and E(k) CSV + PNG every K steps (default none)", 1);
         whole("checkpoint-every", "write the checkpoint every K steps (default: only on SIGINT/SIGTERM)", 1);
         text("forcing", "none, deterministic (fixed band, random phases) or stochastic (white in time) (default none)");
@@ -304,10 +304,19 @@ std::optional<std::uint64_t> snapshot_step(const std::string& name, const std::s
     return std::nullopt;
 }
 
+// A setting's CLI option: "--forcing-k" for the library's "forcing_k".
+std::string option_name(std::string_view field) {
+    std::string o = "--" + std::string(field);
+    std::replace(o.begin(), o.end(), '_', '-');
+    return o;
+}
+
 ns2d_forcing parse_forcing(const std::string& s) {
-    return s == "stochastic" ? ns2d_forcing::stochastic
-           : s == "deterministic" ? ns2d_forcing::deterministic
-                                  : ns2d_forcing::none;
+    try {
+        return ns2d_params::forcing_named(s, option_name);
+    } catch (const std::invalid_argument& e) {
+        throw bad_input(e.what());
+    }
 }
 
 int spectral_command::run(const run_settings& settings) {
@@ -425,10 +434,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         p.nu = given_real("nu").value_or(0.0);
         p.hyper_nu = given_real("hyper-nu").value_or(0.0);
         p.drag = given_real("drag").value_or(0.0);
-        const std::string forcing = given_text("forcing").value_or("none");
-        if (forcing != "none" && forcing != "deterministic" && forcing != "stochastic")
-            throw bad_input("--forcing must be none, deterministic or stochastic, not '" + forcing + "'");
-        p.forcing = parse_forcing(forcing);
+        p.forcing = parse_forcing(given_text("forcing").value_or("none"));
         p.forcing_k = given_real("forcing-k").value_or(4.0);
         p.forcing_amplitude = given_real("forcing-amplitude").value_or(1.0);
         p.injection_rate = given_real("injection-rate").value_or(1.0);
@@ -450,11 +456,32 @@ int spectral_command::run_spread(const run_settings& settings) {
     const double vortex_radius_ = given_real("vortex-radius").value_or(0.25);
     const double vortex_separation_ = given_real("vortex-separation").value_or(0.7);
     const double vortex_peak_ = given_real("vortex-peak").value_or(ic_ == "taylor-green" ? 1.0 : 10.0);
+    // A setting that cannot change this run is refused, not ignored (a forgotten --forcing stochastic ran unforced
+    // with the --injection-rate typed): the library's rule for the equation's settings, as Python's, and here the
+    // options of another initial field. (A restart's settings are the checkpoint's, compared above.)
+    if (!restart) {
+        for (const char* field : {"forcing_k", "forcing_seed", "forcing_amplitude", "injection_rate", "hyper_p", "hypo_p"})
+            if (spec(option_name(field).substr(2)).given)
+                if (const std::string why = p.unused_setting(field, option_name); !why.empty()) throw bad_input(why);
+        const bool named_field = ic_ == "random" || ic_ == "vortex-pair" || ic_ == "taylor-green";
+        const auto for_ic = [&](const char* option, bool used, const char* what) {
+            if (spec(option).given && !used)
+                throw bad_input(std::string("--") + option + " sets " + what + ", and this run's --ic is " +
+                                (named_field ? ic_ : "the file '" + ic_ + "'"));
+        };
+        for (const char* o : {"k-peak", "energy", "seed"}) for_ic(o, ic_ == "random", "the random initial field");
+        for (const char* o : {"vortex-radius", "vortex-separation"})
+            for_ic(o, ic_ == "vortex-pair", "the vortex-pair initial field");
+        for_ic("vortex-peak", ic_ == "vortex-pair" || ic_ == "taylor-green", "the vortex-pair or taylor-green field");
+    }
     const std::optional<double> cfl_ = given_real("cfl");
     const std::uint64_t snapshot_every_ = given_whole("snapshot-every").value_or(0);
     const std::uint64_t checkpoint_every_ = given_whole("checkpoint-every").value_or(0);
     const std::string snapshot_dir_ = given_text("snapshot-dir").value_or(default_snapshot_dir_);
     const std::string checkpoint_ = given_text("checkpoint").value_or(default_checkpoint_);
+    if (given_text("snapshot-dir") && snapshot_every_ == 0)
+        throw bad_input("--snapshot-dir is where --snapshot-every K writes its snapshots, and --snapshot-every is not "
+                        "given");
     if (!settings.preset.empty() && settings.preset != "default")
         throw bad_input(name_ + " has one preset, default; set the initial condition with --ic");
     try {

@@ -296,17 +296,13 @@ std::vector<double> read_dataset(hid_t file, const char* name, std::vector<hsize
     return v;
 }
 
-const char* forcing_name(ns2d_forcing f) {
-    return f == ns2d_forcing::deterministic ? "deterministic" : f == ns2d_forcing::stochastic ? "stochastic" : "none";
-}
-
 void put_params(hid_t f, const ns2d_params& p) {
     put(f, "N", std::int64_t(p.n));
     put(f, "nu", p.nu);
     put(f, "hyper_nu", p.hyper_nu);
     put(f, "hyper_p", std::int64_t(p.hyper_p));
     put(f, "drag", p.drag);
-    put(f, "forcing", std::string(forcing_name(p.forcing)));
+    put(f, "forcing", std::string(ns2d_params::forcing_name(p.forcing)));
     put(f, "forcing_k", p.forcing_k);
     put(f, "forcing_amplitude", p.forcing_amplitude);
     put(f, "injection_rate", p.injection_rate);
@@ -654,11 +650,11 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     p.hyper_p = whole("hyper_p", 1, 16);
     p.drag = get<double>(f, "drag");
     const std::string forcing = get_string(f, "forcing");
-    if (forcing != "none" && forcing != "deterministic" && forcing != "stochastic")
+    try {
+        p.forcing = ns2d_params::forcing_named(forcing, [](std::string_view) { return std::string("forcing"); });
+    } catch (const std::invalid_argument&) {
         throw std::runtime_error(path + ": unknown forcing '" + forcing + "'");
-    p.forcing = forcing == "stochastic"      ? ns2d_forcing::stochastic
-                : forcing == "deterministic" ? ns2d_forcing::deterministic
-                                             : ns2d_forcing::none;
+    }
     p.forcing_k = get<double>(f, "forcing_k");
     p.forcing_amplitude = get<double>(f, "forcing_amplitude");
     p.injection_rate = get<double>(f, "injection_rate");

@@ -5,6 +5,7 @@
 #include <limits>
 #include <mutex>
 #include <numbers>
+#include <optional>
 
 #include <eci/spectral/step.hpp>
 #include <eci/registry.hpp>
@@ -243,12 +244,6 @@ class ns2d_object : public model_base {
     double default_dt_ = 0.0;
 };
 
-ns2d_forcing forcing_named(const std::string& s) {
-    if (s == "none") return ns2d_forcing::none;
-    if (s == "deterministic") return ns2d_forcing::deterministic;
-    if (s == "stochastic") return ns2d_forcing::stochastic;
-    throw std::invalid_argument("forcing must be none, deterministic or stochastic, not '" + s + "'");
-}
 
 // The methods and properties every spectral equation's class has.
 template <class Class>
@@ -358,10 +353,15 @@ void add_flow_methods(Class& c) {
         });
 }
 
-ns2d_params flow_params_from(const std::string& equation, long long n, double nu, double hyper_nu, long long hyper_p,
-                             double hypo_nu, long long hypo_p, double drag, const std::string& forcing,
-                             double forcing_k, double forcing_amplitude, double injection_rate,
-                             long long forcing_seed, long long threads, bool fftw_measure, bool full_transforms) {
+// A setting's keyword: the library's name of it.
+std::string keyword_name(std::string_view field) { return std::string(field); }
+
+ns2d_params flow_params_from(const std::string& equation, long long n, double nu, double hyper_nu,
+                             std::optional<long long> hyper_p, double hypo_nu, std::optional<long long> hypo_p,
+                             double drag, const std::string& forcing, std::optional<double> forcing_k,
+                             std::optional<double> forcing_amplitude, std::optional<double> injection_rate,
+                             std::optional<long long> forcing_seed, long long threads, bool fftw_measure,
+                             bool full_transforms) {
     // Python ints are unbounded: a value beyond int is refused with the library's sentence for the field (the
     // CLI's), not wrapped or truncated
     auto whole = [&](const char* field, long long v) {
@@ -371,24 +371,40 @@ ns2d_params flow_params_from(const std::string& equation, long long n, double nu
             throw std::invalid_argument(equation + ": " + e.what());
         }
     };
-    if (forcing_seed < 0) throw std::invalid_argument(equation + ": forcing_seed must be a whole number >= 0");
+    if (forcing_seed && *forcing_seed < 0)  // (the CLI's sentence for --forcing-seed -1)
+        throw std::invalid_argument("forcing_seed: must be a whole number >= 0, not '" +
+                                    std::to_string(*forcing_seed) + "'");
     ns2d_params p;
     p.equation = equation;
-    p.n = whole("n", n), p.nu = nu, p.hyper_nu = hyper_nu, p.hyper_p = whole("hyper_p", hyper_p), p.drag = drag;
-    p.hypo_nu = hypo_nu, p.hypo_p = whole("hypo_p", hypo_p);
-    p.forcing = forcing_named(forcing), p.forcing_k = forcing_k, p.forcing_amplitude = forcing_amplitude;
-    p.injection_rate = injection_rate, p.forcing_seed = std::uint64_t(forcing_seed);
+    p.n = whole("n", n), p.nu = nu, p.hyper_nu = hyper_nu, p.drag = drag, p.hypo_nu = hypo_nu;
+    if (hyper_p) p.hyper_p = whole("hyper_p", *hyper_p);
+    if (hypo_p) p.hypo_p = whole("hypo_p", *hypo_p);
+    p.forcing = ns2d_params::forcing_named(forcing, keyword_name);
+    if (forcing_k) p.forcing_k = *forcing_k;
+    if (forcing_amplitude) p.forcing_amplitude = *forcing_amplitude;
+    if (injection_rate) p.injection_rate = *injection_rate;
+    if (forcing_seed) p.forcing_seed = std::uint64_t(*forcing_seed);
     p.threads = whole("threads", threads), p.measure = fftw_measure;
     p.pruned_transforms = !full_transforms;  // (the CLI's --full-transforms)
+    // a setting given that cannot change the run is refused, as the CLI refuses its option (the library's rule)
+    const std::pair<const char*, bool> given[] = {{"forcing_k", bool(forcing_k)}, {"forcing_seed", bool(forcing_seed)},
+                                                  {"forcing_amplitude", bool(forcing_amplitude)},
+                                                  {"injection_rate", bool(injection_rate)},
+                                                  {"hyper_p", bool(hyper_p)}, {"hypo_p", bool(hypo_p)}};
+    for (const auto& [field, is_given] : given)
+        if (is_given)
+            if (const std::string why = p.unused_setting(field, keyword_name); !why.empty())
+                throw std::invalid_argument(why);
     return p;
 }
 
 // The keywords every equation's constructor takes after its own.
 #define ECI_FLOW_KEYWORDS                                                                                        \
-    py::arg("n") = 256, py::arg("nu") = 0.0, py::arg("hyper_nu") = 0.0, py::arg("hyper_p") = 2,                \
-        py::arg("hypo_nu") = 0.0, py::arg("hypo_p") = 1, py::arg("drag") = 0.0, py::arg("forcing") = "none",   \
-        py::arg("forcing_k") = 4.0, py::arg("forcing_amplitude") = 1.0, py::arg("injection_rate") = 1.0,        \
-        py::arg("forcing_seed") = 1, py::arg("threads") = 1, py::arg("fftw_measure") = false,                  \
+    py::arg("n") = 256, py::arg("nu") = 0.0, py::arg("hyper_nu") = 0.0,                                       \
+        py::arg_v("hyper_p", py::none(), "2"), py::arg("hypo_nu") = 0.0, py::arg_v("hypo_p", py::none(), "1"),  \
+        py::arg("drag") = 0.0, py::arg("forcing") = "none", py::arg_v("forcing_k", py::none(), "4.0"),          \
+        py::arg_v("forcing_amplitude", py::none(), "1.0"), py::arg_v("injection_rate", py::none(), "1.0"),      \
+        py::arg_v("forcing_seed", py::none(), "1"), py::arg("threads") = 1, py::arg("fftw_measure") = false,   \
         py::arg("full_transforms") = false
 
 // One C++ type per Python class (pybind11 registers a type once).
@@ -410,9 +426,10 @@ void init_ns2d(py::module_& m) {
         "retained modes omega_k, 2 kmax + 1 rows (k_y = 0 .. kmax, -kmax .. -1) of kmax + 1 (k_x = 0 .. kmax), "
         "kmax = (n - 1) // 3; the kx and ky properties give each mode's wavenumber. Invariants energy, enstrophy "
         "(inviscid, unforced).");
-    ns.def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double hypo_nu, long long hypo_p,
-                       double drag, const std::string& forcing, double forcing_k, double forcing_amplitude,
-                       double injection_rate, long long forcing_seed, long long threads, bool fftw_measure,
+    ns.def(py::init([](long long n, double nu, double hyper_nu, std::optional<long long> hyper_p, double hypo_nu,
+                       std::optional<long long> hypo_p, double drag, const std::string& forcing,
+                       std::optional<double> forcing_k, std::optional<double> forcing_amplitude,
+                       std::optional<double> injection_rate, std::optional<long long> forcing_seed, long long threads, bool fftw_measure,
                        bool full_transforms) {
                return std::make_unique<o>(flow_params_from("navier-stokes-2d", n, nu, hyper_nu, hyper_p, hypo_nu,
                                                            hypo_p, drag, forcing, forcing_k, forcing_amplitude,
@@ -427,9 +444,10 @@ void init_ns2d(py::module_& m) {
         "Quasi-geostrophic potential vorticity on a beta-plane (Charney-Hasegawa-Mima): dq/dt + J(psi, q) + beta "
         "dpsi/dx = forcing - dissipation, q = lap psi - F psi with F = deformation = 1/L_d^2 >= 0. Rossby waves "
         "omega = -beta k_x / (k^2 + F). Invariants energy 1/2 sum |q_k|^2 / (k^2 + F), enstrophy 1/2 sum |q_k|^2.");
-    chm.def(py::init([](double beta, double deformation, long long n, double nu, double hyper_nu, long long hyper_p,
-                        double hypo_nu, long long hypo_p, double drag, const std::string& forcing, double forcing_k,
-                        double forcing_amplitude, double injection_rate, long long forcing_seed, long long threads,
+    chm.def(py::init([](double beta, double deformation, long long n, double nu, double hyper_nu, std::optional<long long> hyper_p,
+                        double hypo_nu, std::optional<long long> hypo_p, double drag, const std::string& forcing,
+                        std::optional<double> forcing_k, std::optional<double> forcing_amplitude,
+                        std::optional<double> injection_rate, std::optional<long long> forcing_seed, long long threads,
                         bool fftw_measure, bool full_transforms) {
                 ns2d_params p = flow_params_from("charney-hasegawa-mima", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
                                                  drag, forcing, forcing_k, forcing_amplitude, injection_rate,
@@ -444,9 +462,10 @@ void init_ns2d(py::module_& m) {
         m, "SurfaceQG",
         "Surface quasi-geostrophy: d theta/dt + u . grad theta = forcing - dissipation with psi_k = theta_k / |k|. "
         "Invariants energy 1/2 sum |theta_k|^2 / |k| and variance 1/2 sum |theta_k|^2.");
-    sqg.def(py::init([](long long n, double nu, double hyper_nu, long long hyper_p, double hypo_nu, long long hypo_p,
-                        double drag, const std::string& forcing, double forcing_k, double forcing_amplitude,
-                        double injection_rate, long long forcing_seed, long long threads, bool fftw_measure,
+    sqg.def(py::init([](long long n, double nu, double hyper_nu, std::optional<long long> hyper_p, double hypo_nu,
+                        std::optional<long long> hypo_p, double drag, const std::string& forcing,
+                        std::optional<double> forcing_k, std::optional<double> forcing_amplitude,
+                        std::optional<double> injection_rate, std::optional<long long> forcing_seed, long long threads, bool fftw_measure,
                         bool full_transforms) {
                 return std::make_unique<sqg_object>(flow_params_from("surface-qg", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
                                                             drag, forcing, forcing_k, forcing_amplitude,

@@ -48,6 +48,34 @@ int flow_params::whole(std::string_view field, long long v) {
     return int(v);
 }
 
+std::string flow_params::unused_setting(std::string_view field, std::string (*name)(std::string_view)) const {
+    const auto without = [&](const char* what) {
+        return name(field) + " sets " + what + ", and this run's " + name("forcing") + " is " +
+               std::string(forcing_name(forcing));
+    };
+    if (field == "forcing_k" && forcing == forcing_kind::none) return without("the forced band");
+    if (field == "forcing_seed" && forcing == forcing_kind::none) return without("the forcing's random numbers");
+    if (field == "forcing_amplitude" && forcing != forcing_kind::deterministic)
+        return without("the deterministic forcing");
+    if (field == "injection_rate" && forcing != forcing_kind::stochastic) return without("the stochastic forcing");
+    if (field == "hyper_p" && hyper_nu == 0.0)
+        return name(field) + " is the hyperviscosity's power, and " + name("hyper_nu") + " is 0";
+    if (field == "hypo_p" && hypo_nu == 0.0)
+        return name(field) + " is the hypoviscosity's power, and " + name("hypo_nu") + " is 0";
+    return {};
+}
+
+forcing_kind flow_params::forcing_named(std::string_view s, std::string (*name)(std::string_view)) {
+    for (forcing_kind f : {forcing_kind::none, forcing_kind::deterministic, forcing_kind::stochastic})
+        if (s == forcing_name(f)) return f;
+    throw std::invalid_argument(name("forcing") + " must be none, deterministic or stochastic, not '" +
+                                std::string(s) + "'");
+}
+
+std::string_view flow_params::forcing_name(forcing_kind f) {
+    return f == forcing_kind::none ? "none" : f == forcing_kind::deterministic ? "deterministic" : "stochastic";
+}
+
 void flow_params::validate(const spectral::equation& e) const {
     whole("n", n);
     require(std::isfinite(nu) && nu >= 0.0, "viscosity nu must be finite and >= 0");

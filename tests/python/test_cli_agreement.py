@@ -670,3 +670,66 @@ def test_every_model_refuses_the_same_initial_state_under_any_step_control(cli, 
         with pytest.raises(ValueError) as e:
             eci.solve(model, (0.0, 1.0), y0, **keywords)
         assert str(e.value) == message, options
+
+
+# A spectral setting that cannot change the run is refused by both front ends in one sentence (the library's rule,
+# flow_params::unused_setting), not ignored: a forgotten --forcing stochastic ran unforced with the --injection-rate
+# typed. Python's keywords for these settings default to None ("not given"), so that both know what was given.
+SPECTRAL = [getattr(M, n) for n in ("NavierStokes2D", "CharneyHasegawaMima", "SurfaceQG") if hasattr(M, n)]
+
+
+def option_as_keyword(message):
+    import re
+    return re.sub(r"--([a-z][a-z-]*)", lambda m: m.group(1).replace("-", "_"), message)
+
+
+@pytest.mark.parametrize("cls", SPECTRAL, ids=lambda c: c.__name__)
+@pytest.mark.parametrize("options, keywords, expected", [
+    (["--forcing-k", "3"], {"forcing_k": 3.0}, "forcing_k sets the forced band, and this run's forcing is none"),
+    (["--forcing-seed", "2"], {"forcing_seed": 2},
+     "forcing_seed sets the forcing's random numbers, and this run's forcing is none"),
+    (["--injection-rate", "0.1"], {"injection_rate": 0.1},
+     "injection_rate sets the stochastic forcing, and this run's forcing is none"),
+    (["--forcing", "deterministic", "--injection-rate", "0.1"], {"forcing": "deterministic", "injection_rate": 0.1},
+     "injection_rate sets the stochastic forcing, and this run's forcing is deterministic"),
+    (["--forcing", "stochastic", "--forcing-amplitude", "2"], {"forcing": "stochastic", "forcing_amplitude": 2.0},
+     "forcing_amplitude sets the deterministic forcing, and this run's forcing is stochastic"),
+    (["--hyper-p", "3"], {"hyper_p": 3}, "hyper_p is the hyperviscosity's power, and hyper_nu is 0"),
+    (["--hypo-nu", "0", "--hypo-p", "2"], {"hypo_nu": 0.0, "hypo_p": 2},
+     "hypo_p is the hypoviscosity's power, and hypo_nu is 0"),
+    (["--forcing", "bogus"], {"forcing": "bogus"}, "forcing must be none, deterministic or stochastic, not 'bogus'"),
+    (["--forcing-seed", "-1"], {"forcing_seed": -1}, "forcing_seed: must be a whole number >= 0, not '-1'"),
+    (["--threads", "0"], {"threads": 0}, "EQUATION: threads must be in 1..64, not 0"),
+])
+def test_spectral_settings_that_cannot_change_the_run_are_refused_alike(cli, cls, options, keywords, expected):
+    from conftest import cli_error
+
+    name = cls(n=16, fftw_measure=False).name
+    message = cli_error(cli, "run", name, "--N", "16", "--t-end", "0.1", "--fftw-estimate", "--fftw-wisdom", "none",
+                        *options)
+    assert option_as_keyword(message) == expected.replace("EQUATION", name)
+    with pytest.raises(ValueError) as e:
+        cls(n=16, fftw_measure=False, **keywords)
+    assert str(e.value) == expected.replace("EQUATION", name)
+
+
+@pytest.mark.parametrize("cls", SPECTRAL, ids=lambda c: c.__name__)
+def test_spectral_settings_that_change_the_run_are_taken_alike(cli, cls, tmp_path):
+    # the same settings given with what they act on: both run, to the same bits
+    keywords = {"nu": 1e-3, "hyper_nu": 1e-6, "hyper_p": 3, "hypo_nu": 1e-3, "hypo_p": 2, "forcing": "stochastic",
+                "forcing_k": 3.0, "injection_rate": 0.1, "forcing_seed": 5}
+    options = []
+    for k, v in keywords.items():
+        options += ["--" + k.replace("_", "-"), str(v)]
+    m = cls(n=16, fftw_measure=False, **keywords)
+    csv = tmp_path / "run.csv"
+    run_cli(cli, "run", m.name, "--N", "16", "--dt", "0.01", "--t-end", "0.05", "--fftw-estimate", "--fftw-wisdom",
+            "none", "--output", csv, *options)
+    header = csv.read_text().splitlines()[0].split(",")
+    data = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)
+    columns = {name: data[:, i] for i, name in enumerate(header)}
+    r = eci.solve(m, (0.0, 0.05), m.default_y0, dt=0.01)
+    assert r.success and len(r.t) == 6
+    first = m.invariant_names[0]
+    assert [m.energy(r.y[:, i]) for i in range(len(r.t))] == list(columns[first])
+    assert r.budget[first + "_injection"] > 0.0  # the forcing acted

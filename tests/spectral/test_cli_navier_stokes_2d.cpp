@@ -569,6 +569,16 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--N 65536", "GiB of memory"},
         {"--N 100000", "navier-stokes-2d: grid size N must be at most 65536, not 100000"},
         {"--N 8 --forcing deterministic --forcing-k 100", "|k| = 100 +- 1/2 holds no retained mode (kmax = 2)"},
+        // a setting that cannot change the run: refused, not ignored
+        {"--injection-rate 0.1", "--injection-rate sets the stochastic forcing, and this run's --forcing is none\n"},
+        {"--hyper-p 3", "--hyper-p is the hyperviscosity's power, and --hyper-nu is 0\n"},
+        {"--ic vortex-pair --energy 0.3", "--energy sets the random initial field, and this run's --ic is vortex-pair\n"},
+        {"--vortex-radius 0.1", "--vortex-radius sets the vortex-pair initial field, and this run's --ic is random\n"},
+        {"--ic taylor-green --seed 3", "--seed sets the random initial field, and this run's --ic is taylor-green\n"},
+        {"--ic " + q + "/ok.h5 --vortex-peak 3", "sets the vortex-pair or taylor-green field, and this run's --ic is "
+                                                 "the file '"},
+        {"--snapshot-dir " + q + "/snaps", "--snapshot-dir is where --snapshot-every K writes its snapshots, and "
+                                           "--snapshot-every is not given\n"},
         {"--ic " + q, "is a directory"},
         {"--ic " + q + "/fifo", "is a FIFO"},
     };

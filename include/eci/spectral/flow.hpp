@@ -59,6 +59,17 @@ struct flow_params {
     /// int): `v` as an int when validate() would take it, else std::invalid_argument with validate()'s sentence, so
     /// that every front end refuses a value too wide for int as any other out of range.
     static int whole(std::string_view field, long long v);
+    /// Whether a setting can change a run with these parameters: empty if it can, else the sentence refusing it. A
+    /// forcing setting does nothing without its forcing (forcing_k and forcing_seed without any, forcing_amplitude
+    /// without the deterministic one, injection_rate without the stochastic one), a power nothing without its
+    /// coefficient (hyper_p with hyper_nu 0, hypo_p with hypo_nu 0). Both front ends refuse such a setting when it
+    /// is given rather than ignore it (a forgotten `--forcing stochastic` ran unforced with the `--injection-rate`
+    /// typed). `name` spells a setting as the caller's user types it (the CLI's "--forcing-k", Python's "forcing_k").
+    std::string unused_setting(std::string_view field, std::string (*name)(std::string_view)) const;
+    /// The forcing named "none", "deterministic" or "stochastic"; std::invalid_argument ("... must be none,
+    /// deterministic or stochastic, not 'x'", preceded by name("forcing")) for any other.
+    static forcing_kind forcing_named(std::string_view s, std::string (*name)(std::string_view));
+    static std::string_view forcing_name(forcing_kind f);
 };
 
 /// What the linear terms and the forcing did to E and Z at one right-hand-side evaluation (rates, per unit time).
