@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <regex>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -26,6 +27,30 @@
 #include "output.hpp"
 
 namespace {
+
+// CLI11's sentences for a value missing or given too often, said as a user would ("--dt: At Most 1 required but
+// received 2" is "--dt is given more than once"); any other passes as it is.
+std::string plain_parse_error(const std::string& what) {
+    std::smatch m;
+    static const std::regex at_most("^(--[A-Za-z0-9-]+): At Most ([0-9]+) required but received ([0-9]+)$");
+    static const std::regex at_least("^(--[A-Za-z0-9-]+): At least ([0-9]+) required but received ([0-9]+)$");
+    static const std::regex missing("^(--[A-Za-z0-9-]+): [0-9]+ required \\S+ missing$");
+    static const std::regex not_in("^(--[A-Za-z0-9-]+): (.*) not in \\{(.*)\\}$");
+    if (std::regex_match(what, m, at_most))
+        return m[2].str() == "1" ? m[1].str() + " is given more than once"
+                                 : m[1].str() + " takes " + m[2].str() + " values, not " + m[3].str();
+    if (std::regex_match(what, m, at_least))
+        return m[1].str() + " needs " + m[2].str() + " values separated by commas, not " + m[3].str();
+    if (std::regex_match(what, m, missing)) return m[1].str() + " needs a value";
+    if (std::regex_match(what, m, not_in)) {
+        std::string choices = m[3].str();
+        const std::size_t last = choices.rfind(',');
+        if (last != std::string::npos) choices.replace(last, 1, " or ");
+        for (std::size_t c; (c = choices.find(',')) != std::string::npos;) choices.replace(c, 1, ", ");
+        return m[1].str() + " must be " + choices + ", not '" + m[2].str() + "'";
+    }
+    return what;
+}
 
 using namespace eci::cli;
 
@@ -323,7 +348,7 @@ int run_cli(int argc, char** argv) {
         throw bad_input("unexpected arguments: " + typed);
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-        throw bad_input(e.what());
+        throw bad_input(plain_parse_error(e.what()));
     }
 
     if (list->parsed()) {
