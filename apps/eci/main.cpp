@@ -265,8 +265,8 @@ int run_cli(int argc, char** argv) {
                                                    "(default 1)")
             ->check(whole_number(1));
         sub->add_option("--output", settings.output,
-                        "CSV file: t, the state, the invariants, at full precision. Without --output no CSV is "
-                        "written; '-' writes it to standard output");
+                        "CSV file: t, the state (a spectral model: its diagnostics and budget), the invariants, at "
+                        "full precision. Without --output no CSV is written; '-' writes it to standard output");
         sub->add_option("--summary-json", settings.summary_json,
                         "also write the run summary as JSON to this file ('-': standard output)");
         sub->add_option("--rtol", rtol,

@@ -119,6 +119,30 @@ void on_root_agreed(Fn&& fn) {
 #endif
 }
 
+// fn() on rank 0 only, opening what the run writes: its failure known to every process (collective), each
+// throwing what rank 0 threw, bad input (exit 2: an output that cannot be written, said once) as bad input. (It
+// was on_root, whose MPI_Abort ended the run with exit 1 and mpirun's banner.)
+template <class Fn>
+void on_root_opening(Fn&& fn) {
+    if (!mpi.on) return fn();
+#ifdef ECI_MPI
+    std::string failure;  // the kind ('2' bad input, '1' any other) and the reason
+    if (mpi.rank == 0) {
+        try {
+            fn();
+        } catch (const bad_input& e) {
+            failure = std::string("2") + e.what();
+        } catch (const std::exception& e) {
+            failure = std::string("1") + e.what();
+        }
+    }
+    if (failure = first_failure(MPI_COMM_WORLD, failure); !failure.empty()) {
+        if (failure[0] == '2') throw bad_input(failure.substr(1));
+        throw run_error(failure.substr(1));
+    }
+#endif
+}
+
 // fn() on rank 0 only (every process on one); a failure there ends every process.
 template <class Fn>
 void on_root(Fn&& fn) {
@@ -184,9 +208,9 @@ class spectral_command final : public model_command {
             real("beta", "planetary vorticity gradient beta: Rossby waves omega = -beta k_x / (k^2 + F) (default 0)");
             real("deformation", "F = 1 / L_d^2 >= 0 in q = lap psi - F psi (default 0: Navier-Stokes with beta)");
         }
-        real("forcing-k", "forced band k_f - 1/2 <= |k| < k_f + 1/2 (default 4)");
-        real("forcing-amplitude", "deterministic forcing: rms of the forcing field (default 1)");
-        real("injection-rate", "stochastic forcing: mean energy injection rate (default 1)");
+        real("forcing-k", "forced band k_f - 1/2 <= |k| < k_f + 1/2 (default 4; with --forcing)");
+        real("forcing-amplitude", "--forcing deterministic: rms of the forcing field (default 1)");
+        real("injection-rate", "--forcing stochastic: mean energy injection rate (default 1)");
         real("k-peak", "random: peak wavenumber k_p of E(k) ~ q^4 / (1 + q^2)^4, q = k/k_p (default 8)");
         real("energy", "random: initial energy (default 0.5)");
         real("vortex-radius", "vortex-pair: radius of each Gaussian vortex (default 0.25)");
@@ -194,18 +218,20 @@ class spectral_command final : public model_command {
         real("vortex-peak", "vortex-pair: peak vorticity; taylor-green: velocity (default 10, 1)");
         real("cfl", "dt = CFL dx / max|u| at the start (default 0.5; exclusive with --dt)");
         whole("N", "grid points per side, even, >= 8 (default 256); |k_x|, |k_y| <= (N - 1)/3 kept", 0);
-        whole("hyper-p", "hyperviscosity power p (default 2)", 0);
-        whole("hypo-p", "hypoviscosity power p' (default 1)", 0);
-        whole("forcing-seed", "seed of the forcing (default 1)", 0);
+        whole("hyper-p", "hyperviscosity power p, 1..16 (default 2; with --hyper-nu)", 0);
+        whole("hypo-p", "hypoviscosity power p', 1..16 (default 1; with --hypo-nu)", 0);
+        whole("forcing-seed", "seed of the forcing (default 1; with --forcing)", 0);
         whole("seed", "random: seed of the initial field (default 1)", 0);
         whole("threads", "FFTW and OpenMP threads (default 1)", 0);
-        whole("snapshot-every", "vorticity PNG + HDF5 and E(k) CSV + PNG every K steps (default none)", 1);
+        whole("snapshot-every", "every K steps the field as HDF5 + PNG, its spectra and fluxes as CSV + PNG "
+                                 "(default none)", 1);
         whole("checkpoint-every", "write the checkpoint every K steps (default: only on SIGINT/SIGTERM)", 1);
         text("forcing", "none, deterministic (fixed band, random phases) or stochastic (white in time) (default none)");
         text("ic", "initial condition: random, vortex-pair, taylor-green, or FILE (an eci snapshot or checkpoint "
                    ".h5 on the same grid) (default random)");
         text("snapshot-dir", "directory of the snapshots (default " + default_snapshot_dir_ + ")");
-        text("checkpoint", "checkpoint file, also written on SIGINT/SIGTERM (default " + default_checkpoint_ + ")");
+        text("checkpoint", "checkpoint file, also written when stopped by SIGINT, SIGTERM, SIGHUP or SIGQUIT (default " +
+                               default_checkpoint_ + ")");
         text("restart", "continue, bit for bit, from a checkpoint");
         text("fftw-wisdom", "FFTW wisdom file read before and written after planning, so that every run plans the "
                             "same transforms and repeats bit for bit; 'none' for no file (default "
@@ -761,7 +787,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     std::optional<created_directory> created_snapshot_dir;
     std::optional<staging_dir> staged_snapshots;
     std::optional<output_file> csv_file, json_file;
-    on_root([&] {
+    on_root_opening([&] {
         if (snapshot_every_ > 0) {
             const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
             if (::mkdir(dir.c_str(), 0777) == 0)
@@ -1020,9 +1046,10 @@ int spectral_command::run_spread(const run_settings& settings) {
                 const ns2d_budget& b = run.budget;
                 char line[160];
                 // (max |u| is collective on MPI, and the bar is drawn on rank 0's clock: no CFL there)
-                std::snprintf(line, sizeof line, " step %llu  CFL %.3g  E drift %.2g  Z drift %.2g ",
-                              (unsigned long long)i, mpi.on ? std::nan("") : model.cfl(w, dt),
+                std::snprintf(line, sizeof line, " step %llu  CFL %.3g  %s drift %.2g  %s drift %.2g ",
+                              (unsigned long long)i, mpi.on ? std::nan("") : model.cfl(w, dt), inv_[0].c_str(),
                               (e_prev - run.energy0 - (b.energy_injection - b.energy_dissipation)) / e_prev,
+                              inv_[1].c_str(),
                               (z_prev - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z_prev);
                 return std::string(line);
             });
@@ -1038,8 +1065,9 @@ int spectral_command::run_spread(const run_settings& settings) {
         c0 = cpu_now(), w0 = wall_now();
     };
     cfg.max_halvings = 40;
-    cfg.max_substeps = std::numeric_limits<std::uint64_t>::max();
+    cfg.max_substeps = run_options{}.max_substeps;  // as every model: a far too long dt fails, not halves for hours
     cfg.update = update == "paper" ? update_kind::paper : update_kind::conditioned;  // --update (default: conditioned)
+    cfg.update_chosen = !settings.update.empty();
     cfg.stop_on_invariant_overflow = false;  // a blow-up is the sink's, with its own message
     cfg.stop_between_attempts = &stop_requested;  // (collective on MPI)
     // A signal during the set-up: no step was made, so there is nothing for a checkpoint to keep.
@@ -1058,6 +1086,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         s.conservative = method.rfind("c-", 0) == 0;
         s.dt = dt;
         s.t_end = std::isnan(t_end) ? double(last) * dt : t_end;
+        s.t_start = double(first) * dt;  // (a restart's)
         s.stats = stats;
         s.stats.steps = reached - first;
         s.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

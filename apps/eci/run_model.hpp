@@ -33,6 +33,7 @@ struct run_summary {
     int order = 0;
     bool conservative = false;
     double dt = 0.0, t_end = 0.0;
+    double t_start = 0.0;  ///< where the run began: 0, or a restart's checkpoint time
     run_stats stats{};
     double wall_seconds = 0.0;
     std::vector<invariant_record> invariants;
@@ -168,6 +169,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     if (plan.fixed_steps) cfg.steps = plan.steps;
     cfg.every = settings.every;
     cfg.update = settings.update == "paper" ? update_kind::paper : update_kind::conditioned;
+    cfg.update_chosen = !settings.update.empty();
     cfg.cancel = cancel_flag();  // polled between sub-steps and right-hand-side evaluations
     if (adaptive) {
         if (plan.fixed_steps) throw bad_input("--steps counts fixed steps; an adaptive run (--rtol/--atol) ends at --t-end");

@@ -61,9 +61,7 @@ run_plan resolve_plan(double default_dt, double default_t_end, const run_setting
 
 void check_distinct_outputs(const run_settings& settings) {
     if (settings.output.empty() || settings.summary_json.empty()) return;
-    if (settings.output == "-" && settings.summary_json == "-")
-        throw bad_input("--output and --summary-json cannot both be standard output");
-    // symlinks followed, dangling ones too, and hard links
+    // symlinks followed, dangling ones too, and hard links; "-", /dev/stdout and /dev/fd/1 are one stream
     check_distinct_files({{"--output", settings.output}, {"--summary-json", settings.summary_json}});
 }
 
@@ -77,9 +75,9 @@ std::string underflow_message(const step_size_underflow& e, const column_names& 
 }
 
 void print_summary(std::FILE* f, const run_summary& s) {
-    std::fprintf(f, "eci run %s: method %s (order %d, %s), dt %s, t 0 to %s\n", s.model.c_str(), s.method.c_str(),
+    std::fprintf(f, "eci run %s: method %s (order %d, %s), dt %s, t %s to %s\n", s.model.c_str(), s.method.c_str(),
                  s.order, s.conservative ? "conservative" : "conventional", shortest(s.dt).c_str(),
-                 shortest(s.t_end).c_str());
+                 shortest(s.t_start).c_str(), shortest(s.t_end).c_str());
     if (s.adaptive) {
         const adaptive_stats& a = s.adaptive_counts;
         std::fprintf(f, "  adaptive, rtol %s, atol %s (dt is the first step)\n", shortest(s.rtol).c_str(),

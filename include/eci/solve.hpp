@@ -67,6 +67,9 @@ struct run_config {
     /// invariants and at least remedy_options::min_unknowns real unknowns: the conditioned update (default) or the
     /// paper's update (docs/methods.md "Zero crossings without loss of accuracy", "Adaptive pairs").
     update_kind update = update_kind::conditioned;
+    /// Whether `update` was chosen (a front end's --update, update=): solve() then refuses a method that has no
+    /// update to choose (a conventional, relaxation, projection or symplectic method) rather than ignore it.
+    bool update_chosen = false;
     std::uint64_t max_substeps = run_options{}.max_substeps;  ///< fixed steps: attempts for one step of the grid
     /// A monitored invariant that becomes non-finite ends the run (invariant_overflow): the solution blew up.
     bool stop_on_invariant_overflow = true;
@@ -808,7 +811,11 @@ solve_report solve(F_&& system, S& x, std::string_view method, const run_config&
     solve_report report;
     report.t = cfg.t0;
     auto build = [&](auto stepper) {
-        if constexpr (requires { stepper.remedy.update; }) stepper.remedy.update = cfg.update;
+        if constexpr (requires { stepper.remedy.update; })
+            stepper.remedy.update = cfg.update;
+        else if (cfg.update_chosen)
+            throw std::invalid_argument("update chooses the update of a conservative method (c-pc, c-rk2, c-rk4, a c- "
+                                        "pair); method " + std::string(m.name) + " has none");
         return stepper;
     };
     if (cfg.adaptive) {

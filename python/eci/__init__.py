@@ -333,7 +333,7 @@ def _event_list(events):
 def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
           transform=None, max_halvings=40, first_step=None, min_step=0.0, max_step=math.inf, max_steps=None,
           t_eval_mode="auto", jac=None, dense_output=False, events=None, vectorized=False, args=None,
-          update="conditioned", quadratic_invariants=None, output_dt=None, **options):
+          update=None, quadratic_invariants=None, output_dt=None, **options):
     """Integrate dy/dt = fun(t, y) from t_span[0] to t_span[1], SciPy's solve_ivp conventions, eci's numerics.
 
     fun: a callable fun(t, y) -> dy/dt (y a real or complex 1-D array, as in SciPy), or a built-in model
@@ -394,6 +394,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         16 or more real unknowns with declared invariants (the n-wave and spectral models, a fun with
         quadratic_invariants=): "conditioned" (default; at the conventional method's error and, adaptive, its
         evaluations, docs/methods.md) or "paper" (the paper's update, bit for bit as before the conditioned update).
+        Given with a method that has no update to choose (rk4, a relaxation method, ...): ValueError, as the CLI's
+        --update.
     first_step, min_step, max_step, max_steps: adaptive control: the first step (no larger than the span;
         default: the model's default dt, as `eci run --rtol`; for a Python fun, the library's rule
         (choose_first_step: Hairer, Norsett & Wanner's, SciPy's) from two evaluations of fun, counted in nfev and
@@ -476,13 +478,15 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         for name, value, default in (("first_step", first_step, None), ("min_step", min_step, 0.0),
                                      ("max_step", max_step, math.inf), ("max_steps", max_steps, None),
                                      ("t_eval_mode", t_eval_mode, "auto"), ("dense_output", dense_output, False),
-                                     ("events", event_list, None)):
+                                     ("events", event_list or None, None)):  # (events=[]: none)
             if value != default:
                 raise ValueError(f"{name} is for adaptive step control: give rtol/atol (and no dt)")
         if t1 < t0 and is_model:
+            # (a spectral model has no method with an error estimate: it runs forward only)
+            how = ("; a spectral model runs forward only" if hasattr(fun, "cfl_step") else
+                   "; backward time needs adaptive control (rtol/atol, no dt)")
             raise ValueError(f"t_span[1] = {_shortest(t1)} is before t_span[0] = {_shortest(t0)}: fixed steps of a "
-                             f"built-in model run forward only; backward time needs adaptive control (rtol/atol, "
-                             f"no dt)")
+                             f"built-in model run forward only{how}")
         if dt is None:  # a spectral model: the CFL 0.5 step of the initial state, as `eci run navier-stokes-2d`
             dt = fun.cfl_step(y0) if y0 is not None and hasattr(fun, "cfl_step") else fun.default_dt
             if hasattr(fun, "cfl_step") and output_dt is not None:  # shortened to divide output_dt, as the CLI's
@@ -523,7 +527,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
                              "invariants are those the transform makes linear")
         weights = _quadratic_weights(quadratic_invariants, y)
 
-    if update not in ("conditioned", "paper"):
+    if update not in (None, "conditioned", "paper"):
         raise ValueError(f"update must be 'conditioned' or 'paper', not {update!r}")
     settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None, "update": update,
                 "dense_output": bool(dense_output), "events": event_list, "output_dt": output_dt}
@@ -576,7 +580,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     if event_list is None:
         result["t_events"] = result["y_events"] = None
     else:  # as SciPy: an event that never occurred has y_events of shape (0,)
-        result["y_events"] = [ye if len(ye) else np.asarray([]) for ye in result["y_events"]]
+        result["y_events"] = [ye if len(ye) else np.asarray([]) for ye in result.get("y_events", [])]
+        result.setdefault("t_events", [])
     result["sol"] = None
     if dense_output:
         d = result.pop("dense")

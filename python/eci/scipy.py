@@ -147,11 +147,23 @@ class EmbeddedPair(OdeSolver):
         else:
             h_abs = self.h_abs
 
+        if not h_abs >= 0:
+            # SciPy's initial-step rule divides by the norm of fun(t0, y0): a nan there makes the step nan, which no
+            # comparison below stops (SciPy's RK45 loops for ever on it); say what happened instead
+            return False, f"fun returned a non-finite value at t = {t!r}, so no first step could be chosen"
         step_accepted = False
         step_rejected = False
+        not_finite = False  # the last rejected attempt's error was inf or nan (fun not finite there)
+        no_candidate = False  # the last attempt had no conservative candidate (a negative or non-finite psi^2)
         engine = self._engine
         while not step_accepted:
             if h_abs < min_step:
+                if not_finite:
+                    return False, (f"{self.TOO_SMALL_STEP} (at t = {t!r} fun returned a non-finite value at every "
+                                   "step size tried)")
+                if no_candidate:
+                    return False, (f"{self.TOO_SMALL_STEP} (at t = {t!r} every step size tried gave a negative psi^2 "
+                                   "or a non-finite value)")
                 return False, self.TOO_SMALL_STEP
             h = h_abs * self.direction
             t_new = t + h
@@ -164,6 +176,7 @@ class EmbeddedPair(OdeSolver):
             if not ok:  # a negative psi^2: the conservative candidate does not exist
                 h_abs *= RADICAND_FACTOR
                 step_rejected = True
+                no_candidate, not_finite = True, False
             elif error_norm < 1:
                 if error_norm == 0:
                     factor = MAX_FACTOR
@@ -174,8 +187,9 @@ class EmbeddedPair(OdeSolver):
                 h_abs *= factor
                 step_accepted = True
             else:
-                h_abs *= max(MIN_FACTOR, SAFETY * error_norm ** self.error_exponent)
+                h_abs *= max(MIN_FACTOR, SAFETY * error_norm ** self.error_exponent)  # (nan: MIN_FACTOR)
                 step_rejected = True
+                not_finite, no_candidate = not np.isfinite(error_norm), False
 
         self.h_previous = h
         self.y_old = self.y

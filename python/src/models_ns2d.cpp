@@ -152,9 +152,12 @@ class ns2d_object : public model_base {
             resolve_output_dt(cfg, {.tolerances = ""});
         }
         cfg.max_halvings = max_halvings;
-        cfg.max_substeps = std::numeric_limits<std::uint64_t>::max();
-        if (settings.contains("update") && settings["update"].cast<std::string>() == "paper")  // else conditioned
-            cfg.update = update_kind::paper;
+        cfg.max_substeps = run_options{}.max_substeps;  // as every model: a far too long dt fails, not halves for hours
+        if (settings.contains("update") && !settings["update"].is_none()) {  // (None: not chosen)
+            cfg.update = settings["update"].cast<std::string>() == "paper" ? update_kind::paper
+                                                                           : update_kind::conditioned;
+            cfg.update_chosen = true;
+        }
         cfg.stop_on_invariant_overflow = false;
         cfg.stop_between_attempts = &python_interrupt_requested;
         const bool no_outputs = t_eval && t_eval->empty();
@@ -194,10 +197,13 @@ class ns2d_object : public model_base {
                     const run_failure& e = *r.failure;
                     report.rejected.step_failed = report.stats.step_reductions;
                     const std::string c = "mode " + std::to_string(e.component);
-                    failure.emplace("step failed at t = " + full_text(e.t) + " in component " + c +
-                                        " even with the step halved " + std::to_string(max_halvings) +
-                                        " times (dt = " + full_text(e.dt) + "): negative radicand or "
-                                        "non-finite state",
+                    // (more sub-steps than a grid step may take: the library's sentence, as the CLI's)
+                    failure.emplace(e.kind == run_failure_kind::work_exceeded
+                                        ? e.message
+                                        : "step failed at t = " + full_text(e.t) + " in component " + c +
+                                              " even with the step halved " + std::to_string(max_halvings) +
+                                              " times (dt = " + full_text(e.dt) + "): negative radicand or "
+                                              "non-finite state",
                                     e.t, e.component, c, e.dt, false, report);
                 }
             } catch (const eci::interrupted&) {  // between the halvings of a step
@@ -401,10 +407,10 @@ ns2d_params flow_params_from(const std::string& equation, long long n, double nu
 // The keywords every equation's constructor takes after its own.
 #define ECI_FLOW_KEYWORDS                                                                                        \
     py::arg("n") = 256, py::arg("nu") = 0.0, py::arg("hyper_nu") = 0.0,                                       \
-        py::arg_v("hyper_p", py::none(), "2"), py::arg("hypo_nu") = 0.0, py::arg_v("hypo_p", py::none(), "1"),  \
-        py::arg("drag") = 0.0, py::arg("forcing") = "none", py::arg_v("forcing_k", py::none(), "4.0"),          \
-        py::arg_v("forcing_amplitude", py::none(), "1.0"), py::arg_v("injection_rate", py::none(), "1.0"),      \
-        py::arg_v("forcing_seed", py::none(), "1"), py::arg("threads") = 1, py::arg("fftw_measure") = false,   \
+        py::arg("hyper_p") = py::none(), py::arg("hypo_nu") = 0.0, py::arg("hypo_p") = py::none(),  \
+        py::arg("drag") = 0.0, py::arg("forcing") = "none", py::arg("forcing_k") = py::none(),          \
+        py::arg("forcing_amplitude") = py::none(), py::arg("injection_rate") = py::none(),      \
+        py::arg("forcing_seed") = py::none(), py::arg("threads") = 1, py::arg("fftw_measure") = false,   \
         py::arg("full_transforms") = false
 
 // One C++ type per Python class (pybind11 registers a type once).

@@ -28,6 +28,7 @@ namespace eci::python {
 struct python_request {
     run_config config;
     bool dense_output = false;  ///< record every step's dense output (result.sol)
+    bool no_outputs = false;    ///< t_eval given and empty: no state recorded (SciPy: t of shape (0,))
     /// The event functions g(t, y) and, for each, whether it ends the run and which crossings count (SciPy's
     /// `terminal` and `direction`).
     std::vector<py::object> events;
@@ -43,11 +44,17 @@ inline python_request request_from(double t0, double t1, double dt, const py::di
     c.t_end = t1;
     c.dt = dt;
     c.stop_on_invariant_overflow = true;
-    if (!settings["t_eval"].is_none()) c.times = settings["t_eval"].cast<std::vector<double>>();
+    if (!settings["t_eval"].is_none()) {
+        c.times = settings["t_eval"].cast<std::vector<double>>();
+        r.no_outputs = c.times.empty();  // (an empty run_config::times is "every step", the default)
+    }
     if (settings.contains("output_dt") && !settings["output_dt"].is_none())
         c.output_dt = settings["output_dt"].cast<double>();  // resolved by eci::solve, as the CLI's --output-dt
     c.max_halvings = settings["max_halvings"].cast<int>();
-    if (settings.contains("update") && settings["update"].cast<std::string>() == "paper") c.update = update_kind::paper;
+    if (settings.contains("update") && !settings["update"].is_none()) {  // (None: not chosen)
+        c.update = settings["update"].cast<std::string>() == "paper" ? update_kind::paper : update_kind::conditioned;
+        c.update_chosen = true;
+    }
     const py::object a = settings["adaptive"];
     if (!a.is_none()) {
         adaptive_options o;
@@ -175,7 +182,9 @@ class recording_sink final : public dynamic_sink<S> {
     std::vector<double> g_prev{};  // each event function at the last step's end
     S scratch{}, conventional{};
 
-    void output(const S& x, const output_point& p) override { out->record(p.t, x); }
+    void output(const S& x, const output_point& p) override {
+        if (!req || !req->no_outputs) out->record(p.t, x);
+    }
     void progress(double, std::uint64_t) override { (*interrupt)(); }
     bool observes_steps() const override { return req && req->sees_steps(); }
 
@@ -353,7 +362,8 @@ py::dict run_recorded(S& x, python_request req, const component_namer& namer, bo
                       const std::function<solve_report(recording_sink<S>&, const run_config&)>& run) {
     req.config.component_name = namer;
     // the arrays keep every output: a fixed-step run whose outputs cannot fit is refused before it starts
-    req.config.output_bytes = std::ranges::size(x) * sizeof(std::ranges::range_value_t<S>) + sizeof(double);
+    req.config.output_bytes =
+        req.no_outputs ? 0 : std::ranges::size(x) * sizeof(std::ranges::range_value_t<S>) + sizeof(double);
     recorded_output<S> out;
     step_record<S> steps;
     solve_report report;

@@ -566,7 +566,14 @@ double flow2d::initial_cfl_step(const state_type& q, double cfl, std::string_vie
     check_initial_state(q);
     const double u = max_velocity(q);
     if (!(u > 0.0)) throw std::invalid_argument("the initial velocity is zero: give " + std::string(dt_name));
-    const double dt = cfl * (2.0 * std::numbers::pi / n_) / u;
+    double dt = cfl * (2.0 * std::numbers::pi / n_) / u;
+    // ... and no longer than cfl / max |omega| of the linear waves (Rossby waves omega = -beta k_x / (k^2 + F)), a
+    // phase of cfl radians per step at most: a beta-plane flow's fastest wave can be far faster than its velocity
+    // (beta = 1e10 took ~2^30 halvings per step of the velocity's step, with no message).
+    double omega = 0.0;
+    for (const double c : d_->disp) omega = std::max(omega, std::abs(c));
+    d_->g.max_over_ranks(&omega, 1);
+    if (omega > 0.0) dt = std::min(dt, cfl / omega);
     if (!(dt > 0.0) || !std::isfinite(dt))
         throw std::invalid_argument("the time step from " + std::string(cfl_name) + " " +
                                     eci::detail::shortest_text(cfl) + ", CFL dx / max|u| = " +

@@ -251,6 +251,18 @@ def case_bad_input(d):
               f"-np {np_} {what}: exit 2 (mpirun {r.returncode}) in {time.monotonic() - start:.1f} s")
         check(len(own) == 1, f"-np {np_} {what}: one line from rank 0: {own}")
         check(os.listdir(sub) == [], f"-np {np_} {what}: nothing written ({os.listdir(sub)})")
+    # an output rank 0 cannot open (a directory that does not exist): exit 2 on every process with one line, as on
+    # one process (it was MPI_Abort: exit 1 and mpirun's banner); the other outputs are not created
+    for np_, option in ((2, "--output"), (3, "--summary-json")):
+        sub = tempfile.mkdtemp(dir=d)
+        r = run(np_, BASE + ["--steps", "2", option, "nodir/x.out", "--checkpoint", "c.h5",
+                             "--checkpoint-every", "1"], sub)
+        own = [l for l in r.stderr.splitlines() if l.startswith("eci")]
+        check(r.returncode == 2 or ("exit code: 2" in r.stderr.lower()),
+              f"-np {np_} {option} nodir/x.out: exit 2 (mpirun {r.returncode}): {r.stderr[-300:]}")
+        check("MPI_ABORT" not in r.stderr, f"-np {np_} {option} nodir/x.out: no MPI_Abort")
+        check(len(own) == 1 and "nodir/x.out" in own[0], f"-np {np_} {option} nodir/x.out: one line: {own}")
+        check(os.listdir(sub) == [], f"-np {np_} {option} nodir/x.out: nothing written ({os.listdir(sub)})")
     # a model whose run is not spread over processes: every process would run it whole and write the same files
     sub = tempfile.mkdtemp(dir=d)
     r = run(2, ["--output", "o.csv"], sub, equation="three-wave")

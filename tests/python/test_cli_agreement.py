@@ -733,3 +733,85 @@ def test_spectral_settings_that_change_the_run_are_taken_alike(cli, cls, tmp_pat
     first = m.invariant_names[0]
     assert [m.energy(r.y[:, i]) for i in range(len(r.t))] == list(columns[first])
     assert r.budget[first + "_injection"] > 0.0  # the forcing acted
+
+
+# update= / --update chooses a conservative method's update; with a method that has none it is refused in one
+# sentence by the library (run_config::update_chosen), not ignored; not given, every method runs.
+@pytest.mark.parametrize("model, extra, keywords", [
+    ("three-wave", ["--dt", "0.01"], {"dt": 0.01}),
+    ("n-wave", ["--dt", "0.01"], {"dt": 0.01}),
+    ("navier-stokes-2d", ["--N", "16", "--fftw-estimate", "--fftw-wisdom", "none", "--dt", "0.01"], {"dt": 0.01}),
+])
+@pytest.mark.parametrize("method", ["rk4", "euler"])
+def test_an_update_with_a_method_without_one_is_refused_alike(cli, model, extra, keywords, method):
+    from conftest import cli_error
+
+    message = cli_error(cli, "run", model, "--method", method, "--t-end", "0.02", "--update", "paper", *extra)
+    assert message == ("update chooses the update of a conservative method (c-pc, c-rk2, c-rk4, a c- pair); "
+                       f"method {method} has none")
+    m = {"three-wave": lambda: M.ThreeWave(), "n-wave": lambda: M.NWave(),
+         "navier-stokes-2d": lambda: M.NavierStokes2D(n=16, fftw_measure=False)}[model]()
+    with pytest.raises(ValueError) as e:
+        eci.solve(m, (0.0, 0.02), method=method, update="paper", **keywords)
+    assert str(e.value) == message
+    assert eci.solve(m, (0.0, 0.02), method=method, **keywords).success
+    assert eci.solve(m, (0.0, 0.02), method="c-rk4", update="paper", **keywords).success
+
+
+# The default step of a beta-plane flow is bounded by its fastest Rossby wave too (a phase of CFL radians per
+# step): beta = 1e10 took ~2^30 halvings per step of the velocity's CFL step, silently. Both front ends take it.
+@pytest.mark.skipif(not hasattr(M, "CharneyHasegawaMima"), reason="built without eci::spectral")
+@pytest.mark.parametrize("beta, deformation", [(0.0, 0.0), (20.0, 1.0), (1e6, 0.0), (1e10, 4.0)])
+def test_the_default_step_follows_the_fastest_rossby_wave(cli, tmp_path, beta, deformation):
+    m = M.CharneyHasegawaMima(n=32, beta=beta, deformation=deformation, fftw_measure=False)
+    w = m.default_y0
+    velocity_step = 0.5 * (2 * math.pi / 32) / m.max_velocity(w)
+    # the fastest wave: omega = beta k_x / (k^2 + F), largest at k = (1, 0) for F <= 1 ... over the retained modes
+    kx, ky = np.asarray(m.kx, dtype=float), np.asarray(m.ky, dtype=float)
+    k2 = kx * kx + ky * ky
+    omega = np.max(np.where(k2 > 0, np.abs(beta * kx) / np.where(k2 > 0, k2 + deformation, 1.0), 0.0))
+    expected = velocity_step if omega == 0 else min(velocity_step, 0.5 / omega)
+    assert m.cfl_step(w) == pytest.approx(expected, rel=1e-15)
+    summary = tmp_path / "s.json"
+    run_cli(cli, "run", "charney-hasegawa-mima", "--N", "32", "--beta", repr(beta), "--deformation",
+            repr(deformation), "--steps", "3", "--fftw-estimate", "--fftw-wisdom", "none", "--summary-json", summary)
+    s = json.loads(summary.read_text())
+    assert s["dt"] == m.cfl_step(w)
+    assert s["step_reductions"] == 0
+    r = eci.solve(m, (0.0, 3 * s["dt"]), w)
+    assert r.success and r.stats["rejected_steps"]["step_failed"] == 0
+
+
+# A fixed step far too long for the flow fails after the library's limit of sub-steps per grid step, with its
+# sentence, in both front ends (it halved without end: no limit was set for the spectral models).
+@pytest.mark.skipif(not hasattr(M, "CharneyHasegawaMima"), reason="built without eci::spectral")
+def test_a_spectral_step_too_long_fails_after_the_sub_step_limit(cli):
+    r = run_cli(cli, "run", "charney-hasegawa-mima", "--N", "16", "--beta", "1e12", "--dt", "0.01", "--steps", "1",
+                "--fftw-estimate", "--fftw-wisdom", "none", check=False)
+    assert r.returncode == 1, r.stderr
+    assert "sub-steps" in r.stderr, r.stderr
+    m = M.CharneyHasegawaMima(n=16, beta=1e12, fftw_measure=False)
+    with pytest.raises(eci.StepSizeUnderflow) as e:  # (a spectral model raises what stops it, as for a failed step)
+        eci.solve(m, (0.0, 0.01), dt=0.01)
+    assert "took more than 65536 sub-steps" in str(e.value)
+    assert "took more than 65536 sub-steps" in r.stderr
+
+
+# events=[] (no events) and t_eval=[] (no outputs), as SciPy takes them: eci.solve raised KeyError 'y_events' for
+# the one and returned every step for the other. (SciPy 1.10 returns t = [] as a list there; eci an empty array.)
+def test_empty_events_and_t_eval_are_scipys():
+    from scipy.integrate import solve_ivp
+    f = lambda t, y: -y  # noqa: E731
+    for kw in ({"events": []}, {"t_eval": []}, {"t_eval": [], "events": []}):
+        ref = solve_ivp(f, (0.0, 1.0), [1.0, 2.0], **kw)
+        for extra in ({"rtol": 1e-6}, {"dt": 0.1}):
+            r = eci.solve(f, (0.0, 1.0), [1.0, 2.0], **kw, **extra)
+            assert r.success
+            if "t_eval" in kw:
+                assert np.shape(ref.t) == r.t.shape == (0,) and r.y.shape == (2, 0)
+            else:
+                assert len(r.t) > 2 and r.y.shape == (2, len(r.t))
+            assert r.t_events == ref.t_events and r.y_events == ref.y_events
+    m = M.ThreeWave()
+    r = eci.solve(m, (0.0, 1.0), dt=0.1, t_eval=[])
+    assert r.t.shape == (0,) and r.y.shape == (3, 0)

@@ -288,3 +288,21 @@ def test_decimal_numbers_are_taken(cli, value):
 ])
 def test_option_counts_are_refused_in_plain_words(cli, args, expected):
     assert cli_error(cli, "run", *args) == expected
+
+
+# Two outputs through one descriptor would interleave in one stream: "-", /dev/stdout and /dev/fd/1 are all standard
+# output ("--output /dev/stdout --summary-json -" wrote the CSV and the JSON into one stream, exit 0).
+@pytest.mark.parametrize("model", ["three-wave", "navier-stokes-2d"])
+@pytest.mark.parametrize("output, summary", [("/dev/stdout", "-"), ("-", "/dev/fd/1"), ("/dev/stdout", "/dev/stdout"),
+                                             ("/proc/self/fd/1", "/dev/stdout")])
+def test_two_outputs_to_standard_output_are_refused(cli, model, output, summary):
+    extra = ["--N", "16", "--fftw-estimate", "--fftw-wisdom", "none"] if model == "navier-stokes-2d" else []
+    assert cli_error(cli, "run", model, "--steps", "2", "--output", output, "--summary-json", summary, *extra) == \
+        "--output and --summary-json cannot both be standard output"
+
+
+# A restarted run's summary says where it began (it said "t 0 to T" from any checkpoint).
+def test_a_restarts_summary_names_its_start(cli, tmp_path, checkpoint):
+    r = run_cli(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 5,
+                "--checkpoint", tmp_path / "b.h5")
+    assert ", dt 0.01, t 0.02 to 0.05\n" in r.stderr, r.stderr

@@ -251,3 +251,25 @@ def test_bad_input():
         eci._eci._embedded_stepper("rk4", rotation, 0.0, Y0, None, 1e-3, 1e-6)
     s = eci.scipy.CDP54(rotation, 0.0, Y0, 1.0, invariant_weights=[2, 2, 2])
     np.testing.assert_allclose(s.invariants(Y0), [2 * Y0 @ Y0], rtol=4 * EPS)
+
+
+# fun returning nan or inf, from the start or later: every pair ends with status -1 and a message that says so, in a
+# bounded number of calls. SciPy's own RK45 loops for ever on a nan f(t0, y0) (its initial step comes out nan), and
+# DP853 stepped to t_bound on nan states with status 0 (its two-estimate error norm read a nan sum as zero).
+@pytest.mark.parametrize("cls", PAIRS, ids=lambda c: c.__name__)
+@pytest.mark.parametrize("bad", [np.nan, np.inf])
+@pytest.mark.parametrize("start", [0.0, 0.5])
+@pytest.mark.parametrize("first_step", [None, 0.1])
+def test_a_non_finite_fun_ends_the_run_with_a_reason(cls, bad, start, first_step):
+    calls = []
+
+    def fun(t, y):
+        calls.append(t)
+        return rotation(t, y) if t < start else np.array([bad, 0.0, 0.0])
+
+    with np.errstate(all="ignore"):  # (SciPy's initial-step rule computes with the bad values)
+        r = solve_ivp(fun, (0.0, 1.0), Y0, method=cls, first_step=first_step)
+    assert r.status == -1 and not r.success, (r.status, r.message)
+    assert "non-finite" in r.message, r.message
+    assert len(calls) < 20000
+    assert r.t[-1] <= start + 1e-12 and np.all(np.isfinite(r.y))

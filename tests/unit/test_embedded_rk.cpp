@@ -120,3 +120,37 @@ TEST(EmbeddedRk, ComplexStatesAndErrorWeights) {
 }
 
 }  // namespace
+
+namespace {
+
+// A right-hand side that is not finite makes every pair's error estimate nan (the attempt rejected by any
+// controller, SciPy's included), never a number below 1: DP853's estimate, a quotient of two sums, read a nan
+// denominator as zero and returned 0, so that eci.scipy.DP853 stepped to the end on nan states with status 0.
+template <class Stepper>
+void expect_rejected_on_a_nan_rate() {
+    for (const double bad : {std::nan(""), std::numeric_limits<double>::infinity()}) {
+        const auto f = [bad](const state& x, state& dxdt, double) {
+            dxdt = x;
+            dxdt.fill(0.0);
+            dxdt[0] = bad;
+        };
+        Stepper st;
+        state x = x0;
+        const eci::error_weights w{1e-6, 1e-6};  // (without weights no error norm is formed)
+        const eci::attempt_result r = st.attempt(f, x, 0.0, 0.1, &w);
+        EXPECT_FALSE(r.ok && r.error <= 1.0) << "rate " << bad << ": ok " << r.ok << ", error " << r.error;
+        EXPECT_EQ(x, x0);
+    }
+}
+
+TEST(EmbeddedRk, ANonFiniteRateIsNeverAnAcceptableError) {
+    expect_rejected_on_a_nan_rate<eci::dp54<state>>();
+    expect_rejected_on_a_nan_rate<eci::dp853<state>>();
+    expect_rejected_on_a_nan_rate<eci::f78<state>>();
+    expect_rejected_on_a_nan_rate<eci::bs32<state>>();
+    expect_rejected_on_a_nan_rate<eci::ck54<state>>();
+    expect_rejected_on_a_nan_rate<eci::c_dp54<state>>();
+    expect_rejected_on_a_nan_rate<eci::c_dp853<state>>();
+}
+
+}  // namespace

@@ -236,7 +236,8 @@ class flow2d {
     /// energy E and enstrophy Z must be finite normal numbers" (by invariant_names(); 0 is allowed). Collective:
     /// every process of a spread flow gives the same verdict.
     void check_initial_state(const state_type& q) const;
-    /// The step of CFL number `cfl` at the initial state q, cfl dx / max|u| (the front ends' default step), after
+    /// The step of CFL number `cfl` at the initial state q, cfl dx / max|u|, and at most cfl / max|omega| of the
+    /// equation's linear waves (Rossby waves with beta): the front ends' default step, after
     /// check_initial_state(q). std::invalid_argument naming the settings as the front end does (`dt_name`,
     /// `cfl_name`): "CFL must be a positive number", "the initial velocity is zero: give DT", "the time step from
     /// CFL c, CFL dx / max|u| = h, is not a positive finite number".

@@ -30,7 +30,6 @@ void ns2d_step(St& stepper, navier_stokes_2d& m, navier_stokes_2d::state_type& x
     }
     run_options opt;
     opt.max_halvings = max_halvings;
-    opt.max_substeps = std::numeric_limits<std::uint64_t>::max();
     if (stop) opt.stop_between_attempts = stop;
     m.begin_step(dt);
     const detail::held_count<navier_stokes_2d> counted{m, &stats.rhs_evals};

@@ -421,7 +421,8 @@ class embedded_rk
     attempt_result finish_result(attempt_result res, const finish_sums& sums, std::size_t n, double dt) {
         if constexpr (two_estimates) {  // |err|^2 / sqrt(|err|^2 + mix |err_low|^2), RMS norms (doubly_embedded_tableau)
             const double den = sums.sq + T.low_mix * sums.sq_low;
-            res.error = den > 0.0 ? sums.sq / std::sqrt(double(n) * den) : 0.0;
+            // (a nan sum, from a rate that is not finite, stays nan: the step is rejected, never taken as exact)
+            res.error = den > 0.0 ? sums.sq / std::sqrt(double(n) * den) : den == 0.0 ? 0.0 : den;
         } else {
             res.error = n > 0 ? std::sqrt(sums.sq / double(n)) : 0.0;
         }
