@@ -594,8 +594,9 @@ int spectral_command::run_spread(const run_settings& settings) {
         } else {
             const fs::path parent = fs::path(dir).parent_path().empty() ? fs::path(".") : fs::path(dir).parent_path();
             if (!fs::is_directory(parent))
-                throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': directory '" +
-                                parent.string() + "' does not exist");
+                throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " +
+                                (fs::exists(parent) ? "'" + parent.string() + "' is not a directory"
+                                                    : "directory '" + parent.string() + "' does not exist"));
             if (::access(parent.c_str(), W_OK | X_OK) != 0)
                 throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " + std::strerror(errno));
         }

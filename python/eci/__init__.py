@@ -321,12 +321,18 @@ def _event_list(events):
             raise TypeError(f"event {i} is not callable: events are functions event(t, y) -> float")
         terminal = getattr(e, "terminal", False)
         direction = getattr(e, "direction", 0)
-        if isinstance(terminal, bool) or terminal in (0, 1):
-            terminal = bool(terminal)
+        # SciPy's (1.11 on): True ends the run at the event's first zero, a whole number N at its N-th, False, 0 or
+        # None never; the count is of the zeros found, each event's own (0 here: never)
+        if terminal is None or isinstance(terminal, (bool, np.bool_)):
+            count = int(bool(terminal))
+        elif isinstance(terminal, numbers.Integral) and terminal >= 0:
+            count = int(terminal)
+        elif isinstance(terminal, numbers.Real) and terminal == int(terminal) and terminal >= 0:
+            count = int(terminal)
         else:
-            raise ValueError(f"event {i}: terminal must be True or False, not {terminal!r}")
+            raise ValueError(f"event {i}: terminal must be True, False or a whole number >= 0, not {terminal!r}")
         direction = _number(direction, f"event {i}'s direction")
-        out.append((e, terminal, float(np.sign(direction))))
+        out.append((e, count, float(np.sign(direction))))
     return out
 
 
@@ -370,8 +376,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     dense_output: also return result.sol, a DenseSolution (callable like SciPy's OdeSolution) built from every
         step's dense output; for a conservative pair it keeps the invariants at every t. Adaptive runs only.
     events: a callable event(t, y) -> float, or a sequence of them, each optionally with attributes terminal
-        (stop the run at its first zero) and direction (count only increasing (> 0) or decreasing (< 0) zeros), as
-        SciPy's. Zeros are located to round-off on each step's dense output (Brent's method in C++, 4 eps);
+        (True: stop the run at its first zero; a whole number N: at its N-th, as SciPy 1.11 on) and direction
+        (count only increasing (> 0) or decreasing (< 0) zeros), as SciPy's. Zeros are located to round-off on each step's dense output (Brent's method in C++, 4 eps);
         result.t_events[i] and result.y_events[i] hold event i's times and states; a terminal one ends the run
         with status 1. Adaptive runs only.
     args: extra arguments: fun(t, y, *args), and so jac and every event (SciPy's `args`).

@@ -32,7 +32,7 @@ struct python_request {
     /// The event functions g(t, y) and, for each, whether it ends the run and which crossings count (SciPy's
     /// `terminal` and `direction`).
     std::vector<py::object> events;
-    std::vector<bool> terminal;
+    std::vector<std::uint64_t> terminal;  ///< the zero of each event that ends the run: 1 the first, 0 none
     std::vector<double> direction;
     bool sees_steps() const { return dense_output || !events.empty(); }
 };
@@ -74,7 +74,7 @@ inline python_request request_from(double t0, double t1, double dt, const py::di
         for (const py::handle e : settings["events"].cast<py::list>()) {
             const py::tuple t = e.cast<py::tuple>();
             r.events.push_back(py::reinterpret_borrow<py::object>(t[0]));
-            r.terminal.push_back(t[1].cast<bool>());
+            r.terminal.push_back(t[1].cast<std::uint64_t>());
             r.direction.push_back(t[2].cast<double>());
         }
     return r;
@@ -180,6 +180,7 @@ class recording_sink final : public dynamic_sink<S> {
     const python_request* req = nullptr;
     step_record<S>* steps = nullptr;
     std::vector<double> g_prev{};  // each event function at the last step's end
+    std::vector<std::uint64_t> event_count{};  // each event's zeros so far
     S scratch{}, conventional{};
 
     void output(const S& x, const output_point& p) override {
@@ -228,8 +229,8 @@ class recording_sink final : public dynamic_sink<S> {
             for (std::size_t j = 0; j < m; ++j) g_prev[j] = event_value(j, s.t_start(), s.start_state());
         }
         // SciPy's rules (find_active_events, handle_events): a crossing from <= 0 to >= 0 is up, from >= 0 to
-        // <= 0 down; each active one located by Brent on the dense output; with a terminal one among them, the
-        // first terminal root (in the run's direction) ends the run and later roots are dropped.
+        // <= 0 down; each active one located by Brent on the dense output and counted; when an event has reached
+        // its terminal count, the first such root (in the run's direction) ends the run and later roots are dropped.
         std::vector<std::pair<double, std::size_t>> roots;
         std::vector<double> g_new(m);
         for (std::size_t j = 0; j < m; ++j) {
@@ -246,12 +247,17 @@ class recording_sink final : public dynamic_sink<S> {
         g_prev = g_new;
         const bool forward = s.t_end() > s.t_start();
         std::optional<double> stop;
-        if (std::ranges::any_of(roots, [&](const auto& r) { return bool(req->terminal[r.second]); })) {
+        event_count.resize(m);
+        for (const auto& r : roots) ++event_count[r.second];
+        const auto ends = [&](const auto& r) {
+            return req->terminal[r.second] > 0 && event_count[r.second] >= req->terminal[r.second];
+        };
+        if (std::ranges::any_of(roots, ends)) {
             std::stable_sort(roots.begin(), roots.end(), [&](const auto& a, const auto& b) {
                 return forward ? a.first < b.first : a.first > b.first;
             });
             std::size_t k = 0;
-            while (!req->terminal[roots[k].second]) ++k;
+            while (!ends(roots[k])) ++k;
             roots.resize(k + 1);
             stop = roots.back().first;
         }

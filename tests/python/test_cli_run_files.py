@@ -306,3 +306,12 @@ def test_a_restarts_summary_names_its_start(cli, tmp_path, checkpoint):
     r = run_cli(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 5,
                 "--checkpoint", tmp_path / "b.h5")
     assert ", dt 0.01, t 0.02 to 0.05\n" in r.stderr, r.stderr
+
+
+# A snapshot directory under a regular file: the message says so (it said the directory did not exist).
+def test_a_snapshot_directory_under_a_file_is_named_as_such(cli, tmp_path):
+    (tmp_path / "regfile").write_text("x")
+    msg = cli_error(cli, *small("--steps", 1, "--snapshot-every", 1, "--snapshot-dir", tmp_path / "regfile" / "x"))
+    assert msg == f"cannot create snapshot directory '{tmp_path / 'regfile' / 'x'}': '{tmp_path / 'regfile'}' is " \
+        "not a directory"
+    assert (tmp_path / "regfile").read_text() == "x"

@@ -331,3 +331,25 @@ def test_events_and_dense_output_through_a_users_transform(method):
     poly = eci.DenseSolution(r.sol._t_start, r.sol._t_end, r.sol._nodes, r.sol._samples, None, r.sol._sign_nodes,
                              False, y0, 0.0)
     assert np.max(np.abs(H(poly(tt)) / h0 - 1.0)) > bound
+
+
+# An event's terminal may be a count, as in SciPy 1.11 on: the run ends at that event's N-th zero (it was refused
+# unless True or False). Zeros of cos t at pi/2 + k pi.
+@pytest.mark.parametrize("method", ["dp54", "c-dp54"])
+def test_a_terminal_count_ends_the_run_at_that_zero(method):
+    f = lambda t, y: np.array([-y[1], y[0]])  # noqa: E731  y = (cos t, sin t)
+
+    def first(t, y):
+        return y[0]
+
+    for terminal, zeros in ((3, 3), (True, 1), (1, 1), (0, 6), (False, 6), (2.0, 2)):
+        first.terminal = terminal
+        r = eci.solve(f, (0.0, 19.0), [1.0, 0.0], method=method, rtol=1e-10, atol=1e-10, events=first)
+        assert len(r.t_events[0]) == zeros, (terminal, r.t_events[0])
+        np.testing.assert_allclose(r.t_events[0], np.pi / 2 + np.pi * np.arange(zeros), rtol=1e-8)
+        assert r.status == (1 if zeros < 6 else 0)
+        assert r.t[-1] == (r.t_events[0][-1] if zeros < 6 else 19.0)
+    for bad in (-1, 1.5, "2"):
+        first.terminal = bad
+        with pytest.raises(ValueError, match="terminal must be True, False or a whole number >= 0"):
+            eci.solve(f, (0.0, 19.0), [1.0, 0.0], method=method, rtol=1e-10, events=first)
