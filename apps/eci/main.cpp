@@ -36,12 +36,15 @@ std::string plain_parse_error(const std::string& what) {
     static const std::regex at_least("^(--[A-Za-z0-9-]+): At least ([0-9]+) required but received ([0-9]+)$");
     static const std::regex missing("^(--[A-Za-z0-9-]+): [0-9]+ required \\S+ missing$");
     static const std::regex not_in("^(--[A-Za-z0-9-]+): (.*) not in \\{(.*)\\}$");
+    static const std::regex range("^(--[A-Za-z0-9-]+): Value (.*) not in range (.*) to (.*)$");
     if (std::regex_match(what, m, at_most))
         return m[2].str() == "1" ? m[1].str() + " is given more than once"
                                  : m[1].str() + " takes " + m[2].str() + " values, not " + m[3].str();
     if (std::regex_match(what, m, at_least))
         return m[1].str() + " needs " + m[2].str() + " values separated by commas, not " + m[3].str();
     if (std::regex_match(what, m, missing)) return m[1].str() + " needs a value";
+    if (std::regex_match(what, m, range))
+        return m[1].str() + " must be in " + m[3].str() + ".." + m[4].str() + ", not " + m[2].str();
     if (std::regex_match(what, m, not_in)) {
         std::string choices = m[3].str();
         const std::size_t last = choices.rfind(',');

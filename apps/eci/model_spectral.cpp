@@ -1137,7 +1137,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     std::uint64_t stopped_at = 0;  // the last step whose state and outputs the run has made
     try {
         report = solve<navier_stokes_2d>(model, w, method, cfg, callback_sink{on_output, on_step, on_progress}, {},
-                                         name_);
+                                         "model " + name_);
     } catch (const eci::interrupted&) {  // (between the halvings of a step: back to the last whole step)
         progress.finish();
         w = w_prev;

@@ -814,8 +814,9 @@ solve_report solve(F_&& system, S& x, std::string_view method, const run_config&
         if constexpr (requires { stepper.remedy.update; })
             stepper.remedy.update = cfg.update;
         else if (cfg.update_chosen)
-            throw std::invalid_argument("update chooses the update of a conservative method (c-pc, c-rk2, c-rk4, a c- "
-                                        "pair); method " + std::string(m.name) + " has none");
+            throw std::invalid_argument("update chooses the form of the conservative update on quadratic invariants "
+                                        "(c-pc, c-rk2, c-rk4, a c- pair); method " + std::string(m.name) +
+                                        " has none on " + std::string(what));
         return stepper;
     };
     if (cfg.adaptive) {

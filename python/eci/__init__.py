@@ -242,6 +242,13 @@ class DenseSolution:
         self._transform = transform
         self._xi = {}  # per step: forward() of its stored points (transform=), computed when first needed
 
+    def _end_at(self, t):
+        """The run ended inside its last step (a terminal event at t): ts and the range end there, as SciPy's
+        OdeSolution does; the last step's interpolant still serves beyond it (extrapolation)."""
+        self.ts = self.ts.copy()
+        self.ts[-1] = t
+        self.t_min, self.t_max = (float(min(self.ts[0], self.ts[-1])), float(max(self.ts[0], self.ts[-1])))
+
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
         tt = np.atleast_1d(t).ravel()
@@ -525,6 +532,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             raise ValueError("a transform needs a real y0")
         n = len(y)
     weights = None
+    kahan_calls, jac_given = [0], None  # (method kahan: its calls of jac, and jac as given)
     if quadratic_invariants is not None:
         if is_model:
             raise ValueError(f"quadratic_invariants is for a Python fun; model {fun.name} declares its own")
@@ -558,7 +566,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         if method == "kahan":
             if transform is not None:
                 raise ValueError("method kahan does not take a transform")
-            jac = _jacobian(jac, y)
+            jac_given, jac = jac, _jacobian(jac, y)
+            # each step (and each halving) evaluates J once and solves one linear system with it: SciPy's njev, nlu
+            jac = (lambda j: lambda t, x: (kahan_calls.__setitem__(0, kahan_calls[0] + 1), j(t, x))[1])(jac)
         parts = None if transform is None else (transform.forward, transform.inverse, transform.jacobian,
                                                 transform.rate)
         if t1 < t0 and not adaptive:  # fixed steps backward (adaptive runs step backward in the library)
@@ -569,8 +579,10 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
                                        weights)
     result = SolveResult(raw)
     result["nfev"] = result["stats"]["rhs_evals"] + extra_calls
-    result["njev"] = 0  # explicit methods evaluate no Jacobian (kahan's calls of jac are in its solver stats)
-    result["nlu"] = 0
+    # explicit methods evaluate no Jacobian and solve nothing; Kahan's linearly implicit method evaluates jac (a
+    # constant matrix: no evaluation) and factors one matrix per attempted step
+    result["njev"] = kahan_calls[0] if callable(jac_given) else 0
+    result["nlu"] = kahan_calls[0]
     failure = result.get("failure")
     if failure is not None:  # the exception that describes it, not raised: result.failure (raise it if you like)
         from . import _errors
@@ -594,6 +606,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         start = y if y is not None else (result["y"][:, 0] if result["y"].shape[1] else np.asarray(fun.default_y0))
         result["sol"] = DenseSolution(d["t_start"], d["t_end"], d["nodes"], d["samples"], d["signs"], d["sign_nodes"],
                                       d["squared"], start, t0, transform)
+        if result.get("stopped_at") is not None and result["sol"].n_segments:
+            result["sol"]._end_at(float(result["stopped_at"]))
     return result
 
 

@@ -190,8 +190,8 @@ class ns2d_object : public model_base {
                 if (i < n) interrupt();  // before every step
             };
             try {
-                const solve_report r = eci::solve<navier_stokes_2d>(m, x, method, cfg,
-                                                                    flow_sink{on_output, on_step, on_progress});
+                const solve_report r = eci::solve<navier_stokes_2d>(
+                    m, x, method, cfg, flow_sink{on_output, on_step, on_progress}, {}, "model " + name());
                 report.stats = r.stats;  // (steps, halvings, evaluations, the remedy's counts)
                 if (r.failure) {
                     const run_failure& e = *r.failure;

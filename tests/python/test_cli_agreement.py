@@ -747,8 +747,8 @@ def test_an_update_with_a_method_without_one_is_refused_alike(cli, model, extra,
     from conftest import cli_error
 
     message = cli_error(cli, "run", model, "--method", method, "--t-end", "0.02", "--update", "paper", *extra)
-    assert message == ("update chooses the update of a conservative method (c-pc, c-rk2, c-rk4, a c- pair); "
-                       f"method {method} has none")
+    assert message == ("update chooses the form of the conservative update on quadratic invariants (c-pc, c-rk2, "
+                       f"c-rk4, a c- pair); method {method} has none on model {model}")
     m = {"three-wave": lambda: M.ThreeWave(), "n-wave": lambda: M.NWave(),
          "navier-stokes-2d": lambda: M.NavierStokes2D(n=16, fftw_measure=False)}[model]()
     with pytest.raises(ValueError) as e:

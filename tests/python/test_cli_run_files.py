@@ -290,6 +290,10 @@ def test_option_counts_are_refused_in_plain_words(cli, args, expected):
     assert cli_error(cli, "run", *args) == expected
 
 
+def test_a_figure_number_out_of_range_is_refused_in_plain_words(cli):
+    assert cli_error(cli, "figures", "--only", "10") == "--only must be in 1..9, not 10"
+
+
 # Two outputs through one descriptor would interleave in one stream: "-", /dev/stdout and /dev/fd/1 are all standard
 # output ("--output /dev/stdout --summary-json -" wrote the CSV and the JSON into one stream, exit 0).
 @pytest.mark.parametrize("model", ["three-wave", "navier-stokes-2d"])

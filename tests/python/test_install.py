@@ -31,3 +31,18 @@ def test_install_into_the_interpreters_package_directory(tmp_path):
     assert out.returncode == 0, out.stderr
     where, drift = out.stdout.split()
     assert where.startswith(str(site)) and float(drift) < 1e-14
+
+
+# `cmake --install` installs the command too (it installed only the library and the Python package): bin/eci, the
+# launcher, and bin/eci-main beside it, which it starts; the installed command runs away from the build tree.
+def test_install_puts_the_command_in_bin(tmp_path):
+    prefix = tmp_path / "prefix"
+    r = subprocess.run(["cmake", "--install", str(BUILD), "--prefix", str(prefix), "--component", "cli"],
+                       capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stdout + r.stderr
+    eci_bin = prefix / "bin" / "eci"
+    assert eci_bin.exists() and (prefix / "bin" / "eci-main").exists()
+    out = subprocess.run([str(eci_bin), "run", "three-wave", "--steps", "10", "--output", "-"], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=60)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.splitlines()[0].startswith("t,") and len(out.stdout.splitlines()) == 12

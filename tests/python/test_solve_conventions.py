@@ -353,3 +353,45 @@ def test_a_terminal_count_ends_the_run_at_that_zero(method):
         first.terminal = bad
         with pytest.raises(ValueError, match="terminal must be True, False or a whole number >= 0"):
             eci.solve(f, (0.0, 19.0), [1.0, 0.0], method=method, rtol=1e-10, events=first)
+
+
+# Kahan's method evaluates jac once and solves one linear system per step: SciPy's njev and nlu count them (they
+# were 0); a constant Jacobian matrix is no evaluation.
+def test_kahan_counts_its_jacobians_and_solves():
+    calls = []
+
+    def f(t, y):
+        return np.array([y[0] * y[1], -y[0] * y[1]])
+
+    def jac(t, y):
+        calls.append(t)
+        return np.array([[y[1], y[0]], [-y[1], -y[0]]])
+
+    r = eci.solve(f, (0.0, 1.0), [1.0, 2.0], method="kahan", dt=0.1, jac=jac)
+    assert r.success and len(calls) == 10
+    assert r.njev == 10 and r.nlu == 10
+    r = eci.solve(lambda t, y: -y, (0.0, 1.0), [1.0, 2.0], method="kahan", dt=0.1, jac=-np.eye(2))
+    assert r.njev == 0 and r.nlu == 10
+    r = eci.solve(f, (0.0, 1.0), [1.0, 2.0], method="rk4", dt=0.1)
+    assert r.njev == 0 and r.nlu == 0
+
+
+# After a terminal event the dense solution ends where the run did, as SciPy's OdeSolution (t_max was the end of the
+# step the event fell in).
+@pytest.mark.parametrize("span", [(0.0, 19.0), (19.0, 0.0)])
+def test_the_dense_solution_ends_at_a_terminal_event(span):
+    from scipy.integrate import solve_ivp
+    f = lambda t, y: np.array([-y[1], y[0]])  # noqa: E731
+
+    def first(t, y):
+        return y[0]
+    first.terminal = True
+    y0 = [math.cos(span[0]), math.sin(span[0])]
+    r = eci.solve(f, span, y0, method="dp54", rtol=1e-8, atol=1e-8, events=first, dense_output=True)
+    ref = solve_ivp(f, span, y0, method="RK45", rtol=1e-8, atol=1e-8, events=first, dense_output=True)
+    assert r.status == ref.status == 1
+    assert r.sol.ts[-1] == r.t[-1] == r.t_events[0][0]
+    assert (r.sol.t_min, r.sol.t_max) == (min(span[0], r.t[-1]), max(span[0], r.t[-1]))
+    assert ref.sol.ts[-1] == ref.t[-1]
+    # one interpolant evaluated two ways (the run's C++ form at the event, sol's samples in Python): a few ulps of 1
+    np.testing.assert_allclose(r.sol(r.t[-1]), r.y[:, -1], rtol=0, atol=16 * EPS)

@@ -137,7 +137,8 @@ struct kepler_cartesian {
     };
     /// H, L, A_x, A_y.
     invariant_set invariant_functions() const { return {}; }
-    /// H and L: the Runge-Lenz vector depends on them (above), so projection and multiple relaxation keep these two.
+    /// H and L, what projection and multiple relaxation keep. |A| depends on them (above); A's direction does not
+    /// and is not kept (A_y would be, along an x axis, but its gradient degenerates as A turns: docs/methods.md).
     static constexpr std::array<std::size_t, 2> independent_invariants{0, 1};
 };
 
