@@ -5,8 +5,10 @@
 
 #include <algorithm>
 #include <array>
+#include <charconv>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <span>
@@ -424,18 +426,30 @@ class described_binder {
             const auto settings = Model::recipe_parameters();
             for (std::size_t i = 0; i < settings.size(); ++i) {
                 if (!given[i]) continue;
-                long long v = 0;
+                // the CLI's checks of its whole-number options (a Python int beyond 64 bits in its sentence, not
+                // a TypeError), then the generator's own
+                std::uint64_t v = 0;
+                bool negative = false;
+                std::string text;
                 try {
-                    v = py::cast<long long>(given[i]);
+                    const long long w = py::cast<long long>(given[i]);
+                    negative = w < 0;
+                    v = std::uint64_t(w);
+                    text = std::to_string(w);
                 } catch (const py::cast_error&) {
-                    throw py::type_error(cls + ": " + names[i] + " must be a whole number, not " +
-                                         py::cast<std::string>(py::type::handle_of(given[i]).attr("__name__")));
+                    if (!py::isinstance<py::int_>(given[i]))
+                        throw py::type_error(cls + ": " + names[i] + " must be a whole number, not " +
+                                             py::cast<std::string>(py::type::handle_of(given[i]).attr("__name__")));
+                    text = py::str(given[i]);
+                    negative = text.starts_with('-');
+                    if (!negative && std::from_chars(text.data(), text.data() + text.size(), v).ec != std::errc())
+                        throw std::invalid_argument(names[i] + ": '" + text + "' is too large (at most " +
+                                                    std::to_string(std::numeric_limits<std::uint64_t>::max()) + ")");
                 }
-                // the CLI's check of its whole-number options, then the generator's own
-                if (v < 0 || std::uint64_t(v) < settings[i].min)
+                if (negative || v < settings[i].min)
                     throw std::invalid_argument(names[i] + " must be a whole number >= " +
-                                                std::to_string(settings[i].min) + ", not " + std::to_string(v));
-                r.*settings[i].value = std::uint64_t(v);
+                                                std::to_string(settings[i].min) + ", not " + text);
+                r.*settings[i].value = v;
             }
             std::pair<Model, typename Model::state_type> generated_model;
             try {

@@ -815,3 +815,17 @@ def test_empty_events_and_t_eval_are_scipys():
     m = M.ThreeWave()
     r = eci.solve(m, (0.0, 1.0), dt=0.1, t_eval=[])
     assert r.t.shape == (0,) and r.y.shape == (3, 0)
+
+
+# A whole number beyond 64 bits is refused as the CLI refuses it (Python raised TypeError "seed must be a whole
+# number, not int" for an int that did not fit a C++ long long, 2^63 included, which the CLI takes).
+def test_whole_numbers_beyond_64_bits_are_refused_alike(cli):
+    from conftest import cli_error
+
+    for value in (2 ** 64, 2 ** 70):
+        message = cli_error(cli, "run", "n-wave", "--seed", str(value), "--t-end", 1)
+        with pytest.raises(ValueError) as e:
+            M.NWave(seed=value)
+        assert str(e.value) == message.replace("--seed", "seed")
+    assert M.NWave(seed=2 ** 63).name == "n-wave"  # (the CLI takes it too)
+    run_cli(cli, "run", "n-wave", "--seed", str(2 ** 63), "--steps", 1)
