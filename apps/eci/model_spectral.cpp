@@ -230,8 +230,8 @@ class spectral_command final : public model_command {
         text("ic", "initial condition: random, vortex-pair, taylor-green, or FILE (an eci snapshot or checkpoint "
                    ".h5 on the same grid) (default random)");
         text("snapshot-dir", "directory of the snapshots (default " + default_snapshot_dir_ + ")");
-        text("checkpoint", "checkpoint file, also written when stopped by SIGINT, SIGTERM, SIGHUP or SIGQUIT (default " +
-                               default_checkpoint_ + ")");
+        text("checkpoint", "checkpoint file, also written when stopped by SIGINT, SIGTERM, SIGHUP or SIGQUIT "
+                           "(default " + default_checkpoint_ + ")");
         text("restart", "continue, bit for bit, from a checkpoint");
         text("fftw-wisdom", "FFTW wisdom file read before and written after planning, so that every run plans the "
                             "same transforms and repeats bit for bit; 'none' for no file (default "
@@ -486,7 +486,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     // with the --injection-rate typed): the library's rule for the equation's settings, as Python's, and here the
     // options of another initial field. (A restart's settings are the checkpoint's, compared above.)
     if (!restart) {
-        for (const char* field : {"forcing_k", "forcing_seed", "forcing_amplitude", "injection_rate", "hyper_p", "hypo_p"})
+        for (const char* field :
+             {"forcing_k", "forcing_seed", "forcing_amplitude", "injection_rate", "hyper_p", "hypo_p"})
             if (spec(option_name(field).substr(2)).given)
                 if (const std::string why = p.unused_setting(field, option_name); !why.empty()) throw bad_input(why);
         const bool named_field = ic_ == "random" || ic_ == "vortex-pair" || ic_ == "taylor-green";

@@ -754,9 +754,9 @@ std::vector<file_key> file_keys(const std::vector<std::pair<std::string, std::st
 void check_distinct_files(const std::vector<std::pair<std::string, std::string>>& outputs) {
     // Two outputs through one descriptor ("-" is standard output, as /dev/stdout and /dev/fd/1 are) would
     // interleave there: "--output /dev/stdout --summary-json -" wrote the CSV and the JSON into one stream.
+    const auto fd = [](const std::string& p) { return p == "-" ? 1 : p.empty() ? -1 : named_descriptor(p); };
     for (std::size_t i = 0; i < outputs.size(); ++i)
         for (std::size_t j = i + 1; j < outputs.size(); ++j) {
-            const auto fd = [](const std::string& p) { return p == "-" ? 1 : p.empty() ? -1 : named_descriptor(p); };
             const int a = fd(outputs[i].second);
             if (a >= 0 && a == fd(outputs[j].second))
                 throw bad_input(a == 1 ? message({outputs[i].first, " and ", outputs[j].first,

@@ -793,6 +793,19 @@ solve_report solve_with(St& stepper, F_&& system, S& x, const run_config& cfg, S
     return solve_with(stepper, system, x, cfg, sink, monitor);
 }
 
+/// Sets a stepper's update to cfg.update (a conservative stepper with a choice of update), or refuses an update
+/// chosen (cfg.update_chosen) for a stepper without one, std::invalid_argument naming `method` and `what`: solve()'s
+/// rule, for a caller that builds its stepper itself.
+template <class St>
+void apply_update(St& stepper, const run_config& cfg, std::string_view method, std::string_view what) {
+    if constexpr (requires { stepper.remedy.update; })
+        stepper.remedy.update = cfg.update;
+    else if (cfg.update_chosen)
+        throw std::invalid_argument("update chooses the form of the conservative update on quadratic invariants (c-pc, "
+                                    "c-rk2, c-rk4, a c- pair); method " + std::string(method) + " has none on " +
+                                    std::string(what));
+}
+
 /// Runs `method` (a registry name) on the system f from x over `cfg`, monitoring the model's invariants (and
 /// `extra`) at every step, and hands every output to `sink`: solve_with on the stepper the registry builds for
 /// Dispatch (the model; for a plain function, its state type), with its update set to cfg.update. Bad settings
@@ -811,12 +824,7 @@ solve_report solve(F_&& system, S& x, std::string_view method, const run_config&
     solve_report report;
     report.t = cfg.t0;
     auto build = [&](auto stepper) {
-        if constexpr (requires { stepper.remedy.update; })
-            stepper.remedy.update = cfg.update;
-        else if (cfg.update_chosen)
-            throw std::invalid_argument("update chooses the form of the conservative update on quadratic invariants "
-                                        "(c-pc, c-rk2, c-rk4, a c- pair); method " + std::string(m.name) +
-                                        " has none on " + std::string(what));
+        apply_update(stepper, cfg, m.name, what);
         return stepper;
     };
     if (cfg.adaptive) {

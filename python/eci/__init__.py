@@ -332,9 +332,8 @@ def _event_list(events):
         # None never; the count is of the zeros found, each event's own (0 here: never)
         if terminal is None or isinstance(terminal, (bool, np.bool_)):
             count = int(bool(terminal))
-        elif isinstance(terminal, numbers.Integral) and terminal >= 0:
-            count = int(terminal)
-        elif isinstance(terminal, numbers.Real) and terminal == int(terminal) and terminal >= 0:
+        elif isinstance(terminal, numbers.Real) and math.isfinite(terminal) and terminal >= 0 and \
+                terminal == int(terminal):
             count = int(terminal)
         else:
             raise ValueError(f"event {i}: terminal must be True, False or a whole number >= 0, not {terminal!r}")
@@ -384,9 +383,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         step's dense output; for a conservative pair it keeps the invariants at every t. Adaptive runs only.
     events: a callable event(t, y) -> float, or a sequence of them, each optionally with attributes terminal
         (True: stop the run at its first zero; a whole number N: at its N-th, as SciPy 1.11 on) and direction
-        (count only increasing (> 0) or decreasing (< 0) zeros), as SciPy's. Zeros are located to round-off on each step's dense output (Brent's method in C++, 4 eps);
-        result.t_events[i] and result.y_events[i] hold event i's times and states; a terminal one ends the run
-        with status 1. Adaptive runs only.
+        (count only increasing (> 0) or decreasing (< 0) zeros), as SciPy's. Zeros are located to round-off on each
+        step's dense output (Brent's method in C++, 4 eps); result.t_events[i] and result.y_events[i] hold event i's
+        times and states; a terminal one ends the run with status 1. Adaptive runs only.
     args: extra arguments: fun(t, y, *args), and so jac and every event (SciPy's `args`).
     vectorized: fun accepts y of shape (n, k) and returns (n, k) (SciPy's `vectorized`); eci calls it with one
         column, as SciPy's explicit methods do.
@@ -566,9 +565,11 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         if method == "kahan":
             if transform is not None:
                 raise ValueError("method kahan does not take a transform")
-            jac_given, jac = jac, _jacobian(jac, y)
-            # each step (and each halving) evaluates J once and solves one linear system with it: SciPy's njev, nlu
-            jac = (lambda j: lambda t, x: (kahan_calls.__setitem__(0, kahan_calls[0] + 1), j(t, x))[1])(jac)
+            jac_given = jac
+
+            def jac(t, x, j=_jacobian(jac, y)):  # counted: SciPy's njev and nlu (one solve per attempted step)
+                kahan_calls[0] += 1
+                return j(t, x)
         parts = None if transform is None else (transform.forward, transform.inverse, transform.jacobian,
                                                 transform.rate)
         if t1 < t0 and not adaptive:  # fixed steps backward (adaptive runs step backward in the library)

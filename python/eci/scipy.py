@@ -153,18 +153,11 @@ class EmbeddedPair(OdeSolver):
             return False, f"fun returned a non-finite value at t = {t!r}, so no first step could be chosen"
         step_accepted = False
         step_rejected = False
-        not_finite = False  # the last rejected attempt's error was inf or nan (fun not finite there)
-        no_candidate = False  # the last attempt had no conservative candidate (a negative or non-finite psi^2)
+        why = None  # what rejected the last attempt, when it was not its error's size: said if the step runs out
         engine = self._engine
         while not step_accepted:
             if h_abs < min_step:
-                if not_finite:
-                    return False, (f"{self.TOO_SMALL_STEP} (at t = {t!r} fun returned a non-finite value at every "
-                                   "step size tried)")
-                if no_candidate:
-                    return False, (f"{self.TOO_SMALL_STEP} (at t = {t!r} every step size tried gave a negative psi^2 "
-                                   "or a non-finite value)")
-                return False, self.TOO_SMALL_STEP
+                return False, self.TOO_SMALL_STEP + (f" (at t = {t!r} {why})" if why else "")
             h = h_abs * self.direction
             t_new = t + h
             if self.direction * (t_new - self.t_bound) > 0:
@@ -176,7 +169,7 @@ class EmbeddedPair(OdeSolver):
             if not ok:  # a negative psi^2: the conservative candidate does not exist
                 h_abs *= RADICAND_FACTOR
                 step_rejected = True
-                no_candidate, not_finite = True, False
+                why = "every step size tried gave a negative psi^2 or a non-finite value"
             elif error_norm < 1:
                 if error_norm == 0:
                     factor = MAX_FACTOR
@@ -189,7 +182,7 @@ class EmbeddedPair(OdeSolver):
             else:
                 h_abs *= max(MIN_FACTOR, SAFETY * error_norm ** self.error_exponent)  # (nan: MIN_FACTOR)
                 step_rejected = True
-                not_finite, no_candidate = not np.isfinite(error_norm), False
+                why = None if np.isfinite(error_norm) else "fun returned a non-finite value at every step size tried"
 
         self.h_previous = h
         self.y_old = self.y

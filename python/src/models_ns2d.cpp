@@ -362,12 +362,14 @@ void add_flow_methods(Class& c) {
 // A setting's keyword: the library's name of it.
 std::string keyword_name(std::string_view field) { return std::string(field); }
 
-ns2d_params flow_params_from(const std::string& equation, long long n, double nu, double hyper_nu,
-                             std::optional<long long> hyper_p, double hypo_nu, std::optional<long long> hypo_p,
-                             double drag, const std::string& forcing, std::optional<double> forcing_k,
-                             std::optional<double> forcing_amplitude, std::optional<double> injection_rate,
-                             std::optional<long long> forcing_seed, long long threads, bool fftw_measure,
-                             bool full_transforms) {
+// The keywords that act only with another setting: None, "not given" (flow_params::unused_setting).
+using given_int = std::optional<long long>;
+using given_real = std::optional<double>;
+
+ns2d_params flow_params_from(const std::string& equation, long long n, double nu, double hyper_nu, given_int hyper_p,
+                             double hypo_nu, given_int hypo_p, double drag, const std::string& forcing,
+                             given_real forcing_k, given_real forcing_amplitude, given_real injection_rate,
+                             given_int forcing_seed, long long threads, bool fftw_measure, bool full_transforms) {
     // Python ints are unbounded: a value beyond int is refused with the library's sentence for the field (the
     // CLI's), not wrapped or truncated
     auto whole = [&](const char* field, long long v) {
@@ -405,12 +407,12 @@ ns2d_params flow_params_from(const std::string& equation, long long n, double nu
 }
 
 // The keywords every equation's constructor takes after its own.
-#define ECI_FLOW_KEYWORDS                                                                                        \
-    py::arg("n") = 256, py::arg("nu") = 0.0, py::arg("hyper_nu") = 0.0,                                       \
-        py::arg("hyper_p") = py::none(), py::arg("hypo_nu") = 0.0, py::arg("hypo_p") = py::none(),  \
-        py::arg("drag") = 0.0, py::arg("forcing") = "none", py::arg("forcing_k") = py::none(),          \
-        py::arg("forcing_amplitude") = py::none(), py::arg("injection_rate") = py::none(),      \
-        py::arg("forcing_seed") = py::none(), py::arg("threads") = 1, py::arg("fftw_measure") = false,   \
+#define ECI_FLOW_KEYWORDS                                                                                    \
+    py::arg("n") = 256, py::arg("nu") = 0.0, py::arg("hyper_nu") = 0.0, py::arg("hyper_p") = py::none(),   \
+        py::arg("hypo_nu") = 0.0, py::arg("hypo_p") = py::none(), py::arg("drag") = 0.0,                   \
+        py::arg("forcing") = "none", py::arg("forcing_k") = py::none(),                                    \
+        py::arg("forcing_amplitude") = py::none(), py::arg("injection_rate") = py::none(),                 \
+        py::arg("forcing_seed") = py::none(), py::arg("threads") = 1, py::arg("fftw_measure") = false,     \
         py::arg("full_transforms") = false
 
 // One C++ type per Python class (pybind11 registers a type once).
@@ -432,10 +434,9 @@ void init_ns2d(py::module_& m) {
         "retained modes omega_k, 2 kmax + 1 rows (k_y = 0 .. kmax, -kmax .. -1) of kmax + 1 (k_x = 0 .. kmax), "
         "kmax = (n - 1) // 3; the kx and ky properties give each mode's wavenumber. Invariants energy, enstrophy "
         "(inviscid, unforced).");
-    ns.def(py::init([](long long n, double nu, double hyper_nu, std::optional<long long> hyper_p, double hypo_nu,
-                       std::optional<long long> hypo_p, double drag, const std::string& forcing,
-                       std::optional<double> forcing_k, std::optional<double> forcing_amplitude,
-                       std::optional<double> injection_rate, std::optional<long long> forcing_seed, long long threads, bool fftw_measure,
+    ns.def(py::init([](long long n, double nu, double hyper_nu, given_int hyper_p, double hypo_nu, given_int hypo_p,
+                       double drag, const std::string& forcing, given_real forcing_k, given_real forcing_amplitude,
+                       given_real injection_rate, given_int forcing_seed, long long threads, bool fftw_measure,
                        bool full_transforms) {
                return std::make_unique<o>(flow_params_from("navier-stokes-2d", n, nu, hyper_nu, hyper_p, hypo_nu,
                                                            hypo_p, drag, forcing, forcing_k, forcing_amplitude,
@@ -450,11 +451,10 @@ void init_ns2d(py::module_& m) {
         "Quasi-geostrophic potential vorticity on a beta-plane (Charney-Hasegawa-Mima): dq/dt + J(psi, q) + beta "
         "dpsi/dx = forcing - dissipation, q = lap psi - F psi with F = deformation = 1/L_d^2 >= 0. Rossby waves "
         "omega = -beta k_x / (k^2 + F). Invariants energy 1/2 sum |q_k|^2 / (k^2 + F), enstrophy 1/2 sum |q_k|^2.");
-    chm.def(py::init([](double beta, double deformation, long long n, double nu, double hyper_nu, std::optional<long long> hyper_p,
-                        double hypo_nu, std::optional<long long> hypo_p, double drag, const std::string& forcing,
-                        std::optional<double> forcing_k, std::optional<double> forcing_amplitude,
-                        std::optional<double> injection_rate, std::optional<long long> forcing_seed, long long threads,
-                        bool fftw_measure, bool full_transforms) {
+    chm.def(py::init([](double beta, double deformation, long long n, double nu, double hyper_nu, given_int hyper_p,
+                        double hypo_nu, given_int hypo_p, double drag, const std::string& forcing, given_real forcing_k,
+                        given_real forcing_amplitude, given_real injection_rate, given_int forcing_seed,
+                        long long threads, bool fftw_measure, bool full_transforms) {
                 ns2d_params p = flow_params_from("charney-hasegawa-mima", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
                                                  drag, forcing, forcing_k, forcing_amplitude, injection_rate,
                                                  forcing_seed, threads, fftw_measure, full_transforms);
@@ -468,10 +468,9 @@ void init_ns2d(py::module_& m) {
         m, "SurfaceQG",
         "Surface quasi-geostrophy: d theta/dt + u . grad theta = forcing - dissipation with psi_k = theta_k / |k|. "
         "Invariants energy 1/2 sum |theta_k|^2 / |k| and variance 1/2 sum |theta_k|^2.");
-    sqg.def(py::init([](long long n, double nu, double hyper_nu, std::optional<long long> hyper_p, double hypo_nu,
-                        std::optional<long long> hypo_p, double drag, const std::string& forcing,
-                        std::optional<double> forcing_k, std::optional<double> forcing_amplitude,
-                        std::optional<double> injection_rate, std::optional<long long> forcing_seed, long long threads, bool fftw_measure,
+    sqg.def(py::init([](long long n, double nu, double hyper_nu, given_int hyper_p, double hypo_nu, given_int hypo_p,
+                        double drag, const std::string& forcing, given_real forcing_k, given_real forcing_amplitude,
+                        given_real injection_rate, given_int forcing_seed, long long threads, bool fftw_measure,
                         bool full_transforms) {
                 return std::make_unique<sqg_object>(flow_params_from("surface-qg", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
                                                             drag, forcing, forcing_k, forcing_amplitude,

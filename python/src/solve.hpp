@@ -224,6 +224,7 @@ class recording_sink final : public dynamic_sink<S> {
         if (m == 0) return std::nullopt;
         if (g_prev.empty()) {
             g_prev.resize(m);
+            event_count.assign(m, 0);
             steps->t_events.resize(m);
             steps->y_events.resize(m);
             for (std::size_t j = 0; j < m; ++j) g_prev[j] = event_value(j, s.t_start(), s.start_state());
@@ -247,7 +248,6 @@ class recording_sink final : public dynamic_sink<S> {
         g_prev = g_new;
         const bool forward = s.t_end() > s.t_start();
         std::optional<double> stop;
-        event_count.resize(m);
         for (const auto& r : roots) ++event_count[r.second];
         const auto ends = [&](const auto& r) {
             return req->terminal[r.second] > 0 && event_count[r.second] >= req->terminal[r.second];
@@ -355,6 +355,7 @@ solve_report solve_entry(const F& f, S& x, std::string_view method, const run_co
         throw std::invalid_argument("method '" + std::string(method) + "' is not available for " + std::string(what) +
                                     " (available: " + std::string(Entry::info.name) + ")");
     stepper_for<Entry, Dispatch> stepper;
+    apply_update(stepper, cfg, m.name, what);  // (Kahan's method has no update: one chosen is refused, as solve()'s)
     solve_report report = solve_with(stepper, f, x, cfg, sink, std::move(extra));
     report.method = m;
     return report;

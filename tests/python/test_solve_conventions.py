@@ -349,7 +349,7 @@ def test_a_terminal_count_ends_the_run_at_that_zero(method):
         np.testing.assert_allclose(r.t_events[0], np.pi / 2 + np.pi * np.arange(zeros), rtol=1e-8)
         assert r.status == (1 if zeros < 6 else 0)
         assert r.t[-1] == (r.t_events[0][-1] if zeros < 6 else 19.0)
-    for bad in (-1, 1.5, "2"):
+    for bad in (-1, 1.5, "2", math.inf, math.nan):
         first.terminal = bad
         with pytest.raises(ValueError, match="terminal must be True, False or a whole number >= 0"):
             eci.solve(f, (0.0, 19.0), [1.0, 0.0], method=method, rtol=1e-10, events=first)
@@ -374,6 +374,9 @@ def test_kahan_counts_its_jacobians_and_solves():
     assert r.njev == 0 and r.nlu == 10
     r = eci.solve(f, (0.0, 1.0), [1.0, 2.0], method="rk4", dt=0.1)
     assert r.njev == 0 and r.nlu == 0
+    # an update chosen for it is refused, as for every method without one (it was ignored on this path)
+    with pytest.raises(ValueError, match="; method kahan has none on "):
+        eci.solve(f, (0.0, 1.0), [1.0, 2.0], method="kahan", dt=0.1, jac=jac, update="paper")
 
 
 # After a terminal event the dense solution ends where the run did, as SciPy's OdeSolution (t_max was the end of the
