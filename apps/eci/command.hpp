@@ -21,6 +21,7 @@ struct run_settings {
     std::uint64_t every = 1;             ///< a CSV row every `every` steps
     std::string output;                  ///< CSV path; "-" is stdout, empty writes no CSV
     std::string summary_json;            ///< JSON summary path; "-" is stdout, empty writes none
+    std::string plot;                    ///< picture of the run (.png, .svg, .pdf); empty draws none
     std::optional<double> rtol;          ///< relative tolerance: with or without atol, adaptive step control
     std::optional<double> atol;          ///< absolute tolerance (adaptive); unset means rtol's value
     std::optional<double> output_dt;     ///< CSV rows at multiples of this time (and the end) instead of steps

@@ -272,6 +272,10 @@ int run_cli(int argc, char** argv) {
                         "full precision. Without --output no CSV is written; '-' writes it to standard output");
         sub->add_option("--summary-json", settings.summary_json,
                         "also write the run summary as JSON to this file ('-': standard output)");
+        sub->add_option("--plot", settings.plot,
+                        "draw the run as a picture (FILE.png, .svg or .pdf, by gnuplot): the state's first "
+                        "components over time and each invariant's change from its initial value, from the same "
+                        "outputs as the CSV's rows (--every, --output-dt; --output not needed)");
         sub->add_option("--rtol", rtol,
                         "relative tolerance: run with adaptive step control (an embedded pair: bs32, ck54, dp54, "
                         "dp853, f78 and their c- versions); --dt is then the first step, at most the span. Below "

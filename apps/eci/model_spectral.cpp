@@ -540,7 +540,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     // FIFOs, devices, directories and read-only files are refused, never replaced
     namespace fs = std::filesystem;
     std::vector<std::pair<std::string, std::string>> named = {
-        {"--output", settings.output}, {"--summary-json", settings.summary_json}, {"--checkpoint", checkpoint_}};
+        {"--output", settings.output}, {"--summary-json", settings.summary_json}, {"--plot", settings.plot},
+        {"--checkpoint", checkpoint_}};
     if (!default_wisdom) named.emplace_back("--fftw-wisdom", wisdom_path);
     check_distinct_files(named);
     // ... nor one of the files the run reads: --ic and --restart (the wisdom file, read and written, is in `named`).
@@ -788,8 +789,9 @@ int spectral_command::run_spread(const run_settings& settings) {
     // that blows up or is stopped creates and replaces none of them.
     std::optional<created_directory> created_snapshot_dir;
     std::optional<staging_dir> staged_snapshots;
-    std::optional<output_file> csv_file, json_file;
+    std::optional<output_file> csv_file, json_file, plot_file;
     on_root_opening([&] {
+        check_plot_request(settings.plot);
         if (snapshot_every_ > 0) {
             const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
             if (::mkdir(dir.c_str(), 0777) == 0)
@@ -800,10 +802,12 @@ int spectral_command::run_spread(const run_settings& settings) {
         }
         if (!settings.output.empty()) csv_file.emplace(settings.output, "CSV output");
         if (!settings.summary_json.empty()) json_file.emplace(settings.summary_json, "summary JSON");
+        if (!settings.plot.empty()) plot_file.emplace(settings.plot, "plot");
     });
-    output_file no_csv, no_json;
+    output_file no_csv, no_json, no_plot;
     output_file& csv = csv_file ? *csv_file : no_csv;
     output_file& json = json_file ? *json_file : no_json;
+    output_file& picture = plot_file ? *plot_file : no_plot;
     // The wisdom (the model's plans), now that the input is known to be good; the default cache's directory is made
     // here, and a cache that cannot be written is no error.
     if (!wisdom_path.empty()) {
@@ -844,11 +848,26 @@ int spectral_command::run_spread(const run_settings& settings) {
                     "_budget_residual," + inv_[1] + "_budget_residual,max_velocity,cfl,halvings\n")
                        .c_str(),
                    out);
-    const bool rows_wanted = !settings.output.empty();  // (the same on every process; `out` is rank 0's)
+    // --plot (rank 0's): E and Z over time, and each one's change beyond its budget (what the injection and
+    // dissipation account for), from the CSV's rows
+    std::optional<run_plot> plot;
+    if (picture.get())
+        plot.emplace(settings.plot, std::vector<std::string>{inv_[0], inv_[1]}, 2,
+                     std::vector<std::string>{inv_[0] + " - its budget", inv_[1] + " - its budget"},
+                     "eci run " + name_ + " (N = " + std::to_string(p.n) + "): " + method + ", dt " + title_number(dt),
+                     inv_[0] + ", " + inv_[1], true);
+    // (the same on every process; `out` and the plot are rank 0's)
+    const bool rows_wanted = !settings.output.empty() || !settings.plot.empty();
     auto row = [&](std::uint64_t i, double t, double e, double z) {  // (e, z: E and Z of w at time t)
         const double u = model.max_velocity(w);
         const double pal = model.palinstrophy(w);
         const ns2d_budget& b = run.budget;
+        if (plot) {
+            const double ez[2] = {e, z};
+            const double kept[2] = {e - (b.energy_injection - b.energy_dissipation),
+                                    z - (b.enstrophy_injection - b.enstrophy_dissipation)};
+            plot->add(t, ez, kept);
+        }
         if (!out) return;
         std::fprintf(out, "%llu,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%llu\n", (unsigned long long)i,
                      num(t).c_str(), num(e).c_str(), num(z).c_str(), num(pal).c_str(),
@@ -1171,9 +1190,17 @@ int spectral_command::run_spread(const run_settings& settings) {
     // a failure takes back what was moved in (a failed run keeps its checkpoint, not a partial time series).
     on_root([&] {
         if (std::FILE* j = json.get()) write_summary_json(j, s);
-        commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr);
+        // a picture that could not be drawn loses nothing else: the other outputs are committed, the run fails
+        const bool drawn = !plot || plot->draw(picture), others = csv.get() || json.get() || staged_snapshots;
+        if (drawn)
+            commit_outputs({&csv, &json, &picture}, staged_snapshots ? &*staged_snapshots : nullptr);
+        else
+            commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr);
         if (created_snapshot_dir) created_snapshot_dir->keep();
         print_summary(stderr, s);
+        if (!drawn)
+            throw run_error("the plot '" + settings.plot + "' could not be drawn by " + plotting_program() +
+                            (others ? "; the other outputs were written" : ""));
     });
     return 0;
 }

@@ -344,36 +344,6 @@ handle open_for_reading(const std::string& path) {
     return handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "cannot open " + path);
 }
 
-// Whether `png` ends as a PNG file ends (its IEND chunk): gnuplot's exit status does not say whether the picture was
-// written whole, and on a full disk it is not.
-bool whole_png(const std::string& png) {
-    static constexpr unsigned char iend[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
-    std::FILE* f = std::fopen(png.c_str(), "rb");
-    if (!f) return false;
-    unsigned char tail[12] = {};
-    const bool read = std::fseek(f, -12, SEEK_END) == 0 && std::fread(tail, 1, 12, f) == 12;
-    std::fclose(f);
-    return read && std::memcmp(tail, iend, 12) == 0;
-}
-
-// Runs a gnuplot script (written beside `output`, the picture it draws); false when gnuplot is missing, cannot draw
-// (no pngcairo) or was stopped by an interrupt (which the run's loop then honours, with its checkpoint). A picture
-// not written whole, or not at all, on a file system with no space left is an error like any other failed write
-// (run_error, with the reason); otherwise what the program wrote is its business ($ECI_GNUPLOT may be another
-// program).
-bool gnuplot(const std::string& script, const std::string& output) {
-    static const std::string program = plotting_program();
-    if (!plotting_available()) return false;
-    const scoped_temporary file(output + ".gp");
-    write_new_file(file.path(), "gnuplot script", [&](std::FILE* f) { std::fputs(script.c_str(), f); });
-    const int status = run_program(program, {file.path()});
-    if (status == -1) return false;
-    if (status == 0 && whole_png(output)) return true;
-    if (const std::string reason = write_failure_reason(output, 0, ""); !reason.empty())
-        throw run_error("cannot write picture '" + output + "': " + reason);
-    return status == 0;
-}
-
 // A double as gnuplot reads it back exactly (std::to_string's %f would print 1e-13 as 0.000000).
 std::string g(double v) {
     char b[32];
@@ -538,11 +508,6 @@ std::string from_root(MPI_Comm comm, std::string text) {
 #endif
 
 }  // namespace
-
-bool plotting_available() {
-    static const bool available = run_program(plotting_program(), {"--version"}) == 0;
-    return available;
-}
 
 #ifdef ECI_MPI
 std::string first_failure(MPI_Comm comm, const std::string& mine) {
@@ -872,7 +837,7 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
     s += "set cblabel " + quoted(symbol) + "\n";
     s += "plot " + quoted(data) + " binary array=(" + std::to_string(n) + "," + std::to_string(n) +
          ") format='%float64' dx=" + g(h) + " dy=" + g(h) + " with image notitle\n";
-    if (!gnuplot(s, tmp)) {
+    if (!draw_picture(s, tmp)) {
         std::error_code ec;
         std::filesystem::remove(tmp, ec);
         return false;
@@ -904,7 +869,7 @@ void write_spectrum(const std::string& csv_path, const std::string& png_path, co
     s += "plot " + quoted(csv_path) + " skip 1 using 1:($2 > 0 ? $2 : NaN) with linespoints pt 7 ps 0.4 title 'E(k)', ";
     s += g(ep) + "*(x/" + std::to_string(kp) + ".)**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
     s += g(ep) + "*(x/" + std::to_string(kp) + ".)**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
-    if (!gnuplot(s, ptmp)) {
+    if (!draw_picture(s, ptmp)) {
         std::error_code ec;
         std::filesystem::remove(ptmp, ec);
     }

@@ -92,9 +92,6 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
 std::string first_failure(MPI_Comm comm, const std::string& mine);
 #endif
 
-/// Whether the plotting program (plotting_program()) runs: pictures are drawn only then.
-bool plotting_available();
-
 /// The field as a PNG (diverging colour map symmetric about 0, colour bar `symbol`, `name` and time in the title), by
 /// gnuplot, written to `path` (in the staging directory). Returns false (and draws nothing) when gnuplot is not
 /// available.

@@ -999,6 +999,46 @@ std::string plotting_program() {
     return env && *env ? env : "gnuplot";
 }
 
+bool plotting_available() {
+    static const bool available = run_program(plotting_program(), {"--version"}) == 0;
+    return available;
+}
+
+// Whether `png` ends as a PNG file ends (its IEND chunk): gnuplot's exit status does not say whether the picture was
+// written whole, and on a full disk it is not.
+namespace {
+
+bool whole_png(const std::string& png) {
+    static constexpr unsigned char iend[12] = {0, 0, 0, 0, 'I', 'E', 'N', 'D', 0xAE, 0x42, 0x60, 0x82};
+    std::FILE* f = std::fopen(png.c_str(), "rb");
+    if (!f) return false;
+    unsigned char tail[12] = {};
+    const bool read = std::fseek(f, -12, SEEK_END) == 0 && std::fread(tail, 1, 12, f) == 12;
+    std::fclose(f);
+    return read && std::memcmp(tail, iend, 12) == 0;
+}
+
+}  // namespace
+
+// Runs a gnuplot script (written beside `output`, the picture it draws); false when gnuplot is missing, cannot draw
+// (no pngcairo) or was stopped by an interrupt (which the run's loop then honours, with its checkpoint). A picture
+// not written whole, or not at all, on a file system with no space left is an error like any other failed write
+// (run_error, with the reason); otherwise what the program wrote is its business ($ECI_GNUPLOT may be another
+// program).
+bool draw_picture(const std::string& script, const std::string& output) {
+    static const std::string program = plotting_program();
+    if (!plotting_available()) return false;
+    const scoped_temporary file(output + ".gp");
+    write_new_file(file.path(), "gnuplot script", [&](std::FILE* f) { std::fputs(script.c_str(), f); });
+    const int status = run_program(program, {file.path()});
+    if (status == -1) return false;
+    if (status == 0 && whole_png(output)) return true;
+    if (const std::string reason = write_failure_reason(output, 0, ""); !reason.empty())
+        throw run_error("cannot write picture '" + output + "': " + reason);
+    return status == 0;
+}
+
+
 int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet) {
     std::fflush(stdout);
     std::fflush(stderr);

@@ -233,6 +233,14 @@ int run_program(const std::string& program, const std::vector<std::string>& args
 /// empty, else `gnuplot` from PATH.
 std::string plotting_program();
 
+/// Whether the plotting program (plotting_program()) runs: pictures are drawn only then.
+bool plotting_available();
+
+/// Runs a gnuplot script (written beside `output` as a temporary) that draws the PNG `output`. False when the
+/// plotting program is missing, cannot draw (no pngcairo) or was stopped by an interrupt (which the caller then
+/// honours). A picture not written whole on a file system with no space left is a run_error with the reason.
+bool draw_picture(const std::string& script, const std::string& output);
+
 /// A directory the run has just created: removed when this goes out of scope, and by the signal handler on a forced
 /// exit, if it is empty then (what the run wrote into it is removed first); keep() once the run has succeeded.
 class created_directory {

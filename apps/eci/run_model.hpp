@@ -3,6 +3,7 @@
 // CSV rows and the summary.
 #pragma once
 
+#include <algorithm>
 #include <array>
 #include <chrono>
 #include <cmath>
@@ -24,6 +25,7 @@
 
 #include "command.hpp"
 #include "output.hpp"
+#include "run_plot.hpp"
 
 namespace eci::cli {
 
@@ -207,10 +209,12 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
                          shortest(asked).c_str(), shortest(min_rtol).c_str());
     }
 
-    // Open both outputs before running: an unwritable path is bad input, reported before any work.
+    // Open every output before running: an unwritable path is bad input, reported before any work.
+    check_plot_request(settings.plot);
     output_file csv = settings.output.empty() ? output_file() : output_file(settings.output, "CSV output");
     output_file json =
         settings.summary_json.empty() ? output_file() : output_file(settings.summary_json, "summary JSON");
+    output_file picture = settings.plot.empty() ? output_file() : output_file(settings.plot, "plot");
 
     // Columns computed from the state (Kepler's Cartesian position), written between the state and the invariants.
     constexpr auto derived = [] {
@@ -219,6 +223,19 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         else
             return std::array<named_invariant<Model>, 0>{};
     }();
+    // --plot: the same outputs as the CSV's rows, drawn at the end
+    std::optional<run_plot> plot;
+    if (picture.get()) {
+        std::vector<std::string> drawn;
+        for (std::size_t i = 0; i < std::min(columns.size(), run_plot::max_components); ++i) drawn.push_back(columns[i]);
+        std::vector<std::string> invariant_names;
+        for (const auto& inv : Model::invariants()) invariant_names.emplace_back(inv.name);
+        plot.emplace(settings.plot, std::move(drawn), columns.size(), std::move(invariant_names),
+                     "eci run " + info.name + ": " + std::string(method.name) +
+                         (adaptive ? ", rtol " + title_number(cfg.adaptive->rtol) + ", atol " +
+                                          title_number(cfg.adaptive->atol)
+                                   : ", dt " + title_number(plan.dt)));
+    }
     run_summary summary;
     summary.model = info.name;
     summary.method = std::string(method.name);
@@ -249,8 +266,8 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     class csv_sink final : public dynamic_sink<S> {
        public:
         csv_sink(std::FILE* out, const Model& model, const decltype(derived)& columns_derived, std::uint64_t steps,
-                 double t_end)
-            : bar(steps, 4096, t_end), out_(out), model_(model), derived_(columns_derived) {}
+                 double t_end, run_plot* plot)
+            : bar(steps, 4096, t_end), out_(out), model_(model), derived_(columns_derived), plot_(plot) {}
         void output(const S& state, const output_point& p) override {
             // what an interrupted run's summary says: its outputs (the CSV's rows, written or not) up to the last
             records.resize(p.invariants.size());
@@ -258,6 +275,14 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             last_t = p.t;
             if (p.stats) last_stats = *p.stats;
             ++outputs;
+            if (plot_) {
+                std::array<double, run_plot::max_components> first{};
+                std::size_t count = 0;
+                detail::for_each_real(state, [&](double v) {
+                    if (count < first.size()) first[count++] = v;
+                });
+                plot_->add(p.t, std::span<const double>(first.data(), count), p.invariants);
+            }
             if (!out_) return;
             char buffer[32];
             const std::string_view s = format_double(p.t, buffer);
@@ -287,7 +312,8 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         std::FILE* out_;
         const Model& model_;
         const decltype(derived)& derived_;
-    } sink{out, model, derived, adaptive ? 0 : plan.steps, plan.t_end};
+        run_plot* plot_;
+    } sink{out, model, derived, adaptive ? 0 : plan.steps, plan.t_end, plot ? &*plot : nullptr};
 
     const auto start = std::chrono::steady_clock::now();
     solve_report report;
@@ -324,6 +350,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             kept += (kept.empty() ? "" : ", ") + std::string("summary JSON '") + settings.summary_json + "'";
         try {
             if (std::FILE* j = json.get()) write_summary_json(j, summary);
+            // (no picture: the plotting program is stopped by the same signal)
             commit_outputs({&csv, &json}, nullptr, true);
         } catch (const std::exception& e) {
             throw interrupted(stop + "; " + e.what());
@@ -356,9 +383,17 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     if constexpr (requires { model.end_of_run_figures(x0, x); })
         for (const auto& [name, value] : model.end_of_run_figures(x0, x)) summary.figures.emplace_back(name, value);
 
-    // Both outputs complete before either replaces anything: committed together, or neither.
+    // Every output complete before any replaces anything: committed together, or none. A picture that could not be
+    // drawn loses nothing else: the other outputs are committed and the run fails with the reason.
     if (std::FILE* j = json.get()) write_summary_json(j, summary);
-    commit_outputs({&csv, &json});
+    if (plot && !plot->draw(picture)) {
+        const bool others = csv.get() || json.get();
+        commit_outputs({&csv, &json});
+        print_summary(stderr, summary);
+        throw run_error("the plot '" + settings.plot + "' could not be drawn by " + plotting_program() +
+                        (others ? "; the other outputs were written" : ""));
+    }
+    commit_outputs({&csv, &json, &picture});
     print_summary(stderr, summary);
     return 0;
 }

@@ -60,9 +60,9 @@ run_plan resolve_plan(double default_dt, double default_t_end, const run_setting
 }
 
 void check_distinct_outputs(const run_settings& settings) {
-    if (settings.output.empty() || settings.summary_json.empty()) return;
     // symlinks followed, dangling ones too, and hard links; "-", /dev/stdout and /dev/fd/1 are one stream
-    check_distinct_files({{"--output", settings.output}, {"--summary-json", settings.summary_json}});
+    check_distinct_files(
+        {{"--output", settings.output}, {"--summary-json", settings.summary_json}, {"--plot", settings.plot}});
 }
 
 std::string underflow_message(const step_size_underflow& e, const column_names& columns) {

@@ -1,0 +1,174 @@
+// The picture of `eci run MODEL --plot FILE.png` (run_plot.hpp), drawn by the plotting program.
+#include "run_plot.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <utility>
+
+namespace eci::cli {
+
+namespace {
+
+// A number as gnuplot reads it back exactly; NaN (a gap in the line) for a value that is not finite.
+std::string number(double v) {
+    if (!std::isfinite(v)) return "NaN";
+    char b[32];
+    std::snprintf(b, sizeof b, "%.17g", v);
+    return b;
+}
+
+// A gnuplot string in single quotes (a quote doubled).
+std::string quoted(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
+    return q + "'";
+}
+
+// A file name in the temporary directory no other run uses.
+std::string temporary_name(const std::string& suffix) {
+    static int count = 0;
+    std::error_code ec;
+    std::filesystem::path dir = std::filesystem::temp_directory_path(ec);
+    if (ec) dir = "/tmp";
+    return (dir / ("eci-plot-" + std::to_string(::getpid()) + "-" + std::to_string(count++) + suffix)).string();
+}
+
+}  // namespace
+
+std::string title_number(double v) {
+    char b[32];
+    std::snprintf(b, sizeof b, "%.6g", v);
+    return b;
+}
+
+std::string plot_format(std::string_view path) {
+    const std::size_t dot = path.rfind('.');
+    std::string ext = dot == std::string_view::npos ? std::string() : std::string(path.substr(dot + 1));
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    if (ext == "png" || ext == "svg" || ext == "pdf") return ext;
+    if (path == "-" || path.starts_with("/dev/")) return "png";  // a stream: PNG
+    return {};
+}
+
+void check_plot_request(const std::string& path) {
+    if (path.empty()) return;
+    if (plot_format(path).empty())
+        throw bad_input("--plot '" + path + "': the picture's name must end in .png, .svg or .pdf");
+    if (!plotting_available())
+        throw bad_input("--plot needs gnuplot (Debian package gnuplot-nox), and '" + plotting_program() +
+                        "' does not run");
+}
+
+run_plot::run_plot(std::string path, std::vector<std::string> components, std::size_t component_count,
+                   std::vector<std::string> invariants, std::string title, std::string top_label, bool log_top)
+    : path_(std::move(path)),
+      names_(std::move(components)),
+      invariants_(std::move(invariants)),
+      component_count_(component_count),
+      title_(std::move(title)),
+      top_label_(std::move(top_label)),
+      log_top_(log_top) {
+    if (names_.size() > max_components) names_.resize(max_components);
+}
+
+void run_plot::add(double t, std::span<const double> components, std::span<const double> invariants) {
+    last_.assign(width(), std::nan(""));
+    last_[0] = t;
+    for (std::size_t i = 0; i < names_.size() && i < components.size(); ++i) last_[1 + i] = components[i];
+    for (std::size_t k = 0; k < invariants_.size() && k < invariants.size(); ++k)
+        last_[1 + names_.size() + k] = invariants[k];
+    has_last_ = true;
+    if (seen_++ % stride_ != 0) return;
+    data_.insert(data_.end(), last_.begin(), last_.end());
+    if (++rows_ < 2 * max_rows) return;
+    // full: keep every other row (the first among them) and from now on every other output
+    const std::size_t w = width();
+    for (std::size_t r = 0; 2 * r < rows_; ++r)
+        std::copy_n(data_.begin() + std::ptrdiff_t(2 * r * w), w, data_.begin() + std::ptrdiff_t(r * w));
+    rows_ = (rows_ + 1) / 2;
+    data_.resize(rows_ * w);
+    stride_ *= 2;
+}
+
+bool run_plot::draw(output_file& png) const {
+    if (empty() || !png.get()) return false;
+    const std::size_t w = width(), nc = names_.size(), ni = invariants_.size();
+    // the rows drawn: those kept, and the last output if it was not
+    std::vector<double> rows = data_;
+    if (rows.size() < w || !std::equal(last_.begin(), last_.end(), rows.end() - std::ptrdiff_t(w)))
+        rows.insert(rows.end(), last_.begin(), last_.end());
+    const std::size_t count = rows.size() / w;
+    // each invariant's change from its first value, relative to it (absolute where it is 0 or not finite)
+    std::vector<bool> relative(ni);
+    for (std::size_t k = 0; k < ni; ++k) {
+        const double first = rows[1 + nc + k];
+        relative[k] = std::isfinite(first) && first != 0.0;
+    }
+    const scoped_temporary data(temporary_name(".dat"));
+    write_new_file(data.path(), "plot data", [&](std::FILE* f) {
+        for (std::size_t r = 0; r < count; ++r) {
+            const double* row = rows.data() + r * w;
+            std::string line = number(row[0]);
+            for (std::size_t i = 0; i < nc; ++i) line += ' ' + number(row[1 + i]);
+            for (std::size_t k = 0; k < ni; ++k) {
+                const double first = rows[1 + nc + k], v = row[1 + nc + k];
+                line += ' ' + number(relative[k] ? (v - first) / std::abs(first) : v - first);
+            }
+            line += '\n';
+            if (std::fputs(line.c_str(), f) < 0) return;  // (write_new_file checks the stream's error state)
+        }
+    });
+    const std::string format = plot_format(path_);
+    std::string s = format == "svg"   ? "set terminal svg size 1000,760 font ',10' noenhanced\n"
+                    : format == "pdf" ? "set terminal pdfcairo size 10in,7.6in font ',10' noenhanced\n"
+                                      : "set terminal pngcairo size 1000,760 font ',10' noenhanced\n";
+    const scoped_temporary picture(temporary_name("." + format));
+    s += "set output " + quoted(picture.path()) + "\n";
+    s += "set multiplot layout " + std::string(nc > 0 && ni > 0 ? "2" : "1") + ",1 title " + quoted(title_) + "\n";
+    // the panels' axes aligned, the keys right of them
+    s += "set grid\nset key outside right top\nset xlabel 't'\nset lmargin at screen 0.11\n"
+         "set rmargin at screen 0.78\n";
+    const std::string file = quoted(data.path());
+    if (nc > 0) {
+        const std::string label = !top_label_.empty()      ? top_label_
+                                  : component_count_ > nc ? "state (first " + std::to_string(nc) + " of " +
+                                                                std::to_string(component_count_) + " components)"
+                                                          : std::string("state");
+        s += "set ylabel " + quoted(label) + "\n" + (log_top_ ? "set logscale y\n" : "") + "plot ";
+        for (std::size_t i = 0; i < nc; ++i)
+            s += (i ? ", " : "") + file + " using 1:" + std::to_string(2 + i) + " with lines title " +
+                 quoted(names_[i]);
+        s += "\n";
+    }
+    if (ni > 0) {
+        // relative to the initial value, or where that is 0 (or not finite) absolute, said in the key
+        const bool all_relative = std::ranges::all_of(relative, [](bool r) { return r; });
+        s += std::string(log_top_ ? "unset logscale y\n" : "") + "set ylabel " +
+             quoted(all_relative ? "(invariant - initial) / |initial|" : "invariant - initial (/ |initial| where marked)") +
+             "\nset format y '%.1e'\nplot ";
+        for (std::size_t k = 0; k < ni; ++k)
+            s += (k ? ", " : "") + file + " using 1:" + std::to_string(2 + nc + k) + " with lines title " +
+                 quoted(invariants_[k] + (relative[k] && !all_relative ? " (/ |initial|)" : ""));
+        s += "\n";
+    }
+    s += "unset multiplot\nset output\n";
+    if (!draw_picture(s, picture.path())) return false;
+    // the picture into the output's stream (a temporary of its own until commit_outputs, or a device)
+    std::FILE* in = std::fopen(picture.path().c_str(), "rb");
+    if (!in) return false;
+    char buffer[1 << 16];
+    // (a failed write sets the stream's error flag, which output_file::finish reports with the reason)
+    for (std::size_t got; (got = std::fread(buffer, 1, sizeof buffer, in)) > 0;)
+        if (std::fwrite(buffer, 1, got, png.get()) != got) break;
+    const bool read = !std::ferror(in);
+    std::fclose(in);
+    if (!read) throw run_error("cannot read the plot drawn at '" + picture.path() + "'");
+    return true;
+}
+
+}  // namespace eci::cli

@@ -1,0 +1,65 @@
+// `eci run MODEL --plot FILE.png` (or .svg, .pdf): a picture of a run drawn from its outputs (the CSV's rows, written or not): the
+// state's first components over time above, each invariant's relative change below.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "output.hpp"
+
+namespace eci::cli {
+
+/// A number for a picture's title: 6 significant digits.
+std::string title_number(double v);
+
+/// The picture format --plot's file name asks for ("png", "svg" or "pdf", from its extension; "png" for standard
+/// output and devices), or empty if it names none.
+std::string plot_format(std::string_view path);
+
+/// Refuses (bad_input), before a run, a --plot it could not draw: a name without .png, .svg or .pdf, or no plotting
+/// program. Nothing for an empty path (no --plot).
+void check_plot_request(const std::string& path);
+
+/// The outputs a plot keeps and draws. A long run's outputs are thinned as they come: when 2 * max_rows are held,
+/// every other one is dropped and from then on only every other output is kept, so that memory stays bounded and
+/// the points stay evenly spread; the first and the last output are always drawn.
+class run_plot {
+   public:
+    /// At most this many of the state's real components are drawn (the first ones; the key says how many there are).
+    static constexpr std::size_t max_components = 6;
+    static constexpr std::size_t max_rows = 4096;
+
+    /// `path`: the --plot file (its extension picks the format), `components`: the names of the state's real unknowns (all of them: the plot draws the first
+    /// max_components), `invariants` the invariants' names, `title` the picture's title (model, method, step),
+    /// `top_label` the upper panel's axis ("state" if empty), `log_top` a logarithmic axis there.
+    run_plot(std::string path, std::vector<std::string> components, std::size_t component_count, std::vector<std::string> invariants,
+             std::string title, std::string top_label = {}, bool log_top = false);
+
+    /// One output: its time, the state's first components (at most max_components are read) and the invariants.
+    void add(double t, std::span<const double> components, std::span<const double> invariants);
+    /// Whether any output was added.
+    bool empty() const { return rows_ == 0 && !has_last_; }
+
+    /// Draws the picture (PNG, SVG or PDF by the path's extension) into `png` (its stream: a temporary renamed by commit_outputs, or a device). False
+    /// if the plotting program could not draw it (or was interrupted); throws run_error on a failed write.
+    bool draw(output_file& png) const;
+
+   private:
+    std::size_t width() const { return 1 + names_.size() + invariants_.size(); }
+    std::string path_;
+    std::vector<std::string> names_, invariants_;
+    std::size_t component_count_;
+    std::string title_, top_label_;
+    bool log_top_;
+    std::vector<double> data_;  // rows of width(): t, the components drawn, the invariants
+    std::size_t rows_ = 0;
+    std::uint64_t seen_ = 0, stride_ = 1;  // outputs seen; every stride_-th is kept
+    std::vector<double> last_;             // the latest output, drawn last whether kept or not
+    bool has_last_ = false;
+};
+
+}  // namespace eci::cli

@@ -1,0 +1,202 @@
+// `eci run MODEL --plot FILE`: the picture of a run. What is drawn is checked through a stand-in plotting program
+// ($ECI_GNUPLOT) that keeps the script and the data it was given; the real gnuplot (when installed) must produce
+// a whole PNG, SVG and PDF. Bad requests are refused before the run, and a picture that cannot be drawn loses
+// nothing else.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <string>
+#include <vector>
+
+#include "cli/support.hpp"
+
+using namespace eci::test_cli;
+
+namespace {
+
+bool gnuplot_installed() { return std::system("gnuplot --version >/dev/null 2>&1") == 0; }
+
+class cli_plot : public ::testing::Test {
+   protected:
+    run_result eci(const std::vector<std::string>& args, const std::string& wrapper = "") const {
+        return dir_.run(args, wrapper);
+    }
+    std::set<std::string> work_files() const { return dir_.files(); }
+    fs::path work(const std::string& name) const { return dir_.file(name); }
+    /// A stand-in plotting program in the scratch tree: answers --version, copies the script it is given and the
+    /// data file the script plots to kept.gp and kept.dat beside it, and writes a tiny "PNG" (its IEND chunk) where
+    /// the script sets the output; with `fail`, it draws nothing and exits 1. Returns "ECI_GNUPLOT=<it>".
+    std::string fake_plotter(bool fail = false) const {
+        const fs::path tool = dir_.capture() / "plot-tool";
+        std::ofstream(tool) << "#!/bin/sh\n"
+                               "[ \"$1\" = --version ] && exit 0\n"
+                            << (fail ? "exit 1\n" : "")
+                            << "here=$(dirname \"$0\")\n"
+                               "cp \"$1\" \"$here/kept.gp\"\n"
+                               "data=$(sed -n \"s/^plot '\\([^']*\\)'.*/\\1/p\" \"$1\" | head -n 1)\n"
+                               "cp \"$data\" \"$here/kept.dat\"\n"
+                               "out=$(sed -n \"s/^set output '\\([^']*\\)'.*/\\1/p\" \"$1\")\n"
+                               "printf '\\211PNG\\000\\000\\000\\000IEND\\256\\102\\140\\202' > \"$out\"\n";
+        fs::permissions(tool, fs::perms::owner_all);
+        return "ECI_GNUPLOT=" + shell_quote(tool.string());
+    }
+    /// Whether this build has the spectral equations (eci::spectral).
+    bool has_spectral() const { return dir_.run({"run", "navier-stokes-2d", "--help"}).status == 0; }
+    std::string kept_script() const { return read_text(dir_.capture() / "kept.gp"); }
+    /// The rows of numbers the plotting program was given.
+    std::vector<std::vector<double>> kept_data() const {
+        std::vector<std::vector<double>> rows;
+        for (const std::string& line : lines_of(read_text(dir_.capture() / "kept.dat"))) {
+            std::vector<double> row;
+            for (const std::string& cell : split(line, ' '))
+                row.push_back(cell == "NaN" ? std::numeric_limits<double>::quiet_NaN() : std::stod(cell));
+            rows.push_back(row);
+        }
+        return rows;
+    }
+
+   private:
+    work_dir dir_{"cli-plot"};
+};
+
+std::vector<std::vector<double>> csv_rows(const std::string& text) {
+    std::vector<std::vector<double>> rows;
+    const auto lines = lines_of(text);
+    for (std::size_t i = 1; i < lines.size(); ++i) {
+        std::vector<double> row;
+        for (const std::string& cell : split(lines[i])) row.push_back(std::stod(cell));
+        rows.push_back(row);
+    }
+    return rows;
+}
+
+// The data drawn are the CSV's rows: t, the state, and each invariant's change relative to its first value.
+TEST_F(cli_plot, draws_the_state_and_each_invariants_relative_change_from_the_csv_rows) {
+    const run_result r = eci({"run", "three-wave", "--method", "pc", "--dt", "0.1", "--t-end", "5", "--output",
+                              "out.csv", "--plot", "out.png"},
+                             fake_plotter());
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(work_files(), (std::set<std::string>{"out.csv", "out.png"}));
+    const auto csv = csv_rows(read_text(work("out.csv")));  // t, psi_K, psi_P, psi_Q, energy, enstrophy
+    const auto drawn = kept_data();
+    ASSERT_EQ(drawn.size(), csv.size());
+    for (std::size_t i = 0; i < csv.size(); ++i) {
+        ASSERT_EQ(drawn[i].size(), 6u);
+        for (std::size_t c = 0; c < 4; ++c) EXPECT_EQ(drawn[i][c], csv[i][c]) << "row " << i << " column " << c;
+        for (std::size_t k = 0; k < 2; ++k) {
+            const double first = csv[0][4 + k];
+            EXPECT_EQ(drawn[i][4 + k], (csv[i][4 + k] - first) / std::abs(first)) << "row " << i;
+        }
+    }
+    // PC drifts: the last relative change of the energy is what the summary reports, far from round-off
+    EXPECT_GT(std::abs(drawn.back()[4]), 1e-3);
+    const std::string gp = kept_script();
+    EXPECT_NE(gp.find("set terminal pngcairo"), std::string::npos) << gp;
+    for (const char* title : {"'psi_K'", "'psi_P'", "'psi_Q'", "'energy'", "'enstrophy'", "three-wave: pc, dt 0.1"})
+        EXPECT_NE(gp.find(title), std::string::npos) << title << "\n" << gp;
+}
+
+// A large state draws its first components only, and says how many there are; the format follows the name.
+TEST_F(cli_plot, a_large_state_draws_its_first_components_and_the_name_picks_the_format) {
+    const run_result r = eci({"run", "n-wave", "--modes", "30", "--steps", "10", "--plot", "out.svg"}, fake_plotter());
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto drawn = kept_data();
+    ASSERT_EQ(drawn.size(), 11u);
+    EXPECT_EQ(drawn.front().size(), 1u + 6u + 2u);  // t, 6 of 30 components, energy, enstrophy
+    EXPECT_NE(kept_script().find("first 6 of 30 components"), std::string::npos) << kept_script();
+    EXPECT_NE(kept_script().find("set terminal svg"), std::string::npos);
+}
+
+// A run of many outputs is thinned evenly as it goes (memory bounded), its first and last outputs always drawn.
+TEST_F(cli_plot, a_long_run_is_thinned_evenly_with_its_first_and_last_outputs) {
+    const run_result r = eci({"run", "three-wave", "--steps", "20001", "--plot", "out.png"}, fake_plotter());
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto drawn = kept_data();
+    EXPECT_LE(drawn.size(), 2u * 4096u + 1u);
+    EXPECT_GE(drawn.size(), 4096u);
+    EXPECT_EQ(drawn.front()[0], 0.0);
+    EXPECT_NEAR(drawn.back()[0], 200.01, 1e-9);
+    for (std::size_t i = 1; i + 1 < drawn.size(); ++i) {  // evenly spaced: every 4th step (20001 outputs > 16384)
+        ASSERT_GT(drawn[i][0], drawn[i - 1][0]);
+        EXPECT_NEAR(drawn[i][0] - drawn[i - 1][0], 0.04, 1e-9) << "row " << i;
+    }
+}
+
+// The budget panel of a spectral run: E and Z minus what forcing and dissipation account for, which the
+// conservative method keeps to round-off (relative change k eps sqrt(steps), k = 8).
+TEST_F(cli_plot, a_spectral_run_draws_its_invariants_beyond_their_budget_to_round_off) {
+    if (!has_spectral()) GTEST_SKIP() << "built without the spectral equations";
+    const run_result r = eci({"run", "navier-stokes-2d", "--N", "32", "--nu", "0.01", "--forcing", "stochastic",
+                              "--steps", "50", "--plot", "flow.png", "--fftw-estimate"},
+                             fake_plotter());
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto drawn = kept_data();
+    ASSERT_EQ(drawn.size(), 51u);
+    const double bound = 8.0 * std::numeric_limits<double>::epsilon() * std::sqrt(50.0);
+    for (const auto& row : drawn) {
+        ASSERT_EQ(row.size(), 5u);  // t, E, Z, and the two budget residuals relative to E(0) and Z(0)
+        EXPECT_GT(row[1], 0.0);
+        EXPECT_LE(std::abs(row[3]), bound) << "t = " << row[0];
+        EXPECT_LE(std::abs(row[4]), bound) << "t = " << row[0];
+    }
+    EXPECT_GT(std::abs(drawn.back()[1] - drawn.front()[1]), 1e-6);  // forced and viscous: E itself changes
+    EXPECT_NE(kept_script().find("set logscale y"), std::string::npos);
+}
+
+void expect_refused(const run_result& r, const std::string& words) {
+    EXPECT_EQ(r.status, 2) << r.err;
+    const auto lines = lines_of(r.err);
+    ASSERT_EQ(lines.size(), 1u) << r.err;
+    EXPECT_NE(lines[0].find(words), std::string::npos) << r.err;
+}
+
+// Refused before the run, nothing written: an unknown format, no plotting program, the same file as another output,
+// a directory that does not exist.
+TEST_F(cli_plot, a_plot_that_cannot_be_drawn_is_refused_before_the_run_and_nothing_is_written) {
+    const std::vector<std::string> run{"run", "three-wave", "--output", "out.csv", "--summary-json", "out.json"};
+    auto with = [&](std::vector<std::string> more) {
+        std::vector<std::string> a = run;
+        a.insert(a.end(), more.begin(), more.end());
+        return a;
+    };
+    expect_refused(eci(with({"--plot", "out.jpg"})), "must end in .png, .svg or .pdf");
+    expect_refused(eci(with({"--plot", "out.png"}), "ECI_GNUPLOT=/nonexistent/gnuplot"), "--plot needs gnuplot");
+    expect_refused(eci(with({"--plot", "./out.json"})), "name the same file");
+    expect_refused(eci(with({"--plot", "missing/out.png"})), "missing/out.png");
+    if (has_spectral())
+        expect_refused(eci({"run", "navier-stokes-2d", "--N", "16", "--steps", "1", "--plot", "a.gif"}),
+                       "must end in .png, .svg or .pdf");
+    EXPECT_TRUE(work_files().empty());
+}
+
+// A plotting program that fails at the end: the other outputs are kept, the run says so and exits 1.
+TEST_F(cli_plot, a_picture_that_fails_at_the_end_loses_no_other_output) {
+    std::ofstream(work("out.png")) << "old picture";
+    const run_result r =
+        eci({"run", "three-wave", "--steps", "10", "--output", "out.csv", "--plot", "out.png"}, fake_plotter(true));
+    EXPECT_EQ(r.status, 1);
+    EXPECT_NE(r.err.find("the plot 'out.png' could not be drawn"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("the other outputs were written"), std::string::npos) << r.err;
+    EXPECT_EQ(csv_rows(read_text(work("out.csv"))).size(), 11u);
+    EXPECT_EQ(read_text(work("out.png")), "old picture");
+}
+
+// With gnuplot itself: whole pictures in each format.
+TEST_F(cli_plot, gnuplot_draws_whole_png_svg_and_pdf_files) {
+    if (!gnuplot_installed()) GTEST_SKIP() << "gnuplot is not installed";
+    const run_result r = eci({"run", "kepler", "--t-end", "5", "--plot", "k.png"});
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string png = read_text(work("k.png"));
+    ASSERT_GT(png.size(), 1000u);
+    EXPECT_EQ(png.substr(1, 3), "PNG");
+    EXPECT_EQ(png.substr(png.size() - 8, 4), "IEND");
+    ASSERT_EQ(eci({"run", "lotka-volterra", "--plot", "lv.svg"}).status, 0);
+    EXPECT_NE(read_text(work("lv.svg")).find("</svg>"), std::string::npos);
+    ASSERT_EQ(eci({"run", "rigid-body", "--plot", "rb.pdf"}).status, 0);
+    EXPECT_EQ(read_text(work("rb.pdf")).substr(0, 4), "%PDF");
+    EXPECT_EQ(work_files(), (std::set<std::string>{"k.png", "lv.svg", "rb.pdf"}));
+}
+
+}  // namespace
