@@ -15,6 +15,7 @@ step, as a random walk: 8 eps sqrt(s).
 import contextlib
 import csv
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -239,7 +240,8 @@ def case_bad_input(d):
                             (3, ["--N", "32", "--steps", "5", "--ic", "missing.h5"], "--ic missing.h5"),
                             (2, ["--N", "32", "--restart", "missing.h5"], "--restart missing.h5"),
                             (3, ["--N", "32", "--steps", "5", "--dt", "-1"], "--dt -1"),
-                            (2, ["--N", "32", "--steps", "5", "--update", "exact"], "--update exact")):
+                            (2, ["--N", "32", "--steps", "5", "--update", "exact"], "--update exact"),
+                            (3, ["--N", "32", "--steps", "5", "--plot", "p.gif"], "--plot p.gif")):
         sub = tempfile.mkdtemp(dir=d)
         start = time.monotonic()
         r = run(np_, args + ["--output", "o.csv", "--summary-json", "o.json", "--checkpoint-every", "1",
@@ -540,6 +542,15 @@ def case_files(d):
                 if kind == "checkpoint":
                     check(a.attrs["fftw_wisdom"] != b"" and b.attrs["fftw_wisdom"] == b"",
                           f"-np {np_} checkpoint: no FFTW wisdom (the serial one's kept)")
+    # --plot on 2 processes: rank 0 draws the picture (a whole PNG, committed with the CSV), as the serial tool does
+    if shutil.which("gnuplot"):
+        r = run(2, BASE + ["--steps", "5", "--plot", "p2.png", "--output", "p2.csv"], d)
+        png = b""
+        if r.returncode == 0 and os.path.exists(os.path.join(d, "p2.png")):
+            with open(os.path.join(d, "p2.png"), "rb") as f:
+                png = f.read()
+        check(r.returncode == 0 and png[1:4] == b"PNG" and png[-8:-4] == b"IEND",
+              f"-np 2 --plot p2.png: a whole PNG (exit {r.returncode}, {len(png)} bytes)")
     # Read by rows and written again by other processes: the 2-process snapshot as --ic on 3 processes, whose
     # snapshot at step 0 is the same field (through the half plane and back: round-off of one transform pair).
     r = run(3, BASE + ["--steps", "1", "--ic", os.path.join("s2", snap), "--snapshot-every", "1",
