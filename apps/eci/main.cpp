@@ -313,7 +313,12 @@ int run_cli(int argc, char** argv) {
     eci::figures::options figure_options;
     figures->add_option("--out", figure_options.out, "output directory (default figures)");
     int only = 0;
-    figures->add_option("--only", only, "make only figure N (1-9)")->check(whole_number(1))->check(CLI::Range(1, 9));
+    figures
+        ->add_option("--only", only,
+                     "make only figure N (1-9): its files, and its rows of the directory's summary.csv (the other "
+                     "figures' rows are kept)")
+        ->check(whole_number(1))
+        ->check(CLI::Range(1, 9));
 
     // CLI11 would say only that a subcommand is required, or call an unknown model an unexpected argument.
     if (argc == 1) throw bad_input("missing command (commands: run, list, figures; see eci --help)");

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <charconv>
 #include <chrono>
 #include <csignal>
 #include <cstring>
@@ -129,17 +130,45 @@ std::string quoted(const std::string& s) {
     return q + "\"";
 }
 
-void write_summary(const std::filesystem::path& file, const std::vector<figure_result>& results) {
+constexpr const char* summary_header = "figure,key,value,description,paper";
+
+// The rows of an existing summary.csv (its header first) of figures other than `only`, each under its figure
+// number: what `eci figures --only N` keeps of the other figures' numbers. Nothing if there is no such file or it is
+// not a summary.
+std::vector<std::pair<int, std::string>> rows_of_other_figures(const std::filesystem::path& file, int only) {
+    std::vector<std::pair<int, std::string>> rows;
+    std::ifstream in(file);
+    std::string line;
+    if (!in || !std::getline(in, line) || line != summary_header) return {};
+    while (std::getline(in, line)) {
+        const std::size_t comma = line.find(',');
+        int figure = 0;
+        if (comma == std::string::npos || comma == 0) return {};
+        const auto [end, error] = std::from_chars(line.data(), line.data() + comma, figure);
+        if (error != std::errc() || end != line.data() + comma || figure < 1 || figure > 9) return {};
+        if (figure != only) rows.emplace_back(figure, line);
+    }
+    return rows;
+}
+
+// summary.csv: the key numbers of the figures made, and (with --only) the other figures' rows of the summary
+// already in the output directory, in figure order.
+void write_summary(const std::filesystem::path& file, const std::vector<figure_result>& results,
+                   const std::vector<std::pair<int, std::string>>& kept = {}) {
     std::ofstream out(file);
     if (!out) throw run_error("cannot write " + file.string() + ": " + std::strerror(errno));
-    out << "figure,key,value,description,paper\n";
+    out << summary_header << '\n';
     char buffer[32];
-    for (const auto& r : results)
+    std::size_t next = 0;  // the next kept row
+    for (const auto& r : results) {
+        for (; next < kept.size() && kept[next].first < r.number; ++next) out << kept[next].second << '\n';
         for (const auto& k : r.numbers) {
             std::snprintf(buffer, sizeof buffer, "%.17g", k.value);
             out << r.number << ',' << k.key << ',' << buffer << ',' << quoted(k.description) << ','
                 << quoted(k.paper) << '\n';
         }
+    }
+    for (; next < kept.size(); ++next) out << kept[next].second << '\n';
     out.close();
     if (!out) throw run_error("cannot write " + file.string() + ": " + std::strerror(errno));
 }
@@ -207,7 +236,10 @@ int run_figures(const options& options) {
         }
         results.push_back(std::move(r));
     }
-    write_summary(work / "summary.csv", results);
+    // --only N replaces figure N's rows of an existing summary.csv and keeps the others'
+    write_summary(work / "summary.csv", results,
+                  options.only ? rows_of_other_figures(dir / "summary.csv", *options.only)
+                               : std::vector<std::pair<int, std::string>>{});
     staging.commit();
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 

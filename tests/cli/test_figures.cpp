@@ -20,6 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 constexpr double eps = std::numeric_limits<double>::epsilon();
 
+using eci::test_cli::lines_of;
 using eci::test_cli::read_text;
 using eci::test_cli::run_eci;
 using eci::test_cli::scratch_dir;
@@ -300,6 +301,27 @@ TEST(figures_cli, only_writes_the_one_figure) {
     const auto summary = read_summary(dir / "summary.csv");
     EXPECT_EQ(summary.count("c_pc_step_reductions"), 1u);
     EXPECT_EQ(summary.count("pc_fit_n"), 0u);
+}
+
+// --only N into a directory with a whole summary.csv replaces figure N's rows and keeps every other figure's, in
+// figure order (it replaced the file with figure N's rows alone).
+TEST(figures_cli, only_updates_its_figures_rows_of_the_summary_and_keeps_the_others) {
+    const scratch_dir scratch("figures-only-summary");
+    const fs::path dir = scratch.path() / "figures";
+    ASSERT_EQ(run_eci("figures --only 2 --out '" + dir.string() + "'", scratch.path()).status, 0);
+    ASSERT_EQ(run_eci("figures --only 7 --out '" + dir.string() + "'", scratch.path()).status, 0);
+    ASSERT_EQ(run_eci("figures --only 4 --out '" + dir.string() + "'", scratch.path()).status, 0);
+    const auto lines = lines_of(read_text(dir / "summary.csv"));
+    ASSERT_GE(lines.size(), 4u);
+    EXPECT_EQ(lines[0], "figure,key,value,description,paper");
+    std::vector<int> figures;
+    for (std::size_t i = 1; i < lines.size(); ++i) figures.push_back(std::stoi(lines[i].substr(0, lines[i].find(','))));
+    EXPECT_TRUE(std::ranges::is_sorted(figures));
+    for (int n : {2, 4, 7}) EXPECT_NE(std::ranges::find(figures, n), figures.end()) << "figure " << n;
+    // figure 4 again: its rows replaced, not added twice; the others' bytes unchanged
+    const std::string before = read_text(dir / "summary.csv");
+    ASSERT_EQ(run_eci("figures --only 4 --out '" + dir.string() + "'", scratch.path()).status, 0);
+    EXPECT_EQ(read_text(dir / "summary.csv"), before);
 }
 
 TEST(figures_cli, a_bad_figure_number_fails_with_exit_2_and_writes_nothing) {
