@@ -67,7 +67,7 @@ constexpr const char* exit_status_help =
     "kept; stopped before its first step, by SIGPIPE or by a second signal, it keeps nothing. On any other failure "
     "no output file or directory is created "
     "or replaced (files of one run appear together), except what goes directly to standard output, a device "
-    "or a FIFO (for --output and --summary-json; other outputs refuse devices and FIFOs), and a spectral run's "
+    "or a FIFO (for --output, --summary-json and --plot; other outputs refuse devices and FIFOs), and a spectral run's "
     "checkpoint (replaced whole at each --checkpoint-every and on a stop, so the last good one stays) and FFTW "
     "wisdom file (written once the input is known good). No output may name an input file (--ic, --restart; "
     "--checkpoint may name the --restart file, continuing it in place).";
