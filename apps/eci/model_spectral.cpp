@@ -25,6 +25,7 @@
 #include <eci/solve.hpp>
 
 #include "command.hpp"
+#include "h5_series.hpp"
 #include "ns2d_output.hpp"
 #include "output.hpp"
 #include "run_model.hpp"
@@ -800,7 +801,12 @@ int spectral_command::run_spread(const run_settings& settings) {
                 throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " + std::strerror(errno));
             staged_snapshots.emplace(dir, "snapshots");
         }
-        if (!settings.output.empty()) csv_file.emplace(settings.output, "CSV output");
+        check_hdf5_request(settings.output);
+        if (!settings.output.empty())
+            csv_file.emplace(settings.output, is_hdf5_path(settings.output) ? "HDF5 output" : "CSV output");
+        if (csv_file && is_hdf5_path(settings.output) && csv_file->temporary().empty())
+            throw bad_input("--output '" + settings.output +
+                            "': HDF5 is written to a regular file, not a device or FIFO");
         if (!settings.summary_json.empty()) json_file.emplace(settings.summary_json, "summary JSON");
         if (!settings.plot.empty()) plot_file.emplace(settings.plot, "plot");
     });
@@ -841,7 +847,18 @@ int spectral_command::run_spread(const run_settings& settings) {
         run.energy0 = model.energy(w);
         run.enstrophy0 = model.enstrophy(w);
     }
-    std::FILE* out = csv.get();
+    // --output FILE.h5 (rank 0's): the CSV's columns as HDF5 datasets, t and the diagnostics
+    const std::vector<std::string> diagnostics{"step", inv_[0], inv_[1], "palinstrophy", inv_[0] + "_injection",
+                                               inv_[0] + "_dissipation", inv_[1] + "_injection",
+                                               inv_[1] + "_dissipation", inv_[0] + "_budget_residual",
+                                               inv_[1] + "_budget_residual", "max_velocity", "cfl", "halvings"};
+    std::optional<h5_series> h5;
+    if (csv.get() && is_hdf5_path(settings.output))
+        h5.emplace(csv.temporary(), "HDF5 output",
+                   std::vector<h5_series::group>{{"diagnostics", diagnostics.size(), diagnostics}},
+                   std::vector<std::pair<std::string, std::string>>{
+                       {"model", name_}, {"method", method}, {"dt", shortest(dt)}, {"N", std::to_string(p.n)}});
+    std::FILE* out = h5 ? nullptr : csv.get();
     if (out)
         std::fputs(("step,t," + inv_[0] + "," + inv_[1] + ",palinstrophy," + inv_[0] + "_injection," + inv_[0] +
                     "_dissipation," + inv_[1] + "_injection," + inv_[1] + "_dissipation," + inv_[0] +
@@ -867,6 +884,15 @@ int spectral_command::run_spread(const run_settings& settings) {
             const double kept[2] = {e - (b.energy_injection - b.energy_dissipation),
                                     z - (b.enstrophy_injection - b.enstrophy_dissipation)};
             plot->add(t, ez, kept);
+        }
+        if (h5) {
+            const double v[13] = {double(i), e, z, pal, b.energy_injection, b.energy_dissipation,
+                                  b.enstrophy_injection, b.enstrophy_dissipation,
+                                  e - run.energy0 - (b.energy_injection - b.energy_dissipation),
+                                  z - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation), u,
+                                  u * dt / dx, double(run.halvings)};
+            const std::span<const double> row[1] = {v};
+            h5->add(t, row);
         }
         if (!out) return;
         std::fprintf(out, "%llu,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%s,%llu\n", (unsigned long long)i,
@@ -1139,11 +1165,14 @@ int spectral_command::run_spread(const run_settings& settings) {
         std::string kept;
         const auto add = [&](const std::string& what) { kept += (kept.empty() ? "; kept: " : ", ") + what; };
         if (staged_snapshots) add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(reached));
-        if (csv.replaces()) add("CSV output '" + settings.output + "' (rows to step " + std::to_string(reached) + ")");
+        if (csv.replaces())
+            add(std::string(h5 ? "HDF5" : "CSV") + " output '" + settings.output + "' (rows to step " +
+                std::to_string(reached) + ")");
         if (json.replaces()) add("summary JSON '" + settings.summary_json + "'");
         try {
             on_root_agreed([&] {
                 if (std::FILE* j = json.get()) write_summary_json(j, s);
+                if (h5) h5->close();
                 commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr, true);
                 if (created_snapshot_dir) created_snapshot_dir->keep();
             });
@@ -1190,6 +1219,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     // a failure takes back what was moved in (a failed run keeps its checkpoint, not a partial time series).
     on_root([&] {
         if (std::FILE* j = json.get()) write_summary_json(j, s);
+        if (h5) h5->close();
         // a picture that could not be drawn loses nothing else: the other outputs are committed, the run fails
         const bool drawn = !plot || plot->draw(picture), others = csv.get() || json.get() || staged_snapshots;
         if (drawn)

@@ -3,6 +3,7 @@
 #include "ns2d_output.hpp"
 
 #include "command.hpp"
+#include "h5_series.hpp"
 #include "output.hpp"
 
 #include <eci/steps.hpp>
@@ -10,6 +11,7 @@
 #include <hdf5.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <cmath>
@@ -873,6 +875,156 @@ void write_spectrum(const std::string& csv_path, const std::string& png_path, co
         std::error_code ec;
         std::filesystem::remove(ptmp, ec);
     }
+}
+
+}  // namespace eci::cli
+
+// ---- h5_series (h5_series.hpp): a run's rows as HDF5 ----
+
+namespace eci::cli {
+
+void check_hdf5_request(const std::string& path) {
+    if (!is_hdf5_path(path)) return;
+    if (path == "-" || path.starts_with("/dev/") || path.starts_with("/proc/"))
+        throw bad_input("--output '" + path + "': HDF5 is written to a file by name, not to a stream or device");
+}
+
+struct h5_series::impl {
+    std::string file, what;
+    std::vector<group> groups;
+    hid_t id = -1;
+    std::vector<hid_t> sets;                // t, then one per group of width > 0
+    std::vector<std::vector<double>> rows;  // the buffered rows of each dataset
+    std::size_t buffered = 0, written = 0, flush_at = 1;
+
+    [[noreturn]] void fail(const std::string& doing, const std::function<std::string()>& why) const {
+        throw run_error("cannot write " + what + ": HDF5 could not " + doing + why());
+    }
+    hid_t create(const std::string& name, std::size_t width) {
+        // extendible along the rows, chunks of about 256 KiB (a chunk of a wide state: one row, 32768 columns)
+        const bool flat = width == 0;  // (t: one dimension)
+        const hsize_t w = flat ? 1 : hsize_t(width);
+        const hsize_t cols = std::min<hsize_t>(w, 32768), chunk_rows = std::max<hsize_t>(1, 32768 / cols);
+        const hsize_t dims[2] = {0, w}, maxdims[2] = {H5S_UNLIMITED, w}, chunk[2] = {chunk_rows, cols};
+        handle sp(H5Screate_simple(flat ? 1 : 2, dims, maxdims), H5Sclose, "HDF5 dataspace");
+        handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "HDF5 dataset properties");
+        H5Pset_obj_track_times(dcpl, false);
+        if (H5Pset_chunk(dcpl, flat ? 1 : 2, chunk) < 0) throw std::runtime_error("HDF5 chunks of " + name);
+        const hid_t d = H5Dcreate2(id, name.c_str(), H5T_NATIVE_DOUBLE, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT);
+        if (d < 0) throw std::runtime_error("HDF5 dataset " + name);
+        return d;
+    }
+    void names(const group& g) {
+        if (g.columns.empty() || g.columns.size() != g.width || g.width > max_named) return;
+        std::size_t longest = 1;
+        for (const std::string& c : g.columns) longest = std::max(longest, c.size());
+        std::vector<char> text(longest * g.columns.size(), '\0');
+        for (std::size_t i = 0; i < g.columns.size(); ++i) std::copy(g.columns[i].begin(), g.columns[i].end(), &text[i * longest]);
+        handle t(H5Tcopy(H5T_C_S1), H5Tclose, "HDF5 string type");
+        H5Tset_size(t, longest);
+        const hsize_t n = g.columns.size();
+        handle sp(H5Screate_simple(1, &n, nullptr), H5Sclose, "HDF5 dataspace");
+        handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "HDF5 dataset properties");
+        H5Pset_obj_track_times(dcpl, false);
+        const std::string name = g.name + "_columns";
+        handle d(H5Dcreate2(id, name.c_str(), t, sp, H5P_DEFAULT, dcpl, H5P_DEFAULT), H5Dclose, "HDF5 dataset " + name);
+        if (H5Dwrite(d, t, H5S_ALL, H5S_ALL, H5P_DEFAULT, text.data()) < 0)
+            throw std::runtime_error("HDF5 dataset " + name);
+        d.close_checked("HDF5 dataset " + name);
+    }
+    void flush() {
+        if (buffered == 0) return;
+        const auto why = begin_hdf5_write(file);
+        for (std::size_t s = 0; s < sets.size(); ++s) {
+            const std::size_t w = rows[s].size() / buffered;
+            const bool flat = s == 0;
+            const hsize_t extent[2] = {hsize_t(written + buffered), hsize_t(w)};
+            if (H5Dset_extent(sets[s], extent) < 0) fail("extend its datasets", why);
+            const hid_t fs = H5Dget_space(sets[s]);
+            const hsize_t start[2] = {hsize_t(written), 0}, count[2] = {hsize_t(buffered), hsize_t(w)};
+            const bool selected = fs >= 0 && H5Sselect_hyperslab(fs, H5S_SELECT_SET, start, nullptr, count, nullptr) >= 0;
+            const hid_t ms = H5Screate_simple(flat ? 1 : 2, count, nullptr);
+            const bool ok = selected && ms >= 0 &&
+                            H5Dwrite(sets[s], H5T_NATIVE_DOUBLE, ms, fs, H5P_DEFAULT, rows[s].data()) >= 0;
+            if (ms >= 0) H5Sclose(ms);
+            if (fs >= 0) H5Sclose(fs);
+            if (!ok) fail("write its rows", why);
+            rows[s].clear();
+        }
+        written += buffered;
+        buffered = 0;
+    }
+    void release() {
+        for (hid_t s : sets) H5Dclose(s);
+        sets.clear();
+        if (id >= 0) H5Fclose(id);
+        id = -1;
+    }
+};
+
+h5_series::h5_series(const std::string& file, std::string_view what, std::vector<group> groups,
+                     std::vector<std::pair<std::string, std::string>> attributes)
+    : d_(std::make_unique<impl>()) {
+    impl& d = *d_;
+    d.file = file;
+    d.what = std::string(what) + " '" + file + "'";
+    d.groups = std::move(groups);
+    const auto why = begin_hdf5_write(file);
+    d.id = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT);
+    if (d.id < 0) d.fail("create the file", why);
+    try {
+        put(d.id, "format", std::string("eci run series"));
+        put(d.id, "version", std::int64_t(1));
+        for (const auto& [name, value] : attributes) put(d.id, name.c_str(), value);
+        d.sets.push_back(d.create("t", 0));
+        std::size_t row_width = 1;
+        for (const group& g : d.groups) {
+            if (g.width == 0) continue;
+            d.sets.push_back(d.create(g.name, g.width));
+            d.names(g);
+            row_width += g.width;
+        }
+        d.rows.resize(d.sets.size());
+        // rows buffered up to about 4 MiB (at least one), then appended
+        d.flush_at = std::max<std::size_t>(1, (std::size_t(1) << 19) / row_width);
+    } catch (const std::runtime_error& e) {
+        const std::string reason = why();
+        d.release();
+        throw run_error("cannot write " + d.what + ": " + e.what() + reason);
+    }
+}
+
+h5_series::~h5_series() {
+    if (d_) d_->release();
+}
+
+void h5_series::add(double t, std::span<const std::span<const double>> values) {
+    impl& d = *d_;
+    d.rows[0].push_back(t);
+    std::size_t s = 1;
+    for (std::size_t g = 0; g < d.groups.size() && g < values.size(); ++g) {
+        if (d.groups[g].width == 0) continue;
+        std::vector<double>& r = d.rows[s++];
+        const std::span<const double> v = values[g];
+        const std::size_t w = d.groups[g].width;
+        r.insert(r.end(), v.begin(), v.begin() + std::ptrdiff_t(std::min(w, v.size())));
+        r.resize(r.size() + (w - std::min(w, v.size())), std::nan(""));
+    }
+    if (++d.buffered >= d.flush_at) d.flush();
+}
+
+void h5_series::close() {
+    impl& d = *d_;
+    if (d.id < 0) return;
+    d.flush();
+    const auto why = begin_hdf5_write(d.file);
+    bool ok = true;
+    for (hid_t s : d.sets) ok = H5Dclose(s) >= 0 && ok;
+    d.sets.clear();
+    const bool flushed = ok && H5Fflush(d.id, H5F_SCOPE_LOCAL) >= 0;
+    const bool closed = H5Fclose(d.id) >= 0;
+    d.id = -1;
+    if (!flushed || !closed) d.fail(flushed ? "close the file" : "write the file", why);
 }
 
 }  // namespace eci::cli

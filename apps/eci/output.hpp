@@ -62,6 +62,9 @@ class output_file {
     void finish();
     /// Whether the output goes through a temporary file and a rename.
     bool replaces() const { return !temp_.empty(); }
+    /// The temporary the rename commits (empty for direct output): for a file written by name (HDF5), which
+    /// finish() then syncs to disk through the stream's descriptor (the same file) before the rename.
+    const std::string& temporary() const { return temp_; }
 
    private:
     friend void commit_outputs(std::initializer_list<output_file*> outputs, staging_dir* staged, bool interrupted_run);

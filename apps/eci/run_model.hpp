@@ -24,6 +24,7 @@
 #include <eci/solve.hpp>
 
 #include "command.hpp"
+#include "h5_series.hpp"
 #include "output.hpp"
 #include "run_plot.hpp"
 
@@ -211,7 +212,12 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
 
     // Open every output before running: an unwritable path is bad input, reported before any work.
     check_plot_request(settings.plot);
-    output_file csv = settings.output.empty() ? output_file() : output_file(settings.output, "CSV output");
+    check_hdf5_request(settings.output);
+    const bool hdf5 = is_hdf5_path(settings.output);  // --output FILE.h5: the rows as HDF5 datasets
+    output_file csv = settings.output.empty() ? output_file()
+                                              : output_file(settings.output, hdf5 ? "HDF5 output" : "CSV output");
+    if (hdf5 && csv.temporary().empty())
+        throw bad_input("--output '" + settings.output + "': HDF5 is written to a regular file, not a device or FIFO");
     output_file json =
         settings.summary_json.empty() ? output_file() : output_file(settings.summary_json, "summary JSON");
     output_file picture = settings.plot.empty() ? output_file() : output_file(settings.plot, "plot");
@@ -251,7 +257,26 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     // one step's O(dt^p), never accumulated): such a method's CSV gets a last column time_lag.
     const bool lagged = !adaptive && method_shifts_time<Model>(method.name);
 
-    std::FILE* out = csv.get();
+    std::optional<h5_series> h5;
+    if (hdf5) {
+        std::vector<std::string> state_names, derived_names, invariant_names;
+        if (columns.size() <= h5_series::max_named)
+            for (std::size_t i = 0; i < columns.size(); ++i) state_names.push_back(columns[i]);
+        for (const auto& d : derived) derived_names.emplace_back(d.name);
+        for (const auto& inv : Model::invariants()) invariant_names.emplace_back(inv.name);
+        std::vector<std::pair<std::string, std::string>> attributes{{"model", info.name}, {"method", std::string(method.name)}};
+        if (adaptive)
+            attributes.insert(attributes.end(), {{"rtol", shortest(cfg.adaptive->rtol)}, {"atol", shortest(cfg.adaptive->atol)}});
+        else
+            attributes.emplace_back("dt", shortest(plan.dt));
+        h5.emplace(csv.temporary(), "HDF5 output",
+                   std::vector<h5_series::group>{{"state", columns.size(), std::move(state_names)},
+                                                 {"derived", derived.size(), std::move(derived_names)},
+                                                 {"invariants", Model::invariants().size(), std::move(invariant_names)},
+                                                 {"time_lag", lagged ? 1u : 0u, {}}},
+                   std::move(attributes));
+    }
+    std::FILE* out = hdf5 ? nullptr : csv.get();
     if (out) {
         std::fputs("t", out);
         for (std::size_t i = 0; i < columns.size(); ++i) std::fprintf(out, ",%s", columns[i].c_str());
@@ -266,8 +291,8 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     class csv_sink final : public dynamic_sink<S> {
        public:
         csv_sink(std::FILE* out, const Model& model, const decltype(derived)& columns_derived, std::uint64_t steps,
-                 double t_end, run_plot* plot)
-            : bar(steps, 4096, t_end), out_(out), model_(model), derived_(columns_derived), plot_(plot) {}
+                 double t_end, run_plot* plot, h5_series* h5)
+            : bar(steps, 4096, t_end), out_(out), model_(model), derived_(columns_derived), plot_(plot), h5_(h5) {}
         void output(const S& state, const output_point& p) override {
             // what an interrupted run's summary says: its outputs (the CSV's rows, written or not) up to the last
             records.resize(p.invariants.size());
@@ -282,6 +307,17 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
                     if (count < first.size()) first[count++] = v;
                 });
                 plot_->add(p.t, std::span<const double>(first.data(), count), p.invariants);
+            }
+            if (h5_) {
+                state_.clear();
+                detail::for_each_real(state, [&](double v) { state_.push_back(v); });
+                std::array<double, std::tuple_size_v<std::remove_cvref_t<decltype(derived_)>>> d{};
+                for (std::size_t k = 0; k < d.size(); ++k) d[k] = (model_.*derived_[k].value)(state);
+                const double lag = p.time_lag ? *p.time_lag : 0.0;
+                const std::array<std::span<const double>, 4> row{std::span<const double>(state_),
+                                                                 std::span<const double>(d), p.invariants,
+                                                                 std::span<const double>(&lag, 1)};
+                h5_->add(p.t, row);
             }
             if (!out_) return;
             char buffer[32];
@@ -313,7 +349,9 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         const Model& model_;
         const decltype(derived)& derived_;
         run_plot* plot_;
-    } sink{out, model, derived, adaptive ? 0 : plan.steps, plan.t_end, plot ? &*plot : nullptr};
+        h5_series* h5_;
+        std::vector<double> state_;  ///< a state's real unknowns, for an HDF5 row
+    } sink{out, model, derived, adaptive ? 0 : plan.steps, plan.t_end, plot ? &*plot : nullptr, h5 ? &*h5 : nullptr};
 
     const auto start = std::chrono::steady_clock::now();
     solve_report report;
@@ -345,11 +383,14 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             summary.invariants[k].name = names[k].name;
         summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::string kept;
-        if (csv.replaces()) kept += "CSV output '" + settings.output + "' (rows to t = " + shortest(sink.last_t) + ")";
+        if (csv.replaces())
+            kept += std::string(hdf5 ? "HDF5" : "CSV") + " output '" + settings.output + "' (rows to t = " +
+                    shortest(sink.last_t) + ")";
         if (json.replaces())
             kept += (kept.empty() ? "" : ", ") + std::string("summary JSON '") + settings.summary_json + "'";
         try {
             if (std::FILE* j = json.get()) write_summary_json(j, summary);
+            if (h5) h5->close();
             // (no picture: the plotting program is stopped by the same signal)
             commit_outputs({&csv, &json}, nullptr, true);
         } catch (const std::exception& e) {
@@ -386,6 +427,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     // Every output complete before any replaces anything: committed together, or none. A picture that could not be
     // drawn loses nothing else: the other outputs are committed and the run fails with the reason.
     if (std::FILE* j = json.get()) write_summary_json(j, summary);
+    if (h5) h5->close();
     if (plot && !plot->draw(picture)) {
         const bool others = csv.get() || json.get();
         commit_outputs({&csv, &json});

@@ -542,6 +542,21 @@ def case_files(d):
                 if kind == "checkpoint":
                     check(a.attrs["fftw_wisdom"] != b"" and b.attrs["fftw_wisdom"] == b"",
                           f"-np {np_} checkpoint: no FFTW wisdom (the serial one's kept)")
+    # --output FILE.h5 on 2 processes: rank 0 writes the rows as HDF5, the serial tool's diagnostics to round-off
+    r0 = run(0, BASE + ["--steps", "5", "--output", "h0.h5"], d)
+    r2 = run(2, BASE + ["--steps", "5", "--output", "h2.h5"], d)
+    check(r0.returncode == 0 and r2.returncode == 0, f"--output FILE.h5 serial and -np 2 (exit {r0.returncode}, "
+                                                     f"{r2.returncode})")
+    if r0.returncode == 0 and r2.returncode == 0:
+        with h5py.File(os.path.join(d, "h0.h5"), "r") as a, h5py.File(os.path.join(d, "h2.h5"), "r") as b:
+            x, y = np.array(a["diagnostics"]), np.array(b["diagnostics"])
+            same = x.shape == y.shape and np.array_equal(a["t"][:], b["t"][:])
+            check(same, f"-np 2 --output h2.h5: rows {y.shape} at the serial file's times")
+            names = [c.decode() for c in b["diagnostics_columns"][:]]
+            for k in ("energy", "enstrophy", "max_velocity") if same else ():
+                i = names.index(k)
+                err = float(np.max(np.abs(x[:, i] - y[:, i])) / np.max(np.abs(x[:, i])))
+                check(err <= bound, f"-np 2 --output h2.h5: {k} = serial to {err:.3g}")
     # --plot on 2 processes: rank 0 draws the picture (a whole PNG, committed with the CSV), as the serial tool does
     if shutil.which("gnuplot"):
         r = run(2, BASE + ["--steps", "5", "--plot", "p2.png", "--output", "p2.csv"], d)

@@ -319,3 +319,73 @@ def test_a_snapshot_directory_under_a_file_is_named_as_such(cli, tmp_path):
     assert msg == f"cannot create snapshot directory '{tmp_path / 'regfile' / 'x'}': '{tmp_path / 'regfile'}' is " \
         "not a directory"
     assert (tmp_path / "regfile").read_text() == "x"
+
+
+def csv_table(path):
+    """The header and the rows (as floats) of a CSV the CLI wrote."""
+    lines = Path(path).read_text().splitlines()
+    return lines[0].split(","), np.array([[float(v) for v in line.split(",")] for line in lines[1:]])
+
+
+def h5_names(data):
+    return [c.decode() for c in data[:]]
+
+
+# --output FILE.h5: the CSV's numbers as HDF5 datasets, bit for bit (the CSV's 17 digits read back exactly), with the
+# columns' names; every kind of row: a state with derived columns, a relaxation method's time lag, complex modes,
+# adaptive steps at --output-dt times, and a spectral run's diagnostics.
+@pytest.mark.parametrize("args", [
+    ["kepler", "--t-end", "3"],
+    ["rigid-body", "--method", "rrk-rk4", "--t-end", "1"],
+    ["n-wave-complex", "--modes", "40", "--steps", "30", "--every", "7"],
+    ["three-wave", "--rtol", "1e-8", "--t-end", "2", "--output-dt", "0.25"],
+    small("--steps", "12", "--nu", "0.01", "--forcing", "stochastic")[1:],
+], ids=["derived", "time-lag", "complex", "adaptive", "spectral"])
+def test_hdf5_output_holds_the_csv_rows(cli, tmp_path, args):
+    run_cli(cli, "run", *args, "--output", tmp_path / "r.csv")
+    run_cli(cli, "run", *args, "--output", tmp_path / "r.h5")
+    header, rows = csv_table(tmp_path / "r.csv")
+    with h5py.File(tmp_path / "r.h5", "r") as f:
+        assert f.attrs["format"] == b"eci run series" and f.attrs["version"] == 1
+        assert f.attrs["model"].decode() == args[0]
+        t = f["t"][:]
+        spectral = "diagnostics" in f
+        assert np.array_equal(t, rows[:, header.index("t")])
+        columns = {}
+        for group in ("state", "derived", "invariants", "diagnostics"):
+            if group in f:
+                names = h5_names(f[group + "_columns"])
+                assert f[group].shape == (len(t), len(names))
+                columns.update({n: f[group][:, i] for i, n in enumerate(names)})
+        if "time_lag" in f:
+            columns["time_lag"] = f["time_lag"][:, 0]
+        assert sorted(columns) == sorted(c for c in header if c != "t"), (sorted(columns), header)
+        for name, values in columns.items():
+            assert np.array_equal(values, rows[:, header.index(name)]), name
+        assert spectral == (args[0] == "navier-stokes-2d")
+
+
+def test_hdf5_output_to_a_stream_or_fifo_is_refused_and_nothing_is_written(cli, tmp_path):
+    r = run_cli(cli, "run", "three-wave", "--output", "/dev/stdout.h5", check=False)
+    assert r.returncode == 2 and "HDF5 is written to a file by name" in error_line(r.stderr)
+    os.mkfifo(tmp_path / "pipe.h5")
+    r = run_cli(cli, "run", "three-wave", "--output", tmp_path / "pipe.h5", "--summary-json", tmp_path / "s.json",
+                check=False)
+    assert r.returncode == 2 and "FIFO" in error_line(r.stderr), r.stderr  # (no reader: refused on opening)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["pipe.h5"]
+
+
+def test_an_interrupted_run_keeps_a_whole_hdf5_file(cli, tmp_path):
+    (tmp_path / "x.h5").write_text("precious\n")
+    status, err = interrupted_run(cli, ["run", "three-wave", "--t-end", "1e12", "--every", "1000", "--output",
+                                        "x.h5", "--summary-json", "x.json"], tmp_path)
+    assert status == 130, err
+    kept = re.search(r"; kept: HDF5 output 'x.h5' \(rows to t = ([^)]*)\), summary JSON 'x.json'$", error_line(err))
+    assert kept, err
+    with h5py.File(tmp_path / "x.h5", "r") as f:
+        t = f["t"][:]
+        assert len(t) > 1 and t[-1] == float(kept.group(1))
+        assert f["state"].shape == (len(t), 3) and f["invariants"].shape == (len(t), 2)
+        s = json.loads((tmp_path / "x.json").read_text())
+        assert s["invariants"]["energy"]["final"] == f["invariants"][-1, 0]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["x.h5", "x.json"]
