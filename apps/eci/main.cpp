@@ -271,7 +271,7 @@ int run_cli(int argc, char** argv) {
                         "CSV file: t, the state (a spectral model: its diagnostics and budget), the invariants, at "
                         "full precision; a name ending in .h5 or .hdf5 writes the same rows as HDF5 datasets (t, "
                         "state, derived, invariants, time_lag; a spectral model: diagnostics), each with its "
-                        "columns' names. Without --output nothing is written; '-' writes the CSV to standard output");
+                        "columns' names. Without --output no CSV is written; '-' writes it to standard output");
         sub->add_option("--summary-json", settings.summary_json,
                         "also write the run summary as JSON to this file ('-': standard output)");
         sub->add_option("--plot", settings.plot,

@@ -1230,6 +1230,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         print_summary(stderr, s);
         if (!drawn)
             throw run_error("the plot '" + settings.plot + "' could not be drawn by " + plotting_program() +
+                            (plot->failure().empty() ? "" : " (" + plot->failure() + ")") +
                             (others ? "; the other outputs were written" : ""));
     });
     return 0;

@@ -433,6 +433,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         commit_outputs({&csv, &json});
         print_summary(stderr, summary);
         throw run_error("the plot '" + settings.plot + "' could not be drawn by " + plotting_program() +
+                        (plot->failure().empty() ? "" : " (" + plot->failure() + ")") +
                         (others ? "; the other outputs were written" : ""));
     }
     commit_outputs({&csv, &json, &picture});

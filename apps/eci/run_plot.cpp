@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <stdexcept>
 #include <utility>
 
 namespace eci::cli {
@@ -96,6 +97,15 @@ void run_plot::add(double t, std::span<const double> components, std::span<const
 }
 
 bool run_plot::draw(output_file& png) const {
+    try {
+        return draw_into(png);
+    } catch (const std::exception& e) {
+        failure_ = e.what();
+        return false;
+    }
+}
+
+bool run_plot::draw_into(output_file& png) const {
     if (empty() || !png.get()) return false;
     const std::size_t w = width(), nc = names_.size(), ni = invariants_.size();
     // the rows drawn: those kept, and the last output if it was not

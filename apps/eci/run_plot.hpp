@@ -44,11 +44,16 @@ class run_plot {
     /// Whether any output was added.
     bool empty() const { return rows_ == 0 && !has_last_; }
 
-    /// Draws the picture (PNG, SVG or PDF by the path's extension) into `png` (its stream: a temporary renamed by commit_outputs, or a device). False
-    /// if the plotting program could not draw it (or was interrupted); throws run_error on a failed write.
+    /// Draws the picture (PNG, SVG or PDF by the path's extension) into `png` (its stream: a temporary renamed by
+    /// commit_outputs, or a device). False if it could not be drawn: the plotting program failed or was interrupted,
+    /// or a temporary could not be written (failure() then says why); never throws, so that a run whose picture
+    /// fails keeps its other outputs.
     bool draw(output_file& png) const;
+    /// Why the last draw() failed, if it could tell ("" otherwise).
+    const std::string& failure() const { return failure_; }
 
    private:
+    bool draw_into(output_file& png) const;
     std::size_t width() const { return 1 + names_.size() + invariants_.size(); }
     std::string path_;
     std::vector<std::string> names_, invariants_;
@@ -60,6 +65,7 @@ class run_plot {
     std::uint64_t seen_ = 0, stride_ = 1;  // outputs seen; every stride_-th is kept
     std::vector<double> last_;             // the latest output, drawn last whether kept or not
     bool has_last_ = false;
+    mutable std::string failure_;
 };
 
 }  // namespace eci::cli
