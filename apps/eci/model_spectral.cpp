@@ -595,6 +595,7 @@ int spectral_command::run_spread(const run_settings& settings) {
             }
             if (ec) throw bad_input("cannot read snapshot directory '" + snapshot_dir_ + "': " + ec.message());
         } else {
+            check_data_directory(dir, "snapshots");
             const fs::path parent = fs::path(dir).parent_path().empty() ? fs::path(".") : fs::path(dir).parent_path();
             if (!fs::is_directory(parent))
                 throw bad_input("cannot create snapshot directory '" + snapshot_dir_ + "': " +

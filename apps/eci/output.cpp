@@ -782,6 +782,14 @@ void check_outputs_spare_inputs(const std::vector<std::pair<std::string, std::st
                                          "': the run would overwrite its own input"}));
 }
 
+void check_data_directory(const std::string& dir, std::string_view what) {
+    struct stat st {};
+    const std::string where = ::stat(dir.c_str(), &st) == 0 ? dir : dir_of(dir);
+    if (const char* pseudo = pseudo_file_system(where))
+        throw bad_input(message({"cannot write ", what, " into '", dir, "': it is in ", pseudo,
+                                 ", a kernel interface, not a place for data files"}));
+}
+
 // ---- staging_dir ----
 
 staging_dir::staging_dir(const std::string& final_dir, std::string what) : final_(final_dir), what_(std::move(what)) {
@@ -791,12 +799,13 @@ staging_dir::staging_dir(const std::string& final_dir, std::string what) : final
     const bool exists = ::stat(final_.c_str(), &st) == 0;
     if (exists && !S_ISDIR(st.st_mode))
         throw bad_input(message({"output directory '", final_, "' exists and is not a directory"}));
+    check_data_directory(final_, what_);
     // A missing directory is staged beside its final place and renamed there whole; an existing one gets
     // its files moved in one by one. Either way nothing appears in final_dir before the commit.
     std::string temp = exists ? message({final_, "/.eci-tmp-XXXXXX"}) : temp_template(final_, ".eci-tmp-");
     if (::mkdtemp(temp.data()) == nullptr) {
         const int e = errno;
-        if (!exists && e == ENOENT)
+        if (!exists && e == ENOENT && ::stat(dir_of(final_).c_str(), &st) != 0)
             throw bad_input(message({"cannot create output directory '", final_, "': directory '", dir_of(final_),
                                      "' does not exist"}));
         throw bad_input(message({"cannot write into '", exists ? final_ : dir_of(final_), "': ", errno_text(e)}));

@@ -99,6 +99,11 @@ bool interrupt_keeps_outputs();
 /// The interrupt's message, "interrupted by SIGINT <where>" ("interrupted <where>" if none arrived).
 std::string interrupt_message(std::string_view where);
 
+/// Refuses (bad_input "cannot write <what> into '<dir>': it is in /proc, a kernel interface, ...") a directory of
+/// outputs, existing or to be created, in /proc, /sys or another kernel interface (mkdir's and mkdtemp's errors
+/// there named no such file or directory).
+void check_data_directory(const std::string& dir, std::string_view what);
+
 /// A temporary directory beside `final_dir` whose contents replace `final_dir`'s files of the same names on
 /// commit(); removed with its contents unless committed, and by the signal handler on a forced exit.
 class staging_dir {

@@ -389,3 +389,16 @@ def test_an_interrupted_run_keeps_a_whole_hdf5_file(cli, tmp_path):
         s = json.loads((tmp_path / "x.json").read_text())
         assert s["invariants"]["energy"]["final"] == f["invariants"][-1, 0]
     assert sorted(p.name for p in tmp_path.iterdir()) == ["x.h5", "x.json"]
+
+
+# A directory of outputs in /proc or /sys is refused as such (mkdir's error there said no such file or directory,
+# and "directory '/proc' does not exist").
+@pytest.mark.parametrize("args", [["figures", "--out", "/proc/eci-figures"],
+                                  small("--steps", "1", "--snapshot-every", "1", "--snapshot-dir", "/proc/eci-snaps"),
+                                  small("--steps", "1", "--snapshot-every", "1", "--snapshot-dir", "/sys")],
+                         ids=["figures", "new-snapshot-dir", "existing-dir"])
+def test_an_output_directory_in_a_kernel_interface_is_refused_as_such(cli, args):
+    r = run_cli(cli, *args, check=False)
+    assert r.returncode == 2, r.stderr
+    line = error_line(r.stderr)
+    assert "a kernel interface, not a place for data files" in line, line
