@@ -86,6 +86,7 @@ struct fuzz_case {
     std::vector<std::string> args;
     std::string model, method;
     std::string checkpoint, wisdom;  // a spectral run's --checkpoint and --fftw-wisdom, if given
+    std::string plot;                // --plot, if given
     bool csv = false, json = false, csv_old = false, json_old = false, adaptive = false;
 };
 
@@ -186,6 +187,8 @@ fuzz_case make_case(generator& g) {
         if (options.back().second == "-") c.csv = false;
         c.csv_old = c.csv && g.chance(0.3);
     }
+    // a picture now and then (drawn by gnuplot: slow), under good, bad and shared names
+    opt("--plot", g.pick<std::string>({"p.png", "p.svg", "p.gif", "o.csv", "nodir/p.png"}), 0.04);
     if (g.chance(0.35)) {
         c.json = true;
         c.json_old = g.chance(0.3);
@@ -194,6 +197,7 @@ fuzz_case make_case(generator& g) {
     if (g.chance(0.03)) options.emplace_back("--bogus", "1");
     for (const auto& [flag, value] : options)
         if (flag == "--checkpoint") c.checkpoint = value;
+        else if (flag == "--plot") c.plot = value;
         else if (flag == "--fftw-wisdom" && value != "none") c.wisdom = value;
     std::shuffle(options.begin(), options.end(), g.engine());
     c.args = {"run"};
@@ -299,6 +303,7 @@ std::vector<std::string> check(const fuzz_case& c, const run_result& r, const fs
     std::set<std::string> expected;
     if (c.csv_old || (r.status == 0 && c.csv)) expected.insert("o.csv");
     if (c.json_old || (r.status == 0 && c.json)) expected.insert("s.json");
+    if (r.status == 0 && (c.plot == "p.png" || c.plot == "p.svg")) expected.insert(c.plot);
     // an interrupted run (the 5 s limit) keeps its outputs so far, if it had stepped, as complete files
     if (r.status == 130) {
         if (c.csv && fs::exists(work / "o.csv")) {
