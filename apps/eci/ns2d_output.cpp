@@ -346,19 +346,6 @@ handle open_for_reading(const std::string& path) {
     return handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "cannot open " + path);
 }
 
-// A double as gnuplot reads it back exactly (std::to_string's %f would print 1e-13 as 0.000000).
-std::string g(double v) {
-    char b[32];
-    std::snprintf(b, sizeof b, "%.17g", v);
-    return b;
-}
-
-std::string quoted(const std::string& s) {
-    std::string q = "'";
-    for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
-    return q + "'";
-}
-
 void put_checkpoint_attributes(hid_t f, const ns2d_checkpoint& c) {
         put(f, "format", format_of(c.params.equation, "checkpoint"));
         put(f, "version", std::int64_t(1));
@@ -832,13 +819,14 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
     char title[64];
     std::snprintf(title, sizeof title, "%s, t = %.4g", name.c_str(), t);
     const double h = 2.0 * M_PI / n;
-    std::string s = "set terminal pngcairo size 760,640\nset output " + quoted(tmp) + "\n";
-    s += "set title " + quoted(title) + "\nset size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n";
-    s += "set xrange [0:2*pi]\nset yrange [0:2*pi]\nset cbrange [" + g(-vmax) + ":" + g(vmax) + "]\n";
+    std::string s = "set terminal pngcairo size 760,640\nset output " + gnuplot_quoted(tmp) + "\n";
+    s += "set title " + gnuplot_quoted(title) + "\nset size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n";
+    s += "set xrange [0:2*pi]\nset yrange [0:2*pi]\nset cbrange [" + gnuplot_number(-vmax) + ":" +
+         gnuplot_number(vmax) + "]\n";
     s += "set palette defined (0 '#053061', 0.25 '#4393c3', 0.5 '#f7f7f7', 0.75 '#d6604d', 1 '#67001f')\n";
-    s += "set cblabel " + quoted(symbol) + "\n";
-    s += "plot " + quoted(data) + " binary array=(" + std::to_string(n) + "," + std::to_string(n) +
-         ") format='%float64' dx=" + g(h) + " dy=" + g(h) + " with image notitle\n";
+    s += "set cblabel " + gnuplot_quoted(symbol) + "\n";
+    s += "plot " + gnuplot_quoted(data) + " binary array=(" + std::to_string(n) + "," + std::to_string(n) +
+         ") format='%float64' dx=" + gnuplot_number(h) + " dy=" + gnuplot_number(h) + " with image notitle\n";
     if (!draw_picture(s, tmp)) {
         std::error_code ec;
         std::filesystem::remove(tmp, ec);
@@ -864,13 +852,13 @@ void write_spectrum(const std::string& csv_path, const std::string& png_path, co
     char title[64];
     std::snprintf(title, sizeof title, "energy spectrum, t = %.4g", t);
     const std::string& ptmp = png_path;
-    std::string s = "set terminal pngcairo size 720,540\nset output " + quoted(ptmp) + "\nset datafile separator ','\n";
+    std::string s = "set terminal pngcairo size 720,540\nset output " + gnuplot_quoted(ptmp) + "\nset datafile separator ','\n";
     s += "set logscale xy\nset format y '10^{%L}'\nset xlabel 'k'\nset ylabel 'E(k)'\nset key bottom left\n";
-    s += "set title " + quoted(title) + "\n";
-    s += "set yrange [" + g(ep * 1e-12) + ":" + g(ep * 10) + "]\n";
-    s += "plot " + quoted(csv_path) + " skip 1 using 1:($2 > 0 ? $2 : NaN) with linespoints pt 7 ps 0.4 title 'E(k)', ";
-    s += g(ep) + "*(x/" + std::to_string(kp) + ".)**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
-    s += g(ep) + "*(x/" + std::to_string(kp) + ".)**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
+    s += "set title " + gnuplot_quoted(title) + "\n";
+    s += "set yrange [" + gnuplot_number(ep * 1e-12) + ":" + gnuplot_number(ep * 10) + "]\n";
+    s += "plot " + gnuplot_quoted(csv_path) + " skip 1 using 1:($2 > 0 ? $2 : NaN) with linespoints pt 7 ps 0.4 title 'E(k)', ";
+    s += gnuplot_number(ep) + "*(x/" + std::to_string(kp) + ".)**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
+    s += gnuplot_number(ep) + "*(x/" + std::to_string(kp) + ".)**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
     if (!draw_picture(s, ptmp)) {
         std::error_code ec;
         std::filesystem::remove(ptmp, ec);

@@ -1008,6 +1008,19 @@ std::string plotting_program() {
     return env && *env ? env : "gnuplot";
 }
 
+std::string gnuplot_number(double v) {
+    if (!std::isfinite(v)) return "NaN";
+    char b[32];
+    std::snprintf(b, sizeof b, "%.17g", v);
+    return b;
+}
+
+std::string gnuplot_quoted(const std::string& s) {
+    std::string q = "'";
+    for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
+    return q + "'";
+}
+
 bool plotting_available() {
     static const bool available = run_program(plotting_program(), {"--version"}) == 0;
     return available;

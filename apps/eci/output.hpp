@@ -248,6 +248,11 @@ bool plotting_available();
 /// plotting program is missing, cannot draw (no pngcairo) or was stopped by an interrupt (which the caller then
 /// honours). A picture not written whole on a file system with no space left is a run_error with the reason.
 bool draw_picture(const std::string& script, const std::string& output);
+/// A number as gnuplot reads it back exactly (%.17g; std::to_string's %f printed 1e-13 as 0.000000), NaN (a gap in
+/// a line) for one that is not finite.
+std::string gnuplot_number(double v);
+/// A gnuplot string in single quotes (a quote inside doubled).
+std::string gnuplot_quoted(const std::string& s);
 
 /// A directory the run has just created: removed when this goes out of scope, and by the signal handler on a forced
 /// exit, if it is empty then (what the run wrote into it is removed first); keep() once the run has succeeded.

@@ -15,21 +15,6 @@ namespace eci::cli {
 
 namespace {
 
-// A number as gnuplot reads it back exactly; NaN (a gap in the line) for a value that is not finite.
-std::string number(double v) {
-    if (!std::isfinite(v)) return "NaN";
-    char b[32];
-    std::snprintf(b, sizeof b, "%.17g", v);
-    return b;
-}
-
-// A gnuplot string in single quotes (a quote doubled).
-std::string quoted(const std::string& s) {
-    std::string q = "'";
-    for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);
-    return q + "'";
-}
-
 // A file name in the temporary directory no other run uses.
 std::string temporary_name(const std::string& suffix) {
     static int count = 0;
@@ -123,11 +108,11 @@ bool run_plot::draw_into(output_file& png) const {
     write_new_file(data.path(), "plot data", [&](std::FILE* f) {
         for (std::size_t r = 0; r < count; ++r) {
             const double* row = rows.data() + r * w;
-            std::string line = number(row[0]);
-            for (std::size_t i = 0; i < nc; ++i) line += ' ' + number(row[1 + i]);
+            std::string line = gnuplot_number(row[0]);
+            for (std::size_t i = 0; i < nc; ++i) line += ' ' + gnuplot_number(row[1 + i]);
             for (std::size_t k = 0; k < ni; ++k) {
                 const double first = rows[1 + nc + k], v = row[1 + nc + k];
-                line += ' ' + number(relative[k] ? (v - first) / std::abs(first) : v - first);
+                line += ' ' + gnuplot_number(relative[k] ? (v - first) / std::abs(first) : v - first);
             }
             line += '\n';
             if (std::fputs(line.c_str(), f) < 0) return;  // (write_new_file checks the stream's error state)
@@ -138,32 +123,32 @@ bool run_plot::draw_into(output_file& png) const {
                     : format == "pdf" ? "set terminal pdfcairo size 10in,7.6in font ',10' noenhanced\n"
                                       : "set terminal pngcairo size 1000,760 font ',10' noenhanced\n";
     const scoped_temporary picture(temporary_name("." + format));
-    s += "set output " + quoted(picture.path()) + "\n";
-    s += "set multiplot layout " + std::string(nc > 0 && ni > 0 ? "2" : "1") + ",1 title " + quoted(title_) + "\n";
+    s += "set output " + gnuplot_quoted(picture.path()) + "\n";
+    s += "set multiplot layout " + std::string(nc > 0 && ni > 0 ? "2" : "1") + ",1 title " + gnuplot_quoted(title_) + "\n";
     // the panels' axes aligned, the keys right of them
     s += "set grid\nset key outside right top\nset xlabel 't'\nset lmargin at screen 0.11\n"
          "set rmargin at screen 0.78\n";
-    const std::string file = quoted(data.path());
+    const std::string file = gnuplot_quoted(data.path());
     if (nc > 0) {
         const std::string label = !top_label_.empty()      ? top_label_
                                   : component_count_ > nc ? "state (first " + std::to_string(nc) + " of " +
                                                                 std::to_string(component_count_) + " components)"
                                                           : std::string("state");
-        s += "set ylabel " + quoted(label) + "\n" + (log_top_ ? "set logscale y\n" : "") + "plot ";
+        s += "set ylabel " + gnuplot_quoted(label) + "\n" + (log_top_ ? "set logscale y\n" : "") + "plot ";
         for (std::size_t i = 0; i < nc; ++i)
             s += (i ? ", " : "") + file + " using 1:" + std::to_string(2 + i) + " with lines title " +
-                 quoted(names_[i]);
+                 gnuplot_quoted(names_[i]);
         s += "\n";
     }
     if (ni > 0) {
         // relative to the initial value, or where that is 0 (or not finite) absolute, said in the key
         const bool all_relative = std::ranges::all_of(relative, [](bool r) { return r; });
         s += std::string(log_top_ ? "unset logscale y\n" : "") + "set ylabel " +
-             quoted(all_relative ? "(invariant - initial) / |initial|" : "invariant - initial (/ |initial| where marked)") +
+             gnuplot_quoted(all_relative ? "(invariant - initial) / |initial|" : "invariant - initial (/ |initial| where marked)") +
              "\nset format y '%.1e'\nplot ";
         for (std::size_t k = 0; k < ni; ++k)
             s += (k ? ", " : "") + file + " using 1:" + std::to_string(2 + nc + k) + " with lines title " +
-                 quoted(invariants_[k] + (relative[k] && !all_relative ? " (/ |initial|)" : ""));
+                 gnuplot_quoted(invariants_[k] + (relative[k] && !all_relative ? " (/ |initial|)" : ""));
         s += "\n";
     }
     s += "unset multiplot\nset output\n";
