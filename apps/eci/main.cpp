@@ -291,7 +291,8 @@ int run_cli(int argc, char** argv) {
                         "step is shortened to divide it); not with --every")
             ->check(decimal_number());
         sub->add_option("--update", settings.update,
-                        "conservative methods (c-pc, c-rk2, c-rk4 at fixed steps, the c- pairs with --rtol) on "
+                        "conservative Runge-Kutta methods (c-pc, c-rk2, c-rk4, any conservative tableau at fixed steps; the c- "
+                        "pairs with --rtol) on "
                         "systems of 16 or more real unknowns with declared invariants (n-wave, the spectral models): "
                         "conditioned (default: at the conventional method's error, docs/methods.md) or "
                         "paper (the paper's update, bit for bit as before the conditioned update); a spectral "

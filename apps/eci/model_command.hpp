@@ -147,7 +147,15 @@ class model_command_for final : public model_command {
                 throw bad_input(e.what());
             }
         }
-        const method_info method = resolve_method(info_, method_name);
+        // the library's resolution on the model itself: its sentences, with the reason where the model lacks what a
+        // method needs (multiple relaxation's two invariants), as Python's
+        const method_info method = [&] {
+            try {
+                return resolve_method_for<Model>(method_name, false, "model " + info_.name);
+            } catch (const std::invalid_argument& e) {
+                throw bad_input(e.what());
+            }
+        }();
         const run_plan plan = resolve_plan(p.dt, p.t_end, settings);
         return run_model(info_, p.model, p.x0, columns(p.model), method, plan, settings);
     }

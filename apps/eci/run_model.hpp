@@ -86,9 +86,6 @@ class column_names {
 /// re_`prefix`0, im_`prefix`0, ... for a complex one (the order in which step_result counts components).
 column_names indexed_columns(std::string_view prefix, std::size_t size, bool complex);
 
-/// The method `name` from the registry, checked against the model's list; throws bad_input.
-method_info resolve_method(const model_info& model, const std::string& name);
-
 /// The step, the step count and the end time the settings ask for, or the defaults; throws bad_input.
 struct run_plan {
     double dt;

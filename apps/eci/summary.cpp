@@ -26,14 +26,6 @@ column_names indexed_columns(std::string_view prefix, std::size_t size, bool com
     return column_names(std::string(prefix), size, complex);
 }
 
-method_info resolve_method(const model_info& model, const std::string& name) {
-    try {  // (the library's sentences, as Python's)
-        return resolve_named_method(name, model.methods, "model " + model.name);
-    } catch (const std::invalid_argument& e) {
-        throw bad_input(e.what());
-    }
-}
-
 run_plan resolve_plan(double default_dt, double default_t_end, const run_settings& settings) {
     run_plan span{};
     span.dt = settings.dt.value_or(default_dt);

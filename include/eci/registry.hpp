@@ -559,6 +559,13 @@ std::string_view missing_declaration(const method_info& m) {
     const bool keeps_invariants = m.family == method_family::relaxation || m.family == method_family::projection;
     if (keeps_invariants && !declares_invariants<M> && !records_stages<M>)
         return "relaxation and projection keep the invariants a model declares, and it declares none";
+    // multiple relaxation (a relaxation method that keeps every declared invariant: mrrk-*) needs exactly two
+    if constexpr (declares_invariants<M>) {
+        if (m.family == method_family::relaxation && m.conservative && independent_invariant_count<M> != 2)
+            return independent_invariant_count<M> < 2
+                       ? "multiple relaxation keeps two independent invariants, and this model declares one"
+                       : "multiple relaxation keeps two independent invariants, and this model declares more";
+    }
     return {};
 }
 

@@ -24,12 +24,12 @@ _NWaveReal, _NWaveComplex = _eci.NWave, _eci.NWaveComplex
 
 __all__ = ["Model", "Preset", "ode_models"] + [c.__name__ for c in ode_models]
 
-try:  # built with eci::spectral (FFTW3) only
-    from ._eci import CharneyHasegawaMima, NavierStokes2D, SurfaceQG  # noqa: F401
-
-    __all__ += ["NavierStokes2D", "CharneyHasegawaMima", "SurfaceQG"]
-except ImportError:
-    pass
+# One class per spectral equation of eci::spectral::equations() (built with eci::spectral, FFTW3, only), named as
+# the equation module says (navier-stokes-2d: NavierStokes2D), in `eci list` order.
+flow_models = tuple(getattr(_eci, "_flow_models", ()))
+for _cls in flow_models:
+    globals()[_cls.__name__] = _cls
+__all__ += ["flow_models"] + [c.__name__ for c in flow_models]
 
 
 class Preset(_namedtuple("Preset", "name description model y0 method dt t_end")):
@@ -104,9 +104,8 @@ def _refuse_bools(cls, flags=()):
 
 for _cls in ode_models:
     _refuse_bools(_cls)
-for _name in ("NavierStokes2D", "CharneyHasegawaMima", "SurfaceQG"):
-    if _name in globals():
-        _refuse_bools(globals()[_name], flags=("fftw_measure", "full_transforms"))
+for _cls in flow_models:
+    _refuse_bools(_cls, flags=("fftw_measure", "full_transforms"))
 
 
 def NWave(*args, complex=False, **kwargs):

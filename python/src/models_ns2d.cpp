@@ -6,6 +6,9 @@
 #include <mutex>
 #include <numbers>
 #include <optional>
+#include <stdexcept>
+#include <string>
+#include <utility>
 
 #include <eci/spectral/step.hpp>
 #include <eci/registry.hpp>
@@ -415,70 +418,77 @@ ns2d_params flow_params_from(const std::string& equation, long long n, double nu
         py::arg("forcing_seed") = py::none(), py::arg("threads") = 1, py::arg("fftw_measure") = false,     \
         py::arg("full_transforms") = false
 
-// One C++ type per Python class (pybind11 registers a type once).
-struct chm_object final : ns2d_object {
+// One C++ type per Python class (pybind11 registers a type once): equation I of spectral::equations() is bound as
+// flow_object<I>, so that an equation added to the list is a Python class with no code here.
+template <std::size_t I>
+struct flow_object final : ns2d_object {
     using ns2d_object::ns2d_object;
 };
-struct sqg_object final : ns2d_object {
-    using ns2d_object::ns2d_object;
-};
+constexpr std::size_t max_equations = 16;
+
+// What every flow class's help says after its equation's summary.
+constexpr const char* flow_help =
+    " The state is FFTW's retained modes q_k, 2 kmax + 1 rows (k_y = 0 .. kmax, -kmax .. -1) of kmax + 1 (k_x = 0 "
+    ".. kmax), kmax = (n - 1) // 3; the kx and ky properties give each mode's wavenumber. The keywords are `eci run "
+    "NAME`'s options (--hyper-nu: hyper_nu); forcing settings and powers default to None, 'not given', and a "
+    "setting that cannot change the run is refused as the CLI refuses it. See ";
+
+template <std::size_t I>
+void bind_equation(py::module_& m, py::list& classes) {
+    const auto& all = spectral::equations();
+    if (I >= all.size()) return;
+    const spectral::equation& e = *all[I];
+    using o = flow_object<I>;
+    // (pybind11 keeps the class's name and help as the pointers it is given: strings that live as long as the module)
+    static const std::string name(e.python_class), help = std::string(e.summary) + flow_help + std::string(e.docs) + ".";
+    py::class_<o, model_base> c(m, name.c_str(), help.c_str());
+    const std::string equation(e.name);
+    const auto params = [equation](long long n, double nu, double hyper_nu, given_int hyper_p, double hypo_nu,
+                                   given_int hypo_p, double drag, const std::string& forcing, given_real forcing_k,
+                                   given_real forcing_amplitude, given_real injection_rate, given_int forcing_seed,
+                                   long long threads, bool fftw_measure, bool full_transforms) {
+        return flow_params_from(equation, n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p, drag, forcing, forcing_k,
+                                forcing_amplitude, injection_rate, forcing_seed, threads, fftw_measure, full_transforms);
+    };
+    if (e.dispersion) {  // an equation with waves takes beta and the deformation F first, as its CLI options come
+        c.def(py::init([params](double beta, double deformation, long long n, double nu, double hyper_nu,
+                                given_int hyper_p, double hypo_nu, given_int hypo_p, double drag,
+                                const std::string& forcing, given_real forcing_k, given_real forcing_amplitude,
+                                given_real injection_rate, given_int forcing_seed, long long threads, bool fftw_measure,
+                                bool full_transforms) {
+                  ns2d_params p = params(n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p, drag, forcing, forcing_k,
+                                         forcing_amplitude, injection_rate, forcing_seed, threads, fftw_measure,
+                                         full_transforms);
+                  p.beta = beta, p.deformation = deformation;
+                  return std::make_unique<o>(p);
+              }),
+              py::arg("beta") = 0.0, py::arg("deformation") = 0.0, ECI_FLOW_KEYWORDS);
+    } else {
+        c.def(py::init([params](long long n, double nu, double hyper_nu, given_int hyper_p, double hypo_nu,
+                                given_int hypo_p, double drag, const std::string& forcing, given_real forcing_k,
+                                given_real forcing_amplitude, given_real injection_rate, given_int forcing_seed,
+                                long long threads, bool fftw_measure, bool full_transforms) {
+                  return std::make_unique<o>(params(n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p, drag, forcing,
+                                                    forcing_k, forcing_amplitude, injection_rate, forcing_seed,
+                                                    threads, fftw_measure, full_transforms));
+              }),
+              ECI_FLOW_KEYWORDS);
+    }
+    add_flow_methods(c);
+    classes.append(c);
+}
 
 }  // namespace
 
 void init_ns2d(py::module_& m) {
-    using o = ns2d_object;
-    py::class_<o, model_base> ns(
-        m, "NavierStokes2D",
-        "The 2-D incompressible vorticity equation on [0, 2pi)^2, pseudo-spectral (FFTW), dealiased by the 2/3 rule "
-        "so that every triad keeps energy and enstrophy (the paper's section III at scale); the state is FFTW's "
-        "retained modes omega_k, 2 kmax + 1 rows (k_y = 0 .. kmax, -kmax .. -1) of kmax + 1 (k_x = 0 .. kmax), "
-        "kmax = (n - 1) // 3; the kx and ky properties give each mode's wavenumber. Invariants energy, enstrophy "
-        "(inviscid, unforced).");
-    ns.def(py::init([](long long n, double nu, double hyper_nu, given_int hyper_p, double hypo_nu, given_int hypo_p,
-                       double drag, const std::string& forcing, given_real forcing_k, given_real forcing_amplitude,
-                       given_real injection_rate, given_int forcing_seed, long long threads, bool fftw_measure,
-                       bool full_transforms) {
-               return std::make_unique<o>(flow_params_from("navier-stokes-2d", n, nu, hyper_nu, hyper_p, hypo_nu,
-                                                           hypo_p, drag, forcing, forcing_k, forcing_amplitude,
-                                                           injection_rate, forcing_seed, threads, fftw_measure,
-                                                           full_transforms));
-           }),
-           ECI_FLOW_KEYWORDS);
-    add_flow_methods(ns);
-
-    py::class_<chm_object, model_base> chm(
-        m, "CharneyHasegawaMima",
-        "Quasi-geostrophic potential vorticity on a beta-plane (Charney-Hasegawa-Mima): dq/dt + J(psi, q) + beta "
-        "dpsi/dx = forcing - dissipation, q = lap psi - F psi with F = deformation = 1/L_d^2 >= 0. Rossby waves "
-        "omega = -beta k_x / (k^2 + F). Invariants energy 1/2 sum |q_k|^2 / (k^2 + F), enstrophy 1/2 sum |q_k|^2.");
-    chm.def(py::init([](double beta, double deformation, long long n, double nu, double hyper_nu, given_int hyper_p,
-                        double hypo_nu, given_int hypo_p, double drag, const std::string& forcing, given_real forcing_k,
-                        given_real forcing_amplitude, given_real injection_rate, given_int forcing_seed,
-                        long long threads, bool fftw_measure, bool full_transforms) {
-                ns2d_params p = flow_params_from("charney-hasegawa-mima", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
-                                                 drag, forcing, forcing_k, forcing_amplitude, injection_rate,
-                                                 forcing_seed, threads, fftw_measure, full_transforms);
-                p.beta = beta, p.deformation = deformation;
-                return std::make_unique<chm_object>(p);
-            }),
-            py::arg("beta") = 0.0, py::arg("deformation") = 0.0, ECI_FLOW_KEYWORDS);
-    add_flow_methods(chm);
-
-    py::class_<sqg_object, model_base> sqg(
-        m, "SurfaceQG",
-        "Surface quasi-geostrophy: d theta/dt + u . grad theta = forcing - dissipation with psi_k = theta_k / |k|. "
-        "Invariants energy 1/2 sum |theta_k|^2 / |k| and variance 1/2 sum |theta_k|^2.");
-    sqg.def(py::init([](long long n, double nu, double hyper_nu, given_int hyper_p, double hypo_nu, given_int hypo_p,
-                        double drag, const std::string& forcing, given_real forcing_k, given_real forcing_amplitude,
-                        given_real injection_rate, given_int forcing_seed, long long threads, bool fftw_measure,
-                        bool full_transforms) {
-                return std::make_unique<sqg_object>(flow_params_from("surface-qg", n, nu, hyper_nu, hyper_p, hypo_nu, hypo_p,
-                                                            drag, forcing, forcing_k, forcing_amplitude,
-                                                            injection_rate, forcing_seed, threads, fftw_measure,
-                                                            full_transforms));
-            }),
-            ECI_FLOW_KEYWORDS);
-    add_flow_methods(sqg);
+    if (spectral::equations().size() > max_equations)
+        throw std::logic_error("python/src/models_ns2d.cpp binds at most " + std::to_string(max_equations) +
+                               " spectral equations: raise max_equations");
+    // every equation of spectral::equations(), in `eci list` order; eci._eci._flow_models holds the classes
+    py::list classes;
+    [&]<std::size_t... I>(std::index_sequence<I...>) { (bind_equation<I>(m, classes), ...); }(
+        std::make_index_sequence<max_equations>{});
+    m.attr("_flow_models") = py::tuple(classes);
 }
 
 #undef ECI_FLOW_KEYWORDS

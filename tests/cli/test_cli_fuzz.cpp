@@ -90,13 +90,57 @@ struct fuzz_case {
     bool csv = false, json = false, csv_old = false, json_old = false, adaptive = false;
 };
 
+// What `eci list` and `eci run MODEL --help` say, read once: the models (a model added to the list is fuzzed without
+// a line here), and each model's own options (those after --preset), for a model without a branch of its own below.
+struct model_option {
+    std::string flag;
+    std::size_t count = 1;  // comma-separated values
+    bool whole = false, text = false;
+};
+
 std::vector<std::string> fuzzed_models() {
-    return {"three-wave", "n-wave", "n-wave-complex", "lotka-volterra", "kepler", "rigid-body", "kepler-cartesian",
-            "nonlinear-oscillator", "exp-entropy", "navier-stokes-2d", "charney-hasegawa-mima", "surface-qg"};
+    static const std::vector<std::string> models = [] {
+        const eci::test_cli::work_dir dir("fuzz-models");
+        std::vector<std::string> listed;
+        bool in_models = false;
+        for (const std::string& line : lines_of(dir.run(std::vector<std::string>{"list"}).out)) {
+            if (line.rfind("Models", 0) == 0) in_models = true;
+            else if (line.rfind("Methods", 0) == 0) in_models = false;
+            else if (in_models && line.size() > 2 && line.rfind("  ", 0) == 0 && line[2] != ' ')
+                listed.push_back(line.substr(2, line.find(' ', 2) - 2));
+        }
+        return listed;
+    }();
+    return models;
+}
+
+const std::vector<model_option>& model_options(const std::string& model) {
+    static std::map<std::string, std::vector<model_option>> known;
+    if (const auto it = known.find(model); it != known.end()) return it->second;
+    const eci::test_cli::work_dir dir("fuzz-help");
+    std::vector<model_option> options;
+    bool after_preset = false;
+    for (const std::string& line : lines_of(dir.run(std::vector<std::string>{"run", model, "--help"}).out)) {
+        if (line.rfind("  --", 0) != 0) continue;
+        const std::size_t end = line.find(' ', 2);
+        const std::string flag = line.substr(2, end - 2), rest = end == std::string::npos ? "" : line.substr(end);
+        if (flag == "--preset") {
+            after_preset = true;
+            continue;
+        }
+        if (!after_preset) continue;
+        model_option o{flag};
+        if (const std::size_t x = rest.find(" x "); x != std::string::npos && x < 30) o.count = std::stoul(rest.substr(x + 3));
+        o.whole = rest.find("UINT") != std::string::npos || rest.find("INT:") != std::string::npos;
+        o.text = rest.find("TEXT") != std::string::npos;
+        options.push_back(o);
+    }
+    return known[model] = options;
 }
 
 bool is_spectral(const std::string& model) {
-    return model == "navier-stokes-2d" || model == "charney-hasegawa-mima" || model == "surface-qg";
+    const auto& o = model_options(model);
+    return std::ranges::any_of(o, [](const model_option& m) { return m.flag == "--N"; });
 }
 
 // The checkpoint a spectral run writes when stopped without --checkpoint.
@@ -106,7 +150,7 @@ std::string default_checkpoint(const std::string& model) {
 
 fuzz_case make_case(generator& g) {
     // Every model `eci run` offers (a test below checks this list against `eci list`).
-    static const std::vector<std::string> models = fuzzed_models();
+    const std::vector<std::string>& models = fuzzed_models();
     std::vector<std::string> methods;
     for (const eci::method_info& m : eci::methods) methods.emplace_back(m.name);
     fuzz_case c;
@@ -158,9 +202,17 @@ fuzz_case make_case(generator& g) {
         opt("--output-dt", g.number(0.05, true), 0.15);  // the CFL step shortened to divide it, or a --dt checked
         opt("--ic", g.pick<std::string>({"random", "vortex-pair", "taylor-green", "missing.h5"}), 0.5);
         opt("--forcing", g.pick<std::string>({"none", "deterministic", "stochastic", "x"}), 0.3);
-    } else {
+    } else if (c.model == "n-wave" || c.model == "n-wave-complex") {
         opt("--modes", g.count(60)), opt("--triads-per-mode", g.count(25));
         opt("--seed", g.chance(0.8) ? std::to_string(g.engine()()) : g.count(1000));
+    } else {
+        // a model without a branch of its own: each of its options (from its --help) at a sensible scale, or not
+        for (const model_option& o : model_options(c.model)) {
+            std::string value;
+            for (std::size_t i = 0; i < o.count; ++i)
+                value += (i ? "," : "") + (o.whole ? g.count(10) : o.text ? g.pick<std::string>({"x", ""}) : g.number(1, false));
+            opt(o.flag, value, 0.3);
+        }
     }
     opt("--preset", g.pick<std::string>({"standard", "default", "fig2", "nope"}), 0.1);
     c.method = g.chance(0.85) ? g.pick(methods) : g.pick<std::string>({"", "nope", "c-pc "});
@@ -355,20 +407,22 @@ double env_number(const char* name, double fallback) {
     return v && *v ? std::strtod(v, nullptr) : fallback;
 }
 
-// The fuzz reaches every model: a model added to the CLI without a line in fuzzed_models() fails here.
+// The fuzz reaches every model `eci list` names (read from it: a model added to the list is fuzzed, with the
+// options its --help lists if it has no branch of its own in make_case), and each one's options are found.
 TEST(fuzz, covers_every_model_eci_lists) {
-    const eci::test_cli::work_dir dir("fuzz-list");
-    const run_result r = dir.run(std::vector<std::string>{"list"});
-    ASSERT_EQ(r.status, 0) << r.err;
-    std::set<std::string> listed;
-    bool models = false;
-    for (const std::string& line : lines_of(r.out)) {
-        if (line.rfind("Models", 0) == 0) models = true;
-        else if (models && line.size() > 2 && line.rfind("  ", 0) == 0 && line[2] != ' ')
-            listed.insert(line.substr(2, line.find(' ', 2) - 2));
+    const std::vector<std::string>& models = fuzzed_models();
+    ASSERT_GE(models.size(), 9u);
+    EXPECT_EQ(std::set<std::string>(models.begin(), models.end()).size(), models.size());
+    for (const char* m : {"three-wave", "n-wave", "lotka-volterra", "kepler", "exp-entropy"})
+        EXPECT_NE(std::ranges::find(models, m), models.end()) << m;
+    for (const std::string& m : models) {
+        EXPECT_FALSE(model_options(m).empty()) << m << ": no options of its own found in its --help";
+        EXPECT_EQ(is_spectral(m), m == "navier-stokes-2d" || m == "charney-hasegawa-mima" || m == "surface-qg") << m;
     }
-    const auto fuzzed = fuzzed_models();
-    EXPECT_EQ(listed, std::set<std::string>(fuzzed.begin(), fuzzed.end()));
+    const auto& three_wave = model_options("three-wave");
+    ASSERT_EQ(three_wave.size(), 5u);  // --K --P --Q --M x 3 --psi x 3
+    EXPECT_EQ(three_wave[3].flag, "--M");
+    EXPECT_EQ(three_wave[3].count, 3u);
 }
 
 TEST(fuzz, random_command_lines_keep_the_contract) {

@@ -143,6 +143,25 @@ TEST(DeclaredInvariants, AModelThatDeclaresNoneIsRefusedThemWithTheReason) {
     EXPECT_EQ(refusal("kahan", undeclared_triad{}).rfind("method 'kahan' is not available for model triad (available: ", 0),
               0u);
     EXPECT_EQ(refusal("rrk-rk4", weighted_triad{}), "accepted");
+    // Multiple relaxation keeps two independent invariants: on a model that declares one, refused with that reason.
+    for (const char* method : {"mrrk-rk4", "mrrk-dp54"}) {
+        eci::nonlinear_oscillator m;
+        eci::nonlinear_oscillator::state_type x{1.0, 0.2};
+        eci::run_config cfg;
+        cfg.t_end = 1.0;
+        cfg.dt = 0.1;
+        std::string what = "accepted";
+        try {
+            eci::solve<eci::nonlinear_oscillator>(m, x, method, cfg, eci::no_sink{}, {}, "model nonlinear-oscillator");
+        } catch (const std::invalid_argument& e) {
+            what = e.what();
+        }
+        EXPECT_EQ(what.rfind(std::string("method '") + method + "' is not available for model nonlinear-oscillator: "
+                             "multiple relaxation keeps two independent invariants, and this model declares one",
+                             0),
+                  0u)
+            << what;
+    }
 }
 
 // Central differences with h = eps^(1/3) |x|-scaled: error O(h^2) + O(eps / h) ~ eps^(2/3) ~ 4e-11 relative to the

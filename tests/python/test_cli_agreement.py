@@ -675,7 +675,7 @@ def test_every_model_refuses_the_same_initial_state_under_any_step_control(cli, 
 # A spectral setting that cannot change the run is refused by both front ends in one sentence (the library's rule,
 # flow_params::unused_setting), not ignored: a forgotten --forcing stochastic ran unforced with the --injection-rate
 # typed. Python's keywords for these settings default to None ("not given"), so that both know what was given.
-SPECTRAL = [getattr(M, n) for n in ("NavierStokes2D", "CharneyHasegawaMima", "SurfaceQG") if hasattr(M, n)]
+SPECTRAL = list(M.flow_models)  # every equation of the C++ list
 
 
 def option_as_keyword(message):

@@ -282,7 +282,25 @@ TEST_P(Equation, SolveRunsTheStepsOfNs2dStep) {
     for (std::size_t i = 0; i < q.size(); ++i) ASSERT_EQ(q[i], r[i]) << "mode " << i;
     ASSERT_EQ(seen.size(), std::size_t(steps - 4));
     for (int i = 4; i < steps; ++i) EXPECT_EQ(seen[std::size_t(i - 4)], injected[std::size_t(i)]) << "step " << i + 1;
-    EXPECT_EQ(eci::ns2d_methods(), (std::vector<std::string>{"c-rk4", "c-pc", "c-rk2", "rk4", "pc", "rk2", "euler"}));
+    // The flows' methods: the registry's (its fixed-step tableaux, so a tableau added there joins them), the
+    // conservative ones first and higher orders first, C-RK4 the default; the paper's and the classical ones among them.
+    const std::vector<std::string>& names = eci::ns2d_methods();
+    const std::vector<eci::method_info> offered = eci::methods_for<eci::navier_stokes_2d>();
+    ASSERT_EQ(names.size(), offered.size());
+    ASSERT_FALSE(names.empty());
+    EXPECT_EQ(names.front(), "c-rk4");
+    const auto info = [&](const std::string& n) {
+        const auto it = std::ranges::find_if(offered, [&](const eci::method_info& m) { return m.name == n; });
+        EXPECT_NE(it, offered.end()) << n;
+        return it == offered.end() ? eci::method_info{} : *it;
+    };
+    for (std::size_t i = 1; i < names.size(); ++i) {
+        const eci::method_info a = info(names[i - 1]), b = info(names[i]);
+        EXPECT_TRUE(a.conservative > b.conservative || (a.conservative == b.conservative && a.order >= b.order))
+            << names[i - 1] << " before " << names[i];
+    }
+    for (const char* m : {"c-rk4", "c-pc", "c-rk2", "rk4", "pc", "rk2", "euler"})
+        EXPECT_NE(std::ranges::find(names, m), names.end()) << m;
     EXPECT_THROW(eci::solve<flow2d>(c, r, "dp54", cfg, eci::no_sink{}), std::invalid_argument);
 }
 

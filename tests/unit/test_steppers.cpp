@@ -37,11 +37,15 @@ double amplification(const char* name, double z) {
     return std::numeric_limits<double>::quiet_NaN();
 }
 
-// For a tableau method in general: the stability function R(z) = 1 + z sum_i b_i Y_i, Y_i = 1 + z sum_j a_ij Y_j,
-// and for its conservative version the tableau applied to psi^2, sqrt(1 + 2 z sum_i b_i Y_i^2) with R's sign.
+// The paper's formulas above where they exist (checked independently of the tableaux); for any other explicit
+// tableau (the pairs, a tableau added to the registry): the stability function R(z) = 1 + z sum_i b_i Y_i,
+// Y_i = 1 + z sum_j a_ij Y_j, and for its conservative version the tableau applied to psi^2,
+// sqrt(1 + 2 z sum_i b_i Y_i^2) with R's sign (the conventional update's: a method taking another sign, as C-PC
+// its predictor's, has its formula above).
 template <class Method>
 double amplification_of(double z) {
-    if constexpr (requires { Method::entry::tableau.bhat; }) {
+    if (const double g = amplification(Method::name, z); !std::isnan(g)) return g;
+    if constexpr (requires { Method::entry::tableau.a; } && !requires { Method::entry::sign; }) {
         const auto& T = Method::entry::tableau;
         constexpr std::size_t s = std::remove_cvref_t<decltype(T)>::stages;
         std::array<double, s> y{};

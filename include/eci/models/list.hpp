@@ -1,6 +1,6 @@
 // THE list of eci's ODE models, in `eci list` order. Everything that offers "every model" reads it: `eci run`
 // (apps/eci/CMakeLists.txt makes one translation unit per entry, so the models' runs compile in parallel), the
-// tests that run over every model, and the classes of eci.models in Python (python/src/models.cpp).
+// tests that run over every model, and the classes of eci.models in Python (python/src/models.cpp.in).
 //
 // Adding a model: its header in this directory (a described model, see description.hpp), its #include below and
 // its type as one more line of ode_models. One type per line: the CMake step counts the lines.

@@ -40,8 +40,12 @@ struct equation {
     nonlinear_form form;
     /// Throws std::invalid_argument naming a bad parameter of this equation (nullptr: none to check).
     void (*validate)(const flow_params& p);
-    /// The docs page of the equation.
+    /// The docs page of the equation (Python's help names it).
     std::string_view docs;
+    /// The Python class (eci.models.<python_class>), e.g. "NavierStokes2D".
+    std::string_view python_class;
+    /// What the equation is, a few sentences: the Python class's help (before what every flow shares).
+    std::string_view summary;
 };
 
 /// Every equation, in `eci list` order.

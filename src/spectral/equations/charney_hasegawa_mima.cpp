@@ -29,6 +29,10 @@ const equation charney_hasegawa_mima_equation{
             throw std::invalid_argument("deformation F = 1/L_d^2 must be finite and >= 0");
     },
     "docs/turbulence.md",
+    "CharneyHasegawaMima",
+    "Quasi-geostrophic potential vorticity on a beta-plane (Charney-Hasegawa-Mima): dq/dt + J(psi, q) + beta "
+    "dpsi/dx = forcing - dissipation, q = lap psi - F psi with F = deformation = 1/L_d^2 >= 0. Rossby waves "
+    "omega = -beta k_x / (k^2 + F). Invariants energy 1/2 sum |q_k|^2 / (k^2 + F), enstrophy 1/2 sum |q_k|^2.",
 };
 
 }  // namespace eci::spectral

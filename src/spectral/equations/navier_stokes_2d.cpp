@@ -17,6 +17,10 @@ const equation navier_stokes_2d_equation{
     nonlinear_form::basdevant,
     [](const flow_params& p) { refuse_wave_parameters(p, "navier-stokes-2d"); },
     "docs/turbulence.md",
+    "NavierStokes2D",
+    "The 2-D incompressible vorticity equation on [0, 2pi)^2, pseudo-spectral (FFTW), dealiased by the 2/3 rule so "
+    "that every triad keeps energy and enstrophy (the paper's section III at scale). Invariants energy, enstrophy "
+    "(inviscid, unforced).",
 };
 
 }  // namespace eci::spectral

@@ -20,6 +20,9 @@ const equation surface_qg_equation{
     nonlinear_form::advective,
     [](const flow_params& p) { refuse_wave_parameters(p, "surface-qg"); },
     "docs/turbulence.md",
+    "SurfaceQG",
+    "Surface quasi-geostrophy: d theta/dt + u . grad theta = forcing - dissipation with psi_k = theta_k / |k|. "
+    "Invariants energy 1/2 sum |theta_k|^2 / |k| and variance 1/2 sum |theta_k|^2.",
 };
 
 }  // namespace eci::spectral
