@@ -5,11 +5,13 @@
 
 #include <cctype>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <string>
 #include <string_view>
 #include <utility>
+#include <variant>
 #include <vector>
 
 namespace eci::cli {
@@ -36,9 +38,15 @@ class h5_series {
         std::vector<std::string> columns;  ///< their names (may be empty: unnamed)
     };
     static constexpr std::size_t max_named = 100000;
-    /// Creates `file` (the output's temporary; throws run_error, or bad_input in a build without HDF5).
+    /// A root attribute: text, a real or a whole number.
+    struct attribute {
+        std::string name;
+        std::variant<std::string, double, std::int64_t> value;
+    };
+    /// Creates `file` (the output's temporary) for the output `what` names in messages ("HDF5 output 'run.h5'");
+    /// throws run_error, or bad_input in a build without HDF5.
     h5_series(const std::string& file, std::string_view what, std::vector<group> groups,
-              std::vector<std::pair<std::string, std::string>> attributes);
+              std::vector<attribute> attributes);
     ~h5_series();
     h5_series(const h5_series&) = delete;
     h5_series& operator=(const h5_series&) = delete;
@@ -53,8 +61,8 @@ class h5_series {
     std::unique_ptr<impl> d_;
 };
 
-/// Refuses (bad_input) an HDF5 --output this build cannot write: one without HDF5, or standard output or a device
-/// (HDF5 writes a file by name). Nothing for any other path.
+/// Refuses (bad_input) an HDF5 --output this build cannot write: one without HDF5, or standard output, a device, a
+/// FIFO or a socket (HDF5 writes a file it can seek). Nothing for any other path.
 void check_hdf5_request(const std::string& path);
 
 }  // namespace eci::cli

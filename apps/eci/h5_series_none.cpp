@@ -15,8 +15,7 @@ void check_hdf5_request(const std::string& path) {
 
 struct h5_series::impl {};
 
-h5_series::h5_series(const std::string&, std::string_view, std::vector<group>,
-                     std::vector<std::pair<std::string, std::string>>) {
+h5_series::h5_series(const std::string&, std::string_view, std::vector<group>, std::vector<attribute>) {
     throw bad_input("this eci was built without HDF5");
 }
 h5_series::~h5_series() = default;

@@ -275,9 +275,12 @@ int run_cli(int argc, char** argv) {
         sub->add_option("--summary-json", settings.summary_json,
                         "also write the run summary as JSON to this file ('-': standard output)");
         sub->add_option("--plot", settings.plot,
-                        "draw the run as a picture (FILE.png, .svg or .pdf, by gnuplot): the state's first "
-                        "components over time and each invariant's change from its initial value, from the same "
-                        "outputs as the CSV's rows (--every, --output-dt; --output not needed)");
+                        "draw the run as a picture (FILE.png, .svg or .pdf, by gnuplot; '-' or a device: PNG), from "
+                        "the same outputs as the CSV's rows (--every, --output-dt; --output not needed): an ODE "
+                        "model's first components over time and each invariant's change relative to its initial "
+                        "value; a spectral model's E and Z and each one's change beyond its budget. Drawn when the "
+                        "run has finished: a run stopped by a signal draws none; a picture that cannot be drawn "
+                        "fails the run (exit 1) and keeps its other outputs");
         sub->add_option("--rtol", rtol,
                         "relative tolerance: run with adaptive step control (an embedded pair: bs32, ck54, dp54, "
                         "dp853, f78 and their c- versions); --dt is then the first step, at most the span. Below "

@@ -855,10 +855,10 @@ int spectral_command::run_spread(const run_settings& settings) {
                                                inv_[1] + "_budget_residual", "max_velocity", "cfl", "halvings"};
     std::optional<h5_series> h5;
     if (csv.get() && is_hdf5_path(settings.output))
-        h5.emplace(csv.temporary(), "HDF5 output",
+        h5.emplace(csv.temporary(), "HDF5 output '" + settings.output + "'",
                    std::vector<h5_series::group>{{"diagnostics", diagnostics.size(), diagnostics}},
-                   std::vector<std::pair<std::string, std::string>>{
-                       {"model", name_}, {"method", method}, {"dt", shortest(dt)}, {"N", std::to_string(p.n)}});
+                   std::vector<h5_series::attribute>{
+                       {"model", name_}, {"method", method}, {"dt", dt}, {"N", std::int64_t(p.n)}});
     std::FILE* out = h5 ? nullptr : csv.get();
     if (out)
         std::fputs(("step,t," + inv_[0] + "," + inv_[1] + ",palinstrophy," + inv_[0] + "_injection," + inv_[0] +
@@ -871,9 +871,9 @@ int spectral_command::run_spread(const run_settings& settings) {
     std::optional<run_plot> plot;
     if (picture.get())
         plot.emplace(settings.plot, std::vector<std::string>{inv_[0], inv_[1]}, 2,
-                     std::vector<std::string>{inv_[0] + " - its budget", inv_[1] + " - its budget"},
+                     std::vector<std::string>{inv_[0], inv_[1]},
                      "eci run " + name_ + " (N = " + std::to_string(p.n) + "): " + method + ", dt " + title_number(dt),
-                     inv_[0] + ", " + inv_[1], true);
+                     inv_[0] + ", " + inv_[1], true, "(invariant - its budget - initial) / |initial|");
     // (the same on every process; `out` and the plot are rank 0's)
     const bool rows_wanted = !settings.output.empty() || !settings.plot.empty();
     auto row = [&](std::uint64_t i, double t, double e, double z) {  // (e, z: E and Z of w at time t)
@@ -1180,7 +1180,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         } catch (const std::exception& e) {
             throw interrupted(stop + "; " + e.what());
         }
-        throw interrupted(stop + kept);
+        throw interrupted(stop + kept + (plot ? "; no plot (it is drawn for a finished run)" : ""));
     };
     solve_report report;
     std::string stop;  // an interrupt's message (the checkpoint written)
@@ -1223,6 +1223,15 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (h5) h5->close();
         // a picture that could not be drawn loses nothing else: the other outputs are committed, the run fails
         const bool drawn = !plot || plot->draw(picture), others = csv.get() || json.get() || staged_snapshots;
+        if (!drawn && interrupt_requested()) {
+            // Ctrl-C while the picture was drawn: the finished run's other outputs are kept, as an interrupted
+            // run's are (its checkpoint is written)
+            commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr, true);
+            if (created_snapshot_dir) created_snapshot_dir->keep();
+            print_summary(stderr, s);
+            throw interrupted(interrupt_message("while the plot was drawn, after the run had finished") +
+                              "; the run's other outputs were kept; no plot");
+        }
         if (drawn)
             commit_outputs({&csv, &json, &picture}, staged_snapshots ? &*staged_snapshots : nullptr);
         else

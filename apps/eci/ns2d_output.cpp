@@ -23,6 +23,7 @@
 #include <stdexcept>
 #include <string>
 #include <type_traits>
+#include <variant>
 #include <sys/resource.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -873,8 +874,10 @@ namespace eci::cli {
 
 void check_hdf5_request(const std::string& path) {
     if (!is_hdf5_path(path)) return;
-    if (path == "-" || path.starts_with("/dev/") || path.starts_with("/proc/"))
-        throw bad_input("--output '" + path + "': HDF5 is written to a file by name, not to a stream or device");
+    // standard output, a device, a FIFO or a socket (by name or through /dev/fd/N): HDF5 needs a file it can seek
+    struct stat st {};
+    if (path == "-" || (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)))
+        throw bad_input("--output '" + path + "': HDF5 is written to a regular file, not to a stream, device or FIFO");
 }
 
 struct h5_series::impl {
@@ -886,13 +889,14 @@ struct h5_series::impl {
     std::size_t buffered = 0, written = 0, flush_at = 1;
 
     [[noreturn]] void fail(const std::string& doing, const std::function<std::string()>& why) const {
-        throw run_error("cannot write " + what + ": HDF5 could not " + doing + why());
+        throw run_error("cannot write " + what + ": HDF5 could not " + doing + why() + "; no output was replaced");
     }
     hid_t create(const std::string& name, std::size_t width) {
-        // extendible along the rows, chunks of about 256 KiB (a chunk of a wide state: one row, 32768 columns)
+        // extendible along the rows, chunks of 16 KiB (of a wide state: one row, 2048 columns), so that a short run
+        // makes a small file (each chunk is allocated whole) and a long one a few thousand chunks per MiB of rows
         const bool flat = width == 0;  // (t: one dimension)
         const hsize_t w = flat ? 1 : hsize_t(width);
-        const hsize_t cols = std::min<hsize_t>(w, 32768), chunk_rows = std::max<hsize_t>(1, 32768 / cols);
+        const hsize_t cols = std::min<hsize_t>(w, 2048), chunk_rows = std::max<hsize_t>(1, 2048 / cols);
         const hsize_t dims[2] = {0, w}, maxdims[2] = {H5S_UNLIMITED, w}, chunk[2] = {chunk_rows, cols};
         handle sp(H5Screate_simple(flat ? 1 : 2, dims, maxdims), H5Sclose, "HDF5 dataspace");
         handle dcpl(H5Pcreate(H5P_DATASET_CREATE), H5Pclose, "HDF5 dataset properties");
@@ -951,11 +955,11 @@ struct h5_series::impl {
 };
 
 h5_series::h5_series(const std::string& file, std::string_view what, std::vector<group> groups,
-                     std::vector<std::pair<std::string, std::string>> attributes)
+                     std::vector<attribute> attributes)
     : d_(std::make_unique<impl>()) {
     impl& d = *d_;
     d.file = file;
-    d.what = std::string(what) + " '" + file + "'";
+    d.what = std::string(what);
     d.groups = std::move(groups);
     const auto why = begin_hdf5_write(file);
     d.id = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT);
@@ -963,7 +967,8 @@ h5_series::h5_series(const std::string& file, std::string_view what, std::vector
     try {
         put(d.id, "format", std::string("eci run series"));
         put(d.id, "version", std::int64_t(1));
-        for (const auto& [name, value] : attributes) put(d.id, name.c_str(), value);
+        for (const attribute& a : attributes)
+            std::visit([&](const auto& v) { put(d.id, a.name.c_str(), v); }, a.value);
         d.sets.push_back(d.create("t", 0));
         std::size_t row_width = 1;
         for (const group& g : d.groups) {

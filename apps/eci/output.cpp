@@ -959,6 +959,11 @@ void install_interrupt_handler() {
     sa.sa_handler = on_watchdog;
     ::sigaction(SIGALRM, &sa, nullptr);
     ::sigaction(SIGVTALRM, &sa, nullptr);
+    // A write beyond a file size limit (ulimit -f) fails with EFBIG, as on a full disk, and takes the failure
+    // path (the temporaries removed, the old files kept, the reason said); SIGXFSZ's default killed the process
+    // and left the temporaries.
+    sa.sa_handler = SIG_IGN;
+    ::sigaction(SIGXFSZ, &sa, nullptr);
     // A parent may hand these signals over blocked (the mask survives exec): one sent since is pending, and is
     // delivered to the handler now instead of never.
     const sigset_t set = interrupt_set();

@@ -261,12 +261,12 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             for (std::size_t i = 0; i < columns.size(); ++i) state_names.push_back(columns[i]);
         for (const auto& d : derived) derived_names.emplace_back(d.name);
         for (const auto& inv : Model::invariants()) invariant_names.emplace_back(inv.name);
-        std::vector<std::pair<std::string, std::string>> attributes{{"model", info.name}, {"method", std::string(method.name)}};
+        std::vector<h5_series::attribute> attributes{{"model", info.name}, {"method", std::string(method.name)}};
         if (adaptive)
-            attributes.insert(attributes.end(), {{"rtol", shortest(cfg.adaptive->rtol)}, {"atol", shortest(cfg.adaptive->atol)}});
+            attributes.insert(attributes.end(), {{"rtol", cfg.adaptive->rtol}, {"atol", cfg.adaptive->atol}});
         else
-            attributes.emplace_back("dt", shortest(plan.dt));
-        h5.emplace(csv.temporary(), "HDF5 output",
+            attributes.push_back({"dt", plan.dt});
+        h5.emplace(csv.temporary(), "HDF5 output '" + settings.output + "'",
                    std::vector<h5_series::group>{{"state", columns.size(), std::move(state_names)},
                                                  {"derived", derived.size(), std::move(derived_names)},
                                                  {"invariants", Model::invariants().size(), std::move(invariant_names)},
@@ -393,7 +393,8 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         } catch (const std::exception& e) {
             throw interrupted(stop + "; " + e.what());
         }
-        throw interrupted(stop + (kept.empty() ? std::string() : "; kept: " + kept));
+        throw interrupted(stop + (kept.empty() ? std::string() : "; kept: " + kept) +
+                          (plot ? "; no plot (it is drawn for a finished run)" : ""));
     }
     if (report.failure) {
         const eci::run_failure& f = *report.failure;
@@ -426,6 +427,17 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     if (std::FILE* j = json.get()) write_summary_json(j, summary);
     if (h5) h5->close();
     if (plot && !plot->draw(picture)) {
+        if (interrupt_requested()) {
+            // Ctrl-C while the picture was drawn (the plotting program is stopped with it): the finished run's
+            // other outputs are kept, whole, as an interrupted run's are
+            std::string kept;
+            if (csv.replaces()) kept += std::string(hdf5 ? "HDF5" : "CSV") + " output '" + settings.output + "'";
+            if (json.replaces()) kept += (kept.empty() ? "" : ", ") + std::string("summary JSON '") + settings.summary_json + "'";
+            commit_outputs({&csv, &json}, nullptr, true);
+            print_summary(stderr, summary);
+            throw interrupted(interrupt_message("while the plot was drawn, after the run had finished") +
+                              (kept.empty() ? std::string() : "; kept: " + kept) + "; no plot");
+        }
         const bool others = csv.get() || json.get();
         commit_outputs({&csv, &json});
         print_summary(stderr, summary);

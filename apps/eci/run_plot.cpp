@@ -1,6 +1,7 @@
 // The picture of `eci run MODEL --plot FILE.png` (run_plot.hpp), drawn by the plotting program.
 #include "run_plot.hpp"
 
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -37,7 +38,10 @@ std::string plot_format(std::string_view path) {
     std::string ext = dot == std::string_view::npos ? std::string() : std::string(path.substr(dot + 1));
     for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
     if (ext == "png" || ext == "svg" || ext == "pdf") return ext;
-    if (path == "-" || path.starts_with("/dev/")) return "png";  // a stream: PNG
+    // standard output, a device or a FIFO (by name or through /dev/fd/N): a stream, PNG
+    struct stat st {};
+    if (path == "-" || (::stat(std::string(path).c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)))
+        return "png";
     return {};
 }
 
@@ -45,19 +49,23 @@ void check_plot_request(const std::string& path) {
     if (path.empty()) return;
     if (plot_format(path).empty())
         throw bad_input("--plot '" + path + "': the picture's name must end in .png, .svg or .pdf");
-    if (!plotting_available())
+    if (!plotting_available()) {
+        throw_if_interrupted("before the run");  // (the probe of the plotting program was stopped, not refused)
         throw bad_input("--plot needs gnuplot (Debian package gnuplot-nox), and '" + plotting_program() +
                         "' does not run");
+    }
 }
 
 run_plot::run_plot(std::string path, std::vector<std::string> components, std::size_t component_count,
-                   std::vector<std::string> invariants, std::string title, std::string top_label, bool log_top)
+                   std::vector<std::string> invariants, std::string title, std::string top_label, bool log_top,
+                   std::string bottom_label)
     : path_(std::move(path)),
       names_(std::move(components)),
       invariants_(std::move(invariants)),
       component_count_(component_count),
       title_(std::move(title)),
       top_label_(std::move(top_label)),
+      bottom_label_(std::move(bottom_label)),
       log_top_(log_top) {
     if (names_.size() > max_components) names_.resize(max_components);
 }
@@ -124,10 +132,13 @@ bool run_plot::draw_into(output_file& png) const {
                                       : "set terminal pngcairo size 1000,760 font ',10' noenhanced\n";
     const scoped_temporary picture(temporary_name("." + format));
     s += "set output " + gnuplot_quoted(picture.path()) + "\n";
-    s += "set multiplot layout " + std::string(nc > 0 && ni > 0 ? "2" : "1") + ",1 title " + gnuplot_quoted(title_) + "\n";
-    // the panels' axes aligned, the keys right of them
+    s += "set multiplot layout " + std::string(nc > 0 && ni > 0 ? "2" : "1") + ",1 title " +
+         gnuplot_quoted(title_) + "\n";
+    // the panels' axes aligned and ending at the data (not the next tic), the keys right of them; a single output
+    // as a point (a line of one point is not drawn)
     s += "set grid\nset key outside right top\nset xlabel 't'\nset lmargin at screen 0.11\n"
-         "set rmargin at screen 0.78\n";
+         "set rmargin at screen 0.74\nset autoscale xfix\n";
+    const std::string style = count > 1 ? " with lines" : " with points pointtype 7";
     const std::string file = gnuplot_quoted(data.path());
     if (nc > 0) {
         const std::string label = !top_label_.empty()      ? top_label_
@@ -136,19 +147,19 @@ bool run_plot::draw_into(output_file& png) const {
                                                           : std::string("state");
         s += "set ylabel " + gnuplot_quoted(label) + "\n" + (log_top_ ? "set logscale y\n" : "") + "plot ";
         for (std::size_t i = 0; i < nc; ++i)
-            s += (i ? ", " : "") + file + " using 1:" + std::to_string(2 + i) + " with lines title " +
+            s += (i ? ", " : "") + file + " using 1:" + std::to_string(2 + i) + style + " title " +
                  gnuplot_quoted(names_[i]);
         s += "\n";
     }
     if (ni > 0) {
         // relative to the initial value, or where that is 0 (or not finite) absolute, said in the key
-        const bool all_relative = std::ranges::all_of(relative, [](bool r) { return r; });
+        const bool any_absolute = !std::ranges::all_of(relative, [](bool r) { return r; });
+        const std::string label = bottom_label_.empty() ? "(invariant - initial) / |initial|" : bottom_label_;
         s += std::string(log_top_ ? "unset logscale y\n" : "") + "set ylabel " +
-             gnuplot_quoted(all_relative ? "(invariant - initial) / |initial|" : "invariant - initial (/ |initial| where marked)") +
-             "\nset format y '%.1e'\nplot ";
+             gnuplot_quoted(label + (any_absolute ? "; (abs.): - initial" : "")) + "\nset format y '%.1e'\nplot ";
         for (std::size_t k = 0; k < ni; ++k)
-            s += (k ? ", " : "") + file + " using 1:" + std::to_string(2 + nc + k) + " with lines title " +
-                 gnuplot_quoted(invariants_[k] + (relative[k] && !all_relative ? " (/ |initial|)" : ""));
+            s += (k ? ", " : "") + file + " using 1:" + std::to_string(2 + nc + k) + style + " title " +
+                 gnuplot_quoted(invariants_[k] + (relative[k] ? "" : " (abs.)"));
         s += "\n";
     }
     s += "unset multiplot\nset output\n";

@@ -35,9 +35,10 @@ class run_plot {
 
     /// `path`: the --plot file (its extension picks the format), `components`: the names of the state's real unknowns (all of them: the plot draws the first
     /// max_components), `invariants` the invariants' names, `title` the picture's title (model, method, step),
-    /// `top_label` the upper panel's axis ("state" if empty), `log_top` a logarithmic axis there.
+    /// `top_label` the upper panel's axis ("state" if empty), `log_top` a logarithmic axis there, `bottom_label`
+    /// the lower panel's ("(invariant - initial) / |initial|" if empty).
     run_plot(std::string path, std::vector<std::string> components, std::size_t component_count, std::vector<std::string> invariants,
-             std::string title, std::string top_label = {}, bool log_top = false);
+             std::string title, std::string top_label = {}, bool log_top = false, std::string bottom_label = {});
 
     /// One output: its time, the state's first components (at most max_components are read) and the invariants.
     void add(double t, std::span<const double> components, std::span<const double> invariants);
@@ -58,7 +59,7 @@ class run_plot {
     std::string path_;
     std::vector<std::string> names_, invariants_;
     std::size_t component_count_;
-    std::string title_, top_label_;
+    std::string title_, top_label_, bottom_label_;
     bool log_top_;
     std::vector<double> data_;  // rows of width(): t, the components drawn, the invariants
     std::size_t rows_ = 0;

@@ -27,12 +27,14 @@ class cli_plot : public ::testing::Test {
     fs::path work(const std::string& name) const { return dir_.file(name); }
     /// A stand-in plotting program in the scratch tree: answers --version, copies the script it is given and the
     /// data file the script plots to kept.gp and kept.dat beside it, and writes a tiny "PNG" (its IEND chunk) where
-    /// the script sets the output; with `fail`, it draws nothing and exits 1. Returns "ECI_GNUPLOT=<it>".
-    std::string fake_plotter(bool fail = false) const {
+    /// the script sets the output; with `fail`, it draws nothing and exits 1; `before_version` and `before_drawing`
+    /// are shell commands it runs first (a sleep). Returns "ECI_GNUPLOT=<it>".
+    std::string fake_plotter(bool fail = false, const std::string& before_version = "",
+                             const std::string& before_drawing = "") const {
         const fs::path tool = dir_.capture() / "plot-tool";
         std::ofstream(tool) << "#!/bin/sh\n"
-                               "[ \"$1\" = --version ] && exit 0\n"
-                            << (fail ? "exit 1\n" : "")
+                            << "[ \"$1\" = --version ] && { " << before_version << " exit 0; }\n"
+                            << before_drawing << (fail ? "exit 1\n" : "")
                             << "here=$(dirname \"$0\")\n"
                                "cp \"$1\" \"$here/kept.gp\"\n"
                                "data=$(sed -n \"s/^plot '\\([^']*\\)'.*/\\1/p\" \"$1\" | head -n 1)\n"
@@ -181,6 +183,25 @@ TEST_F(cli_plot, a_picture_that_fails_at_the_end_loses_no_other_output) {
     EXPECT_NE(r.err.find("the other outputs were written"), std::string::npos) << r.err;
     EXPECT_EQ(csv_rows(read_text(work("out.csv"))).size(), 11u);
     EXPECT_EQ(read_text(work("out.png")), "old picture");
+}
+
+// Ctrl-C while the picture is drawn at the end of a finished run: the plotting program is stopped, the run's other
+// outputs are kept whole (they were all lost), exit 130. Ctrl-C while the plotting program is probed before the run:
+// an interrupt (130), not "gnuplot does not run" (2).
+TEST_F(cli_plot, an_interrupt_while_drawing_keeps_the_finished_runs_other_outputs) {
+    const run_result r = eci({"run", "three-wave", "--steps", "100", "--output", "o.csv", "--summary-json", "s.json",
+                              "--plot", "p.png"},
+                             fake_plotter(false, "", "sleep 5;") + " timeout -s INT --preserve-status 1.5");
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("interrupted by SIGINT while the plot was drawn"), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("kept: CSV output 'o.csv', summary JSON 's.json'; no plot"), std::string::npos) << r.err;
+    EXPECT_EQ(work_files(), (std::set<std::string>{"o.csv", "s.json"}));
+    EXPECT_EQ(csv_rows(read_text(work("o.csv"))).size(), 101u);
+    const run_result probe = eci({"run", "three-wave", "--steps", "100", "--output", "o2.csv", "--plot", "p.png"},
+                                 fake_plotter(false, "sleep 5;") + " timeout -s INT --preserve-status 1");
+    EXPECT_EQ(probe.status, 130) << probe.err;
+    EXPECT_NE(probe.err.find("interrupted by SIGINT before the run"), std::string::npos) << probe.err;
+    EXPECT_EQ(work_files(), (std::set<std::string>{"o.csv", "s.json"}));
 }
 
 // With gnuplot itself: whole pictures in each format.
