@@ -404,3 +404,22 @@ def test_an_output_directory_in_a_kernel_interface_is_refused_as_such(cli, args)
     assert r.returncode == 2, r.stderr
     line = error_line(r.stderr)
     assert "a kernel interface, not a place for data files" in line, line
+
+
+# A file size limit (ulimit -f) is a write error like a full disk: one line naming the file, exit 1, the old file kept
+# and no temporary left (SIGXFSZ killed the process and left the temporaries).
+@pytest.mark.parametrize("name", ["big.csv", "big.h5"])
+def test_a_file_size_limit_is_a_write_error_that_leaves_nothing(cli, tmp_path, name):
+    import resource
+    (tmp_path / name).write_text("precious\n")
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (100 * 1024, 100 * 1024))
+
+    r = subprocess.run([str(cli), "run", "n-wave", "--modes", "1000", "--steps", "1000", "--output", name],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120, preexec_fn=limit)
+    assert r.returncode == 1, r.stderr
+    line = error_line(r.stderr)
+    assert f"'{name}'" in line and "File too large" in line and "no output was replaced" in line, line
+    assert (tmp_path / name).read_text() == "precious\n"
+    assert sorted(p.name for p in tmp_path.iterdir()) == [name]
