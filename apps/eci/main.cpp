@@ -65,6 +65,7 @@ constexpr const char* exit_status_help =
     "after its first step keeps its outputs up to where it stopped, as complete files committed together (the CSV's "
     "rows so far, the snapshots taken, a summary JSON with \"interrupted\": true and t_stopped) and says what it "
     "kept; stopped before its first step, by SIGPIPE or by a second signal, it keeps nothing. On any other failure "
+    "(but a --plot that cannot be drawn at the end of a finished run, which keeps the other outputs) "
     "no output file or directory is created "
     "or replaced (files of one run appear together), except what goes directly to standard output, a device "
     "or a FIFO (for --output, --summary-json and --plot; other outputs refuse devices and FIFOs), and a spectral run's "
