@@ -6,6 +6,7 @@ default_t_end and the methods it accepts. Invalid parameters raise ValueError wi
 set-ups are named presets: ThreeWave.preset("fig2").solve() is `eci run three-wave --preset fig2`.
 """
 
+import weakref as _weakref
 from collections import namedtuple as _namedtuple
 
 import numpy as _np
@@ -52,9 +53,43 @@ class Preset(_namedtuple("Preset", "name description model y0 method dt t_end"))
         return solve(self.model, (0.0, self.t_end), self.y0, **settings)
 
 
+# How each model object was made, so that it can be pickled and copied (its class is compiled and keeps no such
+# record): the constructor's arguments, or the preset it is the model of. Weak: the record goes with the object.
+_made = _weakref.WeakKeyDictionary()
+
+
+def _rebuild(cls, args, kwargs):
+    """A model made again by its constructor (unpickling, copy.copy and copy.deepcopy)."""
+    return cls(*args, **kwargs)
+
+
+def _rebuild_preset(cls, name):
+    """The model of preset `name` of cls, made again."""
+    return _preset(cls, name).model
+
+
+def _rebuild_flow(cls, args, kwargs, rng_state):
+    """A spectral model made again, its stochastic forcing's generator where the original's stood."""
+    m = cls(*args, **kwargs)
+    m._rng_state = rng_state
+    return m
+
+
+def _reduce(self):
+    made = _made.get(self)
+    if made is None:
+        raise TypeError(f"cannot pickle this {type(self).__name__}: it was not made by its constructor or a preset")
+    if hasattr(self, "_rng_state"):  # a spectral model: its generator has moved on with every solve
+        return (_rebuild_flow, made[1] + (self._rng_state,))
+    return made
+
+
 def _presets(cls):
     """Every preset of the model class cls, in the CLI's order (the first is what `eci run MODEL` does)."""
-    return [Preset(*p) for p in cls._presets()]
+    presets = [Preset(*p) for p in cls._presets()]
+    for p in presets:
+        _made[p.model] = (_rebuild_preset, (cls, p.name))
+    return presets
 
 
 def _preset(cls, name):
@@ -97,9 +132,11 @@ def _refuse_bools(cls, flags=()):
             if name in kwargs and not isinstance(kwargs[name], (bool, _np.bool_)):
                 raise TypeError(f"{cls.__name__}: {name} must be True or False, not {type(kwargs[name]).__name__}")
         init(self, *args, **kwargs)
+        _made[self] = (_rebuild, (cls, args, dict(kwargs)))
 
     __init__.__doc__ = init.__doc__
     cls.__init__ = __init__
+    cls.__reduce__ = _reduce
 
 
 for _cls in ode_models:

@@ -2,6 +2,7 @@
 // by eci::solve as `eci run EQUATION` steps them, with their diagnostics (E, Z, P, spectra, fluxes, fields).
 #include <cmath>
 #include <complex>
+#include <cstdint>
 #include <limits>
 #include <mutex>
 #include <numbers>
@@ -260,6 +261,13 @@ void add_flow_methods(Class& c) {
     using o = typename Class::type;
     c
         .def_property_readonly("n", [](const o& s) { return s.model().n(); }, "grid points per side")
+        .def_property(
+            "_rng_state", [](const o& s) { return s.model().rng_state(); },
+            [](const o& s, std::uint64_t v) {
+                const auto l = s.lock();
+                s.model().set_rng_state(v);
+            },
+            "where the stochastic forcing's generator stands (each solve continues it; a copy carries it)")
         .def_property_readonly("kmax", [](const o& s) { return s.model().kmax(); }, "largest retained |k_x|, |k_y|")
         .def_property_readonly("size", [](const o& s) { return s.model().size(); }, "stored complex modes")
         .def_property_readonly(
