@@ -1232,12 +1232,16 @@ int spectral_command::run_spread(const run_settings& settings) {
             throw interrupted(interrupt_message("while the plot was drawn, after the run had finished") +
                               "; the run's other outputs were kept; no plot");
         }
+        // Ctrl-C after the last step (the run finished, its outputs whole): kept, as a stopped run's are
+        const bool late_stop = interrupt_requested() && interrupt_keeps_outputs();
         if (drawn)
-            commit_outputs({&csv, &json, &picture}, staged_snapshots ? &*staged_snapshots : nullptr);
+            commit_outputs({&csv, &json, &picture}, staged_snapshots ? &*staged_snapshots : nullptr, late_stop);
         else
             commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr);
         if (created_snapshot_dir) created_snapshot_dir->keep();
         print_summary(stderr, s);
+        if (late_stop)
+            throw interrupted(interrupt_message("after the run had finished") + "; its outputs were kept");
         if (!drawn)
             throw run_error("the plot '" + settings.plot + "' could not be drawn by " + plotting_program() +
                             (plot->failure().empty() ? "" : " (" + plot->failure() + ")") +

@@ -445,6 +445,13 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
                         (plot->failure().empty() ? "" : " (" + plot->failure() + ")") +
                         (others ? "; the other outputs were written" : ""));
     }
+    if (interrupt_requested() && interrupt_keeps_outputs()) {
+        // Ctrl-C after the last step (the run finished, its outputs are whole): kept, as a stopped run's are (the
+        // commit's own rule would have discarded them)
+        commit_outputs({&csv, &json, &picture}, nullptr, true);
+        print_summary(stderr, summary);
+        throw interrupted(interrupt_message("after the run had finished") + "; its outputs were kept");
+    }
     commit_outputs({&csv, &json, &picture});
     print_summary(stderr, summary);
     return 0;

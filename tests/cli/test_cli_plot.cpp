@@ -30,7 +30,7 @@ class cli_plot : public ::testing::Test {
     /// the script sets the output; with `fail`, it draws nothing and exits 1; `before_version` and `before_drawing`
     /// are shell commands it runs first (a sleep). Returns "ECI_GNUPLOT=<it>".
     std::string fake_plotter(bool fail = false, const std::string& before_version = "",
-                             const std::string& before_drawing = "") const {
+                             const std::string& before_drawing = "", const std::string& after_drawing = "") const {
         const fs::path tool = dir_.capture() / "plot-tool";
         std::ofstream(tool) << "#!/bin/sh\n"
                             << "[ \"$1\" = --version ] && { " << before_version << " exit 0; }\n"
@@ -40,7 +40,8 @@ class cli_plot : public ::testing::Test {
                                "data=$(sed -n \"s/^plot '\\([^']*\\)'.*/\\1/p\" \"$1\" | head -n 1)\n"
                                "cp \"$data\" \"$here/kept.dat\"\n"
                                "out=$(sed -n \"s/^set output '\\([^']*\\)'.*/\\1/p\" \"$1\")\n"
-                               "printf '\\211PNG\\000\\000\\000\\000IEND\\256\\102\\140\\202' > \"$out\"\n";
+                               "printf '\\211PNG\\000\\000\\000\\000IEND\\256\\102\\140\\202' > \"$out\"\n"
+                            << after_drawing;
         fs::permissions(tool, fs::perms::owner_all);
         return "ECI_GNUPLOT=" + shell_quote(tool.string());
     }
@@ -202,6 +203,25 @@ TEST_F(cli_plot, an_interrupt_while_drawing_keeps_the_finished_runs_other_output
     EXPECT_EQ(probe.status, 130) << probe.err;
     EXPECT_NE(probe.err.find("interrupted by SIGINT before the run"), std::string::npos) << probe.err;
     EXPECT_EQ(work_files(), (std::set<std::string>{"o.csv", "s.json"}));
+}
+
+// Ctrl-C once the run has finished and its picture is drawn (the stand-in interrupts eci as it exits): the outputs are
+// whole and kept, exit 130 (the commit's rule discarded all of them). Whether the picture is kept depends on whether
+// eci saw the plotting program end before the signal: either way it is whole or absent.
+TEST_F(cli_plot, an_interrupt_after_the_run_has_finished_keeps_its_outputs) {
+    const run_result r = eci({"run", "three-wave", "--steps", "100", "--output", "o.csv", "--summary-json", "s.json",
+                              "--plot", "p.png"},
+                             fake_plotter(false, "", "", "kill -INT $PPID\n"));
+    EXPECT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("interrupted by SIGINT"), std::string::npos) << r.err;
+    EXPECT_EQ(csv_rows(read_text(work("o.csv"))).size(), 101u);
+    EXPECT_NE(read_text(work("s.json")).find("\"steps\": 100"), std::string::npos);
+    const auto files = work_files();
+    EXPECT_TRUE(files == (std::set<std::string>{"o.csv", "s.json"}) ||
+                files == (std::set<std::string>{"o.csv", "s.json", "p.png"}));
+    if (files.count("p.png")) {
+        EXPECT_EQ(read_text(work("p.png")).substr(1, 3), "PNG");
+    }
 }
 
 // With gnuplot itself: whole pictures in each format.
