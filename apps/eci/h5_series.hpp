@@ -3,7 +3,6 @@
 // HDF5 (ns2d_output.cpp) in a build with HDF5; without it, asking for HDF5 is refused (h5_series_none.cpp).
 #pragma once
 
-#include <cctype>
 #include <cstddef>
 #include <cstdint>
 #include <memory>
@@ -12,16 +11,15 @@
 #include <string_view>
 #include <utility>
 #include <variant>
+
+#include "output.hpp"
 #include <vector>
 
 namespace eci::cli {
 
 /// Whether an --output path asks for HDF5 (it ends in .h5 or .hdf5, in any case).
 inline bool is_hdf5_path(std::string_view path) {
-    const std::size_t dot = path.rfind('.');
-    if (dot == std::string_view::npos) return false;
-    std::string ext(path.substr(dot + 1));
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    const std::string ext = extension_of(path);
     return ext == "h5" || ext == "hdf5";
 }
 

@@ -1,7 +1,6 @@
 // h5_series (h5_series.hpp) in a build without HDF5 (no spectral equations): an HDF5 --output is refused.
 #include "h5_series.hpp"
 
-#include <cctype>
 
 #include "output.hpp"
 

@@ -1223,25 +1223,19 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (h5) h5->close();
         // a picture that could not be drawn loses nothing else: the other outputs are committed, the run fails
         const bool drawn = !plot || plot->draw(picture), others = csv.get() || json.get() || staged_snapshots;
-        if (!drawn && interrupt_requested()) {
-            // Ctrl-C while the picture was drawn: the finished run's other outputs are kept, as an interrupted
-            // run's are (its checkpoint is written)
-            commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr, true);
-            if (created_snapshot_dir) created_snapshot_dir->keep();
-            print_summary(stderr, s);
-            throw interrupted(interrupt_message("while the plot was drawn, after the run had finished") +
-                              "; the run's other outputs were kept; no plot");
-        }
-        // Ctrl-C after the last step (the run finished, its outputs whole): kept, as a stopped run's are
+        // Ctrl-C after the last step, while the picture was drawn (which stops the plotting program) or after: the
+        // finished run's outputs are whole and kept, as a stopped run's are (the commit's own rule discarded them)
         const bool late_stop = interrupt_requested() && interrupt_keeps_outputs();
         if (drawn)
             commit_outputs({&csv, &json, &picture}, staged_snapshots ? &*staged_snapshots : nullptr, late_stop);
         else
-            commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr);
+            commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr, late_stop);
         if (created_snapshot_dir) created_snapshot_dir->keep();
         print_summary(stderr, s);
         if (late_stop)
-            throw interrupted(interrupt_message("after the run had finished") + "; its outputs were kept");
+            throw interrupted(interrupt_message(drawn ? "after the run had finished"
+                                                      : "while the plot was drawn, after the run had finished") +
+                              "; its outputs were kept" + (drawn ? "" : "; no plot"));
         if (!drawn)
             throw run_error("the plot '" + settings.plot + "' could not be drawn by " + plotting_program() +
                             (plot->failure().empty() ? "" : " (" + plot->failure() + ")") +

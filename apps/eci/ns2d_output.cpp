@@ -11,7 +11,6 @@
 #include <hdf5.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cerrno>
 #include <cstring>
 #include <cmath>
@@ -874,9 +873,8 @@ namespace eci::cli {
 
 void check_hdf5_request(const std::string& path) {
     if (!is_hdf5_path(path)) return;
-    // standard output, a device, a FIFO or a socket (by name or through /dev/fd/N): HDF5 needs a file it can seek
-    struct stat st {};
-    if (path == "-" || (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)))
+    // HDF5 needs a file it can seek
+    if (names_a_stream(path))
         throw bad_input("--output '" + path + "': HDF5 is written to a regular file, not to a stream, device or FIFO");
 }
 

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <charconv>
+#include <cctype>
 #include <cerrno>
 #include <climits>
 #include <cmath>
@@ -780,6 +781,19 @@ void check_outputs_spare_inputs(const std::vector<std::pair<std::string, std::st
             if (o.same(i))
                 throw bad_input(message({*o.name, " and ", *i.name, " name the same file '", *o.path,
                                          "': the run would overwrite its own input"}));
+}
+
+std::string extension_of(std::string_view path) {
+    const std::size_t dot = path.rfind('.');
+    if (dot == std::string_view::npos || path.find('/', dot) != std::string_view::npos) return {};
+    std::string ext(path.substr(dot + 1));
+    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    return ext;
+}
+
+bool names_a_stream(const std::string& path) {
+    struct stat st {};
+    return path == "-" || (::stat(path.c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode));
 }
 
 void check_data_directory(const std::string& dir, std::string_view what) {

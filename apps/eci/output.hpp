@@ -99,6 +99,14 @@ bool interrupt_keeps_outputs();
 /// The interrupt's message, "interrupted by SIGINT <where>" ("interrupted <where>" if none arrived).
 std::string interrupt_message(std::string_view where);
 
+/// The extension of a file name, lowercase, without its dot ("" if there is none): what --plot and --output FILE.h5
+/// are told apart by.
+std::string extension_of(std::string_view path);
+
+/// Whether `path` names a stream rather than a file: standard output ("-"), or an existing device, FIFO or socket
+/// (by name, a symlink or /dev/fd/N).
+bool names_a_stream(const std::string& path);
+
 /// Refuses (bad_input "cannot write <what> into '<dir>': it is in /proc, a kernel interface, ...") a directory of
 /// outputs, existing or to be created, in /proc, /sys or another kernel interface (mkdir's and mkdtemp's errors
 /// there named no such file or directory).

@@ -226,14 +226,14 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         else
             return std::array<named_invariant<Model>, 0>{};
     }();
+    std::vector<std::string> invariant_names;  // (the plot's and the HDF5 file's)
+    for (const auto& inv : Model::invariants()) invariant_names.emplace_back(inv.name);
     // --plot: the same outputs as the CSV's rows, drawn at the end
     std::optional<run_plot> plot;
     if (picture.get()) {
         std::vector<std::string> drawn;
         for (std::size_t i = 0; i < std::min(columns.size(), run_plot::max_components); ++i) drawn.push_back(columns[i]);
-        std::vector<std::string> invariant_names;
-        for (const auto& inv : Model::invariants()) invariant_names.emplace_back(inv.name);
-        plot.emplace(settings.plot, std::move(drawn), columns.size(), std::move(invariant_names),
+        plot.emplace(settings.plot, std::move(drawn), columns.size(), invariant_names,
                      "eci run " + info.name + ": " + std::string(method.name) +
                          (adaptive ? ", rtol " + title_number(cfg.adaptive->rtol) + ", atol " +
                                           title_number(cfg.adaptive->atol)
@@ -256,11 +256,10 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
 
     std::optional<h5_series> h5;
     if (hdf5) {
-        std::vector<std::string> state_names, derived_names, invariant_names;
+        std::vector<std::string> state_names, derived_names;
         if (columns.size() <= h5_series::max_named)
             for (std::size_t i = 0; i < columns.size(); ++i) state_names.push_back(columns[i]);
         for (const auto& d : derived) derived_names.emplace_back(d.name);
-        for (const auto& inv : Model::invariants()) invariant_names.emplace_back(inv.name);
         std::vector<h5_series::attribute> attributes{{"model", info.name}, {"method", std::string(method.name)}};
         if (adaptive)
             attributes.insert(attributes.end(), {{"rtol", cfg.adaptive->rtol}, {"atol", cfg.adaptive->atol}});
@@ -269,7 +268,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         h5.emplace(csv.temporary(), "HDF5 output '" + settings.output + "'",
                    std::vector<h5_series::group>{{"state", columns.size(), std::move(state_names)},
                                                  {"derived", derived.size(), std::move(derived_names)},
-                                                 {"invariants", Model::invariants().size(), std::move(invariant_names)},
+                                                 {"invariants", invariant_names.size(), invariant_names},
                                                  {"time_lag", lagged ? 1u : 0u, {}}},
                    std::move(attributes));
     }
@@ -350,6 +349,15 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         std::vector<double> state_;  ///< a state's real unknowns, for an HDF5 row
     } sink{out, model, derived, adaptive ? 0 : plan.steps, plan.t_end, plot ? &*plot : nullptr, h5 ? &*h5 : nullptr};
 
+    // What a stopped run keeps, as its message says it: "; kept: CSV output 'o.csv' (rows to t = 1.5), summary JSON
+    // 's.json'" (`rows`: how far the rows go, if not to the end), or nothing.
+    const auto kept_outputs = [&](const std::string& rows) {
+        std::string kept;
+        if (csv.replaces()) kept += std::string(hdf5 ? "HDF5" : "CSV") + " output '" + settings.output + "'" + rows;
+        if (json.replaces())
+            kept += (kept.empty() ? "" : ", ") + std::string("summary JSON '") + settings.summary_json + "'";
+        return kept.empty() ? kept : "; kept: " + kept;
+    };
     const auto start = std::chrono::steady_clock::now();
     solve_report report;
     std::string stop;  // an interrupt's message
@@ -379,12 +387,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         for (std::size_t k = 0; k < names.size() && k < summary.invariants.size(); ++k)
             summary.invariants[k].name = names[k].name;
         summary.wall_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        std::string kept;
-        if (csv.replaces())
-            kept += std::string(hdf5 ? "HDF5" : "CSV") + " output '" + settings.output + "' (rows to t = " +
-                    shortest(sink.last_t) + ")";
-        if (json.replaces())
-            kept += (kept.empty() ? "" : ", ") + std::string("summary JSON '") + settings.summary_json + "'";
+        const std::string kept = kept_outputs(" (rows to t = " + shortest(sink.last_t) + ")");
         try {
             if (std::FILE* j = json.get()) write_summary_json(j, summary);
             if (h5) h5->close();
@@ -393,8 +396,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         } catch (const std::exception& e) {
             throw interrupted(stop + "; " + e.what());
         }
-        throw interrupted(stop + (kept.empty() ? std::string() : "; kept: " + kept) +
-                          (plot ? "; no plot (it is drawn for a finished run)" : ""));
+        throw interrupted(stop + kept + (plot ? "; no plot (it is drawn for a finished run)" : ""));
     }
     if (report.failure) {
         const eci::run_failure& f = *report.failure;
@@ -426,34 +428,25 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     // drawn loses nothing else: the other outputs are committed and the run fails with the reason.
     if (std::FILE* j = json.get()) write_summary_json(j, summary);
     if (h5) h5->close();
-    if (plot && !plot->draw(picture)) {
-        if (interrupt_requested()) {
-            // Ctrl-C while the picture was drawn (the plotting program is stopped with it): the finished run's
-            // other outputs are kept, whole, as an interrupted run's are
-            std::string kept;
-            if (csv.replaces()) kept += std::string(hdf5 ? "HDF5" : "CSV") + " output '" + settings.output + "'";
-            if (json.replaces()) kept += (kept.empty() ? "" : ", ") + std::string("summary JSON '") + settings.summary_json + "'";
-            commit_outputs({&csv, &json}, nullptr, true);
-            print_summary(stderr, summary);
-            throw interrupted(interrupt_message("while the plot was drawn, after the run had finished") +
-                              (kept.empty() ? std::string() : "; kept: " + kept) + "; no plot");
-        }
-        const bool others = csv.get() || json.get();
-        commit_outputs({&csv, &json});
-        print_summary(stderr, summary);
+    const bool drawn = !plot || plot->draw(picture);
+    // Ctrl-C after the last step, while the picture was drawn (which stops the plotting program) or after: the
+    // finished run's outputs are whole and kept, as a stopped run's are (the commit's own rule discarded them)
+    const bool late_stop = interrupt_requested() && interrupt_keeps_outputs();
+    const std::string kept = late_stop ? kept_outputs("") : std::string();  // (before the commit, which takes them)
+    const bool others = csv.get() || json.get();
+    if (drawn)
+        commit_outputs({&csv, &json, &picture}, nullptr, late_stop);
+    else
+        commit_outputs({&csv, &json}, nullptr, late_stop);
+    print_summary(stderr, summary);
+    if (late_stop)
+        throw interrupted(interrupt_message(drawn ? "after the run had finished"
+                                                  : "while the plot was drawn, after the run had finished") +
+                          kept + (drawn ? "" : "; no plot"));
+    if (!drawn)
         throw run_error("the plot '" + settings.plot + "' could not be drawn by " + plotting_program() +
                         (plot->failure().empty() ? "" : " (" + plot->failure() + ")") +
                         (others ? "; the other outputs were written" : ""));
-    }
-    if (interrupt_requested() && interrupt_keeps_outputs()) {
-        // Ctrl-C after the last step (the run finished, its outputs are whole): kept, as a stopped run's are (the
-        // commit's own rule would have discarded them)
-        commit_outputs({&csv, &json, &picture}, nullptr, true);
-        print_summary(stderr, summary);
-        throw interrupted(interrupt_message("after the run had finished") + "; its outputs were kept");
-    }
-    commit_outputs({&csv, &json, &picture});
-    print_summary(stderr, summary);
     return 0;
 }
 

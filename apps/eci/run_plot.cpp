@@ -1,11 +1,9 @@
 // The picture of `eci run MODEL --plot FILE.png` (run_plot.hpp), drawn by the plotting program.
 #include "run_plot.hpp"
 
-#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
-#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -34,15 +32,9 @@ std::string title_number(double v) {
 }
 
 std::string plot_format(std::string_view path) {
-    const std::size_t dot = path.rfind('.');
-    std::string ext = dot == std::string_view::npos ? std::string() : std::string(path.substr(dot + 1));
-    for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+    const std::string ext = extension_of(path);
     if (ext == "png" || ext == "svg" || ext == "pdf") return ext;
-    // standard output, a device or a FIFO (by name or through /dev/fd/N): a stream, PNG
-    struct stat st {};
-    if (path == "-" || (::stat(std::string(path).c_str(), &st) == 0 && !S_ISREG(st.st_mode) && !S_ISDIR(st.st_mode)))
-        return "png";
-    return {};
+    return names_a_stream(std::string(path)) ? "png" : std::string();  // a stream: PNG
 }
 
 void check_plot_request(const std::string& path) {
