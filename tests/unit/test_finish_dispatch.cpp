@@ -1,5 +1,6 @@
-// The finishing passes that are also compiled for AVX2 and dispatched at load time (C-PC's, the compensated
-// C-PC's and the conditioned update's common case) must round exactly like the inlined baseline loop, so that results never depend on the processor.
+// The passes that are also compiled for AVX2 and dispatched at run time (C-PC's finish, the compensated C-PC's, the
+// conditioned update's common case, and the conventional engine's stage values and update) must round exactly like
+// the baseline loop, so that results never depend on the processor.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +11,8 @@
 
 #include <eci/steppers/compensated_c_pc.hpp>
 #include <eci/steppers/conservative_rk.hpp>
+#include <eci/steppers/explicit_rk.hpp>
+#include <eci/tableaus.hpp>
 
 namespace {
 
@@ -111,6 +114,51 @@ TEST(FinishDispatch, ConditionedModuliRoundLikeTheReferenceLoop) {
             EXPECT_EQ(std::memcmp(&v.ratio[b], &ref.ratio[b], sizeof(double)), 0) << b;
         }
     }
+}
+
+// The conventional engine's stage values (combine_stages) and update with its finiteness test
+// (combine_stages_finite_over), dispatched against their baseline bodies, on RK4's b (four nonzero weights) and
+// row 3 of a (one nonzero weight). The data: a vector body and a tail (1001 values), subnormal and huge values, and
+// an overflow to infinity and a NaN placed in the tail or the body, which the finiteness test must see in both.
+TEST(FinishDispatch, StagePassesRoundLikeTheBaselineLoop) {
+    constexpr auto J = std::make_index_sequence<4>{};
+    const auto& rk4 = eci::tableaus::rk4;
+    static constexpr std::array<double, 4> b = eci::tableaus::rk4.b;
+    static constexpr std::array<double, 3> a3{eci::tableaus::rk4.a[3][0], eci::tableaus::rk4.a[3][1],
+                                              eci::tableaus::rk4.a[3][2]};
+    static_assert(a3[2] != 0.0 && rk4.stages == 4);
+    auto x = random_values(n, 12, -1.0, 1.0);
+    std::array<std::vector<double>, 4> k;
+    for (unsigned j = 0; j < 4; ++j) k[j] = random_values(n, 13 + j, -3.0, 3.0);
+    x[3] = 1e-310, k[0][4] = 4e-320, x[17] = 1.79e308;  // subnormal, huge (near the largest double)
+    const std::array<const double*, 4> kp{k[0].data(), k[1].data(), k[2].data(), k[3].data()};
+    const std::array<const double*, 3> kp3{k[0].data(), k[1].data(), k[2].data()};
+    // stage values
+    std::vector<double> dispatched(n), body(n);
+    eci::detail::combine_stages<a3>(dispatched.data(), x.data(), kp3, dt, n, std::make_index_sequence<3>{});
+    eci::detail::combine_stages_body<a3>(body.data(), x.data(), kp3, dt, n, std::make_index_sequence<3>{});
+    EXPECT_TRUE(same_bits(dispatched, body));
+    // the update over k_3, finite, then with an overflow (x[17] + a huge increment) and a NaN in turn
+    for (const int bad : {0, 1, 2}) {
+        auto k3_dispatched = k[3], k3_body = k[3];
+        if (bad == 1) k3_dispatched[17] = k3_body[17] = 1.7e308;  // in the body: x + dt b_3 k_3 overflows
+        if (bad == 2) k3_dispatched[n - 1] = k3_body[n - 1] = std::nan("");  // in the tail
+        std::array<const double*, 4> kd = kp, kb = kp;
+        kd[3] = k3_dispatched.data(), kb[3] = k3_body.data();
+        const bool finite_d = eci::detail::combine_stages_finite_over<b, 3>(k3_dispatched.data(), x.data(), kd, dt,
+                                                                            n, J);
+        const bool finite_b = eci::detail::combine_finite_over_body<b, 3>(k3_body.data(), x.data(), kb, dt, n, J);
+        EXPECT_EQ(finite_b, bad == 0) << bad;
+        EXPECT_EQ(finite_d, finite_b) << bad;
+        EXPECT_TRUE(same_bits(k3_dispatched, k3_body)) << bad;
+    }
+#if ECI_DETAIL_X86_SIMD
+    if (__builtin_cpu_supports("avx2")) {  // the AVX2 copy itself, whatever the dispatch picks
+        std::vector<double> wide(n);
+        eci::detail::combine_stages_avx2<a3>(wide.data(), x.data(), kp3, dt, n, std::make_index_sequence<3>{});
+        EXPECT_TRUE(same_bits(wide, body));
+    }
+#endif
 }
 
 }  // namespace
