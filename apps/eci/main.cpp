@@ -34,7 +34,7 @@ std::string plain_parse_error(const std::string& what) {
     std::smatch m;
     static const std::regex at_most("^(--[A-Za-z0-9-]+): At Most ([0-9]+) required but received ([0-9]+)$");
     static const std::regex at_least("^(--[A-Za-z0-9-]+): At least ([0-9]+) required but received ([0-9]+)$");
-    static const std::regex missing("^(--[A-Za-z0-9-]+): [0-9]+ required \\S+ missing$");
+    static const std::regex missing("^(--[A-Za-z0-9-]+): [0-9]+ required .+ missing$");
     static const std::regex not_in("^(--[A-Za-z0-9-]+): (.*) not in \\{(.*)\\}$");
     static const std::regex range("^(--[A-Za-z0-9-]+): Value (.*) not in range (.*) to (.*)$");
     if (std::regex_match(what, m, at_most))
@@ -105,10 +105,13 @@ CLI::Validator whole_number(std::uint64_t min) {
 /// A CLI11 check that an option is a decimal number: an optional sign, digits with an optional point, an optional
 /// exponent ("1", "-0.5", ".5", "2.", "1e-3"); CLI11 alone would also take hexadecimal ("0x10" as 16, "0x1p-4" as
 /// 0.0625), which the whole-number options and Python refuse. "inf" and "nan" (any case, signed) still reach the run,
-/// which refuses them with the same sentence as Python. A list ("1,0,2") is checked number by number.
+/// which refuses them with the same sentence as Python. Spaces around the number are dropped (" 2" from "1, 2, 3").
+/// A list ("1,0,2") is checked number by number (add_model_options).
 CLI::Validator decimal_number() {
     return CLI::Validator(
         [](std::string& s) -> std::string {
+            if (const std::size_t first = s.find_first_not_of(" \t"); first != std::string::npos)
+                s = s.substr(first, s.find_last_not_of(" \t") - first + 1);
             const auto decimal = [](std::string_view v) {
                 std::size_t i = 0;
                 if (i < v.size() && (v[i] == '+' || v[i] == '-')) ++i;
@@ -134,6 +137,38 @@ CLI::Validator decimal_number() {
         "NUMBER");
 }
 
+/// The numbers of a list option given as `tokens` (each "1,0,2", "1" or "1, 0"): every item a number
+/// (decimal_number(), spaces around it dropped), no empty item, `count` of them.
+std::vector<double> list_of_numbers(const std::string& flag, const std::vector<std::string>& tokens, std::size_t count) {
+    const CLI::Validator number = decimal_number();
+    // the tokens as one list: "1" "0" and "1," "0" (from an unquoted "1, 0") are "1,0"
+    std::string given, list;
+    for (const std::string& t : tokens) {
+        const bool joined = list.empty() || list.back() == ',' || (!t.empty() && t.front() == ',');
+        given += (given.empty() ? "" : " ") + t;
+        list += (joined ? "" : ",") + t;
+    }
+    std::vector<double> values;
+    for (std::size_t begin = 0;;) {
+        const std::size_t comma = std::min(list.find(',', begin), list.size());
+        std::string item = list.substr(begin, comma - begin);
+        if (item.find_first_not_of(" \t") == std::string::npos)
+            throw CLI::ValidationError(flag + " has an empty value in '" + given + "' (" + std::to_string(count) +
+                                       " numbers separated by commas)");
+        if (const std::string bad = number(item); !bad.empty()) throw CLI::ValidationError(flag, bad);
+        values.push_back(std::strtod(item.c_str(), nullptr));  // (as CLI11 reads a number: 1e999 is inf)
+        if (comma == list.size()) break;
+        begin = comma + 1;
+    }
+    if (values.size() < count)
+        throw CLI::ValidationError(flag + " needs " + std::to_string(count) + " values separated by commas, not " +
+                                   std::to_string(values.size()));
+    if (values.size() > count)
+        throw CLI::ValidationError(flag + " takes " + std::to_string(count) + " values, not " +
+                                   std::to_string(values.size()));
+    return values;
+}
+
 /// Binds a model's own options (its parameters, initial state or generator settings) on its subcommand.
 void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
     for (option_spec& o : options) {
@@ -148,11 +183,13 @@ void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
             o.reals->resize(1);
             sub.add_option(flag, o.reals->front(), o.help)->check(decimal_number());
         } else {
-            sub.add_option(flag, *o.reals, o.help)
-                ->expected(int(o.count))
-                ->delimiter(',')
-                ->allow_extra_args(false)
-                ->check(decimal_number());
+            // A list: "1,0,2" or "1 0 2" (or both), split here: CLI11's own splitting drops empty items, so "1,,2"
+            // read as two values and "1,2,3," as three. Each item is a number as decimal_number() says.
+            sub.add_option_function<std::vector<std::string>>(
+                   flag, [&o, flag](const std::vector<std::string>& tokens) { *o.reals = list_of_numbers(flag, tokens, o.count); },
+                   o.help)
+                ->expected(1, int(o.count))
+                ->type_name("FLOAT:NUMBER x " + std::to_string(o.count));
         }
     }
 }

@@ -282,12 +282,30 @@ def test_decimal_numbers_are_taken(cli, value):
     (["three-wave", "--steps"], "--steps needs a value"),
     (["three-wave", "--psi", "1,2"], "--psi needs 3 values separated by commas, not 2"),
     (["three-wave", "--psi", "1,2,3,4"], "--psi takes 3 values, not 4"),
+    # an empty item was dropped: "1,,2" read as two values, "1,2,3," ran with psi = (1, 2, 3)
+    (["three-wave", "--psi", "1,,2"], "--psi has an empty value in '1,,2' (3 numbers separated by commas)"),
+    (["three-wave", "--psi", "1,2,3,"], "--psi has an empty value in '1,2,3,' (3 numbers separated by commas)"),
+    (["three-wave", "--psi", ",1,2,3"], "--psi has an empty value in ',1,2,3' (3 numbers separated by commas)"),
+    (["three-wave", "--psi", "1,x,3"], "--psi: must be a decimal number, not 'x'"),
+    (["three-wave", "--psi"], "--psi needs a value"),
+    (["three-wave", "--M", "1,1"], "--M needs 3 values separated by commas, not 2"),
     (["three-wave", "--update", "foo"], "--update must be conditioned or paper, not 'foo'"),
     (["navier-stokes-2d", "--N"], "--N needs a value"),
     (["navier-stokes-2d", "--ic", "random", "--ic", "taylor-green"], "--ic is given more than once"),
 ])
 def test_option_counts_are_refused_in_plain_words(cli, args, expected):
     assert cli_error(cli, "run", *args) == expected
+
+
+# Spaces around a number are dropped, as Python's float() drops them: "--psi '1, 0, 2'" is (1, 0, 2).
+def test_spaces_around_numbers_are_taken(cli):
+    spaced = run_cli(cli, "run", "three-wave", "--steps", 3, "--psi", "1, 0 ,2", "--dt", " 0.1", "--output", "-")
+    plain = run_cli(cli, "run", "three-wave", "--steps", 3, "--psi", "1,0,2", "--dt", "0.1", "--output", "-")
+    assert spaced.stdout == plain.stdout
+    # a list as separate words too, as a shell splits an unquoted "1, 0" or "1 0"
+    lists = [["--q", "1,0", "--p", "0,1"], ["--q", "1", "0", "--p", "0", "1"], ["--q", "1,", "0", "--p", "0", ",1"]]
+    outs = {run_cli(cli, "run", "kepler-cartesian", "--steps", 3, *a, "--output", "-").stdout for a in lists}
+    assert len(outs) == 1
 
 
 def test_a_figure_number_out_of_range_is_refused_in_plain_words(cli):
