@@ -14,6 +14,7 @@
 #include <limits>
 #include <numbers>
 #include <memory>
+#include <set>
 #include <optional>
 #include <stdexcept>
 #include <string>
@@ -75,6 +76,20 @@ std::string mpi_refusal([[maybe_unused]] const std::string& mine) {
 #else
     return mine;
 #endif
+}
+
+// Rank 0's text on every process (collective).
+std::string agreed_text(const std::string& mine) {
+#ifdef ECI_MPI
+    if (mpi.on) {
+        int size = mpi.rank == 0 ? int(mine.size()) : 0;
+        MPI_Bcast(&size, 1, MPI_INT, 0, MPI_COMM_WORLD);
+        std::string text = mpi.rank == 0 ? mine : std::string(std::size_t(size), ' ');
+        MPI_Bcast(text.data(), size, MPI_CHAR, 0, MPI_COMM_WORLD);
+        return text;
+    }
+#endif
+    return mine;
 }
 
 // The interrupt flag agreed over every process (collective; the flag alone on one process).
@@ -506,7 +521,11 @@ int spectral_command::run_spread(const run_settings& settings) {
     const std::uint64_t snapshot_every_ = given_whole("snapshot-every").value_or(0);
     const std::uint64_t checkpoint_every_ = given_whole("checkpoint-every").value_or(0);
     const std::string snapshot_dir_ = given_text("snapshot-dir").value_or(default_snapshot_dir_);
-    const std::string checkpoint_ = given_text("checkpoint").value_or(default_checkpoint_);
+    // A checkpoint asked for (--checkpoint, --checkpoint-every) is written at those steps and on a stop. A restart
+    // continues its checkpoint in place by default. A run that asked for none keeps one on a stop only where no file
+    // is replaced: the default name of a run in the same directory must not lose another run's (keep_on_stop below).
+    const bool checkpoint_asked = given_text("checkpoint").has_value() || checkpoint_every_ > 0 || restart;
+    const std::string checkpoint_ = given_text("checkpoint").value_or(restart ? restart_ : default_checkpoint_);
     if (given_text("snapshot-dir") && snapshot_every_ == 0)
         throw bad_input("--snapshot-dir is where --snapshot-every K writes its snapshots, and --snapshot-every is not "
                         "given");
@@ -541,8 +560,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     // FIFOs, devices, directories and read-only files are refused, never replaced
     namespace fs = std::filesystem;
     std::vector<std::pair<std::string, std::string>> named = {
-        {"--output", settings.output}, {"--summary-json", settings.summary_json}, {"--plot", settings.plot},
-        {"--checkpoint", checkpoint_}};
+        {"--output", settings.output}, {"--summary-json", settings.summary_json}, {"--plot", settings.plot}};
+    if (checkpoint_asked) named.emplace_back("--checkpoint", checkpoint_);
     if (!default_wisdom) named.emplace_back("--fftw-wisdom", wisdom_path);
     check_distinct_files(named);
     // ... nor one of the files the run reads: --ic and --restart (the wisdom file, read and written, is in `named`).
@@ -559,7 +578,21 @@ int spectral_command::run_spread(const run_settings& settings) {
             if (!(restart && o.first == "--checkpoint")) outputs.push_back(o);
         check_outputs_spare_inputs(outputs, inputs);
     }
-    check_output_path(checkpoint_, "checkpoint");
+    // Where a stop keeps the run: the checkpoint asked for; else the default name if it is free and writable.
+    std::string no_checkpoint_why;
+    if (checkpoint_asked) {
+        check_output_path(checkpoint_, "checkpoint");
+    } else {
+        std::error_code ec;
+        if (fs::exists(fs::symlink_status(checkpoint_, ec)))
+            no_checkpoint_why = "'" + checkpoint_ + "' exists, another run's; --checkpoint FILE keeps one";
+        else
+            try {
+                check_output_path(checkpoint_, "checkpoint");
+            } catch (const bad_input& e) {
+                no_checkpoint_why = std::string(e.what()) + "; --checkpoint FILE keeps one elsewhere";
+            }
+    }
     std::optional<std::string> wisdom_text;
     if (!wisdom_path.empty()) {
         try {
@@ -644,6 +677,9 @@ int spectral_command::run_spread(const run_settings& settings) {
     const std::string update = restart ? ck.update : settings.update.empty() ? "conditioned" : settings.update;
     // every process has checked the same input: one verdict for all, before the first collective
     if (const std::string why = mpi_refusal({}); !why.empty()) throw bad_input(why);
+    // (rank 0's file system decides where a stop keeps the run, for every process: the write is collective)
+    if (!checkpoint_asked) no_checkpoint_why = agreed_text(no_checkpoint_why);
+    const bool keep_on_stop = no_checkpoint_why.empty();
 #ifdef ECI_MPI
     if (mpi.on) {
         p.comm = MPI_COMM_WORLD;
@@ -746,14 +782,16 @@ int spectral_command::run_spread(const run_settings& settings) {
     // checkpoint there keeps the step before it (so that a restart goes on as the uninterrupted run would)
     const bool short_end = !std::isnan(t_end) && last > 0 && last_step_to_reach(0.0, t_end, dt, last) != dt;
     if (last < first)
-        throw bad_input("the restart file is at step " + std::to_string(first) + ", beyond the requested " +
-                        std::to_string(last));
+        throw bad_input("the restart file is at step " + std::to_string(first) + " (t = " + num(double(first) * dt) +
+                        "), beyond the requested " +
+                        (std::isnan(t_end) ? "--steps " + std::to_string(last) : "--t-end " + shortest(t_end)));
+    // the steps whose snapshots this run writes
+    const auto written = [&](std::uint64_t i) {
+        return restart ? i > first && i <= last && (i % snapshot_every_ == 0 || i == last)
+                       : i == first || (i <= last && (i % snapshot_every_ == 0 || i == last));
+    };
     // No snapshot this run writes may replace its --ic or --restart file (nor a file a snapshot's name links to).
     if (snapshot_every_ > 0 && !inputs.empty()) {
-        const auto written = [&](std::uint64_t i) {
-            return restart ? i > first && i <= last && (i % snapshot_every_ == 0 || i == last)
-                           : i == first || (i <= last && (i % snapshot_every_ == 0 || i == last));
-        };
         std::error_code ec;
         for (const auto& entry : fs::directory_iterator(snapshot_dir_.empty() ? "." : snapshot_dir_, ec)) {
             const std::string file = entry.path().filename().string();
@@ -765,6 +803,22 @@ int spectral_command::run_spread(const run_settings& settings) {
             if (file != stem_ + "_" + digits + ext && file != std::string("spectrum_") + digits + ext) continue;
             check_outputs_spare_inputs({{"--snapshot-dir", entry.path().string()}}, inputs);
         }
+    }
+    // A snapshot directory holding another run's snapshots at steps this run does not write would mix the two runs
+    // (its own earlier part's, before a restart's first step, belong to it): refused, nothing replaced.
+    if (snapshot_every_ > 0) {
+        std::set<std::uint64_t> stale;
+        std::error_code ec;
+        for (const auto& entry : fs::directory_iterator(snapshot_dir_.empty() ? "." : snapshot_dir_, ec)) {
+            const auto step = snapshot_step(entry.path().filename().string(), stem_);
+            if (step && !written(*step) && !(restart && *step <= first)) stale.insert(*step);
+        }
+        if (!stale.empty())
+            throw bad_input("--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) +
+                            "' holds another run's snapshots at steps this run does not write (step " +
+                            std::to_string(*stale.begin()) +
+                            (stale.size() > 1 ? " and " + std::to_string(stale.size() - 1) + " more" : std::string()) +
+                            "): they would mix with this run's; give another directory or remove them");
     }
     // The run's span and rows, here, before any output is opened (its other settings below, with the sink)
     run_config cfg;
@@ -793,6 +847,16 @@ int spectral_command::run_spread(const run_settings& settings) {
     std::optional<staging_dir> staged_snapshots;
     std::optional<output_file> csv_file, json_file, plot_file;
     on_root_opening([&] {
+        // A restart writes its own steps to its outputs: a CSV, HDF5 or JSON file of that name (the first part of the
+        // run, as a rerun of the same command line would name it) would be replaced by them, its rows lost
+        if (restart)
+            for (const auto& [option, path] : {std::pair{"--output", settings.output},
+                                               std::pair{"--summary-json", settings.summary_json}}) {
+                std::error_code ec;
+                if (!path.empty() && path != "-" && fs::is_regular_file(path, ec))
+                    throw bad_input(std::string(option) + " '" + path + "' exists: the restarted run writes steps " +
+                                    std::to_string(ck.step + 1) + " on and would replace it (name a new file)");
+            }
         check_plot_request(settings.plot);
         if (snapshot_every_ > 0) {
             const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
@@ -876,7 +940,9 @@ int spectral_command::run_spread(const run_settings& settings) {
                      inv_[0] + ", " + inv_[1], true, "(invariant - its budget - initial) / |initial|");
     // (the same on every process; `out` and the plot are rank 0's)
     const bool rows_wanted = !settings.output.empty() || !settings.plot.empty();
+    std::uint64_t last_row = first, last_snapshot = first;  // the steps of the last CSV row and snapshot made
     auto row = [&](std::uint64_t i, double t, double e, double z) {  // (e, z: E and Z of w at time t)
+        last_row = i;
         const double u = model.max_velocity(w);
         const double pal = model.palinstrophy(w);
         const ns2d_budget& b = run.budget;
@@ -908,6 +974,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     // gathered on rank 0 for them), asked at the first snapshot.
     [[maybe_unused]] std::optional<bool> pictures;
     auto snapshot = [&](std::uint64_t i, double t) {
+        last_snapshot = i;
         char stem[32];
         std::snprintf(stem, sizeof stem, "%08llu", (unsigned long long)i);
         // the field (on one process), spectra and fluxes on every process (collective), the files as below
@@ -1008,11 +1075,16 @@ int spectral_command::run_spread(const run_settings& settings) {
     progress_bar progress(last - first, 1);  // steps take milliseconds or more: look at the clock every step
     const auto start = std::chrono::steady_clock::now();
     std::uint64_t good_checkpoint = restart ? first : std::numeric_limits<std::uint64_t>::max();
+    std::string good_file = restart_;  // the file that holds it: the restart file until this run writes one
     const auto last_good = [&] {
         return good_checkpoint != std::numeric_limits<std::uint64_t>::max()
-                   ? "; last good checkpoint: " + checkpoint_ + " (step " + std::to_string(good_checkpoint) + ")"
+                   ? "; last good checkpoint: " + good_file + " (step " + std::to_string(good_checkpoint) + ")"
                    : std::string();
     };
+    // (a restart's dt is its checkpoint's: a smaller step is a new run, from the checkpoint's field)
+    const std::string smaller_step = restart ? "a smaller step needs a new run (--ic " + restart_ +
+                                                   " takes its field, with a smaller --dt or --cfl)"
+                                             : "reduce --dt or --cfl";
     // The run is the library's (eci::solve: the flow's step hooks draw the forcing and integrate the budget); this
     // sink formats it. Per step it adds the step's budget and counts, checks for a blow-up and measures the step;
     // between steps it writes snapshots and checkpoints and answers Ctrl-C. A Ctrl-C between the halvings of a
@@ -1030,15 +1102,21 @@ int spectral_command::run_spread(const run_settings& settings) {
     auto save_step = [&](std::uint64_t i) {
         if (i == last && short_end) {
             save_of(before_end, done, w_prev, rng_prev);
+            good_file = checkpoint_;
             return done;
         }
         save(i);
+        good_file = checkpoint_;
         return i;
     };
     auto interrupted_at = [&](std::uint64_t i) {
         return interrupted("interrupted at step " + std::to_string(i) + ", t = " + num(double(i) * dt) +
-                           "; checkpoint written to " + checkpoint_ + " (continue with --restart " + checkpoint_ + ")");
+                           (keep_on_stop ? "; checkpoint written to " + checkpoint_ + " (continue with --restart " +
+                                               checkpoint_ + ")"
+                                         : "; no checkpoint written (" + no_checkpoint_why + ")"));
     };
+    // The checkpoint of a stop after step i (where it may keep one): the step it kept, or the step reached.
+    auto stop_at = [&](std::uint64_t i) { return keep_on_stop ? save_step(i) : i == last && short_end ? done : i; };
     std::uint64_t done_outputs = first;  // the step an interrupt in on_progress stopped at
     // The statistics of the run at its last whole step (after_step's), for the summary of an interrupted run.
     run_stats stats_so_far{};
@@ -1064,7 +1142,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (!std::isfinite(e1) || !std::isfinite(z1) || e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
             progress.finish();
             throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(pt.t) + ": energy " +
-                            num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); reduce --dt or --cfl" + last_good());
+                            num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); " + smaller_step + last_good());
         }
         // relative to the invariant after the step; to the one before it where a decayed flow reached exactly 0
         // (the residual was inf there), and absolute where both are 0
@@ -1104,7 +1182,7 @@ int spectral_command::run_spread(const run_settings& settings) {
             if (stop_requested()) {
                 progress.finish();
                 done_outputs = i;  // (its row and snapshot made above)
-                throw interrupted_at(save_step(i));
+                throw interrupted_at(stop_at(i));
             }
         }
         w_prev = w;  // the next step starts here
@@ -1165,10 +1243,11 @@ int spectral_command::run_spread(const run_settings& settings) {
         s.t_stopped = reached == last && short_end ? t_end : double(reached) * dt;
         std::string kept;
         const auto add = [&](const std::string& what) { kept += (kept.empty() ? "; kept: " : ", ") + what; };
-        if (staged_snapshots) add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(reached));
+        if (staged_snapshots)
+            add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(last_snapshot));
         if (csv.replaces())
             add(std::string(h5 ? "HDF5" : "CSV") + " output '" + settings.output + "' (rows to step " +
-                std::to_string(reached) + ")");
+                std::to_string(last_row) + ")");
         if (json.replaces()) add("summary JSON '" + settings.summary_json + "'");
         try {
             on_root_agreed([&] {
@@ -1183,23 +1262,32 @@ int spectral_command::run_spread(const run_settings& settings) {
         throw interrupted(stop + kept + (plot ? "; no plot (it is drawn for a finished run)" : ""));
     };
     solve_report report;
+    std::unique_ptr<run_error> failed_by_sink;  // (thrown again below, with the checkpoint it leaves)
     std::string stop;  // an interrupt's message (the checkpoint written)
     std::uint64_t stopped_at = 0;  // the last step whose state and outputs the run has made
     try {
         report = solve<navier_stokes_2d>(model, w, method, cfg, callback_sink{on_output, on_step, on_progress}, {},
                                          "model " + name_);
+    } catch (const run_error& e) {
+        failed_by_sink = std::make_unique<run_error>(e);
     } catch (const eci::interrupted&) {  // (between the halvings of a step: back to the last whole step)
         progress.finish();
         w = w_prev;
         model.set_rng_state(rng_prev);
-        save(done);
+        if (keep_on_stop) save(done);
         stop = interrupted_at(done).what();
         stopped_at = done;
     } catch (const interrupted& e) {  // (between steps, in on_progress: step `done`, its outputs made)
         stop = e.what();
         stopped_at = done_outputs;
     }
+    // A failure of the sink's (an output that cannot be written, a blow-up): the checkpoint it leaves, named
+    const auto with_checkpoint = [&](const run_error& e) {
+        const std::string m = e.what();
+        return run_error(m.find("; last good checkpoint: ") == std::string::npos ? m + last_good() : m);
+    };
     progress.finish();
+    if (failed_by_sink) throw with_checkpoint(*failed_by_sink);
     if (!stop.empty()) keep_interrupted(stop, stopped_at);
     if (report.failure) {
         if (report.failure->kind != run_failure_kind::step_failed) throw run_error(report.failure->message + last_good());
@@ -1210,7 +1298,7 @@ int spectral_command::run_spread(const run_settings& settings) {
                                       : std::string(report.method.family == method_family::conservative
                                                         ? "a negative radicand or a non-finite state"
                                                         : "a non-finite state") +
-                                            "; a smaller --dt or --cfl may pass";
+                                            (restart ? "; " + smaller_step : "; a smaller --dt or --cfl may pass");
         throw run_error("step " + std::to_string(done + 1) + " failed at t = " + num(f.t) +
                         " even with the step halved 40 times (down to dt = " + num(f.dt) + "): " + cause + last_good());
     }
@@ -1218,29 +1306,33 @@ int spectral_command::run_spread(const run_settings& settings) {
     const run_summary s = summary_of(report.stats, last);
     // The run's outputs are committed together: the snapshots first, the CSV and JSON that describe the run last, and
     // a failure takes back what was moved in (a failed run keeps its checkpoint, not a partial time series).
-    on_root([&] {
-        if (std::FILE* j = json.get()) write_summary_json(j, s);
-        if (h5) h5->close();
-        // a picture that could not be drawn loses nothing else: the other outputs are committed, the run fails
-        const bool drawn = !plot || plot->draw(picture), others = csv.get() || json.get() || staged_snapshots;
-        // Ctrl-C after the last step, while the picture was drawn (which stops the plotting program) or after: the
-        // finished run's outputs are whole and kept, as a stopped run's are (the commit's own rule discarded them)
-        const bool late_stop = interrupt_requested() && interrupt_keeps_outputs();
-        if (drawn)
-            commit_outputs({&csv, &json, &picture}, staged_snapshots ? &*staged_snapshots : nullptr, late_stop);
-        else
-            commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr, late_stop);
-        if (created_snapshot_dir) created_snapshot_dir->keep();
-        print_summary(stderr, s);
-        if (late_stop)
-            throw interrupted(interrupt_message(drawn ? "after the run had finished"
-                                                      : "while the plot was drawn, after the run had finished") +
-                              "; its outputs were kept" + (drawn ? "" : "; no plot"));
-        if (!drawn)
-            throw run_error("the plot '" + settings.plot + "' could not be drawn by " + plotting_program() +
-                            (plot->failure().empty() ? "" : " (" + plot->failure() + ")") +
-                            (others ? "; the other outputs were written" : ""));
-    });
+    try {
+        on_root([&] {
+            if (std::FILE* j = json.get()) write_summary_json(j, s);
+            if (h5) h5->close();
+            // a picture that could not be drawn loses nothing else: the other outputs are committed, the run fails
+            const bool drawn = !plot || plot->draw(picture), others = csv.get() || json.get() || staged_snapshots;
+            // Ctrl-C after the last step, while the picture was drawn (which stops the plotting program) or after: the
+            // finished run's outputs are whole and kept, as a stopped run's are (the commit's own rule discarded them)
+            const bool late_stop = interrupt_requested() && interrupt_keeps_outputs();
+            if (drawn)
+                commit_outputs({&csv, &json, &picture}, staged_snapshots ? &*staged_snapshots : nullptr, late_stop);
+            else
+                commit_outputs({&csv, &json}, staged_snapshots ? &*staged_snapshots : nullptr, late_stop);
+            if (created_snapshot_dir) created_snapshot_dir->keep();
+            print_summary(stderr, s);
+            if (late_stop)
+                throw interrupted(interrupt_message(drawn ? "after the run had finished"
+                                                          : "while the plot was drawn, after the run had finished") +
+                                  "; its outputs were kept" + (drawn ? "" : "; no plot"));
+            if (!drawn)
+                throw run_error("the plot '" + settings.plot + "' could not be drawn by " + plotting_program() +
+                                (plot->failure().empty() ? "" : " (" + plot->failure() + ")") +
+                                (others ? "; the other outputs were written" : ""));
+        });
+    } catch (const run_error& e) {
+        throw with_checkpoint(e);
+    }
     return 0;
 }
 

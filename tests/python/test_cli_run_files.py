@@ -79,8 +79,9 @@ def test_interrupted_spectral_run_keeps_its_snapshots_rows_and_summary(cli, tmp_
     step = int(line[len("eci: error: interrupted at step "):].split(",")[0])
     assert step > 0, err
     assert "checkpoint written to ck.h5" in err
+    # (the steps of the last snapshot and row made: a snapshot every 200 steps, a row every step)
     assert "kept: the snapshots in 'snapd' to step %d, CSV output 'ts.csv' (rows to step %d), summary JSON " \
-           "'s.json'" % (step, step) in err, err
+           "'s.json'" % (step // 200 * 200, step) in err, err
     rows = complete_csv(tmp_path / "ts.csv")
     assert [int(r[0]) for r in rows] == list(range(0, step + 1))
     with h5py.File(tmp_path / "ck.h5", "r") as f:
@@ -95,6 +96,64 @@ def test_interrupted_spectral_run_keeps_its_snapshots_rows_and_summary(cli, tmp_
     assert s["t_stopped"] == float(rows[-1][1])
     assert s["invariants"]["energy"]["final"] == float(rows[-1][2])
     assert not temporaries(tmp_path)
+
+
+# A stop writes the checkpoint a run asked for (--checkpoint, --checkpoint-every; a restart's file, continued in
+# place); a run that asked for none keeps one under the default name only if no file is there: a quick test run in the
+# directory of a long one replaced the long run's ns2d-checkpoint.h5 when stopped.
+def test_a_stop_without_a_checkpoint_asked_keeps_another_runs_checkpoint(cli, tmp_path):
+    r = subprocess.run([str(cli), *map(str, small("--steps", 6, "--checkpoint-every", 3))], cwd=tmp_path, capture_output=True,
+                       text=True, timeout=120, env=NO_PICTURES)
+    assert r.returncode == 0, r.stderr
+    before = (tmp_path / "ns2d-checkpoint.h5").read_bytes()
+    status, err = interrupted_run(cli, ["run", "navier-stokes-2d", "--N", "32", "--steps", "10000000",
+                                        "--fftw-wisdom", "none", "--fftw-estimate"], tmp_path)
+    assert status == 130, err
+    assert "no checkpoint written ('ns2d-checkpoint.h5' exists, another run's; --checkpoint FILE keeps one)" in err
+    assert (tmp_path / "ns2d-checkpoint.h5").read_bytes() == before
+    # where the default name is free, the stop keeps the run there, as before
+    fresh = tmp_path / "fresh"
+    fresh.mkdir()
+    status, err = interrupted_run(cli, ["run", "navier-stokes-2d", "--N", "32", "--steps", "10000000",
+                                        "--fftw-wisdom", "none", "--fftw-estimate"], fresh)
+    assert status == 130, err
+    assert "checkpoint written to ns2d-checkpoint.h5 (continue with --restart ns2d-checkpoint.h5)" in err
+    assert (fresh / "ns2d-checkpoint.h5").exists()
+
+
+# A restart writes its own steps: an --output or --summary-json that exists (the first part's, as the same command
+# line plus --restart names it) is refused, not replaced by the second part alone.
+@pytest.mark.parametrize("option, name", [("--output", "seg.csv"), ("--output", "seg.h5"), ("--summary-json", "s.json")])
+def test_a_restart_refuses_to_replace_an_existing_output(cli, tmp_path, option, name):
+    first = subprocess.run([str(cli), *map(str, small("--steps", 4, option, name, "--checkpoint", "ck.h5",
+                                                      "--checkpoint-every", 4))],
+                           cwd=tmp_path, capture_output=True, text=True, timeout=120, env=NO_PICTURES)
+    assert first.returncode == 0, first.stderr
+    before = (tmp_path / name).read_bytes()
+    r = subprocess.run([str(cli), "run", "navier-stokes-2d", "--restart", "ck.h5", "--steps", "8", "--fftw-wisdom",
+                        "none", option, name], cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                       env=NO_PICTURES)
+    assert r.returncode == 2, r.stderr
+    assert error_line(r.stderr) == "eci: error: %s '%s' exists: the restarted run writes steps 5 on and would " \
+                                   "replace it (name a new file)" % (option, name)
+    assert (tmp_path / name).read_bytes() == before
+
+
+# A failure after a restart names the checkpoint that holds the last good step (the restart file, until the run
+# writes its own), and says how a smaller step is taken (a restart keeps its checkpoint's dt).
+def test_a_blow_up_after_a_restart_names_the_restart_file(cli, tmp_path):
+    first = subprocess.run([str(cli), "run", "navier-stokes-2d", "--N", "32", "--method", "rk4", "--dt", "0.5",
+                            "--steps", "4", "--checkpoint", "bu.h5", "--checkpoint-every", "2", "--fftw-wisdom",
+                            "none", "--fftw-estimate"], cwd=tmp_path, capture_output=True, text=True, timeout=120,
+                           env=NO_PICTURES)
+    assert first.returncode == 1 and "last good checkpoint: bu.h5 (step 2)" in first.stderr, first.stderr
+    r = subprocess.run([str(cli), "run", "navier-stokes-2d", "--restart", "bu.h5", "--fftw-wisdom", "none"],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120, env=NO_PICTURES)
+    assert r.returncode == 1, r.stderr
+    line = error_line(r.stderr)
+    assert "a smaller step needs a new run (--ic bu.h5 takes its field, with a smaller --dt or --cfl)" in line, line
+    assert line.endswith("; last good checkpoint: bu.h5 (step 2)"), line
+    assert not (tmp_path / "ns2d-checkpoint.h5").exists()
 
 
 @pytest.mark.parametrize("extra", [[], ["--rtol", "1e-9", "--method", "c-dp54"]], ids=["fixed", "adaptive"])
@@ -182,9 +241,21 @@ def test_a_snapshot_over_the_ic_or_restart_file_is_refused(cli, tmp_path, checkp
                     "--snapshot-every", 1, "--snapshot-dir", sd, "--checkpoint", tmp_path / "cc.h5")
     assert msg.startswith("--snapshot-dir and --restart name the same file "), msg
     (sd / "vorticity_00000004.h5").unlink()
-    # a snapshot the run does not write may be its input: steps 0 and 4 are written, not 1
-    run_cli(cli, *small("--ic", sd / "vorticity_00000001.h5", "--snapshot-dir", sd, "--snapshot-every", 5,
-                        "--steps", 4, "--output", tmp_path / "o.csv"))
+    # a snapshot the run does not write may be its input (steps 0 and 4 are written, not 1), but not into a directory
+    # holding the other run's snapshots (1 and 2 would stay beside this run's 0 and 4): into another directory
+    msg = cli_error(cli, *small("--ic", sd / "vorticity_00000001.h5", "--snapshot-dir", sd, "--snapshot-every", 5,
+                                "--steps", 4, "--output", tmp_path / "o.csv"))
+    assert msg == (f"--snapshot-dir '{sd}' holds another run's snapshots at steps this run does not write (step 1 "
+                   "and 1 more): they would mix with this run's; give another directory or remove them"), msg
+    run_cli(cli, *small("--ic", sd / "vorticity_00000001.h5", "--snapshot-dir", tmp_path / "sd2", "--snapshot-every",
+                        5, "--steps", 4, "--output", tmp_path / "o.csv"))
+    # a restart continues its own run's directory: the steps before its first are the run's earlier part
+    run_cli(cli, *small("--steps", 4, "--snapshot-every", 2, "--snapshot-dir", tmp_path / "sd3", "--checkpoint",
+                        tmp_path / "c3.h5", "--checkpoint-every", 2))
+    run_cli(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", tmp_path / "c3.h5", "--steps", 8,
+            "--snapshot-every", 2, "--snapshot-dir", tmp_path / "sd3")
+    assert sorted(p.name for p in (tmp_path / "sd3").glob("vorticity_*.h5")) == [
+        "vorticity_%08d.h5" % i for i in range(0, 9, 2)]
 
 
 def test_the_checkpoint_may_continue_the_restart_file_in_place(cli, tmp_path, checkpoint):
@@ -441,3 +512,23 @@ def test_a_file_size_limit_is_a_write_error_that_leaves_nothing(cli, tmp_path, n
     assert f"'{name}'" in line and "File too large" in line and "no output was replaced" in line, line
     assert (tmp_path / name).read_text() == "precious\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == [name]
+
+
+# A spectral run that cannot write its CSV (here a file size limit) fails naming the checkpoint it keeps, as a
+# blow-up does: the run can go on from there (the message said only that no output was replaced).
+def test_a_write_failure_names_the_checkpoint_kept(cli, tmp_path):
+    import resource
+
+    def limit():
+        resource.setrlimit(resource.RLIMIT_FSIZE, (40 * 1024, 40 * 1024))
+
+    r = subprocess.run([str(cli), *map(str, small("--steps", 400, "--output", "uf.csv", "--checkpoint",
+                                                  "uf_ck.h5", "--checkpoint-every", 50))],
+                       cwd=tmp_path, capture_output=True, text=True, timeout=120, preexec_fn=limit, env=NO_PICTURES)
+    assert r.returncode == 1, r.stderr
+    line = error_line(r.stderr)
+    assert "'uf.csv'" in line and "File too large" in line, line
+    with h5py.File(tmp_path / "uf_ck.h5", "r") as f:
+        step = int(f.attrs["step"])
+    assert line.endswith("; last good checkpoint: uf_ck.h5 (step %d)" % step), line
+    assert not (tmp_path / "uf.csv").exists()
