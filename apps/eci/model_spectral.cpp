@@ -241,13 +241,15 @@ class spectral_command final : public model_command {
         whole("threads", "FFTW and OpenMP threads (default 1)", 0);
         whole("snapshot-every", "every K steps the field as HDF5 + PNG, its spectra and fluxes as CSV + PNG "
                                  "(default none)", 1);
-        whole("checkpoint-every", "write the checkpoint every K steps (default: only on SIGINT/SIGTERM)", 1);
+        whole("checkpoint-every", "write the checkpoint every K steps (default: only when stopped by a signal)", 1);
         text("forcing", "none, deterministic (fixed band, random phases) or stochastic (white in time) (default none)");
         text("ic", "initial condition: random, vortex-pair, taylor-green, or FILE (an eci snapshot or checkpoint "
                    ".h5 on the same grid) (default random)");
         text("snapshot-dir", "directory of the snapshots (default " + default_snapshot_dir_ + ")");
         text("checkpoint", "checkpoint file, also written when stopped by SIGINT, SIGTERM, SIGHUP or SIGQUIT "
-                           "(default " + default_checkpoint_ + ")");
+                           "(default " + default_checkpoint_ + "; with --restart, the restart file, continued in "
+                           "place; a run that asks for no checkpoint writes the default on a stop only if no such "
+                           "file exists)");
         text("restart", "continue, bit for bit, from a checkpoint");
         text("fftw-wisdom", "FFTW wisdom file read before and written after planning, so that every run plans the "
                             "same transforms and repeats bit for bit; 'none' for no file (default "
