@@ -208,7 +208,7 @@ template <class St, class F, class S>
 class error_control {
    public:
     error_control(St& st, F& f, S& x, double t0, double dt0, const adaptive_options& o, adaptive_stats& stats)
-        : st_(st), f_(f), x_(x), t_(t0), dt_(std::max(dt0, o.dt_min)), o_(o), stats_(stats) {
+        : st_(st), f_(f), x_(x), t_(t0), dt_(std::max(dt0, o.dt_min)), first_dt_(dt_), o_(o), stats_(stats) {
         // A step the user set a floor for (dt_min > 0) starts at it at least, and never goes below it but to land.
         const std::size_t n = reals(std::as_const(x)).size();
         const std::size_t per = std::ranges::size(x) ? n / std::ranges::size(x) : 1;
@@ -300,11 +300,15 @@ class error_control {
         }
         just_rejected_ = true;
         // The default floor is the resolution of time where the run is, 64 eps |t| (not of the end time: a
-        // long horizon must not stop a run early), and never below 2^-30 of the span left (a run at t = 0).
-        const double dt_min = o_.dt_min > 0.0 ? o_.dt_min
-                                              : 64.0 * std::numeric_limits<double>::epsilon() *
-                                                    std::max({std::abs(t_), 0x1p-30 * dir_ * (target_ - t_),
-                                                              std::numeric_limits<double>::min()});
+        // long horizon must not stop a run early), and never below 2^-30 of the span left (a run at t = 0), that
+        // span counted as at most 2^60 first steps: a run to t = 1e30 waiting for a terminal event (SciPy's idiom
+        // with t_bound = inf) had a floor of 1e7 and stopped at its first rejected step. (A span of more than 2^60
+        // first steps cannot be stepped through at that size anyway.)
+        const double dt_min =
+            o_.dt_min > 0.0 ? o_.dt_min
+                            : 64.0 * std::numeric_limits<double>::epsilon() *
+                                  std::max({std::abs(t_), 0x1p-30 * std::min(dir_ * (target_ - t_), 0x1p60 * first_dt_),
+                                            std::numeric_limits<double>::min()});
         if (dt_ < dt_min) {
             std::size_t component = r.component;
             if (r.ok && !rate_failed_) {
@@ -325,6 +329,7 @@ class error_control {
     F& f_;
     S& x_;
     double t_, dt_;
+    double first_dt_;  // the first step's size (bounds the span the floor near t = 0 is taken from)
     const adaptive_options& o_;
     adaptive_stats& stats_;
     std::vector<double> rtol_, atol_;

@@ -553,6 +553,23 @@ void check_initial_state(const Model& model, const S& x, const std::function<std
 
 namespace detail {
 
+/// A conservative method steps psi^2 (or the model's transform of the state): a state whose every component is so
+/// small that its square is subnormal (|psi| below 2^-511, 1.5e-154), or so large that it overflows (above 2^511,
+/// 6.7e153), is beyond what it can represent, and a run would silently end at 0 or fail at its first step. One line
+/// naming the largest component, std::invalid_argument. (A single small component beside larger ones is the
+/// method's round-off on a negligible mode: not refused.)
+template <class S>
+void check_conservative_scale(const S& x, std::string_view method) {
+    const auto r = reals(x);
+    double largest = 0.0;
+    for (const double v : r) largest = std::max(largest, std::abs(v));
+    if (largest == 0.0 || (largest >= 0x1p-511 && largest <= 0x1p511)) return;
+    throw std::invalid_argument("the initial state's largest component is " + shortest_text(largest) + ": its square " +
+                                (largest < 1.0 ? "underflows" : "overflows") + ", and method " + std::string(method) +
+                                " steps squares (|psi| from 1.5e-154 to 6.7e153); rescale the variables or use a "
+                                "conventional method");
+}
+
 /// The configuration a run goes by: `requested` checked, and its output_dt resolved (on a copy, with the default
 /// setting names in the messages) if it has one.
 inline std::optional<run_config> resolved_config(const run_config& requested) {
@@ -820,6 +837,7 @@ solve_report solve(F_&& system, S& x, std::string_view method, const run_config&
     const std::optional<run_config> resolved = detail::resolved_config(requested);
     const run_config& cfg = resolved ? *resolved : requested;
     const method_info m = resolve_method_for<Dispatch>(method, cfg.is_adaptive(), what);
+    if (m.family == method_family::conservative) detail::check_conservative_scale(x, m.name);
     invariant_monitor<std::remove_cv_t<F>, S> monitor(f, std::move(extra));
     solve_report report;
     report.t = cfg.t0;

@@ -18,6 +18,8 @@ The error norm is the engine's: the RMS over real unknowns of e_i / (atol + rtol
 component's real and imaginary parts counted separately (SciPy takes the modulus of each complex component).
 """
 
+import inspect
+
 import numpy as np
 from scipy.integrate import OdeSolver
 from scipy.integrate._ivp.base import DenseOutput
@@ -84,8 +86,7 @@ class EmbeddedPair(OdeSolver):
         self.rtol, self.atol = validate_tol(rtol, atol, self.n)
         f0 = self.fun(self.t, self.y)
         if first_step is None:
-            self.h_abs = select_initial_step(self.fun, self.t, self.y, f0, self.direction,
-                                             self.error_estimator_order, self.rtol, self.atol)
+            self.h_abs = self._initial_step(f0)
         else:
             self.h_abs = validate_first_step(first_step, t0, t_bound)
         self.error_exponent = -1 / (self.error_estimator_order + 1)
@@ -95,6 +96,16 @@ class EmbeddedPair(OdeSolver):
         engine_fun = self.fun_single if vectorized else fun
         self._engine = _eci._embedded_stepper(self.eci_method, engine_fun, float(self.t), self.y, f0, self.rtol,
                                               self.atol)
+
+    def _initial_step(self, f0):
+        """SciPy's initial-step rule, called as the installed SciPy defines it: newer versions also take the span's
+        end and max_step, which bound the step (the older 8-argument call raised TypeError there)."""
+        order = self.error_estimator_order
+        with np.errstate(divide="ignore", invalid="ignore"):  # a zero error scale: said in _step_impl
+            if "t_bound" in inspect.signature(select_initial_step).parameters:
+                return select_initial_step(self.fun, self.t, self.y, self.t_bound, self.max_step, f0, self.direction,
+                                           order, self.rtol, self.atol)
+            return select_initial_step(self.fun, self.t, self.y, f0, self.direction, order, self.rtol, self.atol)
 
     # Every call of fun: SciPy's self.fun increments nfev (the initial-step rule), the engine counts its own
     # (steps, and dense outputs that land a step), also the ones made inside solve_ivp's event location.
@@ -148,8 +159,14 @@ class EmbeddedPair(OdeSolver):
             h_abs = self.h_abs
 
         if not h_abs >= 0:
-            # SciPy's initial-step rule divides by the norm of fun(t0, y0): a nan there makes the step nan, which no
-            # comparison below stops (SciPy's RK45 loops for ever on it); say what happened instead
+            # SciPy's initial-step rule divides by the norm of fun(t0, y0) scaled by atol + rtol |y0|: a nan there, or
+            # a zero scale, makes the step nan, which no comparison below stops (SciPy's RK45 loops for ever on it);
+            # say what happened instead
+            zero_scale = np.flatnonzero((np.broadcast_to(self.atol, self.y.shape) == 0) & (self.y == 0))
+            if zero_scale.size:
+                i = int(zero_scale[0])
+                return False, (f"atol is 0 where y[{i}] = 0 at t = {t!r}: the error scale atol + rtol |y| is 0 "
+                               "there, so no first step could be chosen (give atol > 0 or first_step)")
             return False, f"fun returned a non-finite value at t = {t!r}, so no first step could be chosen"
         step_accepted = False
         step_rejected = False

@@ -298,3 +298,40 @@ def test_a_bool_is_not_a_spectral_parameter_but_flags_are_bools():
     for kwargs in ({"fftw_measure": 1.5}, {"full_transforms": "no"}, {"full_transforms": 1}):
         with pytest.raises(TypeError, match="must be True or False"):
             M.NavierStokes2D(n=16, **kwargs)
+
+
+# A conservative method steps squares: a state whose every component's square under- or overflows is refused with
+# one line (1e-170 ran to a state of 0 with status 0 and drift 0; 1e160 stored inf and ended on a step-size failure).
+# A single tiny component beside larger ones is not refused, and conventional methods take any finite state.
+@pytest.mark.parametrize("y0, method, word", [([1e-170, 1e-170], "c-rk4", "underflows"),
+                                              ([1e-170, -1e-171], "c-dp54", "underflows"),
+                                              ([1e160, 0.0], "c-dp54", "overflows"),
+                                              ([0.0, -1e155], "c-pc", "overflows")])
+def test_a_state_beyond_the_squares_range_is_refused(y0, method, word):
+    rot = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    kw = {} if "dp" in method else {"dt": 0.01}
+    with pytest.raises(ValueError) as e:
+        eci.solve(rot, (0.0, 1.0), y0, method=method, invariants=lambda y: y @ y, **kw)
+    big = max(abs(v) for v in y0)
+    assert str(e.value) == (f"the initial state's largest component is {big!r}: its square {word}, and method "
+                            f"{method} steps squares (|psi| from 1.5e-154 to 6.7e153); rescale the variables or use "
+                            "a conventional method")
+    assert eci.solve(rot, (0.0, 1.0), [1e-170, 1.0], method=method, **kw).status == 0
+    r = eci.solve(rot, (0.0, 1.0), y0, method="rk4", dt=0.01)
+    assert r.status == 0 and np.all(np.isfinite(r.y)) and np.max(np.abs(r.y[:, -1])) > 0.5 * big
+
+
+# A long span waiting for a terminal event (SciPy's idiom with t_bound = inf, which eci refuses): the step floor
+# near t = 0 is set by the first step, not by the span (a span of 1e30 made it 1e7, and the first rejected step
+# ended the run).
+def test_a_long_span_with_a_terminal_event_runs_to_the_event():
+    mu = 5.0
+    vdp = lambda t, y: np.array([y[1], mu * (1 - y[0] ** 2) * y[1] - y[0]])  # noqa: E731
+    ev = lambda t, y: y[0]  # noqa: E731
+    ev.terminal = 3
+    short = eci.solve(vdp, (0.0, 100.0), [2.0, 0.0], events=ev)
+    for end in (1e20, 1e30, 1e300):
+        r = eci.solve(vdp, (0.0, end), [2.0, 0.0], events=ev)
+        assert r.status == 1, (end, r.message)
+        assert len(r.t_events[0]) == 3
+        np.testing.assert_allclose(r.t_events[0], short.t_events[0], rtol=1e-6)

@@ -273,3 +273,35 @@ def test_a_non_finite_fun_ends_the_run_with_a_reason(cls, bad, start, first_step
     assert "non-finite" in r.message, r.message
     assert len(calls) < 20000
     assert r.t[-1] <= start + 1e-12 and np.all(np.isfinite(r.y))
+
+
+# SciPy's initial-step rule is private and changed its signature (newer versions take the span's end and max_step):
+# eci's solvers call it as the installed SciPy defines it. Here a rule of the newer signature stands in (the 8-argument
+# call raised TypeError on it), and gets the span's end and max_step; the first step is the same.
+@pytest.mark.parametrize("cls", PAIRS, ids=lambda c: c.__name__)
+def test_the_initial_step_rule_is_called_as_scipy_defines_it(cls, monkeypatch):
+    old_rule = eci.scipy.select_initial_step
+    seen = []
+
+    def new_rule(fun, t0, y0, t_bound, max_step, f0, direction, order, rtol, atol):
+        seen.append((t_bound, max_step))
+        return old_rule(fun, t0, y0, f0, direction, order, rtol, atol)
+
+    before = cls(rotation, 0.0, Y0, 2.0, max_step=5.0).h_abs
+    monkeypatch.setattr(eci.scipy, "select_initial_step", new_rule)
+    assert cls(rotation, 0.0, Y0, 2.0, max_step=5.0).h_abs == before
+    assert seen == [(2.0, 5.0)]
+    r = solve_ivp(rotation, (0.0, 1.0), Y0, method=cls)
+    assert r.success, r.message
+
+
+# atol = 0 where a component is 0 leaves the initial-step rule no error scale there: the message says so (it blamed
+# fun for a non-finite value; SciPy's RK45 loops for ever), with no NumPy warning.
+@pytest.mark.parametrize("cls", PAIRS, ids=lambda c: c.__name__)
+def test_a_zero_error_scale_is_named(cls):
+    y0 = np.array([0.0, 1.0, 0.5])
+    with np.errstate(divide="raise", invalid="raise"):
+        r = solve_ivp(rotation, (0.0, 1.0), y0, method=cls, atol=0.0, rtol=1e-6)
+    assert r.status == -1, r.message
+    assert r.message.startswith("atol is 0 where y[0] = 0 at t = 0.0: the error scale atol + rtol |y| is 0 there"), \
+        r.message

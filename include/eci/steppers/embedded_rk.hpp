@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <cstddef>
 #include <ranges>
 #include <type_traits>
@@ -247,7 +248,7 @@ class embedded_rk
         attempt_result res;
         if (sums.bad != 0.0) {
             res.ok = false;
-            res.component = detail::first_index(n, [&](std::size_t i) { return !(o[i] == o[i]); });
+            res.component = detail::first_index(n, [&](std::size_t i) { return !std::isfinite(o[i]); });
             return res;
         }
         return finish_result(res, sums, n, dt);
@@ -778,7 +779,9 @@ class embedded_rk
                     (add_rate<J, est>(p0[i], x[i], k, i, dt, 2.0 * sp.p, wb, rate, a_acc), ...);
                     inc = sp.m * rate;
                     xi = x[i] * x[i] + inc;  // errata item 9: the tableau applied to d(psi^2)/dt = 2 psi S
-                    bad += xi >= 0.0 ? 0.0 : 1.0;
+                    // a negative (or NaN) xi has no root; an infinite one a root that is no state (inf passed the
+                    // error norm, whose scale it made infinite): both fail the attempt
+                    bad += xi >= 0.0 && xi <= std::numeric_limits<double>::max() ? 0.0 : 1.0;
                     next = std::copysign(std::sqrt(xi), conv);
                 }
                 if constexpr (Norm && has_error_estimate) {
