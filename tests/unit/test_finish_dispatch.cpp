@@ -162,3 +162,35 @@ TEST(FinishDispatch, StagePassesRoundLikeTheBaselineLoop) {
 }
 
 }  // namespace
+
+namespace {
+
+// An element-wise system: each unknown's rate depends on itself alone, so a step of a long state and steps of its
+// pieces form the same numbers, element by element.
+struct elementwise {
+    void operator()(const std::vector<double>& x, std::vector<double>& dx, double) const {
+        dx.resize(x.size());
+        for (std::size_t i = 0; i < x.size(); ++i) dx[i] = -0.3 * x[i] + 0.1 * x[i] * x[i] + 0.05;
+    }
+};
+
+// C-RK4's paper update (finish_general) is dispatched to an AVX2 copy for ranges of 64 unknowns or more: a step of
+// 1000 unknowns (dispatched) equals, bit for bit, steps of its 25 pieces of 40 (below the threshold: the baseline).
+TEST(FinishDispatch, ConservativeUpdateOfALongStateRoundsLikeItsShortPieces) {
+    const std::vector<double> x0 = random_values(1000, 21, -1.0, 1.0);
+    std::vector<double> whole = x0;
+    elementwise f;
+    eci::c_rk4<std::vector<double>> a;
+    ASSERT_TRUE(bool(a.step(f, whole, 0.0, 0.1)));
+    std::vector<double> pieces;
+    for (std::size_t i0 = 0; i0 < x0.size(); i0 += 40) {
+        std::vector<double> y(x0.begin() + std::ptrdiff_t(i0), x0.begin() + std::ptrdiff_t(i0 + 40));
+        eci::c_rk4<std::vector<double>> b;
+        ASSERT_TRUE(bool(b.step(f, y, 0.0, 0.1)));
+        pieces.insert(pieces.end(), y.begin(), y.end());
+    }
+    EXPECT_TRUE(same_bits(whole, pieces));
+    EXPECT_FALSE(same_bits(whole, x0));  // (the step moved the state)
+}
+
+}  // namespace

@@ -119,8 +119,7 @@ class conservative_rk : public radicand_remedy {
         } else {
             const std::array<const double*, s> kp = stage_pointers();
             counts = split_.count(n, [&](std::size_t i0, std::size_t i1) {
-                return finish_general(o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
-                                      std::make_index_sequence<s>{});
+                return finish_dispatched(o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0);
             });
         }
         // A negative radicand on any process is one on every process (detail/reduce.hpp).
@@ -384,11 +383,28 @@ class conservative_rk : public radicand_remedy {
          ...);
         return x[i] * x[i] + sp.m * rate;
     }
+    // finish_general, also compiled for AVX2 and taken at run time for ranges of detail::wide_pass values or more (as
+    // the conventional engine's passes): the same IEEE operations (no FMA), the same bits, half the instructions of
+    // the baseline's loop, which is compute-bound (a dozen products per unknown for the recomputed stages).
+    static detail::radicand_counts finish_dispatched(double* o, const double* x, const std::array<const double*, s>& k,
+                                                     double dt, std::size_t n) {
+#if ECI_DETAIL_X86_SIMD
+        if (n >= detail::wide_pass && detail::cpu_has_avx2()) return finish_avx2(o, x, k, dt, n);
+#endif
+        return finish_general(o, x, k, dt, n, std::make_index_sequence<s>{});
+    }
+#if ECI_DETAIL_X86_SIMD
+    __attribute__((target("avx2"))) static detail::radicand_counts finish_avx2(double* o, const double* x,
+                                                                               const std::array<const double*, s>& k,
+                                                                               double dt, std::size_t n) {
+        return finish_general(o, x, k, dt, n, std::make_index_sequence<s>{});
+    }
+#endif
     // One pass over x and the k_j: the conventional update (for the sign), the radicand from recomputed stages (no
     // per-stage pass, no stored stages), and the new amplitude. Returns the counts of negative (or NaN) and of
-    // infinite radicands.
+    // infinite radicands. Always inlined, so that each caller above compiles it for its own instruction set.
     template <std::size_t... J>
-    static detail::radicand_counts finish_general(double* o, const double* x, const std::array<const double*, s>& k,
+    [[gnu::always_inline]] static detail::radicand_counts finish_general(double* o, const double* x, const std::array<const double*, s>& k,
                                                   double dt, std::size_t n, std::index_sequence<J...>) {
         const std::array<double, s> w{(dt * T.b[J])...};
         const detail::step_split sp = detail::split_step(dt);
