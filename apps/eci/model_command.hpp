@@ -110,11 +110,6 @@ class model_command_for final : public model_command {
                 throw bad_input(info_.name + ": " + e.what());
             }
         }
-        // Every value given must be as many numbers as the option takes (CLI11 checks the count only loosely).
-        for (const option_spec& o : options_)
-            if (o.given && o.reals && o.reals->size() != o.count)
-                throw bad_input("--" + o.name + " takes " + std::to_string(o.count) + " values, not " +
-                                std::to_string(o.reals->size()));
         if constexpr (generated) {
             typename Model::recipe r{};
             const auto settings_of = Model::recipe_parameters();

@@ -792,28 +792,27 @@ int spectral_command::run_spread(const run_settings& settings) {
         return restart ? i > first && i <= last && (i % snapshot_every_ == 0 || i == last)
                        : i == first || (i <= last && (i % snapshot_every_ == 0 || i == last));
     };
-    // No snapshot this run writes may replace its --ic or --restart file (nor a file a snapshot's name links to).
-    if (snapshot_every_ > 0 && !inputs.empty()) {
+    // One look at the snapshot directory. No snapshot this run writes may replace its --ic or --restart file (nor a
+    // file a snapshot's name links to). A directory holding another run's snapshots at steps this run does not write
+    // would mix the two runs (its own earlier part's, before a restart's first step, belong to it): refused, nothing
+    // replaced (after the inputs' check, which names the more particular problem).
+    if (snapshot_every_ > 0) {
+        std::set<std::uint64_t> stale;
         std::error_code ec;
         for (const auto& entry : fs::directory_iterator(snapshot_dir_.empty() ? "." : snapshot_dir_, ec)) {
             const std::string file = entry.path().filename().string();
             const auto step = snapshot_step(file, stem_);
-            if (!step || !written(*step)) continue;
+            if (!step) continue;
+            if (!written(*step)) {
+                if (!(restart && *step <= first)) stale.insert(*step);
+                continue;
+            }
+            if (inputs.empty()) continue;
             char digits[32];
             std::snprintf(digits, sizeof digits, "%08llu", (unsigned long long)*step);
             const std::string ext = entry.path().extension().string();
             if (file != stem_ + "_" + digits + ext && file != std::string("spectrum_") + digits + ext) continue;
             check_outputs_spare_inputs({{"--snapshot-dir", entry.path().string()}}, inputs);
-        }
-    }
-    // A snapshot directory holding another run's snapshots at steps this run does not write would mix the two runs
-    // (its own earlier part's, before a restart's first step, belong to it): refused, nothing replaced.
-    if (snapshot_every_ > 0) {
-        std::set<std::uint64_t> stale;
-        std::error_code ec;
-        for (const auto& entry : fs::directory_iterator(snapshot_dir_.empty() ? "." : snapshot_dir_, ec)) {
-            const auto step = snapshot_step(entry.path().filename().string(), stem_);
-            if (step && !written(*step) && !(restart && *step <= first)) stale.insert(*step);
         }
         if (!stale.empty())
             throw bad_input("--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) +
@@ -1144,7 +1143,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (!std::isfinite(e1) || !std::isfinite(z1) || e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
             progress.finish();
             throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(pt.t) + ": energy " +
-                            num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); " + smaller_step + last_good());
+                            num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); " + smaller_step);
         }
         // relative to the invariant after the step; to the one before it where a decayed flow reached exactly 0
         // (the residual was inf there), and absolute where both are 0
@@ -1263,15 +1262,17 @@ int spectral_command::run_spread(const run_settings& settings) {
         }
         throw interrupted(stop + kept + (plot ? "; no plot (it is drawn for a finished run)" : ""));
     };
+    // A failure of the sink's (an output that cannot be written, a blow-up): the checkpoint it leaves, named
+    const auto with_checkpoint = [&](const run_error& e) { return run_error(std::string(e.what()) + last_good()); };
     solve_report report;
-    std::unique_ptr<run_error> failed_by_sink;  // (thrown again below, with the checkpoint it leaves)
     std::string stop;  // an interrupt's message (the checkpoint written)
     std::uint64_t stopped_at = 0;  // the last step whose state and outputs the run has made
     try {
         report = solve<navier_stokes_2d>(model, w, method, cfg, callback_sink{on_output, on_step, on_progress}, {},
                                          "model " + name_);
     } catch (const run_error& e) {
-        failed_by_sink = std::make_unique<run_error>(e);
+        progress.finish();
+        throw with_checkpoint(e);
     } catch (const eci::interrupted&) {  // (between the halvings of a step: back to the last whole step)
         progress.finish();
         w = w_prev;
@@ -1283,13 +1284,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         stop = e.what();
         stopped_at = done_outputs;
     }
-    // A failure of the sink's (an output that cannot be written, a blow-up): the checkpoint it leaves, named
-    const auto with_checkpoint = [&](const run_error& e) {
-        const std::string m = e.what();
-        return run_error(m.find("; last good checkpoint: ") == std::string::npos ? m + last_good() : m);
-    };
     progress.finish();
-    if (failed_by_sink) throw with_checkpoint(*failed_by_sink);
     if (!stop.empty()) keep_interrupted(stop, stopped_at);
     if (report.failure) {
         if (report.failure->kind != run_failure_kind::step_failed) throw run_error(report.failure->message + last_good());

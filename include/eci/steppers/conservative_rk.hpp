@@ -404,8 +404,10 @@ class conservative_rk : public radicand_remedy {
     // per-stage pass, no stored stages), and the new amplitude. Returns the counts of negative (or NaN) and of
     // infinite radicands. Always inlined, so that each caller above compiles it for its own instruction set.
     template <std::size_t... J>
-    [[gnu::always_inline]] static detail::radicand_counts finish_general(double* o, const double* x, const std::array<const double*, s>& k,
-                                                  double dt, std::size_t n, std::index_sequence<J...>) {
+    [[gnu::always_inline]] static detail::radicand_counts finish_general(double* o, const double* x,
+                                                                         const std::array<const double*, s>& k,
+                                                                         double dt, std::size_t n,
+                                                                         std::index_sequence<J...>) {
         const std::array<double, s> w{(dt * T.b[J])...};
         const detail::step_split sp = detail::split_step(dt);
         constexpr double most = std::numeric_limits<double>::max();

@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <limits>
 #include <cstddef>
+#include <limits>
 #include <ranges>
 #include <type_traits>
 #include <utility>
