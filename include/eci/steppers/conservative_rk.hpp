@@ -102,14 +102,20 @@ class conservative_rk : public radicand_remedy {
             // ill-conditioned, and one exact rescale (docs/methods.md). Spread over processes, its every decision
             // is taken from sums over all of them (remedy_elements), so all take it alike.
             const std::array<const double*, s> kp = stage_pointers();
-            finish_conditioned(o, xr.data(), kp, dt, n);
-            if (reduce_.any(!filed_none()) &&
-                !remedy_elements<per>(o, xr.data(), n, [&](std::size_t e, std::array<double, per>& c) {
-                    std::array<double, per> rad{};
-                    const auto [c2, xi] = element_update(xr.data(), kp, e, dt, c, rad);
-                    return radicand_remedy::element_update{c2, xi, sign_of(xr.data(), kp, e, dt, c, xi)};
-                }))
-                return step_result::failure(first_negative<per>());
+            const auto conv = [&](std::size_t e, std::array<double, per>& c) {
+                std::array<double, per> rad{};
+                const auto [c2, xi] = element_update(xr.data(), kp, e, dt, c, rad);
+                return radicand_remedy::element_update{c2, xi, sign_of(xr.data(), kp, e, dt, c, xi)};
+            };
+            // The pass lumps the elements far above the previous step's cut (radicand_remedy::lump_from_); where
+            // the share cap might reach them after all, it is made again with every element filed.
+            finish_conditioned(o, xr.data(), kp, dt, n, true);
+            bool ok = !reduce_.any(!filed_none()) || remedy_elements<per>(o, xr.data(), n, conv);
+            if (!ok && refiling()) {
+                finish_conditioned(o, xr.data(), kp, dt, n, false);
+                ok = !reduce_.any(!filed_none()) || remedy_elements<per>(o, xr.data(), n, conv);
+            }
+            if (!ok) return step_result::failure(first_negative<per>());
         } else if constexpr (is_c_pc) {
             const double* k1 = detail::reals(std::as_const(st_.k[1])).data();
             counts = split_.count(n, [&](std::size_t i0, std::size_t i1) {
@@ -269,9 +275,9 @@ class conservative_rk : public radicand_remedy {
     // histogram and Gram sums, merged in range order (end_split_conditioned): the elements are filed in element
     // order whatever the split, and the sums of a given split repeat bit for bit. One range is the unsplit pass.
     void finish_conditioned(double* o, const double* x, const std::array<const double*, s>& k, double dt,
-                            std::size_t n) {
+                            std::size_t n, bool lump) {
         const std::size_t ne = n / per;
-        const conditioned_pass start = begin_conditioned(ne, true, split_.threads);
+        const conditioned_pass start = begin_conditioned(ne, true, split_.threads, lump);
         std::array<conditioned_pass, detail::max_ranges> passes{};
         split_.for_ranges(ne, [&](std::size_t e_begin, std::size_t e_end, int r) {
             const filing into = range_filing(r, e_begin, e_end);

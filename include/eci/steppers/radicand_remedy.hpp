@@ -67,6 +67,11 @@ struct remedy_options {
     /// (if the caps allow), since there the square root amplifies the error of xi by 1 / (2 |psi|) and sqrt is
     /// curved across the step; the rescale then restores every invariant. 0 switches it off.
     double condition = 16.0;
+    /// A cost setting of the conditioned update at fixed steps, which never changes a result (bit for bit): the
+    /// finishing pass files one by one only the ill-conditioned elements whose ratio lies less than this many
+    /// buckets (1/32 octave each) above the previous step's cut, and only counts the others; where the share cap
+    /// might take a cut among them after all, the pass is made again with every element filed. 0 files every element.
+    std::size_t lump_margin = 16;
 };
 
 /// What the remedy did so far (a stepper's counters, from the stepper's construction).
@@ -79,6 +84,8 @@ struct remedy_stats {
                                             ///< whose square root was ill-conditioned (the conditioned update)
     std::uint64_t conditioning_declined = 0;  ///< attempts whose ill-conditioned components kept the conservative
                                               ///< value because the caps (share, rescale) refused them
+    std::uint64_t lumped = 0;   ///< ill-conditioned elements only counted by the conditioned pass (lump_margin)
+    std::uint64_t refiled = 0;  ///< conditioned passes made again with every element filed (lump_margin)
 };
 
 /// The remedy's state: options, weights, counters. Every conservative stepper derives from it, which gives it
@@ -243,6 +250,12 @@ class radicand_remedy {
         for (std::size_t b = 1; b < ratio_buckets; ++b)
             for (std::size_t i = 0; i < stride; ++i) hist_[b * stride + i] += hist_[(b - 1) * stride + i];
         const std::size_t filed = std::size_t(hist_[(ratio_buckets - 1) * stride]);  // cond_'s size, over all
+        if (!lumping_decides(held_neg)) {  // a cut above lump_from_ might pass: the engine files the pass in full
+            refile_ = true;
+            ++stats_.refiled;
+            return false;
+        }
+        stats_.lumped += std::uint64_t(hist_[ratio_buckets * stride]);
         too_small_ = false;
         for (std::size_t limit = filed;;) {
             const std::size_t cut = widest_cut(limit, held_neg);
@@ -260,6 +273,30 @@ class radicand_remedy {
         --stats_.conditioning_declined;  // the last refusal (no ill-conditioned element taken) is a decline
         return decline();
     }
+
+    // Whether the histogram of a pass that lumped the elements at and above bucket lump_from_ (file_element) gives
+    // the decisions of a full one: true when no cut wider than lump_from_ can pass the share cap of some invariant,
+    // so that widest_cut, scanning down from the widest, skips every such cut in either histogram and meets the same
+    // sums below (the buckets below lump_from_ hold the same elements in the same order). A wider cut c holds at
+    // least the share of cut lump_from_ (sums of terms >= 0 only grow, rounding included) and changes the magnitude
+    // by at most cut lump_from_'s change plus the lumped elements' |changes|; the 2^-20 margins cover the roundings
+    // of those sums in any order (n eps for n below 2^30).
+    bool lumping_decides(const std::array<double, max_invariants>& held_neg) const {
+        const std::size_t m = weights_.size(), stride = hist_stride();
+        const double* lump = hist_.data() + ratio_buckets * stride;
+        if (lump[0] == 0.0) return true;
+        const double* h = hist_.data() + (lump_from_ - 1) * stride;  // cut lump_from_: every bucket below it
+        for (std::size_t a = 0; a < m; ++a) {
+            const double change = h[1 + m + a] + lump[1 + m + a] * (1.0 + 0x1p-20) +
+                                  0x1p-20 * (std::abs(h[1 + m + a]) + std::abs(mag0_[a]));
+            if (!(held_neg[a] + h[1 + a] <= remedy.max_share * (mag0_[a] + change))) return true;
+        }
+        return false;
+    }
+
+    /// Whether the last remedy_elements refused only because the pass lumped elements a cut might take
+    /// (lumping_decides): the engine then makes the pass again with begin_conditioned(..., lump = false).
+    bool refiling() const { return refile_; }
 
     // The widest cut (cond_'s elements in buckets below it) holding at most `limit` elements whose shares, with
     // neg_'s, pass the share cap by the histogram's sums; 0 (neg_ alone) if none does. The sums are the attempt's
@@ -318,7 +355,10 @@ class radicand_remedy {
     // ranges: how many ranges the engine files the elements in (conservative_rk splits its pass over the model's
     // threads): range 0 files into neg_, cond_ and hist_, range r > 0 into parts_[r - 1] (range_filing), and
     // end_split_conditioned merges them.
-    conditioned_pass begin_conditioned(std::size_t elements, bool predict = false, int ranges = 1) {
+    // lump: elements filed at or above a bucket the previous step's cut predicts the share cap never reaches
+    // (lump_from_) are only counted (file_element), which on turbulence skips most of the filing; remedy_elements
+    // asks for the pass again without (refiling) where the sums cannot show the cut stays below.
+    conditioned_pass begin_conditioned(std::size_t elements, bool predict = false, int ranges = 1, bool lump = false) {
         neg_.clear();
         neg_h_.clear();
         cond_.clear();
@@ -329,8 +369,12 @@ class radicand_remedy {
         // no reallocation copies a half-filed list (which held 1.5 lists at its peak)
         if (cond_.capacity() < elements) cond_.reserve(elements);
         written_cut_ = predict && weights_fused() ? taken_cut_ : 0;
+        lump_from_ = lump && taken_cut_ > 0 && remedy.lump_margin > 0
+                         ? std::min(taken_cut_ + std::min(remedy.lump_margin, ratio_buckets), ratio_buckets)
+                         : ratio_buckets;
         taken_cut_ = 0;
-        hist_.assign(ratio_buckets * hist_stride(), 0.0);
+        refile_ = false;
+        hist_.assign((ratio_buckets + 1) * hist_stride(), 0.0);  // (the last: the lumped elements' sums)
         conditioned_pass p;
         if (weights_fused()) p.w0 = weights_[0].data(), p.w1 = weights_[1].data();
         return p;
@@ -388,7 +432,7 @@ class radicand_remedy {
 
     // Whether the last conditioned pass filed no element (neg_ and every range's cond_ empty).
     bool filed_none() const {
-        if (!(neg_.empty() && cond_.empty())) return false;
+        if (!(neg_.empty() && cond_.empty()) || hist_[ratio_buckets * hist_stride()] != 0.0) return false;
         for (std::size_t r = 0; r < parts_used_; ++r)
             if (!parts_[r].cond.empty()) return false;
         return true;
@@ -447,16 +491,22 @@ class radicand_remedy {
     template <std::size_t Per>
     [[gnu::always_inline]] void file_element(double* o, std::size_t e, std::size_t b, const double* c, double h,
                                              double dq, double d, const filing& into) {
-        into.cond.push_back((std::uint64_t(e) << bucket_bits) | b);
         const std::size_t m = weights_.size();
+        if (b >= lump_from_) {  // beyond the predicted cut: counted, with its |change| of each magnitude
+            double* hl = into.hist + ratio_buckets * hist_stride();
+            hl[0] += 1.0;
+            for (std::size_t a = 0; a < m; ++a) hl[1 + m + a] += std::abs(weights_[a][e]) * std::abs(dq);
+            return;
+        }
+        into.cond.push_back((std::uint64_t(e) << bucket_bits) | b);
         double* hb = into.hist + b * hist_stride();
         hb[0] += 1.0;
         if (m == 2) {  // E and Z (every spectral model): the loop below unrolled, its operations in its order
             const double u = weights_[0][e], v = weights_[1][e], au = std::abs(u), av = std::abs(v);
             hb[1] += au * h, hb[2] += av * h, hb[3] += au * dq, hb[4] += av * dq, hb[5] += u * d, hb[6] += v * d;
             hb[7] += u * u * dq, hb[8] += u * v * dq, hb[9] += v * u * dq, hb[10] += v * v * dq;
-            if (b < written_cut_)
-                for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = c[p];
+            const bool take = b < written_cut_;  // (a select, not a branch: as good as random on turbulence)
+            for (std::size_t p = 0; p < Per; ++p) o[e * Per + p] = take ? c[p] : o[e * Per + p];
             return;
         }
         for (std::size_t a = 0; a < m; ++a) {
@@ -469,7 +519,7 @@ class radicand_remedy {
     }
 
     /// Elements per block of condition_block.
-    static constexpr std::size_t block_elements = 64;
+    static constexpr std::size_t block_elements = 64;  // (at most 256: condition_block lists them in bytes)
 
     /// condition_element for the elements e0 .. e0 + nb (nb <= block_elements) at once, with the same result to
     /// the bit: c holds their conventional updates (nb * Per values), c2, xi and sign one value per element. The
@@ -499,17 +549,48 @@ class radicand_remedy {
                 q[b] = ob[b] * ob[b];
             }
         }
-        // the filing, in element order (most elements are neither special nor filed)
+        // the filing, in element order. Which elements are filed is as good as random on turbulence (two thirds of
+        // them at CFL 0.5), so a branch per element mispredicts about every other time: the filed and the lumped
+        // (at or above lump_from_, see file_element) are first listed without branches. A block with a special
+        // element (kind 2, rare) is filed element by element, so that every element is filed in element order.
+        const double lump_edge = lump_from_ < ratio_buckets ? bucket_edge(lump_from_) : HUGE_VAL;
+        std::array<unsigned char, block_elements> filed_list, lumped_list;
+        std::size_t nf = 0, nl = 0, special = 0;
         for (std::size_t b = 0; b < nb; ++b) {
-            if (kind[b] == 0) continue;
-            if (kind[b] == 2) {
-                std::array<double, Per> cb;
-                for (std::size_t p = 0; p < Per; ++p) cb[p] = c[b * Per + p];
-                condition_unsummed<Per>(o, x, e0 + b, cb, c2[b], xi[b], sign[b], q[b], into);
-                continue;
+            const bool is_filed = kind[b] == 1, lump = ratio[b] >= lump_edge;
+            filed_list[nf] = (unsigned char)b, lumped_list[nl] = (unsigned char)b;
+            nf += is_filed && !lump, nl += is_filed && lump, special += kind[b] == 2;
+        }
+        if (special != 0) {
+            for (std::size_t b = 0; b < nb; ++b) {
+                if (kind[b] == 0) continue;
+                if (kind[b] == 2) {
+                    std::array<double, Per> cb;
+                    for (std::size_t p = 0; p < Per; ++p) cb[p] = c[b * Per + p];
+                    condition_unsummed<Per>(o, x, e0 + b, cb, c2[b], xi[b], sign[b], q[b], into);
+                    continue;
+                }
+                file_element<Per>(o, e0 + b, ratio_bucket(ratio[b]), c + b * Per, std::max(x2v[b], c2[b]),
+                                  c2[b] - q[b], c2[b] - xi[b], into);
             }
-            file_element<Per>(o, e0 + b, ratio_bucket(ratio[b]), c + b * Per, std::max(x2v[b], c2[b]),
-                              c2[b] - q[b], c2[b] - xi[b], into);
+        } else {
+            for (std::size_t j = 0; j < nf; ++j) {
+                const std::size_t b = filed_list[j];
+                file_element<Per>(o, e0 + b, ratio_bucket(ratio[b]), c + b * Per, std::max(x2v[b], c2[b]),
+                                  c2[b] - q[b], c2[b] - xi[b], into);
+            }
+            if (nl != 0) {  // summed here in registers, not through the one bucket they share in memory
+                const std::size_t m = weights_.size();
+                std::array<double, max_invariants> change{};
+                for (std::size_t j = 0; j < nl; ++j) {
+                    const std::size_t b = lumped_list[j];
+                    const double dq = std::abs(c2[b] - q[b]);
+                    for (std::size_t a = 0; a < m; ++a) change[a] += std::abs(weights_[a][e0 + b]) * dq;
+                }
+                double* hl = into.hist + ratio_buckets * hist_stride();
+                hl[0] += double(nl);
+                for (std::size_t a = 0; a < m; ++a) hl[1 + m + a] += change[a];
+            }
         }
         gram_block(pass, e0, q.data(), nb);
     }
@@ -617,6 +698,12 @@ class radicand_remedy {
     // to predict), and each attempt moves it to its own cut. Only elements between the two are recomputed, and
     // both values are recomputed to the finishing pass's bits, so o never depends on the prediction.
     std::size_t written_cut_ = 0;
+    // The filing of this pass lumps the elements in buckets at or above this (ratio_buckets: none): remedy.lump_margin
+    // buckets above the previous step's cut. On turbulence at CFL 0.5 (N = 1024, the bench's field) two thirds of
+    // the modes are ill-conditioned, the share cap takes a third of those, the cut moves by at most 3 buckets per
+    // step, and 16 buckets above it lump two thirds of the filed elements.
+    std::size_t lump_from_ = ratio_buckets;
+    bool refile_ = false;
     template <std::size_t Per, class Conv>
     void settle_filed(double* o, Conv& conv, std::size_t cut) {
         const std::size_t lo = std::min(cut, written_cut_), hi = std::max(cut, written_cut_);
@@ -727,6 +814,15 @@ class radicand_remedy {
         const std::uint64_t top = bits >> 47;
         if (!(ratio >= 0x1p-32)) return 0;
         return std::min<std::uint64_t>(top - low + 1, ratio_buckets - 1);
+    }
+    // The smallest ratio in bucket b >= 1: ratio_bucket(r) >= b exactly when r >= bucket_edge(b) (for b below the
+    // last bucket; ratios >= 0).
+    static double bucket_edge(std::size_t b) {
+        constexpr std::uint64_t low = std::uint64_t(1023 - 32) << 5;
+        const std::uint64_t bits = (std::uint64_t(b) - 1 + low) << 47;
+        double r;
+        std::memcpy(&r, &bits, sizeof r);
+        return r;
     }
     std::vector<double> hist_;
 
