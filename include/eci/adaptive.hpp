@@ -73,7 +73,8 @@ enum class rejection {
 /// or the run reached its maximum number of steps. Carries the statistics up to that point.
 class adaptive_failure : public std::runtime_error {
    public:
-    enum class reason { step_too_small, too_many_steps };
+    /// time_unresolved: far from t = 0 the doubles are too far apart for the span's steps (a step too small)
+    enum class reason { step_too_small, too_many_steps, time_unresolved };
     adaptive_failure(reason why, double t, std::size_t component, double dt, adaptive_stats s)
         : std::runtime_error(message(why, t, component, dt, s)),
           why(why), time(t), component(component), dt(dt), stats(s) {}
@@ -88,7 +89,10 @@ class adaptive_failure : public std::runtime_error {
     static std::string message(reason why, double t, std::size_t component, double dt, const adaptive_stats& s) {
         std::ostringstream os;
         os.precision(17);
-        if (why == reason::step_too_small)
+        if (why == reason::time_unresolved)
+            os << "adaptive step fell below the spacing of doubles at t = " << t << " (dt = " << dt
+               << "): time cannot advance there (count time from 0: a start time nearer 0)";
+        else if (why == reason::step_too_small)
             os << "adaptive step fell below the minimum at t = " << t << " (dt = " << dt << ", component " << component
                << ", after " << s.accepted << " accepted steps; tolerance too tight, a singularity, or the state "
                << "is not finite)";
@@ -247,6 +251,14 @@ class error_control {
         double dt = std::min({dt_, o_.dt_max});  // the step's size
         const bool landing = forward_ ? t_ + 1.01 * dt >= target_ : t_ - 1.01 * dt <= target_;
         if (landing) dt = forward_ ? target_ - t_ : t_ - target_;
+        // Far from t = 0 a step below the spacing of doubles would be accepted without moving the time (at
+        // t = 1e17, where they are 16 apart, five such steps were "accepted" before the step fell below the floor
+        // with "tolerance too tight, a singularity, ..."): where the span left is under 2^20 such spacings, time
+        // itself is what stops the run, and the failure says so. (Elsewhere such a step is the controller's, as
+        // with a tolerance too tight: rejected, then the floor's failure names the component.)
+        if (!landing && t_ + dir_ * dt == t_ &&
+            std::abs(std::nextafter(t_, dir_ * HUGE_VAL) - t_) * 0x1p20 > std::abs(target_ - t_))
+            throw adaptive_failure(adaptive_failure::reason::time_unresolved, t_, 0, dir_ * dt, stats_);
         if (stats_.accepted + stats_.rejected() >= o_.max_attempts)
             throw adaptive_failure(adaptive_failure::reason::too_many_steps, t_, 0, dir_ * dt, stats_);
         return {dt, landing};

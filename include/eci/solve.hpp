@@ -387,6 +387,21 @@ inline void check_config(const run_config& c) {
         if (!c.steps && (c.t_end - c.t0) / c.dt > double(max_grid_steps))
             throw std::invalid_argument("(t_end - t0) / dt is " + detail::shortest_text((c.t_end - c.t0) / c.dt) +
                                         " steps, too many (at most 2^53)");
+        // The grid's times t0 + i dt round to the doubles near them, which far from 0 are far apart: the times the
+        // system sees, the outputs' and the last step (shortened to land on t_end: t_end - t_{n-1}) would be off by
+        // that much. Refused where that is beyond 2^-10 of a step and 2^-30 of the span (at t0 = 1e16, doubles 2
+        // apart, dt = 0.5 ended 0.5 short of t0 + 160, and status 0), unless every grid time is a double (t0 and dt
+        // multiples of that spacing). (A span to t_end = 1e12 at dt = 0.01, a run to be stopped by a signal, would
+        // reach such times only after 1e14 steps, and then lose 1e-16 of its span: taken.)
+        const double far = std::max(std::abs(c.t0), std::abs(c.end_time()));
+        const double spacing = far - std::nextafter(far, 0.0);  // (the widest between the grid's times)
+        if (std::isfinite(far) && spacing > c.dt * 0x1p-10 && spacing > (c.end_time() - c.t0) * 0x1p-30 &&
+            !(std::fmod(c.dt, spacing) == 0.0 && std::fmod(c.t0, spacing) == 0.0))
+            throw std::invalid_argument("the step " + detail::shortest_text(c.dt) + " is too small for times near " +
+                                        detail::shortest_text(far) + ", where doubles are " +
+                                        detail::shortest_text(spacing) +
+                                        " apart: the grid's times would be off by more than 2^-10 of a step "
+                                        "(count time from 0: a start time nearer 0)");
     }
     if (c.every == 0) throw std::invalid_argument("output interval must be at least 1");
     if (c.first_step != 0 && (c.adaptive || !c.times.empty()))

@@ -2,6 +2,7 @@
 # eci.StepSizeUnderflow with the time, the component and the statistics so far; a fun that misbehaves (wrong
 # shape or dtype, non-finite values, exceptions) gives a clear error and no crash; Ctrl-C stops a long run promptly.
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -335,3 +336,27 @@ def test_a_long_span_with_a_terminal_event_runs_to_the_event():
         assert r.status == 1, (end, r.message)
         assert len(r.t_events[0]) == 3
         np.testing.assert_allclose(r.t_events[0], short.t_events[0], rtol=1e-6)
+
+
+# Far from t = 0 the doubles are far apart. Fixed steps whose grid times round by more than 2^-10 of a step are
+# refused (t0 = 1e16, dt = 0.5 integrated y' = 1 over 159.5 of 160 with status 0); an adaptive step below the spacing
+# stops the run saying so (at t = 1e17 five steps were "accepted" without moving t, then "tolerance too tight, a
+# singularity, ...").
+def test_times_far_from_zero_that_cannot_hold_the_steps():
+    one = lambda t, y: np.ones(1)  # noqa: E731
+    for t0, dt in [(1e15, 0.1), (1e16, 0.5), (1e17, 1.0)]:
+        with pytest.raises(ValueError, match=rf"^the step {dt:g} is too small for times near .*, where doubles are .* "
+                                             r"apart: the grid's times would be off by more than 2\^-10 of a step "
+                                             r"\(count time from 0: a start time nearer 0\)$"):
+            eci.solve(one, (t0, t0 + 160), [0.0], method="rk4", dt=dt)
+    r = eci.solve(one, (1e9, 1e9 + 160), [0.0], method="rk4", dt=0.5)  # doubles 1.2e-7 apart: taken
+    assert r.status == 0 and abs(r.y[0, -1] - 160.0) < 1e-6
+    r = eci.solve(one, (2.0 ** 60, 2.0 ** 60 + 4096), [0.0], method="rk4", dt=256.0)  # every grid time a double
+    assert r.status == 0 and r.y[0, -1] == 4096.0
+    rotation = lambda t, y: np.array([-y[1], y[0]])  # noqa: E731
+    for method in ["dp54", "c-dp54"]:
+        r = eci.solve(rotation, (1e17, 1e17 + 1000), [1.0, 0.0], method=method, rtol=1e-6, atol=1e-9)
+        f = failure_of(r, eci.StepSizeUnderflow)
+        assert re.match(r"adaptive step fell below the spacing of doubles at t = 1e\+17 \(dt = .*\): time cannot "
+                        r"advance there \(count time from 0: a start time nearer 0\)", str(f)), str(f)
+        assert r.stats["steps"] == 0

@@ -343,7 +343,7 @@ TEST(Solve, MoreThanTwoToThe53StepsAreRefused) {
     };
     auto by_steps = [](std::uint64_t steps, std::uint64_t first) {
         eci::run_config c;
-        c.dt = 1e-3;
+        c.dt = 1.0;  // (every grid time a double up to 2^53: see GridTimesThatRoundAwayFromTheStepsAreRefused)
         c.steps = steps;
         c.first_step = first;
         return c;
@@ -370,6 +370,39 @@ TEST(Solve, MoreThanTwoToThe53StepsAreRefused) {
     EXPECT_EQ(eci::steps_to_reach(0.0, 1e15, 1.0), std::uint64_t(1e15));  // (not one fewer, its last step 2 long)
     EXPECT_EQ(eci::last_step_to_reach(0.0, 1e15, 1.0, std::uint64_t(1e15)), 1.0);
     EXPECT_EQ(eci::steps_to_reach(0.0, 0.3, 0.1), 3u);  // a remainder at round-off is no step of its own
+}
+
+// Far from t = 0 the doubles are far apart, and the times t0 + i dt of a fixed-step grid round to them: the times
+// the system sees and the last step, shortened to land on t_end, come out wrong (t0 = 1e16, dt = 0.5 integrated
+// y' = 1 over 159.5 of the 160 asked, status 0). Refused where the rounding exceeds 2^-10 of a step and 2^-30 of the
+// span, unless every grid time is a double.
+TEST(Solve, GridTimesThatRoundAwayFromTheStepsAreRefused) {
+    auto message = [](double t0, double t_end, double dt) {
+        eci::run_config c;
+        c.t0 = t0, c.t_end = t_end, c.dt = dt;
+        try {
+            eci::detail::check_config(c);
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    EXPECT_EQ(message(1e16, 1e16 + 160, 0.5), "the step 0.5 is too small for times near 1.000000000000016e+16, where "
+                                              "doubles are 2 apart: the grid's times would be off by more than 2^-10 "
+                                              "of a step (count time from 0: a start time nearer 0)");
+    EXPECT_EQ(message(-1e16 - 160, -1e16, 0.5).substr(0, 46), "the step 0.5 is too small for times near 1.000");
+    EXPECT_EQ(message(1e12, 1e12 + 1, 1e-3).substr(0, 30), "the step 0.001 is too small fo");
+    EXPECT_EQ(message(1e9, 1e9 + 1, 1e-3), "accepted");      // doubles 1.2e-7 apart: 1.2e-4 of a step
+    EXPECT_EQ(message(0x1p60, 0x1p60 + 0x1p12, 256.0), "accepted");  // every grid time a double
+    EXPECT_EQ(message(0.0, 1e6, 1e-6), "accepted");
+    EXPECT_EQ(message(0.0, 1e12, 0.01), "accepted");  // (a run to be stopped: doubles 1e-4 apart only after 1e14 steps)
+    // the run refused, end to end, where it had ended short with status 0
+    const eci::three_wave model;
+    tw_state y = fig5;
+    discard<tw_state> none;
+    eci::run_config c;
+    c.t0 = 1e16, c.t_end = 1e16 + 160, c.dt = 0.5;
+    EXPECT_THROW(eci::solve_model<eci::three_wave>(model, y, "rk4", c, none), std::invalid_argument);
 }
 
 // The one rule of the front ends for a run that names no method (eci::default_method_for): the model's own method at
