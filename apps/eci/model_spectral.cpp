@@ -39,6 +39,14 @@ namespace eci::cli {
 
 namespace {
 
+// The stem of an equation's field files ("vorticity", "buoyancy"): its field with spaces as underscores.
+std::string field_stem(std::string_view field) {
+    std::string stem(field);
+    for (char& c : stem)
+        if (c == ' ') c = '_';
+    return stem;
+}
+
 // ---- MPI (the MPI build under mpirun with more than one process): the run is spread over MPI_COMM_WORLD. Every
 // process validates the same input (each reads the files' headers); the verdict is agreed once, before the first
 // collective, so a bad input exits 2 on every process with nothing written. Each process then reads its own part
@@ -212,9 +220,7 @@ class spectral_command final : public model_command {
         const bool ns = name_ == "navier-stokes-2d";
         default_snapshot_dir_ = ns ? "ns2d-snapshots" : name_ + "-snapshots";
         default_checkpoint_ = ns ? "ns2d-checkpoint.h5" : name_ + "-checkpoint.h5";
-        stem_ = std::string(field_);
-        for (char& c : stem_)
-            if (c == ' ') c = '_';
+        stem_ = field_stem(field_);
         // name, help, and where the value goes: a real, a whole number >= min, a text or a flag
         real("nu", "viscosity nu (default 0)");
         real("hyper-nu", "hyperviscosity nu_h of -nu_h |k|^(2p) omega (default 0)");
@@ -346,6 +352,17 @@ std::optional<std::uint64_t> snapshot_step(const std::string& name, const std::s
         return std::stoull(digits);
     }
     return std::nullopt;
+}
+
+// The equation (other than this run's, whose field stem is `stem`) whose snapshot `name` is, or null: its spectra
+// share this run's names, so the two runs' files would mix and the other's spectra be replaced.
+const spectral::equation* other_equations_snapshot(const std::string& name, const std::string& stem) {
+    for (const spectral::equation* e : spectral::equations()) {
+        const std::string other = field_stem(e->field);
+        if (other != stem && name.compare(0, other.size() + 1, other + "_") == 0 && snapshot_step(name, other))
+            return e;
+    }
+    return nullptr;
 }
 
 // A setting's CLI option: "--forcing-k" for the library's "forcing_k".
@@ -801,6 +818,10 @@ int spectral_command::run_spread(const run_settings& settings) {
         std::error_code ec;
         for (const auto& entry : fs::directory_iterator(snapshot_dir_.empty() ? "." : snapshot_dir_, ec)) {
             const std::string file = entry.path().filename().string();
+            if (const spectral::equation* other = other_equations_snapshot(file, stem_))
+                throw bad_input("--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) +
+                                "' holds another equation's snapshots ('" + file + "', " + std::string(other->name) +
+                                "'s): this run's spectra would replace its; give another directory");
             const auto step = snapshot_step(file, stem_);
             if (!step) continue;
             if (!written(*step)) {
@@ -942,6 +963,9 @@ int spectral_command::run_spread(const run_settings& settings) {
     // (the same on every process; `out` and the plot are rank 0's)
     const bool rows_wanted = !settings.output.empty() || !settings.plot.empty();
     std::uint64_t last_row = first, last_snapshot = first;  // the steps of the last CSV row and snapshot made
+    // whether a stop came while the last snapshot's pictures were drawn (the plotting program is stopped with the
+    // run: the snapshot keeps its data, not its pictures)
+    bool last_pictures_cut = false;
     auto row = [&](std::uint64_t i, double t, double e, double z) {  // (e, z: E and Z of w at time t)
         last_row = i;
         const double u = model.max_velocity(w);
@@ -1017,6 +1041,9 @@ int spectral_command::run_spread(const run_settings& settings) {
             on_root_agreed([&] {
                 write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
                                {es, zs, pi.energy, pi.enstrophy}, t);
+                std::error_code ec;
+                last_pictures_cut = interrupt_requested() && plotting_available() &&
+                                    !(fs::exists(png, ec) && fs::exists(base + "spectrum_" + stem + ".png", ec));
             });
         } catch (const run_error& e) {
             // named where they were to go, not in the staging directory they are written in first
@@ -1121,8 +1148,10 @@ int spectral_command::run_spread(const run_settings& settings) {
     std::uint64_t done_outputs = first;  // the step an interrupt in on_progress stopped at
     // The statistics of the run at its last whole step (after_step's), for the summary of an interrupted run.
     run_stats stats_so_far{};
+    // (a restart's rows begin after its checkpoint's step: that row is the first part's last, and the parts join
+    // without a repeated row)
     auto on_output = [&](const state&, const output_point& pt) {
-        if (rows_wanted) row(pt.index, pt.t, pt.invariants[0], pt.invariants[1]);
+        if (rows_wanted && !(restart && pt.index == first)) row(pt.index, pt.t, pt.invariants[0], pt.invariants[1]);
     };
     auto on_step = [&](const state&, const output_point& pt) {
         const std::uint64_t i = pt.index;
@@ -1245,7 +1274,10 @@ int spectral_command::run_spread(const run_settings& settings) {
         std::string kept;
         const auto add = [&](const std::string& what) { kept += (kept.empty() ? "; kept: " : ", ") + what; };
         if (staged_snapshots)
-            add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(last_snapshot));
+            add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(last_snapshot) +
+                (last_pictures_cut ? " (step " + std::to_string(last_snapshot) +
+                                         "'s without its pictures: the stop came while they were drawn)"
+                                   : std::string()));
         if (csv.replaces())
             add(std::string(h5 ? "HDF5" : "CSV") + " output '" + settings.output + "' (rows to step " +
                 std::to_string(last_row) + ")");

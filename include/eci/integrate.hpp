@@ -649,9 +649,10 @@ remedy_stats remedy_counters(const St& stepper) {
 /// Adds what the stepper's remedy did since `before` to stats.
 template <class St>
 void collect_remedy_stats(const St& stepper, const remedy_stats& before, run_stats& stats) {
+    // (set, not added: an observer that reads the statistics sees them so far, and the run's end sets them again)
     const remedy_stats after = remedy_counters(stepper);
-    stats.remedied_steps += after.remedied_steps - before.remedied_steps;
-    stats.components_remedied += after.components_remedied - before.components_remedied;
+    stats.remedied_steps = after.remedied_steps - before.remedied_steps;
+    stats.components_remedied = after.components_remedied - before.components_remedied;
 }
 
 /// Calls an observer as (x, t, i) or, odeint-style, as (x, t).
@@ -716,6 +717,7 @@ run_stats run_grid(St& stepper, F& f, S& x, double t0, double dt, std::uint64_t 
                 if constexpr (reads_stats) {
                     control.sync(at);
                     stats.steps = k - first;
+                    collect_remedy_stats(stepper, before, stats);  // (a stopped run's summary reports them)
                 }
                 notify(observe, std::as_const(x), t0 + double(k) * dt, k, stats);
             }
@@ -753,7 +755,9 @@ void step_with_reduction(St& stepper, F&& f, S& x, double t, double dt, run_stat
     if constexpr (begins_steps<std::remove_reference_t<F>>) f.begin_step(dt);
     detail::advance_with_reduction(stepper, counted, x, t, dt, opt, stats);
     ++stats.steps;
-    detail::collect_remedy_stats(stepper, before, stats);
+    const remedy_stats after = detail::remedy_counters(stepper);  // (added: stats sums the caller's steps)
+    stats.remedied_steps += after.remedied_steps - before.remedied_steps;
+    stats.components_remedied += after.components_remedied - before.components_remedied;
 }
 
 /// Take `n` steps of size dt from (x, t0). The observer sees (x, t, step index), or (x, t), at step 0, every

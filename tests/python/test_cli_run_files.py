@@ -96,6 +96,13 @@ def test_interrupted_spectral_run_keeps_its_snapshots_rows_and_summary(cli, tmp_
     assert s["t_stopped"] == float(rows[-1][1])
     assert s["invariants"]["energy"]["final"] == float(rows[-1][2])
     assert not temporaries(tmp_path)
+    # the remedy's counts so far (they were 0: the library's run added them to its statistics at the end only)
+    r = run_cli(cli, "run", "navier-stokes-2d", "--N", "32", "--steps", step, "--fftw-wisdom", "none",
+                "--fftw-estimate", "--summary-json", tmp_path / "whole.json")
+    whole = json.loads((tmp_path / "whole.json").read_text())
+    assert whole["remedied_steps"] > 0
+    for key in ["remedied_steps", "components_remedied", "rhs_evals"]:
+        assert s[key] == whole[key], key
 
 
 # A stop writes the checkpoint a run asked for (--checkpoint, --checkpoint-every; a restart's file, continued in
@@ -256,6 +263,24 @@ def test_a_snapshot_over_the_ic_or_restart_file_is_refused(cli, tmp_path, checkp
             "--snapshot-every", 2, "--snapshot-dir", tmp_path / "sd3")
     assert sorted(p.name for p in (tmp_path / "sd3").glob("vorticity_*.h5")) == [
         "vorticity_%08d.h5" % i for i in range(0, 9, 2)]
+
+
+def test_a_snapshot_directory_of_another_equation_is_refused(cli, tmp_path):
+    """Two equations' runs share the spectra's names: a surface-QG run into a Navier-Stokes run's directory would
+    replace its spectra and leave the two runs' fields side by side, even at the very steps it writes."""
+    sd = tmp_path / "sd"
+    run_cli(cli, *small("--steps", 2, "--snapshot-every", 1, "--snapshot-dir", sd))
+    before = {p.name: p.read_bytes() for p in sd.iterdir()}
+    assert "spectrum_00000001.csv" in before
+    for model in ["surface-qg", "charney-hasegawa-mima"]:
+        msg = cli_error(cli, "run", model, "--N", "16", "--fftw-estimate", "--fftw-wisdom", "none", "--dt", "0.01",
+                        "--steps", 2, "--snapshot-every", 1, "--snapshot-dir", sd, "--output", tmp_path / "o.csv")
+        assert re.fullmatch(rf"--snapshot-dir '{re.escape(str(sd))}' holds another equation's snapshots "
+                            r"\('vorticity_0000000[0-2]\.(h5|png)', navier-stokes-2d's\): this run's spectra would replace "
+                            r"its; give another directory", msg), msg
+        assert {p.name: p.read_bytes() for p in sd.iterdir()} == before
+        assert not (tmp_path / "o.csv").exists()
+    run_cli(cli, *small("--steps", 2, "--snapshot-every", 1, "--snapshot-dir", sd))  # its own run again: taken
 
 
 def test_the_checkpoint_may_continue_the_restart_file_in_place(cli, tmp_path, checkpoint):
