@@ -114,6 +114,14 @@ def _is_bool(v):
     return isinstance(v, _np.ndarray) and v.dtype.kind == "b"
 
 
+def _keywords(init, types=False):
+    """The keyword parameters of a compiled constructor, from its signature (pybind11's first line of help)."""
+    import re
+    head = (init.__doc__ or "").split("\n", 1)[0]
+    params = re.findall(r"(\w+): ([^=,]+?)(?: = [^,]*)?(?:,|\) ->)", head.split(",", 1)[1] if "," in head else "")
+    return params if types else [name for name, _ in params]
+
+
 def _refuse_bools(cls, flags=()):
     """A parameter given as True or False is a mistake the compiled constructor would read as 1 or 0 (nu=True as
     a viscosity of 1, threads=True as one thread): refused with TypeError naming it. `flags` are the parameters
@@ -131,7 +139,20 @@ def _refuse_bools(cls, flags=()):
         for name in flags:
             if name in kwargs and not isinstance(kwargs[name], (bool, _np.bool_)):
                 raise TypeError(f"{cls.__name__}: {name} must be True or False, not {type(kwargs[name]).__name__}")
-        init(self, *args, **kwargs)
+        try:
+            init(self, *args, **kwargs)
+        except TypeError as e:  # pybind11's many lines ("incompatible constructor arguments", the signature): one
+            if "incompatible constructor arguments" not in str(e):
+                raise
+            known = _keywords(init)
+            unknown = [k for k in kwargs if k not in known]
+            if unknown:
+                raise TypeError(f"{cls.__name__}() got an unexpected keyword argument {unknown[0]!r} (it takes: "
+                                f"{', '.join(known)})") from None
+            if len(args) > len(known):
+                raise TypeError(f"{cls.__name__}() takes at most {len(known)} arguments ({len(args)} given)") from None
+            raise TypeError(f"{cls.__name__}(): an argument of the wrong type (it takes: "
+                            f"{', '.join(f'{k}: {t}' for k, t in _keywords(init, types=True))})") from None
         _made[self] = (_rebuild, (cls, args, dict(kwargs)))
 
     __init__.__doc__ = init.__doc__

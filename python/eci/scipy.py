@@ -85,17 +85,20 @@ class EmbeddedPair(OdeSolver):
         self.max_step = validate_max_step(max_step)
         self.rtol, self.atol = validate_tol(rtol, atol, self.n)
         f0 = self.fun(self.t, self.y)
+        if np.shape(f0) != self.y.shape:  # (before SciPy's initial-step rule, which failed on it with NumPy's words)
+            raise ValueError(f"fun(t, y) returned an array of shape {np.shape(f0)}, expected {self.y.shape} like y0")
+        self._weights = self._invariant_weights(invariant_weights, f0)
+        # The engine calls fun itself (not through self.fun) and counts the calls: nfev adds them (property below).
+        # Made before the first step is chosen: it refuses a state a conservative pair cannot step.
+        engine_fun = self.fun_single if vectorized else fun
+        self._engine = _eci._embedded_stepper(self.eci_method, engine_fun, float(self.t), self.y, f0, self.rtol,
+                                              self.atol)
         if first_step is None:
             self.h_abs = self._initial_step(f0)
         else:
             self.h_abs = validate_first_step(first_step, t0, t_bound)
         self.error_exponent = -1 / (self.error_estimator_order + 1)
         self.h_previous = None
-        self._weights = self._invariant_weights(invariant_weights, f0)
-        # The engine calls fun itself (not through self.fun) and counts the calls: nfev adds them (property below).
-        engine_fun = self.fun_single if vectorized else fun
-        self._engine = _eci._embedded_stepper(self.eci_method, engine_fun, float(self.t), self.y, f0, self.rtol,
-                                              self.atol)
 
     def _initial_step(self, f0):
         """SciPy's initial-step rule, called as the installed SciPy defines it: newer versions also take the span's
@@ -186,7 +189,7 @@ class EmbeddedPair(OdeSolver):
             if not ok:  # a negative psi^2: the conservative candidate does not exist
                 h_abs *= RADICAND_FACTOR
                 step_rejected = True
-                why = "every step size tried gave a negative psi^2 or a non-finite value"
+                why = "the last step size tried gave a negative psi^2 or a non-finite value"
             elif error_norm < 1:
                 if error_norm == 0:
                     factor = MAX_FACTOR

@@ -120,10 +120,12 @@ struct recorded_output {
     using value_type = std::ranges::range_value_t<S>;
     std::vector<double> t;
     std::vector<value_type> y;
+    std::vector<double> time_lag;  // relaxation RK: each output's state belongs to t + time_lag (else empty)
 
-    void record(double time, const S& x) {
+    void record(double time, const S& x, std::optional<double> lag = std::nullopt) {
         t.push_back(time);
         y.insert(y.end(), std::ranges::begin(x), std::ranges::end(x));
+        if (lag) time_lag.resize(t.size() - 1, 0.0), time_lag.push_back(*lag);
     }
 };
 
@@ -172,6 +174,13 @@ void add_arrays(py::dict& d, recorded_output<S>& out, std::size_t n) {
         auto* owned = new V(std::move(v));
         return std::pair{owned, py::capsule(owned, [](void* p) { delete static_cast<V*>(p); })};
     };
+    // relaxation RK's states belong to t + time_lag (the CLI's time_lag column); None for every other method
+    if (!out.time_lag.empty()) {
+        out.time_lag.resize(out.t.size(), 0.0);
+        d["time_lag"] = py::array_t<double>(m, out.time_lag.data());
+    } else {
+        d["time_lag"] = py::none();
+    }
     auto [tv, t_owner] = handed_over(std::move(out.t));
     auto [yv, y_owner] = handed_over(std::move(out.y));
     const py::array_t<double> t({m}, tv->data(), t_owner);

@@ -21,6 +21,7 @@
 
 #include <eci/adaptive.hpp>
 #include <eci/registry.hpp>
+#include <eci/solve.hpp>
 #include <eci/steppers/embedded_rk.hpp>
 
 #include "module.hpp"
@@ -264,7 +265,15 @@ std::unique_ptr<stepper_base> make_stepper(const std::string& method, py::object
         for_each_pair<T>(
             [&]<class Entry>(Entry*) {
                 if (out || Entry::info.name != method) return;
-                out = std::make_unique<stepper_impl<adaptive_stepper_for<Entry, std::vector<T>>, T>>(
+                using St = adaptive_stepper_for<Entry, std::vector<T>>;
+                // a conservative pair steps squares: a state whose squares under- or overflow is refused as
+                // eci.solve refuses it (every step failed instead, "a negative psi^2 or a non-finite value")
+                if constexpr (St::is_conservative) {
+                    const auto y = py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(y0);
+                    eci::detail::check_conservative_scale(std::vector<T>(y.data(), y.data() + y.size()),
+                                                          Entry::info.name);
+                }
+                out = std::make_unique<stepper_impl<St, T>>(
                     std::move(fun), y0, t0, f0, rtol, atol);
             });
     };

@@ -184,7 +184,7 @@ class recording_sink final : public dynamic_sink<S> {
     S scratch{}, conventional{};
 
     void output(const S& x, const output_point& p) override {
-        if (!req || !req->no_outputs) out->record(p.t, x);
+        if (!req || !req->no_outputs) out->record(p.t, x, p.time_lag);
     }
     void progress(double, std::uint64_t) override { (*interrupt)(); }
     bool observes_steps() const override { return req && req->sees_steps(); }

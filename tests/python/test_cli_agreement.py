@@ -829,3 +829,20 @@ def test_whole_numbers_beyond_64_bits_are_refused_alike(cli):
         assert str(e.value) == message.replace("--seed", "seed")
     assert M.NWave(seed=2 ** 63).name == "n-wave"  # (the CLI takes it too)
     run_cli(cli, "run", "n-wave", "--seed", str(2 ** 63), "--steps", 1)
+
+
+# The relaxation methods' states belong to t + time_lag (the CLI's time_lag column, docs/comparison.md): Python kept
+# the times and dropped the lags, so that the default method of NonlinearOscillator and KeplerCartesian gave states
+# compared against the wrong times.
+def test_relaxation_time_lags_match_the_cli(cli, tmp_path):
+    t, columns, summary = cli_run(cli, tmp_path, "nonlinear-oscillator", "rrk-rk4", 0.1, 10.0)
+    r = eci.solve(M.NonlinearOscillator(), (0.0, 10.0), method="rrk-rk4", dt=0.1)
+    assert np.array_equal(r.t, t)
+    assert r.time_lag is not None and np.array_equal(r.time_lag, columns["time_lag"])
+    assert np.count_nonzero(r.time_lag) > len(t) // 2
+    assert r.time_lag[-1] == summary["time_lag"]
+    assert eci.solve(M.NonlinearOscillator(), (0.0, 10.0), method="rk4", dt=0.1).time_lag is None
+    # with t_eval: the grid points' lags, and the extra points' (a step from the grid state) 0, as the CLI's rows
+    r = eci.solve(M.KeplerCartesian(), (0.0, 1.0), dt=0.1, t_eval=[0.0, 0.25, 0.5, 1.0])
+    assert r.method == "rrk-rk4" and r.time_lag.shape == (4,)
+    assert r.time_lag[0] == 0.0 and r.time_lag[2] != 0.0

@@ -305,3 +305,25 @@ def test_a_zero_error_scale_is_named(cls):
     assert r.status == -1, r.message
     assert r.message.startswith("atol is 0 where y[0] = 0 at t = 0.0: the error scale atol + rtol |y| is 0 there"), \
         r.message
+
+
+# A conservative pair steps squares: from a state whose squares overflow (or underflow) every step failed with "a
+# negative psi^2 or a non-finite value" after thousands of calls; refused at once, in eci.solve's words.
+@pytest.mark.parametrize("cls", [c for c in eci.scipy.solvers().values() if c.conservative])
+def test_a_state_whose_squares_overflow_is_refused_by_the_conservative_pairs(cls):
+    rotation = lambda t, y: np.array([-y[1], y[0]])  # noqa: E731
+    for y0, what in [([1e200, 1e200], "overflows"), ([1e-170, 0.0], "underflows")]:
+        with pytest.raises(ValueError, match=f"largest component is .*: its square {what}, and method "
+                                             f"{cls.eci_method} steps squares"):
+            solve_ivp(rotation, (0, 1), y0, method=cls)
+    assert solve_ivp(rotation, (0, 1), [1e150, 0.0], method=cls).success
+
+
+# fun returning the wrong shape: one line before SciPy's initial-step rule (it failed there with NumPy's broadcast
+# error); None is an array of shape () after SciPy's conversion.
+@pytest.mark.parametrize("cls", [eci.scipy.DP54, eci.scipy.CDP54])
+def test_fun_of_the_wrong_shape_is_named_before_the_first_step(cls):
+    for value, shape in [(np.array([1.0, 2.0, 3.0]), r"\(3,\)"), (None, r"\(\)")]:
+        with pytest.raises(ValueError, match=rf"^fun\(t, y\) returned an array of shape {shape}, expected \(2,\) like "
+                                             r"y0$"):
+            solve_ivp(lambda t, y, v=value: v, (0, 1), [1.0, 0.0], method=cls)

@@ -119,3 +119,15 @@ def test_corrupt_checkpoint_fields_are_refused(cli, tmp_path, attribute, value, 
                     "--checkpoint", ck)
     assert needle in msg, msg
     assert ck.read_bytes() == before  # nothing replaced
+
+
+# A keyword a flow's constructor does not take, or an argument of the wrong type, is one line naming it (pybind11's
+# "incompatible constructor arguments" listed the signature over many lines).
+def test_a_constructors_bad_argument_is_one_line():
+    with pytest.raises(TypeError, match=r"^SurfaceQG\(\) got an unexpected keyword argument 'beta' \(it takes: n, nu, "):
+        eci.models.SurfaceQG(n=16, beta=1.0)
+    with pytest.raises(TypeError) as e:
+        eci.models.NavierStokes2D(nu="a")
+    assert "\n" not in str(e.value) and str(e.value).startswith("NavierStokes2D(): an argument of the wrong type (it "
+                                                                "takes: n: int, nu: float, ")
+    assert "beta=1" in repr(eci.models.CharneyHasegawaMima(n=16, beta=1.0))  # (its keywords taken as before)
