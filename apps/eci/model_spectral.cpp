@@ -250,7 +250,7 @@ class spectral_command final : public model_command {
         whole("checkpoint-every", "write the checkpoint every K steps (default: only when stopped by a signal)", 1);
         text("forcing", "none, deterministic (fixed band, random phases) or stochastic (white in time) (default none)");
         text("ic", "initial condition: random, vortex-pair, taylor-green, or FILE (an eci snapshot or checkpoint "
-                   ".h5 on the same grid) (default random)");
+                   ".h5; its grid is the default --N) (default random)");
         text("snapshot-dir", "directory of the snapshots (default " + default_snapshot_dir_ + ")");
         text("checkpoint", "checkpoint file, also written when stopped by SIGINT, SIGTERM, SIGHUP or SIGQUIT "
                            "(default " + default_checkpoint_ + "; with --restart, the restart file, continued in "
@@ -484,7 +484,18 @@ int spectral_command::run_spread(const run_settings& settings) {
     };
     if (!restart) {
         p.equation = name_;
-        p.n = whole_setting("N", "n", 256);
+        // --ic FILE without --N: the file's grid (its field is loaded on the grid it was written on)
+        std::uint64_t default_n = 256;
+        const std::string ic_file = given_text("ic").value_or("random");
+        if (!given_whole("N") && ic_file != "random" && ic_file != "vortex-pair" && ic_file != "taylor-green") {
+            try {
+                default_n = std::uint64_t(is_checkpoint(ic_file) ? read_checkpoint(ic_file, 0, false).params.n
+                                                                 : read_vorticity(ic_file, 0, false).first);
+            } catch (const std::exception& e) {
+                throw bad_input(std::string("--ic: ") + e.what());
+            }
+        }
+        p.n = whole_setting("N", "n", default_n);
         p.hyper_p = whole_setting("hyper-p", "hyper_p", 2);
         p.hypo_p = whole_setting("hypo-p", "hypo_p", 1);
         p.hypo_nu = given_real("hypo-nu").value_or(0.0);

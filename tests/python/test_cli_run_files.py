@@ -557,3 +557,21 @@ def test_a_write_failure_names_the_checkpoint_kept(cli, tmp_path):
         step = int(f.attrs["step"])
     assert line.endswith("; last good checkpoint: uf_ck.h5 (step %d)" % step), line
     assert not (tmp_path / "uf.csv").exists()
+
+
+# --ic FILE without --N takes the file's grid (it said "holds a 32^2 grid, not N = 256": the default N); another
+# --N is still refused.
+def test_an_ic_file_gives_the_grid_when_n_is_not_given(cli, tmp_path):
+    run_cli(cli, *small("--steps", 2, "--checkpoint-every", 2, "--checkpoint", tmp_path / "c.h5", "--snapshot-every",
+                        2, "--snapshot-dir", tmp_path / "sd"))
+    for ic in [tmp_path / "c.h5", tmp_path / "sd" / "vorticity_00000002.h5"]:
+        out = tmp_path / "out.h5"
+        out.unlink(missing_ok=True)
+        run_cli(cli, "run", "surface-qg", "--ic", ic, "--steps", 1, "--fftw-estimate", "--fftw-wisdom", "none",
+                "--checkpoint-every", 1, "--checkpoint", out)
+        with h5py.File(out, "r") as f:
+            assert int(f.attrs["N"]) == 16
+        msg = cli_error(cli, "run", "navier-stokes-2d", "--ic", ic, "--N", "32", "--steps", 1, "--fftw-wisdom", "none")
+        assert msg == f"--ic: {ic} holds a 16^2 grid, not N = 32", msg
+    msg = cli_error(cli, "run", "navier-stokes-2d", "--ic", tmp_path / "missing.h5", "--steps", 1)
+    assert msg.startswith("--ic: "), msg
