@@ -744,6 +744,17 @@ int spectral_command::run_spread(const run_settings& settings) {
             failure = (restart ? "cannot restart: " : "--ic: ") + std::string(e.what());
         }
         if (failure = first_failure(MPI_COMM_WORLD, failure); !failure.empty()) throw bad_input(failure);
+        // a checkpoint's state against its checksum: every process's part, summed (the same verdict on all)
+        const ns2d_checkpoint& header = restart ? ck : ic_checkpoint ? *ic_checkpoint : ck;
+        if ((restart || ic_checkpoint) && header.checksum) {
+            const std::uint64_t part = state_checksum(part_columns.data(), p.n, g.first_column(), g.local_columns());
+            std::uint64_t whole = 0;
+            MPI_Allreduce(&part, &whole, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
+            if (whole != *header.checksum)
+                throw bad_input((restart ? "cannot restart: " + restart_ : "--ic: " + ic_) + ": " +
+                                std::string(spectral::find_equation(header.params.equation).symbol) +
+                                "_hat does not match its checksum (a damaged or edited file)");
+        }
 #endif
     }
     state w;

@@ -346,8 +346,9 @@ handle open_for_reading(const std::string& path) {
     return handle(H5Fopen(path.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose, "cannot open " + path);
 }
 
-void put_checkpoint_attributes(hid_t f, const ns2d_checkpoint& c) {
+void put_checkpoint_attributes(hid_t f, const ns2d_checkpoint& c, std::uint64_t checksum) {
         put(f, "format", format_of(c.params.equation, "checkpoint"));
+        put(f, "state_checksum", checksum);
         put(f, "version", std::int64_t(1));
         put_params(f, c.params);
         put(f, "threads", std::int64_t(c.params.threads));
@@ -515,10 +516,31 @@ std::string first_failure(MPI_Comm comm, const std::string& mine) {
 }
 #endif
 
+std::uint64_t state_checksum(const std::complex<double>* state, int n, int first_column, int columns) {
+    const std::uint64_t width = std::uint64_t(n / 2 + 1);
+    const auto mix = [](std::uint64_t z) {  // splitmix64's finaliser
+        z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+        z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+        return z ^ (z >> 31);
+    };
+    std::uint64_t sum = 0;
+    for (std::uint64_t y = 0; y < std::uint64_t(n); ++y)
+        for (std::uint64_t j = 0; j < std::uint64_t(columns); ++j) {
+            const std::complex<double>& v = state[y * std::uint64_t(columns) + j];
+            const std::uint64_t g = y * width + std::uint64_t(first_column) + j;
+            std::uint64_t re = 0, im = 0;
+            std::memcpy(&re, &reinterpret_cast<const double(&)[2]>(v)[0], sizeof re);
+            std::memcpy(&im, &reinterpret_cast<const double(&)[2]>(v)[1], sizeof im);
+            sum += mix(mix(2 * g + 0x9E3779B97F4A7C15ull) ^ re) + mix(mix(2 * g + 1 + 0x9E3779B97F4A7C15ull) ^ im);
+        }
+    return sum;
+}
+
 void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
+    const std::uint64_t checksum = state_checksum(c.state.data(), c.params.n, 0, c.params.n / 2 + 1);
     write_replacing(path, "checkpoint", [&](const std::string& tmp) {
         write_h5(tmp, "checkpoint '" + path + "'", [&](hid_t f) {
-        put_checkpoint_attributes(f, c);
+        put_checkpoint_attributes(f, c, checksum);
         const hsize_t rows = hsize_t(c.params.n), cols = hsize_t(c.params.n / 2 + 1);
         write_dataset(f, state_dataset(spectral::find_equation(c.params.equation)).c_str(),
                       reinterpret_cast<const double*>(c.state.data()), {rows, cols * 2});
@@ -538,6 +560,10 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c, MPI_Com
                      reinterpret_cast<const double*>(c.state.data())};
     if (c.state.size() != std::size_t(rows) * std::size_t(columns))
         throw std::logic_error("write_checkpoint: the state is not n rows of this process's columns");
+    // the whole state's checksum: every process's part, summed (collective, before rank 0 writes the attributes)
+    const std::uint64_t part = state_checksum(c.state.data(), c.params.n, first_column, columns);
+    std::uint64_t checksum = 0;
+    MPI_Allreduce(&part, &checksum, 1, MPI_UINT64_T, MPI_SUM, comm);
     std::string failure;
     if (rank == 0) {
         // the temporary: its attributes and the whole dataset, allocated (rank 0 alone); then every process's
@@ -548,7 +574,7 @@ void write_checkpoint(const std::string& path, const ns2d_checkpoint& c, MPI_Com
                 std::string own;
                 try {
                     write_h5(tmp, what, [&](hid_t f) {
-                        put_checkpoint_attributes(f, c);
+                        put_checkpoint_attributes(f, c, checksum);
                         allocate_dataset(f, name.c_str(), rows, cols * 2);
                     });
                 } catch (const std::exception& e) {
@@ -629,6 +655,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     c.rng_state = get<std::uint64_t>(f, "rng_state");
     c.halvings = get<std::uint64_t>(f, "halvings");
     c.rhs_evals = get<std::uint64_t>(f, "rhs_evals");
+    if (H5Aexists(f, "state_checksum") > 0) c.checksum = get<std::uint64_t>(f, "state_checksum");  // (since 0.1's
+    // session 35: earlier checkpoints restart unchecked)
     c.budget.energy_injection = get<double>(f, "energy_injection");
     c.budget.energy_dissipation = get<double>(f, "energy_dissipation");
     c.budget.enstrophy_injection = get<double>(f, "enstrophy_injection");
@@ -691,6 +719,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
             throw std::runtime_error(path + ": " + name + " holds a non-finite value");
         c.state[i] = {v[2 * i], v[2 * i + 1]};
     }
+    if (c.checksum && state_checksum(c.state.data(), p.n, 0, p.n / 2 + 1) != *c.checksum)
+        throw std::runtime_error(path + ": " + name + " does not match its checksum (a damaged or edited file)");
     return c;
 }
 

@@ -5,6 +5,7 @@
 #include <complex>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -42,7 +43,16 @@ struct ns2d_checkpoint {
     double energy0 = 0.0, enstrophy0 = 0.0;
     double max_energy_drift = 0.0, max_enstrophy_drift = 0.0;      ///< max |I - I0| over steps
     double max_energy_residual = 0.0, max_enstrophy_residual = 0.0;  ///< max per-step budget residual, relative
+    /// The state's checksum as read from the file (state_checksum; none in files of earlier versions). Written from
+    /// the state itself, never from this field.
+    std::optional<std::uint64_t> checksum;
 };
+
+/// A checksum of n rows of `columns` modes of the half plane from column first_column (row-major, a process's
+/// columns or the whole half plane): a sum over the modes, mod 2^64, of a hash of each mode's global index and
+/// bits, so that the parts of any split over processes add up to the whole's. A checkpoint stores it; a restart or
+/// --ic refuses a state that does not match (a damaged or edited file that is still finite).
+std::uint64_t state_checksum(const std::complex<double>* state, int n, int first_column, int columns);
 
 /// Writes the checkpoint through output.hpp's write_replacing (a temporary beside the target, HDF5's flush and close
 /// checked, synced, renamed over `path`); throws run_error.

@@ -509,8 +509,9 @@ def attrs_equal(a, b, skip=(), rtol=0.0, atol=0.0):
 
 def case_files(d):
     # A snapshot and a checkpoint of the same run on 1 (serial tool), 2 and 3 processes: the same datasets, shapes,
-    # types and attributes (every value, but a checkpoint's FFTW wisdom, which an MPI run does not keep), the
-    # values equal to round-off (the distributed transforms; the bound of case_state).
+    # types and attributes (every value, but a checkpoint's FFTW wisdom, which an MPI run does not keep, and its
+    # state's checksum, which follows the state's bits), the values equal to round-off (the distributed transforms;
+    # the bound of case_state). Each file's checksum matches its own state: the serial tool restarts from it below.
     steps = 20
     bound = 16 * EPS * np.sqrt(steps)
     args = BASE + ["--nu", "1e-3", "--forcing", "stochastic", "--forcing-k", "3", "--steps", str(steps),
@@ -525,7 +526,7 @@ def case_files(d):
     for np_ in (2, 3):
         for kind, a_path, b_path, skip in (("snapshot", os.path.join(d, "s0", snap), os.path.join(d, f"s{np_}", snap), ()),
                                            ("checkpoint", os.path.join(d, "c0.h5"), os.path.join(d, f"c{np_}.h5"),
-                                            ("fftw_wisdom",))):
+                                            ("fftw_wisdom", "state_checksum"))):
             with h5py.File(a_path, "r") as a, h5py.File(b_path, "r") as b:
                 # (a checkpoint's E0, Z0, budgets, drifts and residuals are the run's sums: to round-off, 1e-9
                 # relative or 1e-12 of E0, Z0 absolute; every other attribute, the parameters, step, time, generator
@@ -542,6 +543,11 @@ def case_files(d):
                 if kind == "checkpoint":
                     check(a.attrs["fftw_wisdom"] != b"" and b.attrs["fftw_wisdom"] == b"",
                           f"-np {np_} checkpoint: no FFTW wisdom (the serial one's kept)")
+        # its state's checksum, the sum of every process's part: the serial tool checks it on restart
+        r = run(0, ["--fftw-wisdom", "none", "--restart", f"c{np_}.h5", "--steps", str(steps + 1), "--checkpoint",
+                    f"r{np_}.h5"], d)
+        check(r.returncode == 0, f"-np {np_} checkpoint restarts in the serial tool (its checksum: its state's) "
+                                 f"{r.stderr.strip()[-200:] if r.returncode else ''}")
     # --output FILE.h5 on 2 processes: rank 0 writes the rows as HDF5, the serial tool's diagnostics to round-off
     r0 = run(0, BASE + ["--steps", "5", "--output", "h0.h5"], d)
     r2 = run(2, BASE + ["--steps", "5", "--output", "h2.h5"], d)

@@ -575,3 +575,23 @@ def test_an_ic_file_gives_the_grid_when_n_is_not_given(cli, tmp_path):
         assert msg == f"--ic: {ic} holds a 16^2 grid, not N = 32", msg
     msg = cli_error(cli, "run", "navier-stokes-2d", "--ic", tmp_path / "missing.h5", "--steps", 1)
     assert msg.startswith("--ic: "), msg
+
+
+# A finite value damaged or edited in a checkpoint's state is refused by its checksum (it restarted silently from the
+# changed field), for --restart and --ic alike; a checkpoint of an earlier version, without one, restarts unchecked.
+def test_a_checkpoint_whose_state_was_changed_is_refused(cli, tmp_path, checkpoint):
+    run_cli(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
+            "--checkpoint", tmp_path / "ok.h5", "--checkpoint-every", 4)  # (unchanged: taken)
+    with h5py.File(checkpoint, "r+") as f:
+        assert "state_checksum" in f.attrs
+        f["omega_hat"][3, 4] = f["omega_hat"][3, 4] * (1 + 2 ** -52) + 1e-300
+    msg = cli_error(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
+                    "--checkpoint", tmp_path / "cc.h5")
+    assert msg == f"cannot restart: {checkpoint}: omega_hat does not match its checksum (a damaged or edited file)", msg
+    msg = cli_error(cli, *small("--ic", checkpoint, "--steps", 1))
+    assert msg == f"--ic: {checkpoint}: omega_hat does not match its checksum (a damaged or edited file)", msg
+    assert not (tmp_path / "cc.h5").exists()
+    with h5py.File(checkpoint, "r+") as f:
+        del f.attrs["state_checksum"]
+    run_cli(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
+            "--checkpoint", tmp_path / "cc.h5", "--checkpoint-every", 4)
