@@ -561,10 +561,16 @@ std::string_view missing_declaration(const method_info& m) {
         return "relaxation and projection keep the invariants a model declares, and it declares none";
     // multiple relaxation (a relaxation method that keeps every declared invariant: mrrk-*) needs exactly two
     if constexpr (declares_invariants<M>) {
-        if (m.family == method_family::relaxation && m.conservative && independent_invariant_count<M> != 2)
-            return independent_invariant_count<M> < 2
-                       ? "multiple relaxation keeps two independent invariants, and this model declares one"
-                       : "multiple relaxation keeps two independent invariants, and this model declares more";
+        if (m.family == method_family::relaxation && m.conservative && independent_invariant_count<M> != 2) {
+            if (independent_invariant_count<M> > 2)
+                return "multiple relaxation keeps two independent invariants, and this model declares more";
+            // (Kepler reports three invariants, of which one is independent: "declares one" read as a contradiction)
+            if constexpr (names_independent_invariants<M>)
+                if (M::invariants().size() > independent_invariant_count<M>)
+                    return "multiple relaxation keeps two independent invariants, and of the invariants this model "
+                           "declares one is independent";
+            return "multiple relaxation keeps two independent invariants, and this model declares one";
+        }
     }
     return {};
 }

@@ -162,6 +162,27 @@ TEST(DeclaredInvariants, AModelThatDeclaresNoneIsRefusedThemWithTheReason) {
                   0u)
             << what;
     }
+    // Kepler reports three invariants (H and the Runge-Lenz vector), one of them independent: said so ("declares one"
+    // read as a contradiction of its summary's three)
+    {
+        const auto preset = eci::kepler::presets().front();
+        eci::kepler m = preset.model;
+        eci::kepler::state_type x = preset.x0;
+        eci::run_config cfg;
+        cfg.t_end = 1.0;
+        cfg.dt = 0.1;
+        std::string what = "accepted";
+        try {
+            eci::solve<eci::kepler>(m, x, "mrrk-rk4", cfg, eci::no_sink{}, {}, "model kepler");
+        } catch (const std::invalid_argument& e) {
+            what = e.what();
+        }
+        EXPECT_EQ(what.rfind("method 'mrrk-rk4' is not available for model kepler: multiple relaxation keeps two "
+                             "independent invariants, and of the invariants this model declares one is independent (",
+                             0),
+                  0u)
+            << what;
+    }
 }
 
 // Central differences with h = eps^(1/3) |x|-scaled: error O(h^2) + O(eps / h) ~ eps^(2/3) ~ 4e-11 relative to the
