@@ -47,6 +47,9 @@ std::string field_stem(std::string_view field) {
     return stem;
 }
 
+// Whether --ic names one of the built-in initial fields (else it names a file).
+bool named_initial_field(std::string_view ic) { return ic == "random" || ic == "vortex-pair" || ic == "taylor-green"; }
+
 // ---- MPI (the MPI build under mpirun with more than one process): the run is spread over MPI_COMM_WORLD. Every
 // process validates the same input (each reads the files' headers); the verdict is agreed once, before the first
 // collective, so a bad input exits 2 on every process with nothing written. Each process then reads its own part
@@ -359,6 +362,7 @@ std::optional<std::uint64_t> snapshot_step(const std::string& name, const std::s
 const spectral::equation* other_equations_snapshot(const std::string& name, const std::string& stem) {
     for (const spectral::equation* e : spectral::equations()) {
         const std::string other = field_stem(e->field);
+        // (snapshot_step takes the spectra too, whose names every equation shares: the field's own prefix decides)
         if (other != stem && name.compare(0, other.size() + 1, other + "_") == 0 && snapshot_step(name, other))
             return e;
     }
@@ -487,7 +491,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         // --ic FILE without --N: the file's grid (its field is loaded on the grid it was written on)
         std::uint64_t default_n = 256;
         const std::string ic_file = given_text("ic").value_or("random");
-        if (!given_whole("N") && ic_file != "random" && ic_file != "vortex-pair" && ic_file != "taylor-green") {
+        if (!given_whole("N") && !named_initial_field(ic_file)) {
             try {
                 default_n = std::uint64_t(is_checkpoint(ic_file) ? read_checkpoint(ic_file, 0, false).params.n
                                                                  : read_vorticity(ic_file, 0, false).first);
@@ -536,7 +540,7 @@ int spectral_command::run_spread(const run_settings& settings) {
              {"forcing_k", "forcing_seed", "forcing_amplitude", "injection_rate", "hyper_p", "hypo_p"})
             if (spec(option_name(field).substr(2)).given)
                 if (const std::string why = p.unused_setting(field, option_name); !why.empty()) throw bad_input(why);
-        const bool named_field = ic_ == "random" || ic_ == "vortex-pair" || ic_ == "taylor-green";
+        const bool named_field = named_initial_field(ic_);
         const auto for_ic = [&](const char* option, bool used, const char* what) {
             if (spec(option).given && !used)
                 throw bad_input(std::string("--") + option + " sets " + what + ", and this run's --ic is " +
@@ -600,7 +604,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     std::vector<std::pair<std::string, std::string>> inputs;
     if (restart) inputs.emplace_back("--restart", restart_);
     if (const std::string ic = given_text("ic").value_or("");
-        !ic.empty() && ic != "random" && ic != "vortex-pair" && ic != "taylor-green")
+        !ic.empty() && !named_initial_field(ic))
         inputs.emplace_back("--ic", ic);
     {
         std::vector<std::pair<std::string, std::string>> outputs;
@@ -684,7 +688,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     // ---- the initial condition (a file of another grid is an error)
     std::optional<ns2d_checkpoint> ic_checkpoint;
     std::optional<std::pair<int, std::vector<double>>> ic_field;
-    if (!restart && ic_ != "random" && ic_ != "vortex-pair" && ic_ != "taylor-green") {
+    if (!restart && !named_initial_field(ic_)) {
         try {
             if (is_checkpoint(ic_))
                 ic_checkpoint = read_checkpoint(ic_, p.n, !mpi.on);
@@ -751,9 +755,8 @@ int spectral_command::run_spread(const run_settings& settings) {
             std::uint64_t whole = 0;
             MPI_Allreduce(&part, &whole, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
             if (whole != *header.checksum)
-                throw bad_input((restart ? "cannot restart: " + restart_ : "--ic: " + ic_) + ": " +
-                                std::string(spectral::find_equation(header.params.equation).symbol) +
-                                "_hat does not match its checksum (a damaged or edited file)");
+                throw bad_input((restart ? "cannot restart: " : "--ic: ") +
+                                checksum_mismatch(restart ? restart_ : ic_, header.params.equation));
         }
 #endif
     }

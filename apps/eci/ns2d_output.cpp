@@ -536,6 +536,11 @@ std::uint64_t state_checksum(const std::complex<double>* state, int n, int first
     return sum;
 }
 
+std::string checksum_mismatch(const std::string& path, const std::string& equation) {
+    return path + ": " + state_dataset(spectral::find_equation(equation)) +
+           " does not match its checksum (a damaged or edited file)";
+}
+
 void write_checkpoint(const std::string& path, const ns2d_checkpoint& c) {
     const std::uint64_t checksum = state_checksum(c.state.data(), c.params.n, 0, c.params.n / 2 + 1);
     write_replacing(path, "checkpoint", [&](const std::string& tmp) {
@@ -655,8 +660,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     c.rng_state = get<std::uint64_t>(f, "rng_state");
     c.halvings = get<std::uint64_t>(f, "halvings");
     c.rhs_evals = get<std::uint64_t>(f, "rhs_evals");
-    if (H5Aexists(f, "state_checksum") > 0) c.checksum = get<std::uint64_t>(f, "state_checksum");  // (since 0.1's
-    // session 35: earlier checkpoints restart unchecked)
+    // (checkpoints of earlier versions have no checksum: they restart unchecked)
+    if (H5Aexists(f, "state_checksum") > 0) c.checksum = get<std::uint64_t>(f, "state_checksum");
     c.budget.energy_injection = get<double>(f, "energy_injection");
     c.budget.energy_dissipation = get<double>(f, "energy_dissipation");
     c.budget.enstrophy_injection = get<double>(f, "enstrophy_injection");
@@ -720,7 +725,7 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
         c.state[i] = {v[2 * i], v[2 * i + 1]};
     }
     if (c.checksum && state_checksum(c.state.data(), p.n, 0, p.n / 2 + 1) != *c.checksum)
-        throw std::runtime_error(path + ": " + name + " does not match its checksum (a damaged or edited file)");
+        throw std::runtime_error(checksum_mismatch(path, equation));
     return c;
 }
 

@@ -53,6 +53,9 @@ struct ns2d_checkpoint {
 /// bits, so that the parts of any split over processes add up to the whole's. A checkpoint stores it; a restart or
 /// --ic refuses a state that does not match (a damaged or edited file that is still finite).
 std::uint64_t state_checksum(const std::complex<double>* state, int n, int first_column, int columns);
+/// What a checkpoint of `equation` at `path` whose state does not match its checksum is told (read_checkpoint's and
+/// a process's check of its parts, summed).
+std::string checksum_mismatch(const std::string& path, const std::string& equation);
 
 /// Writes the checkpoint through output.hpp's write_replacing (a temporary beside the target, HDF5's flush and close
 /// checked, synced, renamed over `path`); throws run_error.

@@ -646,10 +646,10 @@ remedy_stats remedy_counters(const St& stepper) {
         return {};
 }
 
-/// Adds what the stepper's remedy did since `before` to stats.
+/// Sets stats' remedy counts to what the stepper's remedy did since `before` (set, not added: an observer that
+/// reads the statistics sees them so far, and the run's end sets them again).
 template <class St>
 void collect_remedy_stats(const St& stepper, const remedy_stats& before, run_stats& stats) {
-    // (set, not added: an observer that reads the statistics sees them so far, and the run's end sets them again)
     const remedy_stats after = remedy_counters(stepper);
     stats.remedied_steps = after.remedied_steps - before.remedied_steps;
     stats.components_remedied = after.components_remedied - before.components_remedied;

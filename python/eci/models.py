@@ -6,6 +6,7 @@ default_t_end and the methods it accepts. Invalid parameters raise ValueError wi
 set-ups are named presets: ThreeWave.preset("fig2").solve() is `eci run three-wave --preset fig2`.
 """
 
+import re as _re
 import weakref as _weakref
 from collections import namedtuple as _namedtuple
 
@@ -116,9 +117,8 @@ def _is_bool(v):
 
 def _keywords(init, types=False):
     """The keyword parameters of a compiled constructor, from its signature (pybind11's first line of help)."""
-    import re
     head = (init.__doc__ or "").split("\n", 1)[0]
-    params = re.findall(r"(\w+): ([^=,]+?)(?: = [^,]*)?(?:,|\) ->)", head.split(",", 1)[1] if "," in head else "")
+    params = _re.findall(r"(\w+): ([^=,]+?)(?: = [^,]*)?(?:,|\) ->)", head.split(",", 1)[1] if "," in head else "")
     return params if types else [name for name, _ in params]
 
 

@@ -255,7 +255,7 @@ class radicand_remedy {
             ++stats_.refiled;
             return false;
         }
-        stats_.lumped += std::uint64_t(hist_[ratio_buckets * stride]);
+        stats_.lumped += std::uint64_t(hist_[lumped_bucket()]);
         too_small_ = false;
         for (std::size_t limit = filed;;) {
             const std::size_t cut = widest_cut(limit, held_neg);
@@ -283,7 +283,7 @@ class radicand_remedy {
     // of those sums in any order (n eps for n below 2^30).
     bool lumping_decides(const std::array<double, max_invariants>& held_neg) const {
         const std::size_t m = weights_.size(), stride = hist_stride();
-        const double* lump = hist_.data() + ratio_buckets * stride;
+        const double* lump = hist_.data() + lumped_bucket();
         if (lump[0] == 0.0) return true;
         const double* h = hist_.data() + (lump_from_ - 1) * stride;  // cut lump_from_: every bucket below it
         for (std::size_t a = 0; a < m; ++a) {
@@ -432,7 +432,7 @@ class radicand_remedy {
 
     // Whether the last conditioned pass filed no element (neg_ and every range's cond_ empty).
     bool filed_none() const {
-        if (!(neg_.empty() && cond_.empty()) || hist_[ratio_buckets * hist_stride()] != 0.0) return false;
+        if (!(neg_.empty() && cond_.empty()) || hist_[lumped_bucket()] != 0.0) return false;
         for (std::size_t r = 0; r < parts_used_; ++r)
             if (!parts_[r].cond.empty()) return false;
         return true;
@@ -493,7 +493,7 @@ class radicand_remedy {
                                              double dq, double d, const filing& into) {
         const std::size_t m = weights_.size();
         if (b >= lump_from_) {  // beyond the predicted cut: counted, with its |change| of each magnitude
-            double* hl = into.hist + ratio_buckets * hist_stride();
+            double* hl = into.hist + lumped_bucket();
             hl[0] += 1.0;
             for (std::size_t a = 0; a < m; ++a) hl[1 + m + a] += std::abs(weights_[a][e]) * std::abs(dq);
             return;
@@ -587,7 +587,7 @@ class radicand_remedy {
                     const double dq = std::abs(c2[b] - q[b]);
                     for (std::size_t a = 0; a < m; ++a) change[a] += std::abs(weights_[a][e0 + b]) * dq;
                 }
-                double* hl = into.hist + ratio_buckets * hist_stride();
+                double* hl = into.hist + lumped_bucket();
                 hl[0] += double(nl);
                 for (std::size_t a = 0; a < m; ++a) hl[1 + m + a] += change[a];
             }
@@ -731,6 +731,8 @@ class radicand_remedy {
         const std::size_t m = weights_.size();
         return 1 + 3 * m + m * m;
     }
+    // Where hist_ keeps the lumped elements' count and |changes| (file_element): the bucket after the last.
+    std::size_t lumped_bucket() const { return ratio_buckets * hist_stride(); }
     // Calls fn(j) for every j (an index into cond_, in filing order) the last successful remedy_elements took
     // (after an unsplit pass: a split pass keeps the further ranges' filing in parts_).
     template <class Fn>
