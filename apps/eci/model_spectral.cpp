@@ -1035,7 +1035,10 @@ int spectral_command::run_spread(const run_settings& settings) {
         const std::string h5 = base + stem_ + "_" + stem + ".h5", png = base + stem_ + "_" + stem + ".png";
         const auto no_pictures = [&] {
             if (!warned_ && !interrupt_requested()) {
-                std::fprintf(stderr, "eci: warning: gnuplot not available, no PNG figures\n");
+                const std::string why = plotting_failure();
+                std::fprintf(stderr, "eci: warning: %s\n",
+                             why.empty() ? "gnuplot not available, no PNG figures"
+                                         : (why + "; no more PNG figures").c_str());
                 warned_ = true;
             }
         };

@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <atomic>
 #include <charconv>
+#include <chrono>
 #include <cctype>
 #include <cerrno>
 #include <climits>
@@ -1040,9 +1041,32 @@ std::string gnuplot_quoted(const std::string& s) {
     return q + "'";
 }
 
+namespace {
+
+std::atomic<bool> plotting_timed_out{false};
+
+}  // namespace
+
+double plotting_time_limit() {
+    const char* env = std::getenv("ECI_PLOT_TIMEOUT");
+    char* end = nullptr;
+    const double v = env && *env ? std::strtod(env, &end) : 0.0;
+    return env && *env && *end == '\0' && v > 0.0 && std::isfinite(v) ? v : 600.0;
+}
+
+std::string plotting_failure() {
+    if (!plotting_timed_out.load()) return {};
+    return plotting_program() + " did not finish a picture within " + gnuplot_number(plotting_time_limit()) +
+           " s ($ECI_PLOT_TIMEOUT) and was stopped";
+}
+
 bool plotting_available() {
-    static const bool available = run_program(plotting_program(), {"--version"}) == 0;
-    return available;
+    static const bool available = [] {
+        const int status = run_program(plotting_program(), {"--version"}, true, plotting_time_limit());
+        if (status == program_timed_out) plotting_timed_out.store(true);
+        return status == 0;
+    }();
+    return available && !plotting_timed_out.load();
 }
 
 // Whether `png` ends as a PNG file ends (its IEND chunk): gnuplot's exit status does not say whether the picture was
@@ -1071,8 +1095,12 @@ bool draw_picture(const std::string& script, const std::string& output) {
     if (!plotting_available()) return false;
     const scoped_temporary file(output + ".gp");
     write_new_file(file.path(), "gnuplot script", [&](std::FILE* f) { std::fputs(script.c_str(), f); });
-    const int status = run_program(program, {file.path()});
+    const int status = run_program(program, {file.path()}, true, plotting_time_limit());
     if (status == -1) return false;
+    if (status == program_timed_out) {
+        plotting_timed_out.store(true);
+        return false;
+    }
     if (status == 0 && whole_png(output)) return true;
     if (const std::string reason = write_failure_reason(output, 0, ""); !reason.empty())
         throw run_error("cannot write picture '" + output + "': " + reason);
@@ -1080,7 +1108,7 @@ bool draw_picture(const std::string& script, const std::string& output) {
 }
 
 
-int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet) {
+int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet, double time_limit) {
     std::fflush(stdout);
     std::fflush(stderr);
     std::vector<const char*> argv{program.c_str()};
@@ -1106,16 +1134,19 @@ int run_program(const std::string& program, const std::vector<std::string>& args
     ::setpgid(pid, pid);  // also here, so that the group exists before the first kill
     register_child(pid);
     int status = 0;
+    const auto started = std::chrono::steady_clock::now();
     for (;;) {
         const pid_t w = ::waitpid(pid, &status, WNOHANG);
         if (w == pid) break;
         const bool lost = w < 0 && errno != EINTR;
-        if (lost || interrupt_requested()) {
+        const bool late = time_limit > 0.0 &&
+                          std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() > time_limit;
+        if (lost || late || interrupt_requested()) {
             ::kill(-pid, SIGKILL);
             while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
             }
             register_child(0);
-            return interrupt_requested() ? -1 : 127;
+            return interrupt_requested() ? -1 : late ? program_timed_out : 127;
         }
         ::usleep(10000);  // 10 ms: an interrupt is seen within that, at no measurable cost
     }

@@ -241,9 +241,21 @@ void set_interrupt_grace(double cpu_seconds, double wall_seconds);
 
 /// Runs `program args...` (PATH lookup, no shell) in its own process group, standard input /dev/null, its output
 /// discarded if `quiet`. The wait polls the interrupt flag: on an interrupt the child's group is killed and -1
-/// returned (the caller decides what the interrupt means; nothing is thrown). Otherwise the exit status, 127 if
-/// the program could not be started, 128 if it died of a signal.
-int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet = true);
+/// returned (the caller decides what the interrupt means; nothing is thrown). A program still running after
+/// `time_limit` seconds of wall time (0: no limit) is killed with its group and program_timed_out returned.
+/// Otherwise the exit status, 127 if the program could not be started, 128 if it died of a signal.
+int run_program(const std::string& program, const std::vector<std::string>& args, bool quiet = true,
+                double time_limit = 0.0);
+inline constexpr int program_timed_out = -2;
+
+/// How long the plotting program may take over one picture (or its --version), in seconds: $ECI_PLOT_TIMEOUT if it
+/// is a positive number, else 600. A plotting program that hangs (a terminal waiting for a display, a script
+/// that never ends) would otherwise hold a run at its first picture for ever.
+double plotting_time_limit();
+
+/// Why pictures are no longer drawn, if the plotting program ran past plotting_time_limit() once (then
+/// plotting_available() is false for the rest of the run); empty otherwise.
+std::string plotting_failure();
 
 /// The plotting program every picture is drawn with (figures, snapshots, spectra): $ECI_GNUPLOT if set and not
 /// empty, else `gnuplot` from PATH.

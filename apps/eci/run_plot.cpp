@@ -43,8 +43,11 @@ void check_plot_request(const std::string& path) {
         throw bad_input("--plot '" + path + "': the picture's name must end in .png, .svg or .pdf");
     if (!plotting_available()) {
         throw_if_interrupted("before the run");  // (the probe of the plotting program was stopped, not refused)
-        throw bad_input("--plot needs gnuplot (Debian package gnuplot-nox), and '" + plotting_program() +
-                        "' does not run");
+        const std::string why = plotting_failure();
+        throw bad_input("--plot needs gnuplot (Debian package gnuplot-nox), and '" + plotting_program() + "' " +
+                        (why.empty() ? "does not run" : "did not answer --version within " +
+                                                            gnuplot_number(plotting_time_limit()) +
+                                                            " s ($ECI_PLOT_TIMEOUT)"));
     }
 }
 
@@ -155,7 +158,10 @@ bool run_plot::draw_into(output_file& png) const {
         s += "\n";
     }
     s += "unset multiplot\nset output\n";
-    if (!draw_picture(s, picture.path())) return false;
+    if (!draw_picture(s, picture.path())) {
+        failure_ = plotting_failure();
+        return false;
+    }
     // the picture into the output's stream (a temporary of its own until commit_outputs, or a device)
     std::FILE* in = std::fopen(picture.path().c_str(), "rb");
     if (!in) return false;

@@ -30,7 +30,10 @@ namespace eci::figures {
 
 using cli::bad_input;
 using cli::interrupt_requested;
+using cli::program_timed_out;
 using cli::run_program;
+using cli::gnuplot_number;
+using cli::plotting_time_limit;
 using cli::plotting_program;
 using cli::run_error;
 using cli::staging_dir;
@@ -196,7 +199,7 @@ int run_figures(const options& options) {
     const std::filesystem::path work = staging.path();
 
     const std::string gnuplot = plotting_program();
-    const bool have_gnuplot = run_program(gnuplot, {"--version"}, true) == 0;
+    const bool have_gnuplot = run_program(gnuplot, {"--version"}, true, plotting_time_limit()) == 0;
 
     const auto start = std::chrono::steady_clock::now();
     std::vector<figure_result> results;
@@ -224,8 +227,11 @@ int run_figures(const options& options) {
         std::string files;
         for (const auto& [name, table] : r.csvs) files += " " + name;
         if (have_gnuplot) {
-            const int status = run_program(gnuplot, {script.string()}, false);
-            if (status < 0) throw_if_interrupted("while gnuplot was drawing");
+            const int status = run_program(gnuplot, {script.string()}, false, plotting_time_limit());
+            if (status == -1) throw_if_interrupted("while gnuplot was drawing");
+            if (status == program_timed_out)
+                throw run_error(gnuplot + " did not finish " + stem + ".gp within " +
+                                gnuplot_number(plotting_time_limit()) + " s ($ECI_PLOT_TIMEOUT) and was stopped");
             if (status != 0)
                 throw run_error(gnuplot + " failed on " + stem + ".gp (exit status " + std::to_string(status) + ")");
             require_nonempty(work / (stem + ".png"), gnuplot);

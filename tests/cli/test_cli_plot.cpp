@@ -186,6 +186,24 @@ TEST_F(cli_plot, a_picture_that_fails_at_the_end_loses_no_other_output) {
     EXPECT_EQ(read_text(work("out.png")), "old picture");
 }
 
+// A plotting program that hangs is stopped after $ECI_PLOT_TIMEOUT seconds (the stand-in would sleep for a minute,
+// then draw): over the picture, the run fails in one line that says so and keeps its other outputs; over --version,
+// --plot is refused before the run.
+TEST_F(cli_plot, a_plotting_program_that_hangs_is_stopped) {
+    const run_result r = eci({"run", "three-wave", "--steps", "10", "--output", "out.csv", "--plot", "out.png"},
+                             "ECI_PLOT_TIMEOUT=0.5 " + fake_plotter(false, "", "sleep 60;"));
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.err.find("the plot 'out.png' could not be drawn by "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("did not finish a picture within 0.5 s ($ECI_PLOT_TIMEOUT)"), std::string::npos) << r.err;
+    EXPECT_EQ(csv_rows(read_text(work("out.csv"))).size(), 11u);
+    EXPECT_FALSE(fs::exists(work("out.png")));
+    const run_result v = eci({"run", "three-wave", "--steps", "10", "--output", "v.csv", "--plot", "v.png"},
+                             "ECI_PLOT_TIMEOUT=0.5 " + fake_plotter(false, "sleep 60;"));
+    EXPECT_EQ(v.status, 2) << v.err;
+    EXPECT_NE(v.err.find("did not answer --version within 0.5 s"), std::string::npos) << v.err;
+    EXPECT_FALSE(fs::exists(work("v.csv")));
+}
+
 // Ctrl-C while the picture is drawn at the end of a finished run: the plotting program is stopped, the run's other
 // outputs are kept whole (they were all lost), exit 130. Ctrl-C while the plotting program is probed before the run:
 // an interrupt (130), not "gnuplot does not run" (2).

@@ -499,6 +499,34 @@ TEST(CliNavierStokes2d, SnapshotsDrawWithTheProgramEciGnuplotNames) {
     EXPECT_EQ(n, 4) << "the stand-in should have drawn each picture once";
 }
 
+// A plotting program that hangs over a picture is stopped after $ECI_PLOT_TIMEOUT seconds: the run says why once,
+// draws no more pictures (the stand-in is called once, not for each of the 6 pictures) and keeps its snapshots.
+TEST(CliNavierStokes2d, APlottingProgramThatHangsIsStoppedAndTheSnapshotsAreKept) {
+    scratch_dir dir("ns2d-plot-hang");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    {
+        std::ofstream fake(d / "plot-tool");
+        fake << "#!/bin/sh\n[ \"$1\" = --version ] && exit 0\necho \"$1\" >> " << q << "/calls\nsleep 60\n";
+    }
+    fs::permissions(d / "plot-tool", fs::perms::owner_all);
+    const auto r = run_eci("run navier-stokes-2d --N 16 --steps 2 --fftw-estimate --fftw-wisdom none "
+                           "--snapshot-every 1 --snapshot-dir " + q + "/snaps",
+                           d, "ECI_PLOT_TIMEOUT=0.5 ECI_GNUPLOT=" + q + "/plot-tool");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string said = "plot-tool did not finish a picture within 0.5 s ($ECI_PLOT_TIMEOUT) and was stopped";
+    const auto at = r.err.find(said);
+    ASSERT_NE(at, std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find(said, at + 1), std::string::npos) << "said once: " << r.err;
+    for (const char* name : {"vorticity_00000000.h5", "vorticity_00000001.h5", "vorticity_00000002.h5"})
+        EXPECT_TRUE(fs::is_regular_file(d / "snaps" / name)) << name;
+    EXPECT_FALSE(fs::exists(d / "snaps" / "vorticity_00000000.png"));
+    std::ifstream calls(d / "calls");
+    int n = 0;
+    for (std::string line; std::getline(calls, line);) ++n;
+    EXPECT_EQ(n, 1);
+}
+
 // A forced exit (a second, different signal during the run) leaves nothing: not the snapshots staged so far, not the
 // snapshot directory the run created (it used to be left behind, empty).
 TEST(CliNavierStokes2d, ForcedExitRemovesTheSnapshotDirectoryItCreated) {
