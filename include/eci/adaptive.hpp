@@ -153,6 +153,9 @@ inline void check_adaptive_options(const adaptive_options& o, std::size_t elemen
     if (!(o.pi_beta >= 0.0 && o.pi_beta < 0.5)) throw std::invalid_argument("pi_beta must be in [0, 0.5)");
     if (!(o.dt_min >= 0.0) || !std::isfinite(o.dt_min)) throw std::invalid_argument("dt_min must be finite, >= 0");
     if (!(o.dt_max > 0.0)) throw std::invalid_argument("dt_max must be positive");
+    if (o.dt_min > o.dt_max)
+        throw std::invalid_argument("dt_min " + detail::shortest_text(o.dt_min) + " exceeds dt_max " +
+                                    detail::shortest_text(o.dt_max));
     if (o.max_attempts == 0) throw std::invalid_argument("max_attempts must be at least 1");
 }
 

@@ -404,6 +404,11 @@ inline void check_config(const run_config& c) {
                                         "(count time from 0: a start time nearer 0)");
     }
     if (c.every == 0) throw std::invalid_argument("output interval must be at least 1");
+    // (a step of the grid halved more than 1074 times is below the smallest double at dt <= 1; a bound of 0
+    // sub-steps would stop every failed step at once, a negative one report "halved -1 times")
+    if (c.max_halvings < 0 || c.max_halvings > 1074)
+        throw std::invalid_argument("max_halvings must be from 0 to 1074, not " + std::to_string(c.max_halvings));
+    if (c.max_substeps == 0) throw std::invalid_argument("max_substeps must be at least 1");
     if (c.first_step != 0 && (c.adaptive || !c.times.empty()))
         throw std::invalid_argument("first_step continues a run of fixed steps, without output times");
     if (c.first_step != 0 && !c.steps && !c.adaptive && c.first_step > steps_to_reach(c.t0, c.t_end, c.dt))
@@ -585,6 +590,41 @@ void check_conservative_scale(const S& x, std::string_view method) {
                                 "conventional method");
 }
 
+/// What every run checks of its system and initial state before a step, whichever front end calls it (the CLI and
+/// Python check the same first, with their own wording, before they open files): the model's parameters
+/// (validate()), a finite state, and the model's domain and size (validate_state()). std::invalid_argument. Without
+/// it a library caller's state of the wrong size for an n-wave model corrupted the heap, and an invalid model (a
+/// three-wave M violating eq. (2), Kepler's r < 0) ran to a misleading "step failed". (Not the front ends'
+/// checks of scale, a subnormal component or an overflowing invariant: a restarted field may hold such modes.) A
+/// state spread over processes is checked by its front end, collectively.
+template <class F, class S>
+void check_run_inputs(const F& f, const S& x, const run_config& cfg, std::string_view what) {
+    using M = std::remove_cvref_t<decltype(hook_target(f))>;
+    if constexpr (requires(const M& m) { m.validate(); }) {
+        try {
+            hook_target(f).validate();
+        } catch (const std::invalid_argument& e) {
+            throw std::invalid_argument("invalid " + std::string(what == "this system" ? "model" : what) + ": " +
+                                        e.what());
+        }
+    }
+    if constexpr (!distributed_model<F>) {
+        const auto r = reals(x);
+        for (std::size_t i = 0; i < r.size(); ++i)
+            if (!std::isfinite(r[i]))
+                throw std::invalid_argument("initial condition " +
+                                            (cfg.component_name ? cfg.component_name(i) : default_component_name<S>(i)) +
+                                            " is not finite");
+    }
+    if constexpr (requires(const M& m) { m.validate_state(x); }) {
+        try {
+            hook_target(f).validate_state(x);
+        } catch (const std::invalid_argument& e) {
+            throw std::invalid_argument(std::string("invalid initial condition: ") + e.what());
+        }
+    }
+}
+
 /// The configuration a run goes by: `requested` checked, and its output_dt resolved (on a copy, with the default
 /// setting names in the messages) if it has one.
 inline std::optional<run_config> resolved_config(const run_config& requested) {
@@ -608,9 +648,14 @@ void stop_if_overflowed(const run_config& cfg, const Monitor& monitor, double t)
 /// A monitored invariant that overflowed, as the report's failure.
 template <class Monitor>
 void overflow_failure(solve_report& report, const Monitor& monitor, const invariant_overflowed& e) {
+    // inf: the solution blew up; NaN: it may also have left where the invariant is defined (Kepler's r through 0)
+    const bool nan = std::isnan(monitor.values()[e.index]);
     report.failure = run_failure{run_failure_kind::invariant_overflow, e.t, e.index, 0.0,
-                                 "the invariant " + monitor.records()[e.index].name + " overflowed at t = " +
-                                     detail::full_text(e.t) + ": the solution blew up",
+                                 "the invariant " + monitor.records()[e.index].name +
+                                     (nan ? " is undefined (NaN) at t = " : " overflowed at t = ") +
+                                     detail::full_text(e.t) +
+                                     (nan ? ": the state left where the model is defined, or blew up"
+                                          : ": the solution blew up"),
                                  std::nullopt, rejection::step_failed};
 }
 
@@ -804,6 +849,7 @@ solve_report solve_with(St& stepper, F_&& system, S& x, const run_config& reques
     F& f = system;
     const std::optional<run_config> resolved = detail::resolved_config(requested);
     const run_config& cfg = resolved ? *resolved : requested;
+    detail::check_run_inputs(std::as_const(f), std::as_const(x), cfg, "this system");
     if (cfg.adaptive) {
         if constexpr (adaptive_stepper<St, F&, S>)
             return detail::run_adaptive_on(stepper, f, x, cfg, sink, monitor);
@@ -851,6 +897,7 @@ solve_report solve(F_&& system, S& x, std::string_view method, const run_config&
     F& f = system;
     const std::optional<run_config> resolved = detail::resolved_config(requested);
     const run_config& cfg = resolved ? *resolved : requested;
+    detail::check_run_inputs(std::as_const(f), std::as_const(x), cfg, what);
     const method_info m = resolve_method_for<Dispatch>(method, cfg.is_adaptive(), what);
     if (m.family == method_family::conservative) detail::check_conservative_scale(x, m.name);
     invariant_monitor<std::remove_cv_t<F>, S> monitor(f, std::move(extra));

@@ -4,6 +4,8 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 #include <limits>
 #include <string>
 
@@ -138,5 +140,55 @@ TEST_F(CliLvKepler, BadInputExitsTwoWithOneLine) {
         EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << args << ": more than one line: " << r.err;
         EXPECT_TRUE(r.out.empty()) << args;
         EXPECT_FALSE(fs::exists(csv)) << args;
+    }
+}
+
+// A conventional method's large step can take Kepler's r through 0, outside the polar coordinates: the run stops
+// there (exit 1, one line, no output), where it went on to t_end with r = -6134 and a "final" H of 1.9e7. A step
+// that keeps r > 0 runs on (the paper's fig. 8: PC, dt 0.08).
+TEST_F(CliLvKepler, KeplerStopsWhereRLeavesThePolarCoordinates) {
+    const fs::path csv = dir_ / "ke.csv";
+    const result r = eci("run kepler --method euler --dt 0.5 --t-end 1000 --output '" + csv.string() + "'");
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_NE(r.err.find("the invariant hamiltonian is undefined (NaN) at t = "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find("the state left where the model is defined"), std::string::npos) << r.err;
+    const std::size_t at = r.err.find("at t = ");
+    ASSERT_NE(at, std::string::npos);
+    EXPECT_LT(std::stod(r.err.substr(at + 7)), 10.0) << r.err;
+    EXPECT_EQ(r.err.find('\n'), r.err.size() - 1) << "more than one line: " << r.err;
+    EXPECT_FALSE(fs::exists(csv));
+    const result fig8 = eci("run kepler --preset fig8 --output '" + csv.string() + "'");
+    EXPECT_EQ(fig8.status, 0) << fig8.err;
+}
+
+// The summary's first line says what the method keeps of this model's invariants, not what it keeps elsewhere:
+// the implicit midpoint rule keeps quadratic invariants, and Kepler's are not (it said "conservative" while H drifted
+// 1.7e-3); projection keeps the independent ones (H, not the Runge-Lenz vector); relaxation the first (it said
+// "conventional" while H stayed at round-off). The JSON lists them.
+TEST_F(CliLvKepler, TheSummarySaysWhichInvariantsTheMethodKeeps) {
+    const struct {
+        const char* run;
+        const char* says;
+        const char* keeps;
+    } cases[] = {
+        {"kepler --method implicit-midpoint", "(order 2, conventional)", "[]"},
+        {"kepler --method projected-rk4", "(order 4, keeps hamiltonian)", "[\"hamiltonian\"]"},
+        {"kepler --method rrk-rk4", "(order 4, keeps hamiltonian)", "[\"hamiltonian\"]"},
+        {"kepler --method c-pc", "(order 2, conservative)", "[\"hamiltonian\", \"runge_lenz_x\", \"runge_lenz_y\"]"},
+        {"kepler --method rk4", "(order 4, conventional)", "[]"},
+        {"kepler-cartesian --method mrrk-rk4", "(order 4, keeps hamiltonian, angular_momentum)",
+         "[\"hamiltonian\", \"angular_momentum\"]"},
+        {"three-wave --method implicit-midpoint", "(order 2, conservative)", "[\"energy\", \"enstrophy\"]"},
+        {"three-wave --method rrk-rk4", "(order 4, keeps energy)", "[\"energy\"]"},
+        {"three-wave --method mrrk-rk4", "(order 4, conservative)", "[\"energy\", \"enstrophy\"]"},
+    };
+    for (const auto& c : cases) {
+        const fs::path json = dir_ / "s.json";
+        const result r = eci(std::string("run ") + c.run + " --steps 3 --summary-json '" + json.string() + "'");
+        ASSERT_EQ(r.status, 0) << c.run << ": " << r.err;
+        EXPECT_NE(first_line(r.err).find(c.says), std::string::npos) << c.run << ": " << first_line(r.err);
+        std::ifstream in(json);
+        const std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+        EXPECT_NE(text.find(std::string("\"keeps\": ") + c.keeps + ","), std::string::npos) << c.run << ": " << text;
     }
 }

@@ -47,7 +47,18 @@ if pkg-config --exists fftw3 2>/dev/null; then
         -DCMAKE_PREFIX_PATH="$work/prefix-spectral" >/dev/null
   cmake --build "$work/spectral" >/dev/null
   "$work/spectral/consumer"
+  # the build tree itself as eci_DIR, no install (eci-targets.cmake and the others exported beside its config)
+  cmake -S "$src/tests/package/spectral_consumer" -B "$work/spectral-build-tree" "${generator[@]}" \
+        -DCMAKE_BUILD_TYPE=Release -Deci_DIR="$work/eci-spectral" >/dev/null
+  cmake --build "$work/spectral-build-tree" >/dev/null
+  "$work/spectral-build-tree/consumer"
 fi
+
+# The header-only library's build tree as eci_DIR.
+cmake -S "$src/tests/package/find_package_consumer" -B "$work/build-tree" "${generator[@]}" -DCMAKE_BUILD_TYPE=Release \
+      -Deci_DIR="$work/eci" --no-warn-unused-cli >/dev/null
+cmake --build "$work/build-tree" >/dev/null
+"$work/build-tree/consumer"
 
 # A consumer that asks for an incompatible version must be refused.
 mkdir -p "$work/too_new"

@@ -376,7 +376,7 @@ def test_decimal_numbers_are_taken(cli, value):
     (["three-wave", "--dt"], "--dt needs a value"),
     (["three-wave", "--method"], "--method needs a value"),
     (["three-wave", "--steps"], "--steps needs a value"),
-    (["three-wave", "--psi", "1,2"], "--psi needs 3 values separated by commas, not 2"),
+    (["three-wave", "--psi", "1,2"], "--psi needs 3 values (separated by commas or spaces), not 2"),
     (["three-wave", "--psi", "1,2,3,4"], "--psi takes 3 values, not 4"),
     # an empty item was dropped: "1,,2" read as two values, "1,2,3," ran with psi = (1, 2, 3)
     (["three-wave", "--psi", "1,,2"], "--psi has an empty value in '1,,2' (3 numbers separated by commas)"),
@@ -384,7 +384,7 @@ def test_decimal_numbers_are_taken(cli, value):
     (["three-wave", "--psi", ",1,2,3"], "--psi has an empty value in ',1,2,3' (3 numbers separated by commas)"),
     (["three-wave", "--psi", "1,x,3"], "--psi: must be a decimal number, not 'x'"),
     (["three-wave", "--psi"], "--psi needs a value"),
-    (["three-wave", "--M", "1,1"], "--M needs 3 values separated by commas, not 2"),
+    (["three-wave", "--M", "1,1"], "--M needs 3 values (separated by commas or spaces), not 2"),
     (["three-wave", "--update", "foo"], "--update must be conditioned or paper, not 'foo'"),
     (["navier-stokes-2d", "--N"], "--N needs a value"),
     (["navier-stokes-2d", "--ic", "random", "--ic", "taylor-green"], "--ic is given more than once"),
@@ -595,3 +595,12 @@ def test_a_checkpoint_whose_state_was_changed_is_refused(cli, tmp_path, checkpoi
         del f.attrs["state_checksum"]
     run_cli(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", checkpoint, "--steps", 4,
             "--checkpoint", tmp_path / "cc.h5", "--checkpoint-every", 4)
+
+
+# Three-wave's K, P and Q are magnitudes of wavenumbers; the equations hold only their squares, so a negative one ran
+# as its absolute value, exit 0.
+@pytest.mark.parametrize("flag", ["--K", "--P", "--Q"])
+def test_a_negative_wavenumber_magnitude_is_refused(cli, flag):
+    assert cli_error(cli, "run", "three-wave", flag, "-1") == (
+        f"invalid three-wave model: three-wave {flag[2:]} is a wavenumber's magnitude and must not be negative, "
+        "got -1")

@@ -16,6 +16,7 @@
 #include <eci/memory.hpp>
 #include <eci/models/kepler.hpp>
 #include <eci/models/kepler_cartesian.hpp>
+#include <eci/models/n_wave.hpp>
 
 #include "solve_tests.hpp"
 
@@ -53,6 +54,72 @@ TEST(Solve, BadSettingsAreRefusedBeforeAnyStep) {
     times.times = {0.5, 0.2};
     EXPECT_EQ(message(times), "output times must be finite, sorted in the direction of the run and within the span");
     EXPECT_EQ(x, fig5);
+}
+
+// Whoever calls the run (a C++ user, not only the CLI and Python, which check first in their own words), the model's
+// parameters, a finite state and the model's domain and size are checked before any step: a state of 5 elements
+// for an n-wave model of 8 modes corrupted the heap, a three-wave M violating eq. (2) ran 133 steps to energy 7e142,
+// Kepler's r = -1 and a NaN component ran 40 halvings to a "step failed" naming another component. The run's
+// settings likewise: dt_min above dt_max, max_halvings out of range, max_substeps 0.
+TEST(Solve, TheModelAndTheInitialStateAreCheckedBeforeAnyStep) {
+    eci::run_config cfg;
+    cfg.t_end = 1.0;
+    cfg.dt = 0.1;
+    const auto refusal = [](auto&& run) {
+        try {
+            run();
+        } catch (const std::invalid_argument& e) {
+            return std::string(e.what());
+        }
+        return std::string("accepted");
+    };
+    eci::three_wave bad;
+    bad.M = {1.0, 1.0, 1.0};
+    tw_state y = fig5;
+    EXPECT_EQ(refusal([&] {
+                  discard<tw_state> none;
+                  eci::solve_model<eci::three_wave>(bad, y, "c-pc", cfg, none, {}, "model three-wave");
+              }).rfind("invalid model three-wave: M_K + M_P + M_Q (eq. 2)", 0),
+              0u);
+    EXPECT_EQ(y, fig5);
+    const auto waves = eci::n_wave<double>::random(8, 2, 1);
+    vec short_state(5, 0.1);
+    EXPECT_EQ(refusal([&] {
+                  discard<vec> none;
+                  eci::solve_model<eci::n_wave<double>>(waves, short_state, "c-rk4", cfg, none, {}, "model n-wave");
+              }),
+              "invalid initial condition: the state has 5 elements and the n-wave model 8 modes");
+    eci::kepler orbit;
+    eci::kepler::state_type inside_out{-1.0, 0.0, 0.0};
+    eci::rk4<eci::kepler::state_type> rk4k;
+    EXPECT_EQ(refusal([&] { eci::run(rk4k, orbit, inside_out, eci::run_span::n_steps(10, 0.01)); }),
+              "invalid initial condition: Kepler r must be positive, got -1");
+    const auto decay = [](const vec& x, vec& d, double) {
+        for (std::size_t i = 0; i < x.size(); ++i) d[i] = -x[i];
+    };
+    vec z{1.0, std::numeric_limits<double>::quiet_NaN(), 0.25};
+    eci::rk4<vec> rk4v;
+    EXPECT_EQ(refusal([&] { eci::solve_with(rk4v, decay, z, cfg, eci::no_sink{}); }),
+              "initial condition x[1] is not finite");
+    vec w{1.0, 0.5};
+    eci::run_config adaptive = cfg;
+    adaptive.adaptive = eci::adaptive_options{};
+    adaptive.adaptive->dt_min = 1.0;
+    adaptive.adaptive->dt_max = 0.1;
+    eci::dp54<vec> dp;
+    EXPECT_EQ(refusal([&] { eci::solve_with(dp, decay, w, adaptive, eci::no_sink{}); }),
+              "dt_min 1 exceeds dt_max 0.1");
+    for (const int halvings : {-1, 1075}) {
+        eci::run_config h = cfg;
+        h.max_halvings = halvings;
+        EXPECT_EQ(refusal([&] { eci::solve_with(rk4v, decay, w, h, eci::no_sink{}); }),
+                  "max_halvings must be from 0 to 1074, not " + std::to_string(halvings));
+    }
+    eci::run_config sub = cfg;
+    sub.max_substeps = 0;
+    EXPECT_EQ(refusal([&] { eci::solve_with(rk4v, decay, w, sub, eci::no_sink{}); }),
+              "max_substeps must be at least 1");
+    EXPECT_EQ(w, (vec{1.0, 0.5}));
 }
 
 TEST(Solve, InitialStatesBeyondDoublePrecisionAreRefusedNamingTheComponent) {
@@ -441,4 +508,49 @@ TEST(Solve, StoredOutputsBeyondMemoryAreRefusedBeforeAnyStep) {
     cfg.times.clear();
     cfg.output_bytes = 0;  // a sink that keeps nothing
     EXPECT_NO_THROW(eci::detail::check_stored_outputs(cfg));
+}
+
+// Projection stops its Newton iteration at the rounding of each invariant's evaluation, a scale taken over the
+// unknowns the invariant depends on: over the whole state, Kepler's unwrapped angle (2e4 after 10^5 steps) made the
+// energy's tolerance grow with the run, and H drifted 2.8e-11 by t = 10500 (3.1e-13 by t = 105). Now it stays at
+// the round-off of the steps taken (C-RK4's own drift there: 1e-14).
+TEST(Solve, ProjectionKeepsKeplersEnergyToRoundOffOverALongRun) {
+    const eci::kepler orbit;
+    eci::kepler::state_type x{1.0, 0.0, 0.0};
+    eci::run_config cfg;
+    cfg.dt = 0.105;
+    cfg.steps = 100000;
+    discard<eci::kepler::state_type> none;
+    const eci::solve_report r = eci::solve_model<eci::kepler>(orbit, x, "projected-rk4", cfg, none, {}, "model kepler");
+    ASSERT_TRUE(r.completed());
+    ASSERT_EQ(r.invariants[0].name, "hamiltonian");
+    // each step's projection ends within a few roundings of H, which adds up as a random walk over the steps
+    const double eps = std::numeric_limits<double>::epsilon();
+    EXPECT_LE(r.invariants[0].max_rel_drift(), 4.0 * eps * std::sqrt(double(cfg.steps.value())));
+    EXPECT_GT(x[2], 1e4);  // the angle, unwrapped
+}
+
+// Projection on a vector state (n-wave): the base step swaps the state's buffer with one of its own, and the
+// projection read the state through a view taken before the step, so it projected the old state and every step
+// returned the initial state, reporting drift 0 (projected-rk4 and projected-dp54 on n-wave and n-wave-complex).
+// It must move with RK4, within RK4's own invariant error of it, and keep the invariants to round-off.
+TEST(Solve, ProjectionOnAVectorStateTakesTheStep) {
+    const auto waves = eci::n_wave<double>::random(30, 20, 1);
+    const vec x0 = waves.random_state(2);
+    eci::run_config cfg;
+    cfg.dt = 0.01;
+    cfg.steps = 200;
+    discard<vec> none;
+    vec rk = x0, projected = x0;
+    ASSERT_TRUE(eci::solve_model<eci::n_wave<double>>(waves, rk, "rk4", cfg, none, {}, "model n-wave").completed());
+    const eci::solve_report r =
+        eci::solve_model<eci::n_wave<double>>(waves, projected, "projected-rk4", cfg, none, {}, "model n-wave");
+    ASSERT_TRUE(r.completed());
+    double moved = 0.0, apart = 0.0;
+    for (std::size_t i = 0; i < x0.size(); ++i)
+        moved = std::max(moved, std::abs(rk[i] - x0[i])), apart = std::max(apart, std::abs(projected[i] - rk[i]));
+    EXPECT_GT(moved, 0.1);
+    EXPECT_LT(apart, 1e-6 * moved);
+    const double eps = std::numeric_limits<double>::epsilon();
+    for (const auto& inv : r.invariants) EXPECT_LE(inv.max_rel_drift(), 8.0 * eps * std::sqrt(200.0)) << inv.name;
 }

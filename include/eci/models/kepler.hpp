@@ -103,8 +103,10 @@ struct kepler {
         dsdt[2] = ell / (m * r * r);                              // eq. (45c)
     }
 
-    /// H, eq. (46).
+    /// H, eq. (46); NaN where r <= 0, outside the polar coordinates (a conventional method's large step can take r
+    /// through 0: the run then stops there, as on an overflow, instead of going on with a meaningless orbit).
     double hamiltonian(const state_type& s) const {
+        if (!(s[0] > 0.0)) return std::numeric_limits<double>::quiet_NaN();
         return 0.5 * m * s[1] * s[1] + ell * ell / (2.0 * m * s[0] * s[0]) - K / s[0];
     }
     /// The Runge-Lenz vector (47), A = v x L + phi r_vec, in the plane: A = a r^ - ell v_r theta^.

@@ -85,6 +85,14 @@ struct n_wave {
 
     std::size_t size() const { return wavenumber.size(); }
 
+    /// Throws std::invalid_argument unless the state has one element per mode (the right-hand side indexes it by
+    /// the triads' modes: a shorter state was read and written past its end).
+    void validate_state(const state_type& x) const {
+        if (x.size() != size())
+            throw std::invalid_argument("the state has " + std::to_string(x.size()) + " elements and the n-wave model " +
+                                        std::to_string(size()) + " modes");
+    }
+
     /// Throws std::invalid_argument for an out-of-range index or a triad violating eq. (2) or (3).
     void validate() const {
         const std::size_t n = size();

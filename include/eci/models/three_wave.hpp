@@ -57,11 +57,17 @@ struct three_wave {
         }};
     }
 
-    /// Throws std::invalid_argument if eq. (2) or (3) fails beyond round-off or a parameter is not finite.
+    /// Throws std::invalid_argument if eq. (2) or (3) fails beyond round-off, a parameter is not finite or a
+/// wavenumber magnitude (K, P, Q) is negative.
     void validate() const {
         const char* names[] = {"K", "P", "Q", "M_K", "M_P", "M_Q"};
         const double values[] = {K, P, Q, M[0], M[1], M[2]};
         for (int i = 0; i < 6; ++i) detail::require_normal(values[i], std::string("three-wave ") + names[i]);
+        for (int i = 0; i < 3; ++i)  // (the equations hold only their squares: a sign would pass unnoticed)
+            if (values[i] < 0.0)
+                throw std::invalid_argument(std::string("three-wave ") + names[i] +
+                                            " is a wavenumber's magnitude and must not be negative, got " +
+                                            detail::shortest_text(values[i]));
         detail::require_cancellation(M[0] + M[1] + M[2], std::abs(M[0]) + std::abs(M[1]) + std::abs(M[2]),
                                      "M_K + M_P + M_Q (eq. 2)");
         const double k2 = K * K, p2 = P * P, q2 = Q * Q;

@@ -59,11 +59,16 @@ class orthogonal_projection {
         }
         detail::resize_like(y_, x);
         detail::resize_like(z_, x);
-        const auto xr = detail::reals(std::as_const(x));
-        const auto yr = detail::reals(y_);
-        for (std::size_t i = 0; i < xr.size(); ++i) yr[i] = xr[i];
+        {
+            const auto xr = detail::reals(std::as_const(x));
+            const auto y0 = detail::reals(y_);
+            for (std::size_t i = 0; i < xr.size(); ++i) y0[i] = xr[i];
+        }
         const step_result r = base_.step(f, y_, t, dt);
         if (!r) return r;
+        // (viewed after the step: a stepper may swap the state's buffer with one of its own, as explicit_rk does
+        // for a vector state; a view taken before read the state as it was, and the projection undid the step)
+        const auto yr = detail::reals(std::as_const(y_));
 
         // G at y~, G G^T, and each invariant's rounding scale there.
         grad_.resize(m);
