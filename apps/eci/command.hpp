@@ -25,6 +25,9 @@ struct run_settings {
     std::optional<double> rtol;          ///< relative tolerance: with or without atol, adaptive step control
     std::optional<double> atol;          ///< absolute tolerance (adaptive); unset means rtol's value
     std::optional<double> output_dt;     ///< CSV rows at multiples of this time (and the end) instead of steps
+    /// How an adaptive run reaches the --output-dt times: "auto" (the library's rule), "dense" or "landing";
+    /// empty when not given (Python's t_eval_mode).
+    std::string output_mode;
     /// Conservative RK methods at fixed steps on large systems (n-wave, the spectral models): "conditioned" (the
     /// default, when empty) or "paper", the paper's update bit for bit (docs/methods.md). Empty: not
     /// given (a spectral --restart then takes its checkpoint's).

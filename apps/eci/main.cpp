@@ -41,7 +41,7 @@ std::string plain_parse_error(const std::string& what) {
         return m[2].str() == "1" ? m[1].str() + " is given more than once"
                                  : m[1].str() + " takes " + m[2].str() + " values, not " + m[3].str();
     if (std::regex_match(what, m, at_least))
-        return m[1].str() + " needs " + m[2].str() + " values separated by commas, not " + m[3].str();
+        return m[1].str() + " needs " + m[2].str() + " values (separated by commas or spaces), not " + m[3].str();
     if (std::regex_match(what, m, missing)) return m[1].str() + " needs a value";
     if (std::regex_match(what, m, range))
         return m[1].str() + " must be in " + m[3].str() + ".." + m[4].str() + ", not " + m[2].str();
@@ -49,7 +49,9 @@ std::string plain_parse_error(const std::string& what) {
         std::string choices = m[3].str();
         const std::size_t last = choices.rfind(',');
         if (last != std::string::npos) choices.replace(last, 1, " or ");
-        for (std::size_t c; (c = choices.find(',')) != std::string::npos;) choices.replace(c, 1, ", ");
+        // (each comma made ", " and the search goes on after it: from the start it found the same comma again, for
+        // ever, given three choices or more)
+        for (std::size_t c = 0; (c = choices.find(',', c)) != std::string::npos; c += 2) choices.replace(c, 1, ", ");
         return m[1].str() + " must be " + choices + ", not '" + m[2].str() + "'";
     }
     return what;
@@ -161,8 +163,8 @@ std::vector<double> list_of_numbers(const std::string& flag, const std::vector<s
         begin = comma + 1;
     }
     if (values.size() < count)
-        throw CLI::ValidationError(flag + " needs " + std::to_string(count) + " values separated by commas, not " +
-                                   std::to_string(values.size()));
+        throw CLI::ValidationError(flag + " needs " + std::to_string(count) +
+                                   " values (separated by commas or spaces), not " + std::to_string(values.size()));
     if (values.size() > count)
         throw CLI::ValidationError(flag + " takes " + std::to_string(count) + " values, not " +
                                    std::to_string(values.size()));
@@ -306,8 +308,10 @@ int run_cli(int argc, char** argv) {
                                                    "(default 1)")
             ->check(whole_number(1));
         sub->add_option("--output", settings.output,
-                        "CSV file: t, the state (a spectral model: its diagnostics and budget), the invariants, at "
-                        "full precision; a name ending in .h5 or .hdf5 writes the same rows as HDF5 datasets (t, "
+                        "CSV file: t, the state (a spectral model: its diagnostics and budget), the model's derived "
+                        "columns (Kepler: the position x, y), the invariants, and, for a relaxation method "
+                        "whose steps advance time by gamma tau, time_lag (the state belongs to t + time_lag), at full "
+                        "precision; a name ending in .h5 or .hdf5 writes the same rows as HDF5 datasets (t, "
                         "state, derived, invariants, time_lag; a spectral model: diagnostics), each with its "
                         "columns' names. Without --output no CSV is written; '-' writes it to standard output");
         sub->add_option("--summary-json", settings.summary_json,
@@ -331,6 +335,12 @@ int run_cli(int argc, char** argv) {
                         "landing on them; fixed steps: a multiple of --dt, and without --dt a spectral equation's CFL "
                         "step is shortened to divide it); not with --every")
             ->check(decimal_number());
+        sub->add_option("--output-mode", settings.output_mode,
+                        "how an adaptive run reaches the --output-dt times: auto (default: dense output where it is as "
+                        "accurate as the steps, else a step lands on each), dense (the dense output, fewer steps; a "
+                        "conservative pair's keeps the invariants at every output but, above order 3, is 20-1000x "
+                        "less accurate than its steps at rtol 1e-10) or landing; Python's t_eval_mode")
+            ->check(CLI::IsMember({"auto", "dense", "landing"}));
         sub->add_option("--update", settings.update,
                         "conservative Runge-Kutta methods (c-pc, c-rk2, c-rk4, any conservative tableau at fixed steps; the c- "
                         "pairs with --rtol) on "
@@ -342,7 +352,8 @@ int run_cli(int argc, char** argv) {
         std::string presets;
         for (const auto& [name, what] : i.presets) presets += (presets.empty() ? "" : "; ") + name + ": " + what;
         sub->add_option("--preset", settings.preset,
-                        "a set-up of the paper, whose values the other options override (default " +
+                        "a named set-up (the paper's runs for its models), whose values the other options override "
+                        "(default " +
                             i.presets.front().first + "). " + presets);
         add_model_options(*sub, model->options());
         sub->footer("The summary (steps, step reductions, rhs evaluations, wall time, each invariant's drift "
@@ -427,6 +438,8 @@ int run_cli(int argc, char** argv) {
         if (sub->count("--output-dt")) settings.output_dt = output_dt;
         // (--output-dt sets the rows' interval itself: a --every beside it was silently replaced before)
         if (sub->count("--every") && settings.output_dt) throw bad_input("give --every or --output-dt, not both");
+        if (!settings.output_mode.empty() && !(settings.output_dt && (settings.rtol || settings.atol)))
+            throw bad_input("--output-mode is for an adaptive run's --output-dt times: give --output-dt and --rtol/--atol");
         for (option_spec& o : model->options()) o.given = sub->count("--" + o.name) > 0;
         check_process_count("eci run " + model->info().name, model.get());
         return model->run(settings);

@@ -34,7 +34,8 @@ namespace eci::cli {
 struct run_summary {
     std::string model, method;
     int order = 0;
-    bool conservative = false;
+    bool conservative = false;  ///< the method keeps every invariant of the model (invariants_kept)
+    std::vector<std::string> keeps;  ///< the invariants it keeps, when not all (empty for a spectral run)
     double dt = 0.0, t_end = 0.0;
     double t_start = 0.0;  ///< where the run began: 0, or a restart's checkpoint time
     run_stats stats{};
@@ -187,6 +188,8 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
         }
     }
     cfg.output_dt = settings.output_dt;  // output times (adaptive) or every k steps (fixed): the library decides
+    if (settings.output_mode == "dense") cfg.mode = output_mode::dense;
+    if (settings.output_mode == "landing") cfg.mode = output_mode::landing;
     try {
         resolve_output_dt(cfg, {.output_dt = "--output-dt", .dt = "--dt", .tolerances = "--rtol/--atol"});
     } catch (const std::invalid_argument& e) {
@@ -243,7 +246,9 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     summary.model = info.name;
     summary.method = std::string(method.name);
     summary.order = method.order;
-    summary.conservative = method.conservative;
+    // what the method keeps of this model's invariants (the registry's rule): "conservative" only if it keeps all
+    summary.keeps = invariants_kept<Model>(method);
+    summary.conservative = !summary.keeps.empty() && summary.keeps.size() == invariant_names.size();
     summary.dt = plan.dt;
     summary.t_end = plan.t_end;
     summary.adaptive = adaptive;

@@ -66,10 +66,23 @@ std::string underflow_message(const step_size_underflow& e, const column_names& 
            "): negative radicand, non-invertible transform or non-finite state";
 }
 
+namespace {
+
+// What the method keeps of the model's invariants: all ("conservative"), some by name, or none ("conventional").
+std::string kept_text(const run_summary& s) {
+    if (s.conservative) return "conservative";
+    if (s.keeps.empty()) return "conventional";
+    std::string t = "keeps ";
+    for (std::size_t i = 0; i < s.keeps.size(); ++i) t += (i ? ", " : "") + s.keeps[i];
+    return t;
+}
+
+}  // namespace
+
 void print_summary(std::FILE* f, const run_summary& s) {
     std::fprintf(f, "eci run %s: method %s (order %d, %s), dt %s, t %s to %s\n", s.model.c_str(), s.method.c_str(),
-                 s.order, s.conservative ? "conservative" : "conventional", shortest(s.dt).c_str(),
-                 shortest(s.t_start).c_str(), shortest(s.t_end).c_str());
+                 s.order, kept_text(s).c_str(), shortest(s.dt).c_str(), shortest(s.t_start).c_str(),
+                 shortest(s.t_end).c_str());
     if (s.adaptive) {
         const adaptive_stats& a = s.adaptive_counts;
         std::fprintf(f, "  adaptive, rtol %s, atol %s (dt is the first step)\n", shortest(s.rtol).c_str(),
@@ -96,12 +109,14 @@ void print_summary(std::FILE* f, const run_summary& s) {
         std::fprintf(f, "  remedied steps %llu, components remedied %llu\n",
                      static_cast<unsigned long long>(s.stats.remedied_steps),
                      static_cast<unsigned long long>(s.stats.components_remedied));
-    std::fprintf(f, "  %-12s %-24s %-24s %-13s %s\n", "invariant", "initial", "final", "max abs drift",
+    int name_width = 12;  // (the column as wide as the longest name: angular_momentum, runge_lenz_turn...)
+    for (const invariant_record& r : s.invariants) name_width = std::max(name_width, int(r.name.size()));
+    std::fprintf(f, "  %-*s %-24s %-24s %-13s %s\n", name_width, "invariant", "initial", "final", "max abs drift",
                  "max rel drift");
     for (const invariant_record& r : s.invariants) {
         char rel[32] = "n/a";
         if (const double d = r.max_rel_drift(); !std::isnan(d)) std::snprintf(rel, sizeof rel, "%.3e", d);
-        std::fprintf(f, "  %-12s %-24s %-24s %-13.3e %s\n", r.name.c_str(), number(r.initial).c_str(),
+        std::fprintf(f, "  %-*s %-24s %-24s %-13.3e %s\n", name_width, r.name.c_str(), number(r.initial).c_str(),
                      number(r.final).c_str(), r.max_abs_drift, rel);
     }
     if (s.stats.solver.solves > 0)
@@ -123,6 +138,15 @@ void write_summary_json(std::FILE* f, const run_summary& s) {
     key("method"), write_json_string(f, s.method), std::fputs(",\n", f);
     key("order"), std::fprintf(f, "%d,\n", s.order);
     key("conservative"), std::fputs(s.conservative ? "true,\n" : "false,\n", f);
+    key("keeps"), std::fputc('[', f);  // the invariants the method keeps (all of them where conservative)
+    std::vector<std::string> kept = s.keeps;
+    if (s.conservative && kept.empty())
+        for (const invariant_record& r : s.invariants) kept.push_back(r.name);
+    for (std::size_t i = 0; i < kept.size(); ++i) {
+        if (i) std::fputs(", ", f);
+        write_json_string(f, kept[i]);
+    }
+    std::fputs("],\n", f);
     key("dt"), write_json_number(f, s.dt), std::fputs(",\n", f);
     key("t_end"), write_json_number(f, s.t_end), std::fputs(",\n", f);
     if (s.interrupted) {  // stopped by a signal: what it reached, its last output

@@ -550,6 +550,38 @@ std::vector<method_info> methods_for() {
     return registered_methods::supported<typename detail::as_model<Model>::type>();
 }
 
+/// The invariants of Model (by the names its invariants() gives) that method `m` keeps to round-off by construction:
+/// every one for a conservative or transformed method; the first for single relaxation (rrk-*, idt-rk4), the
+/// independent ones (independent_invariants_of) for multiple relaxation and projection; for the implicit midpoint
+/// rule, which keeps quadratic invariants, every one if the model declares them by quadratic weights, else none
+/// (a quadratic invariant declared otherwise, as Cartesian Kepler's angular momentum, is not known to be one);
+/// none for the conventional, symplectic and model-specific methods. What a run's summary says of its method.
+template <class Model>
+std::vector<std::string> invariants_kept(const method_info& m) {
+    using M = typename detail::as_model<Model>::type;
+    std::vector<std::string> all, kept;
+    if constexpr (requires { M::invariants(); })
+        for (const auto& inv : M::invariants()) all.emplace_back(inv.name);
+    const auto independent = [&] {
+        if constexpr (names_independent_invariants<M>) {
+            for (std::size_t i : M::independent_invariants) kept.push_back(all.at(i));
+            return kept;
+        } else {
+            return all;
+        }
+    };
+    switch (m.family) {
+        case method_family::conservative:
+        case method_family::transformed: return all;
+        case method_family::relaxation:
+            if (m.conservative) return independent();  // mrrk-*: the two independent ones
+            return all.empty() ? all : std::vector<std::string>{all.front()};
+        case method_family::projection: return independent();
+        case method_family::implicit: return declares_quadratic_weights<M> ? all : kept;
+        default: return kept;
+    }
+}
+
 /// Why method `m` is not offered on Model (a model type, or a state type for a plain system) when what the model
 /// lacks is a declaration of its own, as a clause for the refusal's message; empty otherwise. Relaxation and
 /// projection keep the invariants a model declares (declares_invariants, invariants.hpp).

@@ -76,7 +76,7 @@ csv_table parse_csv(const std::string& text) {
 }
 
 /// A minimal JSON reader: flattens a document into "a.b.c" -> scalar text (numbers, true/false/null, strings
-/// without their quotes). Throws on anything malformed, so a broken summary fails the test.
+/// without their quotes; an array's elements as "a.0", "a.1", ... with "a.length"). Throws on anything malformed, so a broken summary fails the test.
 class json_reader {
    public:
     explicit json_reader(const std::string& text) : s_(text) {
@@ -140,6 +140,23 @@ class json_reader {
         }
         if (s_[i_] == '"') {
             values[path] = string();
+            return;
+        }
+        if (s_[i_] == '[') {  // an array: "a.0", "a.1", ... and its length as "a.length"
+            ++i_;
+            std::size_t n = 0;
+            skip_space();
+            if (s_[i_] != ']') {
+                for (;; ++n) {
+                    value(path + "." + std::to_string(n));
+                    skip_space();
+                    if (s_[i_] != ',') break;
+                    ++i_;
+                }
+                ++n;
+            }
+            expect(']');
+            values[path + ".length"] = std::to_string(n);
             return;
         }
         const std::size_t start = i_;
@@ -446,6 +463,9 @@ TEST_F(cli, summary_json_shows_conservation_for_conservative_methods_only) {
             const double n = j.number("steps") + j.number("step_reductions");
             for (const std::string name : {"energy", "enstrophy"})
                 EXPECT_LE(j.number("invariants." + name + ".max_rel_drift"), bound(n)) << method << " dt " << dt;
+            EXPECT_EQ(j.values.at("conservative"), "true");
+            EXPECT_EQ(j.values.at("keeps.length"), "2");
+            EXPECT_EQ(j.values.at("keeps.0") + "," + j.values.at("keeps.1"), "energy,enstrophy");
         }
     }
     // The same bound fails for the conventional PC by orders of magnitude: the test can fail.
@@ -454,6 +474,8 @@ TEST_F(cli, summary_json_shows_conservation_for_conservative_methods_only) {
     ASSERT_EQ(r.status, 0) << r.err;
     const json_reader j(read_text(work("s.json")));
     EXPECT_GT(j.number("invariants.energy.max_rel_drift"), 1e6 * bound(j.number("steps")));
+    EXPECT_EQ(j.values.at("conservative"), "false");
+    EXPECT_EQ(j.values.at("keeps.length"), "0");
 }
 
 TEST_F(cli, summary_json_reports_iterative_solves_when_there_are_some) {

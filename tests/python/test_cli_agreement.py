@@ -277,6 +277,37 @@ def test_cli_and_python_accept_the_same_output_dt_with_the_same_rows(cli, tmp_pa
     assert_same_run(r, t, columns, summary, ["psi_K", "psi_P", "psi_Q"])
 
 
+# --output-mode is Python's t_eval_mode: the conservative pairs of order above 3 land a step on each output time by
+# default (output times closer than the tolerance's steps cost steps); "dense" takes them from the dense output,
+# whose invariants are exact at every row. The same rows as Python's, bit for bit.
+@pytest.mark.parametrize("mode", ["dense", "landing", "auto"])
+def test_cli_output_mode_is_pythons_t_eval_mode(cli, tmp_path, mode):
+    t, columns, summary = cli_run(cli, tmp_path, "three-wave", "c-dp853", 0.01, 5.0, "--output-dt", "0.01",
+                                  "--rtol", "1e-8", "--output-mode", mode)
+    r = eci.solve(eci.models.ThreeWave(), (0.0, 5.0), method="c-dp853", output_dt=0.01, rtol=1e-8, atol=1e-8,
+                  first_step=0.01, t_eval_mode=mode)
+    assert len(t) == 501 and t[-1] == 5.0
+    assert_same_run(r, t, columns, summary, ["psi_K", "psi_P", "psi_Q"])
+    landed = cli_run(cli, tmp_path, "three-wave", "c-dp853", 0.01, 5.0, "--output-dt", "0.01", "--rtol", "1e-8")[2]
+    if mode == "dense":  # fewer evaluations than landing on 500 times; every row's energy at round-off
+        assert summary["rhs_evals"] < landed["rhs_evals"] / 4
+        e = columns["energy"]
+        eps = np.finfo(float).eps  # (k eps sqrt(outputs): each row a few roundings from the last step)
+        assert np.max(np.abs(e - e[0])) <= 8 * eps * abs(e[0]) * np.sqrt(len(e))
+    else:
+        assert summary["rhs_evals"] == landed["rhs_evals"]
+
+
+def test_cli_output_mode_needs_an_adaptive_runs_output_dt(cli):
+    from conftest import cli_error
+
+    for extra in ([], ["--rtol", "1e-6"], ["--output-dt", "0.1"]):
+        assert cli_error(cli, "run", "three-wave", "--output-mode", "dense", *extra) == (
+            "--output-mode is for an adaptive run's --output-dt times: give --output-dt and --rtol/--atol")
+    assert cli_error(cli, "run", "three-wave", "--output-mode", "smooth") == (
+        "--output-mode must be auto, dense or landing, not 'smooth'")
+
+
 @pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
 @pytest.mark.parametrize("method", ["c-rk4", "rk4"])
 def test_navier_stokes_matches_cli_and_both_land_on_t_end(cli, tmp_path, method):
