@@ -7,6 +7,7 @@
 #include <charconv>
 #include <cmath>
 #include <string>
+#include <limits>
 #include <string_view>
 
 namespace eci {
@@ -41,6 +42,7 @@ inline std::string shortest_text(double v) {
 
 /// v with 17 significant digits in `buffer` (a run's times in its messages, the CLI's CSV: reads back as v).
 inline std::string_view format_double(double v, char (&buffer)[32]) {
+    if (std::isnan(v)) v = std::numeric_limits<double>::quiet_NaN();  // "nan": a NaN's sign means nothing
     const auto r = std::to_chars(buffer, buffer + sizeof buffer, v, std::chars_format::general, 17);
     return {buffer, static_cast<std::size_t>(r.ptr - buffer)};
 }

@@ -637,7 +637,15 @@ def _solve_backward_fixed(fun, t0, t1, y, method, dt, settings, functions, inv_n
         t[-1] = t1
     raw["t"] = t
     if raw.get("failure") is not None:
-        raw["failure"] = dict(raw["failure"], t=t0 - raw["failure"]["t"])
+        f = raw["failure"]
+        # the message was written by the forward run, at its time s: said at t0 - s, as f["t"] (with 17 digits, or
+        # the shortest text, as the library writes times)
+        message, s, t = f["message"], f["t"], t0 - f["t"]
+        for text in (lambda v: f"{v:.17g}", lambda v: repr(float(v)).removesuffix(".0")):
+            if f"t = {text(s)}" in message:
+                message = message.replace(f"t = {text(s)}", f"t = {text(t)}", 1)
+                break
+        raw["failure"] = dict(f, t=t, message=message)
     return raw
 
 

@@ -85,9 +85,16 @@ class interrupt_check {
    public:
     explicit interrupt_check(bool gil_held) : gil_held_(gil_held), last_(std::chrono::steady_clock::now()) {}
 
-    /// Called between steps: a counter on the fast path, so that it inlines into the step loop.
+    /// Called between steps: a counter on the fast path, so that it inlines into the step loop. With the GIL held
+    /// it is also let go for an instant every 5-10 ms: between outputs a run may call no Python code at all (a
+    /// built-in model with Python invariants, evaluated at its outputs), and every other Python thread (a timer that
+    /// would signal, a progress display) stood still until the run ended.
     void operator()() {
-        if (gil_held_) return check_now();
+        if (gil_held_) {
+            check_now();
+            if (++count_ >= stride_) yield_gil();
+            return;
+        }
         if (++count_ >= stride_) slow_path();
     }
 
@@ -96,16 +103,29 @@ class interrupt_check {
         if (PyErr_CheckSignals() != 0) throw py::error_already_set();
     }
 
-    [[gnu::noinline]] void slow_path() {
+    // The stride in steps adapted so that `elapsed` between calls stays within [low, high].
+    void adapt(std::chrono::milliseconds low, std::chrono::milliseconds high) {
         count_ = 0;
         const auto now = std::chrono::steady_clock::now();
         const auto elapsed = now - last_;
         last_ = now;
-        if (elapsed < std::chrono::milliseconds(1) && stride_ < (std::uint64_t{1} << 24))
+        if (elapsed < low && stride_ < (std::uint64_t{1} << 24))
             stride_ *= 2;
-        else if (elapsed > std::chrono::milliseconds(10) && stride_ > 1)
+        else if (elapsed > high && stride_ > 1)
             stride_ /= 2;
+    }
+
+    [[gnu::noinline]] void slow_path() {
+        adapt(std::chrono::milliseconds(1), std::chrono::milliseconds(10));
         py::gil_scoped_acquire gil;
+        check_now();
+    }
+
+    [[gnu::noinline]] void yield_gil() {
+        adapt(std::chrono::milliseconds(5), std::chrono::milliseconds(10));
+        {
+            py::gil_scoped_release release;  // (a thread waiting for the GIL takes it here)
+        }
         check_now();
     }
 

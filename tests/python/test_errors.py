@@ -244,6 +244,11 @@ INTERRUPTED = textwrap.dedent("""
             eci.solve(eci.models.ThreeWave(), (0.0, 1e8), method="c-rk4", dt=0.01, t_eval=[1e8])
         elif kind == "adaptive":   # adaptive, GIL released, one output time: checked between attempts
             eci.solve(eci.models.ThreeWave(), (0.0, 1e8), method="c-dp54", rtol=1e-12, t_eval=[1e8])
+        elif kind == "thread":   # the GIL held (Python invariants, evaluated at the outputs) and the signal sent
+            # by another Python thread of the process: the run lets the GIL go now and then, or that thread never runs
+            import os, threading
+            threading.Timer(1.0, lambda: os.kill(os.getpid(), signal.SIGINT)).start()
+            eci.solve(eci.models.ThreeWave(), (0.0, 1e9), rtol=1e-12, output_dt=1e8, invariants=lambda y: y @ y)
         else:
             eci.solve(lambda t, y: -y, (0.0, 1e8), np.ones(3), method="rk4", dt=0.01, t_eval=[1e8])
     except KeyboardInterrupt:
@@ -253,7 +258,7 @@ INTERRUPTED = textwrap.dedent("""
 """)
 
 
-@pytest.mark.parametrize("kind", ["model", "adaptive", "function"])
+@pytest.mark.parametrize("kind", ["model", "adaptive", "function", "thread"])
 def test_ctrl_c_interrupts_a_long_run(kind, tmp_path):
     script = tmp_path / "long_run.py"
     script.write_text(INTERRUPTED.format(path=str(BUILD / "python")))
@@ -262,7 +267,8 @@ def test_ctrl_c_interrupts_a_long_run(kind, tmp_path):
         assert p.stdout.readline().strip() == "ready"
         time.sleep(1.0)  # well inside eci.solve
         sent = time.monotonic()
-        p.send_signal(signal.SIGINT)
+        if kind != "thread":  # (that one signals itself, from its own timer thread, 1 s in)
+            p.send_signal(signal.SIGINT)
         out, _ = p.communicate(timeout=20)
         latency = time.monotonic() - sent
     finally:
@@ -360,3 +366,16 @@ def test_times_far_from_zero_that_cannot_hold_the_steps():
         assert re.match(r"adaptive step fell below the spacing of doubles at t = 1e\+17 \(dt = .*\): time cannot "
                         r"advance there \(count time from 0: a start time nearer 0\)", str(f)), str(f)
         assert r.stats["steps"] == 0
+
+
+def test_a_backward_runs_failure_is_said_at_its_own_time():
+    # a backward fixed-step run is a forward run of s = t0 - t: its message named s (0.12 for t = 0.88), and a NaN
+    # through the negated fun as "-nan"
+    with np.errstate(over="ignore"):  # y' = -y^2 backward from y(1) = 10 blows up at t = 0.9
+        r = eci.solve(lambda t, y: -y ** 2, (1.0, 0.0), [10.0], dt=0.01)
+    assert r.status == -1 and 0.85 < r.failure.t < 0.95
+    assert r.message.startswith(f"step failed at t = {r.failure.t:.17g} in component y[0]"), r.message
+    nan_below = lambda t, y: np.array([np.nan]) if t < 0.55 else -y  # noqa: E731
+    r = eci.solve(nan_below, (1.0, 0.0), [1.0], dt=0.01)
+    assert r.message.startswith(f"step failed at t = {r.failure.t:.17g} in component y[0]"), r.message
+    assert r.message.endswith("fun(t, y) returned nan in component y[0]"), r.message
