@@ -747,8 +747,9 @@ def _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps,
         raise ValueError(f"min_step {_shortest(min_step)} is larger than max_step {_shortest(max_step)}")
     if max_steps is None:
         max_steps = 50_000_000
-    if isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1:
-        raise ValueError(f"max_steps must be a whole number >= 1, not {max_steps!r}")
+    if (isinstance(max_steps, bool) or not isinstance(max_steps, numbers.Integral) or max_steps < 1
+            or max_steps > 2 ** 63):  # (beyond it the C++ count could not hold it: pybind's cast error leaked)
+        raise ValueError(f"max_steps must be a whole number from 1 to 2**63, not {max_steps!r}")
     if t_eval_mode not in _T_EVAL_MODES:
         raise ValueError(f"t_eval_mode must be one of {', '.join(_T_EVAL_MODES)}, not {t_eval_mode!r}")
     return {"rtol": r, "atol": a, "rtol_each": r_each, "atol_each": a_each, "first_step": first_step,

@@ -237,7 +237,8 @@ def test_complex_and_transformed_functions_run_adaptively():
     (dict(dt=0.1, max_step=1.0), ValueError, "max_step is for adaptive step control"),
     (dict(rtol=1e-6, first_step=-1.0), ValueError, "first_step must be a positive finite number, not -1"),
     (dict(rtol=1e-6, min_step=1.0, max_step=0.5), ValueError, "min_step 1 is larger than max_step 0.5"),
-    (dict(rtol=1e-6, max_steps=0), ValueError, "max_steps must be a whole number >= 1, not 0"),
+    (dict(rtol=1e-6, max_steps=0), ValueError, "max_steps must be a whole number from 1 to 2\\*\\*63, not 0"),
+    (dict(rtol=1e-6, max_steps=2 ** 64), ValueError, "max_steps must be a whole number from 1 to 2\\*\\*63, not 1844"),
     (dict(rtol=1e-6, t_eval_mode="cubic"), ValueError, "t_eval_mode must be one of auto, dense, landing"),
 ])
 def test_bad_adaptive_arguments(kwargs, error, pattern):
