@@ -186,6 +186,8 @@ _SCIPY_RTOL, _SCIPY_ATOL = 1e-3, 1e-6
 _DEFAULT_ADAPTIVE = "c-dp54"
 _DEFAULT_ADAPTIVE_PLAIN = "dp54"
 _T_EVAL_MODES = ("auto", "dense", "landing")
+# SciPy's explicit methods by the eci pairs of the same tableaux (solve_ivp's RK23, RK45, DOP853)
+_SCIPY_METHODS = {"RK23": "bs32", "RK45": "dp54", "DOP853": "dp853"}
 
 
 def _tolerance(value, name, n):
@@ -361,7 +363,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         it has none. For a Python fun: "c-rk4" (conservative classical Runge-Kutta) with fixed steps, "c-dp54"
         (conservative Dormand-Prince 5(4)) with adaptive control, but "dp54" (the conventional pair, SciPy's RK45)
         for a fun that declares no invariant (none of invariants=, quadratic_invariants=, transform=): nothing is
-        conserved there, and the conventional pair is the more accurate at equal work.
+        conserved there, and the conventional pair is the more accurate at equal work. SciPy's explicit
+        method names are taken for the same pairs: "RK23" is bs32, "RK45" dp54, "DOP853" dp853 (eci has no
+        implicit solver: "Radau", "BDF" and "LSODA" are refused, naming its methods).
     dt: the fixed step. Steps land on t0 + i dt, the last one shortened to end at t1, exactly as `eci run`, so the
         states are the CLI's bit for bit. For a model, None means its default step (model.default_dt).
     rtol, atol: adaptive step control (an embedded pair: bs32, ck54, dp54, dp853, f78 and their c- versions), each a
@@ -434,6 +438,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     if method is not None and not isinstance(method, str):
         raise TypeError(f"method must be a string (see eci.methods()), not {type(method).__name__}")
     names = [m.name for m in methods()]
+    method = _SCIPY_METHODS.get(method, method)  # (a string or None here)
     if method is not None and method not in names:
         raise ValueError(f"unknown method '{method}' (methods: {', '.join(names)})")  # the library's, as the CLI
     unknown = [k for k in options if k not in _IMPLICIT_ONLY]

@@ -307,3 +307,15 @@ def test_every_adaptive_method_of_every_model(make):
             for name, record in r.invariants.items():  # Kepler's Runge-Lenz y starts at 0: absolute drift there
                 scale = max(abs(record["initial"]), 1.0)
                 assert record["max_abs_drift"] <= drift_bound(r.stats["steps"], k=100.0) * scale, (method, name)
+
+
+def test_scipys_explicit_method_names_are_the_same_pairs():
+    # a solve_ivp call moved to eci.solve keeps its method name: RK23, RK45 and DOP853 are bs32, dp54 and dp853,
+    # bit for bit; SciPy's implicit solvers are refused by name (eci has none)
+    f = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    for scipy_name, name in (("RK23", "bs32"), ("RK45", "dp54"), ("DOP853", "dp853")):
+        a = eci.solve(f, (0.0, 3.0), [1.0, 0.0], method=scipy_name, rtol=1e-8, atol=1e-10)
+        b = eci.solve(f, (0.0, 3.0), [1.0, 0.0], method=name, rtol=1e-8, atol=1e-10)
+        assert a.method == name and np.array_equal(a.t, b.t) and np.array_equal(a.y, b.y)
+    with pytest.raises(ValueError, match="unknown method 'Radau'"):
+        eci.solve(f, (0.0, 3.0), [1.0, 0.0], method="Radau")
