@@ -224,7 +224,9 @@ class DenseSolution:
     the hint: the invariants, sums of xi, are kept at every t as at the stored points. A built-in model the library
     integrates in its linearizing variables (Kepler, LotkaVolterra) has sol the polynomial through the stored
     points, not invariant-exact. Outside [t_min, t_max] the first or last step's interpolant is extrapolated, as
-    OdeSolution does.
+    OdeSolution does; it is then no solution: its error grows with the distance (dp853's degree-7 polynomial one
+    step out: 2.8e-6 where SciPy's DOP853 extrapolates to 5.7e-8), and a conservative pair's xi, clamped at 0 where
+    it turns negative, keeps no invariant there.
     """
 
     def __init__(self, t_start, t_end, nodes, samples, signs, sign_nodes, squared, y0, t0, transform=None):
