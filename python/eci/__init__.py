@@ -470,6 +470,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             jac = (lambda j: lambda t, y: j(t, y, *args))(jac)
         if event_list:
             event_list = [((lambda e: lambda t, y: e(t, y, *args))(e), term, d) for e, term, d in event_list]
+    if vectorized and is_model:  # (it was ignored: the model's own right-hand side takes one state)
+        raise ValueError(f"vectorized is for a Python fun; model {fun.name} evaluates its own right-hand side")
     if vectorized and not is_model:  # SciPy's explicit methods call a vectorized fun with one column
         fun = (lambda f: lambda t, y: np.asarray(f(t, y[:, None])).reshape(-1))(fun)
     if jac is not None and is_model:

@@ -121,6 +121,13 @@ def test_fun_must_be_callable():
         eci.solve(42, (0.0, 1.0), [1.0], dt=0.1)
 
 
+def test_vectorized_is_for_functions():
+    # a model's right-hand side takes one state: vectorized=True on it was silently ignored (args= and jac= refused)
+    with pytest.raises(ValueError, match="vectorized is for a Python fun; model three-wave evaluates its own"):
+        eci.solve(M.ThreeWave(), (0.0, 1.0), vectorized=True)
+    assert eci.solve(M.ThreeWave(), (0.0, 1.0), vectorized=False).success
+
+
 def test_transform_is_for_functions_and_conservative_methods():
     squares = eci.Transform(lambda x: x * x, lambda xi, hint: np.copysign(np.sqrt(xi), hint),
                             jacobian=lambda x: np.diag(2 * x))
