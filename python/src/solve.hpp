@@ -330,8 +330,12 @@ inline py::dict failure_dict(const solve_report& r, const component_namer& name)
             const char* cause = f.last_rejection == rejection::non_finite_rate ? "non_finite_fun"
                                 : f.last_rejection == rejection::step_failed   ? "step_failed"
                                                                                 : "error_estimate";
+            // (a rate that stayed non-finite at every size: said as the fixed steps say it, not left to the bracket)
+            const std::string rate = f.last_rejection == rejection::non_finite_rate
+                                         ? ": fun(t, y) returned a non-finite value in component " + component
+                                         : "";
             return raise("StepSizeUnderflow",
-                         f.message + " [component " + component + ", last rejection: " + cause + "]", cause);
+                         f.message + rate + " [component " + component + ", last rejection: " + cause + "]", cause);
         }
         case run_failure_kind::too_many_steps: return raise("TooManySteps", f.message, "too_many_steps");
         case run_failure_kind::work_exceeded: return raise("StepSizeUnderflow", f.message, "work_exceeded");

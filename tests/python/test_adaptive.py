@@ -190,6 +190,8 @@ def test_non_finite_fun_is_rejected_and_counted_then_underflows():
     assert err.cause == "non_finite_fun"
     assert err.stats["rejected_steps"]["non_finite_fun"] > 0
     assert err.t < 1.0 <= err.t + 1e-6
+    # said as a fixed-step run says it (the message named only the minimum step and "tolerance too tight")
+    assert ": fun(t, y) returned a non-finite value in component y[0] [component y[0]" in str(err), str(err)
 
 
 def test_complex_and_transformed_functions_run_adaptively():
