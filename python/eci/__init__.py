@@ -89,7 +89,10 @@ class SolveResult(dict):
     rhs_evals, solver_solves, solver_iterations, solver_max_iterations, and with rtol/atol also adaptive (True),
     dt_smallest, dt_largest, dense_points, landed_points, dense_fallbacks; invariants: name -> initial, final,
     max_abs_drift, max_rel_drift (nan where it means nothing: moved from an initial 0 or subnormal value), measured
-    after every step (adaptive with t_eval: at the t_eval times); method, order, conservative; time_lag (m,): for
+    after every step (adaptive with t_eval: at the t_eval times); method, order, conservative (the method's registry
+    flag); keeps: for a built-in model, the names of its invariants the method keeps by construction (`eci run`'s
+    summary: all for a conservative method, the first for relaxation, the independent ones for projection), None
+    for a Python fun; time_lag (m,): for
     the relaxation methods (rrk-*, mrrk-*) at fixed steps, y[:, i] is the solution at t[i] + time_lag[i] (the CLI's
     time_lag column; a step's O(dt^p), never accumulated), else None; NavierStokes2D runs also budget (energy and
     enstrophy injection and dissipation); and SciPy's nfev, status, message, success.

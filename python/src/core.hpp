@@ -209,11 +209,13 @@ void add_arrays(py::dict& d, recorded_output<S>& out, std::size_t n) {
     d["y"] = rows.attr("T");  // y[:, i] is the state at t[i]
 }
 
-/// The method's registry entry into the result dict.
-inline void add_method(py::dict& d, const method_info& method) {
+/// The method's registry entry into the result dict, and `keeps`: the invariants of a built-in model the method
+/// keeps by construction (eci::invariants_kept, the CLI summary's), None for a Python fun.
+inline void add_method(py::dict& d, const method_info& method, std::optional<std::vector<std::string>> keeps = {}) {
     d["method"] = std::string(method.name);
     d["order"] = method.order;
     d["conservative"] = method.conservative;
+    d["keeps"] = keeps ? py::object(py::cast(*keeps)) : py::object(py::none());
 }
 
 /// NavierStokes2D's result as the dict eci.solve turns into a SolveResult.
@@ -224,7 +226,10 @@ py::dict result_dict(recorded_output<S>& out, std::size_t n, const step_counts& 
     add_arrays(d, out, n);
     d["stats"] = stats_dict(report);
     d["invariants"] = drift_dict(drift);
-    add_method(d, method);
+    std::vector<std::string> keeps;  // a conservative method keeps E and Z (without forcing and dissipation)
+    if (method.family == method_family::conservative)
+        for (const invariant_record& r : drift) keeps.push_back(r.name);
+    add_method(d, method, keeps);
     return d;
 }
 

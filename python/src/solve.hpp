@@ -452,9 +452,12 @@ py::dict run_python_model(const Model& model, typename Model::state_type& x, con
                           python_request req, std::vector<extra_invariant<typename Model::state_type>> extra,
                           const component_namer& namer, const std::string& what, bool release) {
     using S = typename Model::state_type;
-    return run_recorded<S>(x, std::move(req), namer, release, [&](recording_sink<S>& sink, const run_config& cfg) {
+    py::dict d = run_recorded<S>(x, std::move(req), namer, release, [&](recording_sink<S>& sink, const run_config& cfg) {
         return solve_model<Model>(model, x, method, cfg, sink, std::move(extra), what);
     });
+    if (const auto m = find_method(d["method"].cast<std::string>()))  // (what the CLI's summary says of it)
+        d["keeps"] = py::cast(invariants_kept<Model>(*m));
+    return d;
 }
 
 /// The Python callables given as invariants=, as extra invariants of a run on S (the GIL must be held).

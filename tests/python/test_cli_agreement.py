@@ -877,3 +877,19 @@ def test_relaxation_time_lags_match_the_cli(cli, tmp_path):
     r = eci.solve(M.KeplerCartesian(), (0.0, 1.0), dt=0.1, t_eval=[0.0, 0.25, 0.5, 1.0])
     assert r.method == "rrk-rk4" and r.time_lag.shape == (4,)
     assert r.time_lag[0] == 0.0 and r.time_lag[2] != 0.0
+
+
+# result.keeps is what `eci run`'s summary says of the method on the model (JSON "keeps"): the invariants it keeps
+# by construction. None for a Python fun, whose invariants the library cannot name.
+@pytest.mark.parametrize("model, method", [("kepler", "projected-rk4"), ("kepler", "implicit-midpoint"),
+                                           ("kepler", "c-pc"), ("three-wave", "rrk-rk4"), ("three-wave", "rk4"),
+                                           ("kepler-cartesian", "mrrk-rk4")])
+def test_result_keeps_what_the_cli_summary_says(cli, tmp_path, model, method):
+    summary = cli_run(cli, tmp_path, model, method, 0.01, 0.1)[2]
+    m = {"kepler": eci.models.Kepler, "three-wave": eci.models.ThreeWave,
+         "kepler-cartesian": eci.models.KeplerCartesian}[model]()
+    r = eci.solve(m, (0.0, 0.1), method=method, dt=0.01)
+    assert r.keeps == summary["keeps"]
+    assert summary["conservative"] == (len(r.keeps) == len(r.invariants))
+    assert eci.solve(lambda t, y: -y, (0.0, 0.1), [1.0], method=method if method == "rk4" else "c-rk4",
+                     dt=0.01).keeps is None
