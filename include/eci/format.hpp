@@ -6,8 +6,8 @@
 
 #include <charconv>
 #include <cmath>
-#include <string>
 #include <limits>
+#include <string>
 #include <string_view>
 
 namespace eci {

@@ -559,13 +559,14 @@ std::vector<method_info> methods_for() {
 template <class Model>
 std::vector<std::string> invariants_kept(const method_info& m) {
     using M = typename detail::as_model<Model>::type;
-    std::vector<std::string> all, kept;
+    std::vector<std::string> all;
     if constexpr (requires { M::invariants(); })
         for (const auto& inv : M::invariants()) all.emplace_back(inv.name);
     const auto independent = [&] {
         if constexpr (names_independent_invariants<M>) {
-            for (std::size_t i : M::independent_invariants) kept.push_back(all.at(i));
-            return kept;
+            std::vector<std::string> v;
+            for (std::size_t i : M::independent_invariants) v.push_back(all.at(i));
+            return v;
         } else {
             return all;
         }
@@ -577,8 +578,8 @@ std::vector<std::string> invariants_kept(const method_info& m) {
             if (m.conservative) return independent();  // mrrk-*: the two independent ones
             return all.empty() ? all : std::vector<std::string>{all.front()};
         case method_family::projection: return independent();
-        case method_family::implicit: return declares_quadratic_weights<M> ? all : kept;
-        default: return kept;
+        case method_family::implicit: return declares_quadratic_weights<M> ? all : std::vector<std::string>{};
+        default: return {};
     }
 }
 

@@ -532,6 +532,32 @@ bool method_shifts_time(std::string_view name) {
     return shifts;
 }
 
+namespace detail {
+
+/// The initial state's checks every run makes (check_run_inputs) and the front ends' check_initial_state begins
+/// with: each real unknown finite (if `finite`), then the model's domain and size (validate_state, e.g.
+/// Lotka-Volterra's x, y > 0, an n-wave state's one element per mode). std::invalid_argument, one line.
+template <class Model, class S>
+void check_finite_in_domain(const Model& model, const S& x, const std::function<std::string(std::size_t)>& name,
+                            bool finite) {
+    if (finite) {
+        const auto r = reals(x);
+        for (std::size_t i = 0; i < r.size(); ++i)
+            if (!std::isfinite(r[i]))
+                throw std::invalid_argument("initial condition " + (name ? name(i) : default_component_name<S>(i)) +
+                                            " is not finite");
+    }
+    if constexpr (requires { model.validate_state(x); }) {
+        try {
+            model.validate_state(x);
+        } catch (const std::invalid_argument& e) {
+            throw std::invalid_argument(std::string("invalid initial condition: ") + e.what());
+        }
+    }
+}
+
+}  // namespace detail
+
 /// Rejects an initial state whose arithmetic is beyond double precision from the start, with one line naming the
 /// component: a non-finite or subnormal component, the model's own domain (validate_state), an invariant or a
 /// rate that is not finite. std::invalid_argument.
@@ -539,15 +565,7 @@ template <class Model, class S>
 void check_initial_state(const Model& model, const S& x, const std::function<std::string(std::size_t)>& name) {
     auto named = [&](std::size_t i) { return name ? name(i) : detail::default_component_name<S>(i); };
     const auto r = detail::reals(x);
-    for (std::size_t i = 0; i < r.size(); ++i)
-        if (!std::isfinite(r[i])) throw std::invalid_argument("initial condition " + named(i) + " is not finite");
-    if constexpr (requires { model.validate_state(x); }) {  // a domain, e.g. Lotka-Volterra's x, y > 0
-        try {
-            model.validate_state(x);
-        } catch (const std::invalid_argument& e) {
-            throw std::invalid_argument(std::string("invalid initial condition: ") + e.what());
-        }
-    }
+    detail::check_finite_in_domain(model, x, name, true);
     char buffer[32];
     for (std::size_t i = 0; i < r.size(); ++i)
         if (r[i] != 0.0 && std::abs(r[i]) < std::numeric_limits<double>::min())
@@ -608,21 +626,7 @@ void check_run_inputs(const F& f, const S& x, const run_config& cfg, std::string
                                         e.what());
         }
     }
-    if constexpr (!distributed_model<F>) {
-        const auto r = reals(x);
-        for (std::size_t i = 0; i < r.size(); ++i)
-            if (!std::isfinite(r[i]))
-                throw std::invalid_argument("initial condition " +
-                                            (cfg.component_name ? cfg.component_name(i) : default_component_name<S>(i)) +
-                                            " is not finite");
-    }
-    if constexpr (requires(const M& m) { m.validate_state(x); }) {
-        try {
-            hook_target(f).validate_state(x);
-        } catch (const std::invalid_argument& e) {
-            throw std::invalid_argument(std::string("invalid initial condition: ") + e.what());
-        }
-    }
+    check_finite_in_domain(hook_target(f), x, cfg.component_name, !distributed_model<F>);
 }
 
 /// The configuration a run goes by: `requested` checked, and its output_dt resolved (on a copy, with the default

@@ -58,7 +58,7 @@ struct three_wave {
     }
 
     /// Throws std::invalid_argument if eq. (2) or (3) fails beyond round-off, a parameter is not finite or a
-/// wavenumber magnitude (K, P, Q) is negative.
+    /// wavenumber magnitude (K, P, Q) is negative.
     void validate() const {
         const char* names[] = {"K", "P", "Q", "M_K", "M_P", "M_Q"};
         const double values[] = {K, P, Q, M[0], M[1], M[2]};
