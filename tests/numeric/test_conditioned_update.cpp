@@ -33,9 +33,10 @@ struct errors {
 // RMS error at t_end against a small-step RK4 reference, at each dt, of the conservative method and its
 // conventional counterpart.
 template <class Conservative, class Conventional, class T>
-errors compare(std::size_t modes, std::uint64_t seed, double t_end, const std::vector<double>& dts) {
+errors compare(std::size_t modes, std::uint64_t seed, double t_end, const std::vector<double>& dts,
+               std::size_t triads_per_mode = 4) {
     using S = std::vector<T>;
-    const auto model = eci::n_wave<T>::random(modes, 4, seed);
+    const auto model = eci::n_wave<T>::random(modes, triads_per_mode, seed);
     const S x0 = model.random_state(seed + 1);
     S ref = x0;
     eci::rk4<S> rk4;
@@ -102,6 +103,23 @@ TEST(ConditionedUpdate, CPcComplexNWaveAtPcsError) {
 TEST(ConditionedUpdate, CRk4RealNWaveAtRk4sErrorAndOrder) {
     for (std::uint64_t seed : {11u, 31u})
         expect_conventional_accuracy<c_rk4_m, rk4_m, double>(seed, {0.1, 0.05, 0.025, 0.0125}, 4.0);
+}
+// Small steps: the CLI's n-wave system (30 real modes in about 20 triads each) to t = 10, down to steps where the
+// defect of the ill-conditioned unknowns is below 2^-48 of E and Z, so that their rescale is not represented by
+// rounding to nearest and is rounded stochastically (radicand_remedy.hpp). Declining it there (the paper's values
+// kept) gave up to 50 x RK4's error at dt = 6.25e-4; now 2-10 x at every step here (an open defect: on a system
+// this small the share cap lets one or two unknowns per step take the conventional update, docs/methods.md). The
+// bound 12 x fails the declining update; the invariants keep 8 eps sqrt(steps), the stochastic rounding unbiased.
+TEST(ConditionedUpdate, CRk4RealNWaveAtSmallSteps) {
+    for (std::uint64_t seed : {1u, 2u}) {
+        const std::vector<double> dts{0.01, 0.005, 0.0025, 0.00125, 0.000625};
+        const errors e = compare<c_rk4_m, rk4_m, double>(30, seed, 10.0, dts, 20);
+        std::printf("  worst drift %.2f eps sqrt(steps)\n", e.drift / eps);
+        for (std::size_t i = 0; i < dts.size(); ++i)
+            EXPECT_LE(e.conservative[i], 12.0 * e.conventional[i]) << "dt " << dts[i];
+        EXPECT_EQ(e.halvings, 0u);
+        EXPECT_LE(e.drift, 8.0 * eps);
+    }
 }
 TEST(ConditionedUpdate, CPcRealNWaveAtPcsError) {
     for (std::uint64_t seed : {11u, 31u})

@@ -256,15 +256,13 @@ class radicand_remedy {
             return false;
         }
         stats_.lumped += std::uint64_t(hist_[lumped_bucket()]);
-        too_small_ = false;
         for (std::size_t limit = filed;;) {
             const std::size_t cut = widest_cut(limit, held_neg);
             const std::size_t count = cut == 0 ? 0 : std::size_t(hist_[(cut - 1) * stride]);
             if (attempt_elements<Per>(o, x, n, conv, cut, count)) return true;
             ++stats_.conditioning_declined;
             if (count == 0) break;
-            // a subset's rescale would be smaller still: straight to neg_ alone
-            limit = too_small_ ? 0 : count / 4;
+            limit = count / 4;
             if (limit == 0 && negatives == 0.0) {  // every radicand positive: the conservative update stands
                 settle_filed<Per>(o, conv, 0);
                 return true;
@@ -671,24 +669,30 @@ class radicand_remedy {
         std::uint64_t bits;
         std::memcpy(&bits, &xi, sizeof bits);
         for (std::size_t p = 0; p < Per; ++p) {
-            const double delta = c[p] * g;
-            o[p] = c[p];
-            if (delta == 0.0) continue;
-            const double next = std::nextafter(c[p], delta > 0.0 ? HUGE_VAL : -HUGE_VAL);
-            const double frac = delta / (next - c[p]);  // in [0, 1) for |delta| below an ulp, else more
-            // hashed from xi and |c_p| (not the element's index): mirror-image modes (k and -k of a real field)
-            // get mirror-image values
             const double mag = std::abs(c[p]);
             std::uint64_t cb;
             std::memcpy(&cb, &mag, sizeof cb);
-            std::uint64_t h = bits ^ (cb * 0x9E3779B97F4A7C15ull) ^ (p + 1);  // splitmix64
-            h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
-            h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
-            h ^= h >> 31;
-            const double u = double(h >> 11) * 0x1.0p-53;
-            const double whole = std::floor(frac);  // the ulps delta spans (0 or -1 below an ulp of either sign)
-            o[p] = c[p] + (whole + (u < frac - whole ? 1.0 : 0.0)) * (next - c[p]);
+            o[p] = add_stochastically(c[p], c[p] * g, bits ^ (cb * 0x9E3779B97F4A7C15ull) ^ (p + 1));
         }
+    }
+
+    // v + delta rounded to one of the two doubles around it, up with probability its distance from the lower one in
+    // ulps: unbiased, where round-to-nearest would return v itself for any |delta| below half an ulp. The uniform
+    // number is hashed from the caller's key, made of values (not of an index: mirror-image modes, k and -k of a
+    // real field, get mirror-image values; and a restart from the same state gives the same bits). v + delta must
+    // be finite.
+    static double add_stochastically(double v, double delta, std::uint64_t key) {
+        if (delta == 0.0) return v;
+        const double next = std::nextafter(v, delta > 0.0 ? HUGE_VAL : -HUGE_VAL), gap = next - v;
+        if (!std::isfinite(gap)) return v + delta;  // (at the largest double)
+        const double frac = delta / gap;  // in [0, 1) for |delta| below an ulp, else more
+        std::uint64_t h = key;  // splitmix64's finish
+        h = (h ^ (h >> 30)) * 0xBF58476D1CE4E5B9ull;
+        h = (h ^ (h >> 27)) * 0x94D049BB133111EBull;
+        h ^= h >> 31;
+        const double u = double(h >> 11) * 0x1.0p-53;
+        const double whole = std::floor(frac);  // the ulps delta spans (0 or -1 below an ulp of either sign)
+        return v + (whole + (u < frac - whole ? 1.0 : 0.0)) * gap;
     }
 
     // The last successful remedy_elements gave the conventional update to cond_'s elements in buckets below this.
@@ -850,6 +854,11 @@ class radicand_remedy {
     static constexpr double taylor_limit = 0x1p-10;
     template <std::size_t Per>
     void rescale(double* o, std::size_t n, const std::array<double, max_invariants>& c) {
+        if (stochastic_) {
+            stochastic_ = false;
+            rescaled_ = rescale_stochastically<Per>(o, n, c) ? rescaled::finite : rescaled::non_finite;
+            return;
+        }
         const bool finite = s_bound_ <= taylor_limit ? for_each_element_factor<Per>(n, c, [](double s) {
             return s * (0.5 + s * (-0.125 + s * (0.0625 + s * (-0.0390625 + s * (0.02734375 - s * 0.0205078125)))));
         }, o)
@@ -891,6 +900,39 @@ class radicand_remedy {
                         o[e * Per + p] += o[e * Per + p] * f;
                         bad |= detail::non_finite_bit(o[e * Per + p]);
                     }
+                }
+            }
+            return detail::none_non_finite(bad) ? 0.0 : 1.0;
+        }) == 0.0;
+    }
+
+    // rescale() of a rescale below 2^-48 (attempt_elements): o_i + o_i h(s_e) rounded stochastically
+    // (add_stochastically), seeded from the rescale's coefficients, so that a rerun gives the same bits and every
+    // process the same seed (c is unchanged when the state is scaled by a power of two, as the significands are).
+    // h(s) = s / 2 to within s^2 / 8 < 2^-98: the Taylor series' first term.
+    template <std::size_t Per>
+    bool rescale_stochastically(double* o, std::size_t n, const std::array<double, max_invariants>& c) const {
+        std::uint64_t seed = 0;
+        for (std::size_t j = 0; j < weights_.size(); ++j) {
+            std::uint64_t b;
+            std::memcpy(&b, &c[j], sizeof b);
+            seed = (seed ^ b) * 0x9E3779B97F4A7C15ull;
+        }
+        const std::size_t m = weights_.size(), ne = n / Per;
+        return split_.count(ne, [&](std::size_t e0, std::size_t e1) {
+            std::uint64_t bad = 0;
+            for (std::size_t e = e0; e < e1; ++e) {
+                double s = 0.0;
+                for (std::size_t j = 0; j < m; ++j) s += c[j] * weights_[j][e];
+                const double f = 0.5 * s;
+                for (std::size_t p = 0; p < Per; ++p) {
+                    double& v = o[e * Per + p];
+                    // the key from |v|'s significand alone: a run scaled by a power of two rounds alike
+                    std::uint64_t vb;
+                    std::memcpy(&vb, &v, sizeof vb);
+                    const std::uint64_t key = seed ^ ((vb & 0x000FFFFFFFFFFFFFull) * 0x9E3779B97F4A7C15ull) ^ (p + 1);
+                    v = add_stochastically(v, v * f, key);
+                    bad |= detail::non_finite_bit(v);
                 }
             }
             return detail::none_non_finite(bad) ? 0.0 : 1.0;
@@ -992,8 +1034,9 @@ class radicand_remedy {
         // Bounds settle these checks without the pass when they are far from every threshold (the usual case:
         // |s_k| ~ the defect's share of an invariant, 1e-8 or less): |s_k| <= sum_j |c_j| max_k |w_jk|, and with
         // weights >= 0, sum_k |w_jk| xi_k |s_k| <= sum_i |c_i| G_ji. The pass's s_max is at least |s| at the
-        // elements of largest weight (computed as the pass computes it), which settles the too-small check. The
-        // margins (2^-40 on |s|, 2^-20 on the sums, a bound on n) cover the roundings of the pass and of the bounds,
+        // elements of largest weight (computed as the pass computes it), which settles that it is not below 2^-48
+        // (rounded stochastically). The margins (2^-40 on |s|, 2^-20 on the sums, a bound on n) cover the roundings
+        // of the pass and of the bounds,
         // so that a check passed here is one the pass would pass: the step's bits are the same either way.
         if (whole_.nonnegative && whole_.elements < (std::size_t(1) << 32)) {
             double ub = 0.0, lb = 0.0;
@@ -1035,15 +1078,17 @@ class radicand_remedy {
             reduce_.max({&s_max, 1});
         }
         if (!(s_max <= 0.5)) return false;
-        // A rescale this small (every |s_k| < 2^-48: no amplitude would move by more than ~8-16 ulps) is not
-        // represented: where o h is below half an ulp of o, o + o h rounds back to o, an error of one sign in every
-        // such element. Ill-conditioned elements whose whole defect is this small (~4e-15 of every invariant) keep
-        // their conservative value rather than drift the invariants by ~eps per step (DP54 at dt = 0.005 on a
-        // 45-mode system: defects of 1e-16 of one sign, 15 eps sqrt(n)). Above it the rounding of o + o h is a
-        // fraction of an ulp of either sign. (Negative radicands are remedied whatever the size.)
-        if (ncond > 0 && s_max < 0x1p-48) return too_small_ = true, false;
         for (std::size_t j = 0; j < m; ++j)
             if (!(moved[j] <= remedy.max_rescale * mag[j])) return false;
+        // A rescale this small (every |s_k| < 2^-48: no amplitude would move by more than ~8-16 ulps) is not
+        // represented by rounding to nearest: where o h is below half an ulp of o, o + o h rounds back to o, an error
+        // of one sign in every such element, and the invariants would drift by ~eps per step (DP54 at dt = 0.005
+        // on a 45-mode system: defects of 1e-16 of one sign, 15 eps sqrt(n)). Declining instead (keeping the
+        // paper's values) lost the conditioned update's accuracy at every small step (C-RK4 14-48 x RK4's error
+        // on the 30-mode n-wave system at dt = 1.25e-3). So each o + o h is rounded stochastically, unbiased:
+        // the invariants then take a random walk of round-off size. Above 2^-48 the rounding of o + o h is a
+        // fraction of the change, of either sign. (Negative radicands alone are rescaled as before.)
+        stochastic_ = ncond > 0 && s_max < 0x1p-48;
         return commit(s_max);
     }
 
@@ -1186,7 +1231,7 @@ class radicand_remedy {
     std::array<double, max_invariants * max_invariants> g0_{};  // Gram sums of the finished state (remedy_elements)
     std::array<double, max_invariants> mag0_{};
     bool gram_valid_ = false;  // g0_, mag0_ from this step's finishing pass
-    bool too_small_ = false;  // the last attempt's rescale was below what the state can represent
+    bool stochastic_ = false;  // the rescale under way is below 2^-48: rounded stochastically (attempt_elements)
     double s_bound_ = 0.0;  // the bound on |s_k| of the rescale under way
     remedy_stats stats_{};
 };
