@@ -226,9 +226,10 @@ class spectral_command final : public model_command {
         stem_ = field_stem(field_);
         // name, help, and where the value goes: a real, a whole number >= min, a text or a flag
         real("nu", "viscosity nu (default 0)");
-        real("hyper-nu", "hyperviscosity nu_h of -nu_h |k|^(2p) omega (default 0)");
-        real("drag", "linear drag mu of -mu omega (default 0)");
-        real("hypo-nu", "hypoviscosity (large-scale friction) of -nu_hypo |k|^(-2 p') omega (default 0)");
+        const std::string sym(e.symbol);  // the evolved field's symbol: omega, q, theta
+        real("hyper-nu", "hyperviscosity nu_h of -nu_h |k|^(2p) " + sym + " (default 0)");
+        real("drag", "linear drag mu of -mu " + sym + " (default 0)");
+        real("hypo-nu", "hypoviscosity (large-scale friction) of -nu_hypo |k|^(-2 p') " + sym + " (default 0)");
         if (e.dispersion) {
             real("beta", "planetary vorticity gradient beta: Rossby waves omega = -beta k_x / (k^2 + F) (default 0)");
             real("deformation", "F = 1 / L_d^2 >= 0 in q = lap psi - F psi (default 0: Navier-Stokes with beta)");
@@ -240,7 +241,7 @@ class spectral_command final : public model_command {
         real("energy", "random: initial energy (default 0.5)");
         real("vortex-radius", "vortex-pair: radius of each Gaussian vortex (default 0.25)");
         real("vortex-separation", "vortex-pair: distance of the centres (default 0.7)");
-        real("vortex-peak", "vortex-pair: peak vorticity; taylor-green: velocity (default 10, 1)");
+        real("vortex-peak", "vortex-pair: peak " + std::string(e.field) + "; taylor-green: velocity (default 10, 1)");
         real("cfl", "dt = CFL dx / max|u| at the start (default 0.5; exclusive with --dt)");
         whole("N", "grid points per side, even, >= 8 (default 256); |k_x|, |k_y| <= (N - 1)/3 kept", 0);
         whole("hyper-p", "hyperviscosity power p, 1..16 (default 2; with --hyper-nu)", 0);
@@ -250,17 +251,19 @@ class spectral_command final : public model_command {
         whole("threads", "FFTW and OpenMP threads (default 1)", 0);
         whole("snapshot-every", "every K steps the field as HDF5 + PNG, its spectra and fluxes as CSV + PNG "
                                  "(default none)", 1);
-        whole("checkpoint-every", "write the checkpoint every K steps (default: only when stopped by a signal)", 1);
+        whole("checkpoint-every", "write the checkpoint every K steps and at the end (default: a checkpoint asked "
+                                   "for with --checkpoint or --restart at the end and when stopped by a signal)", 1);
         text("forcing", "none, deterministic (fixed band, random phases) or stochastic (white in time) (default none)");
         text("ic", "initial condition: random, vortex-pair, taylor-green, or FILE (an eci snapshot or checkpoint "
                    ".h5; its grid is the default --N) (default random)");
         text("snapshot-dir", "directory of the snapshots (default " + default_snapshot_dir_ + ")");
-        text("checkpoint", "checkpoint file, also written when stopped by SIGINT, SIGTERM, SIGHUP or SIGQUIT "
+        text("checkpoint", "checkpoint file, written at the end and when stopped by SIGINT, SIGTERM, SIGHUP or SIGQUIT "
                            "(default " + default_checkpoint_ + "; with --restart, the restart file, continued in "
                            "place; a run that asks for no checkpoint writes the default on a stop only if no such "
                            "file exists)");
         text("restart", "continue, bit for bit, from a checkpoint");
-        text("fftw-wisdom", "FFTW wisdom file read before and written after planning, so that every run plans the "
+        text("fftw-wisdom", "FFTW wisdom file read before (a restart: after; it plans with its checkpoint's) and "
+                            "written after planning, so that every run plans the "
                             "same transforms and repeats bit for bit; 'none' for no file (default "
                             "$XDG_CACHE_HOME/eci/fftw-wisdom, else ~/.cache/eci/fftw-wisdom)");
         flag("fftw-estimate", "FFTW_ESTIMATE plans instead of FFTW_MEASURE (no planning time; not bit-identical "
@@ -615,6 +618,14 @@ int spectral_command::run_spread(const run_settings& settings) {
     // Where a stop keeps the run: the checkpoint asked for; else the default name if it is free and writable.
     std::string no_checkpoint_why;
     if (checkpoint_asked) {
+        // --checkpoint-every under the default name would replace another run's checkpoint in this directory (a stop
+        // without one asked for keeps it, below): refused unless the file is named, or is the one restarted
+        if (!restart && !given_text("checkpoint")) {
+            std::error_code ec;
+            if (fs::exists(fs::symlink_status(checkpoint_, ec)))
+                throw bad_input("--checkpoint-every would replace '" + checkpoint_ + "', another run's checkpoint: "
+                                "--checkpoint FILE names this run's (that file, to replace it)");
+        }
         check_output_path(checkpoint_, "checkpoint");
     } else {
         std::error_code ec;
@@ -722,7 +733,11 @@ int spectral_command::run_spread(const run_settings& settings) {
         p.wisdom.clear();  // (nor taken from a checkpoint: another process count plans other transforms)
     }
 #endif
-    if (wisdom_text) navier_stokes_2d::import_fftw_wisdom(*wisdom_text);  // not wisdom: ignored, as FFTW did
+    // A restart plans with the checkpoint's wisdom alone, so that it continues bit for bit whatever the wisdom file
+    // holds for this N (FFTW keeps the plan imported first where two disagree); the file's wisdom is imported after
+    // planning, so that writing the file back keeps its plans for other sizes.
+    const bool wisdom_after = restart && !p.wisdom.empty();
+    if (wisdom_text && !wisdom_after) navier_stokes_2d::import_fftw_wisdom(*wisdom_text);  // not wisdom: ignored
     navier_stokes_2d model = [&] {
         try {
             return navier_stokes_2d(p);
@@ -730,6 +745,7 @@ int spectral_command::run_spread(const run_settings& settings) {
             throw bad_input(name_ + ": " + e.what());
         }
     }();
+    if (wisdom_text && wisdom_after) navier_stokes_2d::import_fftw_wisdom(*wisdom_text);
     // Spread over processes, each reads its own part of an --ic or --restart file: its columns of a checkpoint's
     // state, its rows of a snapshot's field (the headers were read and agreed above).
     state part_columns;
@@ -770,6 +786,12 @@ int spectral_command::run_spread(const run_settings& settings) {
             ck.state = state();  // (the file's half plane is not needed again)
             model.set_rng_state(ck.rng_state);
         } else if (ic_ == "random") {
+            // a peak asked for beyond the retained modes would pile the spectrum up at the cut-off (the default 8 is
+            // kept on a small grid: the field of every N, as before)
+            if (given_real("k-peak") && std::isfinite(k_peak_) && k_peak_ > double(model.grid().kmax()))
+                throw bad_input("--k-peak " + shortest(k_peak_) + " is beyond the retained modes (|k_x|, |k_y| <= "
+                                "kmax = " + std::to_string(model.grid().kmax()) + " at N = " + std::to_string(p.n) +
+                                ")");
             w = model.random_field(k_peak_, energy_, seed_);
         } else if (ic_ == "vortex-pair") {
             w = model.vortex_pair(vortex_radius_, vortex_separation_, vortex_peak_);
@@ -840,6 +862,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     // replaced (after the inputs' check, which names the more particular problem).
     if (snapshot_every_ > 0) {
         std::set<std::uint64_t> stale;
+        std::string other_grid;  // the first snapshot this run would replace of another grid (rank 0's verdict, below)
+        std::uint64_t other_step = 0;
         std::error_code ec;
         for (const auto& entry : fs::directory_iterator(snapshot_dir_.empty() ? "." : snapshot_dir_, ec)) {
             const std::string file = entry.path().filename().string();
@@ -853,6 +877,22 @@ int spectral_command::run_spread(const run_settings& settings) {
                 if (!(restart && *step <= first)) stale.insert(*step);
                 continue;
             }
+            // a snapshot this run replaces must be of its grid: the same steps of another run are not its own
+            if (entry.path().extension() == ".h5" && file.rfind(stem_ + "_", 0) == 0) {
+                int n_file = p.n;
+                try {
+                    n_file = read_vorticity(entry.path().string(), 0, false).first;
+                } catch (const std::exception&) {
+                    // (unreadable: not a run's snapshot, replaced like any file of this name)
+                }
+                if (n_file != p.n && (other_grid.empty() || *step < other_step)) {
+                    other_step = *step;
+                    other_grid = "--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) +
+                                 "' holds another run's snapshots ('" + file + "' is of N = " +
+                                 std::to_string(n_file) + ", this run's N = " + std::to_string(p.n) +
+                                 "): give another directory or remove them";
+                }
+            }
             if (inputs.empty()) continue;
             char digits[32];
             std::snprintf(digits, sizeof digits, "%08llu", (unsigned long long)*step);
@@ -860,12 +900,14 @@ int spectral_command::run_spread(const run_settings& settings) {
             if (file != stem_ + "_" + digits + ext && file != std::string("spectrum_") + digits + ext) continue;
             check_outputs_spare_inputs({{"--snapshot-dir", entry.path().string()}}, inputs);
         }
+        other_grid = agreed_text(other_grid);  // (collective: a header one process could not read decides nothing)
         if (!stale.empty())
             throw bad_input("--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) +
                             "' holds another run's snapshots at steps this run does not write (step " +
                             std::to_string(*stale.begin()) +
                             (stale.size() > 1 ? " and " + std::to_string(stale.size() - 1) + " more" : std::string()) +
                             "): they would mix with this run's; give another directory or remove them");
+        if (!other_grid.empty()) throw bad_input(other_grid);
     }
     // The run's span and rows, here, before any output is opened (its other settings below, with the sink)
     run_config cfg;
@@ -1224,7 +1266,9 @@ int spectral_command::run_spread(const run_settings& settings) {
             if (snapshot_every_ > 0 && !restart) snapshot(first, t);
         } else {
             if (snapshot_every_ > 0 && (i % snapshot_every_ == 0 || i == last)) snapshot(i, t);
-            if (checkpoint_every_ > 0 && (i % checkpoint_every_ == 0 || i == last)) good_checkpoint = save_step(i);
+            // a checkpoint asked for (a restart's included: its file, continued in place) is at the run's end too
+            if ((checkpoint_every_ > 0 && i % checkpoint_every_ == 0) || (checkpoint_asked && i == last))
+                good_checkpoint = save_step(i);
             progress.update(i - first, t, [&] {
                 // drift from the exact budget (pure drift when nothing is forced or dissipated)
                 const ns2d_budget& b = run.budget;

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -84,7 +85,7 @@ void flow_params::validate(const spectral::equation& e) const {
     require(std::isfinite(hypo_nu) && hypo_nu >= 0.0, "hypoviscosity must be finite and >= 0");
     whole("hypo_p", hypo_p);
     require(std::isfinite(drag) && drag >= 0.0, "drag must be finite and >= 0");
-    require(std::isfinite(forcing_k) && forcing_k > 0.0, "forcing wavenumber k_f must be positive");
+    require(std::isfinite(forcing_k) && forcing_k > 0.0, "forcing wavenumber k_f must be a positive finite number");
     require(std::isfinite(forcing_amplitude) && forcing_amplitude >= 0.0, "forcing amplitude must be >= 0");
     require(std::isfinite(injection_rate) && injection_rate >= 0.0, "injection rate must be >= 0");
     whole("threads", threads);
@@ -302,6 +303,14 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
         // per unit time, which is epsilon for this sigma.
         d.sigma = std::sqrt(2.0 * p.injection_rate / band_energy_weight);
     }
+    // a forcing that overflows is a parameter too large, not a failed step: the band's energy at its amplitude must
+    // be a number (from the whole band's sums, so that every process decides alike)
+    const double amplitude = p.forcing == forcing_kind::deterministic ? p.forcing_amplitude / std::sqrt(band_count)
+                                                                      : d.sigma;
+    require(std::isfinite(amplitude * amplitude * band_energy_weight),
+            "the forcing overflows (" +
+                std::string(p.forcing == forcing_kind::stochastic ? "injection rate" : "forcing amplitude") +
+                " too large for N = " + std::to_string(p.n) + ")");
 }
 
 flow2d::~flow2d() = default;
@@ -808,8 +817,8 @@ void flow2d::make_hermitian(state_type& q) const {
 }
 
 flow2d::state_type flow2d::random_field(double k_peak, double energy_target, std::uint64_t seed) {
-    require(std::isfinite(k_peak) && k_peak > 0.0, "peak wavenumber must be positive");
-    require(std::isfinite(energy_target) && energy_target > 0.0, "initial energy must be positive");
+    require(std::isfinite(k_peak) && k_peak > 0.0, "peak wavenumber must be a positive finite number");
+    require(std::isfinite(energy_target) && energy_target > 0.0, "initial energy must be a positive finite number");
     state_type w(size());
     std::uint64_t s = seed;
     const spectral::grid& g = d_->g;
@@ -836,7 +845,15 @@ flow2d::state_type flow2d::random_field(double k_peak, double energy_target, std
 }
 
 flow2d::state_type flow2d::vortex_pair(double radius, double separation, double peak) {
-    require(std::isfinite(radius) && radius > 0.0, "vortex radius must be positive");
+    require(std::isfinite(radius) && radius > 0.0, "vortex radius must be a positive finite number");
+    // narrower than half the grid spacing, the Gaussians fall between the grid points: a near-zero field, not a pair
+    if (!(radius * double(n_) >= std::numbers::pi)) {
+        char half[32];
+        std::snprintf(half, sizeof half, "%.3g", std::numbers::pi / double(n_));
+        throw std::invalid_argument("vortex radius " + eci::detail::shortest_text(radius) +
+                                    " is below half the grid spacing (pi / N = " + half + " at N = " +
+                                    std::to_string(n_) + "): the vortices would fall between the grid points");
+    }
     require(std::isfinite(separation) && separation >= 0.0 && separation < std::numbers::pi,
             "vortex separation must be in [0, pi)");
     require(std::isfinite(peak), "peak vorticity must be finite");

@@ -604,3 +604,64 @@ def test_a_negative_wavenumber_magnitude_is_refused(cli, flag):
     assert cli_error(cli, "run", "three-wave", flag, "-1") == (
         f"invalid three-wave model: three-wave {flag[2:]} is a wavenumber's magnitude and must not be negative, "
         "got -1")
+
+
+def h5_step(path):
+    with h5py.File(path, "r") as f:
+        return int(f.attrs["step"])
+
+
+# A checkpoint asked for is also written at the run's end: a restart without --checkpoint-every left its file at the
+# step it restarted from, so the next --restart took those steps again (and a crash lost them).
+def test_a_restart_continues_its_checkpoint_to_its_end(cli, tmp_path):
+    run_cli(cli, *small("--steps", 4, "--checkpoint", tmp_path / "c.h5"))
+    assert h5_step(tmp_path / "c.h5") == 4
+    run_cli(cli, "run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", tmp_path / "c.h5", "--steps", 7)
+    assert h5_step(tmp_path / "c.h5") == 7
+
+
+# --checkpoint-every without --checkpoint writes the default name: where that file exists (another run's, in the same
+# directory) the run is refused before any work, the file as it was.
+def test_checkpoint_every_does_not_replace_another_runs_default_checkpoint(cli, tmp_path):
+    def run(*args):
+        return subprocess.run([str(cli), *map(str, small(*args))], cwd=tmp_path, capture_output=True, text=True,
+                              timeout=120, env=NO_PICTURES)
+    assert run("--steps", 4, "--checkpoint-every", 2).returncode == 0
+    before = (tmp_path / "ns2d-checkpoint.h5").read_bytes()
+    r = run("--steps", 2, "--checkpoint-every", 1, "--nu", "0.1")
+    assert r.returncode == 2, r.stderr
+    assert error_line(r.stderr) == ("eci: error: --checkpoint-every would replace 'ns2d-checkpoint.h5', another run's "
+                                    "checkpoint: --checkpoint FILE names this run's (that file, to replace it)")
+    assert (tmp_path / "ns2d-checkpoint.h5").read_bytes() == before
+    # named, it is replaced
+    assert run("--steps", 2, "--checkpoint-every", 1, "--checkpoint", "ns2d-checkpoint.h5").returncode == 0
+    assert h5_step(tmp_path / "ns2d-checkpoint.h5") == 2
+
+
+# The same steps' snapshots of another grid are another run's: refused, not replaced.
+def test_a_snapshot_directory_of_another_grid_is_refused(cli, tmp_path):
+    sd = tmp_path / "sd"
+    run_cli(cli, *small("--steps", 2, "--snapshot-every", 1, "--snapshot-dir", sd))
+    before = {p.name: p.read_bytes() for p in sd.iterdir()}
+    msg = cli_error(cli, "run", "navier-stokes-2d", "--N", "32", "--fftw-estimate", "--fftw-wisdom", "none", "--dt",
+                    "0.01", "--steps", 2, "--snapshot-every", 1, "--snapshot-dir", sd)
+    assert msg == (f"--snapshot-dir '{sd}' holds another run's snapshots ('vorticity_00000000.h5' is of N = 16, this "
+                   "run's N = 32): give another directory or remove them"), msg
+    assert {p.name: p.read_bytes() for p in sd.iterdir()} == before
+    run_cli(cli, *small("--steps", 2, "--snapshot-every", 1, "--snapshot-dir", sd))  # the same run replaces its own
+
+
+# Initial fields and forcings that cannot be what was asked: refused with their reason, not run.
+@pytest.mark.parametrize("args, message", [
+    (["--ic", "vortex-pair", "--vortex-radius", "0.1"],
+     "initial condition: vortex radius 0.1 is below half the grid spacing (pi / N = 0.196 at N = 16): the vortices "
+     "would fall between the grid points"),
+    (["--k-peak", "6"], "--k-peak 6 is beyond the retained modes (|k_x|, |k_y| <= kmax = 5 at N = 16)"),
+    (["--k-peak", "inf"], "initial condition: peak wavenumber must be a positive finite number"),
+    (["--forcing", "stochastic", "--forcing-k", "2", "--injection-rate", "1e308"],
+     "navier-stokes-2d: the forcing overflows (injection rate too large for N = 16)"),
+    (["--forcing", "deterministic", "--forcing-k", "2", "--forcing-amplitude", "1e200"],
+     "navier-stokes-2d: the forcing overflows (forcing amplitude too large for N = 16)"),
+])
+def test_fields_and_forcings_that_cannot_be_made_are_refused(cli, tmp_path, args, message):
+    assert cli_error(cli, *small("--steps", 1, *args)) == message

@@ -281,8 +281,9 @@ TEST(CliSpectralOutputs, AFailedCommitLeavesTheEarlierRunsOutputs) {
     work_dir w("spectral-commit");
     const fs::path err = w.capture() / "err";
     const std::string outputs = " --snapshot-every 1000 --snapshot-dir snaps --output o.csv --summary-json o.json";
-    // the earlier run: snapshots at steps 0 and 1000 (the later run's names too) and its CSV and JSON
-    ASSERT_EQ(run_in(w, "run navier-stokes-2d --N 32 --steps 1000 --fftw-estimate --fftw-wisdom none" + outputs)
+    // the earlier run: snapshots at steps 0 and 1000 (the later run's names too, of the same grid: another grid's
+    // are refused) and its CSV and JSON
+    ASSERT_EQ(run_in(w, "run navier-stokes-2d --N 64 --steps 1000 --fftw-estimate --fftw-wisdom none" + outputs)
                   .status,
               0);
     std::map<fs::path, std::string> before;
