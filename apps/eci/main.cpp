@@ -6,6 +6,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <new>
 #include <regex>
 #include <stdexcept>
 #include <string>
@@ -480,6 +481,10 @@ int main_inner(int argc, char** argv) {
     } catch (const eci::interrupted& e) {
         print_error(e.what());
         return interrupt_exit_status();
+    } catch (const std::bad_alloc&) {
+        print_error("out of memory: the run needs more than this process could allocate (a smaller N or model, or "
+                    "a higher ulimit -v)");
+        return 1;
     } catch (const std::exception& e) {
         print_error(e.what());
         return 1;

@@ -11,6 +11,9 @@
 #if __has_include(<unistd.h>)
 #include <unistd.h>
 #endif
+#if __has_include(<sys/resource.h>)
+#include <sys/resource.h>
+#endif
 
 namespace eci {
 
@@ -30,13 +33,27 @@ inline std::string gib_text(double bytes) {
     return text;
 }
 
+/// The address space this process may take (ulimit -v, RLIMIT_AS) in bytes; 0 where there is no such limit.
+inline double address_space_limit() {
+#if __has_include(<sys/resource.h>) && defined(RLIMIT_AS)
+    rlimit r{};
+    if (::getrlimit(RLIMIT_AS, &r) == 0 && r.rlim_cur != RLIM_INFINITY) return double(r.rlim_cur);
+#endif
+    return 0.0;
+}
+
 /// Throws std::invalid_argument "WHAT needs about X GiB of memory, more than this machine's Y GiB" when `bytes`
-/// exceeds this machine's physical memory (a request that fits is never refused).
+/// exceeds this machine's physical memory, or the address space the process may take (a request that fits is never
+/// refused).
 inline void check_fits_in_memory(double bytes, std::string_view what) {
     const double have = physical_memory();
     if (have > 0.0 && bytes > have)
         throw std::invalid_argument(std::string(what) + " needs about " + gib_text(bytes) +
                                     " of memory, more than this machine's " + gib_text(have));
+    const double may = address_space_limit();
+    if (may > 0.0 && bytes > may)
+        throw std::invalid_argument(std::string(what) + " needs about " + gib_text(bytes) +
+                                    " of memory, more than this process may take (ulimit -v: " + gib_text(may) + ")");
 }
 
 }  // namespace eci
