@@ -617,19 +617,18 @@ int spectral_command::run_spread(const run_settings& settings) {
     }
     // Where a stop keeps the run: the checkpoint asked for; else the default name if it is free and writable.
     std::string no_checkpoint_why;
+    // the default name taken: another run's checkpoint in this directory (unless named, or the one restarted)
+    std::error_code taken_ec;
+    const bool default_taken = !restart && !given_text("checkpoint") &&
+                               fs::exists(fs::symlink_status(checkpoint_, taken_ec));
     if (checkpoint_asked) {
-        // --checkpoint-every under the default name would replace another run's checkpoint in this directory (a stop
-        // without one asked for keeps it, below): refused unless the file is named, or is the one restarted
-        if (!restart && !given_text("checkpoint")) {
-            std::error_code ec;
-            if (fs::exists(fs::symlink_status(checkpoint_, ec)))
-                throw bad_input("--checkpoint-every would replace '" + checkpoint_ + "', another run's checkpoint: "
-                                "--checkpoint FILE names this run's (that file, to replace it)");
-        }
+        // --checkpoint-every would replace it (a stop without one asked for keeps it, below)
+        if (default_taken)
+            throw bad_input("--checkpoint-every would replace '" + checkpoint_ + "', another run's checkpoint: "
+                            "--checkpoint FILE names this run's (that file, to replace it)");
         check_output_path(checkpoint_, "checkpoint");
     } else {
-        std::error_code ec;
-        if (fs::exists(fs::symlink_status(checkpoint_, ec)))
+        if (default_taken)
             no_checkpoint_why = "'" + checkpoint_ + "' exists, another run's; --checkpoint FILE keeps one";
         else
             try {
@@ -861,6 +860,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     // would mix the two runs (its own earlier part's, before a restart's first step, belong to it): refused, nothing
     // replaced (after the inputs' check, which names the more particular problem).
     if (snapshot_every_ > 0) {
+        const std::string shown =
+            "--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) + "'";
         std::set<std::uint64_t> stale;
         std::string other_grid;  // the first snapshot this run would replace of another grid (rank 0's verdict, below)
         std::uint64_t other_step = 0;
@@ -868,9 +869,9 @@ int spectral_command::run_spread(const run_settings& settings) {
         for (const auto& entry : fs::directory_iterator(snapshot_dir_.empty() ? "." : snapshot_dir_, ec)) {
             const std::string file = entry.path().filename().string();
             if (const spectral::equation* other = other_equations_snapshot(file, stem_))
-                throw bad_input("--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) +
-                                "' holds another equation's snapshots ('" + file + "', " + std::string(other->name) +
-                                "'s): this run's spectra would replace its; give another directory");
+                throw bad_input(shown + " holds another equation's snapshots ('" + file + "', " +
+                                std::string(other->name) + "'s): this run's spectra would replace its; give another "
+                                "directory");
             const auto step = snapshot_step(file, stem_);
             if (!step) continue;
             if (!written(*step)) {
@@ -887,8 +888,7 @@ int spectral_command::run_spread(const run_settings& settings) {
                 }
                 if (n_file != p.n && (other_grid.empty() || *step < other_step)) {
                     other_step = *step;
-                    other_grid = "--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) +
-                                 "' holds another run's snapshots ('" + file + "' is of N = " +
+                    other_grid = shown + " holds another run's snapshots ('" + file + "' is of N = " +
                                  std::to_string(n_file) + ", this run's N = " + std::to_string(p.n) +
                                  "): give another directory or remove them";
                 }
@@ -902,8 +902,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         }
         other_grid = agreed_text(other_grid);  // (collective: a header one process could not read decides nothing)
         if (!stale.empty())
-            throw bad_input("--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) +
-                            "' holds another run's snapshots at steps this run does not write (step " +
+            throw bad_input(shown + " holds another run's snapshots at steps this run does not write (step " +
                             std::to_string(*stale.begin()) +
                             (stale.size() > 1 ? " and " + std::to_string(stale.size() - 1) + " more" : std::string()) +
                             "): they would mix with this run's; give another directory or remove them");
