@@ -787,10 +787,8 @@ int spectral_command::run_spread(const run_settings& settings) {
         } else if (ic_ == "random") {
             // a peak asked for beyond the retained modes would pile the spectrum up at the cut-off (the default 8 is
             // kept on a small grid: the field of every N, as before)
-            if (given_real("k-peak") && std::isfinite(k_peak_) && k_peak_ > double(model.grid().kmax()))
-                throw bad_input("--k-peak " + shortest(k_peak_) + " is beyond the retained modes (|k_x|, |k_y| <= "
-                                "kmax = " + std::to_string(model.grid().kmax()) + " at N = " + std::to_string(p.n) +
-                                ")");
+            if (const std::string why = model.grid().beyond_retained(k_peak_); given_real("k-peak") && !why.empty())
+                throw bad_input("--k-peak " + shortest(k_peak_) + " " + why);
             w = model.random_field(k_peak_, energy_, seed_);
         } else if (ic_ == "vortex-pair") {
             w = model.vortex_pair(vortex_radius_, vortex_separation_, vortex_peak_);

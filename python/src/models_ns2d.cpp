@@ -11,6 +11,7 @@
 #include <string>
 #include <utility>
 
+#include <eci/format.hpp>
 #include <eci/spectral/step.hpp>
 #include <eci/registry.hpp>
 #include <eci/solve.hpp>
@@ -328,13 +329,19 @@ void add_flow_methods(Class& c) {
              },
              py::arg("field"), "the state of a vorticity field on the n x n grid (truncated, mean removed)")
         .def("random_field",
-             [](const o& s, double k_peak, double energy, long long seed) {
+             [](const o& s, std::optional<double> k_peak, double energy, long long seed) {
                  if (seed < 0) throw std::invalid_argument("seed must be a whole number >= 0");
+                 // a peak asked for beyond the retained modes is refused (eci run's --k-peak); the default 8 is
+                 // kept on a small grid
                  const auto lock = s.lock();
-                 return to_numpy(s.model().random_field(k_peak, energy, std::uint64_t(seed)));
+                 if (const std::string why = s.model().grid().beyond_retained(k_peak.value_or(8.0));
+                     k_peak && !why.empty())
+                     throw std::invalid_argument("k_peak " + eci::shortest_text(*k_peak) + " " + why);
+                 return to_numpy(s.model().random_field(k_peak.value_or(8.0), energy, std::uint64_t(seed)));
              },
-             py::arg("k_peak") = 8.0, py::arg("energy") = 0.5, py::arg("seed") = 1,
-             "random phases, E(k) ~ q^4 / (1 + q^2)^4 with q = k / k_peak, scaled to `energy` (the default y0)")
+             py::arg("k_peak") = py::none(), py::arg("energy") = 0.5, py::arg("seed") = 1,
+             "random phases, E(k) ~ q^4 / (1 + q^2)^4 with q = k / k_peak (default 8; at most the grid's kmax), "
+             "scaled to `energy` (the default y0)")
         .def("vortex_pair",
              [](const o& s, double radius, double separation, double peak) {
                  const auto lock = s.lock();

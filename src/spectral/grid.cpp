@@ -584,6 +584,12 @@ std::vector<cplx> grid::from_physical(std::span<const double> field) const {
     return w;
 }
 
+std::string grid::beyond_retained(double k) const {
+    if (!std::isfinite(k) || k <= double(kmax())) return "";
+    return "is beyond the retained modes (|k_x|, |k_y| <= kmax = " + std::to_string(kmax()) + " at N = " +
+           std::to_string(n_) + ")";
+}
+
 std::size_t grid::shell_count() const { return std::size_t(std::ceil(std::sqrt(2.0) * kmax())) + 2; }
 
 }  // namespace eci::spectral

@@ -32,6 +32,18 @@ def test_state_diagnostics_and_fields():
     assert m(0.0, w).shape == w.shape
 
 
+def test_random_field_refuses_a_peak_beyond_the_retained_modes_as_the_cli_does():
+    # eci run's --k-peak 6 at N = 16 says the same (tests/python/test_cli_run_files.py); the default peak 8 is kept
+    # on a grid whose kmax is 5, and a peak at kmax is accepted
+    m = NS(n=16)
+    with pytest.raises(ValueError) as e:
+        m.random_field(k_peak=6.0)
+    assert str(e.value) == "k_peak 6 is beyond the retained modes (|k_x|, |k_y| <= kmax = 5 at N = 16)"
+    w = m.random_field()
+    assert w.shape == (m.size,) and abs(m.energy(w) - 0.5) <= 1e3 * EPS
+    assert m.random_field(k_peak=5.0).shape == (m.size,)
+
+
 def test_inviscid_c_rk4_keeps_energy_and_enstrophy_where_rk4_drifts():
     m = NS(n=32)
     w = m.random_field(k_peak=3.0, energy=0.5, seed=11)

@@ -1,5 +1,5 @@
-// What the tests of eci::solve share (test_solve.cpp, test_solve_settings.cpp, test_first_step.cpp): the paper's
-// three-wave state and sinks. The three-wave runs go through eci::solve_model<eci::three_wave>, compiled once in
+// What the tests of eci::solve share (test_solve.cpp, test_solve_settings.cpp, test_first_step.cpp; the numeric
+// tests' runs of listed models use its sinks): the paper's three-wave state and sinks. The three-wave runs go through eci::solve_model<eci::three_wave>, compiled once in
 // eci_model_runs (linked into the unit tests) and run by the CLI and Python as well.
 #pragma once
 

@@ -84,6 +84,10 @@ class grid {
     /// Grid points, n^2.
     std::size_t points() const { return std::size_t(n_) * std::size_t(n_); }
     int kmax() const { return (n_ - 1) / 3; }
+    /// Why a peak wavenumber k asked for would pile a spectrum up at the cut-off, the front ends' one reason for
+    /// refusing it: "is beyond the retained modes (|k_x|, |k_y| <= kmax = K at N = n)", or "" where k <= kmax() or
+    /// k is not finite (the field's own check names that).
+    std::string beyond_retained(double k) const;
     int threads() const { return threads_; }
 
     /// Whether the grid is spread over processes (an MPI communicator of two or more; false on a communicator of
