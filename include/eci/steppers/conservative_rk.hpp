@@ -277,7 +277,10 @@ class conservative_rk : public radicand_remedy {
     void finish_conditioned(double* o, const double* x, const std::array<const double*, s>& k, double dt,
                             std::size_t n, bool lump) {
         const std::size_t ne = n / per;
-        const conditioned_pass start = begin_conditioned(ne, true, split_.threads, lump);
+        // real unknowns of a tableau of order 3 or more: every one conventional, and the rescale (real_by_rescale);
+        // nothing lumped then (the cut takes every element, so a lumped pass would be made again)
+        const bool every = per == 1 && T.order >= 3 && remedy.real_by_rescale;
+        const conditioned_pass start = begin_conditioned(ne, true, split_.threads, lump && !every, every);
         std::array<conditioned_pass, detail::max_ranges> passes{};
         split_.for_ranges(ne, [&](std::size_t e_begin, std::size_t e_end, int r) {
             const filing into = range_filing(r, e_begin, e_end);
