@@ -227,6 +227,15 @@ const std::vector<std::string> long_run{"run", "lotka-volterra", "--t-end", "1e7
 // ignores SIGINT and SIGQUIT (a shell's `cmd &`) the same holds from the moment build/eci has blocked them (its
 // first instructions; the delays count from there): an ignored signal that arrives before anything of eci runs is
 // dropped by the kernel, and nothing can bring it back.
+// How soon an interrupted run must have ended. Under AddressSanitizer the process's exit includes LeakSanitizer's
+// scan of its memory: 4.3 s once with two sanitized runs of this test side by side (9-11 s each alone, 35 s then),
+// so that pass bounds it loosely; the Release pass holds the tool to 3 s.
+#if defined(__SANITIZE_ADDRESS__)
+constexpr double interrupt_seconds = 15.0;
+#else
+constexpr double interrupt_seconds = 3.0;
+#endif
+
 TEST_F(reliability, a_signal_at_any_moment_of_start_up_ends_the_run) {
     int handled = 0, trials = 0;
     for (const handed_signals how : {handed_signals::defaults, handed_signals::interrupts_ignored})
@@ -251,7 +260,7 @@ TEST_F(reliability, a_signal_at_any_moment_of_start_up_ends_the_run) {
                 // (once the signals are blocked, a signal can only end the run through the handler)
                 EXPECT_TRUE(how == handed_signals::defaults ? exited || killed : exited)
                     << at << ": wait status " << end.raw;
-                EXPECT_LT(end.seconds, 3.0) << at;
+                EXPECT_LT(end.seconds, interrupt_seconds) << at;
                 EXPECT_EQ(kept_whole(work_), "") << at;  // (at 200 ms the run may have started: its outputs kept)
                 dir_.clear();
                 handled += exited, ++trials;
@@ -277,7 +286,7 @@ TEST_F(reliability, a_signal_as_soon_as_the_handler_exists_is_an_interrupt) {
             const std::string err = read_text(dir_.capture() / "err");
             EXPECT_FALSE(end.hung) << name << ": the signal was lost";
             EXPECT_TRUE(WIFEXITED(end.raw) && WEXITSTATUS(end.raw) == 128 + number) << name << ": " << end.raw;
-            EXPECT_LT(end.seconds, 3.0) << name;
+            EXPECT_LT(end.seconds, interrupt_seconds) << name;
             EXPECT_EQ(err.rfind("eci: error: interrupted by " + std::string(name), 0), 0u) << name << ": " << err;
             EXPECT_EQ(lines_of(err).size(), 1u) << err;
             // (on a loaded machine the signal may come after the run has stepped: its outputs are then kept whole)
