@@ -220,13 +220,6 @@ const std::vector<std::pair<const char*, int>> interrupt_signals{
 const std::vector<std::string> long_run{"run", "lotka-volterra", "--t-end", "1e7", "--output", "out.csv",
                                         "--summary-json", "out.json"};
 
-// A signal sent the moment the process exists, or 5, 50 or 200 ms later, ends it at once: exit 128 + N through
-// eci's handler, or, in the first instructions of the process (before build/eci has blocked the signals), killed by
-// the signal itself; never lost (the run would go on for minutes), and nothing left but, once the run has stepped,
-// its outputs complete up to where it stopped. From a parent that
-// ignores SIGINT and SIGQUIT (a shell's `cmd &`) the same holds from the moment build/eci has blocked them (its
-// first instructions; the delays count from there): an ignored signal that arrives before anything of eci runs is
-// dropped by the kernel, and nothing can bring it back.
 // How soon an interrupted run must have ended. Under AddressSanitizer the process's exit includes LeakSanitizer's
 // scan of its memory: 4.3 s once with two sanitized runs of this test side by side (9-11 s each alone, 35 s then),
 // so that pass bounds it loosely; the Release pass holds the tool to 3 s.
@@ -236,6 +229,13 @@ constexpr double interrupt_seconds = 15.0;
 constexpr double interrupt_seconds = 3.0;
 #endif
 
+// A signal sent the moment the process exists, or 5, 50 or 200 ms later, ends it at once: exit 128 + N through
+// eci's handler, or, in the first instructions of the process (before build/eci has blocked the signals), killed by
+// the signal itself; never lost (the run would go on for minutes), and nothing left but, once the run has stepped,
+// its outputs complete up to where it stopped. From a parent that
+// ignores SIGINT and SIGQUIT (a shell's `cmd &`) the same holds from the moment build/eci has blocked them (its
+// first instructions; the delays count from there): an ignored signal that arrives before anything of eci runs is
+// dropped by the kernel, and nothing can bring it back.
 TEST_F(reliability, a_signal_at_any_moment_of_start_up_ends_the_run) {
     int handled = 0, trials = 0;
     for (const handed_signals how : {handed_signals::defaults, handed_signals::interrupts_ignored})
