@@ -102,8 +102,11 @@ CLI::Validator whole_number(std::uint64_t min) {
                 return "'" + s + "' is too large (at most 18446744073709551615)";
             return r.ec != std::errc() || v < min ? bad : std::string();
         },
-        "INT>=" + std::to_string(min));
+        "");  // (the option's type name says it: whole_type)
 }
+
+/// The help's type of a whole_number(min) option, "INT>=min" (CLI11's own would read "UINT:INT>=min").
+std::string whole_type(std::uint64_t min) { return "INT>=" + std::to_string(min); }
 
 /// A CLI11 check that an option is a decimal number: an optional sign, digits with an optional point, an optional
 /// exponent ("1", "-0.5", ".5", "2.", "1e-3"); CLI11 alone would also take hexadecimal ("0x10" as 16, "0x1p-4" as
@@ -137,7 +140,7 @@ CLI::Validator decimal_number() {
             };
             return decimal(s) ? std::string() : "must be a decimal number, not '" + s + "'";
         },
-        "NUMBER");
+        "");  // (the option's type name says it: "NUMBER")
 }
 
 /// The numbers of a list option given as `tokens` (each "1,0,2", "1" or "1, 0"): every item a number
@@ -181,10 +184,10 @@ void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
         } else if (o.flag) {
             sub.add_flag(flag, *o.flag, o.help);
         } else if (o.whole) {
-            sub.add_option(flag, *o.whole, o.help)->check(whole_number(o.min));
+            sub.add_option(flag, *o.whole, o.help)->check(whole_number(o.min))->type_name(whole_type(o.min));
         } else if (o.count == 1) {
             o.reals->resize(1);
-            sub.add_option(flag, o.reals->front(), o.help)->check(decimal_number());
+            sub.add_option(flag, o.reals->front(), o.help)->check(decimal_number())->type_name("NUMBER");
         } else {
             // A list: "1,0,2" or "1 0 2" (or both), split here: CLI11's own splitting drops empty items, so "1,,2"
             // read as two values and "1,2,3," as three. Each item is a number as decimal_number() says.
@@ -192,7 +195,7 @@ void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
                    flag, [&o, flag](const std::vector<std::string>& tokens) { *o.reals = list_of_numbers(flag, tokens, o.count); },
                    o.help)
                 ->expected(1, int(o.count))
-                ->type_name("FLOAT:NUMBER x " + std::to_string(o.count));
+                ->type_name("NUMBER x " + std::to_string(o.count));
         }
     }
 }
@@ -301,13 +304,17 @@ int run_cli(int argc, char** argv) {
                             (i.default_adaptive_method.empty() ? std::string()
                                                                : "; with --rtol/--atol " + i.default_adaptive_method) +
                             ")");
-        sub->add_option("--dt", dt, "time step (default " + i.dt_text(shortest) + ")")->check(decimal_number());
+        sub->add_option("--dt", dt, "time step (default " + i.dt_text(shortest) + ")")
+            ->check(decimal_number())
+            ->type_name("NUMBER");
         sub->add_option("--t-end", t_end, "end time, starting at t = 0 (default " + shortest(i.default_t_end) + ")")
-            ->check(decimal_number());
-        sub->add_option("--steps", steps, "number of steps instead of --t-end")->check(whole_number(0));
+            ->check(decimal_number())->type_name("NUMBER");
+        sub->add_option("--steps", steps, "number of steps instead of --t-end")
+            ->check(whole_number(0))
+            ->type_name(whole_type(0));
         sub->add_option("--every", settings.every, "write a CSV row every K steps; the first and last always "
                                                    "(default 1)")
-            ->check(whole_number(1));
+            ->check(whole_number(1))->type_name(whole_type(1));
         sub->add_option("--output", settings.output,
                         "CSV file: t, the state (a spectral model: its diagnostics and budget), the model's derived "
                         "columns (Kepler: the position x, y), the invariants, and, for a relaxation method "
@@ -328,14 +335,14 @@ int run_cli(int argc, char** argv) {
                         "relative tolerance: run with adaptive step control (an embedded pair: bs32, ck54, dp54, "
                         "dp853, f78 and their c- versions); --dt is then the first step, at most the span. Below "
                         "100 eps it is raised to 100 eps with a warning, as in Python and SciPy's solve_ivp")
-            ->check(decimal_number());
+            ->check(decimal_number())->type_name("NUMBER");
         sub->add_option("--atol", atol, "absolute tolerance of adaptive step control (default: the --rtol value)")
-            ->check(decimal_number());
+            ->check(decimal_number())->type_name("NUMBER");
         sub->add_option("--output-dt", output_dt,
                         "write CSV rows at multiples of this time and at the end (adaptive: dense output or steps "
                         "landing on them; fixed steps: a multiple of --dt, and without --dt a spectral equation's CFL "
                         "step is shortened to divide it); not with --every")
-            ->check(decimal_number());
+            ->check(decimal_number())->type_name("NUMBER");
         sub->add_option("--output-mode", settings.output_mode,
                         "how an adaptive run reaches the --output-dt times: auto (default: dense output where it is as "
                         "accurate as the steps, else a step lands on each), dense (the dense output, fewer steps; a "
@@ -373,7 +380,7 @@ int run_cli(int argc, char** argv) {
         ->add_option("--only", only,
                      "make only figure N (1-9): its files, and its rows of the directory's summary.csv (the other "
                      "figures' rows are kept)")
-        ->check(whole_number(1))
+        ->check(whole_number(1))->type_name(whole_type(1))
         ->check(CLI::Range(1, 9));
 
     // CLI11 would say only that a subcommand is required, or call an unknown model an unexpected argument.

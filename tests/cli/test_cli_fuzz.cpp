@@ -131,7 +131,7 @@ const std::vector<model_option>& model_options(const std::string& model) {
         if (!after_preset) continue;
         model_option o{flag};
         if (const std::size_t x = rest.find(" x "); x != std::string::npos && x < 30) o.count = std::stoul(rest.substr(x + 3));
-        o.whole = rest.find("UINT") != std::string::npos || rest.find("INT:") != std::string::npos;
+        o.whole = rest.find("INT>=") != std::string::npos;
         o.text = rest.find("TEXT") != std::string::npos;
         options.push_back(o);
     }
