@@ -105,8 +105,13 @@ void print_summary(std::FILE* f, const run_summary& s) {
     if (s.time_lag)  // relaxation RK: the state belongs to t + time lag (docs/comparison.md)
         std::fprintf(f, "  time reached %s (relaxation: t_end + time lag %s)\n", number(s.t_end + *s.time_lag).c_str(),
                      number(*s.time_lag).c_str());
-    if (s.stats.remedied_steps > 0)  // negative radicands remedied without halving (docs/methods.md)
-        std::fprintf(f, "  remedied steps %llu, components remedied %llu\n",
+    // steps the remedy completed without halving, and the unknowns it gave the conventional update (a negative or
+    // ill-conditioned radicand; at order 3 and up on real unknowns, nearly every one): said so, since the count
+    // alone read like trouble (docs/methods.md)
+    if (s.stats.remedied_steps > 0)
+        std::fprintf(f,
+                     "  remedied steps %llu, components remedied %llu (their conventional update, then one exact "
+                     "rescale of the state: docs/methods.md)\n",
                      static_cast<unsigned long long>(s.stats.remedied_steps),
                      static_cast<unsigned long long>(s.stats.components_remedied));
     int name_width = 12;  // (the column as wide as the longest name: angular_momentum, runge_lenz_turn...)
