@@ -530,11 +530,14 @@ int spectral_command::run_spread(const run_settings& settings) {
     std::string wisdom_path = wisdom_option == "none" ? std::string() : default_wisdom ? default_wisdom_file() : wisdom_option;
     p.wisdom_file.clear();
     const std::string ic_ = given_text("ic").value_or("random");
-    const double k_peak_ = given_real("k-peak").value_or(8.0), energy_ = given_real("energy").value_or(0.5);
-    const std::uint64_t seed_ = given_whole("seed").value_or(1);
-    const double vortex_radius_ = given_real("vortex-radius").value_or(0.25);
-    const double vortex_separation_ = given_real("vortex-separation").value_or(0.7);
-    const double vortex_peak_ = given_real("vortex-peak").value_or(ic_ == "taylor-green" ? 1.0 : 10.0);
+    using field = spectral::flow2d::field_defaults;
+    const double k_peak_ = given_real("k-peak").value_or(field::k_peak);
+    const double energy_ = given_real("energy").value_or(field::energy);
+    const std::uint64_t seed_ = given_whole("seed").value_or(field::seed);
+    const double vortex_radius_ = given_real("vortex-radius").value_or(field::vortex_radius);
+    const double vortex_separation_ = given_real("vortex-separation").value_or(field::vortex_separation);
+    const double vortex_peak_ = given_real("vortex-peak").value_or(ic_ == "taylor-green" ? field::taylor_green_velocity
+                                                                                           : field::vortex_peak);
     // A setting that cannot change this run is refused, not ignored (a forgotten --forcing stochastic ran unforced
     // with the --injection-rate typed): the library's rule for the equation's settings, as Python's, and here the
     // options of another initial field. (A restart's settings are the checkpoint's, compared above.)
@@ -807,10 +810,39 @@ int spectral_command::run_spread(const run_settings& settings) {
     } catch (const std::invalid_argument& e) {
         throw bad_input(e.what());
     }
+    // A field file's mean and its modes beyond the retained ones are not evolved: the run takes its projection. A
+    // user's own field may hold much there (an eci snapshot holds nothing but round-off): said, not silently run.
+    if (ic_field) {
+        const std::span<const double> given = mpi.on ? std::span<const double>(part_rows)
+                                                     : std::span<const double>(ic_field->second);
+        const std::vector<double> kept = model.to_physical_rows(w);  // (collective)
+        double scale = 0.0;  // (sums of squares of f / max|f|: a field of 1e200 is finite and so are they)
+        for (const double f : given) scale = std::max(scale, std::abs(f));
+#ifdef ECI_MPI
+        if (mpi.on) MPI_Allreduce(MPI_IN_PLACE, &scale, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+#endif
+        std::array<double, 2> sums{0.0, 0.0};  // sum f^2, sum (f - P f)^2
+        for (std::size_t j = 0; scale > 0.0 && j < given.size(); ++j) {
+            const double f = given[j] / scale, d = (given[j] - kept[j]) / scale;
+            sums[0] += f * f;
+            sums[1] += d * d;
+        }
+#ifdef ECI_MPI
+        if (mpi.on) MPI_Allreduce(MPI_IN_PLACE, sums.data(), 2, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+#endif
+        // above 1e-10 of the mean square (1e-5 of the rms): more than any rounding of a field written by eci
+        if (mpi.rank == 0 && sums[1] > 1e-10 * sums[0])
+            std::fprintf(stderr,
+                         "eci: warning: --ic %s: %.3g %% of the field's mean square is in its mean and its modes "
+                         "beyond |k_x|, |k_y| <= kmax = %d, which the run drops (it evolves the dealiased, zero-mean "
+                         "field)\n",
+                         ic_.c_str(), 100.0 * sums[1] / sums[0], model.kmax());
+    }
 
     // ---- time step and span
     const double dx = 2.0 * std::numbers::pi / p.n;
     double dt = restart ? ck.dt : 0.0;
+    bool damping_limited = false;  // the default step is the linear damping's bound (flow2d::initial_cfl_step)
     if (!restart) {
         if (settings.dt) {
             dt = *settings.dt;
@@ -818,10 +850,13 @@ int spectral_command::run_spread(const run_settings& settings) {
             // the library's rule and sentences, as Python's default dt (refused here, before the wisdom file is
             // written: a --cfl of 4.9e-324 gave dt = 0)
             try {
-                dt = model.initial_cfl_step(w, cfl_.value_or(0.5), "--dt", "--cfl");
+                dt = model.initial_cfl_step(w, cfl_.value_or(spectral::flow2d::default_cfl), "--dt", "--cfl");
             } catch (const std::invalid_argument& e) {
                 throw bad_input(e.what());
             }
+            // (the library's bound, formed as it forms it)
+            const double rate = model.linear_rate();
+            damping_limited = rate > 0.0 && dt == 2.0 * cfl_.value_or(spectral::flow2d::default_cfl) / rate;
             // rows every --output-dt of time: the CFL step shortened to divide it (steps.hpp), as Python's
             if (settings.output_dt) dt = step_dividing(*settings.output_dt, dt);
         }
@@ -837,8 +872,14 @@ int spectral_command::run_spread(const run_settings& settings) {
     } else {
         t_end = settings.t_end ? *settings.t_end : restart ? ck.t_end : info_.default_t_end;
         // (a --dt of 1e-20 took one step of the whole span before: the count overflowed)
-        if (t_end / dt > double(max_grid_steps))
-            throw bad_input("--t-end / --dt is " + shortest(t_end / dt) + " steps, too many");
+        if (t_end / dt > double(max_grid_steps)) {
+            const std::string steps = shortest(t_end / dt) + " steps, too many";
+            if (settings.dt || restart) throw bad_input("--t-end / --dt is " + steps);
+            throw bad_input("--t-end / the default step " + shortest(dt) + " is " + steps +
+                            (damping_limited ? " (the step of the linear damping's stability: it decays at up to " +
+                                                   shortest(model.linear_rate()) + " per unit time)"
+                                             : std::string()));
+        }
         last = std::isnan(t_end) ? ck.total_steps : steps_to_reach(0.0, t_end, dt);
     }
     // whether the last step is shorter than dt: the state at the end is then off the grid t = i dt, and a
@@ -1184,6 +1225,8 @@ int spectral_command::run_spread(const run_settings& settings) {
     // sink formats it. Per step it adds the step's budget and counts, checks for a blow-up and measures the step;
     // between steps it writes snapshots and checkpoints and answers Ctrl-C. A Ctrl-C between the halvings of a
     // step (eci::interrupted) goes back to the last whole step, w_prev.
+    // a linear damping too stiff for dt: the cause a failure or blow-up names (the default step keeps within it)
+    const std::string stiffness = model.stiffness_hint(dt);
     state w_prev = w;
     std::uint64_t rng_prev = model.rng_state(), done = first;
     double e_prev = model.energy(w), z_prev = model.enstrophy(w);  // E and Z at the start of the step
@@ -1239,7 +1282,8 @@ int spectral_command::run_spread(const run_settings& settings) {
         if (!std::isfinite(e1) || !std::isfinite(z1) || e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
             progress.finish();
             throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(pt.t) + ": energy " +
-                            num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); " + smaller_step);
+                            num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); " +
+                            (stiffness.empty() ? smaller_step : stiffness));
         }
         // relative to the invariant after the step; to the one before it where a decayed flow reached exactly 0
         // (the residual was inf there), and absolute where both are 0
@@ -1388,7 +1432,9 @@ int spectral_command::run_spread(const run_settings& settings) {
     progress.finish();
     if (!stop.empty()) keep_interrupted(stop, stopped_at);
     if (report.failure) {
-        if (report.failure->kind != run_failure_kind::step_failed) throw run_error(report.failure->message + last_good());
+        const std::string stiff = stiffness.empty() ? std::string() : "; " + stiffness;
+        if (report.failure->kind != run_failure_kind::step_failed)
+            throw run_error(report.failure->message + stiff + last_good());
         // the library's cause, without its component (an index into the spectral state, not something to act on)
         const run_failure& f = *report.failure;
         const std::string cause = f.non_finite_rate_value
@@ -1396,7 +1442,9 @@ int spectral_command::run_spread(const run_settings& settings) {
                                       : std::string(report.method.family == method_family::conservative
                                                         ? "a negative radicand or a non-finite state"
                                                         : "a non-finite state") +
-                                            (restart ? "; " + smaller_step : "; a smaller --dt or --cfl may pass");
+                                            (!stiffness.empty() ? stiff
+                                             : restart     ? "; " + smaller_step
+                                                           : "; a smaller --dt or --cfl may pass");
         throw run_error("step " + std::to_string(done + 1) + " failed at t = " + num(f.t) +
                         " even with the step halved 40 times (down to dt = " + num(f.dt) + "): " + cause + last_good());
     }

@@ -202,13 +202,16 @@ class ns2d_object : public model_base {
                     const run_failure& e = *r.failure;
                     report.rejected.step_failed = report.stats.step_reductions;
                     const std::string c = "mode " + std::to_string(e.component);
+                    // a damping too stiff for the run's step: the cause to act on, as the CLI says it
+                    const std::string hint = model_->stiffness_hint(cfg.dt);
+                    const std::string stiff = hint.empty() ? std::string() : "; " + hint;
                     // (more sub-steps than a grid step may take: the library's sentence, as the CLI's)
                     failure.emplace(e.kind == run_failure_kind::work_exceeded
-                                        ? e.message
+                                        ? e.message + stiff
                                         : "step failed at t = " + full_text(e.t) + " in component " + c +
                                               " even with the step halved " + std::to_string(max_halvings) +
                                               " times (dt = " + full_text(e.dt) + "): negative radicand or "
-                                              "non-finite state",
+                                              "non-finite state" + stiff,
                                     e.t, e.component, c, e.dt, false, report);
                 }
             } catch (const eci::interrupted&) {  // between the halvings of a step
@@ -260,6 +263,7 @@ class ns2d_object : public model_base {
 template <class Class>
 void add_flow_methods(Class& c) {
     using o = typename Class::type;
+    using field = eci::spectral::flow2d::field_defaults;  // the initial fields' defaults, as eci run's
     c
         .def_property_readonly("n", [](const o& s) { return s.model().n(); }, "grid points per side")
         .def_property(
@@ -309,7 +313,8 @@ void add_flow_methods(Class& c) {
                  const auto lock = s.lock();
                  return s.cfl_step(x, cfl);
              },
-             py::arg("w"), py::arg("cfl") = 0.5, "the step cfl dx / max|u| at w (eci.solve's default dt)")
+             py::arg("w"), py::arg("cfl") = eci::spectral::flow2d::default_cfl,
+             "the step cfl dx / max|u| at w (eci.solve's default dt)")
         .def("to_physical",
              [](const o& s, const py::object& w) {
                  const state x = s.to_state(w);
@@ -334,12 +339,12 @@ void add_flow_methods(Class& c) {
                  // a peak asked for beyond the retained modes is refused (eci run's --k-peak); the default 8 is
                  // kept on a small grid
                  const auto lock = s.lock();
-                 if (const std::string why = s.model().grid().beyond_retained(k_peak.value_or(8.0));
+                 if (const std::string why = s.model().grid().beyond_retained(k_peak.value_or(field::k_peak));
                      k_peak && !why.empty())
                      throw std::invalid_argument("k_peak " + eci::shortest_text(*k_peak) + " " + why);
-                 return to_numpy(s.model().random_field(k_peak.value_or(8.0), energy, std::uint64_t(seed)));
+                 return to_numpy(s.model().random_field(k_peak.value_or(field::k_peak), energy, std::uint64_t(seed)));
              },
-             py::arg("k_peak") = py::none(), py::arg("energy") = 0.5, py::arg("seed") = 1,
+             py::arg("k_peak") = py::none(), py::arg("energy") = field::energy, py::arg("seed") = field::seed,
              "random phases, E(k) ~ q^4 / (1 + q^2)^4 with q = k / k_peak (default 8; at most the grid's kmax), "
              "scaled to `energy` (the default y0)")
         .def("vortex_pair",
@@ -347,14 +352,16 @@ void add_flow_methods(Class& c) {
                  const auto lock = s.lock();
                  return to_numpy(s.model().vortex_pair(radius, separation, peak));
              },
-             py::arg("radius") = 0.25, py::arg("separation") = 0.7, py::arg("peak") = 10.0,
+             py::arg("radius") = field::vortex_radius, py::arg("separation") = field::vortex_separation,
+             py::arg("peak") = field::vortex_peak,
              "two co-rotating Gaussian vortices (the merger problem)")
         .def("taylor_green",
              [](const o& s, double velocity) {
                  const auto lock = s.lock();
                  return to_numpy(s.model().taylor_green(velocity));
              },
-             py::arg("velocity") = 1.0, "omega = 2 U sin x sin y, steady for Euler, damped as exp(-2 nu t)")
+             py::arg("velocity") = field::taylor_green_velocity,
+             "omega = 2 U sin x sin y, steady for Euler, damped as exp(-2 nu t)")
         .def("enstrophy_spectrum",
              [](const o& s, const py::object& w) { return to_numpy(s.model().enstrophy_spectrum(s.to_state(w))); },
              py::arg("w"), "shell-summed Z(k) (the second invariant's spectrum), k = 0, 1, ...")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import eci
-from conftest import run_cli
+from conftest import cli_error, run_cli
 
 
 def cli_run(cli, tmp_path, model, method, dt, t_end, *options):
@@ -811,6 +811,63 @@ def test_the_default_step_follows_the_fastest_rossby_wave(cli, tmp_path, beta, d
     assert s["step_reductions"] == 0
     r = eci.solve(m, (0.0, 3 * s["dt"]), w)
     assert r.success and r.stats["rejected_steps"]["step_failed"] == 0
+
+
+# The default step keeps within the stability of the linear damping too (at most 2 CFL e-folds per step, one at
+# the default CFL 0.5): a stiff viscosity, hyperviscosity, drag or hypoviscosity failed the first step after 40
+# halvings, or took 65536 sub-steps (--drag 1e10), or blew up under RK4. Both front ends take it.
+@pytest.mark.skipif(not hasattr(M, "NavierStokes2D"), reason="built without eci::spectral")
+@pytest.mark.parametrize("option, value", [("nu", 30.0), ("hyper_nu", 1e-3), ("drag", 1e4), ("hypo_nu", 1e5)])
+def test_the_default_step_keeps_within_the_linear_dampings_stability(cli, tmp_path, option, value):
+    m = M.NavierStokes2D(n=32, fftw_measure=False, **{option: value})
+    w = m.default_y0
+    velocity_step = 0.5 * (2 * math.pi / 32) / m.max_velocity(w)
+    kx, ky = np.asarray(m.kx, dtype=float), np.asarray(m.ky, dtype=float)
+    k2 = kx * kx + ky * ky
+    kmax = (32 - 1) // 3
+    kept = (np.abs(kx) <= kmax) & (np.abs(ky) <= kmax) & (k2 > 0)
+    k2 = k2[kept]
+    rate = np.max({"nu": value * k2, "hyper_nu": value * k2 ** 2, "drag": value + 0 * k2,
+                   "hypo_nu": value / k2}[option])
+    assert 1.0 / rate < velocity_step  # the damping's bound is the one that binds here
+    assert m.cfl_step(w) == pytest.approx(1.0 / rate, rel=1e-15)
+    summary = tmp_path / "s.json"
+    run_cli(cli, "run", "navier-stokes-2d", "--N", "32", f"--{option.replace('_', '-')}", repr(value),
+            "--method", "rk4", "--steps", "20", "--fftw-estimate", "--fftw-wisdom", "none", "--summary-json", summary)
+    s = json.loads(summary.read_text())
+    assert s["dt"] == m.cfl_step(w)
+    assert s["step_reductions"] == 0
+    r = eci.solve(m, (0.0, 20 * s["dt"]), w, method="rk4", dt=s["dt"])
+    assert r.success and r.stats["rejected_steps"]["step_failed"] == 0
+    # damped, not blown up: each invariant decays
+    for name in ("energy", "enstrophy"):
+        assert r.invariants[name]["final"] < r.invariants[name]["initial"], (name, r.invariants[name])
+
+
+# A given step beyond the damping's stability fails, and both front ends name the cause (the rate and the dt that
+# would do); a damping no step can take (--hypo-nu 1e308: even its default step is 1e-308) is refused as input.
+@pytest.mark.skipif(not hasattr(M, "NavierStokes2D"), reason="built without eci::spectral")
+def test_a_step_beyond_the_dampings_stability_names_it(cli):
+    hint = ("the linear damping (viscosity, hyperviscosity, drag, hypoviscosity) decays at up to 1e+300 per unit "
+            "time, so dt 0.01 is beyond an explicit step's stability; dt <= 2e-300 (the default step keeps within "
+            "it) or a smaller coefficient")
+    r = run_cli(cli, "run", "navier-stokes-2d", "--N", "16", "--drag", "1e300", "--dt", "0.01", "--steps", "1",
+                "--method", "rk4", "--fftw-estimate", "--fftw-wisdom", "none", check=False)
+    assert r.returncode == 1, r.stderr
+    assert r.stderr.strip().splitlines()[-1].endswith("; " + hint), r.stderr
+    m = M.NavierStokes2D(n=16, drag=1e300, fftw_measure=False)
+    with pytest.raises(eci.StepSizeUnderflow) as e:
+        eci.solve(m, (0.0, 0.01), dt=0.01, method="rk4")
+    assert str(e.value).endswith("; " + hint), str(e.value)
+    # a blow-up (energy grown a thousandfold) names it too
+    r = run_cli(cli, "run", "navier-stokes-2d", "--N", "16", "--drag", "1e4", "--dt", "0.01", "--steps", "3",
+                "--method", "rk4", "--fftw-estimate", "--fftw-wisdom", "none", check=False)
+    assert r.returncode == 1 and "blow-up at step 1" in r.stderr, r.stderr
+    assert "decays at up to 10000 per unit time, so dt 0.01 is beyond an explicit step's stability" in r.stderr
+    assert cli_error(cli, "run", "navier-stokes-2d", "--N", "16", "--hypo-nu", "1e308", "--fftw-estimate",
+                     "--fftw-wisdom", "none") == (
+        "--t-end / the default step 1e-308 is inf steps, too many (the step of the linear damping's stability: it "
+        "decays at up to 1e+308 per unit time)")
 
 
 # A fixed step far too long for the flow fails after the library's limit of sub-steps per grid step, with its

@@ -665,3 +665,25 @@ def test_a_snapshot_directory_of_another_grid_is_refused(cli, tmp_path):
 ])
 def test_fields_and_forcings_that_cannot_be_made_are_refused(cli, tmp_path, args, message):
     assert cli_error(cli, *small("--steps", 1, *args)) == message
+
+
+# A field file's mean and its modes beyond the retained ones are not evolved: the run takes the dealiased, zero-mean
+# projection and says how much of the field that dropped (it did so silently). An eci snapshot drops nothing.
+def test_a_field_file_with_a_mean_or_modes_beyond_kmax_is_run_with_a_warning(cli, tmp_path):
+    x = 2 * np.pi * np.arange(32) / 32
+    X, Y = np.meshgrid(x, x)  # rows are y
+    field = np.sin(X) * np.cos(Y) + 0.5 + 0.1 * np.cos(15 * X)  # mean 0.5; k = 15 beyond kmax = 10
+    ic = tmp_path / "mine.h5"
+    with h5py.File(ic, "w") as f:
+        f["vorticity"] = field
+    r = run_cli(cli, "run", "navier-stokes-2d", "--N", "32", "--fftw-estimate", "--fftw-wisdom", "none", "--dt",
+                "0.01", "--steps", 2, "--ic", ic, "--snapshot-every", 2, "--snapshot-dir", tmp_path / "sd")
+    # mean squares: sin x cos y 1/4, the mean 1/4, the stripe 0.005: (0.25 + 0.005) / 0.505 dropped
+    warnings = [line for line in r.stderr.splitlines() if line.startswith("eci: warning: --ic")]
+    assert warnings == [f"eci: warning: --ic {ic}: {100 * 0.255 / 0.505:.3g} % of the field's mean square is in its "
+                        "mean and its modes beyond |k_x|, |k_y| <= kmax = 10, which the run drops (it evolves the "
+                        "dealiased, zero-mean field)"], r.stderr
+    # the run's own snapshot, taken up again: nothing dropped, nothing said
+    r = run_cli(cli, "run", "navier-stokes-2d", "--N", "32", "--fftw-estimate", "--fftw-wisdom", "none", "--dt",
+                "0.01", "--steps", 2, "--ic", tmp_path / "sd" / "vorticity_00000002.h5")
+    assert "warning" not in r.stderr, r.stderr

@@ -236,12 +236,21 @@ class flow2d {
     /// energy E and enstrophy Z must be finite normal numbers" (by invariant_names(); 0 is allowed). Collective:
     /// every process of a spread flow gives the same verdict.
     void check_initial_state(const state_type& q) const;
-    /// The step of CFL number `cfl` at the initial state q, cfl dx / max|u|, and at most cfl / max|omega| of the
-    /// equation's linear waves (Rossby waves with beta): the front ends' default step, after
-    /// check_initial_state(q). std::invalid_argument naming the settings as the front end does (`dt_name`,
+    /// The CFL number of the front ends' default step (eci run's --cfl, Python's cfl_step and eci.solve).
+    static constexpr double default_cfl = 0.5;
+    /// The step of CFL number `cfl` at the initial state q, cfl dx / max|u|, at most cfl / max|omega| of the
+    /// equation's linear waves (Rossby waves with beta) and at most 2 cfl / linear_rate() of its damping: the front
+    /// ends' default step, after check_initial_state(q). std::invalid_argument naming the settings as the front end does (`dt_name`,
     /// `cfl_name`): "CFL must be a positive number", "the initial velocity is zero: give DT", "the time step from
     /// CFL c, CFL dx / max|u| = h, is not a positive finite number".
     double initial_cfl_step(const state_type& q, double cfl, std::string_view dt_name, std::string_view cfl_name);
+    /// The fastest decay rate of the linear terms, max over the retained modes of nu |k|^2 + nu_h |k|^2p + mu +
+    /// nu_hypo |k|^-2p' (0 inviscid; collective). An explicit step is stable on them only for dt times it within
+    /// the method's real stability interval (2 for Euler, Heun and the midpoint rule, 2.79 for RK4).
+    double linear_rate() const;
+    /// "" where dt linear_rate() <= 2, else the sentence a front end adds to a failed step's message: the damping
+    /// is too stiff for an explicit step of dt, and the dt that would be within every method's stability.
+    std::string stiffness_hint(double dt) const;
     /// The CFL number max|u| dt / dx with dx = 2 pi / n.
     double cfl(const state_type& q, double dt);
     /// The shell-summed spectra E(k) and Z(k), k = 0, 1, ...: sums over modes with round(|k|) = k.
@@ -263,6 +272,14 @@ class flow2d {
     /// The state of a field of which this process gives its rows (as to_physical_rows gives them; collective):
     /// from_physical of a field no process holds whole. On one process from_physical.
     state_type from_physical_rows(std::span<const double> rows);
+    /// The initial fields' settings a front end takes when none is given (eci run's --k-peak ..., Python's
+    /// keywords): typed once, here.
+    struct field_defaults {
+        static constexpr double k_peak = 8.0, energy = 0.5;
+        static constexpr std::uint64_t seed = 1;
+        static constexpr double vortex_radius = 0.25, vortex_separation = 0.7, vortex_peak = 10.0;
+        static constexpr double taylor_green_velocity = 1.0;
+    };
     /// A random field with energy spectrum E(k) ~ s^4 / (1 + s^2)^4, s = k / k_peak (peak at k_peak, tail k^-4),
     /// random phases, scaled to energy `energy`.
     state_type random_field(double k_peak, double energy, std::uint64_t seed);
