@@ -233,6 +233,21 @@ def case_snapshot(d):
     if r.returncode == 0:
         diff = rel(state(os.path.join(d, "ic3.h5"))[0], state(os.path.join(d, "ic0.h5"))[0])
         check(diff <= 16 * EPS * np.sqrt(2), f"--ic SNAPSHOT on -np 3 = on the serial tool to {diff:.3g}")
+    check("--ic" not in r.stderr, "an eci snapshot as --ic drops nothing: no warning on -np 3")
+    # a field with a mean: the share the projection drops, summed over the processes' rows, said once, as serially
+    with h5py.File(os.path.join(d, "p", snap), "r") as f:
+        k = f.attrs["field"]
+        k = k.decode() if isinstance(k, bytes) else str(k)
+        field = np.array(f[k])
+    with h5py.File(os.path.join(d, "mean.h5"), "w") as f:
+        f["vorticity"] = field + np.sqrt(np.mean(field * field))  # the mean holds half the mean square
+    said = []
+    for np_ in (0, 3):
+        r = run(np_, BASE + ["--steps", "1", "--ic", "mean.h5"], d)
+        said.append([line for line in r.stderr.splitlines() if line.startswith("eci: warning: --ic")])
+    check(len(said[0]) == 1 and said[0][0].startswith("eci: warning: --ic mean.h5: 50 % of the field's mean square"),
+          f"a field with a mean as --ic: warned serially ({said[0]})")
+    check(said[1] == said[0], f"-np 3 warns once, as the serial tool ({said[1]})")
 
 
 def case_bad_input(d):
