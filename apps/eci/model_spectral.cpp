@@ -218,7 +218,8 @@ class spectral_command final : public model_command {
                 10.0,
                 {{"default", "random field peaked at k = 8, inviscid, dt from CFL 0.5 (see --help for the "
                              "initial conditions, forcing and outputs)"}},
-                "from --cfl 0.5: 0.5 dx / max|u| at t = 0",
+                "from --cfl 0.5: 0.5 dx / max|u| at t = 0, shorter for fast linear waves or a stiff damping "
+                "(docs/turbulence.md)",
                 ""} {
         const bool ns = name_ == "navier-stokes-2d";
         default_snapshot_dir_ = ns ? "ns2d-snapshots" : name_ + "-snapshots";
