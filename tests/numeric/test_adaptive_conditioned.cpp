@@ -37,6 +37,17 @@ double invariant_change(const Model& m, const typename Model::state_type& x0, co
     return worst;
 }
 
+// The reference solution at t_end: DP853 at rtol = atol = 1e-14.
+template <class Model>
+typename Model::state_type reference(const Model& m, const typename Model::state_type& x0, double t_end) {
+    typename Model::state_type ref = x0;
+    eci::dp853<typename Model::state_type> st;
+    eci::adaptive_options o;
+    o.rtol = o.atol = 1e-14;
+    eci::integrate_adaptive(st, m, ref, 0.0, t_end, 1e-4, o);
+    return ref;
+}
+
 struct wp_point {
     double error;
     std::uint64_t evals;
@@ -66,13 +77,7 @@ double evaluation_ratio(std::uint64_t seed, eci::update_kind update, double& dri
     const Model m = Model::random(30, 4, seed);
     const S x0 = m.random_state(seed + 1);
     const double t_end = 20.0;
-    S ref = x0;
-    {
-        eci::dp853<S> st;
-        eci::adaptive_options o;
-        o.rtol = o.atol = 1e-14;
-        eci::integrate_adaptive(st, m, ref, 0.0, t_end, 1e-4, o);
-    }
+    const S ref = reference(m, x0, t_end);
     std::vector<wp_point> conv, cons;
     drift = 0.0;
     for (int i = 0; i <= 16; ++i) {
@@ -134,13 +139,7 @@ void expect_dp54s_order(std::uint64_t seed) {
     const S x0 = m.random_state(seed + 1);
     const double t_end = 2.0;
     const std::vector<double> dts{0.08, 0.04, 0.02};
-    S ref = x0;
-    {
-        eci::dp853<S> st;
-        eci::adaptive_options o;
-        o.rtol = o.atol = 1e-14;
-        eci::integrate_adaptive(st, m, ref, 0.0, t_end, 1e-4, o);
-    }
+    const S ref = reference(m, x0, t_end);
     std::vector<double> ec, ev;
     for (double dt : dts) {
         eci::c_dp54<S> c;
@@ -226,13 +225,7 @@ TEST(AdaptiveConditioned, RealPairsAtTheConventionalPairsError) {
     using S = Model::state_type;
     const auto [m, x0] = Model::generate(Model::recipe{});
     const double t_end = 10.0;
-    S ref = x0;
-    {
-        eci::dp853<S> st;
-        eci::adaptive_options o;
-        o.rtol = o.atol = 1e-14;
-        eci::integrate_adaptive(st, m, ref, 0.0, t_end, 1e-4, o);
-    }
+    const S ref = reference(m, x0, t_end);
     auto pair = [&]<class Conv, class Cons>(const char* name, double rtol, Conv, Cons) {
         eci::adaptive_options o;
         o.rtol = o.atol = rtol;
