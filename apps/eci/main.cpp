@@ -102,11 +102,9 @@ CLI::Validator whole_number(std::uint64_t min) {
                 return "'" + s + "' is too large (at most 18446744073709551615)";
             return r.ec != std::errc() || v < min ? bad : std::string();
         },
-        "");  // (the option's type name says it: whole_type)
+        "");  // (the option's type name says it: whole_option)
 }
 
-/// The help's type of a whole_number(min) option, "INT>=min" (CLI11's own would read "UINT:INT>=min").
-std::string whole_type(std::uint64_t min) { return "INT>=" + std::to_string(min); }
 
 /// A CLI11 check that an option is a decimal number: an optional sign, digits with an optional point, an optional
 /// exponent ("1", "-0.5", ".5", "2.", "1e-3"); CLI11 alone would also take hexadecimal ("0x10" as 16, "0x1p-4" as
@@ -142,6 +140,13 @@ CLI::Validator decimal_number() {
         },
         "");  // (the option's type name says it: "NUMBER")
 }
+
+/// Option o checked as whole_number(min), its help's type "INT>=min" (CLI11's own would read "UINT:INT>=min").
+CLI::Option* whole_option(CLI::Option* o, std::uint64_t min) {
+    return o->check(whole_number(min))->type_name("INT>=" + std::to_string(min));
+}
+/// Option o checked as decimal_number(), its help's type "NUMBER" (CLI11's own would read "FLOAT:NUMBER").
+CLI::Option* number_option(CLI::Option* o) { return o->check(decimal_number())->type_name("NUMBER"); }
 
 /// The numbers of a list option given as `tokens` (each "1,0,2", "1" or "1, 0"): every item a number
 /// (decimal_number(), spaces around it dropped), no empty item, `count` of them.
@@ -184,10 +189,10 @@ void add_model_options(CLI::App& sub, std::vector<option_spec>& options) {
         } else if (o.flag) {
             sub.add_flag(flag, *o.flag, o.help);
         } else if (o.whole) {
-            sub.add_option(flag, *o.whole, o.help)->check(whole_number(o.min))->type_name(whole_type(o.min));
+            whole_option(sub.add_option(flag, *o.whole, o.help), o.min);
         } else if (o.count == 1) {
             o.reals->resize(1);
-            sub.add_option(flag, o.reals->front(), o.help)->check(decimal_number())->type_name("NUMBER");
+            number_option(sub.add_option(flag, o.reals->front(), o.help));
         } else {
             // A list: "1,0,2" or "1 0 2" (or both), split here: CLI11's own splitting drops empty items, so "1,,2"
             // read as two values and "1,2,3," as three. Each item is a number as decimal_number() says.
@@ -304,17 +309,13 @@ int run_cli(int argc, char** argv) {
                             (i.default_adaptive_method.empty() ? std::string()
                                                                : "; with --rtol/--atol " + i.default_adaptive_method) +
                             ")");
-        sub->add_option("--dt", dt, "time step (default " + i.dt_text(shortest) + ")")
-            ->check(decimal_number())
-            ->type_name("NUMBER");
-        sub->add_option("--t-end", t_end, "end time, starting at t = 0 (default " + shortest(i.default_t_end) + ")")
-            ->check(decimal_number())->type_name("NUMBER");
-        sub->add_option("--steps", steps, "number of steps instead of --t-end")
-            ->check(whole_number(0))
-            ->type_name(whole_type(0));
-        sub->add_option("--every", settings.every, "write a CSV row every K steps; the first and last always "
-                                                   "(default 1)")
-            ->check(whole_number(1))->type_name(whole_type(1));
+        number_option(sub->add_option("--dt", dt, "time step (default " + i.dt_text(shortest) + ")"));
+        number_option(sub->add_option("--t-end", t_end,
+                                      "end time, starting at t = 0 (default " + shortest(i.default_t_end) + ")"));
+        whole_option(sub->add_option("--steps", steps, "number of steps instead of --t-end"), 0);
+        whole_option(sub->add_option("--every", settings.every,
+                                     "write a CSV row every K steps; the first and last always (default 1)"),
+                     1);
         sub->add_option("--output", settings.output,
                         "CSV file: t, the state (a spectral model: its diagnostics and budget), the model's derived "
                         "columns (Kepler: the position x, y), the invariants, and, for a relaxation method "
@@ -331,18 +332,18 @@ int run_cli(int argc, char** argv) {
                         "value; a spectral model's E and Z and each one's change beyond its budget. Drawn when the "
                         "run has finished: a run stopped by a signal draws none; a picture that cannot be drawn "
                         "fails the run (exit 1) and keeps its other outputs");
-        sub->add_option("--rtol", rtol,
-                        "relative tolerance: run with adaptive step control (an embedded pair: bs32, ck54, dp54, "
-                        "dp853, f78 and their c- versions); --dt is then the first step, at most the span. Below "
-                        "100 eps it is raised to 100 eps with a warning, as in Python and SciPy's solve_ivp")
-            ->check(decimal_number())->type_name("NUMBER");
-        sub->add_option("--atol", atol, "absolute tolerance of adaptive step control (default: the --rtol value)")
-            ->check(decimal_number())->type_name("NUMBER");
-        sub->add_option("--output-dt", output_dt,
-                        "write CSV rows at multiples of this time and at the end (adaptive: dense output or steps "
-                        "landing on them; fixed steps: a multiple of --dt, and without --dt a spectral equation's CFL "
-                        "step is shortened to divide it); not with --every")
-            ->check(decimal_number())->type_name("NUMBER");
+        number_option(sub->add_option(
+            "--rtol", rtol,
+            "relative tolerance: run with adaptive step control (an embedded pair: bs32, ck54, dp54, dp853, f78 and "
+            "their c- versions); --dt is then the first step, at most the span. Below 100 eps it is raised to 100 "
+            "eps with a warning, as in Python and SciPy's solve_ivp"));
+        number_option(sub->add_option("--atol", atol,
+                                      "absolute tolerance of adaptive step control (default: the --rtol value)"));
+        number_option(sub->add_option(
+            "--output-dt", output_dt,
+            "write CSV rows at multiples of this time and at the end (adaptive: dense output or steps landing on "
+            "them; fixed steps: a multiple of --dt, and without --dt a spectral equation's CFL step is shortened to "
+            "divide it); not with --every"));
         sub->add_option("--output-mode", settings.output_mode,
                         "how an adaptive run reaches the --output-dt times: auto (default: dense output where it is as "
                         "accurate as the steps, else a step lands on each), dense (the dense output, fewer steps; a "
@@ -376,11 +377,10 @@ int run_cli(int argc, char** argv) {
     eci::figures::options figure_options;
     figures->add_option("--out", figure_options.out, "output directory (default figures)");
     int only = 0;
-    figures
-        ->add_option("--only", only,
-                     "make only figure N (1-9): its files, and its rows of the directory's summary.csv (the other "
-                     "figures' rows are kept)")
-        ->check(whole_number(1))->type_name(whole_type(1))
+    whole_option(figures->add_option("--only", only,
+                                     "make only figure N (1-9): its files, and its rows of the directory's "
+                                     "summary.csv (the other figures' rows are kept)"),
+                 1)
         ->check(CLI::Range(1, 9));
 
     // CLI11 would say only that a subcommand is required, or call an unknown model an unexpected argument.

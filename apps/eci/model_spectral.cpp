@@ -819,18 +819,14 @@ int spectral_command::run_spread(const run_settings& settings) {
         const std::vector<double> kept = model.to_physical_rows(w);  // (collective)
         double scale = 0.0;  // (sums of squares of f / max|f|: a field of 1e200 is finite and so are they)
         for (const double f : given) scale = std::max(scale, std::abs(f));
-#ifdef ECI_MPI
-        if (mpi.on) MPI_Allreduce(MPI_IN_PLACE, &scale, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-#endif
+        model.grid().max_over_ranks(&scale, 1);
         std::array<double, 2> sums{0.0, 0.0};  // sum f^2, sum (f - P f)^2
         for (std::size_t j = 0; scale > 0.0 && j < given.size(); ++j) {
             const double f = given[j] / scale, d = (given[j] - kept[j]) / scale;
             sums[0] += f * f;
             sums[1] += d * d;
         }
-#ifdef ECI_MPI
-        if (mpi.on) MPI_Allreduce(MPI_IN_PLACE, sums.data(), 2, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-#endif
+        model.grid().sum_over_ranks(sums.data(), sums.size());
         // above 1e-10 of the mean square (1e-5 of the rms): more than any rounding of a field written by eci
         if (mpi.rank == 0 && sums[1] > 1e-10 * sums[0])
             std::fprintf(stderr,

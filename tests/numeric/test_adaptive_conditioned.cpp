@@ -8,6 +8,7 @@
 #include <cmath>
 #include <complex>
 #include <cstdio>
+#include <type_traits>
 #include <utility>
 #include <vector>
 
@@ -247,12 +248,12 @@ TEST(AdaptiveConditioned, RealPairsAtTheConventionalPairsError) {
         EXPECT_LE(invariant_change(m, x0, xb), 8.0 * eps * std::sqrt(double(nb))) << name;
         return ek / ea;
     };
-    using eci::method_entries::bs32, eci::method_entries::c_bs32, eci::method_entries::dp54, eci::method_entries::c_dp54;
-    struct bs { using type = eci::adaptive_stepper_for<bs32, Model>; };
-    struct cbs { using type = eci::adaptive_stepper_for<c_bs32, Model>; };
-    struct dp { using type = eci::adaptive_stepper_for<dp54, Model>; };
-    struct cdp { using type = eci::adaptive_stepper_for<c_dp54, Model>; };
+    namespace me = eci::method_entries;
+    constexpr std::type_identity<eci::adaptive_stepper_for<me::bs32, Model>> bs{};
+    constexpr std::type_identity<eci::adaptive_stepper_for<me::c_bs32, Model>> cbs{};
+    constexpr std::type_identity<eci::adaptive_stepper_for<me::dp54, Model>> dp{};
+    constexpr std::type_identity<eci::adaptive_stepper_for<me::c_dp54, Model>> cdp{};
     // the kappa rule's loss shows at these tolerances (else the test could not tell the two rules apart)
-    EXPECT_GE(std::max(pair("bs32", 1e-8, bs{}, cbs{}), pair("bs32", 1e-10, bs{}, cbs{})), 2.0);
-    pair("dp54", 1e-10, dp{}, cdp{});
+    EXPECT_GE(std::max(pair("bs32", 1e-8, bs, cbs), pair("bs32", 1e-10, bs, cbs)), 2.0);
+    pair("dp54", 1e-10, dp, cdp);
 }

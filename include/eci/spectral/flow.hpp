@@ -240,8 +240,8 @@ class flow2d {
     static constexpr double default_cfl = 0.5;
     /// The step of CFL number `cfl` at the initial state q, cfl dx / max|u|, at most cfl / max|omega| of the
     /// equation's linear waves (Rossby waves with beta) and at most 2 cfl / linear_rate() of its damping: the front
-    /// ends' default step, after check_initial_state(q). std::invalid_argument naming the settings as the front end does (`dt_name`,
-    /// `cfl_name`): "CFL must be a positive number", "the initial velocity is zero: give DT", "the time step from
+    /// ends' default step, after check_initial_state(q). std::invalid_argument naming the settings as the front
+    /// end does (`dt_name`, `cfl_name`): "CFL must be a positive number", "the initial velocity is zero: give DT", "the time step from
     /// CFL c, CFL dx / max|u| = h, is not a positive finite number".
     double initial_cfl_step(const state_type& q, double cfl, std::string_view dt_name, std::string_view cfl_name);
     /// The fastest decay rate of the linear terms, max over the retained modes of nu |k|^2 + nu_h |k|^2p + mu +
