@@ -41,7 +41,8 @@ double seconds_since(double t) { return now() - t; }
 
 // `reps` attempts of the stepper on system f (success or not: a failed attempt costs the same work), each from w0
 // again, so every method steps the same field at CFL 0.5; their times, sorted. update: which finishing pass a
-// conservative stepper takes: 0 its default, 1 the paper's update, 2 the conditioned update. The model's invariants
+// conservative stepper takes: 0 its default, 1 the paper's update, 2 the conditioned update, 3 the conditioned
+// update with each complex mode's modulus update (remedy.complex_by_rescale off: eci's default before session 40). The model's invariants
 // are declared to it, as ns2d_step (the CLI's driver) does.
 // hooked: each step as a run takes it (eci::solve, the CLI): between the model's begin_attempt and end_attempt, so
 // that every right-hand side also records the budget's rates (f is then the model itself).
@@ -63,7 +64,8 @@ std::vector<double> step_times(F& f, const eci::navier_stokes_2d& m, const state
     if constexpr (requires { st.remedy; }) {
         st.set_quadratic_invariants(m.quadratic_invariant_weights());
         if (update == 1) st.remedy.update = eci::update_kind::paper;
-        if (update == 2) st.remedy.update = eci::update_kind::conditioned;
+        if (update >= 2) st.remedy.update = eci::update_kind::conditioned;
+        if (update == 3) st.remedy.complex_by_rescale = false;
     }
     state w = w0;
     one_step(st, w);  // warm up: buffers allocated
@@ -137,7 +139,7 @@ int main(int argc, char** argv) {
     const double dt = 0.5 * (2.0 * std::numbers::pi / p.n) / m.max_velocity(w0);
     // Interleaved: each round times every method once, so load changes hit all alike; the fastest round counts.
     double t_rk4 = 1e300, t_crk4 = 1e300, t_pc = 1e300, t_cpc = 1e300, t_fft = 1e300, t_rhs = 1e300;
-    double t_crk4_paper = 1e300, t_cpc_paper = 1e300, t_crk4_cond = 1e300, t_cpc_cond = 1e300;
+    double t_crk4_paper = 1e300, t_cpc_paper = 1e300, t_crk4_cond = 1e300, t_cpc_cond = 1e300, t_crk4_mod = 1e300;
     double t_rk4_run = 1e300, t_crk4_run = 1e300;
     state f;
     m(w0, f, 0.0);
@@ -149,6 +151,7 @@ int main(int argc, char** argv) {
         t_crk4_paper = std::min(t_crk4_paper, step_time<eci::c_rk4<state>>(m, w0, dt, reps, 1));
         t_cpc_paper = std::min(t_cpc_paper, step_time<eci::c_pc<state>>(m, w0, dt, reps, 1));
         t_crk4_cond = std::min(t_crk4_cond, step_time<eci::c_rk4<state>>(m, w0, dt, reps, 2));
+        t_crk4_mod = std::min(t_crk4_mod, step_time<eci::c_rk4<state>>(m, w0, dt, reps, 3));
         t_cpc_cond = std::min(t_cpc_cond, step_time<eci::c_pc<state>>(m, w0, dt, reps, 2));
         t_rk4_run = std::min(t_rk4_run, step_time<eci::rk4<state>>(m, w0, dt, reps, 0, true));
         t_crk4_run = std::min(t_crk4_run, step_time<eci::c_rk4<state>>(m, w0, dt, reps, 0, true));
@@ -203,10 +206,12 @@ int main(int argc, char** argv) {
     std::printf("ns2d-run N=%d threads=%d rk4_run=%.6g c_rk4_run=%.6g rk4_run/rk4=%.4f c_rk4_run/rk4_run=%.4f "
                 "c_rk4_run/fft=%.4f\n",
                 p.n, p.threads, t_rk4_run, t_crk4_run, t_rk4_run / t_rk4, t_crk4_run / t_rk4_run, t_crk4_run / t_fft);
-    // The conservative steppers' two finishing passes side by side (c_rk4 and c_pc above are the default).
+    // The conservative steppers' finishing passes side by side (c_rk4 and c_pc above are the default; the
+    // modulus update is C-RK4's default before session 40).
     std::printf("ns2d-update N=%d c_rk4_paper/rk4=%.4f c_rk4_conditioned/rk4=%.4f c_pc_paper/pc=%.4f "
-                "c_pc_conditioned/pc=%.4f\n",
-                p.n, t_crk4_paper / t_rk4, t_crk4_cond / t_rk4, t_cpc_paper / t_pc, t_cpc_cond / t_pc);
+                "c_pc_conditioned/pc=%.4f c_rk4_modulus/rk4=%.4f\n",
+                p.n, t_crk4_paper / t_rk4, t_crk4_cond / t_rk4, t_cpc_paper / t_pc, t_cpc_cond / t_pc,
+                t_crk4_mod / t_rk4);
     {
         // The finishing passes alone (replayed stages, one thread's CPU time, median of 31 per stepper, interleaved
         // in 3 rounds): how much of c_rk4/rk4 each update costs, in ms and as a share of the RK4 step above.
@@ -219,16 +224,18 @@ int main(int argc, char** argv) {
             r.step(f, w, 0.0, dt);
         }
         f.record = false;
-        double r_rk4 = 1e300, r_cond = 1e300, r_paper = 1e300;
+        double r_rk4 = 1e300, r_cond = 1e300, r_paper = 1e300, r_modulus = 1e300;
         for (int round = 0; round < 3; ++round) {
             r_rk4 = std::min(r_rk4, replayed_step<eci::rk4<state>>(f, m, w0, dt, 31, 0));
             r_cond = std::min(r_cond, replayed_step<eci::c_rk4<state>>(f, m, w0, dt, 31, 0));
             r_paper = std::min(r_paper, replayed_step<eci::c_rk4<state>>(f, m, w0, dt, 31, 1));
+            r_modulus = std::min(r_modulus, replayed_step<eci::c_rk4<state>>(f, m, w0, dt, 31, 3));
         }
         std::printf("ns2d-finish N=%d replayed_rk4_ms=%.3f conditioned_extra_ms=%.3f paper_extra_ms=%.3f "
-                    "conditioned_extra/rk4_step=%.4f paper_extra/rk4_step=%.4f\n",
-                    p.n, 1e3 * r_rk4, 1e3 * (r_cond - r_rk4), 1e3 * (r_paper - r_rk4), (r_cond - r_rk4) / t_rk4,
-                    (r_paper - r_rk4) / t_rk4);
+                    "modulus_extra_ms=%.3f conditioned_extra/rk4_step=%.4f paper_extra/rk4_step=%.4f "
+                    "modulus_extra/rk4_step=%.4f\n",
+                    p.n, 1e3 * r_rk4, 1e3 * (r_cond - r_rk4), 1e3 * (r_paper - r_rk4), 1e3 * (r_modulus - r_rk4),
+                    (r_cond - r_rk4) / t_rk4, (r_paper - r_rk4) / t_rk4, (r_modulus - r_rk4) / t_rk4);
     }
     if (p.threads == 1) return 0;
     // Threads: a one-thread model beside this one, C-RK4 steps alternating between them in wall time, so load from

@@ -145,6 +145,7 @@ TEST(Ns2dConditioned, SurfaceQgTurbulenceCRk4AndCPcAtTheConventionalError) {
 // above the previous step's cut (the default), or counts from one bucket above it, where the share cap can often
 // reach the counted ones and the pass is filed again in full. Turbulence at CFL 0.5 (a third of the filed modes
 // taken per step), C-RK4 and C-PC, on one thread and split over two (each range lumps into its own histogram).
+// C-RK4 with the modulus update (remedy.complex_by_rescale off; its default files nothing).
 template <class St>
 void check_lumping(const char* equation, int threads) {
     eci::ns2d_params p = params(64, 2e-3, false, equation);
@@ -159,6 +160,7 @@ void check_lumping(const char* equation, int threads) {
     const auto run = [&](std::size_t margin) {
         St st;
         st.remedy.lump_margin = margin;
+        st.remedy.complex_by_rescale = false;
         result r{w0, {}};
         eci::ns2d_budget b;
         eci::run_stats rs;
@@ -198,6 +200,79 @@ TEST(Ns2dConditioned, LumpedFilingGivesTheBitsOfTheFullFilingOnTwoThreads) {
 TEST(Ns2dConditioned, LumpedFilingGivesTheBitsOfTheFullFilingSurfaceQg) {
     check_lumping<eci::c_rk4<state>>("surface-qg", 1);
 }
+
+// C-RK4's default on complex modes (remedy.complex_by_rescale): every mode's conventional update, then one exact
+// rescale of E and Z. So one step of C-RK4 is one step of RK4 with each mode multiplied by a real factor
+// sqrt(1 + c_E w_E,k + c_Z w_Z,k), the same two coefficients for every mode: fitted from two modes of the largest
+// and smallest E weight, every other mode's factor must follow to round-off. The lumping and filing of the modulus
+// update never run (no mode is filed), E and Z are the conservative method's to round-off, and over a run the field
+// stays at RK4's error, not near it.
+void check_rescaled_rk4(const char* equation, int threads) {
+    eci::ns2d_params p = params(64, 0.0, false, equation);
+    p.threads = threads;
+    navier_stokes_2d m(p);
+    const state w0 = m.random_field(8.0, 0.5, 3);
+    const double dt = 0.5 * (2.0 * std::numbers::pi / 64) / m.max_velocity(w0);  // CFL 0.5, as the CLI steps
+    eci::c_rk4<state> c;
+    eci::rk4<state> r;
+    c.set_quadratic_invariants(m.quadratic_invariant_weights());
+    state wc = w0, wr = w0;
+    ASSERT_TRUE(bool(c.step(m, wc, 0.0, dt)));
+    ASSERT_TRUE(bool(r.step(m, wr, 0.0, dt)));
+    const auto& w = m.quadratic_invariant_weights();  // [0]: E, [1]: Z, one weight per mode
+    // each retained mode's squared factor minus one, s_k = |c_k|^2 / |r_k|^2 - 1, and its weights
+    std::vector<double> s, we, wz;
+    for (std::size_t i = 0; i < m.size(); ++i) {
+        if (!m.retained(i) || std::norm(wr[i]) == 0.0 || w[0][i] == 0.0) continue;
+        // the factor is real: the phase is RK4's
+        EXPECT_LE(std::abs(std::arg(wc[i] / wr[i])), 8 * eps) << "mode " << i;
+        s.push_back(std::norm(wc[i]) / std::norm(wr[i]) - 1.0);
+        we.push_back(w[0][i]), wz.push_back(w[1][i]);
+    }
+    ASSERT_GT(s.size(), 100u);
+    // s_k / w_Z,k = c_E (w_E,k / w_Z,k) + c_Z: a line in x_k = w_E,k / w_Z,k, fitted by least squares over the
+    // modes (each s_k carries a few roundings of |c_k|^2 / |r_k|^2, ~eps, against the rescale's s ~ 1e-4 here)
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    const double n = double(s.size());
+    for (std::size_t j = 0; j < s.size(); ++j) {
+        const double x = we[j] / wz[j], y = s[j] / wz[j];
+        sx += x, sy += y, sxx += x * x, sxy += x * y;
+    }
+    const double ce = (n * sxy - sx * sy) / (n * sxx - sx * sx), cz = (sy - ce * sx) / n;
+    double worst = 0.0, smax = 0.0;
+    for (std::size_t j = 0; j < s.size(); ++j) {
+        worst = std::max(worst, std::abs(s[j] - (ce * we[j] + cz * wz[j])));
+        smax = std::max(smax, std::abs(s[j]));
+    }
+    std::printf("%s, %d thread(s): one C-RK4 step = RK4's rescaled, s_k = %.3e w_E + %.3e w_Z (|s| <= %.2e), "
+                "residual %.2f eps\n",
+                equation, threads, ce, cz, smax, worst / eps);
+    EXPECT_GT(smax, 1e3 * eps);       // a rescale this test can see (else it would pass for RK4 itself)
+    EXPECT_LE(worst, 64 * eps);       // every mode's factor on the one line (a few roundings per mode)
+    const eci::remedy_stats& st = c.remedy_statistics();
+    EXPECT_EQ(st.remedied_steps, 1u);
+    EXPECT_EQ(st.components_remedied, 2 * m.size());  // every part of every mode conventional (nothing filed)
+    EXPECT_EQ(st.lumped, 0u);
+    EXPECT_EQ(st.refiled, 0u);
+    EXPECT_EQ(st.conditioning_declined, 0u);
+    // E and Z: the conservative method's, to round-off (inviscid: their initial values). Summed in long double, so
+    // that the sums' own rounding (~eps sqrt(modes) in double) does not hide the step's few roundings per mode.
+    const auto invariant = [&](const state& v, std::size_t j) {
+        long double sum = 0.0L;
+        for (std::size_t i = 0; i < m.size(); ++i) sum += (long double)w[j][i] * (long double)std::norm(v[i]);
+        return double(sum);
+    };
+    for (std::size_t j = 0; j < 2; ++j) {
+        const double before = invariant(w0, j), after = invariant(wc, j), conventional = invariant(wr, j);
+        EXPECT_LE(std::abs(after - before), 4 * eps * before) << "invariant " << j;
+        std::printf("  invariant %zu: C-RK4 %.2f eps, RK4 %.3g eps\n", j, (after - before) / before / eps,
+                    (conventional - before) / before / eps);
+    }
+}
+TEST(Ns2dConditioned, CRk4IsRk4RescaledNavierStokes) { check_rescaled_rk4("navier-stokes-2d", 1); }
+TEST(Ns2dConditioned, CRk4IsRk4RescaledOnTwoThreads) { check_rescaled_rk4("navier-stokes-2d", 2); }
+TEST(Ns2dConditioned, CRk4IsRk4RescaledSurfaceQg) { check_rescaled_rk4("surface-qg", 1); }
+TEST(Ns2dConditioned, CRk4IsRk4RescaledChm) { check_rescaled_rk4("charney-hasegawa-mima", 1); }
 
 TEST(Ns2dConditionedLong, DISABLED_TurbulenceBeforeAndAfter) {
     check_turbulence(8.0, 3, true);

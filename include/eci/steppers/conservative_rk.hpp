@@ -107,15 +107,19 @@ class conservative_rk : public radicand_remedy {
                 const auto [c2, xi] = element_update(xr.data(), kp, e, dt, c, rad);
                 return radicand_remedy::element_update{c2, xi, sign_of(xr.data(), kp, e, dt, c, xi)};
             };
-            // The pass lumps the elements far above the previous step's cut (radicand_remedy::lump_from_); where
-            // the share cap might reach them after all, it is made again with every element filed.
-            finish_conditioned(o, xr.data(), kp, dt, n, true);
-            bool ok = !reduce_.any(!filed_none()) || remedy_elements<per>(o, xr.data(), n, conv);
-            if (!ok && refiling()) {
-                finish_conditioned(o, xr.data(), kp, dt, n, false);
-                ok = !reduce_.any(!filed_none()) || remedy_elements<per>(o, xr.data(), n, conv);
+            // Order 3 or more (remedy_options::real_by_rescale, complex_by_rescale): every element's conventional
+            // update and one exact rescale, unless the rescale is refused (a step far too large: then as order 2).
+            // Else the pass lumps the elements far above the previous step's cut (radicand_remedy::lump_from_);
+            // where the share cap might reach them after all, it is made again with every element filed.
+            if (!by_rescale() || !finish_by_rescale(o, xr.data(), kp, dt, n)) {
+                finish_conditioned(o, xr.data(), kp, dt, n, true);
+                bool ok = !reduce_.any(!filed_none()) || remedy_elements<per>(o, xr.data(), n, conv);
+                if (!ok && refiling()) {
+                    finish_conditioned(o, xr.data(), kp, dt, n, false);
+                    ok = !reduce_.any(!filed_none()) || remedy_elements<per>(o, xr.data(), n, conv);
+                }
+                if (!ok) return step_result::failure(first_negative<per>());
             }
-            if (!ok) return step_result::failure(first_negative<per>());
         } else if constexpr (is_c_pc) {
             const double* k1 = detail::reals(std::as_const(st_.k[1])).data();
             counts = split_.count(n, [&](std::size_t i0, std::size_t i1) {
@@ -266,6 +270,75 @@ class conservative_rk : public radicand_remedy {
         if constexpr (per == 1 && Sign == sign_rule::of_last_stage)
             if (xi >= 0.0) sign = stage_value<s - 1>(x[e], k, e, dt);
         return sign;
+    }
+
+    // Whether the conditioned update is every element's conventional update and one exact rescale (tableaux of
+    // order 3 or more; remedy_options::real_by_rescale, complex_by_rescale).
+    bool by_rescale() const {
+        return T.order >= 3 && (per == 1 ? remedy.real_by_rescale : remedy.complex_by_rescale);
+    }
+
+    // The rescale finish: one pass writes every element's conventional update into o and sums what the rescale
+    // needs (each invariant's defect sum_e w_je (|c_e|^2 - xi_e), and with two invariants the Gram sums of
+    // |c_e|^2, as the conditioned pass sums them), then radicand_remedy::rescale_conventional restores every
+    // invariant. Split over the model's threads, each range sums apart and the ranges are merged in range order
+    // (the sums of a given split repeat bit for bit). false: refused (o is then written again by the conditioned
+    // pass).
+    bool finish_by_rescale(double* o, const double* x, const std::array<const double*, s>& k, double dt,
+                           std::size_t n) {
+        constexpr std::size_t M = max_invariants;
+        const std::size_t ne = n / per, m = quadratic_invariants().size();
+        struct range_sums {
+            conditioned_pass gram;
+            std::array<double, M> defect{};
+            double negatives = 0.0;
+        };
+        const conditioned_pass start = begin_rescale();
+        std::array<range_sums, detail::max_ranges> ranges{};
+        split_.for_ranges(ne, [&](std::size_t e_begin, std::size_t e_end, int r) {
+            range_sums sum{start, {}, 0.0};
+            constexpr std::size_t B = block_elements;
+            std::array<double, B * per> rv;
+            std::array<double, B> c2v, xiv, sg;
+            const detail::step_split sp = detail::split_step(dt);
+            const auto& w = quadratic_invariants();
+            for (std::size_t e0 = e_begin; e0 < e_end; e0 += B) {
+                const std::size_t nb = std::min(B, e_end - e0);
+                double* cv = o + e0 * per;  // the conventional update, written in place
+#if ECI_DETAIL_X86_SIMD
+                if (detail::cpu_has_avx2())
+                    block_updates_avx2(cv, rv.data(), c2v.data(), xiv.data(), sg.data(), x, k, e0, nb, dt, sp);
+                else
+#endif
+                    block_updates(cv, rv.data(), c2v.data(), xiv.data(), sg.data(), x, k, e0, nb, dt, sp);
+                if (m == 2) {  // E and Z (every spectral model, n-wave): the loop below with the weights hoisted
+                    const double* w0 = w[0].data() + e0;
+                    const double* w1 = w[1].data() + e0;
+                    double d0 = 0.0, d1 = 0.0, neg = 0.0;
+                    for (std::size_t b = 0; b < nb; ++b) {
+                        const double d = c2v[b] - xiv[b];
+                        d0 += w0[b] * d, d1 += w1[b] * d, neg += xiv[b] < 0.0 ? 1.0 : 0.0;
+                    }
+                    sum.defect[0] += d0, sum.defect[1] += d1, sum.negatives += neg;
+                    gram_block(sum.gram, e0, c2v.data(), nb);
+                } else {
+                    for (std::size_t b = 0; b < nb; ++b) {
+                        const double d = c2v[b] - xiv[b];
+                        for (std::size_t a = 0; a < m; ++a) sum.defect[a] += w[a][e0 + b] * d;
+                        sum.negatives += xiv[b] < 0.0 ? 1.0 : 0.0;
+                    }
+                }
+            }
+            ranges[std::size_t(r)] = sum;
+        });
+        range_sums total = ranges[0];
+        for (int r = 1; r < split_.threads; ++r) {
+            const range_sums& p = ranges[std::size_t(r)];
+            for (std::size_t a = 0; a < m; ++a) total.defect[a] += p.defect[a];
+            total.negatives += p.negatives;
+            merge_gram(total.gram, p.gram);
+        }
+        return rescale_conventional<per>(o, n, total.gram, total.defect, total.negatives);
     }
 
     // The conditioned finishing pass: each element's conventional update and xi, filed by the remedy's

@@ -81,9 +81,15 @@ struct remedy_options {
     /// over the steps near the crossing: with kappa = 16 and the 5 % share C-RK4's error was 2.1-9.5 x RK4's on the
     /// 30-mode n-wave system (dt = 0.01 ... 6.25e-4), 1.3-3.6 x on 1000 modes; by the rescale 0.77-1.08 x
     /// (docs/methods.md). Against a second-order method's error the loss does not show (C-PC 0.97-1.04 x PC's by
-    /// kappa, 0.99-1.14 x by the rescale, which costs more): order 2 keeps kappa. Complex modes keep the modulus
-    /// update and kappa (0.88-0.96 x RK4's on Navier-Stokes).
+    /// kappa, 0.99-1.14 x by the rescale, which costs more): order 2 keeps kappa.
     bool real_by_rescale = true;
+    /// The same for complex modes in the fixed-step engine (conservative_rk, tableaux of order 3 or more): every
+    /// mode's conventional update and one exact rescale (true, the default), or each mode's modulus update, with
+    /// the kappa rule for the ill-conditioned ones (false; the adaptive pairs keep it). The rescale's step is the
+    /// conventional method's (C-RK4's error RK4's on turbulence; the modulus update's 0.88-0.96 x), and its pass
+    /// takes no square root and files nothing, which on Navier-Stokes costs about half the modulus update's extra
+    /// time over RK4 (docs/benchmarks.md, "Session 40").
+    bool complex_by_rescale = true;
 };
 
 /// What the remedy did so far (a stepper's counters, from the stepper's construction).
@@ -436,15 +442,28 @@ class radicand_remedy {
             neg_.insert(neg_.end(), part.neg.begin(), part.neg.end());
             neg_h_.insert(neg_h_.end(), part.neg_h.begin(), part.neg_h.end());
             for (std::size_t i = 0; i < hist_.size(); ++i) hist_[i] += part.hist[i];
-            const conditioned_pass& p = passes[r];
-            const auto merge = [](compensated_sum& sum, const compensated_sum& range_sum) {
-                sum.add(range_sum.s);
-                sum.err += range_sum.err;
-            };
-            merge(total.g00, p.g00), merge(total.g01, p.g01), merge(total.g11, p.g11);
-            total.a0 += p.a0, total.a1 += p.a1;
+            merge_gram(total, passes[r]);
         }
         end_conditioned(total);
+    }
+
+    // Range p's Gram sums added to `total` (the compensated sums with their error terms), as a split pass merges
+    // its ranges in range order.
+    static void merge_gram(conditioned_pass& total, const conditioned_pass& p) {
+        const auto merge = [](compensated_sum& sum, const compensated_sum& range_sum) {
+            sum.add(range_sum.s);
+            sum.err += range_sum.err;
+        };
+        merge(total.g00, p.g00), merge(total.g01, p.g01), merge(total.g11, p.g11);
+        total.a0 += p.a0, total.a1 += p.a1;
+    }
+
+    // The sums a rescale finish starts from (rescale_conventional): the Gram sums fused when there are two
+    // invariants.
+    conditioned_pass begin_rescale() const {
+        conditioned_pass p;
+        if (weights_fused()) p.w0 = weights_[0].data(), p.w1 = weights_[1].data();
+        return p;
     }
 
     // Whether the last conditioned pass filed no element (neg_ and every range's cond_ empty).
@@ -452,6 +471,49 @@ class radicand_remedy {
         if (!(neg_.empty() && cond_.empty()) || hist_[lumped_bucket()] != 0.0) return false;
         for (std::size_t r = 0; r < parts_used_; ++r)
             if (!parts_[r].cond.empty()) return false;
+        return true;
+    }
+
+    // The rescale finish (remedy_options::real_by_rescale, complex_by_rescale): the engine wrote every element's
+    // conventional update c_e into o and summed, in the same pass, each invariant's defect
+    // defect_j = sum_e w_je (|c_e|^2 - xi_e) (xi_e: the tableau applied to |psi_e|^2, whose weighted sums are what
+    // the conservative method gives each invariant) and, with two invariants, the Gram sums of |c_e|^2 in `sums`
+    // (begin_conditioned's; null weights: none summed, one pass here). One exact rescale then restores every
+    // invariant: the new state is the conventional method's, moved by a relative ~defect / invariant, and the
+    // invariants the conservative method's. No element is filed and no square root taken. false: refused (a sum not
+    // finite, or the rescale too large): o holds the conventional update, and the engine takes the conditioned
+    // update (remedy_elements) instead. negatives: the elements with xi_e < 0 (counted apart in the statistics).
+    template <std::size_t Per>
+    bool rescale_conventional(double* o, std::size_t n, const conditioned_pass& sums,
+                              std::array<double, max_invariants> defect, double negatives) {
+        constexpr std::size_t shift = Per == 2 ? 1 : 0;
+        const std::size_t m = weights_.size();
+        std::array<double, max_invariants * max_invariants> g{};
+        std::array<double, max_invariants> mag{};
+        if (sums.w0) {
+            g[0] = sums.g00.value(), g[1] = g[max_invariants] = sums.g01.value();
+            g[max_invariants + 1] = sums.g11.value();
+            mag[0] = sums.a0, mag[1] = sums.a1;
+        } else {
+            gram_compensated<shift>(o, n, g, mag);
+        }
+        whole_ = {n / Per, wmax_, weights_nonnegative_};
+        if (reduce_) {  // over every process, in one collective: each takes the same decision and the same rescale
+            double elements = double(whole_.elements), negative_weights = weights_nonnegative_ ? 0.0 : 1.0;
+            reduce_.sum_all(std::span(g), std::span(mag.data(), m), std::span(defect.data(), m), negatives, elements,
+                            negative_weights);  // g's unused entries are 0
+            whole_.elements = std::size_t(elements), whole_.nonnegative = negative_weights == 0.0;
+            reduce_.max({whole_.wmax.data(), m});
+        }
+        bool finite = true;
+        for (std::size_t a = 0; a < m; ++a) {
+            finite = finite && std::isfinite(defect[a]) && std::isfinite(mag[a]);
+            for (std::size_t b = 0; b < m; ++b) finite = finite && std::isfinite(g[a * max_invariants + b]);
+        }
+        if (!finite || !rescale_exactly<Per>(o, n, g, mag, defect, true)) return false;
+        ++stats_.remedied_steps;
+        stats_.components_remedied += whole_.elements * Per;
+        stats_.conditioned += (whole_.elements - std::size_t(negatives)) * Per;
         return true;
     }
 
@@ -983,7 +1045,6 @@ class radicand_remedy {
     template <std::size_t Per, class Conv>
     bool attempt_elements(double* o, const double* x, std::size_t n, Conv& conv, std::size_t cut,
                           std::size_t ncond) {
-        constexpr std::size_t shift = Per == 2 ? 1 : 0;
         const std::size_t m = weights_.size();
         constexpr std::size_t M = max_invariants;
         std::array<double, max_invariants> defect{}, held{};
@@ -1037,15 +1098,31 @@ class radicand_remedy {
             for (std::size_t b = 0; b < m; ++b) g[a * M + b] += dg[a * M + b];
         for (std::size_t j = 0; j < m; ++j)
             if (!(held[j] <= share_ * mag[j])) return false;
+        if (!rescale_exactly<Per>(o, n, g, mag, defect, ncond > 0)) return false;
+        ++stats_.remedied_steps;
+        stats_.components_remedied += taken * Per;
+        stats_.conditioned += ncond * Per;
+        taken_cut_ = cut;
+        return true;
+    }
+
+    // The exact rescale psi_k^2 <- psi_k^2 (1 + s_k), s_k = sum_j c_j w_jk, with G c = -defect (G and A the Gram
+    // sums and magnitudes of the state in o, over every process), if its size passes the caps (below); false if
+    // refused (o unchanged). conditioned: the defect comes from square roots the update gave up (not from negative
+    // radicands alone), so a rescale too small to be represented by rounding to nearest is rounded stochastically.
+    // whole_ must describe the state (remedy_elements, rescale_conventional).
+    template <std::size_t Per>
+    bool rescale_exactly(double* o, std::size_t n, const std::array<double, max_invariants * max_invariants>& g,
+                         const std::array<double, max_invariants>& mag,
+                         const std::array<double, max_invariants>& defect, bool conditioned) {
+        constexpr std::size_t shift = Per == 2 ? 1 : 0;
+        const std::size_t m = weights_.size();
+        constexpr std::size_t M = max_invariants;
         std::array<double, max_invariants> c{};
         if (!solve(g, mag, defect, c)) return false;
         const auto commit = [&](double s_bound) {  // the rescale, |s_k| <= s_bound
             s_bound_ = s_bound;
             rescale<Per>(o, n, c);
-            ++stats_.remedied_steps;
-            stats_.components_remedied += taken * Per;
-            stats_.conditioned += ncond * Per;
-            taken_cut_ = cut;
             return true;
         };
         // The size of the rescale (one pass, only in steps that rescale): the share of each invariant it moves,
@@ -1065,7 +1142,7 @@ class radicand_remedy {
             for (std::size_t j = 0; j < m; ++j) ub += std::abs(c[j]) * whole_.wmax[j];
             for (std::size_t j = 0; j < m; ++j) lb = std::max(lb, s_at(c, wargmax_[j]));
             reduce_.max({&lb, 1});  // (spread: |s| at this process's largest weights, the largest over all)
-            bool settled = ub * (1.0 + 0x1p-40) <= taylor_limit && (ncond == 0 || lb >= 0x1p-48);
+            bool settled = ub * (1.0 + 0x1p-40) <= taylor_limit && (!conditioned || lb >= 0x1p-48);
             for (std::size_t j = 0; settled && j < m; ++j) {
                 double bound = 0.0;
                 for (std::size_t i = 0; i < m; ++i) bound += std::abs(c[i]) * g[j * M + i];
@@ -1110,7 +1187,7 @@ class radicand_remedy {
         // on the 30-mode n-wave system at dt = 1.25e-3). So each o + o h is rounded stochastically, unbiased:
         // the invariants then take a random walk of round-off size. Above 2^-48 the rounding of o + o h is a
         // fraction of the change, of either sign. (Negative radicands alone are rescaled as before.)
-        stochastic_ = ncond > 0 && s_max < 0x1p-48;
+        stochastic_ = conditioned && s_max < 0x1p-48;
         return commit(s_max);
     }
 
