@@ -470,6 +470,51 @@ class embedded_rk
         return v;
     }
 
+    // Real unknowns of a pair of order 3 or more (remedy_options::real_by_rescale): every unknown's conventional
+    // update into o, the conventional pair's error estimate, and in the same pass each invariant's defect
+    // sum_i w_ji (c_i^2 - xi_i) and the Gram sums of c_i^2; radicand_remedy::rescale_conventional then restores
+    // every invariant by one exact rescale (nothing filed). false: the rescale refused (o is written again by
+    // finish_conditioned's pass, which then files by kappa's rule with every element ill-conditioned).
+    template <bool Norm, bool Track, bool Each>
+    bool finish_by_rescale(double* o, const double* x, const double* p0, const std::array<const double*, s>& k,
+                           double dt, std::size_t n, const error_weights& w, finish_sums& sums) {
+        constexpr bool est = Norm && has_error_estimate;
+        constexpr auto J = std::make_index_sequence<s>{};
+        const detail::step_split sp = detail::split_step(dt);
+        const auto& weights = this->quadratic_invariants();
+        const std::size_t m = weights.size();
+        auto pass = this->begin_rescale();
+        std::array<double, radicand_remedy::max_invariants> defect{};
+        double negatives = 0.0, sq = 0.0, sq_low = 0.0;
+        for (std::size_t i = 0; i < n; ++i) {
+            const part_values v = part_update<est>(p0, x, k, i, dt, sp, J);
+            const double c2 = v.conv * v.conv, xi = x[i] * x[i] + v.inc, d = c2 - xi;
+            o[i] = v.conv;
+            for (std::size_t a = 0; a < m; ++a) defect[a] += weights[a][i] * d;
+            negatives += xi < 0.0 ? 1.0 : 0.0;
+            radicand_remedy::gram_add(pass, i, c2);
+            if constexpr (est) {
+                double rt = w.rtol, at = w.atol;
+                if constexpr (Each) {
+                    if (w.rtol_each) rt = w.rtol_each[i];
+                    if (w.atol_each) at = w.atol_each[i];
+                }
+                const double scale = at + rt * std::max(std::abs(x[i]), std::abs(v.conv));
+                const double r = v.dconv / scale, rl = v.dconv_low / scale;
+                sq += r * r, sq_low += rl * rl;
+                if constexpr (Track)
+                    if (!(std::sqrt(r * r) <= sums.worst_ratio)) sums.worst_ratio = std::sqrt(r * r), sums.worst = i;
+            }
+        }
+        if (!this->template rescale_conventional<1>(o, n, pass, defect, negatives)) {
+            sums.worst_ratio = -1.0, sums.worst = 0;
+            return false;
+        }
+        sums.sq = std::max(sq, 0.0);
+        sums.sq_low = std::max(sq_low, 0.0);
+        return true;
+    }
+
     // The conditioned finishing pass (docs/methods.md, "Adaptive pairs"): every element's conventional update and
     // xi = the tableau applied to |psi_e|^2, filed by the remedy's condition_element (the sign of the conventional
     // update for a real unknown, its phase for a complex mode), then remedy_elements: negative radicands and
@@ -486,6 +531,8 @@ class embedded_rk
         // real unknowns of a pair of order 3 or more: every one conventional, and the exact rescale
         // (remedy_options::real_by_rescale; the kappa rule left c-bs32 at 3.4x bs32's error at rtol 1e-10)
         const bool every = per == 1 && T.order >= 3 && this->remedy.real_by_rescale;
+        if constexpr (per == 1)
+            if (every && finish_by_rescale<Norm, Track, Each>(o, x, p0, k, dt, n, w, sums)) return true;
         auto pass = this->begin_conditioned(n / per, false, 1, false, every);
         cond_err_.clear();
         double sq = 0.0, sq_low = 0.0;
