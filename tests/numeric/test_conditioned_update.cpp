@@ -124,6 +124,57 @@ TEST(ConditionedUpdate, CRk4RealNWaveAtSmallSteps) {
         EXPECT_LE(e.drift, 8.0 * eps);
     }
 }
+// At fixed steps of order 3 and up (remedy_options::real_by_rescale, complex_by_rescale) one C-RK4 step is one RK4
+// step with every element multiplied by a positive real factor sqrt(1 + c_E w_E,e + c_Z w_Z,e), the same two
+// coefficients for all: nothing filed, no square root of xi taken (conservative_rk::finish_by_rescale). The
+// coefficients are fitted from the elements by least squares; every element's (|c_e|^2 / |r_e|^2 - 1) must lie on
+// that plane to a few roundings (each ratio carries ~2 eps), E and Z are the conservative step's (their values
+// before: the system conserves them), and every unknown is counted as remedied.
+template <class T>
+void expect_rk4_rescaled(double dt) {
+    using S = std::vector<T>;
+    const auto model = eci::n_wave<T>::random(3000, 4, 5);
+    const S x0 = model.random_state(6);
+    const eci::quadratic_weights w = eci::quadratic_weights_of(model, model.size());
+    eci::c_rk4<S> c;
+    eci::rk4<S> r;
+    c.set_quadratic_invariants(w);
+    S xc = x0, xr = x0;
+    ASSERT_TRUE(bool(c.step(model, xc, 0.0, dt)));
+    ASSERT_TRUE(bool(r.step(model, xr, 0.0, dt)));
+    // s_e / w_Z,e = c_E (w_E,e / w_Z,e) + c_Z: a line, fitted by least squares
+    std::vector<double> se, we, wz;
+    for (std::size_t e = 0; e < x0.size(); ++e) {
+        if (std::norm(xr[e]) == 0.0 || w[1][e] == 0.0) continue;
+        if constexpr (eci::n_wave<T>::is_complex)
+            EXPECT_LE(std::abs(std::arg(xc[e] / xr[e])), 8 * eps) << "element " << e;  // RK4's phase
+        else
+            EXPECT_GT(xc[e] / xr[e], 0.0) << "element " << e;  // RK4's sign
+        se.push_back(std::norm(xc[e]) / std::norm(xr[e]) - 1.0), we.push_back(w[0][e]), wz.push_back(w[1][e]);
+    }
+    ASSERT_GT(se.size(), 1000u);
+    double sx = 0, sy = 0, sxx = 0, sxy = 0;
+    const double n = double(se.size());
+    for (std::size_t j = 0; j < se.size(); ++j) {
+        const double x = we[j] / wz[j], y = se[j] / wz[j];
+        sx += x, sy += y, sxx += x * x, sxy += x * y;
+    }
+    const double ce = (n * sxy - sx * sy) / (n * sxx - sx * sx), cz = (sy - ce * sx) / n;
+    double worst = 0.0, smax = 0.0;
+    for (std::size_t j = 0; j < se.size(); ++j) {
+        worst = std::max(worst, std::abs(se[j] - (ce * we[j] + cz * wz[j])));
+        smax = std::max(smax, std::abs(se[j]));
+    }
+    std::printf("  %s n-wave, dt %g: C-RK4 = RK4 rescaled, s = %.3e w_E + %.3e w_Z (|s| <= %.2e), residual %.2f eps\n",
+                eci::n_wave<T>::is_complex ? "complex" : "real", dt, ce, cz, smax, worst / eps);
+    EXPECT_GT(smax, 1e3 * eps);  // a rescale the fit can see
+    EXPECT_LE(worst, 64 * eps);
+    for (const auto& row : w)
+        EXPECT_LE(relative_change(weighted_square_sum(xc, row), weighted_square_sum(x0, row)), 8 * eps);
+    EXPECT_EQ(c.remedy_statistics().components_remedied, x0.size() * (eci::n_wave<T>::is_complex ? 2 : 1));
+}
+TEST(ConditionedUpdate, CRk4StepIsRk4StepRescaledReal) { expect_rk4_rescaled<double>(0.1); }
+TEST(ConditionedUpdate, CRk4StepIsRk4StepRescaledComplex) { expect_rk4_rescaled<cplx>(0.1); }
 TEST(ConditionedUpdate, CPcRealNWaveAtPcsError) {
     for (std::uint64_t seed : {11u, 31u})
         expect_conventional_accuracy<c_pc_m, pc_m, double>(seed, {0.04, 0.02, 0.01, 0.005}, 2.0);
