@@ -106,8 +106,8 @@ void print_summary(std::FILE* f, const run_summary& s) {
         std::fprintf(f, "  time reached %s (relaxation: t_end + time lag %s)\n", number(s.t_end + *s.time_lag).c_str(),
                      number(*s.time_lag).c_str());
     // steps the remedy completed without halving, and the unknowns it gave the conventional update (a negative or
-    // ill-conditioned radicand; at order 3 and up on real unknowns, nearly every one): said so, since the count
-    // alone read like trouble (docs/methods.md)
+    // ill-conditioned radicand; at fixed steps of order 3 and up, and in the pairs on real unknowns, every one):
+    // said so, since the count alone read like trouble (docs/methods.md)
     if (s.stats.remedied_steps > 0)
         std::fprintf(f,
                      "  remedied steps %llu, components remedied %llu (their conventional update, then one exact "
