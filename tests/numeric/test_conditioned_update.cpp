@@ -12,6 +12,7 @@
 #include <eci/models/n_wave.hpp>
 #include <vector>
 
+#include "numeric/rescale_fit.hpp"
 #include "numeric/support.hpp"
 
 namespace {
@@ -142,7 +143,7 @@ void expect_rk4_rescaled(double dt) {
     S xc = x0, xr = x0;
     ASSERT_TRUE(bool(c.step(model, xc, 0.0, dt)));
     ASSERT_TRUE(bool(r.step(model, xr, 0.0, dt)));
-    // s_e / w_Z,e = c_E (w_E,e / w_Z,e) + c_Z: a line, fitted by least squares
+    // each element's s_e and weights, for the plane fit (numeric/rescale_fit.hpp)
     std::vector<double> se, we, wz;
     for (std::size_t e = 0; e < x0.size(); ++e) {
         if (std::norm(xr[e]) == 0.0 || w[1][e] == 0.0) continue;
@@ -153,22 +154,11 @@ void expect_rk4_rescaled(double dt) {
         se.push_back(std::norm(xc[e]) / std::norm(xr[e]) - 1.0), we.push_back(w[0][e]), wz.push_back(w[1][e]);
     }
     ASSERT_GT(se.size(), 1000u);
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    const double n = double(se.size());
-    for (std::size_t j = 0; j < se.size(); ++j) {
-        const double x = we[j] / wz[j], y = se[j] / wz[j];
-        sx += x, sy += y, sxx += x * x, sxy += x * y;
-    }
-    const double ce = (n * sxy - sx * sy) / (n * sxx - sx * sx), cz = (sy - ce * sx) / n;
-    double worst = 0.0, smax = 0.0;
-    for (std::size_t j = 0; j < se.size(); ++j) {
-        worst = std::max(worst, std::abs(se[j] - (ce * we[j] + cz * wz[j])));
-        smax = std::max(smax, std::abs(se[j]));
-    }
+    const rescale_fit f = fit_rescale(se, we, wz);
     std::printf("  %s n-wave, dt %g: C-RK4 = RK4 rescaled, s = %.3e w_E + %.3e w_Z (|s| <= %.2e), residual %.2f eps\n",
-                eci::n_wave<T>::is_complex ? "complex" : "real", dt, ce, cz, smax, worst / eps);
-    EXPECT_GT(smax, 1e3 * eps);  // a rescale the fit can see
-    EXPECT_LE(worst, 64 * eps);
+                eci::n_wave<T>::is_complex ? "complex" : "real", dt, f.ce, f.cz, f.smax, f.worst / eps);
+    EXPECT_GT(f.smax, 1e3 * eps);  // a rescale the fit can see
+    EXPECT_LE(f.worst, 64 * eps);
     for (const auto& row : w)
         EXPECT_LE(relative_change(weighted_square_sum(xc, row), weighted_square_sum(x0, row)), 8 * eps);
     EXPECT_EQ(c.remedy_statistics().components_remedied, x0.size() * (eci::n_wave<T>::is_complex ? 2 : 1));

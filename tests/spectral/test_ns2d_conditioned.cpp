@@ -19,6 +19,8 @@
 #include <eci/eci.hpp>
 #include <eci/spectral/step.hpp>
 
+#include "numeric/rescale_fit.hpp"
+
 namespace {
 
 using eci::navier_stokes_2d;
@@ -203,8 +205,8 @@ TEST(Ns2dConditioned, LumpedFilingGivesTheBitsOfTheFullFilingSurfaceQg) {
 
 // C-RK4's default on complex modes (remedy.complex_by_rescale): every mode's conventional update, then one exact
 // rescale of E and Z. So one step of C-RK4 is one step of RK4 with each mode multiplied by a real factor
-// sqrt(1 + c_E w_E,k + c_Z w_Z,k), the same two coefficients for every mode: fitted from two modes of the largest
-// and smallest E weight, every other mode's factor must follow to round-off. The lumping and filing of the modulus
+// sqrt(1 + c_E w_E,k + c_Z w_Z,k), the same two coefficients for every mode: fitted by least squares over the
+// modes, every mode's factor must follow to round-off. The lumping and filing of the modulus
 // update never run (no mode is filed), E and Z are the conservative method's to round-off, and over a run the field
 // stays at RK4's error, not near it.
 void check_rescaled_rk4(const char* equation, int threads) {
@@ -230,25 +232,12 @@ void check_rescaled_rk4(const char* equation, int threads) {
         we.push_back(w[0][i]), wz.push_back(w[1][i]);
     }
     ASSERT_GT(s.size(), 100u);
-    // s_k / w_Z,k = c_E (w_E,k / w_Z,k) + c_Z: a line in x_k = w_E,k / w_Z,k, fitted by least squares over the
-    // modes (each s_k carries a few roundings of |c_k|^2 / |r_k|^2, ~eps, against the rescale's s ~ 1e-4 here)
-    double sx = 0, sy = 0, sxx = 0, sxy = 0;
-    const double n = double(s.size());
-    for (std::size_t j = 0; j < s.size(); ++j) {
-        const double x = we[j] / wz[j], y = s[j] / wz[j];
-        sx += x, sy += y, sxx += x * x, sxy += x * y;
-    }
-    const double ce = (n * sxy - sx * sy) / (n * sxx - sx * sx), cz = (sy - ce * sx) / n;
-    double worst = 0.0, smax = 0.0;
-    for (std::size_t j = 0; j < s.size(); ++j) {
-        worst = std::max(worst, std::abs(s[j] - (ce * we[j] + cz * wz[j])));
-        smax = std::max(smax, std::abs(s[j]));
-    }
+    const eci::test::rescale_fit f = eci::test::fit_rescale(s, we, wz);  // least squares (numeric/rescale_fit.hpp)
     std::printf("%s, %d thread(s): one C-RK4 step = RK4's rescaled, s_k = %.3e w_E + %.3e w_Z (|s| <= %.2e), "
                 "residual %.2f eps\n",
-                equation, threads, ce, cz, smax, worst / eps);
-    EXPECT_GT(smax, 1e3 * eps);       // a rescale this test can see (else it would pass for RK4 itself)
-    EXPECT_LE(worst, 64 * eps);       // every mode's factor on the one line (a few roundings per mode)
+                equation, threads, f.ce, f.cz, f.smax, f.worst / eps);
+    EXPECT_GT(f.smax, 1e3 * eps);  // a rescale this test can see (else it would pass for RK4 itself)
+    EXPECT_LE(f.worst, 64 * eps);  // every mode's factor on the one line (a few roundings per mode)
     const eci::remedy_stats& st = c.remedy_statistics();
     EXPECT_EQ(st.remedied_steps, 1u);
     EXPECT_EQ(st.components_remedied, 2 * m.size());  // every part of every mode conventional (nothing filed)
