@@ -59,8 +59,11 @@ concept reports_non_finite_rate = requires { requires std::remove_cvref_t<F>::re
 
 /// Options of the fixed-step drivers.
 struct run_options {
+    /// The default of max_halvings, as a constant: a default argument `run_options{}.max_halvings` builds (and
+    /// destroys: its std::function) a run_options at every call.
+    static constexpr int default_max_halvings = 40;
     std::uint64_t every = 1;  ///< call the observer every `every` steps (and always at the start and the end)
-    int max_halvings = 40;    ///< a step may be halved this often (dt * 2^-40) before the run stops
+    int max_halvings = default_max_halvings;  ///< a step may be halved this often (dt * 2^-40) before the run stops
     /// false (a new run): the driver first calls the stepper's reset(); true: this run continues the trajectory
     /// the stepper is on (a run in segments), and its carried state (xi, residuals) is kept.
     bool resume = false;
@@ -446,11 +449,27 @@ class fixed_control {
             try {
                 run_loop(*this, on_step);
             } catch (...) {
-                for (; retries_ > 0; --retries_) hook_target(f_).end_retry(false);
+                end_retries();
                 throw;
             }
         } else {
             run_loop(*this, on_step);
+        }
+    }
+
+    /// The same for a run whose first step's whole attempt was taken outside (advance_with_reduction) and failed
+    /// with `r` (`rate`: the system's non-finite rate, if that was the cause): it is rejected as the loop would
+    /// have rejected it, and the loop goes on from there.
+    template <class OnStep>
+    void run_after_failed(const step_result& r, std::optional<double> rate, OnStep&& on_step) {
+        auto at = start();
+        rate_ = rate;
+        try {
+            reject({at.size, 0}, r, at);
+            run_loop_from(*this, at, on_step);
+        } catch (...) {
+            end_retries();
+            throw;
         }
     }
 
@@ -517,6 +536,12 @@ class fixed_control {
     }
 
    private:
+    // A model's retry in progress when the run throws is ended.
+    void end_retries() {
+        if constexpr (retries_attempts<model>)
+            for (; retries_ > 0; --retries_) hook_target(f_).end_retry(false);
+    }
+
     // The start of step k of the grid, t0 + (k - 1) dt (k <= max_grid_steps, run_grid's check: exact as signed),
     // and of an attempt (a piece of a halved step starts offset_ later). Computed where each use needs it, not
     // carried in the position or the attempt: a system that ignores t (three-wave) then computes it only on the cold
@@ -597,12 +622,38 @@ class fixed_control {
     double smallest_ = 0.0;
 };
 
+/// A step's whole attempt as the fixed-step controller's first attempt takes it (the system's non-finite rate a
+/// failure, kept in `rate`; a held count stored; an accepted state checked finite): x advanced on success, left as
+/// it was on failure. advance_with_reduction and step_with_reduction take it before building a controller, which
+/// only a failed step needs: built for every step, it cost a three-wave step taken one call at a time ~100
+/// instructions (PC 63 -> 165, 2x odeint's Heun; bench/step_bench.cpp's three_wave rows).
+template <class St, class F, class S>
+[[gnu::always_inline]] inline step_result attempt_whole_step(St& stepper, F& f, S& x, double t, double dt,
+                                                             std::optional<double>& rate) {
+    const step_result r = attempt_step<false>(stepper, f, x, t, dt, rate);
+    if constexpr (requires { f.store(); }) f.store();
+    if (r) [[likely]] check_finite_after<St>(x, t + dt);
+    return r;
+}
+
+/// A step whose whole attempt (attempt_whole_step) failed with `r`: the fixed-step controller halves it from there.
+/// Out of line: it is rare, and inlined it made a small system's step too large a caller for its stages to be
+/// inlined.
+template <class St, class F, class S>
+[[gnu::noinline]] void halve_failed_step(St& stepper, F& f, S& x, double t, double dt, const run_options& opt,
+                                         run_stats& stats, step_result r, std::optional<double> rate) {
+    fixed_control<St, F, S, false> control(stepper, f, x, t, dt, 0, 1, dt, false, opt, stats);
+    control.run_after_failed(r, rate, [](const auto&) {});
+}
+
 /// One step of the grid from t to t + dt (eci::step_with_reduction is the public form): the fixed-step controller
-/// over a single step, halving a failed attempt.
+/// over a single step, halving a failed attempt; the whole step attempted first without it (attempt_whole_step).
 template <class St, class F, class S>
 void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, const run_options& opt, run_stats& stats) {
-    fixed_control<St, F, S, false> control(stepper, f, x, t, dt, 0, 1, dt, false, opt, stats);
-    control.run([](const auto&) {});
+    poll_cancel(opt, t);
+    std::optional<double> rate;
+    const step_result r = attempt_whole_step(stepper, f, x, t, dt, rate);
+    if (!r) [[unlikely]] halve_failed_step(stepper, f, x, t, dt, opt, stats, r, rate);
 }
 
 /// The same with the default bounds and `max_halvings` (for tests that take a step without counting it).
@@ -611,6 +662,18 @@ void advance_with_reduction(St& stepper, F& f, S& x, double t, double dt, int ma
     run_options opt;
     opt.max_halvings = max_halvings;
     advance_with_reduction(stepper, f, x, t, dt, opt, stats);
+}
+
+/// step_with_reduction's failed step: halved by the controller, at most `max_halvings` times, its attempts counted
+/// into stats (through a counting_system: a type of its own, so that the whole attempt's system, a held_count, has
+/// one caller of the stepper's step and it is inlined there).
+template <class St, class G, class S>
+[[gnu::noinline]] void halve_failed_step(St& stepper, G& f, S& x, double t, double dt, int max_halvings,
+                                         run_stats& stats, step_result r, std::optional<double> rate) {
+    run_options opt;
+    opt.max_halvings = max_halvings;
+    const counting_system<G> counted{f, stats.rhs_evals};
+    halve_failed_step(stepper, counted, x, t, dt, opt, stats, r, rate);
 }
 
 template <class St>
@@ -747,13 +810,14 @@ inline void check_step(double dt) {
 /// a conservative stepper the model's invariants itself (stepper.set_quadratic_invariants), for the remedy.
 template <state S, system<S> F, stepper<F, S> St>
 void step_with_reduction(St& stepper, F&& f, S& x, double t, double dt, run_stats& stats,
-                         int max_halvings = run_options{}.max_halvings) {
-    const detail::counting_system<std::remove_reference_t<F>> counted{f, stats.rhs_evals};
+                         int max_halvings = run_options::default_max_halvings) {
+    using G = std::remove_reference_t<F>;
     const remedy_stats before = detail::remedy_counters(stepper);
-    run_options opt;
-    opt.max_halvings = max_halvings;
-    if constexpr (begins_steps<std::remove_reference_t<F>>) f.begin_step(dt);
-    detail::advance_with_reduction(stepper, counted, x, t, dt, opt, stats);
+    if constexpr (begins_steps<G>) f.begin_step(dt);
+    const detail::held_count<G, false> counted{f, &stats.rhs_evals};
+    std::optional<double> rate;
+    const step_result r = detail::attempt_whole_step(stepper, counted, x, t, dt, rate);
+    if (!r) [[unlikely]] detail::halve_failed_step(stepper, f, x, t, dt, max_halvings, stats, r, rate);
     ++stats.steps;
     const remedy_stats after = detail::remedy_counters(stepper);  // (added: stats sums the caller's steps)
     stats.remedied_steps += after.remedied_steps - before.remedied_steps;

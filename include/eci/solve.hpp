@@ -62,7 +62,7 @@ struct run_config {
     /// the messages, or the refusal before it opens files, calls resolve_output_dt itself first.
     std::optional<double> output_dt;
 
-    int max_halvings = run_options{}.max_halvings;      ///< fixed steps: halvings of one failed step
+    int max_halvings = run_options::default_max_halvings;  ///< fixed steps: halvings of one failed step
     /// A conservative Runge-Kutta method (fixed steps, or an adaptive pair with plain xi) on a system with declared
     /// invariants and at least remedy_options::min_unknowns real unknowns: the conditioned update (default) or the
     /// paper's update (docs/methods.md "Zero crossings without loss of accuracy", "Adaptive pairs").

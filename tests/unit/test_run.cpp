@@ -272,6 +272,57 @@ TEST(StepWithReduction, IsTheDriversStep) {
     EXPECT_EQ(mine.rhs_evals, ref.rhs_evals);
 }
 
+// A failed whole step is handed to the controller from that failure (detail::attempt_whole_step, then
+// fixed_control::run_after_failed): halved as the driver halves it, its failed attempts' evaluations counted once,
+// a non-finite rate counted apart, and a bound of halvings kept. x' = -x with a rate that is NaN where an unknown is
+// not positive (a logarithm's domain): an RK4 step of 2.5 from x > 0 reaches x (1 - 1.25) < 0 at its second stage,
+// its halves of 1.25 stay positive.
+namespace {
+struct positive_decay {
+    static constexpr bool reports_non_finite_rate = true;
+    void operator()(const std::vector<double>& x, std::vector<double>& d, double) const {
+        for (std::size_t i = 0; i < x.size(); ++i) {
+            if (!(x[i] > 0.0)) throw eci::non_finite_rate{i, std::numeric_limits<double>::quiet_NaN()};
+            d[i] = -x[i];
+        }
+    }
+};
+}  // namespace
+
+TEST(StepWithReduction, AFailedStepIsHalvedAsTheDriverHalvesIt) {
+    const positive_decay f;
+    std::vector<double> x{1.0, 2.0}, y = x;
+    eci::rk4<std::vector<double>> a, b;
+    eci::run_stats mine;
+    for (int i = 0; i < 4; ++i) eci::step_with_reduction(a, f, x, 2.5 * i, 2.5, mine);
+    const auto ref = eci::integrate_n_steps(b, f, y, 0.0, 2.5, 4);
+    EXPECT_EQ(x, y);
+    EXPECT_EQ(ref.step_reductions, 4u);  // every step once
+    EXPECT_EQ(mine.step_reductions, ref.step_reductions);
+    EXPECT_EQ(mine.non_finite_rate_reductions, ref.non_finite_rate_reductions);
+    EXPECT_EQ(mine.non_finite_rate_reductions, 4u);
+    EXPECT_EQ(mine.rhs_evals, ref.rhs_evals);
+    EXPECT_EQ(mine.rhs_evals, 4u * (2u + 4u + 4u));  // per step: the failed whole attempt's 2, the halves' 4 + 4
+    // A step of 5 with one halving allowed: the whole step and its first half (2.5) fail at their second stage.
+    // The underflow reports the half, and the statistics hold the reduction and the 2 + 2 evaluations.
+    std::vector<double> z{1.0, 2.0};
+    eci::run_stats bounded;
+    try {
+        eci::step_with_reduction(a, f, z, 0.0, 5.0, bounded, 1);
+        ADD_FAILURE() << "the step of 5 with one halving should underflow";
+    } catch (const eci::step_size_underflow& e) {
+        ASSERT_TRUE(e.non_finite_rate_value);
+        EXPECT_TRUE(std::isnan(*e.non_finite_rate_value));
+        EXPECT_EQ(e.dt, 2.5);
+        EXPECT_EQ(e.component, 0u);
+        EXPECT_EQ(bounded.step_reductions, 1u);
+        EXPECT_EQ(bounded.non_finite_rate_reductions, 1u);
+        EXPECT_EQ(bounded.rhs_evals, 4u);
+        EXPECT_EQ(e.stats.rhs_evals, 4u);
+    }
+    EXPECT_EQ(z, (std::vector<double>{1.0, 2.0}));  // no piece completed
+}
+
 // Carried state follows one contract: a run starts afresh (the driver calls reset()), a resumed run continues.
 TEST(ResetContract, ReusedStepperEqualsAFreshOneAndSegmentsEqualOneRun) {
     const eci::three_wave model;

@@ -25,9 +25,10 @@
 
 namespace eci::detail {
 
-template <class Controller, class OnStep>
-void run_loop(Controller& c, OnStep&& on_step) {
-    auto at = c.start();
+/// The loop from position `at` on (run_loop's body; a controller that has settled a first attempt itself goes on
+/// here: fixed_control::run_after_failed).
+template <class Controller, class Position, class OnStep>
+[[gnu::always_inline]] inline void run_loop_from(Controller& c, Position& at, OnStep& on_step) {
     while (c.more(at)) {
         const auto a = c.propose(at);
         const auto r = c.attempt(a, at);
@@ -37,6 +38,12 @@ void run_loop(Controller& c, OnStep&& on_step) {
             on_step(at);
     }
     c.leave(at);
+}
+
+template <class Controller, class OnStep>
+void run_loop(Controller& c, OnStep&& on_step) {
+    auto at = c.start();
+    run_loop_from(c, at, on_step);
 }
 
 }  // namespace eci::detail

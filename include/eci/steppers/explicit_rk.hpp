@@ -79,6 +79,13 @@ template <auto a, std::size_t Out, std::size_t... J>
     }
     return none_non_finite_diff(bad);
 }
+/// A state of a few unknowns, fixed at compile time below wide_pass (the dispatchers above would never take their
+/// wide pass): the engines call the always-inlined bodies directly. Through the dispatchers, which every state
+/// type of a tableau shares, a translation unit that steps several systems kept them out of line, and a three-wave
+/// RK4 step taken one call at a time cost 70 ns against 20 (bench/step_bench.cpp, three_wave/rk4).
+template <class S>
+concept narrow_state = small_real_array<S> && (std::tuple_size<S>::value < wide_pass);
+
 #if ECI_DETAIL_X86_SIMD
 template <auto a, std::size_t Out, std::size_t... J>
 __attribute__((target("avx2"))) bool combine_finite_over_avx2(double* io, const double* x,
@@ -217,8 +224,12 @@ struct stage_storage {
             double* out = reals(stage).data();
             // element-wise, so over the model's threads (detail/ranges.hpp) with the same bits
             splitter::of(f).for_ranges(xr.size(), [&](std::size_t i0, std::size_t i1, int) {
-                combine_stages<row<I>>(out + i0, xr.data() + i0, offset(kp, i0), dt, i1 - i0,
-                                       std::make_index_sequence<I>{});
+                if constexpr (narrow_state<S>)
+                    combine_stages_body<row<I>>(out + i0, xr.data() + i0, offset(kp, i0), dt, i1 - i0,
+                                                std::make_index_sequence<I>{});
+                else
+                    combine_stages<row<I>>(out + i0, xr.data() + i0, offset(kp, i0), dt, i1 - i0,
+                                           std::make_index_sequence<I>{});
             });
             f(std::as_const(stage), k[I], t + T.c[I] * dt);
             on_stage(I, std::as_const(stage), std::as_const(k[I]));
@@ -296,11 +307,16 @@ class explicit_rk {
         double* o = detail::reals(spare).data();
         // over the model's threads (detail/ranges.hpp): the ranges that met a non-finite value, counted
         bool finite = detail::splitter::of(f).count(n, [&](std::size_t i0, std::size_t i1) {
-                          return detail::combine_stages_finite_over<T.b, update_buffer>(
-                                     o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
-                                     std::make_index_sequence<T.stages>{})
-                                     ? 0.0
-                                     : 1.0;
+                          bool ok;
+                          if constexpr (detail::narrow_state<S>)
+                              ok = detail::combine_finite_over_body<T.b, update_buffer>(
+                                  o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
+                                  std::make_index_sequence<T.stages>{});
+                          else
+                              ok = detail::combine_stages_finite_over<T.b, update_buffer>(
+                                  o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
+                                  std::make_index_sequence<T.stages>{});
+                          return ok ? 0.0 : 1.0;
                       }) == 0.0;
         // a state spread over processes fails the step on every process when it fails on one (detail/reduce.hpp)
         if constexpr (detail::distributed_model<F>) finite = !detail::reducer::of(f).any(!finite);
