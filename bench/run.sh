@@ -3,7 +3,7 @@
 # Usage: bench/run.sh [--quick | --smoke] [--ns2d] [--pyfftw-sizes LIST] [--long] [--json FILE] [--out DIR]
 #                     [--build-dir DIR] [--apps-from DIR]
 #   --quick  smaller large systems and fewer repetitions (under two minutes)
-#   --smoke  every program for a token run, compiled at -O1 in build-bench-smoke/ (CI: keeps them compiling and
+#   --smoke  every program for a token run, compiled at -O0 in build-bench-smoke/ (CI: keeps them compiling and
 #            running); numbers meaningless
 #   --ns2d   also the 2-D Navier-Stokes benchmarks (N = 1024 steps, threads, N = 128..4096 scaling x 3, radicands
 #            at N = 256 and 1024, NumPy; ~30 min) and eci against the pyFFTW script (N = 256..4096, 1 and 2
@@ -39,14 +39,14 @@ while [[ $# -gt 0 ]]; do
   esac
   shift
 done
-# --smoke only keeps the programs compiling and running, so it compiles them at -O1 (the same sources: 130 s of
-# compiles against 226 s at -O3, and the suite's smoke phase 1:21 against 2:04), in a tree of its own, so that a
-# timed run's tree never holds its flags.
-opt=-O3  # CMake's Release flags for GCC, given explicitly: a tree a smoke run configured keeps no -O1
+# --smoke only keeps the programs compiling and running, so it compiles them at -O0 (the same sources; at -O1
+# step_bench.cpp alone took 159-231 s of a cold CI's compiles, at -O0 12 s, and the token runs stay short), in a
+# tree of its own, so that a timed run's tree never holds its flags.
+opt=-O3  # CMake's Release flags for GCC, given explicitly: a tree a smoke run configured keeps no -O0
 if [ -z "$build" ]; then
   if [ "$mode" = smoke ]; then build="$repo/build-bench-smoke"; else build="$repo/build-bench-release"; fi
 fi
-[ "$mode" = smoke ] && opt=-O1
+[ "$mode" = smoke ] && opt=-O0
 out=${out:-$build/results-$mode}
 mkdir -p "$out"
 
