@@ -39,6 +39,18 @@ struct error_weights {
     double atol = 1e-6;
     const double* rtol_each = nullptr;
     const double* atol_each = nullptr;
+
+    /// atol_i + rtol_i max(|x|, |next|) of component i; Each: the per-unknown arrays are read where given (a
+    /// compile-time choice, so that the scalar case loads nothing per unknown).
+    template <bool Each>
+    [[gnu::always_inline]] double scale(std::size_t i, double x, double next) const {
+        double rt = rtol, at = atol;
+        if constexpr (Each) {
+            if (rtol_each) rt = rtol_each[i];
+            if (atol_each) at = atol_each[i];
+        }
+        return at + rt * std::max(std::abs(x), std::abs(next));
+    }
 };
 
 /// The outcome of one attempted step: whether the candidate exists (no negative radicand), which real unknown
@@ -494,12 +506,7 @@ class embedded_rk
             negatives += xi < 0.0 ? 1.0 : 0.0;
             radicand_remedy::gram_add(pass, i, c2);
             if constexpr (est) {
-                double rt = w.rtol, at = w.atol;
-                if constexpr (Each) {
-                    if (w.rtol_each) rt = w.rtol_each[i];
-                    if (w.atol_each) at = w.atol_each[i];
-                }
-                const double scale = at + rt * std::max(std::abs(x[i]), std::abs(v.conv));
+                const double scale = w.template scale<Each>(i, x[i], v.conv);
                 const double r = v.dconv / scale, rl = v.dconv_low / scale;
                 sq += r * r, sq_low += rl * rl;
                 if constexpr (Track)
@@ -566,12 +573,7 @@ class embedded_rk
                 }
                 for (std::size_t p = 0; p < per; ++p) {
                     const std::size_t i = e * per + p;
-                    double rt = w.rtol, at = w.atol;
-                    if constexpr (Each) {
-                        if (w.rtol_each) rt = w.rtol_each[i];
-                        if (w.atol_each) at = w.atol_each[i];
-                    }
-                    const double conv_scale = at + rt * std::max(std::abs(x[i]), std::abs(c[p]));
+                    const double conv_scale = w.template scale<Each>(i, x[i], c[p]);
                     const double rc = v[p].dconv / conv_scale, rcl = v[p].dconv_low / conv_scale;
                     conv_sq[0] += rc * rc, conv_sq[1] += rcl * rcl;
                     if (kind != radicand_remedy::element_kind::conservative) continue;
@@ -584,7 +586,7 @@ class embedded_rk
                     } else {
                         own = c[p] * own_g;
                     }
-                    const double scale = at + rt * std::max(std::abs(x[i]), std::abs(next));
+                    const double scale = w.template scale<Each>(i, x[i], next);
                     const double r = (own + v[p].dconv) / scale, rl = (own + v[p].dconv_low) / scale;
                     cons_sq[0] += r * r, cons_sq[1] += rl * rl;
                 }
@@ -647,8 +649,8 @@ class embedded_rk
         std::array<const double*, I> kp{};
         for (std::size_t j = 0; j < I; ++j) kp[j] = detail::reals(std::as_const(k_[j])).data();
         const auto xr = detail::reals(x);
-        detail::combine_stages<row<I>>(detail::reals(stage_).data(), xr.data(), kp, dt, xr.size(),
-                                       std::make_index_sequence<I>{});
+        detail::combine_stages_for<row<I>, S>(detail::reals(stage_).data(), xr.data(), kp, dt, xr.size(),
+                                              std::make_index_sequence<I>{});
         f(std::as_const(stage_), k_[I], t + T.c[I] * dt);
     }
 
@@ -862,12 +864,7 @@ class embedded_rk
             }
             o[i] = next;
             if constexpr (Norm && has_error_estimate) {
-                double rt = w.rtol, at = w.atol;
-                if constexpr (Each) {
-                    if (w.rtol_each) rt = w.rtol_each[i];
-                    if (w.atol_each) at = w.atol_each[i];
-                }
-                const double scale = at + rt * std::max(std::abs(x[i]), std::abs(next));
+                const double scale = w.template scale<Each>(i, x[i], next);
                 const double ratio = err / scale;
                 sq += ratio * ratio;
                 if constexpr (two_estimates) {

@@ -30,6 +30,14 @@ namespace detail {
 // per vector were the difference).
 inline constexpr std::size_t wide_pass = 64;
 
+/// A state of a few unknowns, fixed at compile time below wide_pass (the dispatchers below would never take their
+/// wide pass): the engines take the always-inlined bodies directly (combine_stages_for, combine_finite_over_for).
+/// Through the dispatchers, which every state type of a tableau shares, a translation unit that steps several
+/// systems kept them out of line, and a three-wave RK4 step taken one call at a time cost 70 ns against 20
+/// (bench/step_bench.cpp, three_wave/rk4).
+template <class S>
+concept narrow_state = small_real_array<S> && (std::tuple_size<S>::value < wide_pass);
+
 /// out = x + dt * sum_j a[j] k_j over the stages J; zero coefficients are dropped at compile time.
 template <auto a, std::size_t... J>
 [[gnu::always_inline]] inline void combine_stages_body(double* out, const double* x,
@@ -79,13 +87,6 @@ template <auto a, std::size_t Out, std::size_t... J>
     }
     return none_non_finite_diff(bad);
 }
-/// A state of a few unknowns, fixed at compile time below wide_pass (the dispatchers above would never take their
-/// wide pass): the engines call the always-inlined bodies directly. Through the dispatchers, which every state
-/// type of a tableau shares, a translation unit that steps several systems kept them out of line, and a three-wave
-/// RK4 step taken one call at a time cost 70 ns against 20 (bench/step_bench.cpp, three_wave/rk4).
-template <class S>
-concept narrow_state = small_real_array<S> && (std::tuple_size<S>::value < wide_pass);
-
 #if ECI_DETAIL_X86_SIMD
 template <auto a, std::size_t Out, std::size_t... J>
 __attribute__((target("avx2"))) bool combine_finite_over_avx2(double* io, const double* x,
@@ -101,6 +102,27 @@ bool combine_stages_finite_over(double* io, const double* x, const std::array<co
     if (n >= wide_pass && cpu_has_avx2()) return combine_finite_over_avx2<a, Out>(io, x, k, dt, n, js);
 #endif
     return combine_finite_over_body<a, Out>(io, x, k, dt, n, js);
+}
+
+/// The two passes as an engine stepping states of type S calls them: the body itself on a narrow_state, else the
+/// dispatcher.
+template <auto a, class S, std::size_t... J>
+[[gnu::always_inline]] inline void combine_stages_for(double* out, const double* x,
+                                                      const std::array<const double*, sizeof...(J)>& k, double dt,
+                                                      std::size_t n, std::index_sequence<J...> js) {
+    if constexpr (narrow_state<S>)
+        combine_stages_body<a>(out, x, k, dt, n, js);
+    else
+        combine_stages<a>(out, x, k, dt, n, js);
+}
+template <auto a, std::size_t Out, class S, std::size_t... J>
+[[gnu::always_inline]] inline bool combine_finite_over_for(double* io, const double* x,
+                                                           const std::array<const double*, sizeof...(J)>& k,
+                                                           double dt, std::size_t n, std::index_sequence<J...> js) {
+    if constexpr (narrow_state<S>)
+        return combine_finite_over_body<a, Out>(io, x, k, dt, n, js);
+    else
+        return combine_stages_finite_over<a, Out>(io, x, k, dt, n, js);
 }
 
 /// The stages and update of tableau T on a small real state (small_real_array), written with compile-time indices
@@ -224,12 +246,8 @@ struct stage_storage {
             double* out = reals(stage).data();
             // element-wise, so over the model's threads (detail/ranges.hpp) with the same bits
             splitter::of(f).for_ranges(xr.size(), [&](std::size_t i0, std::size_t i1, int) {
-                if constexpr (narrow_state<S>)
-                    combine_stages_body<row<I>>(out + i0, xr.data() + i0, offset(kp, i0), dt, i1 - i0,
-                                                std::make_index_sequence<I>{});
-                else
-                    combine_stages<row<I>>(out + i0, xr.data() + i0, offset(kp, i0), dt, i1 - i0,
-                                           std::make_index_sequence<I>{});
+                combine_stages_for<row<I>, S>(out + i0, xr.data() + i0, offset(kp, i0), dt, i1 - i0,
+                                              std::make_index_sequence<I>{});
             });
             f(std::as_const(stage), k[I], t + T.c[I] * dt);
             on_stage(I, std::as_const(stage), std::as_const(k[I]));
@@ -307,15 +325,9 @@ class explicit_rk {
         double* o = detail::reals(spare).data();
         // over the model's threads (detail/ranges.hpp): the ranges that met a non-finite value, counted
         bool finite = detail::splitter::of(f).count(n, [&](std::size_t i0, std::size_t i1) {
-                          bool ok;
-                          if constexpr (detail::narrow_state<S>)
-                              ok = detail::combine_finite_over_body<T.b, update_buffer>(
-                                  o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
-                                  std::make_index_sequence<T.stages>{});
-                          else
-                              ok = detail::combine_stages_finite_over<T.b, update_buffer>(
-                                  o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
-                                  std::make_index_sequence<T.stages>{});
+                          const bool ok = detail::combine_finite_over_for<T.b, update_buffer, S>(
+                              o + i0, xr.data() + i0, detail::offset(kp, i0), dt, i1 - i0,
+                              std::make_index_sequence<T.stages>{});
                           return ok ? 0.0 : 1.0;
                       }) == 0.0;
         // a state spread over processes fails the step on every process when it fails on one (detail/reduce.hpp)

@@ -241,20 +241,13 @@ class radicand_remedy {
         for (std::size_t k = 0; k < neg_.size(); ++k)
             for (std::size_t a = 0; a < m; ++a) held_neg[a] += std::abs(weights_[a][neg_[k]]) * neg_h_[k];
         double negatives = double(neg_.size());
-        bool negatives_finite = finite_updates<Per>(o);
-        whole_ = {n / Per, wmax_, weights_nonnegative_};
-        if (reduce_) {
-            // A state spread over processes: every sum and count below is over all of them (one collective each,
-            // every process reaching them), so that each process takes the same cut and solves the same system.
-            double non_finite = negatives_finite ? 0.0 : 1.0, elements = double(whole_.elements);
-            double negative_weights = weights_nonnegative_ ? 0.0 : 1.0;
-            reduce_.sum_all(std::span(g0_), std::span(mag0_.data(), m), std::span(held_neg.data(), m), negatives,
-                            non_finite, elements, negative_weights);  // g0_'s unused entries are 0
-            negatives_finite = non_finite == 0.0, whole_.elements = std::size_t(elements);
-            whole_.nonnegative = negative_weights == 0.0;
-            reduce_.max({whole_.wmax.data(), m});
-            reduce_.sum(hist_);
-        }
+        double non_finite = finite_updates<Per>(o) ? 0.0 : 1.0;
+        // A state spread over processes: every sum and count below is over all of them (one collective each,
+        // every process reaching them), so that each process takes the same cut and solves the same system.
+        set_whole(n / Per, std::span(g0_), std::span(mag0_.data(), m), std::span(held_neg.data(), m), negatives,
+                  non_finite);  // g0_'s unused entries are 0
+        reduce_.sum(hist_);
+        const bool negatives_finite = non_finite == 0.0;
         // Negative radicands must be taken: if they alone hold too large a share, or are not finite (a step far
         // too large), every set fails; decline at once rather than try the cascade (a step of 1e7 on n-wave would
         // otherwise try it in each of 2^16 attempts).
@@ -398,13 +391,11 @@ class radicand_remedy {
         taken_cut_ = 0;
         refile_ = false;
         hist_.assign((ratio_buckets + 1) * hist_stride(), 0.0);  // (the last: the lumped elements' sums)
-        conditioned_pass p;
-        if (weights_fused()) p.w0 = weights_[0].data(), p.w1 = weights_[1].data();
-        return p;
+        return fused_pass();
     }
 
     void end_conditioned(const conditioned_pass& p) {
-        if (p.w0) set_gram(p.g00.value(), p.g01.value(), p.g11.value(), p.a0, p.a1);
+        if (p.w0) set_gram(p);
     }
 
     // Where a conditioned pass files its elements: the stepper's own lists (an unsplit pass, and range 0 of a split
@@ -460,11 +451,7 @@ class radicand_remedy {
 
     // The sums a rescale finish starts from (rescale_conventional): the Gram sums fused when there are two
     // invariants.
-    conditioned_pass begin_rescale() const {
-        conditioned_pass p;
-        if (weights_fused()) p.w0 = weights_[0].data(), p.w1 = weights_[1].data();
-        return p;
-    }
+    conditioned_pass begin_rescale() const { return fused_pass(); }
 
     // Whether the last conditioned pass filed no element (neg_ and every range's cond_ empty).
     bool filed_none() const {
@@ -478,7 +465,7 @@ class radicand_remedy {
     // conventional update c_e into o and summed, in the same pass, each invariant's defect
     // defect_j = sum_e w_je (|c_e|^2 - xi_e) (xi_e: the tableau applied to |psi_e|^2, whose weighted sums are what
     // the conservative method gives each invariant) and, with two invariants, the Gram sums of |c_e|^2 in `sums`
-    // (begin_conditioned's; null weights: none summed, one pass here). One exact rescale then restores every
+    // (begin_rescale's; null weights: none summed, one pass here). One exact rescale then restores every
     // invariant: the new state is the conventional method's, moved by a relative ~defect / invariant, and the
     // invariants the conservative method's. No element is filed and no square root taken. false: refused (a sum not
     // finite, or the rescale too large): o holds the conventional update, and the engine takes the conditioned
@@ -488,23 +475,14 @@ class radicand_remedy {
                               std::array<double, max_invariants> defect, double negatives) {
         constexpr std::size_t shift = Per == 2 ? 1 : 0;
         const std::size_t m = weights_.size();
-        std::array<double, max_invariants * max_invariants> g{};
-        std::array<double, max_invariants> mag{};
-        if (sums.w0) {
-            g[0] = sums.g00.value(), g[1] = g[max_invariants] = sums.g01.value();
-            g[max_invariants + 1] = sums.g11.value();
-            mag[0] = sums.a0, mag[1] = sums.a1;
-        } else {
+        gram_sums g{};
+        invariant_sums mag{};
+        if (sums.w0)
+            gram_of(sums, g, mag);
+        else
             gram_compensated<shift>(o, n, g, mag);
-        }
-        whole_ = {n / Per, wmax_, weights_nonnegative_};
-        if (reduce_) {  // over every process, in one collective: each takes the same decision and the same rescale
-            double elements = double(whole_.elements), negative_weights = weights_nonnegative_ ? 0.0 : 1.0;
-            reduce_.sum_all(std::span(g), std::span(mag.data(), m), std::span(defect.data(), m), negatives, elements,
-                            negative_weights);  // g's unused entries are 0
-            whole_.elements = std::size_t(elements), whole_.nonnegative = negative_weights == 0.0;
-            reduce_.max({whole_.wmax.data(), m});
-        }
+        // over every process, in one collective: each takes the same decision and the same rescale
+        set_whole(n / Per, std::span(g), std::span(mag.data(), m), std::span(defect.data(), m), negatives);
         bool finite = true;
         for (std::size_t a = 0; a < m; ++a) {
             finite = finite && std::isfinite(defect[a]) && std::isfinite(mag[a]);
@@ -757,6 +735,19 @@ class radicand_remedy {
         }
     }
 
+    // The double next to a finite v toward +inf (up) or -inf: std::nextafter's value, from v's bits plus or minus
+    // one (away from zero or toward it; 0 and -0 step to the smallest subnormal of the sign asked), without the
+    // library call that kept the rescale's loop from being inlined (checked equal to std::nextafter bit for bit on
+    // 2e7 random doubles and the edge values: subnormals, the largest double, both zeros).
+    static double next_toward(double v, bool up) {
+        if (v == 0.0) return up ? std::numeric_limits<double>::denorm_min() : -std::numeric_limits<double>::denorm_min();
+        std::uint64_t b;
+        std::memcpy(&b, &v, sizeof b);
+        b = (v > 0.0) == up ? b + 1 : b - 1;
+        std::memcpy(&v, &b, sizeof b);
+        return v;
+    }
+
     // v + delta rounded to one of the two doubles around it, up with probability its distance from the lower one in
     // ulps: unbiased, where round-to-nearest would return v itself for any |delta| below half an ulp. The uniform
     // number is hashed from the caller's key, made of values (not of an index: mirror-image modes, k and -k of a
@@ -764,7 +755,7 @@ class radicand_remedy {
     // be finite.
     static double add_stochastically(double v, double delta, std::uint64_t key) {
         if (delta == 0.0) return v;
-        const double next = std::nextafter(v, delta > 0.0 ? HUGE_VAL : -HUGE_VAL), gap = next - v;
+        const double next = next_toward(v, delta > 0.0), gap = next - v;
         if (!std::isfinite(gap)) return v + delta;  // (at the largest double)
         const double frac = delta / gap;  // in [0, 1) for |delta| below an ulp, else more
         std::uint64_t h = key;  // splitmix64's finish
@@ -832,11 +823,24 @@ class radicand_remedy {
 
     // Two invariants (E and Z): the finishing pass accumulates the Gram sums (see remedy_elements).
     bool weights_fused() const { return weights_.size() == 2; }
-    void set_gram(double g00, double g01, double g11, double a0, double a1) {
+    // The Gram matrix G_ab = sum_e w_ae w_be |c_e|^4 of a pass's fused sums (row-major, max_invariants wide) and the
+    // magnitudes sum_e |w_ae| |c_e|^2 beside it; the other entries are left as they are (0).
+    using gram_sums = std::array<double, max_invariants * max_invariants>;
+    using invariant_sums = std::array<double, max_invariants>;
+    static void gram_of(const conditioned_pass& p, gram_sums& g, invariant_sums& mag) {
+        g[0] = p.g00.value(), g[1] = g[max_invariants] = p.g01.value(), g[max_invariants + 1] = p.g11.value();
+        mag[0] = p.a0, mag[1] = p.a1;
+    }
+    void set_gram(const conditioned_pass& p) {
         g0_ = {}, mag0_ = {};
-        g0_[0] = g00, g0_[1] = g0_[max_invariants] = g01, g0_[max_invariants + 1] = g11;
-        mag0_[0] = a0, mag0_[1] = a1;
+        gram_of(p, g0_, mag0_);
         gram_valid_ = true;
+    }
+    // The pass's sums: the Gram sums fused into it when there are two invariants.
+    conditioned_pass fused_pass() const {
+        conditioned_pass p;
+        if (weights_fused()) p.w0 = weights_[0].data(), p.w1 = weights_[1].data();
+        return p;
     }
 
     // Whether neg_'s conventional updates (in o) are finite.
@@ -858,6 +862,17 @@ class radicand_remedy {
         bool nonnegative = true;
     };
     whole_state whole_;
+    // whole_ for a state of `elements` elements: this process's own, or over every process when the state is spread,
+    // summed in one collective with the caller's own sums `more` (double& or std::span<double>, summed in place).
+    template <class... More>
+    void set_whole(std::size_t elements, More&&... more) {
+        whole_ = {elements, wmax_, weights_nonnegative_};
+        if (!reduce_) return;
+        double count = double(elements), negative_weights = weights_nonnegative_ ? 0.0 : 1.0;
+        reduce_.sum_all(std::forward<More>(more)..., count, negative_weights);
+        whole_.elements = std::size_t(count), whole_.nonnegative = negative_weights == 0.0;
+        reduce_.max({whole_.wmax.data(), weights_.size()});
+    }
 
     // The first negative radicand's real unknown after remedy_elements refused.
     template <std::size_t Per>

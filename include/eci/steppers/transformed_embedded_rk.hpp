@@ -308,7 +308,7 @@ class transformed_embedded_rk {
     void combine(S& out, const S& x, double dt, std::index_sequence<J...> seq) {
         std::array<const double*, sizeof...(J)> kp{detail::reals(std::as_const(k_[J])).data()...};
         const auto xr = detail::reals(x);
-        detail::combine_stages<coeff>(detail::reals(out).data(), xr.data(), kp, dt, xr.size(), seq);
+        detail::combine_stages_for<coeff, S>(detail::reals(out).data(), xr.data(), kp, dt, xr.size(), seq);
     }
 
     std::array<S, s> k_{};

@@ -106,8 +106,8 @@ class transformed_rk {
             std::array<const double*, s> kp{};
             for (std::size_t j = 0; j < s; ++j) kp[j] = detail::reals(std::as_const(st_.k[j])).data();
             const auto xr = detail::reals(std::as_const(x));
-            detail::combine_stages<T.b>(detail::reals(update_).data(), xr.data(), kp, dt, xr.size(),
-                                        std::make_index_sequence<s>{});
+            detail::combine_stages_for<T.b, state_type>(detail::reals(update_).data(), xr.data(), kp, dt, xr.size(),
+                                                        std::make_index_sequence<s>{});
             hint = &update_;
         }
         const step_result r = tr.from_xi(std::as_const(xi_new_), *hint, x_new_, stats_);
