@@ -823,8 +823,8 @@ class radicand_remedy {
 
     // Two invariants (E and Z): the finishing pass accumulates the Gram sums (see remedy_elements).
     bool weights_fused() const { return weights_.size() == 2; }
-    // The Gram matrix G_ab = sum_e w_ae w_be |c_e|^4 of a pass's fused sums (row-major, max_invariants wide) and the
-    // magnitudes sum_e |w_ae| |c_e|^2 beside it; the other entries are left as they are (0).
+    // A pass's fused sums (conditioned_pass: G_ab and A_a) in the layout the remedy solves with: G row-major,
+    // max_invariants wide, A beside it; the other entries are left as they are (0).
     using gram_sums = std::array<double, max_invariants * max_invariants>;
     using invariant_sums = std::array<double, max_invariants>;
     static void gram_of(const conditioned_pass& p, gram_sums& g, invariant_sums& mag) {
