@@ -116,10 +116,10 @@ struct flow2d::impl {
     bool dispersive = false;
 
     int kmax = 0, rows = 0;
-    std::size_t kept = 0, nc = 0;  // the state's row length kmax + 1 (on MPI: this process's), the grid's n/2 + 1
+    std::size_t kept = 0, nc = 0;  // the state's columns kmax + 1 (on MPI: this process's), the grid's n/2 + 1
     int c0 = 0;                    // k_x of the state's (and the grid's local) first column
     std::size_t rs = 0;            // the grid's spectral index of (row, column c): row rs + c (grid::at)
-    // the forced band's modes in the order of the whole state (rows, then k_x), and where each is held in this
+    // the forced band's modes in the order of the half plane (rows, then k_x), and where each is held in this
     // process's state (npos: another process's); the forcing is drawn over all of them, so it is the same at any
     // number of processes
     std::vector<std::size_t> band;
@@ -133,7 +133,7 @@ struct flow2d::impl {
     // state stays the transform of a real field bit for bit.
     void hermitian(cplx* q) const {
         if (c0 != 0 || kept == 0) return;  // the k_x = 0 column is another process's
-        for (int r = 1; r <= kmax; ++r) q[std::size_t(rows - r) * kept] = std::conj(q[std::size_t(r) * kept]);
+        for (int r = 1; r <= kmax; ++r) q[std::size_t(rows - r)] = std::conj(q[std::size_t(r)]);  // column k_x = 0
         q[0] = q[0].real();
     }
 
@@ -146,16 +146,29 @@ struct flow2d::impl {
           c0(g.first_column()),
           rs(g.spectral_stride()) {}
 
-    // The streamfunction's velocity (u, v) = (-i k_y psi, i k_x psi) of q into scratch fields 0 and 1 (and, for the
-    // advective form, i k_x q and i k_y q into 2 and 3), zero outside the retained square; a transform overwrites
-    // its input, so every mode the transforms read is rewritten: the columns k_x <= kmax (transform_product takes
-    // the rest as zero), every column for the plain inverse transforms (spread over processes the transforms read
-    // the retained columns alone, which are a row of the grid's spectral fields).
+    // The streamfunction's velocity (u, v) = (-i k_y psi, i k_x psi) of q's mode i (kx, ky) and, for the advective
+    // form, (i k_x q, i k_y q).
+    static void velocity(cplx q, double a, double kx, double ky, cplx& u, cplx& v) {
+        const double pr = a * q.real(), pi = a * q.imag();  // psi
+        u = cplx(ky * pi, -ky * pr);                         // u = -d psi/dy
+        v = cplx(-kx * pi, kx * pr);                         // v = d psi/dx
+    }
+    static void gradient(cplx q, double kx, double ky, cplx& qx, cplx& qy) {
+        qx = cplx(-kx * q.imag(), kx * q.real());  // dq/dx (k = 0 is zero in the state)
+        qy = cplx(-ky * q.imag(), ky * q.real());  // dq/dy
+    }
+
+    // The velocity of q into scratch fields 0 and 1 (and, for the advective form, the gradient into 2 and 3) in the
+    // grid's layout (at()), zero outside the retained square; a transform overwrites its input, so every mode the
+    // transforms read is rewritten: the columns k_x <= kmax (transform_product takes the rest as zero), every
+    // column for the plain inverse transforms (spread over processes the transforms read the retained columns
+    // alone, which are a row of the grid's spectral fields). The state is read across its columns, a row at a time.
     void fill(const cplx* q, int fields, bool all_columns = false) {
         cplx* f[4] = {g.spectral(0), g.spectral(1), fields > 2 ? g.spectral(2) : nullptr,
                       fields > 2 ? g.spectral(3) : nullptr};
         const double* av = a.data();
         const std::size_t end = g.distributed() ? rs : all_columns || !g.pruned() ? nc : kept;
+        const std::size_t R = std::size_t(rows);
         const int n = g.n();
         g.for_rows([&](int r0, int r1) {
             for (int row = r0; row < r1; ++row) {
@@ -165,18 +178,12 @@ struct flow2d::impl {
                 const std::size_t i0 = std::size_t(row) * rs;
                 if (in) {
                     const double ky = ky_i;
-                    const cplx* qr = q + std::size_t(ky_i >= 0 ? ky_i : ky_i + rows) * kept;
-                    const double* ar = av + (qr - q);
+                    const std::size_t r = std::size_t(ky_i >= 0 ? ky_i : ky_i + rows);
                     for (std::size_t col = 0; col < kept; ++col) {
-                        const std::size_t i = i0 + col;
-                        const double kx = double(c0 + int(col)), re = qr[col].real(), im = qr[col].imag();
-                        const double pr = ar[col] * re, pi = ar[col] * im;  // psi
-                        f[0][i] = cplx(ky * pi, -ky * pr);                   // u = -d psi/dy
-                        f[1][i] = cplx(-kx * pi, kx * pr);                   // v = d psi/dx
-                        if (fields > 2) {  // k = 0 is zero in the state
-                            f[2][i] = cplx(-kx * im, kx * re);  // dq/dx
-                            f[3][i] = cplx(-ky * im, ky * re);  // dq/dy
-                        }
+                        const std::size_t i = i0 + col, s = col * R + r;
+                        const double kx = double(c0 + int(col));
+                        velocity(q[s], av[s], kx, ky, f[0][i], f[1][i]);
+                        if (fields > 2) gradient(q[s], kx, ky, f[2][i], f[3][i]);
                     }
                 }
                 for (int j = 0; j < fields; ++j) std::fill(f[j] + i0 + (in ? kept : 0), f[j] + i0 + end, cplx{});
@@ -184,55 +191,111 @@ struct flow2d::impl {
         }, n);
     }
 
-    // Where nl_at() reads the transforms' results: mode j (the grid's index) of output k at nl_out[k][j].
-    const cplx* nl_out[2] = {nullptr, nullptr};
-
-    // The transforms of the nonlinear term, leaving in the scratch fields what nl_at() reads.
-    void nonlinear_transforms(const cplx* q, nonlinear_form form) {
-        if (form == nonlinear_form::basdevant) {
-            nl_out[0] = g.spectral(0);
-            nl_out[1] = g.spectral(1);
-            fill(q, 2);
-            g.transform_product(2, 2, [](double* const* f, std::size_t nx) {
-                double* u = f[0];
-                double* v = f[1];
-                for (std::size_t x = 0; x < nx; ++x) {
-                    const double uu = u[x], vv = v[x];
-                    u[x] = uu * vv;
-                    v[x] = (vv - uu) * (vv + uu);
-                }
-            });
-        } else {
-            nl_out[0] = g.spectral(0);
-            fill(q, 4);
-            g.transform_product(4, 1, [](double* const* f, std::size_t nx) {
-                for (std::size_t x = 0; x < nx; ++x) f[0][x] = f[0][x] * f[2][x] + f[1][x] * f[3][x];
-            });
+    // The same into column kx of transform_product_columns's fields (col[j][y], y the grid's row).
+    void fill_column(const cplx* q, int fields, int kx, cplx* const* col) const {
+        const std::size_t R = std::size_t(rows), s0 = std::size_t(kx - c0) * R;
+        const double* ac = a.data() + s0;
+        const cplx* qc = q + s0;
+        const std::size_t K = std::size_t(kmax), shift = std::size_t(g.n()) - R;  // row r > kmax: the grid's r + shift
+        for (std::size_t r = 0; r <= K; ++r) {  // k_y = r >= 0
+            velocity(qc[r], ac[r], kx, double(r), col[0][r], col[1][r]);
+            if (fields > 2) gradient(qc[r], kx, double(r), col[2][r], col[3][r]);
+        }
+        for (std::size_t r = K + 1; r < R; ++r) {  // k_y = r - R < 0
+            const double ky = double(r) - double(R);
+            velocity(qc[r], ac[r], kx, ky, col[0][r + shift], col[1][r + shift]);
+            if (fields > 2) gradient(qc[r], kx, ky, col[2][r + shift], col[3][r + shift]);
         }
     }
 
-    // The dealiased nonlinear term at retained mode i (kx, ky), from the transforms: Basdevant's
-    // -u . grad q = (k_x^2 - k_y^2) (uv)_k + k_x k_y (v^2 - u^2)_k, or -(u . grad q)_k.
-    // (j is the grid's index of the mode.)
+    // The pointwise products between the transforms: Basdevant's (u, v) -> (uv, v^2 - u^2), or the advective
+    // u q_x + v q_y into field 0.
+    static void basdevant_product(double* const* f, std::size_t nx) {
+        double* u = f[0];
+        double* v = f[1];
+        for (std::size_t x = 0; x < nx; ++x) {
+            const double uu = u[x], vv = v[x];
+            u[x] = uu * vv;
+            v[x] = (vv - uu) * (vv + uu);
+        }
+    }
+    static void advective_product(double* const* f, std::size_t nx) {
+        for (std::size_t x = 0; x < nx; ++x) f[0][x] = f[0][x] * f[2][x] + f[1][x] * f[3][x];
+    }
+    static constexpr int inputs(nonlinear_form f) { return f == nonlinear_form::basdevant ? 2 : 4; }
+    static constexpr int outputs(nonlinear_form f) { return f == nonlinear_form::basdevant ? 2 : 1; }
+
+    // Where nl_at() reads the transforms' results: mode j (the grid's index) of output k at nl_out[k][j].
+    const cplx* nl_out[2] = {nullptr, nullptr};
+
+    // The transforms of the nonlinear term in the grid's layout, leaving in the scratch fields what nl_at() reads
+    // (spread over processes, or without pruned transforms: transform_product_columns is the serial default).
+    void nonlinear_transforms(const cplx* q, nonlinear_form form) {
+        nl_out[0] = g.spectral(0);
+        nl_out[1] = g.spectral(1);
+        fill(q, inputs(form));
+        if (form == nonlinear_form::basdevant)
+            g.transform_product(2, 2, basdevant_product);
+        else
+            g.transform_product(4, 1, advective_product);
+    }
+
+    // The dealiased nonlinear term at a retained mode (kx, ky) from the transforms' outputs o0 (and o1) there:
+    // Basdevant's -u . grad q = (k_x^2 - k_y^2) (uv)_k + k_x k_y (v^2 - u^2)_k, or -(u . grad q)_k.
+    template <nonlinear_form F>
+    static cplx nl_of(cplx o0, [[maybe_unused]] cplx o1, double kx, double ky, double scale) {
+        if constexpr (F == nonlinear_form::basdevant)
+            return scale * ((kx * kx - ky * ky) * o0 + (kx * ky) * o1);
+        else
+            return -scale * o0;
+    }
+    // ... at grid index j, after nonlinear_transforms
     template <nonlinear_form F>
     cplx nl_at(std::size_t j, double kx, double ky, double scale) const {
-        if constexpr (F == nonlinear_form::basdevant)
-            return scale * ((kx * kx - ky * ky) * nl_out[0][j] + (kx * ky) * nl_out[1][j]);
-        else
-            return -scale * nl_out[0][j];
+        return nl_of<F>(nl_out[0][j], F == nonlinear_form::basdevant ? nl_out[1][j] : cplx{}, kx, ky, scale);
+    }
+
+    // The nonlinear term's transforms of q, and then, column by column of the state, body(c, r0, nl, tid) for
+    // every mode i = c rows + r of the column (r0 = c rows): nl(r) the term at its row r. Fused with the column
+    // transforms where the grid has them; otherwise after the transforms in the grid's layout.
+    template <nonlinear_form F, class Body>
+    void nonlinear_columns(const cplx* q, Body body) {
+        const double scale = 1.0 / double(g.points());
+        const std::size_t R = std::size_t(rows), shift = std::size_t(g.n()) - R;
+        if (g.column_pass()) {
+            g.transform_product_columns(
+                inputs(F), outputs(F),
+                [&](int kx, cplx* const* col, int) { fill_column(q, inputs(F), kx, col); },
+                F == nonlinear_form::basdevant ? basdevant_product : advective_product,
+                [&](int kx, const cplx* const* col, int tid) {
+                    const double x = kx;
+                    const auto nl = [&](std::size_t r) {
+                        const std::size_t y = r <= std::size_t(kmax) ? r : r + shift;
+                        return nl_of<F>(col[0][y], F == nonlinear_form::basdevant ? col[1][y] : cplx{}, x,
+                                        ky_of(int(r)), scale);
+                    };
+                    body(std::size_t(kx - c0), std::size_t(kx - c0) * R, nl, tid);
+                });
+            return;
+        }
+        nonlinear_transforms(q, F);
+        g.for_blocks(int(kept), [&](int c0_, int c1_, int tid) {
+            for (int c = c0_; c < c1_; ++c) {
+                const double x = double(c0 + c);
+                const auto nl = [&](std::size_t r) {
+                    return nl_at<F>(full_row(int(r)) * rs + std::size_t(c), x, ky_of(int(r)), scale);
+                };
+                body(std::size_t(c), std::size_t(c) * R, nl, tid);
+            }
+        });
     }
 
     template <nonlinear_form F>
-    void nonlinear_out(cplx* dst) {
-        const double scale = 1.0 / double(g.points());
-        g.for_rows([&](int r0, int r1) {
-            for (int r = r0; r < r1; ++r) {
-                const double ky = ky_of(r);
-                const std::size_t j0 = full_row(r) * rs, i0 = std::size_t(r) * kept;
-                for (std::size_t col = 0; col < kept; ++col)
-                    dst[i0 + col] = nl_at<F>(j0 + col, double(c0 + int(col)), ky, scale);
-            }
-        }, rows);
+    void nonlinear_out(const cplx* q, cplx* dst) {
+        const std::size_t R = std::size_t(rows);
+        nonlinear_columns<F>(q, [&](std::size_t, std::size_t i0, const auto& nl, int) {
+            for (std::size_t r = 0; r < R; ++r) dst[i0 + r] = nl(r);
+        });
         if (c0 == 0 && kept > 0) dst[0] = 0.0;  // k = 0
         hermitian(dst);
     }
@@ -346,39 +409,38 @@ void flow2d::set_form(nonlinear_form f) {
 void flow2d::execute_transforms() {
     // as the right-hand side makes them (with its pass over the rows, here doing nothing)
     const auto none = [](double* const*, std::size_t) {};
-    if (form_ == nonlinear_form::basdevant)
-        d_->g.transform_product(2, 2, none);
+    const int in = form_ == nonlinear_form::basdevant ? 2 : 4, out = form_ == nonlinear_form::basdevant ? 2 : 1;
+    if (d_->g.column_pass())
+        d_->g.transform_product_columns(in, out, [](int, cplx* const*, int) {}, none,
+                                        [](int, const cplx* const*, int) {});
     else
-        d_->g.transform_product(4, 1, none);
+        d_->g.transform_product(in, out, none);
 }
 
 void flow2d::nonlinear(const state_type& q, state_type& out) {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
     out.resize(size());
-    d_->nonlinear_transforms(q.data(), form_);
     if (form_ == nonlinear_form::basdevant)
-        d_->nonlinear_out<nonlinear_form::basdevant>(out.data());
+        d_->nonlinear_out<nonlinear_form::basdevant>(q.data(), out.data());
     else
-        d_->nonlinear_out<nonlinear_form::advective>(out.data());
+        d_->nonlinear_out<nonlinear_form::advective>(q.data(), out.data());
 }
 
 void flow2d::nonlinear_advective(const state_type& q, state_type& out) {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
     out.resize(size());
-    d_->nonlinear_transforms(q.data(), nonlinear_form::advective);
-    d_->nonlinear_out<nonlinear_form::advective>(out.data());
+    d_->nonlinear_out<nonlinear_form::advective>(q.data(), out.data());
 }
 
 namespace {
 
-// One pass from the transforms to the right-hand side: the dealiased nonlinear term plus L q + F, and when
-// recording, the sums of what each part does to E and Z (weights w_k |a_k| and w_k). The k_x = 0 column is made
-// exact conjugates after (L and F are Hermitian there, so that equals symmetrising N first).
+// One pass from the transforms to the right-hand side, column by column of the state (with the column transforms
+// where the grid fuses them): the dealiased nonlinear term plus L q + F, and when recording, the sums of what each
+// part does to E and Z (weights w_k |a_k| and w_k), per thread and then in thread order. The k_x = 0 column is
+// made exact conjugates after (L and F are Hermitian there, so that equals symmetrising N first).
 template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
-std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cplx* f) {
-    const spectral::grid& g = d.g;
-    const std::size_t kept = d.kept;
-    const double scale = 1.0 / double(g.points());
+std::array<double, 6> rhs_pass(const flow2d& m, auto& d, const cplx* x, cplx* f) {
+    const std::size_t R = std::size_t(d.rows);
     const double* wt = m.weights().data();
     const double* lin = d.lin.data();
     const double* disp = d.disp.data();
@@ -388,41 +450,43 @@ std::array<double, 6> rhs_pass(const flow2d& m, const auto& d, const cplx* x, cp
     // zero there, tested by index rather than by reading the weights, which the pass then reads only when recording
     // (a state-sized array less per right-hand side).
     const std::size_t zero_mode = d.c0 == 0 ? 0 : std::size_t(-1);
-    return g.template sum_rows<6>([&](int r0, int r1, std::array<double, 6>& acc) {
-        for (int r = r0; r < r1; ++r) {
-            const double ky = d.ky_of(r);
-            const std::size_t j0 = d.full_row(r) * d.rs, i0 = std::size_t(r) * kept;
-            for (std::size_t col = 0; col < kept; ++col) {
-                const std::size_t i = i0 + col;
-                const cplx nk =
-                    i != zero_mode ? d.template nl_at<F>(j0 + col, double(d.c0 + int(col)), ky, scale) : cplx{};
-                cplx v = nk + lin[i] * x[i];
-                if constexpr (Dispersive) v += cplx(-disp[i] * x[i].imag(), disp[i] * x[i].real());
-                if constexpr (Forced)
-                    v += Fk[i];
-                else if constexpr (Record)
-                    v += cplx{};  // the zero F_k unforced runs once held, still added: the same bits (-0 becomes +0)
-                f[i] = v;
-                if constexpr (Record) {
-                    const double nl = x[i].real() * nk.real() + x[i].imag() * nk.imag();
-                    const double diss = -lin[i] * std::norm(x[i]);
-                    double inj = 0.0;
-                    if constexpr (Forced) inj = x[i].real() * Fk[i].real() + x[i].imag() * Fk[i].imag();
-                    const double we = wt[i] * ea[i];
-                    acc[0] += we * inj;
-                    acc[1] += we * diss;
-                    acc[2] += wt[i] * inj;
-                    acc[3] += wt[i] * diss;
-                    acc[4] += we * nl;
-                    acc[5] += wt[i] * nl;
-                }
+    std::array<std::array<double, 6>, 64> part{};
+    d.template nonlinear_columns<F>(x, [&](std::size_t, std::size_t i0, const auto& nl_of_row, int tid) {
+        std::array<double, 6> acc = part[std::size_t(tid)];
+        for (std::size_t r = 0; r < R; ++r) {
+            const std::size_t i = i0 + r;
+            const cplx nk = i != zero_mode ? nl_of_row(r) : cplx{};
+            cplx v = nk + lin[i] * x[i];
+            if constexpr (Dispersive) v += cplx(-disp[i] * x[i].imag(), disp[i] * x[i].real());
+            if constexpr (Forced)
+                v += Fk[i];
+            else if constexpr (Record)
+                v += cplx{};  // the zero F_k unforced runs once held, still added: the same bits (-0 becomes +0)
+            f[i] = v;
+            if constexpr (Record) {
+                const double nl = x[i].real() * nk.real() + x[i].imag() * nk.imag();
+                const double diss = -lin[i] * std::norm(x[i]);
+                double inj = 0.0;
+                if constexpr (Forced) inj = x[i].real() * Fk[i].real() + x[i].imag() * Fk[i].imag();
+                const double we = wt[i] * ea[i];
+                acc[0] += we * inj;
+                acc[1] += we * diss;
+                acc[2] += wt[i] * inj;
+                acc[3] += wt[i] * diss;
+                acc[4] += we * nl;
+                acc[5] += wt[i] * nl;
             }
         }
-    }, d.rows);
+        part[std::size_t(tid)] = acc;
+    });
+    std::array<double, 6> total{};
+    for (int t = 0; t < std::min(d.g.threads(), 64); ++t)
+        for (std::size_t k = 0; k < 6; ++k) total[k] += part[std::size_t(t)][k];
+    return total;
 }
 
 template <nonlinear_form F, bool Dispersive>
-std::array<double, 6> rhs_dispatch(const flow2d& m, const auto& d, const cplx* x, cplx* f, bool forced, bool record) {
+std::array<double, 6> rhs_dispatch(const flow2d& m, auto& d, const cplx* x, cplx* f, bool forced, bool record) {
     if (record && forced) return rhs_pass<F, Dispersive, true, true>(m, d, x, f);
     if (record) return rhs_pass<F, Dispersive, false, true>(m, d, x, f);
     if (forced) return rhs_pass<F, Dispersive, true, false>(m, d, x, f);
@@ -434,7 +498,6 @@ std::array<double, 6> rhs_dispatch(const flow2d& m, const auto& d, const cplx* x
 void flow2d::operator()(const state_type& q, state_type& dqdt, double /*t*/) {
     impl& d = *d_;
     dqdt.resize(size());
-    d.nonlinear_transforms(q.data(), form_);
     const bool forced = d.p.forcing != forcing_kind::none;
     const bool basdevant = form_ == nonlinear_form::basdevant;
     std::array<double, 6> s{};
@@ -675,8 +738,8 @@ flow2d::state_type flow2d::from_physical_rows(std::span<const double> rows) {
     const double scale = 1.0 / double(g.points());
     state_type q(size());
     for (std::size_t i = 0; i < size(); ++i) {
-        const int row = int(i / std::size_t(cols_));
-        q[i] = scale * g.spectral(0)[g.at(int(d_->full_row(row)), int(i % std::size_t(cols_)))];
+        const int row = int(i % std::size_t(this->rows()));
+        q[i] = scale * g.spectral(0)[g.at(int(d_->full_row(row)), int(i / std::size_t(this->rows())))];
     }
     if (col0_ == 0 && cols_ > 0) q[0] = 0.0;
     d_->hermitian(q.data());
@@ -691,8 +754,8 @@ std::vector<double> flow2d::to_physical_rows(const state_type& q) {
     cplx* f = g.spectral(0);
     std::fill(f, f + g.spectral_stride() * std::size_t(n_), cplx{});
     for (std::size_t i = 0; i < size(); ++i) {
-        const int row = int(i / std::size_t(cols_));
-        f[g.at(int(d_->full_row(row)), int(i % std::size_t(cols_)))] = q[i];
+        const int row = int(i % std::size_t(rows()));
+        f[g.at(int(d_->full_row(row)), int(i / std::size_t(rows())))] = q[i];
     }
     g.inverse(1);
     std::vector<double> mine(std::size_t(g.local_rows()) * std::size_t(n_));
@@ -778,16 +841,15 @@ flow2d::state_type flow2d::to_half_plane(const state_type& q) const {
         for (int k = 0; k < P; ++k) {
             const std::size_t c0 = std::size_t(cols[2 * std::size_t(k)]), lc = std::size_t(cols[2 * std::size_t(k) + 1]);
             const cplx* part = all.data() + offsets[std::size_t(k)] / 2;
-            for (int r = 0; r < rows(); ++r)
-                for (std::size_t c = 0; c < lc; ++c) h[d_->full_row(r) * d_->nc + c0 + c] = part[std::size_t(r) * lc + c];
+            for (std::size_t c = 0; c < lc; ++c)
+                for (int r = 0; r < rows(); ++r)
+                    h[d_->full_row(r) * d_->nc + c0 + c] = part[c * std::size_t(rows()) + std::size_t(r)];
         }
         return h;
     }
 #endif
     state_type h(d_->g.size());
-    for (int r = 0; r < rows(); ++r)
-        std::copy_n(q.begin() + std::ptrdiff_t(r) * columns(), columns(),
-                    h.begin() + std::ptrdiff_t(d_->full_row(r) * d_->nc));
+    for (std::size_t i = 0; i < q.size(); ++i) h[d_->full_row(int(i % std::size_t(rows()))) * d_->nc + i / std::size_t(rows())] = q[i];
     return h;
 }
 
@@ -796,9 +858,8 @@ flow2d::state_type flow2d::from_half_plane(const state_type& h) const {
         throw std::invalid_argument("half plane has " + std::to_string(h.size()) + " modes, the grid " +
                                     std::to_string(d_->g.size()));
     state_type q(size());
-    for (int r = 0; r < rows(); ++r)
-        std::copy_n(h.begin() + std::ptrdiff_t(d_->full_row(r) * d_->nc) + col0_, columns(),
-                    q.begin() + std::ptrdiff_t(r) * columns());
+    for (std::size_t i = 0; i < q.size(); ++i)
+        q[i] = h[d_->full_row(int(i % std::size_t(rows()))) * d_->nc + std::size_t(col0_) + i / std::size_t(rows())];
     if (col0_ == 0 && cols_ > 0) q[0] = 0.0;
     d_->hermitian(q.data());
     return q;
@@ -808,25 +869,22 @@ flow2d::state_type flow2d::to_half_plane_columns(const state_type& q) const {
     const spectral::grid& g = d_->g;
     if (!g.distributed()) return to_half_plane(q);
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
-    const std::size_t local = std::size_t(g.local_columns()), kept = std::size_t(cols_);
+    const std::size_t local = std::size_t(g.local_columns());
     state_type h(std::size_t(n_) * local);
-    for (int r = 0; r < rows(); ++r)
-        std::copy_n(q.begin() + std::ptrdiff_t(std::size_t(r) * kept), kept,
-                    h.begin() + std::ptrdiff_t(d_->full_row(r) * local));
+    for (std::size_t i = 0; i < q.size(); ++i) h[d_->full_row(int(i % std::size_t(rows()))) * local + i / std::size_t(rows())] = q[i];
     return h;
 }
 
 flow2d::state_type flow2d::from_half_plane_columns(const state_type& columns) const {
     const spectral::grid& g = d_->g;
     if (!g.distributed()) return from_half_plane(columns);
-    const std::size_t local = std::size_t(g.local_columns()), kept = std::size_t(cols_);
+    const std::size_t local = std::size_t(g.local_columns());
     if (columns.size() != std::size_t(n_) * local)
         throw std::invalid_argument("columns hold " + std::to_string(columns.size()) + " modes, this process's " +
                                     std::to_string(local) + " columns " + std::to_string(std::size_t(n_) * local));
     state_type q(size());
-    for (int r = 0; r < rows(); ++r)
-        std::copy_n(columns.begin() + std::ptrdiff_t(d_->full_row(r) * local), kept,
-                    q.begin() + std::ptrdiff_t(std::size_t(r) * kept));
+    for (std::size_t i = 0; i < q.size(); ++i)
+        q[i] = columns[d_->full_row(int(i % std::size_t(rows()))) * local + i / std::size_t(rows())];
     if (col0_ == 0 && cols_ > 0) q[0] = 0.0;
     d_->hermitian(q.data());
     return q;
@@ -913,7 +971,7 @@ void flow2d::draw_forcing(double dt) {
     impl& d = *d_;
     if (d.p.forcing != forcing_kind::stochastic) return;
     const double amp = 1.0 / std::sqrt(dt);
-    // one draw per mode of the band, in the order of the whole state, kept by the process that holds the mode
+    // one draw per mode of the band, in the half plane's order, kept by the process that holds the mode
     for (std::size_t i : d.band) {
         const cplx g = complex_gaussian(rng_);
         if (i != impl::npos) d.force[i] = d.sigma * amp * g;

@@ -99,15 +99,18 @@ struct flow_fluxes {
 /// dq/dt = -u . grad q + L q + F on [0, 2 pi)^2 for the equation params().equation, with
 /// L = i c(k) - (nu |k|^2 + nu_h |k|^2p + nu_hypo |k|^-2p' + drag).
 ///
-/// The state holds the retained modes alone, 0 <= k_x <= kmax, |k_y| <= kmax: 2 kmax + 1 rows (k_y = 0, 1, ...,
-/// kmax, -kmax, ..., -1, the half plane's order) of kmax + 1 modes, normalised so that q(x) = sum_k q_k e^{i k.x}
-/// over the full plane. That is 4/9 of FFTW's half plane: every pass of a stepper over the state, every sum and
-/// every buffer is that much smaller. k = 0 (index 0) is zero and stays zero; on the k_x = 0 column k and -k are
-/// both stored and are exact conjugates. to_half_plane() gives FFTW's layout (the files' and the grid's).
+/// The state holds the retained modes alone, 0 <= k_x <= kmax, |k_y| <= kmax: kmax + 1 columns (k_x = 0 ... kmax),
+/// one after the other, each of 2 kmax + 1 modes (k_y = 0, 1, ..., kmax, -kmax, ..., -1, the half plane's order of
+/// rows), normalised so that q(x) = sum_k q_k e^{i k.x} over the full plane. That is 4/9 of FFTW's half plane: every
+/// pass of a stepper over the state, every sum and every buffer is that much smaller. Stored by columns, because
+/// a right-hand side transforms along y first: each column is filled, transformed and its result formed while it is
+/// in cache (grid::transform_product_columns). k = 0 (index 0) is zero and stays zero; on the k_x = 0 column (the
+/// state's first 2 kmax + 1 modes) k and -k are both stored and are exact conjugates. to_half_plane() gives FFTW's
+/// layout (the files' and the grid's).
 ///
 /// Spread over processes (flow_params::comm, MPI build), a process's state is the retained modes of its own
 /// columns k_x = first_column() .. first_column() + columns() - 1 (the grid's slab cut to kx <= kmax; columns() may
-/// be 0), in the same row order. Everything else is unchanged and the equation module never knows: sums (E, Z,
+/// be 0), stored the same way: a contiguous block of the serial state. Everything else is unchanged and the equation module never knows: sums (E, Z,
 /// spectra, the budget's rates) are over every process in a fixed order (grid::sum_over_ranks), max |u| is the
 /// global maximum, forcing and random fields are drawn per global mode (the same at any process count), and
 /// to_half_plane / to_physical / from_half_plane / from_physical convert between the process's part and the whole
@@ -139,24 +142,24 @@ class flow2d {
     const spectral::grid& grid() const;
     int n() const { return n_; }
     int kmax() const { return (n_ - 1) / 3; }
-    /// Modes per row of the state, kmax + 1 (on MPI: this process's retained columns).
+    /// Columns of the state, kmax + 1 (on MPI: this process's retained columns).
     int columns() const { return cols_; }
     /// The k_x of the state's first column (0 but on MPI).
     int first_column() const { return col0_; }
     /// Whether the state holds column k_x (always but on MPI).
     bool owns_column(int kx) const { return kx >= col0_ && kx < col0_ + cols_; }
-    /// Rows of the state, 2 kmax + 1.
+    /// Modes per column of the state (its rows), 2 kmax + 1.
     int rows() const { return 2 * kmax() + 1; }
     /// Modes in the state.
     std::size_t size() const { return std::size_t(rows()) * std::size_t(columns()); }
-    int kx(std::size_t i) const { return col0_ + int(i % std::size_t(columns())); }
+    int kx(std::size_t i) const { return col0_ + int(i / std::size_t(rows())); }
     int ky(std::size_t i) const {
-        const int row = int(i / std::size_t(columns()));
+        const int row = int(i % std::size_t(rows()));
         return row <= kmax() ? row : row - rows();
     }
     /// The index of mode (kx, ky), 0 <= kx <= kmax, |ky| <= kmax (on MPI: owns_column(kx)).
     std::size_t index(int kx, int ky) const {
-        return std::size_t(ky >= 0 ? ky : ky + rows()) * std::size_t(columns()) + std::size_t(kx - col0_);
+        return std::size_t(kx - col0_) * std::size_t(rows()) + std::size_t(ky >= 0 ? ky : ky + rows());
     }
 #ifdef ECI_MPI
     /// The steppers' reductions (detail/reduce.hpp): each v[i] summed over the processes in rank order, or its

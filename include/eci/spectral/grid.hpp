@@ -173,9 +173,33 @@ class grid {
                      &fn);
     }
 
+    /// Whether transform_product_columns is available: pruned transforms on one process (the default serial grid).
+    bool column_pass() const;
+    /// The same transforms for a state stored by columns (flow.hpp), fused with its loads and stores: for each
+    /// retained column k_x = 0 .. kmax (split between the threads), load(kx, col, thread) writes column k_x of
+    /// input fields 0 .. in-1: col[j][y] for the rows y = 0 .. kmax and n - kmax .. n - 1 (k_y = y or y - n; the
+    /// rows between are zero, written by the grid), which is then transformed along y while it is in cache; the
+    /// rows as in transform_product (fn); then, column by column, the outputs transformed back along y and
+    /// store(kx, col, thread) reads col[j][y] of output fields 0 .. out-1 (unnormalised) at the same rows. Only
+    /// when column_pass(); the scratch fields' contents are the grid's own layout for this (not at()'s).
+    template <class Load, class Fn, class Store>
+    void transform_product_columns(int in, int out, Load load, Fn fn, Store store) const {
+        column_product(in, out,
+                       [](void* c, int kx, cplx* const* col, int tid) { (*static_cast<Load*>(c))(kx, col, tid); }, &load,
+                       [](void* c, double* const* rows, std::size_t nx) { (*static_cast<Fn*>(c))(rows, nx); }, &fn,
+                       [](void* c, int kx, const cplx* const* col, int tid) { (*static_cast<Store*>(c))(kx, col, tid); },
+                       &store);
+    }
+
     /// body(row0, row1) over the rows 0 .. rows-1 (default: the grid's n), split between the threads.
     template <class Body>
     void for_rows(Body body, int rows = 0) const;
+    /// body(b0, b1, thread) over 0 .. count-1 split between the threads as for_rows splits rows (the columns of a
+    /// state, say), thread 0 first.
+    template <class Body>
+    void for_blocks(int count, Body body) const {
+        run_rows(count, [](void* c, int b0, int b1, int tid) { (*static_cast<Body*>(c))(b0, b1, tid); }, &body);
+    }
     /// Sums K quantities over the rows: body(row0, row1, acc) adds into acc; per-thread partial sums combined in
     /// thread order, so a thread count repeats bit for bit.
     template <std::size_t K, class Body>
@@ -203,6 +227,9 @@ class grid {
     void run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const;
     void run_ranges(std::size_t n, void (*fn)(void*, std::size_t, std::size_t, int), void* ctx) const;
     void product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const;
+    void column_product(int in, int out, void (*load)(void*, int, cplx* const*, int), void* load_ctx,
+                        void (*fn)(void*, double* const*, std::size_t), void* fn_ctx,
+                        void (*store)(void*, int, const cplx* const*, int), void* store_ctx) const;
     struct plans;
     void plan_distributed(const grid_options& o);
     // spread over processes: the column transforms, the all-to-alls and the row passes (grid.cpp)
