@@ -255,8 +255,9 @@ struct flow2d::impl {
         return nl_of<F>(nl_out[0][j], F == nonlinear_form::basdevant ? nl_out[1][j] : cplx{}, kx, ky, scale);
     }
 
-    // The nonlinear term's transforms of q, and then, column by column of the state, body(c, r0, nl, tid) for
-    // every mode i = c rows + r of the column (r0 = c rows): nl(r) the term at its row r. Fused with the column
+    // The nonlinear term's transforms of q, and then, column by column of the state, body(c, i0, rb, re, nl, tid)
+    // over rows rb .. re-1 of column c (mode i0 + r, i0 = c rows): nl(r) the term at its row r. (The fused pass
+    // calls it twice per column, k_y >= 0 and k_y < 0, so that nl has no branch.) Fused with the column
     // transforms where the grid has them; otherwise after the transforms in the grid's layout.
     template <nonlinear_form F, class Body>
     void nonlinear_columns(const cplx* q, Body body) {
@@ -269,12 +270,17 @@ struct flow2d::impl {
                 F == nonlinear_form::basdevant ? basdevant_product : advective_product,
                 [&](int kx, const cplx* const* col, int tid) {
                     const double x = kx;
-                    const auto nl = [&](std::size_t r) {
-                        const std::size_t y = r <= std::size_t(kmax) ? r : r + shift;
-                        return nl_of<F>(col[0][y], F == nonlinear_form::basdevant ? col[1][y] : cplx{}, x,
-                                        ky_of(int(r)), scale);
-                    };
-                    body(std::size_t(kx - c0), std::size_t(kx - c0) * R, nl, tid);
+                    const std::size_t c = std::size_t(kx - c0), K = std::size_t(kmax);
+                    const cplx* o0 = col[0];
+                    const cplx* o1 = F == nonlinear_form::basdevant ? col[1] : col[0];
+                    // rows k_y = 0 .. kmax at the grid's rows 0 .. kmax, then k_y = -kmax .. -1 at r + shift
+                    body(c, c * R, 0, K + 1, [&](std::size_t r) { return nl_of<F>(o0[r], o1[r], x, double(r), scale); },
+                         tid);
+                    body(c, c * R, K + 1, R,
+                         [&](std::size_t r) {
+                             return nl_of<F>(o0[r + shift], o1[r + shift], x, double(r) - double(R), scale);
+                         },
+                         tid);
                 });
             return;
         }
@@ -285,16 +291,15 @@ struct flow2d::impl {
                 const auto nl = [&](std::size_t r) {
                     return nl_at<F>(full_row(int(r)) * rs + std::size_t(c), x, ky_of(int(r)), scale);
                 };
-                body(std::size_t(c), std::size_t(c) * R, nl, tid);
+                body(std::size_t(c), std::size_t(c) * R, 0, R, nl, tid);
             }
         });
     }
 
     template <nonlinear_form F>
     void nonlinear_out(const cplx* q, cplx* dst) {
-        const std::size_t R = std::size_t(rows);
-        nonlinear_columns<F>(q, [&](std::size_t, std::size_t i0, const auto& nl, int) {
-            for (std::size_t r = 0; r < R; ++r) dst[i0 + r] = nl(r);
+        nonlinear_columns<F>(q, [&](std::size_t, std::size_t i0, std::size_t rb, std::size_t re, const auto& nl, int) {
+            for (std::size_t r = rb; r < re; ++r) dst[i0 + r] = nl(r);
         });
         if (c0 == 0 && kept > 0) dst[0] = 0.0;  // k = 0
         hermitian(dst);
@@ -440,7 +445,6 @@ namespace {
 // made exact conjugates after (L and F are Hermitian there, so that equals symmetrising N first).
 template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
 std::array<double, 6> rhs_pass(const flow2d& m, auto& d, const cplx* x, cplx* f) {
-    const std::size_t R = std::size_t(d.rows);
     const double* wt = m.weights().data();
     const double* lin = d.lin.data();
     const double* disp = d.disp.data();
@@ -451,9 +455,10 @@ std::array<double, 6> rhs_pass(const flow2d& m, auto& d, const cplx* x, cplx* f)
     // (a state-sized array less per right-hand side).
     const std::size_t zero_mode = d.c0 == 0 ? 0 : std::size_t(-1);
     std::array<std::array<double, 6>, 64> part{};
-    d.template nonlinear_columns<F>(x, [&](std::size_t, std::size_t i0, const auto& nl_of_row, int tid) {
+    d.template nonlinear_columns<F>(x, [&](std::size_t, std::size_t i0, std::size_t rb, std::size_t re,
+                                           const auto& nl_of_row, int tid) {
         std::array<double, 6> acc = part[std::size_t(tid)];
-        for (std::size_t r = 0; r < R; ++r) {
+        for (std::size_t r = rb; r < re; ++r) {
             const std::size_t i = i0 + r;
             const cplx nk = i != zero_mode ? nl_of_row(r) : cplx{};
             cplx v = nk + lin[i] * x[i];
