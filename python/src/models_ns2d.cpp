@@ -450,8 +450,9 @@ constexpr std::size_t max_equations = 16;
 
 // What every flow class's help says after its equation's summary.
 constexpr const char* flow_help =
-    " The state is FFTW's retained modes q_k by columns: kmax + 1 columns (k_x = 0 .. kmax) of 2 kmax + 1 modes "
-    "(k_y = 0 .. kmax, -kmax .. -1), kmax = (n - 1) // 3; the kx and ky properties give each mode's wavenumber. The keywords are `eci run "
+    " The state is FFTW's retained modes q_k: kmax + 1 columns (k_x = 0 .. kmax) of 2 kmax + 1 modes (k_y = 0 .. "
+    "kmax, -kmax .. -1), kmax = (n - 1) // 3, stored by columns (by rows with full_transforms=True); the kx and "
+    "ky properties give each mode's wavenumber. The keywords are `eci run "
     "NAME`'s options (--hyper-nu: hyper_nu); forcing settings and powers default to None, 'not given', and a "
     "setting that cannot change the run is refused as the CLI refuses it. See ";
 

@@ -119,6 +119,7 @@ struct flow2d::impl {
     std::size_t kept = 0, nc = 0;  // the state's columns kmax + 1 (on MPI: this process's), the grid's n/2 + 1
     int c0 = 0;                    // k_x of the state's (and the grid's local) first column
     std::size_t rs = 0;            // the grid's spectral index of (row, column c): row rs + c (grid::at)
+    bool by_columns = false;       // the state stored by columns (flow2d::by_columns(): the fused column pass)
     // the forced band's modes in the order of the half plane (rows, then k_x), and where each is held in this
     // process's state (npos: another process's); the forcing is drawn over all of them, so it is the same at any
     // number of processes
@@ -133,7 +134,8 @@ struct flow2d::impl {
     // state stays the transform of a real field bit for bit.
     void hermitian(cplx* q) const {
         if (c0 != 0 || kept == 0) return;  // the k_x = 0 column is another process's
-        for (int r = 1; r <= kmax; ++r) q[std::size_t(rows - r)] = std::conj(q[std::size_t(r)]);  // column k_x = 0
+        const std::size_t step = by_columns ? 1 : kept;  // from one row of the k_x = 0 column to the next
+        for (int r = 1; r <= kmax; ++r) q[std::size_t(rows - r) * step] = std::conj(q[std::size_t(r) * step]);
         q[0] = q[0].real();
     }
 
@@ -144,7 +146,8 @@ struct flow2d::impl {
           kept(std::size_t(std::clamp(g.kmax() + 1 - g.first_column(), 0, g.local_columns()))),
           nc(std::size_t(g.columns())),
           c0(g.first_column()),
-          rs(g.spectral_stride()) {}
+          rs(g.spectral_stride()),
+          by_columns(g.column_pass()) {}
 
     // The streamfunction's velocity (u, v) = (-i k_y psi, i k_x psi) of q's mode i (kx, ky) and, for the advective
     // form, (i k_x q, i k_y q).
@@ -162,13 +165,21 @@ struct flow2d::impl {
     // grid's layout (at()), zero outside the retained square; a transform overwrites its input, so every mode the
     // transforms read is rewritten: the columns k_x <= kmax (transform_product takes the rest as zero), every
     // column for the plain inverse transforms (spread over processes the transforms read the retained columns
-    // alone, which are a row of the grid's spectral fields). The state is read across its columns, a row at a time.
+    // alone, which are a row of the grid's spectral fields). A state stored by rows is read in order; one stored by
+    // columns (max_velocity's inverse transforms) across its columns.
     void fill(const cplx* q, int fields, bool all_columns = false) {
+        if (by_columns)
+            fill_rows<true>(q, fields, all_columns);
+        else
+            fill_rows<false>(q, fields, all_columns);
+    }
+    template <bool ByColumns>
+    void fill_rows(const cplx* q, int fields, bool all_columns) {
         cplx* f[4] = {g.spectral(0), g.spectral(1), fields > 2 ? g.spectral(2) : nullptr,
                       fields > 2 ? g.spectral(3) : nullptr};
         const double* av = a.data();
         const std::size_t end = g.distributed() ? rs : all_columns || !g.pruned() ? nc : kept;
-        const std::size_t R = std::size_t(rows);
+        const std::size_t step = ByColumns ? std::size_t(rows) : 1;  // from one column of a row to the next
         const int n = g.n();
         g.for_rows([&](int r0, int r1) {
             for (int row = r0; row < r1; ++row) {
@@ -179,11 +190,13 @@ struct flow2d::impl {
                 if (in) {
                     const double ky = ky_i;
                     const std::size_t r = std::size_t(ky_i >= 0 ? ky_i : ky_i + rows);
+                    const cplx* qr = q + (ByColumns ? r : r * kept);
+                    const double* ar = av + (ByColumns ? r : r * kept);
                     for (std::size_t col = 0; col < kept; ++col) {
-                        const std::size_t i = i0 + col, s = col * R + r;
+                        const std::size_t i = i0 + col;
                         const double kx = double(c0 + int(col));
-                        velocity(q[s], av[s], kx, ky, f[0][i], f[1][i]);
-                        if (fields > 2) gradient(q[s], kx, ky, f[2][i], f[3][i]);
+                        velocity(qr[col * step], ar[col * step], kx, ky, f[0][i], f[1][i]);
+                        if (fields > 2) gradient(qr[col * step], kx, ky, f[2][i], f[3][i]);
                     }
                 }
                 for (int j = 0; j < fields; ++j) std::fill(f[j] + i0 + (in ? kept : 0), f[j] + i0 + end, cplx{});
@@ -225,10 +238,10 @@ struct flow2d::impl {
     static constexpr int inputs(nonlinear_form f) { return f == nonlinear_form::basdevant ? 2 : 4; }
     static constexpr int outputs(nonlinear_form f) { return f == nonlinear_form::basdevant ? 2 : 1; }
 
-    // Where nl_at() reads the transforms' results: mode j (the grid's index) of output k at nl_out[k][j].
+    // Where the transforms' results are: mode j (the grid's index) of output k at nl_out[k][j].
     const cplx* nl_out[2] = {nullptr, nullptr};
 
-    // The transforms of the nonlinear term in the grid's layout, leaving in the scratch fields what nl_at() reads
+    // The transforms of the nonlinear term in the grid's layout, leaving their results at nl_out
     // (spread over processes, or without pruned transforms: transform_product_columns is the serial default).
     void nonlinear_transforms(const cplx* q, nonlinear_form form) {
         nl_out[0] = g.spectral(0);
@@ -249,57 +262,51 @@ struct flow2d::impl {
         else
             return -scale * o0;
     }
-    // ... at grid index j, after nonlinear_transforms
-    template <nonlinear_form F>
-    cplx nl_at(std::size_t j, double kx, double ky, double scale) const {
-        return nl_of<F>(nl_out[0][j], F == nonlinear_form::basdevant ? nl_out[1][j] : cplx{}, kx, ky, scale);
-    }
 
-    // The nonlinear term's transforms of q, and then, column by column of the state, body(c, i0, rb, re, nl, tid)
-    // over rows rb .. re-1 of column c (mode i0 + r, i0 = c rows): nl(r) the term at its row r. (The fused pass
-    // calls it twice per column, k_y >= 0 and k_y < 0, so that nl has no branch.) Fused with the column
-    // transforms where the grid has them; otherwise after the transforms in the grid's layout.
+    // The nonlinear term's transforms of q, and then body(i0, count, nl, thread) over runs of modes i0 .. i0 +
+    // count - 1 of the state that cover it: nl(k) the term at mode i0 + k. By columns, fused with the column
+    // transforms: two runs per column (k_y >= 0 and k_y < 0, so that nl has no branch), each thread its columns.
+    // By rows, after the transforms in the grid's layout: a run per row, the rows split between the threads.
     template <nonlinear_form F, class Body>
-    void nonlinear_columns(const cplx* q, Body body) {
+    void nonlinear_runs(const cplx* q, Body body) {
         const double scale = 1.0 / double(g.points());
-        const std::size_t R = std::size_t(rows), shift = std::size_t(g.n()) - R;
-        if (g.column_pass()) {
+        const std::size_t R = std::size_t(rows), K = std::size_t(kmax), shift = std::size_t(g.n()) - R;
+        if (by_columns) {
             g.transform_product_columns(
                 inputs(F), outputs(F),
                 [&](int kx, cplx* const* col, int) { fill_column(q, inputs(F), kx, col); },
                 F == nonlinear_form::basdevant ? basdevant_product : advective_product,
                 [&](int kx, const cplx* const* col, int tid) {
                     const double x = kx;
-                    const std::size_t c = std::size_t(kx - c0), K = std::size_t(kmax);
+                    const std::size_t i0 = std::size_t(kx - c0) * R;
                     const cplx* o0 = col[0];
                     const cplx* o1 = F == nonlinear_form::basdevant ? col[1] : col[0];
                     // rows k_y = 0 .. kmax at the grid's rows 0 .. kmax, then k_y = -kmax .. -1 at r + shift
-                    body(c, c * R, 0, K + 1, [&](std::size_t r) { return nl_of<F>(o0[r], o1[r], x, double(r), scale); },
-                         tid);
-                    body(c, c * R, K + 1, R,
-                         [&](std::size_t r) {
-                             return nl_of<F>(o0[r + shift], o1[r + shift], x, double(r) - double(R), scale);
-                         },
-                         tid);
+                    body(i0, K + 1, [&](std::size_t k) { return nl_of<F>(o0[k], o1[k], x, double(k), scale); }, tid);
+                    const cplx* p0 = o0 + (K + 1 + shift);
+                    const cplx* p1 = o1 + (K + 1 + shift);
+                    body(i0 + K + 1, R - K - 1,
+                         [&](std::size_t k) { return nl_of<F>(p0[k], p1[k], x, double(k) - double(K), scale); }, tid);
                 });
             return;
         }
         nonlinear_transforms(q, F);
-        g.for_blocks(int(kept), [&](int c0_, int c1_, int tid) {
-            for (int c = c0_; c < c1_; ++c) {
-                const double x = double(c0 + c);
-                const auto nl = [&](std::size_t r) {
-                    return nl_at<F>(full_row(int(r)) * rs + std::size_t(c), x, ky_of(int(r)), scale);
-                };
-                body(std::size_t(c), std::size_t(c) * R, 0, R, nl, tid);
+        g.for_blocks(rows, [&](int r0, int r1, int tid) {
+            for (int r = r0; r < r1; ++r) {
+                const double ky = ky_of(r);
+                const std::size_t j0 = full_row(r) * rs;
+                const cplx* o0 = nl_out[0] + j0;
+                const cplx* o1 = F == nonlinear_form::basdevant ? nl_out[1] + j0 : o0;
+                body(std::size_t(r) * kept, kept,
+                     [&](std::size_t k) { return nl_of<F>(o0[k], o1[k], double(c0 + int(k)), ky, scale); }, tid);
             }
         });
     }
 
     template <nonlinear_form F>
     void nonlinear_out(const cplx* q, cplx* dst) {
-        nonlinear_columns<F>(q, [&](std::size_t, std::size_t i0, std::size_t rb, std::size_t re, const auto& nl, int) {
-            for (std::size_t r = rb; r < re; ++r) dst[i0 + r] = nl(r);
+        nonlinear_runs<F>(q, [&](std::size_t i0, std::size_t count, const auto& nl, int) {
+            for (std::size_t k = 0; k < count; ++k) dst[i0 + k] = nl(k);
         });
         if (c0 == 0 && kept > 0) dst[0] = 0.0;  // k = 0
         hermitian(dst);
@@ -314,6 +321,7 @@ flow2d::flow2d(const flow_params& p, const equation& e) : n_(p.n), form_(e.form)
     impl& d = *d_;
     col0_ = d.c0;
     cols_ = int(d.kept);
+    by_columns_ = d.by_columns;
     const std::size_t m = size();
     weights_.assign(m, 0.0);
     for (std::size_t i = 0; i < m; ++i) weights_[i] = kx(i) == 0 ? (ky(i) == 0 ? 0.0 : 1.0) : 2.0;
@@ -455,12 +463,11 @@ std::array<double, 6> rhs_pass(const flow2d& m, auto& d, const cplx* x, cplx* f)
     // (a state-sized array less per right-hand side).
     const std::size_t zero_mode = d.c0 == 0 ? 0 : std::size_t(-1);
     std::array<std::array<double, 6>, 64> part{};
-    d.template nonlinear_columns<F>(x, [&](std::size_t, std::size_t i0, std::size_t rb, std::size_t re,
-                                           const auto& nl_of_row, int tid) {
+    d.template nonlinear_runs<F>(x, [&](std::size_t i0, std::size_t count, const auto& nl, int tid) {
         std::array<double, 6> acc = part[std::size_t(tid)];
-        for (std::size_t r = rb; r < re; ++r) {
-            const std::size_t i = i0 + r;
-            const cplx nk = i != zero_mode ? nl_of_row(r) : cplx{};
+        for (std::size_t k = 0; k < count; ++k) {
+            const std::size_t i = i0 + k;
+            const cplx nk = i != zero_mode ? nl(k) : cplx{};
             cplx v = nk + lin[i] * x[i];
             if constexpr (Dispersive) v += cplx(-disp[i] * x[i].imag(), disp[i] * x[i].real());
             if constexpr (Forced)
@@ -575,8 +582,10 @@ double flow2d::energy(const state_type& q) const {
     const std::size_t nc = std::size_t(columns());
     const double* ea = d_->ea.data();
     auto s = d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
-        for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i)
+        for (std::size_t k = std::size_t(r0) * nc; k < std::size_t(r1) * nc; ++k) {
+            const std::size_t i = in_row_order(k);
             acc[0] += weights_[i] * ea[i] * std::norm(q[i]);
+        }
     }, rows());
     d_->g.sum_over_ranks(s.data(), 1);
     return 0.5 * s[0];
@@ -585,7 +594,10 @@ double flow2d::energy(const state_type& q) const {
 double flow2d::enstrophy(const state_type& q) const {
     const std::size_t nc = std::size_t(columns());
     auto s = d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
-        for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i) acc[0] += weights_[i] * std::norm(q[i]);
+        for (std::size_t k = std::size_t(r0) * nc; k < std::size_t(r1) * nc; ++k) {
+            const std::size_t i = in_row_order(k);
+            acc[0] += weights_[i] * std::norm(q[i]);
+        }
     }, rows());
     d_->g.sum_over_ranks(s.data(), 1);
     return 0.5 * s[0];
@@ -594,7 +606,8 @@ double flow2d::enstrophy(const state_type& q) const {
 double flow2d::palinstrophy(const state_type& q) const {
     const std::size_t nc = std::size_t(columns());
     auto s = d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
-        for (std::size_t i = std::size_t(r0) * nc; i < std::size_t(r1) * nc; ++i) {
+        for (std::size_t k = std::size_t(r0) * nc; k < std::size_t(r1) * nc; ++k) {
+            const std::size_t i = in_row_order(k);
             const double x = kx(i), y = ky(i);
             acc[0] += weights_[i] * (x * x + y * y) * std::norm(q[i]);
         }
@@ -684,8 +697,10 @@ double flow2d::cfl(const state_type& q, double dt) { return max_velocity(q) * dt
 template <class Value>
 std::vector<double> flow2d::shells(Value value) const {
     std::vector<double> e(d_->g.shell_count(), 0.0);
-    for (std::size_t i = 0; i < size(); ++i)
+    for (std::size_t k = 0; k < size(); ++k) {
+        const std::size_t i = in_row_order(k);
         if (weights_[i] != 0.0) e[std::size_t(std::lround(std::hypot(double(kx(i)), double(ky(i)))))] += value(i);
+    }
     d_->g.sum_over_ranks(e.data(), e.size());
     return e;
 }
@@ -743,8 +758,8 @@ flow2d::state_type flow2d::from_physical_rows(std::span<const double> rows) {
     const double scale = 1.0 / double(g.points());
     state_type q(size());
     for (std::size_t i = 0; i < size(); ++i) {
-        const int row = int(i % std::size_t(this->rows()));
-        q[i] = scale * g.spectral(0)[g.at(int(d_->full_row(row)), int(i / std::size_t(this->rows())))];
+        const int row = int(row_of(i));
+        q[i] = scale * g.spectral(0)[g.at(int(d_->full_row(row)), int(column_of(i)))];
     }
     if (col0_ == 0 && cols_ > 0) q[0] = 0.0;
     d_->hermitian(q.data());
@@ -759,8 +774,8 @@ std::vector<double> flow2d::to_physical_rows(const state_type& q) {
     cplx* f = g.spectral(0);
     std::fill(f, f + g.spectral_stride() * std::size_t(n_), cplx{});
     for (std::size_t i = 0; i < size(); ++i) {
-        const int row = int(i % std::size_t(rows()));
-        f[g.at(int(d_->full_row(row)), int(i / std::size_t(rows())))] = q[i];
+        const int row = int(row_of(i));
+        f[g.at(int(d_->full_row(row)), int(column_of(i)))] = q[i];
     }
     g.inverse(1);
     std::vector<double> mine(std::size_t(g.local_rows()) * std::size_t(n_));
@@ -846,15 +861,14 @@ flow2d::state_type flow2d::to_half_plane(const state_type& q) const {
         for (int k = 0; k < P; ++k) {
             const std::size_t c0 = std::size_t(cols[2 * std::size_t(k)]), lc = std::size_t(cols[2 * std::size_t(k) + 1]);
             const cplx* part = all.data() + offsets[std::size_t(k)] / 2;
-            for (std::size_t c = 0; c < lc; ++c)
-                for (int r = 0; r < rows(); ++r)
-                    h[d_->full_row(r) * d_->nc + c0 + c] = part[c * std::size_t(rows()) + std::size_t(r)];
+            for (int r = 0; r < rows(); ++r)  // (spread over processes the state is stored by rows)
+                for (std::size_t c = 0; c < lc; ++c) h[d_->full_row(r) * d_->nc + c0 + c] = part[std::size_t(r) * lc + c];
         }
         return h;
     }
 #endif
     state_type h(d_->g.size());
-    for (std::size_t i = 0; i < q.size(); ++i) h[d_->full_row(int(i % std::size_t(rows()))) * d_->nc + i / std::size_t(rows())] = q[i];
+    for (std::size_t i = 0; i < q.size(); ++i) h[d_->full_row(int(row_of(i))) * d_->nc + column_of(i)] = q[i];
     return h;
 }
 
@@ -864,7 +878,7 @@ flow2d::state_type flow2d::from_half_plane(const state_type& h) const {
                                     std::to_string(d_->g.size()));
     state_type q(size());
     for (std::size_t i = 0; i < q.size(); ++i)
-        q[i] = h[d_->full_row(int(i % std::size_t(rows()))) * d_->nc + std::size_t(col0_) + i / std::size_t(rows())];
+        q[i] = h[d_->full_row(int(row_of(i))) * d_->nc + std::size_t(col0_) + column_of(i)];
     if (col0_ == 0 && cols_ > 0) q[0] = 0.0;
     d_->hermitian(q.data());
     return q;
@@ -876,7 +890,7 @@ flow2d::state_type flow2d::to_half_plane_columns(const state_type& q) const {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
     const std::size_t local = std::size_t(g.local_columns());
     state_type h(std::size_t(n_) * local);
-    for (std::size_t i = 0; i < q.size(); ++i) h[d_->full_row(int(i % std::size_t(rows()))) * local + i / std::size_t(rows())] = q[i];
+    for (std::size_t i = 0; i < q.size(); ++i) h[d_->full_row(int(row_of(i))) * local + column_of(i)] = q[i];
     return h;
 }
 
@@ -889,7 +903,7 @@ flow2d::state_type flow2d::from_half_plane_columns(const state_type& columns) co
                                     std::to_string(local) + " columns " + std::to_string(std::size_t(n_) * local));
     state_type q(size());
     for (std::size_t i = 0; i < q.size(); ++i)
-        q[i] = columns[d_->full_row(int(i % std::size_t(rows()))) * local + i / std::size_t(rows())];
+        q[i] = columns[d_->full_row(int(row_of(i))) * local + column_of(i)];
     if (col0_ == 0 && cols_ > 0) q[0] = 0.0;
     d_->hermitian(q.data());
     return q;

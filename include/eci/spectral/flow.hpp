@@ -99,18 +99,20 @@ struct flow_fluxes {
 /// dq/dt = -u . grad q + L q + F on [0, 2 pi)^2 for the equation params().equation, with
 /// L = i c(k) - (nu |k|^2 + nu_h |k|^2p + nu_hypo |k|^-2p' + drag).
 ///
-/// The state holds the retained modes alone, 0 <= k_x <= kmax, |k_y| <= kmax: kmax + 1 columns (k_x = 0 ... kmax),
-/// one after the other, each of 2 kmax + 1 modes (k_y = 0, 1, ..., kmax, -kmax, ..., -1, the half plane's order of
-/// rows), normalised so that q(x) = sum_k q_k e^{i k.x} over the full plane. That is 4/9 of FFTW's half plane: every
-/// pass of a stepper over the state, every sum and every buffer is that much smaller. Stored by columns, because
-/// a right-hand side transforms along y first: each column is filled, transformed and its result formed while it is
-/// in cache (grid::transform_product_columns). k = 0 (index 0) is zero and stays zero; on the k_x = 0 column (the
-/// state's first 2 kmax + 1 modes) k and -k are both stored and are exact conjugates. to_half_plane() gives FFTW's
-/// layout (the files' and the grid's).
+/// The state holds the retained modes alone, 0 <= k_x <= kmax, |k_y| <= kmax, kmax + 1 columns (k_x = 0 ... kmax) of
+/// 2 kmax + 1 rows (k_y = 0, 1, ..., kmax, -kmax, ..., -1, the half plane's order), normalised so that q(x) = sum_k
+/// q_k e^{i k.x} over the full plane. That is 4/9 of FFTW's half plane: every pass of a stepper over the state, every
+/// sum and every buffer is that much smaller. On one process with pruned transforms (the default) it is stored by
+/// columns (by_columns()), because a right-hand side transforms along y first: each column is filled, transformed
+/// and its result formed while it is in cache (grid::transform_product_columns). Otherwise (spread over processes,
+/// or FFTW's 2-D plans) it is stored by rows, the grid's own order, which the passes over the grid's fields then
+/// read and write in order. index(), kx(), ky() give where each mode is. k = 0 is zero and stays zero; on the
+/// k_x = 0 column k and -k are both stored and are exact conjugates. to_half_plane() gives FFTW's layout (the
+/// files' and the grid's), the same from either.
 ///
 /// Spread over processes (flow_params::comm, MPI build), a process's state is the retained modes of its own
 /// columns k_x = first_column() .. first_column() + columns() - 1 (the grid's slab cut to kx <= kmax; columns() may
-/// be 0), stored the same way: a contiguous block of the serial state. Everything else is unchanged and the equation module never knows: sums (E, Z,
+/// be 0), stored by rows. Everything else is unchanged and the equation module never knows: sums (E, Z,
 /// spectra, the budget's rates) are over every process in a fixed order (grid::sum_over_ranks), max |u| is the
 /// global maximum, forcing and random fields are drawn per global mode (the same at any process count), and
 /// to_half_plane / to_physical / from_half_plane / from_physical convert between the process's part and the whole
@@ -148,18 +150,35 @@ class flow2d {
     int first_column() const { return col0_; }
     /// Whether the state holds column k_x (always but on MPI).
     bool owns_column(int kx) const { return kx >= col0_ && kx < col0_ + cols_; }
-    /// Modes per column of the state (its rows), 2 kmax + 1.
+    /// Rows of the state (modes per column), 2 kmax + 1.
     int rows() const { return 2 * kmax() + 1; }
     /// Modes in the state.
     std::size_t size() const { return std::size_t(rows()) * std::size_t(columns()); }
-    int kx(std::size_t i) const { return col0_ + int(i / std::size_t(rows())); }
+    /// Whether the state is stored by columns (mode (row r, column c) at c rows() + r) or by rows (r columns() + c).
+    bool by_columns() const { return by_columns_; }
+    /// The row (k_y = row, or row - rows() beyond kmax) and the column (k_x = first_column() + column) of mode i.
+    std::size_t row_of(std::size_t i) const {
+        return by_columns_ ? i % std::size_t(rows()) : i / std::size_t(columns());
+    }
+    std::size_t column_of(std::size_t i) const {
+        return by_columns_ ? i / std::size_t(rows()) : i % std::size_t(columns());
+    }
+    int kx(std::size_t i) const { return col0_ + int(column_of(i)); }
     int ky(std::size_t i) const {
-        const int row = int(i % std::size_t(rows()));
+        const int row = int(row_of(i));
         return row <= kmax() ? row : row - rows();
+    }
+    /// The index of the k-th mode in row order (the half plane's, and a state stored by rows): sums over the state
+    /// (E, Z, spectra) add in that order, so that they are the same bits from either layout.
+    std::size_t in_row_order(std::size_t k) const {
+        if (!by_columns_) return k;
+        const std::size_t c = std::size_t(columns());
+        return (k % c) * std::size_t(rows()) + k / c;
     }
     /// The index of mode (kx, ky), 0 <= kx <= kmax, |ky| <= kmax (on MPI: owns_column(kx)).
     std::size_t index(int kx, int ky) const {
-        return std::size_t(kx - col0_) * std::size_t(rows()) + std::size_t(ky >= 0 ? ky : ky + rows());
+        const std::size_t r = std::size_t(ky >= 0 ? ky : ky + rows()), c = std::size_t(kx - col0_);
+        return by_columns_ ? c * std::size_t(rows()) + r : r * std::size_t(columns()) + c;
     }
 #ifdef ECI_MPI
     /// The steppers' reductions (detail/reduce.hpp): each v[i] summed over the processes in rank order, or its
@@ -330,6 +349,7 @@ class flow2d {
     struct impl;
     int n_;
     int col0_ = 0, cols_ = 0;  // the state's columns k_x = col0_ .. col0_ + cols_ - 1
+    bool by_columns_ = false;
     std::vector<double> weights_;
     std::unique_ptr<impl> d_;
     std::uint64_t rng_ = 0;
