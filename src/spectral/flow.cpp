@@ -447,8 +447,8 @@ void flow2d::nonlinear_advective(const state_type& q, state_type& out) {
 
 namespace {
 
-// One pass from the transforms to the right-hand side, column by column of the state (with the column transforms
-// where the grid fuses them): the dealiased nonlinear term plus L q + F, and when recording, the sums of what each
+// One pass from the transforms to the right-hand side, over the runs of nonlinear_runs (columns fused with their
+// transforms, or rows): the dealiased nonlinear term plus L q + F, and when recording, the sums of what each
 // part does to E and Z (weights w_k |a_k| and w_k), per thread and then in thread order. The k_x = 0 column is
 // made exact conjugates after (L and F are Hermitian there, so that equals symmetrising N first).
 template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
