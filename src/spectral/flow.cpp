@@ -422,7 +422,7 @@ void flow2d::set_form(nonlinear_form f) {
 void flow2d::execute_transforms() {
     // as the right-hand side makes them (with its pass over the rows, here doing nothing)
     const auto none = [](double* const*, std::size_t) {};
-    const int in = form_ == nonlinear_form::basdevant ? 2 : 4, out = form_ == nonlinear_form::basdevant ? 2 : 1;
+    const int in = impl::inputs(form_), out = impl::outputs(form_);
     if (d_->g.column_pass())
         d_->g.transform_product_columns(in, out, [](int, cplx* const*, int) {}, none,
                                         [](int, const cplx* const*, int) {});
