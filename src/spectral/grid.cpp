@@ -58,8 +58,8 @@ struct grid::plans {
     // kmax + 1 retained columns and the row (k_x) transforms of every row, two plans each way.
     std::vector<fftw_plan> inverse, forward, inverse_rows, forward_columns;
     bool pruned = false;
-    // The fused pass: per thread, `fields` rows of 2 columns() doubles (aligned as the plans were made on them),
-    // and one row's 1-D c2r and r2c, in place.
+    // The fused passes: per thread, a buffer of rows (aligned as the plans were made on them: plan_rows), and one
+    // row's 1-D c2r and r2c, in place (the distributed pass, and transform_product without the column pass).
     std::vector<double*> rows;
     fftw_plan row_c2r = nullptr, row_r2c = nullptr;
     // column_product's row transforms, out of place (complex row -> real row -> complex row): FFTW transforms a row
