@@ -86,18 +86,18 @@ struct grid::plans {
     std::size_t col_ld = 0, col_field = 0;
     // column_product's row pass takes row_block rows at a time: a row's value of a column and the next rows' share
     // its cache line, so a block reads (and writes) each line of the columns once, not once per row. In a thread's
-    // rows[thread]: row q of field j of a block, spectral at (j row_block + q) block_ld and physical at
-    // ((fields + j) row_block + q) block_ld; block_ld a multiple of 8 doubles, so that every row has the 64-byte
-    // alignment of the rows the plans are made on.
+    // rows[thread]: row q of field j of a block, spectral at (j row_block + q) row_pad and physical at
+    // ((fields + j) row_block + q) row_pad (row_pad below: every row has the 64-byte alignment of the rows the
+    // plans are made on).
     static constexpr int row_block = 4;
-    std::size_t block_ld = 0;
     // Spread over processes. Rank q holds rows row0[q] .. + nrows[q] - 1 and transforms the retained columns
     // col0[q] .. + ncols[q] - 1 (contiguous in rank order, so col0[q] is also the number before q's). The column
     // transforms along y run in place on the spectral fields (n rows of ncols[me] modes); the all-to-all sends
     // each process the rows it holds of every column; recv holds, per field (field_stride apart), what the others
     // sent: from rank s, nrows[me] rows of ncols[s] modes at nrows[me] col0[s] (its own block is read from, and
     // written to, the spectral field where it lies, but by inverse() and forward(), which copy it through recv);
-    // the rows are transformed along x one at a time in a thread's buffer (`rows`, row_pad doubles per field).
+    // the rows are transformed along x one at a time in a thread's buffer (`rows`, row_pad doubles per field;
+    // row_pad, padded() rounded up to 8 doubles, is the row stride of every thread buffer, serial or not).
     std::vector<int> row0, nrows, col0, ncols;
     std::vector<fftw_plan> columns_inverse, columns_forward;  // [c]: fields 0 .. c, in place
     cplx* recv = nullptr;
@@ -136,6 +136,7 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
     local_cols_ = columns();
     field_stride_ = m;
     stride_ = std::size_t(columns());
+    p_->row_pad = (padded() + 7) / 8 * 8;
     std::call_once(fftw_threads_once, [] { fftw_init_threads(); });
     if (!o.wisdom_file.empty()) fftw_import_wisdom_from_filename(o.wisdom_file.c_str());
     if (!o.wisdom.empty() && !fftw_import_wisdom_from_string(o.wisdom.c_str()))
@@ -198,11 +199,10 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
             throw std::runtime_error("FFTW could not plan the transforms");
     }
     // the fused pass's row transforms (the rows are split between the threads); room for column_product's blocks
-    p_->block_ld = (padded() + 7) / 8 * 8;
-    p_->plan_rows(n_, o.pruned ? 2 * fields_ * plans::row_block : fields_, threads_, p_->block_ld, flags);
+    p_->plan_rows(n_, o.pruned ? 2 * fields_ * plans::row_block : fields_, threads_, p_->row_pad, flags);
     if (o.pruned) {
         double* cr = p_->rows[0];
-        double* re = cr + std::size_t(fields_) * plans::row_block * p_->block_ld;
+        double* re = cr + std::size_t(fields_) * plans::row_block * p_->row_pad;
         fftw_plan_with_nthreads(1);
         p_->block_c2r = fftw_plan_dft_c2r_1d(n_, reinterpret_cast<fftw_complex*>(cr), re, flags);
         p_->block_r2c = fftw_plan_dft_r2c_1d(n_, re, reinterpret_cast<fftw_complex*>(cr), flags);
@@ -273,7 +273,6 @@ void grid::plan_distributed([[maybe_unused]] const grid_options& o) {
     if (!p_->buf || !p_->recv) throw std::bad_alloc();
     std::fill(p_->buf, p_->buf + total, cplx{});
     std::fill(p_->recv, p_->recv + std::size_t(fields_) * recv_stride, cplx{});
-    p_->row_pad = (padded() + 7) / 8 * 8;
     const unsigned flags = o.measure ? FFTW_MEASURE : FFTW_ESTIMATE;
     auto* c = reinterpret_cast<fftw_complex*>(p_->buf);
     const int kl = int(stride_);
@@ -622,7 +621,8 @@ void grid::column_product(int in, int out, void (*load)(void*, int, cplx* const*
     // the rows in blocks of row_block, in a thread's buffer: gathered from the columns, c2r, fn, r2c, scattered back
     // (a block's values of one column share a cache line; successive columns are ld apart, in different cache sets)
     constexpr int R = plans::row_block;
-    const std::size_t bl = p_->block_ld;
+    static_assert(R == 4, "the full blocks below copy four rows by hand");
+    const std::size_t bl = p_->row_pad;
     omp_rows(threads_, (n_ + R - 1) / R, [&](int blk0, int blk1, int tid) {
         double* const base = p_->rows[std::size_t(tid)];
         const auto row = [&](int j, int q) { return base + (std::size_t(j) * R + std::size_t(q)) * bl; };
