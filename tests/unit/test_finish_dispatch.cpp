@@ -161,6 +161,122 @@ TEST(FinishDispatch, StagePassesRoundLikeTheBaselineLoop) {
 #endif
 }
 
+// The rescale finish's pieces (radicand_remedy), their protected statics made visible here.
+struct remedy_pieces : eci::radicand_remedy {
+    using radicand_remedy::conditioned_pass;
+    using radicand_remedy::defect_gram_block;
+    using radicand_remedy::factor_two_base;
+    using radicand_remedy::gram_add;
+    using radicand_remedy::h_taylor;
+    using radicand_remedy::taylor_limit;
+#if ECI_DETAIL_X86_SIMD
+    using radicand_remedy::defect_gram_block_avx2;
+    using radicand_remedy::factor_two_avx2;
+#endif
+};
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+// A rescale finish's sums over a block (the defects d_j = sum w_j (c2 - xi), the negative xi counted, the
+// compensated Gram sums and the magnitudes A_j): the AVX2 version, four elements' terms at a time, and the dispatched
+// one give the bits of the scalar loop and gram_add, element by element, for blocks of 64 and a tail of 3, weights of
+// either sign and of very different sizes, and negative xi in the vector body and the tail.
+TEST(FinishDispatch, RescaleSumsRoundLikeTheScalarLoop) {
+    constexpr std::size_t n = 131;  // two blocks of 64 and one of 3
+    std::mt19937_64 rng(31);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    std::vector<double> w0(n), w1(n), c2(n), xi(n);
+    for (std::size_t i = 0; i < n; ++i) {
+        w0[i] = std::ldexp(u(rng), int(rng() % 41) - 20), w1[i] = u(rng);
+        c2[i] = std::ldexp(std::abs(u(rng)), int(rng() % 61) - 30);
+        xi[i] = c2[i] * (1.0 + 1e-3 * u(rng));
+    }
+    xi[5] = -1.0, xi[66] = -2.0, xi[n - 1] = -0.5;
+    using pass_t = remedy_pieces::conditioned_pass;
+    const auto run = [&](auto block) {
+        pass_t p;
+        p.w0 = w0.data(), p.w1 = w1.data();
+        std::array<double, 3> total{};
+        for (std::size_t e0 = 0; e0 < n; e0 += 64) {
+            std::array<double, 3> d{};
+            block(p, e0, c2.data() + e0, xi.data() + e0, std::min<std::size_t>(64, n - e0), d);
+            for (std::size_t j = 0; j < 3; ++j) total[j] += d[j];
+        }
+        return std::pair{p, total};
+    };
+    // the scalar reference: the loop finish_by_rescale ran before session 45, and gram_add
+    const auto reference = run([&](pass_t& p, std::size_t e0, const double* c, const double* x, std::size_t nb,
+                                   std::array<double, 3>& d) {
+        double d0 = 0.0, d1 = 0.0, neg = 0.0;
+        for (std::size_t b = 0; b < nb; ++b) {
+            const double v = c[b] - x[b];
+            d0 += w0[e0 + b] * v, d1 += w1[e0 + b] * v, neg += x[b] < 0.0 ? 1.0 : 0.0;
+        }
+        d = {d0, d1, neg};
+        for (std::size_t b = 0; b < nb; ++b) remedy_pieces::gram_add(p, e0 + b, c[b]);
+    });
+    EXPECT_EQ(reference.second[2], 3.0);
+    std::vector<std::remove_const_t<decltype(reference)>> versions{run(remedy_pieces::defect_gram_block)};
+#if ECI_DETAIL_X86_SIMD
+    if (__builtin_cpu_supports("avx2")) versions.push_back(run(remedy_pieces::defect_gram_block_avx2));
+#endif
+    for (const auto& [p, d] : versions) {
+        const pass_t& r = reference.first;
+        for (std::size_t j = 0; j < 3; ++j) EXPECT_TRUE(same_bits(d[j], reference.second[j])) << j;
+        EXPECT_TRUE(same_bits(p.g00.s, r.g00.s) && same_bits(p.g00.err, r.g00.err));
+        EXPECT_TRUE(same_bits(p.g01.s, r.g01.s) && same_bits(p.g01.err, r.g01.err));
+        EXPECT_TRUE(same_bits(p.g11.s, r.g11.s) && same_bits(p.g11.err, r.g11.err));
+        EXPECT_TRUE(same_bits(p.a0, r.a0) && same_bits(p.a1, r.a1));
+    }
+}
+
+// The rescale pass o <- o + o h(c_0 w_0 + c_1 w_1) over complex modes: its AVX2 copy rounds like the baseline and
+// sees the same non-finite values (an overflow in the vector body, a NaN in the tail).
+TEST(FinishDispatch, RescalePassRoundsLikeTheBaselineLoop) {
+    constexpr std::size_t ne = 103;
+    const auto w0 = random_values(ne, 41, 0.0, 2.0), w1 = random_values(ne, 42, 0.0, 1.0);
+    const auto o0 = random_values(2 * ne, 43, -1.0, 1.0);
+    const double c0 = 3e-4, c1 = -2e-4;
+    auto h = [](double s) { return remedy_pieces::h_taylor(s); };
+    for (const int bad : {0, 1, 2}) {
+        auto base = o0;
+        if (bad == 1) base[2 * 10 + 1] = 1.7976931348623157e308;  // x (1 + h) with h > 0 overflows
+        if (bad == 2) base[2 * (ne - 1)] = std::nan("");
+        const std::uint64_t flag = remedy_pieces::factor_two_base<2>(base.data(), w0.data(), w1.data(), c0, c1, 0,
+                                                                    ne, h);
+        EXPECT_EQ(eci::detail::none_non_finite(flag), bad == 0) << bad;
+#if ECI_DETAIL_X86_SIMD
+        if (__builtin_cpu_supports("avx2")) {
+            auto wide = o0;
+            if (bad == 1) wide[2 * 10 + 1] = 1.7976931348623157e308;
+            if (bad == 2) wide[2 * (ne - 1)] = std::nan("");
+            const std::uint64_t wflag = remedy_pieces::factor_two_avx2<2>(wide.data(), w0.data(), w1.data(), c0,
+                                                                         c1, 0, ne, h);
+            EXPECT_EQ(eci::detail::none_non_finite(wflag), bad == 0) << bad;
+            EXPECT_TRUE(same_bits(wide, base)) << bad;
+        }
+#endif
+        if (bad == 0) {
+            EXPECT_FALSE(same_bits(base, o0));  // (the pass moved the values)
+        }
+    }
+}
+
+// The series the rescale takes for sqrt(1 + s) - 1 where |s| <= taylor_limit: its truncation, evaluated in long
+// double against s / (1 + sqrt(1 + s)), stays below 2^-60 of h for every |s| up to the limit, far below the 2^-53 of
+// one rounding (a series too short for its limit, to s^6 at 2^-8, leaves 2^-53 there); in double it is within its
+// two roundings of h.
+TEST(FinishDispatch, RescaleSeriesIsExactToRoundingWithinItsLimit) {
+    const long double limit = remedy_pieces::taylor_limit;
+    for (const long double s : {limit, -limit, limit / 2, -limit / 3, limit / 1024, -limit / 1e6L, 1e-12L}) {
+        const long double exact = s / (1.0L + std::sqrt(1.0L + s));
+        const long double series = remedy_pieces::h_taylor(s);
+        EXPECT_LE(std::abs(series - exact), 0x1p-60L * std::abs(exact)) << double(s);
+        const double in_double = remedy_pieces::h_taylor(double(s));
+        EXPECT_LE(std::abs((long double)in_double - exact), 0x1p-51L * std::abs(exact)) << double(s);
+    }
+}
+
 }  // namespace
 
 namespace {

@@ -311,16 +311,10 @@ class conservative_rk : public radicand_remedy {
                 else
 #endif
                     block_updates(cv, rv.data(), c2v.data(), xiv.data(), sg.data(), x, k, e0, nb, dt, sp);
-                if (m == 2) {  // E and Z (every spectral model, n-wave): the loop below with the weights hoisted
-                    const double* w0 = w[0].data() + e0;
-                    const double* w1 = w[1].data() + e0;
-                    double d0 = 0.0, d1 = 0.0, neg = 0.0;
-                    for (std::size_t b = 0; b < nb; ++b) {
-                        const double d = c2v[b] - xiv[b];
-                        d0 += w0[b] * d, d1 += w1[b] * d, neg += xiv[b] < 0.0 ? 1.0 : 0.0;
-                    }
-                    sum.defect[0] += d0, sum.defect[1] += d1, sum.negatives += neg;
-                    gram_block(sum.gram, e0, c2v.data(), nb);
+                if (m == 2) {  // E and Z (every spectral model, n-wave): the loop below, the Gram sums beside it
+                    std::array<double, 3> d;
+                    defect_gram_block(sum.gram, e0, c2v.data(), xiv.data(), nb, d);
+                    sum.defect[0] += d[0], sum.defect[1] += d[1], sum.negatives += d[2];
                 } else {
                     for (std::size_t b = 0; b < nb; ++b) {
                         const double d = c2v[b] - xiv[b];

@@ -680,6 +680,88 @@ class radicand_remedy {
 #endif
     }
 
+    // A rescale finish's sums over the elements e0 .. e0 + nb with two invariants (pass fused), |c_e|^2 in c2 and
+    // xi_e in xi: the defects d_j = sum_b w_jb (c2_b - xi_b), summed from zero (the caller adds them to its range's),
+    // the negative xi_b counted (d[2]), and c2 into the Gram sums as gram_block adds them. The AVX2 version takes
+    // every sum in a lane of its own, term by term in element order with the same operations: the same bits.
+    static void defect_gram_block(conditioned_pass& pass, std::size_t e0, const double* c2, const double* xi,
+                                  std::size_t nb, std::array<double, 3>& d) {
+#if ECI_DETAIL_X86_SIMD
+        if (detail::cpu_has_avx2()) return defect_gram_block_avx2(pass, e0, c2, xi, nb, d);
+#endif
+        const double* w0 = pass.w0 + e0;
+        const double* w1 = pass.w1 + e0;
+        double d0 = 0.0, d1 = 0.0, neg = 0.0;
+        for (std::size_t b = 0; b < nb; ++b) {
+            const double v = c2[b] - xi[b];
+            d0 += w0[b] * v, d1 += w1[b] * v, neg += xi[b] < 0.0 ? 1.0 : 0.0;
+        }
+        d = {d0, d1, neg};
+        gram_block(pass, e0, c2, nb);
+    }
+#if ECI_DETAIL_X86_SIMD
+    // compensated_sum::add in each lane
+    [[gnu::always_inline]] __attribute__((target("avx2"))) static void add_compensated(__m256d& s, __m256d& err,
+                                                                                       __m256d val) {
+        const __m256d t = _mm256_add_pd(s, val), z = _mm256_sub_pd(t, s);
+        err = _mm256_add_pd(err, _mm256_add_pd(_mm256_sub_pd(s, _mm256_sub_pd(t, z)), _mm256_sub_pd(val, z)));
+        s = t;
+    }
+    // r_i's lane j <- r_j's lane i
+    [[gnu::always_inline]] __attribute__((target("avx2"))) static void transpose(__m256d& r0, __m256d& r1,
+                                                                                 __m256d& r2, __m256d& r3) {
+        const __m256d lo01 = _mm256_unpacklo_pd(r0, r1), hi01 = _mm256_unpackhi_pd(r0, r1);
+        const __m256d lo23 = _mm256_unpacklo_pd(r2, r3), hi23 = _mm256_unpackhi_pd(r2, r3);
+        r0 = _mm256_permute2f128_pd(lo01, lo23, 0x20), r1 = _mm256_permute2f128_pd(hi01, hi23, 0x20);
+        r2 = _mm256_permute2f128_pd(lo01, lo23, 0x31), r3 = _mm256_permute2f128_pd(hi01, hi23, 0x31);
+    }
+    // Lanes: (d_0, d_1, A_0, A_1), each a plain sum, and (G_00, G_01, G_11, unused) summed with compensation.
+    __attribute__((target("avx2"))) static void defect_gram_block_avx2(conditioned_pass& pass, std::size_t e0,
+                                                                       const double* c2, const double* xi,
+                                                                       std::size_t nb, std::array<double, 3>& d) {
+        const double* w0 = pass.w0 + e0;
+        const double* w1 = pass.w1 + e0;
+        __m256d lin = _mm256_set_pd(pass.a1, pass.a0, 0.0, 0.0);
+        __m256d s = _mm256_set_pd(0.0, pass.g11.s, pass.g01.s, pass.g00.s);
+        __m256d err = _mm256_set_pd(0.0, pass.g11.err, pass.g01.err, pass.g00.err);
+        double neg = 0.0;
+        // The sums' additions are in element order; their terms are not: four elements' terms at a time, formed
+        // across the elements and transposed into one vector per element.
+        const __m256d magnitude = _mm256_castsi256_pd(_mm256_set1_epi64x(0x7fffffffffffffff));
+        std::size_t b = 0;
+        for (; b + 4 <= nb; b += 4) {
+            const __m256d u = _mm256_loadu_pd(w0 + b), v = _mm256_loadu_pd(w1 + b), q = _mm256_loadu_pd(c2 + b);
+            const __m256d x = _mm256_loadu_pd(xi + b), dv = _mm256_sub_pd(q, x);
+            __m256d l0 = _mm256_mul_pd(u, dv), l1 = _mm256_mul_pd(v, dv);
+            __m256d l2 = _mm256_mul_pd(_mm256_and_pd(u, magnitude), q), l3 = _mm256_mul_pd(_mm256_and_pd(v, magnitude), q);
+            __m256d g0 = _mm256_mul_pd(_mm256_mul_pd(u, u), q), g1 = _mm256_mul_pd(_mm256_mul_pd(u, v), q);
+            __m256d g2 = _mm256_mul_pd(_mm256_mul_pd(v, v), q), g3 = _mm256_setzero_pd();
+            transpose(l0, l1, l2, l3);
+            transpose(g0, g1, g2, g3);
+            lin = _mm256_add_pd(lin, l0), add_compensated(s, err, g0);
+            lin = _mm256_add_pd(lin, l1), add_compensated(s, err, g1);
+            lin = _mm256_add_pd(lin, l2), add_compensated(s, err, g2);
+            lin = _mm256_add_pd(lin, l3), add_compensated(s, err, g3);
+            neg += double(__builtin_popcount(unsigned(_mm256_movemask_pd(_mm256_cmp_pd(x, _mm256_setzero_pd(), _CMP_LT_OQ)))));
+        }
+        for (; b < nb; ++b) {
+            const double u = w0[b], v = w1[b], q = c2[b], dv = c2[b] - xi[b];
+            // d_0 += u dv, d_1 += v dv, A_0 += |u| q, A_1 += |v| q
+            lin = _mm256_add_pd(lin, _mm256_mul_pd(_mm256_set_pd(std::abs(v), std::abs(u), v, u),
+                                                   _mm256_set_pd(q, q, dv, dv)));
+            // G_00 += u u q, G_01 += u v q, G_11 += v v q (compensated_sum::add, lane by lane)
+            add_compensated(s, err, _mm256_mul_pd(_mm256_mul_pd(_mm256_set_pd(0.0, v, u, u), _mm256_set_pd(0.0, v, v, u)),
+                                          _mm256_set1_pd(q)));
+            neg += xi[b] < 0.0 ? 1.0 : 0.0;
+        }
+        alignas(32) double l[4], sv[4], ev[4];
+        _mm256_store_pd(l, lin), _mm256_store_pd(sv, s), _mm256_store_pd(ev, err);
+        d = {l[0], l[1], neg};
+        pass.a0 = l[2], pass.a1 = l[3];
+        pass.g00 = {sv[0], ev[0]}, pass.g01 = {sv[1], ev[1]}, pass.g11 = {sv[2], ev[2]};
+    }
+#endif
+
     // An element's |o_e|^2 into the Gram sums of a fused pass, in element order.
     static void gram_add(conditioned_pass& pass, std::size_t e, double q) {
         if (!pass.w0) return;
@@ -941,16 +1023,25 @@ class radicand_remedy {
     }
 
     // psi_k <- psi_k sqrt(1 + s_k), s_k = sum_j c_j w_jk, written psi_k + psi_k h_k with h = sqrt(1 + s) - 1 so that
-    // a tiny s is not lost in 1 + s. For |s| <= taylor_limit = 2^-10 (the usual case: s ~ defect / invariant, 1e-8
-    // or less; turbulence at CFL 0.5 rescales by up to ~5e-4) h is its Taylor series to s^6, whose remainder
-    // (< 0.017 |s|^7, under 0.04 |s|^6 h < 2^-64 h) is far below eps h: no square root, and a loop that vectorizes.
+    // a tiny s is not lost in 1 + s. For |s| <= taylor_limit = 2^-8 (the usual case: s ~ defect / invariant, 1e-8
+    // or less; turbulence at CFL 0.5 rescales its largest scales by up to ~1e-3) h is its Taylor series to s^8, whose
+    // remainder (< 0.011 |s|^9 / (1 - |s|), under 2^-69 h) is far below eps h: no square root, and a loop that
+    // vectorizes. (To s^6 and 2^-10, as before session 45, the bench's turbulence at CFL 0.5, s up to 1.07e-3, took
+    // the square root and a pass of its own to find that out.)
     // The factor h is formed once per element (a complex mode's two parts share s_k) and the loop runs over
     // elements, so that with two invariants it vectorizes: the rescale is a whole pass over the state on every
     // remedied step (most steps of turbulence), and per real unknown with the weights indexed i >> 1 it did not.
     // The operations per unknown are the ones above, so the bits are too.
     // The pass also records whether every rescaled value is finite (rescaled_), so that the engine's blow-up check
     // needs no pass of its own after it.
-    static constexpr double taylor_limit = 0x1p-10;
+    static constexpr double taylor_limit = 0x1p-8;
+    // h(s) = sqrt(1 + s) - 1 by its Taylor series to s^8 (binomial coefficients, exact in binary), for |s| <=
+    // taylor_limit; a template so that a test can evaluate the same series in wider arithmetic.
+    template <class R>
+    static R h_taylor(R s) {
+        return s * (R(0.5) + s * (R(-0.125) + s * (R(0.0625) + s * (R(-0.0390625) + s * (R(0.02734375) +
+                    s * (R(-0.0205078125) + s * (R(0.01611328125) - s * R(0.013092041015625))))))));
+    }
     template <std::size_t Per>
     void rescale(double* o, std::size_t n, const std::array<double, max_invariants>& c) {
         if (stochastic_) {
@@ -958,12 +1049,11 @@ class radicand_remedy {
             rescaled_ = rescale_stochastically<Per>(o, n, c) ? rescaled::finite : rescaled::non_finite;
             return;
         }
-        const bool finite = s_bound_ <= taylor_limit ? for_each_element_factor<Per>(n, c, [](double s) {
-            return s * (0.5 + s * (-0.125 + s * (0.0625 + s * (-0.0390625 + s * (0.02734375 - s * 0.0205078125)))));
-        }, o)
-                                                      : for_each_element_factor<Per>(n, c, [](double s) {
-            return s / (1.0 + std::sqrt(1.0 + s));
-        }, o);
+        const bool finite = s_bound_ <= taylor_limit
+                                ? for_each_element_factor<Per>(n, c, [](double s) { return h_taylor(s); }, o)
+                                : for_each_element_factor<Per>(n, c, [](double s) {
+                                      return s / (1.0 + std::sqrt(1.0 + s));
+                                  }, o);
         rescaled_ = finite ? rescaled::finite : rescaled::non_finite;
     }
 
@@ -982,14 +1072,12 @@ class radicand_remedy {
             if (m == 2) {  // the common case (energy and enstrophy)
                 const double* w0 = weights_[0].data();
                 const double* w1 = weights_[1].data();
-                const double c0 = c[0], c1 = c[1];
-                for (std::size_t e = e0; e < e1; ++e) {
-                    const double f = h(c0 * w0[e] + c1 * w1[e]);
-                    for (std::size_t p = 0; p < Per; ++p) {
-                        o[e * Per + p] += o[e * Per + p] * f;
-                        bad |= detail::non_finite_bit(o[e * Per + p]);
-                    }
-                }
+#if ECI_DETAIL_X86_SIMD
+                if (detail::cpu_has_avx2())
+                    bad = factor_two_avx2<Per>(o, w0, w1, c[0], c[1], e0, e1, h);
+                else
+#endif
+                    bad = factor_two_base<Per>(o, w0, w1, c[0], c[1], e0, e1, h);
             } else {
                 for (std::size_t e = e0; e < e1; ++e) {
                     double s = 0.0;
@@ -1004,6 +1092,38 @@ class radicand_remedy {
             return detail::none_non_finite(bad) ? 0.0 : 1.0;
         }) == 0.0;
     }
+
+    // for_each_element_factor's loop with two invariants, over elements e0 .. e1: the OR of the new values'
+    // non_finite_bit. Always inlined, so that each caller below compiles it (and h) for its own instruction set:
+    // the same operations, element by element, so the same bits.
+    template <std::size_t Per, class H>
+    [[gnu::always_inline]] static std::uint64_t factor_two(double* o, const double* w0, const double* w1, double c0,
+                                                           double c1, std::size_t e0, std::size_t e1, H& h) {
+        std::uint64_t bad = 0;
+        for (std::size_t e = e0; e < e1; ++e) {
+            const double f = h(c0 * w0[e] + c1 * w1[e]);
+            for (std::size_t p = 0; p < Per; ++p) {
+                o[e * Per + p] += o[e * Per + p] * f;
+                bad |= detail::non_finite_bit(o[e * Per + p]);
+            }
+        }
+        return bad;
+    }
+    template <std::size_t Per, class H>
+    static std::uint64_t factor_two_base(double* o, const double* w0, const double* w1, double c0, double c1,
+                                         std::size_t e0, std::size_t e1, H& h) {
+        return factor_two<Per>(o, w0, w1, c0, c1, e0, e1, h);
+    }
+#if ECI_DETAIL_X86_SIMD
+    // AVX2 (no FMA: the same roundings), picked at run time: the rescale is a whole pass over the state on most steps
+    // of turbulence, and its polynomial is a dozen operations per element.
+    template <std::size_t Per, class H>
+    __attribute__((target("avx2"))) static std::uint64_t factor_two_avx2(double* o, const double* w0, const double* w1,
+                                                                        double c0, double c1, std::size_t e0,
+                                                                        std::size_t e1, H& h) {
+        return factor_two<Per>(o, w0, w1, c0, c1, e0, e1, h);
+    }
+#endif
 
     // rescale() of a rescale below 2^-48 (attempt_elements): o_i + o_i h(s_e) rounded stochastically
     // (add_stochastically), seeded from the rescale's coefficients, so that a rerun gives the same bits and every
