@@ -167,11 +167,15 @@ struct remedy_pieces : eci::radicand_remedy {
     using radicand_remedy::defect_gram_block;
     using radicand_remedy::factor_two_base;
     using radicand_remedy::gram_add;
+    using radicand_remedy::gram_block;
     using radicand_remedy::h_taylor;
     using radicand_remedy::taylor_limit;
 #if ECI_DETAIL_X86_SIMD
-    using radicand_remedy::defect_gram_block_avx2;
     using radicand_remedy::factor_two_avx2;
+    static void defect_gram_avx2(conditioned_pass& p, std::size_t e0, const double* c2, const double* xi,
+                                 std::size_t nb, std::array<double, 3>& d) {
+        defect_gram_block_avx2<true>(p, e0, c2, xi, nb, d);
+    }
 #endif
 };
 
@@ -179,7 +183,7 @@ bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; 
 
 // A rescale finish's sums over a block (the defects d_j = sum w_j (c2 - xi), the negative xi counted, the
 // compensated Gram sums and the magnitudes A_j): the AVX2 version, four elements' terms at a time, and the dispatched
-// one give the bits of the scalar loop and gram_add, element by element, for blocks of 64 and a tail of 3, weights of
+// one give the bits of the scalar loop and gram_add, element by element, as gram_block alone does, for blocks of 64 and a tail of 3, weights of
 // either sign and of very different sizes, and negative xi in the vector body and the tail.
 TEST(FinishDispatch, RescaleSumsRoundLikeTheScalarLoop) {
     constexpr std::size_t n = 131;  // two blocks of 64 and one of 3
@@ -218,7 +222,7 @@ TEST(FinishDispatch, RescaleSumsRoundLikeTheScalarLoop) {
     EXPECT_EQ(reference.second[2], 3.0);
     std::vector<std::remove_const_t<decltype(reference)>> versions{run(remedy_pieces::defect_gram_block)};
 #if ECI_DETAIL_X86_SIMD
-    if (__builtin_cpu_supports("avx2")) versions.push_back(run(remedy_pieces::defect_gram_block_avx2));
+    if (__builtin_cpu_supports("avx2")) versions.push_back(run(remedy_pieces::defect_gram_avx2));
 #endif
     for (const auto& [p, d] : versions) {
         const pass_t& r = reference.first;
@@ -228,6 +232,15 @@ TEST(FinishDispatch, RescaleSumsRoundLikeTheScalarLoop) {
         EXPECT_TRUE(same_bits(p.g11.s, r.g11.s) && same_bits(p.g11.err, r.g11.err));
         EXPECT_TRUE(same_bits(p.a0, r.a0) && same_bits(p.a1, r.a1));
     }
+    // gram_block alone (the conditioned pass's Gram sums; AVX2 where the processor has it) is gram_add's
+    const auto gram = run([&](pass_t& p, std::size_t e0, const double* c, const double*, std::size_t nb,
+                              std::array<double, 3>&) { remedy_pieces::gram_block(p, e0, c, nb); });
+    const pass_t& r = reference.first;
+    const pass_t& g = gram.first;
+    EXPECT_TRUE(same_bits(g.g00.s, r.g00.s) && same_bits(g.g00.err, r.g00.err));
+    EXPECT_TRUE(same_bits(g.g01.s, r.g01.s) && same_bits(g.g01.err, r.g01.err));
+    EXPECT_TRUE(same_bits(g.g11.s, r.g11.s) && same_bits(g.g11.err, r.g11.err));
+    EXPECT_TRUE(same_bits(g.a0, r.a0) && same_bits(g.a1, r.a1));
 }
 
 // The rescale pass o <- o + o h(c_0 w_0 + c_1 w_1) over complex modes: its AVX2 copy rounds like the baseline and

@@ -658,6 +658,10 @@ class radicand_remedy {
     static void gram_block(conditioned_pass& pass, std::size_t e0, const double* q, std::size_t nb) {
         if (!pass.w0) return;
 #if ECI_DETAIL_X86_SIMD
+        if (detail::cpu_has_avx2()) {
+            std::array<double, 3> none;
+            return defect_gram_block_avx2<false>(pass, e0, q, nullptr, nb, none);
+        }
         const double* w0 = pass.w0 + e0;
         const double* w1 = pass.w1 + e0;
         __m128d s = _mm_set_pd(pass.g01.s, pass.g00.s), err = _mm_set_pd(pass.g01.err, pass.g00.err);
@@ -687,7 +691,7 @@ class radicand_remedy {
     static void defect_gram_block(conditioned_pass& pass, std::size_t e0, const double* c2, const double* xi,
                                   std::size_t nb, std::array<double, 3>& d) {
 #if ECI_DETAIL_X86_SIMD
-        if (detail::cpu_has_avx2()) return defect_gram_block_avx2(pass, e0, c2, xi, nb, d);
+        if (detail::cpu_has_avx2()) return defect_gram_block_avx2<true>(pass, e0, c2, xi, nb, d);
 #endif
         const double* w0 = pass.w0 + e0;
         const double* w1 = pass.w1 + e0;
@@ -716,6 +720,8 @@ class radicand_remedy {
         r2 = _mm256_permute2f128_pd(lo01, lo23, 0x31), r3 = _mm256_permute2f128_pd(hi01, hi23, 0x31);
     }
     // Lanes: (d_0, d_1, A_0, A_1), each a plain sum, and (G_00, G_01, G_11, unused) summed with compensation.
+    // Defects false: gram_block's sums alone (xi unread, d untouched).
+    template <bool Defects>
     __attribute__((target("avx2"))) static void defect_gram_block_avx2(conditioned_pass& pass, std::size_t e0,
                                                                        const double* c2, const double* xi,
                                                                        std::size_t nb, std::array<double, 3>& d) {
@@ -731,8 +737,8 @@ class radicand_remedy {
         std::size_t b = 0;
         for (; b + 4 <= nb; b += 4) {
             const __m256d u = _mm256_loadu_pd(w0 + b), v = _mm256_loadu_pd(w1 + b), q = _mm256_loadu_pd(c2 + b);
-            const __m256d x = _mm256_loadu_pd(xi + b), dv = _mm256_sub_pd(q, x);
-            __m256d l0 = _mm256_mul_pd(u, dv), l1 = _mm256_mul_pd(v, dv);
+            const __m256d x = Defects ? _mm256_loadu_pd(xi + b) : _mm256_setzero_pd(), dv = _mm256_sub_pd(q, x);
+            __m256d l0 = Defects ? _mm256_mul_pd(u, dv) : x, l1 = Defects ? _mm256_mul_pd(v, dv) : x;
             __m256d l2 = _mm256_mul_pd(_mm256_and_pd(u, magnitude), q), l3 = _mm256_mul_pd(_mm256_and_pd(v, magnitude), q);
             __m256d g0 = _mm256_mul_pd(_mm256_mul_pd(u, u), q), g1 = _mm256_mul_pd(_mm256_mul_pd(u, v), q);
             __m256d g2 = _mm256_mul_pd(_mm256_mul_pd(v, v), q), g3 = _mm256_setzero_pd();
@@ -742,21 +748,23 @@ class radicand_remedy {
             lin = _mm256_add_pd(lin, l1), add_compensated(s, err, g1);
             lin = _mm256_add_pd(lin, l2), add_compensated(s, err, g2);
             lin = _mm256_add_pd(lin, l3), add_compensated(s, err, g3);
-            neg += double(__builtin_popcount(unsigned(_mm256_movemask_pd(_mm256_cmp_pd(x, _mm256_setzero_pd(), _CMP_LT_OQ)))));
+            if constexpr (Defects)
+                neg += double(__builtin_popcount(
+                    unsigned(_mm256_movemask_pd(_mm256_cmp_pd(x, _mm256_setzero_pd(), _CMP_LT_OQ)))));
         }
         for (; b < nb; ++b) {
-            const double u = w0[b], v = w1[b], q = c2[b], dv = c2[b] - xi[b];
+            const double u = w0[b], v = w1[b], q = c2[b], dv = Defects ? c2[b] - xi[b] : 0.0;
             // d_0 += u dv, d_1 += v dv, A_0 += |u| q, A_1 += |v| q
             lin = _mm256_add_pd(lin, _mm256_mul_pd(_mm256_set_pd(std::abs(v), std::abs(u), v, u),
                                                    _mm256_set_pd(q, q, dv, dv)));
             // G_00 += u u q, G_01 += u v q, G_11 += v v q (compensated_sum::add, lane by lane)
             add_compensated(s, err, _mm256_mul_pd(_mm256_mul_pd(_mm256_set_pd(0.0, v, u, u), _mm256_set_pd(0.0, v, v, u)),
                                           _mm256_set1_pd(q)));
-            neg += xi[b] < 0.0 ? 1.0 : 0.0;
+            if constexpr (Defects) neg += xi[b] < 0.0 ? 1.0 : 0.0;
         }
         alignas(32) double l[4], sv[4], ev[4];
         _mm256_store_pd(l, lin), _mm256_store_pd(sv, s), _mm256_store_pd(ev, err);
-        d = {l[0], l[1], neg};
+        if constexpr (Defects) d = {l[0], l[1], neg};
         pass.a0 = l[2], pass.a1 = l[3];
         pass.g00 = {sv[0], ev[0]}, pass.g01 = {sv[1], ev[1]}, pass.g11 = {sv[2], ev[2]};
     }
