@@ -3,6 +3,7 @@
 #include "eci/spectral/flow.hpp"
 
 #include "eci/detail/format.hpp"
+#include "eci/detail/simd.hpp"
 #include "eci/memory.hpp"
 
 #include <algorithm>
@@ -106,6 +107,126 @@ void flow_params::validate(const spectral::equation& e) const {
                              (processes > 1.0 ? " on " + std::to_string(int(processes)) + " processes" : ""));
 }
 
+namespace {
+
+// A run of the fused column pass's modes (nonlinear_runs): column k_x, rows k_y = ky0, ky0 + 1, ..., the transforms'
+// outputs o0 (and o1) there, and the transforms' scale; the right-hand side's vector pass reads it.
+struct column_run {
+    const cplx* o0;
+    const cplx* o1;
+    double kx, ky0, scale;
+};
+
+#if ECI_DETAIL_X86_SIMD
+// The fused column pass's loops over a column's modes for AVX2, two modes a vector, with the scalar code's
+// operations in each lane (no FMA): the same bits. Each takes count modes from k_y = ky, k_y exact integers in
+// doubles (so stepping them by 2 is exact).
+using v4 = __m256d;
+// (a, a, b, b) from a[0], a[1]
+__attribute__((target("avx2"))) inline v4 pairs(const double* a) {
+    return _mm256_permute4x64_pd(_mm256_castpd128_pd256(_mm_loadu_pd(a)), 0x50);
+}
+// (ky, ky, ky + 1, ky + 1) times (s0, s1, s0, s1)
+__attribute__((target("avx2"))) inline v4 ky_pairs(double ky, double s0, double s1) {
+    return _mm256_mul_pd(_mm256_set_pd(ky + 1.0, ky + 1.0, ky, ky), _mm256_set_pd(s1, s0, s1, s0));
+}
+// flow2d::impl::velocity of count modes (q, a): u = (k_y psi_i, -k_y psi_r), v = (-k_x psi_i, k_x psi_r), psi = a q;
+// with grad (the advective form) also qx = (-k_x q_i, k_x q_r), qy = (-k_y q_i, k_y q_r). Returns the modes done
+// (pairs); the caller finishes the odd one.
+__attribute__((target("avx2"))) std::size_t velocity_pairs(const cplx* q, const double* a, double kx, double ky,
+                                                          std::size_t count, cplx* u, cplx* v, cplx* qx, cplx* qy) {
+    const v4 kxv = _mm256_set_pd(kx, -kx, kx, -kx), two = _mm256_set_pd(-2.0, 2.0, -2.0, 2.0);
+    v4 kyu = ky_pairs(ky, 1.0, -1.0);  // (ky, -ky, ...): u's
+    std::size_t k = 0;
+    for (; k + 2 <= count; k += 2) {
+        const v4 qv = _mm256_loadu_pd(reinterpret_cast<const double*>(q + k));
+        const v4 psi = _mm256_mul_pd(pairs(a + k), qv);      // (a q_r, a q_i)
+        const v4 swapped = _mm256_permute_pd(psi, 0x5);      // (psi_i, psi_r)
+        _mm256_storeu_pd(reinterpret_cast<double*>(u + k), _mm256_mul_pd(kyu, swapped));
+        _mm256_storeu_pd(reinterpret_cast<double*>(v + k), _mm256_mul_pd(kxv, swapped));
+        if (qx) {
+            const v4 qs = _mm256_permute_pd(qv, 0x5);  // (q_i, q_r)
+            const v4 kyg = _mm256_xor_pd(kyu, _mm256_set1_pd(-0.0));  // (-ky, ky), as the scalar -ky (-0 at 0)
+            _mm256_storeu_pd(reinterpret_cast<double*>(qx + k), _mm256_mul_pd(kxv, qs));
+            _mm256_storeu_pd(reinterpret_cast<double*>(qy + k), _mm256_mul_pd(kyg, qs));
+        }
+        kyu = _mm256_add_pd(kyu, two);
+    }
+    return k;
+}
+// rhs_pass's right-hand side at count modes of a column run, state modes i0 ..: v = N_k + L_k x_k (+ the
+// dispersion) (+ F_k) into f, N_k = nl_of's, and when recording, each mode's terms of the budget's six sums added
+// to acc in mode order (rhs_pass's). Returns the modes done (pairs).
+template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
+__attribute__((target("avx2"))) std::size_t rhs_pairs(const column_run& run, std::size_t count, std::size_t i0,
+                                                     const cplx* x, const double* lin, const double* disp,
+                                                     const cplx* fk, cplx* f, const double* wt, const double* ea,
+                                                     std::array<double, 6>& acc) {
+    static_assert(F == nonlinear_form::basdevant || F == nonlinear_form::advective,
+                  "a new nonlinear form needs its branch here (nl_of's operations, in each lane)");
+    x += i0, lin += i0, f += i0;
+    if constexpr (Dispersive) disp += i0;  // (the tables of the other kinds of runs are empty)
+    if constexpr (Forced) fk += i0;
+    if constexpr (Record) wt += i0, ea += i0;
+    // the sums: (E injection, E dissipation, Z injection, Z dissipation) and (E transfer, Z transfer, -, -)
+    v4 sums = _mm256_loadu_pd(acc.data()), transfer = _mm256_set_pd(0.0, 0.0, acc[5], acc[4]);
+    const v4 sign = _mm256_set1_pd(-0.0);
+    const v4 scale = _mm256_set1_pd(F == nonlinear_form::basdevant ? run.scale : -run.scale);
+    const v4 kx = _mm256_set1_pd(run.kx), kx2 = _mm256_set1_pd(run.kx * run.kx), two = _mm256_set1_pd(2.0);
+    v4 ky = ky_pairs(run.ky0, 1.0, 1.0);
+    std::size_t k = 0;
+    for (; k + 2 <= count; k += 2) {
+        const v4 o0 = _mm256_loadu_pd(reinterpret_cast<const double*>(run.o0 + k));
+        v4 nk;
+        if constexpr (F == nonlinear_form::basdevant) {
+            const v4 o1 = _mm256_loadu_pd(reinterpret_cast<const double*>(run.o1 + k));
+            const v4 c1 = _mm256_sub_pd(kx2, _mm256_mul_pd(ky, ky)), c2 = _mm256_mul_pd(kx, ky);
+            nk = _mm256_mul_pd(scale, _mm256_add_pd(_mm256_mul_pd(c1, o0), _mm256_mul_pd(c2, o1)));
+        } else {
+            nk = _mm256_mul_pd(scale, o0);
+        }
+        const v4 xv = _mm256_loadu_pd(reinterpret_cast<const double*>(x + k));
+        v4 val = _mm256_add_pd(nk, _mm256_mul_pd(pairs(lin + k), xv));
+        if constexpr (Dispersive) {
+            const v4 d = _mm256_mul_pd(pairs(disp + k), _mm256_set_pd(1.0, -1.0, 1.0, -1.0));  // (-d, d): exact
+            val = _mm256_add_pd(val, _mm256_mul_pd(d, _mm256_permute_pd(xv, 0x5)));
+        }
+        [[maybe_unused]] v4 fv = _mm256_setzero_pd();
+        if constexpr (Forced) fv = _mm256_loadu_pd(reinterpret_cast<const double*>(fk + k));
+        if constexpr (Forced || Record) val = _mm256_add_pd(val, fv);  // (recording adds the zero F_k: -0 -> +0)
+        _mm256_storeu_pd(reinterpret_cast<double*>(f + k), val);
+        ky = _mm256_add_pd(ky, two);
+        if constexpr (Record) {
+            // per mode, in both lanes of its half: x . N_k, -L_k |x|^2, x . F_k, and the weights w_k |a_k|, w_k
+            const v4 nl = _mm256_hadd_pd(_mm256_mul_pd(xv, nk), _mm256_mul_pd(xv, nk));
+            const v4 norm = _mm256_hadd_pd(_mm256_mul_pd(xv, xv), _mm256_mul_pd(xv, xv));
+            const v4 diss = _mm256_mul_pd(_mm256_xor_pd(pairs(lin + k), sign), norm);
+            v4 inj = _mm256_setzero_pd();
+            if constexpr (Forced) inj = _mm256_hadd_pd(_mm256_mul_pd(xv, fv), _mm256_mul_pd(xv, fv));
+            const v4 w = pairs(wt + k), we = _mm256_mul_pd(w, pairs(ea + k));
+            const v4 rates = _mm256_unpacklo_pd(inj, diss);  // (inj, diss) of each mode
+            const v4 weights = _mm256_unpacklo_pd(we, w);     // (we, w) of each mode
+            // the first mode's terms, then the second's
+            sums = _mm256_add_pd(sums, _mm256_mul_pd(_mm256_permute2f128_pd(we, w, 0x20),
+                                                     _mm256_permute4x64_pd(rates, 0x44)));
+            transfer = _mm256_add_pd(transfer, _mm256_mul_pd(_mm256_permute4x64_pd(weights, 0x44),
+                                                             _mm256_permute4x64_pd(nl, 0x00)));
+            sums = _mm256_add_pd(sums, _mm256_mul_pd(_mm256_permute2f128_pd(we, w, 0x31),
+                                                     _mm256_permute4x64_pd(rates, 0xEE)));
+            transfer = _mm256_add_pd(transfer, _mm256_mul_pd(_mm256_permute4x64_pd(weights, 0xEE),
+                                                             _mm256_permute4x64_pd(nl, 0xAA)));
+        }
+    }
+    if constexpr (Record) {
+        _mm256_storeu_pd(acc.data(), sums);
+        _mm_storeu_pd(acc.data() + 4, _mm256_castpd256_pd128(transfer));
+    }
+    return k;
+}
+#endif
+
+}  // namespace
+
 struct flow2d::impl {
     flow_params p;
     const equation* eq = nullptr;
@@ -120,6 +241,12 @@ struct flow2d::impl {
     int c0 = 0;                    // k_x of the state's (and the grid's local) first column
     std::size_t rs = 0;            // the grid's spectral index of (row, column c): row rs + c (grid::at)
     bool by_columns = false;       // the state stored by columns (flow2d::by_columns(): the fused column pass)
+    // the fused column pass's loops over modes in AVX2 where the processor has it (flow2d::set_vector_passes)
+#if ECI_DETAIL_X86_SIMD
+    bool vector = eci::detail::cpu_has_avx2();
+#else
+    bool vector = false;
+#endif
     // the forced band's modes in the order of the half plane (rows, then k_x), and where each is held in this
     // process's state (npos: another process's); the forcing is drawn over all of them, so it is the same at any
     // number of processes
@@ -210,6 +337,24 @@ struct flow2d::impl {
         const double* ac = a.data() + s0;
         const cplx* qc = q + s0;
         const std::size_t K = std::size_t(kmax), shift = std::size_t(g.n()) - R;  // row r > kmax: the grid's r + shift
+#if ECI_DETAIL_X86_SIMD
+        if (vector) {
+            const bool grad = fields > 2;
+            // rows k_y = 0 .. kmax, then k_y = -kmax .. -1 (the grid's rows r + shift), pairs in AVX2, an odd one below
+            const auto run = [&](std::size_t r0, std::size_t count, std::size_t dst, double ky) {
+                const std::size_t done = velocity_pairs(qc + r0, ac + r0, kx, ky, count, col[0] + dst, col[1] + dst,
+                                                        grad ? col[2] + dst : nullptr, grad ? col[3] + dst : nullptr);
+                for (std::size_t k = done; k < count; ++k) {
+                    const double y = ky + double(k);
+                    velocity(qc[r0 + k], ac[r0 + k], kx, y, col[0][dst + k], col[1][dst + k]);
+                    if (grad) gradient(qc[r0 + k], kx, y, col[2][dst + k], col[3][dst + k]);
+                }
+            };
+            run(0, K + 1, 0, 0.0);
+            run(K + 1, R - K - 1, K + 1 + shift, double(K + 1) - double(R));
+            return;
+        }
+#endif
         for (std::size_t r = 0; r <= K; ++r) {  // k_y = r >= 0
             velocity(qc[r], ac[r], kx, double(r), col[0][r], col[1][r]);
             if (fields > 2) gradient(qc[r], kx, double(r), col[2][r], col[3][r]);
@@ -223,7 +368,8 @@ struct flow2d::impl {
 
     // The pointwise products between the transforms: Basdevant's (u, v) -> (uv, v^2 - u^2), or the advective
     // u q_x + v q_y into field 0.
-    static void basdevant_product(double* const* f, std::size_t nx) {
+    // (Always inlined into each version below: the baseline's, and AVX2's without FMA, the same bits.)
+    [[gnu::always_inline]] static void basdevant_body(double* const* f, std::size_t nx) {
         double* u = f[0];
         double* v = f[1];
         for (std::size_t x = 0; x < nx; ++x) {
@@ -232,8 +378,26 @@ struct flow2d::impl {
             v[x] = (vv - uu) * (vv + uu);
         }
     }
-    static void advective_product(double* const* f, std::size_t nx) {
+    [[gnu::always_inline]] static void advective_body(double* const* f, std::size_t nx) {
         for (std::size_t x = 0; x < nx; ++x) f[0][x] = f[0][x] * f[2][x] + f[1][x] * f[3][x];
+    }
+    static void basdevant_product(double* const* f, std::size_t nx) { basdevant_body(f, nx); }
+    static void advective_product(double* const* f, std::size_t nx) { advective_body(f, nx); }
+#if ECI_DETAIL_X86_SIMD
+    __attribute__((target("avx2"))) static void basdevant_product_avx2(double* const* f, std::size_t nx) {
+        basdevant_body(f, nx);
+    }
+    __attribute__((target("avx2"))) static void advective_product_avx2(double* const* f, std::size_t nx) {
+        advective_body(f, nx);
+    }
+#endif
+    // the product of form F for the column pass (vector: the AVX2 version)
+    template <nonlinear_form F>
+    void (*product() const)(double* const*, std::size_t) {
+#if ECI_DETAIL_X86_SIMD
+        if (vector) return F == nonlinear_form::basdevant ? basdevant_product_avx2 : advective_product_avx2;
+#endif
+        return F == nonlinear_form::basdevant ? basdevant_product : advective_product;
     }
     static constexpr int inputs(nonlinear_form f) { return f == nonlinear_form::basdevant ? 2 : 4; }
     static constexpr int outputs(nonlinear_form f) { return f == nonlinear_form::basdevant ? 2 : 1; }
@@ -263,10 +427,11 @@ struct flow2d::impl {
             return -scale * o0;
     }
 
-    // The nonlinear term's transforms of q, and then body(i0, count, nl, thread) over runs of modes i0 .. i0 +
+    // The nonlinear term's transforms of q, and then body(i0, count, nl, thread, run) over runs of modes i0 .. i0 +
     // count - 1 of the state that cover it: nl(k) the term at mode i0 + k. By columns, fused with the column
-    // transforms: two runs per column (k_y >= 0 and k_y < 0, so that nl has no branch), each thread its columns.
-    // By rows, after the transforms in the grid's layout: a run per row, the rows split between the threads.
+    // transforms: two runs per column (k_y >= 0 and k_y < 0, so that nl has no branch), each thread its columns,
+    // run the column_run the run's nl reads (for a vector loop). By rows, after the transforms in the grid's layout:
+    // a run per row, the rows split between the threads, run null.
     template <nonlinear_form F, class Body>
     void nonlinear_runs(const cplx* q, Body body) {
         const double scale = 1.0 / double(g.points());
@@ -275,18 +440,22 @@ struct flow2d::impl {
             g.transform_product_columns(
                 inputs(F), outputs(F),
                 [&](int kx, cplx* const* col, int) { fill_column(q, inputs(F), kx, col); },
-                F == nonlinear_form::basdevant ? basdevant_product : advective_product,
+                product<F>(),
                 [&](int kx, const cplx* const* col, int tid) {
                     const double x = kx;
                     const std::size_t i0 = std::size_t(kx - c0) * R;
                     const cplx* o0 = col[0];
                     const cplx* o1 = F == nonlinear_form::basdevant ? col[1] : col[0];
                     // rows k_y = 0 .. kmax at the grid's rows 0 .. kmax, then k_y = -kmax .. -1 at r + shift
-                    body(i0, K + 1, [&](std::size_t k) { return nl_of<F>(o0[k], o1[k], x, double(k), scale); }, tid);
+                    const column_run up{o0, o1, x, 0.0, scale};
+                    body(i0, K + 1, [&](std::size_t k) { return nl_of<F>(o0[k], o1[k], x, double(k), scale); }, tid,
+                         &up);
                     const cplx* p0 = o0 + (K + 1 + shift);
                     const cplx* p1 = o1 + (K + 1 + shift);
+                    const column_run down{p0, p1, x, -double(K), scale};
                     body(i0 + K + 1, R - K - 1,
-                         [&](std::size_t k) { return nl_of<F>(p0[k], p1[k], x, double(k) - double(K), scale); }, tid);
+                         [&](std::size_t k) { return nl_of<F>(p0[k], p1[k], x, double(k) - double(K), scale); }, tid,
+                         &down);
                 });
             return;
         }
@@ -298,14 +467,15 @@ struct flow2d::impl {
                 const cplx* o0 = nl_out[0] + j0;
                 const cplx* o1 = F == nonlinear_form::basdevant ? nl_out[1] + j0 : o0;
                 body(std::size_t(r) * kept, kept,
-                     [&](std::size_t k) { return nl_of<F>(o0[k], o1[k], double(c0 + int(k)), ky, scale); }, tid);
+                     [&](std::size_t k) { return nl_of<F>(o0[k], o1[k], double(c0 + int(k)), ky, scale); }, tid,
+                     static_cast<const column_run*>(nullptr));
             }
         });
     }
 
     template <nonlinear_form F>
     void nonlinear_out(const cplx* q, cplx* dst) {
-        nonlinear_runs<F>(q, [&](std::size_t i0, std::size_t count, const auto& nl, int) {
+        nonlinear_runs<F>(q, [&](std::size_t i0, std::size_t count, const auto& nl, int, const column_run*) {
             for (std::size_t k = 0; k < count; ++k) dst[i0 + k] = nl(k);
         });
         if (c0 == 0 && kept > 0) dst[0] = 0.0;  // k = 0
@@ -419,6 +589,12 @@ void flow2d::set_form(nonlinear_form f) {
     form_ = f;
 }
 
+void flow2d::set_vector_passes([[maybe_unused]] bool on) {
+#if ECI_DETAIL_X86_SIMD
+    d_->vector = on && eci::detail::cpu_has_avx2();
+#endif
+}
+
 void flow2d::execute_transforms() {
     // as the right-hand side makes them (with its pass over the rows, here doing nothing)
     const auto none = [](double* const*, std::size_t) {};
@@ -463,9 +639,16 @@ std::array<double, 6> rhs_pass(const flow2d& m, auto& d, const cplx* x, cplx* f)
     // (a state-sized array less per right-hand side).
     const std::size_t zero_mode = d.c0 == 0 ? 0 : std::size_t(-1);
     std::array<std::array<double, 6>, 64> part{};
-    d.template nonlinear_runs<F>(x, [&](std::size_t i0, std::size_t count, const auto& nl, int tid) {
+    d.template nonlinear_runs<F>(x, [&](std::size_t i0, std::size_t count, const auto& nl, int tid,
+                                        [[maybe_unused]] const column_run* run) {
+        std::size_t k = 0;
         std::array<double, 6> acc = part[std::size_t(tid)];
-        for (std::size_t k = 0; k < count; ++k) {
+#if ECI_DETAIL_X86_SIMD
+        // a column's run, two modes a vector (the run of the zero mode is the scalar loop's below)
+        if (run && d.vector && i0 != zero_mode)
+            k = rhs_pairs<F, Dispersive, Forced, Record>(*run, count, i0, x, lin, disp, Fk, f, wt, ea, acc);
+#endif
+        for (; k < count; ++k) {
             const std::size_t i = i0 + k;
             const cplx nk = i != zero_mode ? nl(k) : cplx{};
             cplx v = nk + lin[i] * x[i];

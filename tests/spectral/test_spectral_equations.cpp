@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <complex>
 #include <cstdint>
 #include <limits>
@@ -184,6 +185,52 @@ TEST_P(Equation, ColumnPassRightHandSideAndRatesAgree) {
             EXPECT_LE(std::abs(pa[k] - pb[k]), tol * scale) << "rate " << k << ", N = " << n << ", " << threads;
         EXPECT_NE(rb.energy_injection, 0.0);
         EXPECT_NE(rb.enstrophy_dissipation, 0.0);
+    }
+}
+
+// The fused column pass's loops over modes in AVX2 (the default where the processor has it) give the bits of the
+// baseline loops, for each equation in its form and in the advective one, damped, unforced and forced, with runs of
+// even and odd length (N = 64: kmax + 1 = 22 and kmax = 21 rows; N = 34: 12 and 11), on one thread and two; so do
+// a right-hand side that records the budget's rates, its dq/dt and its six sums (each summed in mode order).
+TEST_P(Equation, VectorPassesRoundLikeTheBaselineLoops) {
+    for (const auto& [n, threads] : {std::pair{64, 1}, std::pair{34, 2}}) {
+        for (const auto forcing : {eci::spectral::forcing_kind::none, eci::spectral::forcing_kind::deterministic}) {
+            flow_params p = params(GetParam(), n);
+            p.nu = 1e-3, p.drag = 0.05, p.threads = threads;
+            p.forcing = forcing, p.forcing_k = 5.0;
+            flow2d m(p);
+            const state q = m.random_field(6.0, 0.5, 8);
+            for (const auto form : {m.form(), eci::spectral::nonlinear_form::advective}) {
+                m.set_form(form);
+                state base, wide, recorded, recorded_wide;
+                m.set_vector_passes(false);
+                m(q, base, 0.0);
+                const auto rates = m.rates(q);  // (a recording right-hand side)
+                m(q, recorded, 0.0);
+                m.set_vector_passes(true);
+                m(q, wide, 0.0);
+                const auto rates_wide = m.rates(q);
+                const auto same = [](const state& a, const state& b) {
+                    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(cplx)) == 0;
+                };
+                const std::string where = "N = " + std::to_string(n) + ", forced " +
+                                          std::to_string(int(forcing)) + ", form " + std::to_string(int(form));
+                EXPECT_TRUE(same(base, wide)) << where;
+                EXPECT_TRUE(same(base, recorded)) << where;
+                EXPECT_GT(max_abs(base), 0.0) << where;
+                const double r[6] = {rates.energy_injection, rates.energy_dissipation, rates.enstrophy_injection,
+                                     rates.enstrophy_dissipation, rates.energy_transfer, rates.enstrophy_transfer};
+                const double w[6] = {rates_wide.energy_injection, rates_wide.energy_dissipation,
+                                     rates_wide.enstrophy_injection, rates_wide.enstrophy_dissipation,
+                                     rates_wide.energy_transfer, rates_wide.enstrophy_transfer};
+                EXPECT_EQ(std::memcmp(r, w, sizeof r), 0) << where;
+                EXPECT_NE(r[1], 0.0) << where;
+                EXPECT_NE(r[4], 0.0) << where;
+                if (forcing != eci::spectral::forcing_kind::none) {
+                    EXPECT_NE(r[0], 0.0) << where;
+                }
+            }
+        }
     }
 }
 

@@ -228,6 +228,10 @@ class flow2d {
     void execute_transforms();
     /// How many transforms one right-hand side executes (4 in Basdevant's form, 5 in the advective one).
     int transforms_per_rhs() const;
+    /// The fused column pass's loops over modes (filling the columns, the products, the right-hand side) in AVX2
+    /// where the processor has it (the default), or in the baseline's: the same bits either way, which a test and
+    /// the benchmarks compare. Turning them on where the processor lacks AVX2 leaves them off.
+    void set_vector_passes(bool on);
     /// The form the right-hand side computes the nonlinear term in now: the equation's, or the advective form
     /// (which every equation allows) for a step retried in it.
     nonlinear_form form() const { return form_; }
