@@ -337,33 +337,24 @@ struct flow2d::impl {
         const double* ac = a.data() + s0;
         const cplx* qc = q + s0;
         const std::size_t K = std::size_t(kmax), shift = std::size_t(g.n()) - R;  // row r > kmax: the grid's r + shift
+        const bool grad = fields > 2;
+        // count rows from r0 (k_y = ky, ky + 1, ...) to the grid's rows from dst: pairs in AVX2 (vector), the rest
+        // (all, or an odd one) here
+        const auto run = [&](std::size_t r0, std::size_t count, std::size_t dst, double ky) {
+            std::size_t done = 0;
 #if ECI_DETAIL_X86_SIMD
-        if (vector) {
-            const bool grad = fields > 2;
-            // rows k_y = 0 .. kmax, then k_y = -kmax .. -1 (the grid's rows r + shift), pairs in AVX2, an odd one below
-            const auto run = [&](std::size_t r0, std::size_t count, std::size_t dst, double ky) {
-                const std::size_t done = velocity_pairs(qc + r0, ac + r0, kx, ky, count, col[0] + dst, col[1] + dst,
-                                                        grad ? col[2] + dst : nullptr, grad ? col[3] + dst : nullptr);
-                for (std::size_t k = done; k < count; ++k) {
-                    const double y = ky + double(k);
-                    velocity(qc[r0 + k], ac[r0 + k], kx, y, col[0][dst + k], col[1][dst + k]);
-                    if (grad) gradient(qc[r0 + k], kx, y, col[2][dst + k], col[3][dst + k]);
-                }
-            };
-            run(0, K + 1, 0, 0.0);
-            run(K + 1, R - K - 1, K + 1 + shift, double(K + 1) - double(R));
-            return;
-        }
+            if (vector)
+                done = velocity_pairs(qc + r0, ac + r0, kx, ky, count, col[0] + dst, col[1] + dst,
+                                      grad ? col[2] + dst : nullptr, grad ? col[3] + dst : nullptr);
 #endif
-        for (std::size_t r = 0; r <= K; ++r) {  // k_y = r >= 0
-            velocity(qc[r], ac[r], kx, double(r), col[0][r], col[1][r]);
-            if (fields > 2) gradient(qc[r], kx, double(r), col[2][r], col[3][r]);
-        }
-        for (std::size_t r = K + 1; r < R; ++r) {  // k_y = r - R < 0
-            const double ky = double(r) - double(R);
-            velocity(qc[r], ac[r], kx, ky, col[0][r + shift], col[1][r + shift]);
-            if (fields > 2) gradient(qc[r], kx, ky, col[2][r + shift], col[3][r + shift]);
-        }
+            for (std::size_t k = done; k < count; ++k) {
+                const double y = ky + double(k);
+                velocity(qc[r0 + k], ac[r0 + k], kx, y, col[0][dst + k], col[1][dst + k]);
+                if (grad) gradient(qc[r0 + k], kx, y, col[2][dst + k], col[3][dst + k]);
+            }
+        };
+        run(0, K + 1, 0, 0.0);                                             // k_y = 0 .. kmax
+        run(K + 1, R - K - 1, K + 1 + shift, double(K + 1) - double(R));  // k_y = -kmax .. -1
     }
 
     // The pointwise products between the transforms: Basdevant's (u, v) -> (uv, v^2 - u^2), or the advective
@@ -446,16 +437,16 @@ struct flow2d::impl {
                     const std::size_t i0 = std::size_t(kx - c0) * R;
                     const cplx* o0 = col[0];
                     const cplx* o1 = F == nonlinear_form::basdevant ? col[1] : col[0];
+                    // a run's nl read from its column_run (k_y exact integers: ky0 + k is exact)
+                    const auto emit = [&](std::size_t first, std::size_t count, const column_run& r) {
+                        const auto nl = [&](std::size_t k) {
+                            return nl_of<F>(r.o0[k], r.o1[k], r.kx, r.ky0 + double(k), r.scale);
+                        };
+                        body(first, count, nl, tid, &r);
+                    };
                     // rows k_y = 0 .. kmax at the grid's rows 0 .. kmax, then k_y = -kmax .. -1 at r + shift
-                    const column_run up{o0, o1, x, 0.0, scale};
-                    body(i0, K + 1, [&](std::size_t k) { return nl_of<F>(o0[k], o1[k], x, double(k), scale); }, tid,
-                         &up);
-                    const cplx* p0 = o0 + (K + 1 + shift);
-                    const cplx* p1 = o1 + (K + 1 + shift);
-                    const column_run down{p0, p1, x, -double(K), scale};
-                    body(i0 + K + 1, R - K - 1,
-                         [&](std::size_t k) { return nl_of<F>(p0[k], p1[k], x, double(k) - double(K), scale); }, tid,
-                         &down);
+                    emit(i0, K + 1, {o0, o1, x, 0.0, scale});
+                    emit(i0 + K + 1, R - K - 1, {o0 + (K + 1 + shift), o1 + (K + 1 + shift), x, -double(K), scale});
                 });
             return;
         }

@@ -183,8 +183,9 @@ bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; 
 
 // A rescale finish's sums over a block (the defects d_j = sum w_j (c2 - xi), the negative xi counted, the
 // compensated Gram sums and the magnitudes A_j): the AVX2 version, four elements' terms at a time, and the dispatched
-// one give the bits of the scalar loop and gram_add, element by element, as gram_block alone does, for blocks of 64 and a tail of 3, weights of
-// either sign and of very different sizes, and negative xi in the vector body and the tail.
+// one give the bits of the scalar loop and gram_add, element by element, as gram_block alone does, for blocks of 64
+// and a tail of 3, weights of either sign and of very different sizes, and negative xi in the vector body and the
+// tail.
 TEST(FinishDispatch, RescaleSumsRoundLikeTheScalarLoop) {
     constexpr std::size_t n = 131;  // two blocks of 64 and one of 3
     std::mt19937_64 rng(31);

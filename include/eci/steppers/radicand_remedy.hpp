@@ -739,7 +739,8 @@ class radicand_remedy {
             const __m256d u = _mm256_loadu_pd(w0 + b), v = _mm256_loadu_pd(w1 + b), q = _mm256_loadu_pd(c2 + b);
             const __m256d x = Defects ? _mm256_loadu_pd(xi + b) : _mm256_setzero_pd(), dv = _mm256_sub_pd(q, x);
             __m256d l0 = Defects ? _mm256_mul_pd(u, dv) : x, l1 = Defects ? _mm256_mul_pd(v, dv) : x;
-            __m256d l2 = _mm256_mul_pd(_mm256_and_pd(u, magnitude), q), l3 = _mm256_mul_pd(_mm256_and_pd(v, magnitude), q);
+            __m256d l2 = _mm256_mul_pd(_mm256_and_pd(u, magnitude), q);
+            __m256d l3 = _mm256_mul_pd(_mm256_and_pd(v, magnitude), q);
             __m256d g0 = _mm256_mul_pd(_mm256_mul_pd(u, u), q), g1 = _mm256_mul_pd(_mm256_mul_pd(u, v), q);
             __m256d g2 = _mm256_mul_pd(_mm256_mul_pd(v, v), q), g3 = _mm256_setzero_pd();
             transpose(l0, l1, l2, l3);
@@ -758,8 +759,8 @@ class radicand_remedy {
             lin = _mm256_add_pd(lin, _mm256_mul_pd(_mm256_set_pd(std::abs(v), std::abs(u), v, u),
                                                    _mm256_set_pd(q, q, dv, dv)));
             // G_00 += u u q, G_01 += u v q, G_11 += v v q (compensated_sum::add, lane by lane)
-            add_compensated(s, err, _mm256_mul_pd(_mm256_mul_pd(_mm256_set_pd(0.0, v, u, u), _mm256_set_pd(0.0, v, v, u)),
-                                          _mm256_set1_pd(q)));
+            const __m256d uv = _mm256_mul_pd(_mm256_set_pd(0.0, v, u, u), _mm256_set_pd(0.0, v, v, u));
+            add_compensated(s, err, _mm256_mul_pd(uv, _mm256_set1_pd(q)));
             if constexpr (Defects) neg += xi[b] < 0.0 ? 1.0 : 0.0;
         }
         alignas(32) double l[4], sv[4], ev[4];
