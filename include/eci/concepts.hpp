@@ -98,6 +98,16 @@ constexpr const auto& model_of(const F& f) {
         return f;
 }
 
+/// A system that can run the stages of an explicit Runge-Kutta step itself, as the engines would one evaluation at a
+/// time and with the same bits (spectral::flow2d::run_stages: its column passes fused across the stages):
+/// run_stages(s, a, dt, x, k, y, t) sets k[0] = f(x), k[i] = f(Y_i), Y_i = x + sum_{j<i} (dt a[i s + j]) k_j (the
+/// nonzero terms in order: acc = x, then acc += (dt a_ij) k_j), the last Y_i in y; or returns false, having done
+/// nothing, and the engine evaluates the stages itself (detail::stage_storage).
+template <class F, class S>
+concept runs_stages = requires(F& f, const double* a, const S& x, S* k, S& y) {
+    { f.run_stages(1, a, 1.0, x, k, y, 0.0) } -> std::convertible_to<bool>;
+};
+
 /// A transform in which a system's invariants are sums of xi components. `to_xi(x, xi)` computes xi = T(x);
 /// `xi_rate(x, dxdt, rate)` computes dxi/dt at x (dxdt = f(x) is given, so no extra right-hand side is needed);
 /// `from_xi(xi, hint, x, stats)` inverts T on the branch of `hint`, recording any iterative solve in `stats`, and

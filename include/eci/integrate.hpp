@@ -196,6 +196,16 @@ struct system_view {
         ++count;
         f(x, dxdt, t);
     }
+    /// A model that runs a Runge-Kutta step's stages itself (flow2d::run_stages; detail::stage_storage asks),
+    /// counted as `stages` evaluations, after the cancel flag is polled once.
+    template <class S>
+    bool evaluate_stages(int stages, const double* a, double dt, const S& x, S* k, S& y, double t,
+                         std::uint64_t& count, const std::atomic<bool>* cancel) const {
+        if (cancel && cancel->load(std::memory_order_relaxed)) throw interrupted(t);
+        if (!f.run_stages(stages, a, dt, x, k, y, t)) return false;
+        count += std::uint64_t(stages);
+        return true;
+    }
 };
 
 /// The drivers' view of a system: counts its evaluations into `count`.
@@ -209,6 +219,11 @@ struct counting_system : system_view<F> {
     template <class S>
     [[gnu::always_inline]] void operator()(const S& x, S& dxdt, double t) const {
         this->evaluate(x, dxdt, t, count, cancel);
+    }
+    template <class S>
+        requires runs_stages<F, S>
+    bool run_stages(int stages, const double* a, double dt, const S& x, S* k, S& y, double t) const {
+        return this->evaluate_stages(stages, a, dt, x, k, y, t, count, cancel);
     }
 };
 
@@ -375,6 +390,11 @@ struct held_count : system_view<F> {
     template <class S>
     [[gnu::always_inline]] void operator()(const S& x, S& dxdt, double t) const {
         this->evaluate(x, dxdt, t, count, PollsEach ? cancel : nullptr);
+    }
+    template <class S>
+        requires runs_stages<F, S>
+    bool run_stages(int stages, const double* a, double dt, const S& x, S* k, S& y, double t) const {
+        return this->evaluate_stages(stages, a, dt, x, k, y, t, count, PollsEach ? cancel : nullptr);
     }
     void store() const { *home = count; }
 };

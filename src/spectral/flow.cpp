@@ -420,36 +420,20 @@ struct flow2d::impl {
 
     // The nonlinear term's transforms of q, and then body(i0, count, nl, thread, run) over runs of modes i0 .. i0 +
     // count - 1 of the state that cover it: nl(k) the term at mode i0 + k. By columns, fused with the column
-    // transforms: two runs per column (k_y >= 0 and k_y < 0, so that nl has no branch), each thread its columns,
-    // run the column_run the run's nl reads (for a vector loop). By rows, after the transforms in the grid's layout:
-    // a run per row, the rows split between the threads, run null.
+    // transforms (nonlinear_chain, one stage). By rows, after the transforms in the grid's layout: a run per row,
+    // the rows split between the threads, run null.
     template <nonlinear_form F, class Body>
     void nonlinear_runs(const cplx* q, Body body) {
-        const double scale = 1.0 / double(g.points());
-        const std::size_t R = std::size_t(rows), K = std::size_t(kmax), shift = std::size_t(g.n()) - R;
         if (by_columns) {
-            g.transform_product_columns(
-                inputs(F), outputs(F),
-                [&](int kx, cplx* const* col, int) { fill_column(q, inputs(F), kx, col); },
-                product<F>(),
-                [&](int kx, const cplx* const* col, int tid) {
-                    const double x = kx;
-                    const std::size_t i0 = std::size_t(kx - c0) * R;
-                    const cplx* o0 = col[0];
-                    const cplx* o1 = F == nonlinear_form::basdevant ? col[1] : col[0];
-                    // a run's nl read from its column_run (k_y exact integers: ky0 + k is exact)
-                    const auto emit = [&](std::size_t first, std::size_t count, const column_run& r) {
-                        const auto nl = [&](std::size_t k) {
-                            return nl_of<F>(r.o0[k], r.o1[k], r.kx, r.ky0 + double(k), r.scale);
-                        };
-                        body(first, count, nl, tid, &r);
-                    };
-                    // rows k_y = 0 .. kmax at the grid's rows 0 .. kmax, then k_y = -kmax .. -1 at r + shift
-                    emit(i0, K + 1, {o0, o1, x, 0.0, scale});
-                    emit(i0 + K + 1, R - K - 1, {o0 + (K + 1 + shift), o1 + (K + 1 + shift), x, -double(K), scale});
-                });
+            nonlinear_chain<F>(
+                1, [&](int, int) { return q; },
+                [&](int, std::size_t i0, std::size_t count, const auto& nl, int tid, const column_run* run) {
+                    body(i0, count, nl, tid, run);
+                },
+                [](int, int, int) {});
             return;
         }
+        const double scale = 1.0 / double(g.points());
         nonlinear_transforms(q, F);
         g.for_blocks(rows, [&](int r0, int r1, int tid) {
             for (int r = r0; r < r1; ++r) {
@@ -462,6 +446,38 @@ struct flow2d::impl {
                      static_cast<const column_run*>(nullptr));
             }
         });
+    }
+
+    // The nonlinear terms of `stages` states in a row, by columns (grid::transform_product_chain): input(s, kx) is
+    // stage s's state (the state's base pointer) with column k_x ready to read, asked for on the thread that then
+    // reads it, after column k_x of stage s - 1 is done; body(s, i0, count, nl, thread, run) over the two runs of
+    // each column (k_y >= 0 and k_y < 0, so that nl has no branch), each thread its columns, run the column_run the
+    // run's nl reads (for a vector loop); done(s, kx, thread) after both.
+    template <nonlinear_form F, class Input, class Body, class Done>
+    void nonlinear_chain(int stages, Input input, Body body, Done done) {
+        const double scale = 1.0 / double(g.points());
+        const std::size_t R = std::size_t(rows), K = std::size_t(kmax), shift = std::size_t(g.n()) - R;
+        g.transform_product_chain(
+            stages, inputs(F), outputs(F),
+            [&](int s, int kx, cplx* const* col, int) { fill_column(input(s, kx), inputs(F), kx, col); },
+            product<F>(),
+            [&](int s, int kx, const cplx* const* col, int tid) {
+                const double x = kx;
+                const std::size_t i0 = std::size_t(kx - c0) * R;
+                const cplx* o0 = col[0];
+                const cplx* o1 = F == nonlinear_form::basdevant ? col[1] : col[0];
+                // a run's nl read from its column_run (k_y exact integers: ky0 + k is exact)
+                const auto emit = [&](std::size_t first, std::size_t count, const column_run& r) {
+                    const auto nl = [&](std::size_t k) {
+                        return nl_of<F>(r.o0[k], r.o1[k], r.kx, r.ky0 + double(k), r.scale);
+                    };
+                    body(s, first, count, nl, tid, &r);
+                };
+                // rows k_y = 0 .. kmax at the grid's rows 0 .. kmax, then k_y = -kmax .. -1 at r + shift
+                emit(i0, K + 1, {o0, o1, x, 0.0, scale});
+                emit(i0 + K + 1, R - K - 1, {o0 + (K + 1 + shift), o1 + (K + 1 + shift), x, -double(K), scale});
+                done(s, kx, tid);
+            });
     }
 
     template <nonlinear_form F>
@@ -614,29 +630,69 @@ void flow2d::nonlinear_advective(const state_type& q, state_type& out) {
 
 namespace {
 
+// y = x + sum_{j < s} (dt a_j) k_j over n doubles of the state from double 2 i0 (a column), over the nonzero a_j in
+// order: each element's operations those of detail::combine_stages (acc = x, then acc += (dt a_j) k_j), one term at
+// a time over the column (in cache), so the same bits.
+[[gnu::always_inline]] inline void combine_body(double* y, const double* x, const cplx* const* k, std::size_t i0,
+                                                const double* a, int s, double dt, std::size_t n) {
+    bool first = true;
+    for (int j = 0; j < s; ++j) {
+        if (a[j] == 0.0) continue;
+        const double w = dt * a[j];
+        const double* kj = reinterpret_cast<const double*>(k[j] + i0);
+        if (first) {
+            for (std::size_t i = 0; i < n; ++i) y[i] = x[i] + w * kj[i];
+        } else {
+            for (std::size_t i = 0; i < n; ++i) y[i] += w * kj[i];
+        }
+        first = false;
+    }
+    if (first) std::copy(x, x + n, y);
+}
+#if ECI_DETAIL_X86_SIMD
+__attribute__((target("avx2"))) void combine_avx2(double* y, const double* x, const cplx* const* k, std::size_t i0,
+                                                  const double* a, int s, double dt, std::size_t n) {
+    combine_body(y, x, k, i0, a, s, dt, n);
+}
+#endif
+void combine_column(double* y, const double* x, const cplx* const* k, std::size_t i0, const double* a, int s,
+                    double dt, std::size_t n, [[maybe_unused]] bool vector) {
+#if ECI_DETAIL_X86_SIMD
+    if (vector) return combine_avx2(y, x, k, i0, a, s, dt, n);
+#endif
+    combine_body(y, x, k, i0, a, s, dt, n);
+}
+
 // One pass from the transforms to the right-hand side, over the runs of nonlinear_runs (columns fused with their
 // transforms, or rows): the dealiased nonlinear term plus L q + F, and when recording, the sums of what each
 // part does to E and Z (weights w_k |a_k| and w_k), per thread and then in thread order. The k_x = 0 column is
 // made exact conjugates after (L and F are Hermitian there, so that equals symmetrising N first).
+// A run's modes of the right-hand side into f, from the state x, the thread's sums added to `sums`.
 template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
-std::array<double, 6> rhs_pass(const flow2d& m, auto& d, const cplx* x, cplx* f) {
-    const double* wt = m.weights().data();
-    const double* lin = d.lin.data();
-    const double* disp = d.disp.data();
-    const double* ea = d.ea.data();
-    const cplx* Fk = d.force.data();
+struct rhs_runs {
+    const double* wt;
+    const double* lin;
+    const double* disp;
+    const double* ea;
+    const cplx* Fk;
     // The weight is zero at k = 0 alone (index 0 of the process holding the k_x = 0 column): the nonlinear term is
     // zero there, tested by index rather than by reading the weights, which the pass then reads only when recording
     // (a state-sized array less per right-hand side).
-    const std::size_t zero_mode = d.c0 == 0 ? 0 : std::size_t(-1);
-    std::array<std::array<double, 6>, 64> part{};
-    d.template nonlinear_runs<F>(x, [&](std::size_t i0, std::size_t count, const auto& nl, int tid,
-                                        [[maybe_unused]] const column_run* run) {
+    std::size_t zero_mode;
+    bool vector;
+
+    rhs_runs(const flow2d& m, const auto& d)
+        : wt(m.weights().data()), lin(d.lin.data()), disp(d.disp.data()), ea(d.ea.data()), Fk(d.force.data()),
+          zero_mode(d.c0 == 0 ? 0 : std::size_t(-1)), vector(d.vector) {}
+
+    template <class Nl>
+    void operator()(const cplx* x, cplx* f, std::size_t i0, std::size_t count, const Nl& nl,
+                    [[maybe_unused]] const column_run* run, std::array<double, 6>& sums) const {
         std::size_t k = 0;
-        std::array<double, 6> acc = part[std::size_t(tid)];
+        std::array<double, 6> acc = sums;  // (in registers through the loop, not the threads' adjacent slots)
 #if ECI_DETAIL_X86_SIMD
         // a column's run, two modes a vector (the run of the zero mode is the scalar loop's below)
-        if (run && d.vector && i0 != zero_mode)
+        if (run && vector && i0 != zero_mode)
             k = rhs_pairs<F, Dispersive, Forced, Record>(*run, count, i0, x, lin, disp, Fk, f, wt, ea, acc);
 #endif
         for (; k < count; ++k) {
@@ -663,12 +719,57 @@ std::array<double, 6> rhs_pass(const flow2d& m, auto& d, const cplx* x, cplx* f)
                 acc[5] += wt[i] * nl;
             }
         }
-        part[std::size_t(tid)] = acc;
-    });
+        sums = acc;
+    }
+};
+
+// Per-thread sums added in thread order.
+inline std::array<double, 6> thread_total(const std::array<std::array<double, 6>, 64>& part, int threads) {
     std::array<double, 6> total{};
-    for (int t = 0; t < std::min(d.g.threads(), 64); ++t)
+    for (int t = 0; t < std::min(threads, 64); ++t)
         for (std::size_t k = 0; k < 6; ++k) total[k] += part[std::size_t(t)][k];
     return total;
+}
+
+template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
+std::array<double, 6> rhs_pass(const flow2d& m, auto& d, const cplx* x, cplx* f) {
+    const rhs_runs<F, Dispersive, Forced, Record> runs(m, d);
+    std::array<std::array<double, 6>, 64> part{};
+    d.template nonlinear_runs<F>(x, [&](std::size_t i0, std::size_t count, const auto& nl, int tid,
+                                        const column_run* run) {
+        runs(x, f, i0, count, nl, run, part[std::size_t(tid)]);
+    });
+    return thread_total(part, d.g.threads());
+}
+
+// The stages of an explicit Runge-Kutta step as one chain of column passes (flow2d::run_stages): stage s's state
+// formed column by column just before its column is filled (Y_0 = x; Y_s in `y`, each column once the previous
+// stage's is done), its right-hand side into k[s], the k_x = 0 column made exact conjugates as soon as it is done;
+// sums[s] as rhs_pass's.
+template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
+void rhs_chain(const flow2d& m, auto& d, int stages, const double* a, double dt, const cplx* x, cplx* const* k,
+               cplx* y, std::array<double, 6>* sums) {
+    const rhs_runs<F, Dispersive, Forced, Record> runs(m, d);
+    std::vector<std::array<std::array<double, 6>, 64>> part(static_cast<std::size_t>(stages));
+    const std::size_t R = std::size_t(d.rows);
+    d.template nonlinear_chain<F>(
+        stages,
+        [&](int s, int kx) -> const cplx* {
+            if (s == 0) return x;
+            // Y_s's column: x + sum_j (dt a_sj) k_j over the nonzero a_sj in order, element by element
+            // (detail::combine_stages's operations: the same bits as the stages one at a time)
+            const std::size_t i0 = std::size_t(kx - d.c0) * R;
+            combine_column(reinterpret_cast<double*>(y + i0), reinterpret_cast<const double*>(x + i0), k, i0,
+                           a + std::size_t(s) * std::size_t(stages), s, dt, 2 * R, d.vector);
+            return y;
+        },
+        [&](int s, std::size_t i0, std::size_t count, const auto& nl, int tid, const column_run* run) {
+            runs(s == 0 ? x : y, k[s], i0, count, nl, run, part[std::size_t(s)][std::size_t(tid)]);
+        },
+        [&](int s, int kx, int) {
+            if (kx == 0) d.hermitian(k[s]);  // (the k_x = 0 column alone; hermitian checks it is this process's)
+        });
+    for (int s = 0; s < stages; ++s) sums[s] = thread_total(part[std::size_t(s)], d.g.threads());
 }
 
 template <nonlinear_form F, bool Dispersive>
@@ -677,6 +778,15 @@ std::array<double, 6> rhs_dispatch(const flow2d& m, auto& d, const cplx* x, cplx
     if (record) return rhs_pass<F, Dispersive, false, true>(m, d, x, f);
     if (forced) return rhs_pass<F, Dispersive, true, false>(m, d, x, f);
     return rhs_pass<F, Dispersive, false, false>(m, d, x, f);
+}
+
+template <nonlinear_form F, bool Dispersive>
+void chain_dispatch(const flow2d& m, auto& d, bool forced, bool record, int stages, const double* a, double dt,
+                    const cplx* x, cplx* const* k, cplx* y, std::array<double, 6>* sums) {
+    if (record && forced) return rhs_chain<F, Dispersive, true, true>(m, d, stages, a, dt, x, k, y, sums);
+    if (record) return rhs_chain<F, Dispersive, false, true>(m, d, stages, a, dt, x, k, y, sums);
+    if (forced) return rhs_chain<F, Dispersive, true, false>(m, d, stages, a, dt, x, k, y, sums);
+    return rhs_chain<F, Dispersive, false, false>(m, d, stages, a, dt, x, k, y, sums);
 }
 
 }  // namespace
@@ -699,6 +809,39 @@ void flow2d::operator()(const state_type& q, state_type& dqdt, double /*t*/) {
     if (recording_) d.g.sum_over_ranks(s.data(), s.size());  // (recording is on or off on every process alike)
     if (recording_ && recorded_count_ < recorded_.size())
         recorded_[recorded_count_++] = {s[0], s[1], s[2], s[3], s[4], s[5]};
+}
+
+bool flow2d::run_stages(int stages, const double* a, double dt, const state_type& x, state_type* k, state_type& y,
+                        double /*t*/) {
+    impl& d = *d_;
+    if (!d.by_columns || stages < 1 || std::size_t(stages) > recorded_.size() || x.size() != size()) return false;
+    std::array<cplx*, 16> kp{};
+    for (int s = 0; s < stages; ++s) {
+        k[s].resize(size());
+        kp[std::size_t(s)] = k[s].data();
+    }
+    y.resize(size());
+    const bool forced = d.p.forcing != forcing_kind::none;
+    std::array<std::array<double, 6>, 16> sums{};
+    const auto run = [&]<nonlinear_form F, bool Dispersive>() {
+        chain_dispatch<F, Dispersive>(*this, d, forced, recording_, stages, a, dt, x.data(), kp.data(), y.data(),
+                                      sums.data());
+    };
+    const bool basdevant = form_ == nonlinear_form::basdevant;
+    if (basdevant && !d.dispersive)
+        run.template operator()<nonlinear_form::basdevant, false>();
+    else if (basdevant)
+        run.template operator()<nonlinear_form::basdevant, true>();
+    else if (!d.dispersive)
+        run.template operator()<nonlinear_form::advective, false>();
+    else
+        run.template operator()<nonlinear_form::advective, true>();
+    for (int s = 0; s < stages; ++s) {
+        const auto& v = sums[std::size_t(s)];
+        if (recording_ && recorded_count_ < recorded_.size())
+            recorded_[recorded_count_++] = {v[0], v[1], v[2], v[3], v[4], v[5]};
+    }
+    return true;
 }
 
 flow_rates flow2d::rates(const state_type& q) {

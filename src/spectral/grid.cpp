@@ -599,88 +599,98 @@ void grid::product_pass(int in, int out, void (*fn)(void*, double* const*, std::
 
 bool grid::column_pass() const { return p_->pruned && !distributed_; }
 
-void grid::column_product(int in, int out, void (*load)(void*, int, cplx* const*, int), void* load_ctx,
-                          void (*fn)(void*, double* const*, std::size_t), void* fn_ctx,
-                          void (*store)(void*, int, const cplx* const*, int), void* store_ctx) const {
+void grid::column_product(int stages, int in, int out, void (*load)(void*, int, int, cplx* const*, int),
+                          void* load_ctx, void (*fn)(void*, double* const*, std::size_t), void* fn_ctx,
+                          void (*store)(void*, int, int, const cplx* const*, int), void* store_ctx) const {
     if (!column_pass()) throw std::logic_error("grid::transform_product_columns needs pruned transforms on one process");
     const std::size_t nc = std::size_t(columns()), ld = p_->col_ld, fs = p_->col_field;
     const int kept = kmax() + 1, K = kmax();
     const fftw_plan inv = p_->columns_y_inverse.at(std::size_t(in - 1)), fwd = p_->columns_y_forward.at(std::size_t(out - 1));
-    // per column: loaded, the rows between the retained ones zeroed, transformed along y (in cache)
-    omp_rows(threads_, kept, [&](int c0, int c1, int tid) {
+    // column c of stage s's inputs: loaded, the rows between the retained ones zeroed, transformed along y (in cache)
+    const auto load_column = [&](int s, int c, int tid) {
         cplx* col[8];
-        for (int c = c0; c < c1; ++c) {
-            for (int j = 0; j < in; ++j) {
-                col[j] = p_->buf + std::size_t(j) * fs + std::size_t(c) * ld;
-                std::fill(col[j] + K + 1, col[j] + (n_ - K), cplx{});
-            }
-            load(load_ctx, c, col, tid);
-            fftw_execute_dft(inv, reinterpret_cast<fftw_complex*>(col[0]), reinterpret_cast<fftw_complex*>(col[0]));
+        for (int j = 0; j < in; ++j) {
+            col[j] = p_->buf + std::size_t(j) * fs + std::size_t(c) * ld;
+            std::fill(col[j] + K + 1, col[j] + (n_ - K), cplx{});
         }
+        load(load_ctx, s, c, col, tid);
+        fftw_execute_dft(inv, reinterpret_cast<fftw_complex*>(col[0]), reinterpret_cast<fftw_complex*>(col[0]));
+    };
+    // column c of stage s's outputs: transformed back along y and read by store while in cache
+    const auto store_column = [&](int s, int c, int tid) {
+        const cplx* col[8];
+        cplx* first = p_->buf + std::size_t(c) * ld;
+        fftw_execute_dft(fwd, reinterpret_cast<fftw_complex*>(first), reinterpret_cast<fftw_complex*>(first));
+        for (int j = 0; j < out; ++j) col[j] = first + std::size_t(j) * fs;
+        store(store_ctx, s, c, col, tid);
+    };
+    omp_rows(threads_, kept, [&](int c0, int c1, int tid) {
+        for (int c = c0; c < c1; ++c) load_column(0, c, tid);
     });
     // the rows in blocks of row_block, in a thread's buffer: gathered from the columns, c2r, fn, r2c, scattered back
     // (a block's values of one column share a cache line; successive columns are ld apart, in different cache sets)
     constexpr int R = plans::row_block;
     static_assert(R == 4, "the full blocks below copy four rows by hand");
     const std::size_t bl = p_->row_pad;
-    omp_rows(threads_, (n_ + R - 1) / R, [&](int blk0, int blk1, int tid) {
-        double* const base = p_->rows[std::size_t(tid)];
-        const auto row = [&](int j, int q) { return base + (std::size_t(j) * R + std::size_t(q)) * bl; };
-        const auto real = [&](int j, int q) { return row(fields_ + j, q); };
-        for (int blk = blk0; blk < blk1; ++blk) {
-            const int y0 = blk * R, rb = std::min(R, n_ - y0);
-            for (int j = 0; j < in; ++j) {
-                const cplx* src = p_->buf + std::size_t(j) * fs + std::size_t(y0);
-                cplx* r[R];
-                for (int q = 0; q < R; ++q) r[q] = reinterpret_cast<cplx*>(row(j, q));
-                if (rb == R) {
-                    for (int c = 0; c < kept; ++c) {
-                        const cplx* s = src + std::size_t(c) * ld;
-                        r[0][c] = s[0], r[1][c] = s[1], r[2][c] = s[2], r[3][c] = s[3];
+    for (int s = 0; s < stages; ++s) {
+        omp_rows(threads_, (n_ + R - 1) / R, [&](int blk0, int blk1, int tid) {
+            double* const base = p_->rows[std::size_t(tid)];
+            const auto row = [&](int j, int q) { return base + (std::size_t(j) * R + std::size_t(q)) * bl; };
+            const auto real = [&](int j, int q) { return row(fields_ + j, q); };
+            for (int blk = blk0; blk < blk1; ++blk) {
+                const int y0 = blk * R, rb = std::min(R, n_ - y0);
+                for (int j = 0; j < in; ++j) {
+                    const cplx* src = p_->buf + std::size_t(j) * fs + std::size_t(y0);
+                    cplx* r[R];
+                    for (int q = 0; q < R; ++q) r[q] = reinterpret_cast<cplx*>(row(j, q));
+                    if (rb == R) {
+                        for (int c = 0; c < kept; ++c) {
+                            const cplx* v = src + std::size_t(c) * ld;
+                            r[0][c] = v[0], r[1][c] = v[1], r[2][c] = v[2], r[3][c] = v[3];
+                        }
+                    } else {
+                        for (int c = 0; c < kept; ++c)
+                            for (int q = 0; q < rb; ++q) r[q][c] = src[std::size_t(c) * ld + std::size_t(q)];
                     }
-                } else {
-                    for (int c = 0; c < kept; ++c)
-                        for (int q = 0; q < rb; ++q) r[q][c] = src[std::size_t(c) * ld + std::size_t(q)];
+                    for (int q = 0; q < rb; ++q) {
+                        std::fill(r[q] + kept, r[q] + nc, cplx{});
+                        fftw_execute_dft_c2r(p_->block_c2r, reinterpret_cast<fftw_complex*>(r[q]), real(j, q));
+                    }
                 }
                 for (int q = 0; q < rb; ++q) {
-                    std::fill(r[q] + kept, r[q] + nc, cplx{});
-                    fftw_execute_dft_c2r(p_->block_c2r, reinterpret_cast<fftw_complex*>(r[q]), real(j, q));
+                    double* b[8];
+                    for (int j = 0; j < in; ++j) b[j] = real(j, q);
+                    fn(fn_ctx, b, std::size_t(n_));
                 }
-            }
-            for (int q = 0; q < rb; ++q) {
-                double* b[8];
-                for (int j = 0; j < in; ++j) b[j] = real(j, q);
-                fn(fn_ctx, b, std::size_t(n_));
-            }
-            for (int j = 0; j < out; ++j) {
-                const cplx* r[R];
-                for (int q = 0; q < rb; ++q) {
-                    fftw_execute_dft_r2c(p_->block_r2c, real(j, q), reinterpret_cast<fftw_complex*>(row(j, q)));
-                    r[q] = reinterpret_cast<const cplx*>(row(j, q));
-                }
-                cplx* dst = p_->buf + std::size_t(j) * fs + std::size_t(y0);
-                if (rb == R) {
-                    for (int c = 0; c < kept; ++c) {
-                        cplx* d = dst + std::size_t(c) * ld;
-                        d[0] = r[0][c], d[1] = r[1][c], d[2] = r[2][c], d[3] = r[3][c];
+                for (int j = 0; j < out; ++j) {
+                    const cplx* r[R];
+                    for (int q = 0; q < rb; ++q) {
+                        fftw_execute_dft_r2c(p_->block_r2c, real(j, q), reinterpret_cast<fftw_complex*>(row(j, q)));
+                        r[q] = reinterpret_cast<const cplx*>(row(j, q));
                     }
-                } else {
-                    for (int c = 0; c < kept; ++c)
-                        for (int q = 0; q < rb; ++q) dst[std::size_t(c) * ld + std::size_t(q)] = r[q][c];
+                    cplx* dst = p_->buf + std::size_t(j) * fs + std::size_t(y0);
+                    if (rb == R) {
+                        for (int c = 0; c < kept; ++c) {
+                            cplx* d = dst + std::size_t(c) * ld;
+                            d[0] = r[0][c], d[1] = r[1][c], d[2] = r[2][c], d[3] = r[3][c];
+                        }
+                    } else {
+                        for (int c = 0; c < kept; ++c)
+                            for (int q = 0; q < rb; ++q) dst[std::size_t(c) * ld + std::size_t(q)] = r[q][c];
+                    }
                 }
             }
-        }
-    });
-    // per column: transformed back along y and read by store while in cache
-    omp_rows(threads_, kept, [&](int c0, int c1, int tid) {
-        const cplx* col[8];
-        for (int c = c0; c < c1; ++c) {
-            cplx* first = p_->buf + std::size_t(c) * ld;
-            fftw_execute_dft(fwd, reinterpret_cast<fftw_complex*>(first), reinterpret_cast<fftw_complex*>(first));
-            for (int j = 0; j < out; ++j) col[j] = first + std::size_t(j) * fs;
-            store(store_ctx, c, col, tid);
-        }
-    });
+        });
+        // stage s's outputs, and, column by column while its memory is in cache, the next stage's inputs (a column
+        // of the next stage's state needs only that column of this stage's result)
+        const bool last = s + 1 == stages;
+        omp_rows(threads_, kept, [&](int c0, int c1, int tid) {
+            for (int c = c0; c < c1; ++c) {
+                store_column(s, c, tid);
+                if (!last) load_column(s + 1, c, tid);
+            }
+        });
+    }
 }
 
 void grid::make_hermitian(cplx* w) const {

@@ -224,6 +224,16 @@ class flow2d {
 
     /// The right-hand side. Records the rates of the linear terms and forcing when recording is on.
     void operator()(const state_type& q, state_type& dqdt, double t);
+    /// The stages of an explicit Runge-Kutta step of `stages` stages, as the steppers run them one at a time
+    /// (detail::stage_storage) and with the same bits: k[0] = f(x), k[i] = f(Y_i), Y_i = x + sum_{j<i} (dt a_ij) k_j
+    /// (a row-major, stages x stages; the nonzero a_ij in order), the last Y_i left in y; each evaluation recorded
+    /// when recording is on. Run as one chain of column passes (grid::transform_product_chain): Y_i is formed column
+    /// by column as the previous stage finishes that column, and filled into the transforms' columns while all of it
+    /// is in cache, which saves a pass over the state per stage and a read of the transforms' columns. false, with
+    /// nothing done, where the grid has no column pass (spread over processes, unpruned transforms): the caller
+    /// then evaluates the stages one at a time. (The flow is autonomous: t, the step's start, is not read.)
+    bool run_stages(int stages, const double* a, double dt, const state_type& x, state_type* k, state_type& y,
+                    double t);
     /// The transforms of one right-hand-side evaluation and nothing else: the FFT floor of a step, for benchmarks.
     void execute_transforms();
     /// How many transforms one right-hand side executes (4 in Basdevant's form, 5 in the advective one).

@@ -184,11 +184,22 @@ class grid {
     /// when column_pass(); the scratch fields' contents are the grid's own layout for this (not at()'s).
     template <class Load, class Fn, class Store>
     void transform_product_columns(int in, int out, Load load, Fn fn, Store store) const {
-        column_product(in, out,
-                       [](void* c, int kx, cplx* const* col, int tid) { (*static_cast<Load*>(c))(kx, col, tid); }, &load,
-                       [](void* c, double* const* rows, std::size_t nx) { (*static_cast<Fn*>(c))(rows, nx); }, &fn,
-                       [](void* c, int kx, const cplx* const* col, int tid) { (*static_cast<Store*>(c))(kx, col, tid); },
-                       &store);
+        transform_product_chain(
+            1, in, out, [&](int, int kx, cplx* const* col, int tid) { load(kx, col, tid); }, fn,
+            [&](int, int kx, const cplx* const* col, int tid) { store(kx, col, tid); });
+    }
+    /// `stages` of transform_product_columns in a row, load(stage, kx, col, thread) and store(stage, kx, col,
+    /// thread): each column's store of one stage is followed at once by its load of the next, on the same thread,
+    /// while the column's memory is in cache (a stage's inputs at column k_x may depend on the previous stage's
+    /// outputs at k_x alone: the stages of a Runge-Kutta step on a state stored by columns, flow2d::run_stages).
+    template <class Load, class Fn, class Store>
+    void transform_product_chain(int stages, int in, int out, Load load, Fn fn, Store store) const {
+        column_product(
+            stages, in, out,
+            [](void* c, int s, int kx, cplx* const* col, int tid) { (*static_cast<Load*>(c))(s, kx, col, tid); }, &load,
+            [](void* c, double* const* rows, std::size_t nx) { (*static_cast<Fn*>(c))(rows, nx); }, &fn,
+            [](void* c, int s, int kx, const cplx* const* col, int tid) { (*static_cast<Store*>(c))(s, kx, col, tid); },
+            &store);
     }
 
     /// body(row0, row1) over the rows 0 .. rows-1 (default: the grid's n), split between the threads.
@@ -227,9 +238,9 @@ class grid {
     void run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const;
     void run_ranges(std::size_t n, void (*fn)(void*, std::size_t, std::size_t, int), void* ctx) const;
     void product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const;
-    void column_product(int in, int out, void (*load)(void*, int, cplx* const*, int), void* load_ctx,
+    void column_product(int stages, int in, int out, void (*load)(void*, int, int, cplx* const*, int), void* load_ctx,
                         void (*fn)(void*, double* const*, std::size_t), void* fn_ctx,
-                        void (*store)(void*, int, const cplx* const*, int), void* store_ctx) const;
+                        void (*store)(void*, int, int, const cplx* const*, int), void* store_ctx) const;
     struct plans;
     void plan_distributed(const grid_options& o);
     // spread over processes: the column transforms, the all-to-alls and the row passes (grid.cpp)

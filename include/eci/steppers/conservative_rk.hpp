@@ -45,7 +45,7 @@ class conservative_rk : public radicand_remedy {
         reduce_ = detail::reducer::of(f);  // empty unless the model's state is spread over processes
         split_ = detail::splitter::of(f);  // empty unless the model lends its threads (detail/ranges.hpp)
         if constexpr (s == 1) detail::resize_like(result_, x);
-        st_.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
+        st_.run_stages(f, x, t, dt, detail::no_stage_hook{});
         return finish<F>(x, dt);
     }
 

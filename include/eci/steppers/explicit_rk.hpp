@@ -209,6 +209,12 @@ std::array<const double*, N> offset(const std::array<const double*, N>& k, std::
     return r;
 }
 
+/// The on_stage of a caller that needs no stage values (stage_storage::run_stages).
+struct no_stage_hook {
+    template <class S>
+    void operator()(std::size_t, const S&, const S&) const {}
+};
+
 /// The stage buffers of an explicit tableau, and the computation of every stage's derivative.
 /// After `run_stages`, k[i] holds f(Y_i) and `stage` holds the last stage value Y_{s-1} (Y_0 = x itself).
 /// `on_stage(i, Y_i, k_i)` is called with the stage's state and derivative after each stage (the transformed
@@ -224,10 +230,15 @@ struct stage_storage {
         if constexpr (s > 1) resize_like(stage, x);
     }
 
-    /// Runs the first N stages (all by default; a caller that uses no later k_i may stop early).
+    /// Runs the first N stages (all by default; a caller that uses no later k_i may stop early). All of them, with
+    /// no_stage_hook, on a system that runs a step's stages itself (runs_stages: a spectral flow's fused column
+    /// passes) are run there, with the same bits.
     template <std::size_t N = s, class F, class OnStage>
     void run_stages(F& f, const S& x, double t, double dt, OnStage&& on_stage) {
         static_assert(N >= 1 && N <= s, "run between one stage and all of them");
+        if constexpr (N == s && std::is_same_v<std::remove_cvref_t<OnStage>, no_stage_hook> && runs_stages<F, S>) {
+            if (f.run_stages(int(s), a_flat.data(), dt, x, k.data(), stage, t)) return;
+        }
         [&]<std::size_t... I>(std::index_sequence<I...>) {
             (run_stage<I>(f, x, t, dt, on_stage), ...);
         }(std::make_index_sequence<N>{});
@@ -254,6 +265,13 @@ struct stage_storage {
         }
     }
 
+    // a, row-major (run_stages on a system that runs the stages)
+    static constexpr std::array<double, s * s> a_flat = [] {
+        std::array<double, s * s> r{};
+        for (std::size_t i = 0; i < s; ++i)
+            for (std::size_t j = 0; j < s; ++j) r[i * s + j] = T.a[i][j];
+        return r;
+    }();
     // Row I of a, truncated to its I explicit entries, as constexpr data usable as a template argument.
     template <std::size_t I>
     static constexpr std::array<double, I> row = [] {
@@ -310,7 +328,7 @@ class explicit_rk {
     template <system<S> F>
     step_result step_in(detail::stage_storage<T, S>& st, F& f, S& x, double t, double dt) {
         st.prepare(x);
-        st.run_stages(f, x, t, dt, [](std::size_t, const S&, const S&) {});
+        st.run_stages(f, x, t, dt, detail::no_stage_hook{});
         std::array<const double*, T.stages> kp{};
         for (std::size_t j = 0; j < T.stages; ++j) kp[j] = detail::reals(std::as_const(st.k[j])).data();
         auto xr = detail::reals(x);
