@@ -602,15 +602,16 @@ void flow2d::set_vector_passes([[maybe_unused]] bool on) {
 #endif
 }
 
-void flow2d::execute_transforms() {
-    // as the right-hand side makes them (with its pass over the rows, here doing nothing)
+void flow2d::execute_transforms(int stages) {
+    // as the right-hand side makes them (with its pass over the rows, here doing nothing): a step's stages as one
+    // chain where run_stages takes them so
     const auto none = [](double* const*, std::size_t) {};
     const int in = impl::inputs(form_), out = impl::outputs(form_);
     if (d_->g.column_pass())
-        d_->g.transform_product_columns(in, out, [](int, cplx* const*, int) {}, none,
-                                        [](int, const cplx* const*, int) {});
+        d_->g.transform_product_chain(stages, in, out, [](int, int, cplx* const*, int) {}, none,
+                                      [](int, int, const cplx* const*, int) {});
     else
-        d_->g.transform_product(in, out, none);
+        for (int s = 0; s < stages; ++s) d_->g.transform_product(in, out, none);
 }
 
 void flow2d::nonlinear(const state_type& q, state_type& out) {

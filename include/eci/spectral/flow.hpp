@@ -234,8 +234,9 @@ class flow2d {
     /// then evaluates the stages one at a time. (The flow is autonomous: t, the step's start, is not read.)
     bool run_stages(int stages, const double* a, double dt, const state_type& x, state_type* k, state_type& y,
                     double t);
-    /// The transforms of one right-hand-side evaluation and nothing else: the FFT floor of a step, for benchmarks.
-    void execute_transforms();
+    /// The transforms of `stages` right-hand-side evaluations and nothing else, as a step of that many stages makes
+    /// them (run_stages' chain where it takes them): the FFT floor of a step, for benchmarks.
+    void execute_transforms(int stages = 1);
     /// How many transforms one right-hand side executes (4 in Basdevant's form, 5 in the advective one).
     int transforms_per_rhs() const;
     /// The fused column pass's loops over modes (filling the columns, the products, the right-hand side) in AVX2
