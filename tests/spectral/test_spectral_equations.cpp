@@ -188,50 +188,59 @@ TEST_P(Equation, ColumnPassRightHandSideAndRatesAgree) {
     }
 }
 
-// The fused column pass's loops over modes in AVX2 (the default where the processor has it) give the bits of the
-// baseline loops, for each equation in its form and in the advective one, damped, unforced and forced, with runs of
-// even and odd length (N = 64: kmax + 1 = 22 and kmax = 21 rows; N = 34: 12 and 11), on one thread and two; so do
-// a right-hand side that records the budget's rates, its dq/dt and its six sums (each summed in mode order).
-TEST_P(Equation, VectorPassesRoundLikeTheBaselineLoops) {
+// The cases of the bit-for-bit tests below: body(flow, n, forced, where) on a damped flow of the equation, unforced
+// and forced, with runs of even and odd length (N = 64: kmax + 1 = 22 and kmax = 21 rows; N = 34: 12 and 11), on
+// one thread and two.
+template <class Body>
+void for_each_damped_flow(const std::string& equation, Body body) {
     for (const auto& [n, threads] : {std::pair{64, 1}, std::pair{34, 2}}) {
         for (const auto forcing : {eci::spectral::forcing_kind::none, eci::spectral::forcing_kind::deterministic}) {
-            flow_params p = params(GetParam(), n);
+            flow_params p = params(equation, n);
             p.nu = 1e-3, p.drag = 0.05, p.threads = threads;
             p.forcing = forcing, p.forcing_k = 5.0;
             flow2d m(p);
-            const state q = m.random_field(6.0, 0.5, 8);
-            for (const auto form : {m.form(), eci::spectral::nonlinear_form::advective}) {
-                m.set_form(form);
-                state base, wide, recorded, recorded_wide;
-                m.set_vector_passes(false);
-                m(q, base, 0.0);
-                const auto rates = m.rates(q);  // (a recording right-hand side)
-                m(q, recorded, 0.0);
-                m.set_vector_passes(true);
-                m(q, wide, 0.0);
-                const auto rates_wide = m.rates(q);
-                const auto same = [](const state& a, const state& b) {
-                    return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(cplx)) == 0;
-                };
-                const std::string where = "N = " + std::to_string(n) + ", forced " +
-                                          std::to_string(int(forcing)) + ", form " + std::to_string(int(form));
-                EXPECT_TRUE(same(base, wide)) << where;
-                EXPECT_TRUE(same(base, recorded)) << where;
-                EXPECT_GT(max_abs(base), 0.0) << where;
-                const double r[6] = {rates.energy_injection, rates.energy_dissipation, rates.enstrophy_injection,
-                                     rates.enstrophy_dissipation, rates.energy_transfer, rates.enstrophy_transfer};
-                const double w[6] = {rates_wide.energy_injection, rates_wide.energy_dissipation,
-                                     rates_wide.enstrophy_injection, rates_wide.enstrophy_dissipation,
-                                     rates_wide.energy_transfer, rates_wide.enstrophy_transfer};
-                EXPECT_EQ(std::memcmp(r, w, sizeof r), 0) << where;
-                EXPECT_NE(r[1], 0.0) << where;
-                EXPECT_NE(r[4], 0.0) << where;
-                if (forcing != eci::spectral::forcing_kind::none) {
-                    EXPECT_NE(r[0], 0.0) << where;
-                }
-            }
+            body(m, n, forcing != eci::spectral::forcing_kind::none,
+                 "N = " + std::to_string(n) + ", forced " + std::to_string(int(forcing)));
         }
     }
+}
+
+// The fused column pass's loops over modes in AVX2 (the default where the processor has it) give the bits of the
+// baseline loops, for each equation in its form and in the advective one, in each case of for_each_damped_flow; so
+// do a right-hand side that records the budget's rates, its dq/dt and its six sums (each summed in mode order).
+TEST_P(Equation, VectorPassesRoundLikeTheBaselineLoops) {
+    for_each_damped_flow(GetParam(), [](flow2d& m, int, bool forced, const std::string& flow) {
+        const state q = m.random_field(6.0, 0.5, 8);
+        for (const auto form : {m.form(), eci::spectral::nonlinear_form::advective}) {
+            m.set_form(form);
+            state base, wide, recorded, recorded_wide;
+            m.set_vector_passes(false);
+            m(q, base, 0.0);
+            const auto rates = m.rates(q);  // (a recording right-hand side)
+            m(q, recorded, 0.0);
+            m.set_vector_passes(true);
+            m(q, wide, 0.0);
+            const auto rates_wide = m.rates(q);
+            const auto same = [](const state& a, const state& b) {
+                return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(cplx)) == 0;
+            };
+            const std::string where = flow + ", form " + std::to_string(int(form));
+            EXPECT_TRUE(same(base, wide)) << where;
+            EXPECT_TRUE(same(base, recorded)) << where;
+            EXPECT_GT(max_abs(base), 0.0) << where;
+            const double r[6] = {rates.energy_injection, rates.energy_dissipation, rates.enstrophy_injection,
+                                 rates.enstrophy_dissipation, rates.energy_transfer, rates.enstrophy_transfer};
+            const double w[6] = {rates_wide.energy_injection, rates_wide.energy_dissipation,
+                                 rates_wide.enstrophy_injection, rates_wide.enstrophy_dissipation,
+                                 rates_wide.energy_transfer, rates_wide.enstrophy_transfer};
+            EXPECT_EQ(std::memcmp(r, w, sizeof r), 0) << where;
+            EXPECT_NE(r[1], 0.0) << where;
+            EXPECT_NE(r[4], 0.0) << where;
+            if (forced) {
+                EXPECT_NE(r[0], 0.0) << where;
+            }
+        }
+    });
 }
 
 // Shu and Osher's third-order tableau: a stage (the third) that sums two earlier ones.
@@ -252,67 +261,60 @@ struct one_at_a_time {
 // A step's stages run by the flow as one chain of column passes (flow2d::run_stages, which the Runge-Kutta engines
 // take where the flow offers it) give the bits of the stages one at a time: the new state, the stages' recorded
 // budget rates and the evaluations counted, for each equation in both forms, forced and not, vector passes on and
-// off, on one thread and two, for conventional and conservative engines of one to four stages and a tableau whose
-// stage sums two earlier ones.
+// off, in each case of for_each_damped_flow, for conventional and conservative engines of one to four stages and a
+// tableau whose stage sums two earlier ones.
 TEST_P(Equation, StagesInOneChainRoundLikeTheStagesOneAtATime) {
-    for (const auto& [n, threads] : {std::pair{64, 1}, std::pair{34, 2}}) {
-        for (const auto forcing : {eci::spectral::forcing_kind::none, eci::spectral::forcing_kind::deterministic}) {
-            flow_params p = params(GetParam(), n);
-            p.nu = 1e-3, p.drag = 0.05, p.threads = threads;
-            p.forcing = forcing, p.forcing_k = 5.0;
-            flow2d m(p);
-            const one_at_a_time plain{&m};
-            const state q0 = m.random_field(6.0, 0.5, 8);
-            const double dt = 0.5 * (2.0 * std::numbers::pi / n) / m.max_velocity(q0);
-            for (const auto form : {m.form(), eci::spectral::nonlinear_form::advective}) {
-                for (const bool vector : {true, false}) {
-                    m.set_form(form);
-                    m.set_vector_passes(vector);
-                    const std::string where = "N = " + std::to_string(n) + ", forced " +
-                                              std::to_string(int(forcing)) + ", form " + std::to_string(int(form)) +
-                                              ", vector " + std::to_string(vector);
-                    const auto compare = [&](auto stepper, const char* name) {
-                        if constexpr (requires { stepper.set_quadratic_invariants(m.quadratic_invariant_weights()); })
-                            stepper.set_quadratic_invariants(m.quadratic_invariant_weights());
-                        auto other = stepper;
-                        // one recorded step each way from q0, then two more unrecorded
-                        state a = q0, b = q0;
-                        m.start_recording();
-                        ASSERT_TRUE(bool(stepper.step(m, a, 0.0, dt))) << name << ", " << where;
-                        const std::vector<eci::spectral::flow_rates> ra(m.recorded().begin(), m.recorded().end());
-                        m.start_recording();
-                        ASSERT_TRUE(bool(other.step(plain, b, 0.0, dt))) << name << ", " << where;
-                        const std::vector<eci::spectral::flow_rates> rb(m.recorded().begin(), m.recorded().end());
-                        m.stop_recording();
-                        for (int i = 0; i < 2; ++i) {
-                            stepper.step(m, a, 0.0, dt);
-                            other.step(plain, b, 0.0, dt);
-                        }
-                        EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(cplx)), 0) << name << ", " << where;
-                        EXPECT_NE(std::memcmp(a.data(), q0.data(), a.size() * sizeof(cplx)), 0) << name;
-                        ASSERT_EQ(ra.size(), rb.size()) << name << ", " << where;
-                        EXPECT_EQ(ra.size(), std::remove_cvref_t<decltype(stepper)>::tableau.stages) << name;
-                        EXPECT_EQ(std::memcmp(ra.data(), rb.data(), ra.size() * sizeof(ra[0])), 0)
-                            << name << ", " << where;
-                    };
-                    compare(eci::rk4<state>{}, "rk4");
-                    compare(eci::c_rk4<state>{}, "c-rk4");
-                    compare(eci::c_pc<state>{}, "c-pc");
-                    compare(eci::euler<state>{}, "euler");
-                    compare(eci::explicit_rk<ssp_rk3, state>{}, "ssp-rk3");
-                }
+    for_each_damped_flow(GetParam(), [](flow2d& m, int n, bool, const std::string& flow) {
+        const one_at_a_time plain{&m};
+        const state q0 = m.random_field(6.0, 0.5, 8);
+        const double dt = 0.5 * (2.0 * std::numbers::pi / n) / m.max_velocity(q0);
+        for (const auto form : {m.form(), eci::spectral::nonlinear_form::advective}) {
+            for (const bool vector : {true, false}) {
+                m.set_form(form);
+                m.set_vector_passes(vector);
+                const std::string where =
+                    flow + ", form " + std::to_string(int(form)) + ", vector " + std::to_string(vector);
+                const auto compare = [&](auto stepper, const char* name) {
+                    if constexpr (requires { stepper.set_quadratic_invariants(m.quadratic_invariant_weights()); })
+                        stepper.set_quadratic_invariants(m.quadratic_invariant_weights());
+                    auto other = stepper;
+                    // one recorded step each way from q0, then two more unrecorded
+                    state a = q0, b = q0;
+                    m.start_recording();
+                    ASSERT_TRUE(bool(stepper.step(m, a, 0.0, dt))) << name << ", " << where;
+                    const std::vector<eci::spectral::flow_rates> ra(m.recorded().begin(), m.recorded().end());
+                    m.start_recording();
+                    ASSERT_TRUE(bool(other.step(plain, b, 0.0, dt))) << name << ", " << where;
+                    const std::vector<eci::spectral::flow_rates> rb(m.recorded().begin(), m.recorded().end());
+                    m.stop_recording();
+                    for (int i = 0; i < 2; ++i) {
+                        stepper.step(m, a, 0.0, dt);
+                        other.step(plain, b, 0.0, dt);
+                    }
+                    EXPECT_EQ(std::memcmp(a.data(), b.data(), a.size() * sizeof(cplx)), 0) << name << ", " << where;
+                    EXPECT_NE(std::memcmp(a.data(), q0.data(), a.size() * sizeof(cplx)), 0) << name;
+                    ASSERT_EQ(ra.size(), rb.size()) << name << ", " << where;
+                    EXPECT_EQ(ra.size(), std::remove_cvref_t<decltype(stepper)>::tableau.stages) << name;
+                    EXPECT_EQ(std::memcmp(ra.data(), rb.data(), ra.size() * sizeof(ra[0])), 0)
+                        << name << ", " << where;
+                };
+                compare(eci::rk4<state>{}, "rk4");
+                compare(eci::c_rk4<state>{}, "c-rk4");
+                compare(eci::c_pc<state>{}, "c-pc");
+                compare(eci::euler<state>{}, "euler");
+                compare(eci::explicit_rk<ssp_rk3, state>{}, "ssp-rk3");
             }
-            // the chain is taken (a serial grid has the column pass) and counted as the stages it evaluates
-            state k[4], y;
-            const double a[16] = {};
-            EXPECT_TRUE(m.run_stages(4, a, dt, q0, k, y, 0.0));
-            std::uint64_t evaluations = 0;
-            const eci::detail::counting_system<flow2d> counted(m, evaluations);
-            state x = q0;
-            eci::rk4<state>{}.step(counted, x, 0.0, dt);
-            EXPECT_EQ(evaluations, 4u);
         }
-    }
+        // the chain is taken (a serial grid has the column pass) and counted as the stages it evaluates
+        state k[4], y;
+        const double a[16] = {};
+        EXPECT_TRUE(m.run_stages(4, a, dt, q0, k, y, 0.0));
+        std::uint64_t evaluations = 0;
+        const eci::detail::counting_system<flow2d> counted(m, evaluations);
+        state x = q0;
+        eci::rk4<state>{}.step(counted, x, 0.0, dt);
+        EXPECT_EQ(evaluations, 4u);
+    });
 }
 
 // Inviscid and unforced, C-RK4 and C-PC keep E and Z to round-off per step (a random walk: k eps sqrt(steps) with
