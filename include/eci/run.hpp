@@ -69,6 +69,13 @@ template <class M>
 concept constant_invariant_list =
     has_named_invariants<M> && requires { typename std::integral_constant<std::size_t, M::invariants().size()>; };
 
+/// A model that evaluates its whole (constant) invariant list at once, invariant_values(x, out) giving the bits of
+/// each invariant's own function (spectral::flow2d: E and Z in one pass over the state): the monitor then calls it
+/// once per state.
+template <class M, class S>
+concept evaluates_invariants_together =
+    constant_invariant_list<M> && requires(const M& m, const S& x, std::span<double> out) { m.invariant_values(x, out); };
+
 /// An invariant given as a function of the state (a Python callable), monitored after the model's own.
 template <class S>
 struct extra_invariant {
@@ -98,7 +105,11 @@ class invariant_monitor {
     void record(const S& x) {
         finite_now_ = true;
         std::size_t j = 0;
-        if constexpr (constant_invariant_list<Model>) {
+        if constexpr (evaluates_invariants_together<Model, S>) {
+            std::array<double, Model::invariants().size()> v;
+            model_->invariant_values(x, v);
+            for (; j < v.size(); ++j) update(j, v[j]);
+        } else if constexpr (constant_invariant_list<Model>) {
             // One direct call per invariant (its member pointer a constant of the list), which the compiler can
             // inline: a run records every step, and on three modes a call through the pointer cost a tenth of
             // `eci run`'s step.

@@ -243,6 +243,23 @@ TEST_P(Equation, VectorPassesRoundLikeTheBaselineLoops) {
     });
 }
 
+// E and Z at once (what a run's monitor takes at every step) are the bits of energy() and enstrophy(), and the
+// monitor records them so.
+TEST_P(Equation, InvariantsAtOnceAreEachInvariantsBits) {
+    for_each_damped_flow(GetParam(), [](flow2d& m, int, bool, const std::string& flow) {
+        const state q = m.random_field(6.0, 0.5, 8);
+        double v[2];
+        m.invariant_values(q, v);
+        const double e = m.energy(q), z = m.enstrophy(q);
+        EXPECT_EQ(std::memcmp(&v[0], &e, sizeof e), 0) << flow;
+        EXPECT_EQ(std::memcmp(&v[1], &z, sizeof z), 0) << flow;
+        EXPECT_GT(e, 0.0) << flow;
+        eci::invariant_monitor<flow2d> monitor(m);
+        monitor.record(q);
+        EXPECT_EQ(std::memcmp(monitor.values().data(), v, sizeof v), 0) << flow;
+    });
+}
+
 // Shu and Osher's third-order tableau: a stage (the third) that sums two earlier ones.
 inline constexpr eci::butcher_tableau<3> ssp_rk3{
     3, {{{0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}, {0.25, 0.25, 0.0}}}, {1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0}, {0.0, 1.0, 0.5}};

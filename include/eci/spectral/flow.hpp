@@ -262,6 +262,9 @@ class flow2d {
     double enstrophy(const state_type& q) const;
     /// P = 1/2 sum |k|^2 |q_k|^2.
     double palinstrophy(const state_type& q) const;
+    /// E and Z at once, into out[0] and out[1] (invariants()'s order; two values): one pass over the state, the bits
+    /// of energy(q) and enstrophy(q). A run's invariant monitor takes them so at every step. Collective.
+    void invariant_values(const state_type& q, std::span<double> out) const;
     /// The invariants the conservative methods keep in the inviscid, unforced limit (names: invariant_names()).
     static constexpr auto invariants() {
         return std::array<named_invariant<flow2d>, 2>{{{"energy", &flow2d::energy}, {"enstrophy", &flow2d::enstrophy}}};
