@@ -779,21 +779,29 @@ void rhs_chain(const flow2d& m, auto& d, int stages, const double* a, double dt,
     for (int s = 0; s < stages; ++s) sums[s] = thread_total(part[std::size_t(s)], d.g.threads());
 }
 
-template <nonlinear_form F, bool Dispersive>
-std::array<double, 6> rhs_dispatch(const flow2d& m, auto& d, const cplx* x, cplx* f, bool forced, bool record) {
-    if (record && forced) return rhs_pass<F, Dispersive, true, true>(m, d, x, f);
-    if (record) return rhs_pass<F, Dispersive, false, true>(m, d, x, f);
-    if (forced) return rhs_pass<F, Dispersive, true, false>(m, d, x, f);
-    return rhs_pass<F, Dispersive, false, false>(m, d, x, f);
-}
-
-template <nonlinear_form F, bool Dispersive>
-void chain_dispatch(const flow2d& m, auto& d, bool forced, bool record, int stages, const double* a, double dt,
-                    const cplx* x, cplx* const* k, cplx* y, std::array<double, 6>* sums) {
-    if (record && forced) return rhs_chain<F, Dispersive, true, true>(m, d, stages, a, dt, x, k, y, sums);
-    if (record) return rhs_chain<F, Dispersive, false, true>(m, d, stages, a, dt, x, k, y, sums);
-    if (forced) return rhs_chain<F, Dispersive, true, false>(m, d, stages, a, dt, x, k, y, sums);
-    return rhs_chain<F, Dispersive, false, false>(m, d, stages, a, dt, x, k, y, sums);
+// run.template operator()<F, Dispersive, Forced, Record>() for the flags of a right-hand side: the one place its
+// passes are instantiated from (rhs_pass's and rhs_chain's callers).
+template <class Run>
+void with_pass_flags(nonlinear_form form, bool dispersive, bool forced, bool record, Run run) {
+    const auto kinds = [&]<nonlinear_form F, bool Dispersive>() {
+        if (record && forced)
+            run.template operator()<F, Dispersive, true, true>();
+        else if (record)
+            run.template operator()<F, Dispersive, false, true>();
+        else if (forced)
+            run.template operator()<F, Dispersive, true, false>();
+        else
+            run.template operator()<F, Dispersive, false, false>();
+    };
+    const bool basdevant = form == nonlinear_form::basdevant;
+    if (basdevant && !dispersive)
+        kinds.template operator()<nonlinear_form::basdevant, false>();
+    else if (basdevant)
+        kinds.template operator()<nonlinear_form::basdevant, true>();
+    else if (!dispersive)
+        kinds.template operator()<nonlinear_form::advective, false>();
+    else
+        kinds.template operator()<nonlinear_form::advective, true>();
 }
 
 }  // namespace
@@ -801,17 +809,11 @@ void chain_dispatch(const flow2d& m, auto& d, bool forced, bool record, int stag
 void flow2d::operator()(const state_type& q, state_type& dqdt, double /*t*/) {
     impl& d = *d_;
     dqdt.resize(size());
-    const bool forced = d.p.forcing != forcing_kind::none;
-    const bool basdevant = form_ == nonlinear_form::basdevant;
     std::array<double, 6> s{};
-    if (basdevant && !d.dispersive)
-        s = rhs_dispatch<nonlinear_form::basdevant, false>(*this, d, q.data(), dqdt.data(), forced, recording_);
-    else if (basdevant)
-        s = rhs_dispatch<nonlinear_form::basdevant, true>(*this, d, q.data(), dqdt.data(), forced, recording_);
-    else if (!d.dispersive)
-        s = rhs_dispatch<nonlinear_form::advective, false>(*this, d, q.data(), dqdt.data(), forced, recording_);
-    else
-        s = rhs_dispatch<nonlinear_form::advective, true>(*this, d, q.data(), dqdt.data(), forced, recording_);
+    with_pass_flags(form_, d.dispersive, d.p.forcing != forcing_kind::none, recording_,
+                    [&]<nonlinear_form F, bool Dispersive, bool Forced, bool Record>() {
+                        s = rhs_pass<F, Dispersive, Forced, Record>(*this, d, q.data(), dqdt.data());
+                    });
     d.hermitian(dqdt.data());
     if (recording_) d.g.sum_over_ranks(s.data(), s.size());  // (recording is on or off on every process alike)
     if (recording_ && recorded_count_ < recorded_.size())
@@ -828,21 +830,12 @@ bool flow2d::run_stages(int stages, const double* a, double dt, const state_type
         kp[std::size_t(s)] = k[s].data();
     }
     y.resize(size());
-    const bool forced = d.p.forcing != forcing_kind::none;
     std::array<std::array<double, 6>, 16> sums{};
-    const auto run = [&]<nonlinear_form F, bool Dispersive>() {
-        chain_dispatch<F, Dispersive>(*this, d, forced, recording_, stages, a, dt, x.data(), kp.data(), y.data(),
-                                      sums.data());
-    };
-    const bool basdevant = form_ == nonlinear_form::basdevant;
-    if (basdevant && !d.dispersive)
-        run.template operator()<nonlinear_form::basdevant, false>();
-    else if (basdevant)
-        run.template operator()<nonlinear_form::basdevant, true>();
-    else if (!d.dispersive)
-        run.template operator()<nonlinear_form::advective, false>();
-    else
-        run.template operator()<nonlinear_form::advective, true>();
+    with_pass_flags(form_, d.dispersive, d.p.forcing != forcing_kind::none, recording_,
+                    [&]<nonlinear_form F, bool Dispersive, bool Forced, bool Record>() {
+                        rhs_chain<F, Dispersive, Forced, Record>(*this, d, stages, a, dt, x.data(), kp.data(),
+                                                                 y.data(), sums.data());
+                    });
     for (int s = 0; s < stages; ++s) {
         const auto& v = sums[std::size_t(s)];
         if (recording_ && recorded_count_ < recorded_.size())

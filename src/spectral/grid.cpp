@@ -632,55 +632,56 @@ void grid::column_product(int stages, int in, int out, void (*load)(void*, int, 
     constexpr int R = plans::row_block;
     static_assert(R == 4, "the full blocks below copy four rows by hand");
     const std::size_t bl = p_->row_pad;
-    for (int s = 0; s < stages; ++s) {
-        omp_rows(threads_, (n_ + R - 1) / R, [&](int blk0, int blk1, int tid) {
-            double* const base = p_->rows[std::size_t(tid)];
-            const auto row = [&](int j, int q) { return base + (std::size_t(j) * R + std::size_t(q)) * bl; };
-            const auto real = [&](int j, int q) { return row(fields_ + j, q); };
-            for (int blk = blk0; blk < blk1; ++blk) {
-                const int y0 = blk * R, rb = std::min(R, n_ - y0);
-                for (int j = 0; j < in; ++j) {
-                    const cplx* src = p_->buf + std::size_t(j) * fs + std::size_t(y0);
-                    cplx* r[R];
-                    for (int q = 0; q < R; ++q) r[q] = reinterpret_cast<cplx*>(row(j, q));
-                    if (rb == R) {
-                        for (int c = 0; c < kept; ++c) {
-                            const cplx* v = src + std::size_t(c) * ld;
-                            r[0][c] = v[0], r[1][c] = v[1], r[2][c] = v[2], r[3][c] = v[3];
-                        }
-                    } else {
-                        for (int c = 0; c < kept; ++c)
-                            for (int q = 0; q < rb; ++q) r[q][c] = src[std::size_t(c) * ld + std::size_t(q)];
+    const auto row_pass = [&](int blk0, int blk1, int tid) {
+        double* const base = p_->rows[std::size_t(tid)];
+        const auto row = [&](int j, int q) { return base + (std::size_t(j) * R + std::size_t(q)) * bl; };
+        const auto real = [&](int j, int q) { return row(fields_ + j, q); };
+        for (int blk = blk0; blk < blk1; ++blk) {
+            const int y0 = blk * R, rb = std::min(R, n_ - y0);
+            for (int j = 0; j < in; ++j) {
+                const cplx* src = p_->buf + std::size_t(j) * fs + std::size_t(y0);
+                cplx* r[R];
+                for (int q = 0; q < R; ++q) r[q] = reinterpret_cast<cplx*>(row(j, q));
+                if (rb == R) {
+                    for (int c = 0; c < kept; ++c) {
+                        const cplx* s = src + std::size_t(c) * ld;
+                        r[0][c] = s[0], r[1][c] = s[1], r[2][c] = s[2], r[3][c] = s[3];
                     }
-                    for (int q = 0; q < rb; ++q) {
-                        std::fill(r[q] + kept, r[q] + nc, cplx{});
-                        fftw_execute_dft_c2r(p_->block_c2r, reinterpret_cast<fftw_complex*>(r[q]), real(j, q));
-                    }
+                } else {
+                    for (int c = 0; c < kept; ++c)
+                        for (int q = 0; q < rb; ++q) r[q][c] = src[std::size_t(c) * ld + std::size_t(q)];
                 }
                 for (int q = 0; q < rb; ++q) {
-                    double* b[8];
-                    for (int j = 0; j < in; ++j) b[j] = real(j, q);
-                    fn(fn_ctx, b, std::size_t(n_));
-                }
-                for (int j = 0; j < out; ++j) {
-                    const cplx* r[R];
-                    for (int q = 0; q < rb; ++q) {
-                        fftw_execute_dft_r2c(p_->block_r2c, real(j, q), reinterpret_cast<fftw_complex*>(row(j, q)));
-                        r[q] = reinterpret_cast<const cplx*>(row(j, q));
-                    }
-                    cplx* dst = p_->buf + std::size_t(j) * fs + std::size_t(y0);
-                    if (rb == R) {
-                        for (int c = 0; c < kept; ++c) {
-                            cplx* d = dst + std::size_t(c) * ld;
-                            d[0] = r[0][c], d[1] = r[1][c], d[2] = r[2][c], d[3] = r[3][c];
-                        }
-                    } else {
-                        for (int c = 0; c < kept; ++c)
-                            for (int q = 0; q < rb; ++q) dst[std::size_t(c) * ld + std::size_t(q)] = r[q][c];
-                    }
+                    std::fill(r[q] + kept, r[q] + nc, cplx{});
+                    fftw_execute_dft_c2r(p_->block_c2r, reinterpret_cast<fftw_complex*>(r[q]), real(j, q));
                 }
             }
-        });
+            for (int q = 0; q < rb; ++q) {
+                double* b[8];
+                for (int j = 0; j < in; ++j) b[j] = real(j, q);
+                fn(fn_ctx, b, std::size_t(n_));
+            }
+            for (int j = 0; j < out; ++j) {
+                const cplx* r[R];
+                for (int q = 0; q < rb; ++q) {
+                    fftw_execute_dft_r2c(p_->block_r2c, real(j, q), reinterpret_cast<fftw_complex*>(row(j, q)));
+                    r[q] = reinterpret_cast<const cplx*>(row(j, q));
+                }
+                cplx* dst = p_->buf + std::size_t(j) * fs + std::size_t(y0);
+                if (rb == R) {
+                    for (int c = 0; c < kept; ++c) {
+                        cplx* d = dst + std::size_t(c) * ld;
+                        d[0] = r[0][c], d[1] = r[1][c], d[2] = r[2][c], d[3] = r[3][c];
+                    }
+                } else {
+                    for (int c = 0; c < kept; ++c)
+                        for (int q = 0; q < rb; ++q) dst[std::size_t(c) * ld + std::size_t(q)] = r[q][c];
+                }
+            }
+        }
+    };
+    for (int s = 0; s < stages; ++s) {
+        omp_rows(threads_, (n_ + R - 1) / R, row_pass);
         // stage s's outputs, and, column by column while its memory is in cache, the next stage's inputs (a column
         // of the next stage's state needs only that column of this stage's result)
         const bool last = s + 1 == stages;
