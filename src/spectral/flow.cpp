@@ -117,6 +117,17 @@ struct column_run {
     double kx, ky0, scale;
 };
 
+// The next stage's state formed in a right-hand side's loop over a run (rhs_chain): where stage s + 1's row of the
+// tableau has the one term (dt a) k_s, y = x + w k_s at each mode as soon as its k_s is made, with combine_column's
+// operations (the same bits), while the modes are in registers: the separate pass over the column read k_s and wrote
+// y again (2 % of a C-RK4 step at N = 1024). y null: none formed. y may be the run's own state (stage s's, read
+// before it is overwritten, mode by mode).
+struct next_stage {
+    const cplx* x = nullptr;  // the step's start
+    double w = 0.0;           // dt a_{s+1, s}
+    cplx* y = nullptr;        // where the next stage's state goes (indexed as the run's modes)
+};
+
 #if ECI_DETAIL_X86_SIMD
 // The fused column pass's loops over a column's modes for AVX2, two modes a vector, with the scalar code's
 // operations in each lane (no FMA): the same bits. Each takes count modes from k_y = ky, k_y exact integers in
@@ -161,10 +172,13 @@ template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
 __attribute__((target("avx2"))) std::size_t rhs_pairs(const column_run& run, std::size_t count, std::size_t i0,
                                                      const cplx* x, const double* lin, const double* disp,
                                                      const cplx* fk, cplx* f, double weight, const double* a,
-                                                     std::array<double, 6>& acc) {
+                                                     std::array<double, 6>& acc, const next_stage& next) {
     static_assert(F == nonlinear_form::basdevant || F == nonlinear_form::advective,
                   "a new nonlinear form needs its branch here (nl_of's operations, in each lane)");
     x += i0, lin += i0, f += i0;
+    const cplx* xs = next.y ? next.x + i0 : nullptr;
+    cplx* yn = next.y ? next.y + i0 : nullptr;
+    const v4 wn = _mm256_set1_pd(next.w);
     if constexpr (Dispersive) disp += i0;  // (the tables of the other kinds of runs are empty)
     if constexpr (Forced) fk += i0;
     if constexpr (Record) a += i0;
@@ -195,6 +209,10 @@ __attribute__((target("avx2"))) std::size_t rhs_pairs(const column_run& run, std
         if constexpr (Forced) fv = _mm256_loadu_pd(reinterpret_cast<const double*>(fk + k));
         if constexpr (Forced || Record) val = _mm256_add_pd(val, fv);  // (recording adds the zero F_k: -0 -> +0)
         _mm256_storeu_pd(reinterpret_cast<double*>(f + k), val);
+        if (yn) {  // the next stage's state (xv, this stage's, is read: yn may overwrite it)
+            const v4 start = _mm256_loadu_pd(reinterpret_cast<const double*>(xs + k));
+            _mm256_storeu_pd(reinterpret_cast<double*>(yn + k), _mm256_add_pd(start, _mm256_mul_pd(wn, val)));
+        }
         ky = _mm256_add_pd(ky, two);
         if constexpr (Record) {
             // per mode, in both lanes of its half: x . N_k, -L_k |x|^2, x . F_k, and the weights w_k |a_k|, w_k
@@ -394,6 +412,11 @@ struct flow2d::impl {
     }
     static constexpr int inputs(nonlinear_form f) { return f == nonlinear_form::basdevant ? 2 : 4; }
     static constexpr int outputs(nonlinear_form f) { return f == nonlinear_form::basdevant ? 2 : 1; }
+
+    // run_stages' per-thread sums of each stage (rhs_chain), held here: a vector made per step was a heap block
+    // of 12 kB per step, whose allocation consolidated the heap's free lists (malloc_consolidate, 0.4-1.4 % of a
+    // step's profile at N = 1024 and 256)
+    std::vector<std::array<std::array<double, 6>, 64>> chain_sums;
 
     // Where the transforms' results are: mode j (the grid's index) of output k at nl_out[k][j].
     const cplx* nl_out[2] = {nullptr, nullptr};
@@ -692,7 +715,8 @@ struct rhs_runs {
 
     template <class Nl>
     void operator()(const cplx* x, cplx* f, std::size_t i0, std::size_t count, const Nl& nl,
-                    [[maybe_unused]] const column_run* run, std::array<double, 6>& sums) const {
+                    [[maybe_unused]] const column_run* run, std::array<double, 6>& sums,
+                    const next_stage& next = {}) const {
         std::size_t k = 0;
         std::array<double, 6> acc = sums;  // (in registers through the loop, not the threads' adjacent slots)
 #if ECI_DETAIL_X86_SIMD
@@ -700,7 +724,7 @@ struct rhs_runs {
         // w_k is one number: 1 on the k_x = 0 column but at k = 0, 2 elsewhere (flow2d::weights)
         if (run && vector && i0 != zero_mode)
             k = rhs_pairs<F, Dispersive, Forced, Record>(*run, count, i0, x, lin, disp, Fk, f,
-                                                         run->kx == 0.0 ? 1.0 : 2.0, a, acc);
+                                                         run->kx == 0.0 ? 1.0 : 2.0, a, acc, next);
 #endif
         for (; k < count; ++k) {
             const std::size_t i = i0 + k;
@@ -724,6 +748,11 @@ struct rhs_runs {
                 acc[3] += wt[i] * diss;
                 acc[4] += we * nl;
                 acc[5] += wt[i] * nl;
+            }
+            if (next.y) {  // last: x[i] may be the mode it overwrites
+                const double* xs = reinterpret_cast<const double*>(next.x + i);
+                double* y = reinterpret_cast<double*>(next.y + i);
+                y[0] = xs[0] + next.w * v.real(), y[1] = xs[1] + next.w * v.imag();
             }
         }
         sums = acc;
@@ -757,12 +786,21 @@ template <nonlinear_form F, bool Dispersive, bool Forced, bool Record>
 void rhs_chain(const flow2d& m, auto& d, int stages, const double* a, double dt, const cplx* x, cplx* const* k,
                cplx* y, std::array<double, 6>* sums) {
     const rhs_runs<F, Dispersive, Forced, Record> runs(m, d);
-    std::vector<std::array<std::array<double, 6>, 64>> part(static_cast<std::size_t>(stages));
+    auto& part = d.chain_sums;
+    part.assign(static_cast<std::size_t>(stages), {});
     const std::size_t R = std::size_t(d.rows);
+    // whether stage s + 1's row of the tableau is the one term (dt a) k_s: its state is then formed in stage s's
+    // right-hand-side loop (next_stage), but on the k_x = 0 column, whose k_s is made Hermitian after that loop
+    std::array<bool, 16> one_term{};
+    for (int s = 0; s + 1 < stages; ++s) {
+        const double* row = a + std::size_t(s + 1) * std::size_t(stages);
+        one_term[std::size_t(s)] = row[s] != 0.0 && std::all_of(row, row + s, [](double v) { return v == 0.0; });
+    }
     d.template nonlinear_chain<F>(
         stages,
         [&](int s, int kx) -> const cplx* {
             if (s == 0) return x;
+            if (one_term[std::size_t(s - 1)] && kx != 0) return y;  // formed by stage s - 1's loop
             // Y_s's column: x + sum_j (dt a_sj) k_j over the nonzero a_sj in order, element by element
             // (detail::combine_stages's operations: the same bits as the stages one at a time)
             const std::size_t i0 = std::size_t(kx - d.c0) * R;
@@ -771,7 +809,10 @@ void rhs_chain(const flow2d& m, auto& d, int stages, const double* a, double dt,
             return y;
         },
         [&](int s, std::size_t i0, std::size_t count, const auto& nl, int tid, const column_run* run) {
-            runs(s == 0 ? x : y, k[s], i0, count, nl, run, part[std::size_t(s)][std::size_t(tid)]);
+            next_stage next;
+            if (one_term[std::size_t(s)] && d.c0 + int(i0 / R) != 0)
+                next = {x, dt * a[std::size_t(s + 1) * std::size_t(stages) + std::size_t(s)], y};
+            runs(s == 0 ? x : y, k[s], i0, count, nl, run, part[std::size_t(s)][std::size_t(tid)], next);
         },
         [&](int s, int kx, int) {
             if (kx == 0) d.hermitian(k[s]);  // (the k_x = 0 column alone; hermitian checks it is this process's)
