@@ -115,7 +115,20 @@ struct column_run {
     const cplx* o0;
     const cplx* o1;
     double kx, ky0, scale;
+    cplx* in[4];  // the run's rows in the transforms' input fields (the chain's next stage, next_stage::fill)
 };
+
+// The streamfunction's velocity (u, v) = (-i k_y psi, i k_x psi), psi = a q, of a mode q at (kx, ky) and, for the
+// advective form, its gradient (i k_x q, i k_y q).
+inline void velocity(cplx q, double a, double kx, double ky, cplx& u, cplx& v) {
+    const double pr = a * q.real(), pi = a * q.imag();  // psi
+    u = cplx(ky * pi, -ky * pr);                         // u = -d psi/dy
+    v = cplx(-kx * pi, kx * pr);                         // v = d psi/dx
+}
+inline void gradient(cplx q, double kx, double ky, cplx& qx, cplx& qy) {
+    qx = cplx(-kx * q.imag(), kx * q.real());  // dq/dx (k = 0 is zero in the state)
+    qy = cplx(-ky * q.imag(), ky * q.real());  // dq/dy
+}
 
 // The next stage's state formed in a right-hand side's loop over a run (rhs_chain): where stage s + 1's row of the
 // tableau has the one term (dt a) k_s, y = x + w k_s at each mode as soon as its k_s is made, with combine_column's
@@ -126,6 +139,11 @@ struct next_stage {
     const cplx* x = nullptr;  // the step's start
     double w = 0.0;           // dt a_{s+1, s}
     cplx* y = nullptr;        // where the next stage's state goes (indexed as the run's modes)
+    // and, in the chain, its fill of the next stage's transforms (fill_column's: velocity, and gradient where
+    // `fields` is 4) into the run's rows of the input fields (column_run::in), where the run has just read its
+    // outputs: the fill's own pass over the column read y back (the same operations, the same bits)
+    const double* a = nullptr;  // the inversion table (indexed as the run's modes); null: no fill
+    int fields = 0;
 };
 
 #if ECI_DETAIL_X86_SIMD
@@ -179,6 +197,9 @@ __attribute__((target("avx2"))) std::size_t rhs_pairs(const column_run& run, std
     const cplx* xs = next.y ? next.x + i0 : nullptr;
     cplx* yn = next.y ? next.y + i0 : nullptr;
     const v4 wn = _mm256_set1_pd(next.w);
+    const double* an = next.a ? next.a + i0 : nullptr;
+    // velocity_pairs's factors: (kx, -kx) as (-kx, kx) per part of v, (ky, -ky) of u (exact: times +-1)
+    const v4 kxv = _mm256_set_pd(run.kx, -run.kx, run.kx, -run.kx), flip = _mm256_set_pd(-1.0, 1.0, -1.0, 1.0);
     if constexpr (Dispersive) disp += i0;  // (the tables of the other kinds of runs are empty)
     if constexpr (Forced) fk += i0;
     if constexpr (Record) a += i0;
@@ -211,7 +232,20 @@ __attribute__((target("avx2"))) std::size_t rhs_pairs(const column_run& run, std
         _mm256_storeu_pd(reinterpret_cast<double*>(f + k), val);
         if (yn) {  // the next stage's state (xv, this stage's, is read: yn may overwrite it)
             const v4 start = _mm256_loadu_pd(reinterpret_cast<const double*>(xs + k));
-            _mm256_storeu_pd(reinterpret_cast<double*>(yn + k), _mm256_add_pd(start, _mm256_mul_pd(wn, val)));
+            const v4 y = _mm256_add_pd(start, _mm256_mul_pd(wn, val));
+            _mm256_storeu_pd(reinterpret_cast<double*>(yn + k), y);
+            if (an) {  // its fill (velocity_pairs's operations), over the outputs o0, o1 read above
+                const v4 swapped = _mm256_permute_pd(_mm256_mul_pd(pairs(an + k), y), 0x5);  // (psi_i, psi_r)
+                const v4 kyu = _mm256_mul_pd(ky, flip);                                      // (ky, -ky)
+                _mm256_storeu_pd(reinterpret_cast<double*>(run.in[0] + k), _mm256_mul_pd(kyu, swapped));
+                _mm256_storeu_pd(reinterpret_cast<double*>(run.in[1] + k), _mm256_mul_pd(kxv, swapped));
+                if (next.fields > 2) {
+                    const v4 qs = _mm256_permute_pd(y, 0x5);                  // (q_i, q_r)
+                    const v4 kyg = _mm256_xor_pd(kyu, _mm256_set1_pd(-0.0));  // (-ky, ky)
+                    _mm256_storeu_pd(reinterpret_cast<double*>(run.in[2] + k), _mm256_mul_pd(kxv, qs));
+                    _mm256_storeu_pd(reinterpret_cast<double*>(run.in[3] + k), _mm256_mul_pd(kyg, qs));
+                }
+            }
         }
         ky = _mm256_add_pd(ky, two);
         if constexpr (Record) {
@@ -295,18 +329,6 @@ struct flow2d::impl {
           c0(g.first_column()),
           rs(g.spectral_stride()),
           by_columns(g.column_pass()) {}
-
-    // The streamfunction's velocity (u, v) = (-i k_y psi, i k_x psi) of q's mode i (kx, ky) and, for the advective
-    // form, (i k_x q, i k_y q).
-    static void velocity(cplx q, double a, double kx, double ky, cplx& u, cplx& v) {
-        const double pr = a * q.real(), pi = a * q.imag();  // psi
-        u = cplx(ky * pi, -ky * pr);                         // u = -d psi/dy
-        v = cplx(-kx * pi, kx * pr);                         // v = d psi/dx
-    }
-    static void gradient(cplx q, double kx, double ky, cplx& qx, cplx& qy) {
-        qx = cplx(-kx * q.imag(), kx * q.real());  // dq/dx (k = 0 is zero in the state)
-        qy = cplx(-ky * q.imag(), ky * q.real());  // dq/dy
-    }
 
     // The velocity of q into scratch fields 0 and 1 (and, for the advective form, the gradient into 2 and 3) in the
     // grid's layout (at()), zero outside the retained square; a transform overwrites its input, so every mode the
@@ -475,18 +497,21 @@ struct flow2d::impl {
 
     // The nonlinear terms of `stages` states in a row, by columns (grid::transform_product_chain): input(s, kx) is
     // stage s's state (the state's base pointer) with column k_x ready to read, asked for on the thread that then
-    // reads it, after column k_x of stage s - 1 is done; body(s, i0, count, nl, thread, run) over the two runs of
-    // each column (k_y >= 0 and k_y < 0, so that nl has no branch), each thread its columns, run the column_run the
-    // run's nl reads (for a vector loop); done(s, kx, thread) after both.
+    // reads it, after column k_x of stage s - 1 is done, or null where stage s - 1's body filled the column's
+    // transforms itself (column_run::in); body(s, i0, count, nl, thread, run) over the two runs of each column
+    // (k_y >= 0 and k_y < 0, so that nl has no branch), each thread its columns, run the column_run the run's nl
+    // reads (for a vector loop); done(s, kx, thread) after both.
     template <nonlinear_form F, class Input, class Body, class Done>
     void nonlinear_chain(int stages, Input input, Body body, Done done) {
         const double scale = 1.0 / double(g.points());
         const std::size_t R = std::size_t(rows), K = std::size_t(kmax), shift = std::size_t(g.n()) - R;
         g.transform_product_chain(
             stages, inputs(F), outputs(F),
-            [&](int s, int kx, cplx* const* col, int) { fill_column(input(s, kx), inputs(F), kx, col); },
+            [&](int s, int kx, cplx* const* col, int) {
+                if (const cplx* q = input(s, kx)) fill_column(q, inputs(F), kx, col);
+            },
             product<F>(),
-            [&](int s, int kx, const cplx* const* col, int tid) {
+            [&](int s, int kx, cplx* const* col, int tid) {
                 const double x = kx;
                 const std::size_t i0 = std::size_t(kx - c0) * R;
                 const cplx* o0 = col[0];
@@ -498,9 +523,15 @@ struct flow2d::impl {
                     };
                     body(s, first, count, nl, tid, &r);
                 };
+                // the run's rows of the input fields from row `from` (the next stage's fill, column_run::in)
+                const auto in = [&](std::size_t from, column_run r) {
+                    for (int j = 0; j < inputs(F); ++j) r.in[j] = col[j] + from;
+                    return r;
+                };
                 // rows k_y = 0 .. kmax at the grid's rows 0 .. kmax, then k_y = -kmax .. -1 at r + shift
-                emit(i0, K + 1, {o0, o1, x, 0.0, scale});
-                emit(i0 + K + 1, R - K - 1, {o0 + (K + 1 + shift), o1 + (K + 1 + shift), x, -double(K), scale});
+                emit(i0, K + 1, in(0, {o0, o1, x, 0.0, scale, {}}));
+                emit(i0 + K + 1, R - K - 1,
+                     in(K + 1 + shift, {o0 + (K + 1 + shift), o1 + (K + 1 + shift), x, -double(K), scale, {}}));
                 done(s, kx, tid);
             });
     }
@@ -753,6 +784,11 @@ struct rhs_runs {
                 const double* xs = reinterpret_cast<const double*>(next.x + i);
                 double* y = reinterpret_cast<double*>(next.y + i);
                 y[0] = xs[0] + next.w * v.real(), y[1] = xs[1] + next.w * v.imag();
+                if (next.a) {  // its fill (fill_column's), over the outputs nl(k) read above
+                    const double ky = run->ky0 + double(k);
+                    velocity(next.y[i], next.a[i], run->kx, ky, run->in[0][k], run->in[1][k]);
+                    if (next.fields > 2) gradient(next.y[i], run->kx, ky, run->in[2][k], run->in[3][k]);
+                }
             }
         }
         sums = acc;
@@ -800,7 +836,7 @@ void rhs_chain(const flow2d& m, auto& d, int stages, const double* a, double dt,
         stages,
         [&](int s, int kx) -> const cplx* {
             if (s == 0) return x;
-            if (one_term[std::size_t(s - 1)] && kx != 0) return y;  // formed by stage s - 1's loop
+            if (one_term[std::size_t(s - 1)] && kx != 0) return nullptr;  // formed and filled by stage s - 1's loop
             // Y_s's column: x + sum_j (dt a_sj) k_j over the nonzero a_sj in order, element by element
             // (detail::combine_stages's operations: the same bits as the stages one at a time)
             const std::size_t i0 = std::size_t(kx - d.c0) * R;
@@ -811,7 +847,8 @@ void rhs_chain(const flow2d& m, auto& d, int stages, const double* a, double dt,
         [&](int s, std::size_t i0, std::size_t count, const auto& nl, int tid, const column_run* run) {
             next_stage next;
             if (one_term[std::size_t(s)] && d.c0 + int(i0 / R) != 0)
-                next = {x, dt * a[std::size_t(s + 1) * std::size_t(stages) + std::size_t(s)], y};
+                next = {x, dt * a[std::size_t(s + 1) * std::size_t(stages) + std::size_t(s)], y, d.a.data(),
+                        d.inputs(F)};
             runs(s == 0 ? x : y, k[s], i0, count, nl, run, part[std::size_t(s)][std::size_t(tid)], next);
         },
         [&](int s, int kx, int) {

@@ -601,7 +601,7 @@ bool grid::column_pass() const { return p_->pruned && !distributed_; }
 
 void grid::column_product(int stages, int in, int out, void (*load)(void*, int, int, cplx* const*, int),
                           void* load_ctx, void (*fn)(void*, double* const*, std::size_t), void* fn_ctx,
-                          void (*store)(void*, int, int, const cplx* const*, int), void* store_ctx) const {
+                          void (*store)(void*, int, int, cplx* const*, int), void* store_ctx) const {
     if (!column_pass()) throw std::logic_error("grid::transform_product_columns needs pruned transforms on one process");
     const std::size_t nc = std::size_t(columns()), ld = p_->col_ld, fs = p_->col_field;
     const int kept = kmax() + 1, K = kmax();
@@ -616,12 +616,13 @@ void grid::column_product(int stages, int in, int out, void (*load)(void*, int, 
         load(load_ctx, s, c, col, tid);
         fftw_execute_dft(inv, reinterpret_cast<fftw_complex*>(col[0]), reinterpret_cast<fftw_complex*>(col[0]));
     };
-    // column c of stage s's outputs: transformed back along y and read by store while in cache
+    // column c of stage s's outputs: transformed back along y and read by store while in cache (which may write the
+    // next stage's inputs at the retained rows: col[j], j < in, as load would)
     const auto store_column = [&](int s, int c, int tid) {
-        const cplx* col[8];
+        cplx* col[8];
         cplx* first = p_->buf + std::size_t(c) * ld;
         fftw_execute_dft(fwd, reinterpret_cast<fftw_complex*>(first), reinterpret_cast<fftw_complex*>(first));
-        for (int j = 0; j < out; ++j) col[j] = first + std::size_t(j) * fs;
+        for (int j = 0; j < std::max(in, out); ++j) col[j] = first + std::size_t(j) * fs;
         store(store_ctx, s, c, col, tid);
     };
     omp_rows(threads_, kept, [&](int c0, int c1, int tid) {

@@ -229,7 +229,8 @@ class flow2d {
     /// (a row-major, stages x stages; the nonzero a_ij in order), the last Y_i left in y; each evaluation recorded
     /// when recording is on. Run as one chain of column passes (grid::transform_product_chain): Y_i is formed column
     /// by column as the previous stage finishes that column, and filled into the transforms' columns while all of it
-    /// is in cache, which saves a pass over the state per stage and a read of the transforms' columns. false, with
+    /// is in cache, which saves a pass over the state per stage and a read of the transforms' columns; where Y_i's row
+    /// of a is the one term a_{i,i-1}, in the loop that makes k_{i-1}, mode by mode. false, with
     /// nothing done, where the grid has no column pass (spread over processes, unpruned transforms): the caller
     /// then evaluates the stages one at a time. (The flow is autonomous: t, the step's start, is not read.)
     bool run_stages(int stages, const double* a, double dt, const state_type& x, state_type* k, state_type& y,

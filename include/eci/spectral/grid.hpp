@@ -186,19 +186,22 @@ class grid {
     void transform_product_columns(int in, int out, Load load, Fn fn, Store store) const {
         transform_product_chain(
             1, in, out, [&](int, int kx, cplx* const* col, int tid) { load(kx, col, tid); }, fn,
-            [&](int, int kx, const cplx* const* col, int tid) { store(kx, col, tid); });
+            [&](int, int kx, cplx* const* col, int tid) { store(kx, col, tid); });
     }
     /// `stages` of transform_product_columns in a row, load(stage, kx, col, thread) and store(stage, kx, col,
     /// thread): each column's store of one stage is followed at once by its load of the next, on the same thread,
     /// while the column's memory is in cache (a stage's inputs at column k_x may depend on the previous stage's
     /// outputs at k_x alone: the stages of a Runge-Kutta step on a state stored by columns, flow2d::run_stages).
+    /// Here store's col has max(in, out) fields, and a store followed by a load may write that load's inputs itself
+    /// (col[j][y], j < in, at the retained rows, where it has just read the outputs), which the grid keeps: it
+    /// zeroes only the rows between before the load, which then need not write them again.
     template <class Load, class Fn, class Store>
     void transform_product_chain(int stages, int in, int out, Load load, Fn fn, Store store) const {
         column_product(
             stages, in, out,
             [](void* c, int s, int kx, cplx* const* col, int tid) { (*static_cast<Load*>(c))(s, kx, col, tid); }, &load,
             [](void* c, double* const* rows, std::size_t nx) { (*static_cast<Fn*>(c))(rows, nx); }, &fn,
-            [](void* c, int s, int kx, const cplx* const* col, int tid) { (*static_cast<Store*>(c))(s, kx, col, tid); },
+            [](void* c, int s, int kx, cplx* const* col, int tid) { (*static_cast<Store*>(c))(s, kx, col, tid); },
             &store);
     }
 
@@ -240,7 +243,7 @@ class grid {
     void product_pass(int in, int out, void (*fn)(void*, double* const*, std::size_t), void* ctx) const;
     void column_product(int stages, int in, int out, void (*load)(void*, int, int, cplx* const*, int), void* load_ctx,
                         void (*fn)(void*, double* const*, std::size_t), void* fn_ctx,
-                        void (*store)(void*, int, int, const cplx* const*, int), void* store_ctx) const;
+                        void (*store)(void*, int, int, cplx* const*, int), void* store_ctx) const;
     struct plans;
     void plan_distributed(const grid_options& o);
     // spread over processes: the column transforms, the all-to-alls and the row passes (grid.cpp)
