@@ -202,6 +202,41 @@ int main(int argc, char** argv) {
                 p.n, p.threads, use_cpu_clock ? "cpu" : "wall", t_rk4, t_crk4, t_pc, t_cpc, t_fft, t_rhs,
                 t_crk4 / t_rk4, t_cpc / t_pc, t_crk4 / t_fft, t_rhs / t_fft, dt, t_one, t_fft / 4.0 / t_one,
                 m.transforms_per_rhs());
+    // The same ratios paired in time: each round times the transforms of a step, a C-RK4 step and an RK4 step one
+    // after the other (the steppers made once, each step from w0), and the medians of the rounds' ratios count. The
+    // fastest of each, above, are taken at different moments: on a VM whose speed drifts by 20-40 % within seconds
+    // their ratio moved by +-0.1 between runs of this program (c_rk4/fft 1.04-1.34 in twelve runs, session 47),
+    // while these medians moved by +-0.01.
+    {
+        eci::c_rk4<state> crk;
+        crk.set_quadratic_invariants(m.quadratic_invariant_weights());
+        eci::rk4<state> rk;
+        state w = w0;
+        crk.step(m, w, 0.0, dt);  // warm up: buffers allocated
+        w = w0;
+        rk.step(m, w, 0.0, dt);
+        std::vector<double> c_fft, r_fft, c_r;
+        for (int round = 0; round < 9 * reps; ++round) {
+            double t = now();
+            m.execute_transforms(4);
+            const double fft = seconds_since(t);
+            w = w0;
+            t = now();
+            crk.step(m, w, 0.0, dt);
+            const double c = seconds_since(t);
+            w = w0;
+            t = now();
+            rk.step(m, w, 0.0, dt);
+            const double r = seconds_since(t);
+            c_fft.push_back(c / fft), r_fft.push_back(r / fft), c_r.push_back(c / r);
+        }
+        const auto median = [](std::vector<double> v) {
+            std::sort(v.begin(), v.end());
+            return v[v.size() / 2];
+        };
+        std::printf("ns2d-paired N=%d threads=%d clock=%s rounds=%d c_rk4/fft=%.4f rk4/fft=%.4f c_rk4/rk4=%.4f\n", p.n,
+                    p.threads, use_cpu_clock ? "cpu" : "wall", 9 * reps, median(c_fft), median(r_fft), median(c_r));
+    }
     // The steps as a run takes them (the budget's rates recorded at every stage, as eci run and eci.solve do)
     std::printf("ns2d-run N=%d threads=%d rk4_run=%.6g c_rk4_run=%.6g rk4_run/rk4=%.4f c_rk4_run/rk4_run=%.4f "
                 "c_rk4_run/fft=%.4f\n",

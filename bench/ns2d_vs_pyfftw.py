@@ -21,11 +21,14 @@ def fields(line):
     return dict(kv.split("=", 1) for kv in line.split()[1:] if "=" in kv)
 
 
-def run_rows(cmd, prefix):
+def run_rows(cmd, prefix, also=None):
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode:
         sys.exit("ns2d_vs_pyfftw: %s failed:\n%s" % (" ".join(cmd), r.stderr))
-    return [fields(l) for l in r.stdout.splitlines() if l.startswith(prefix + " ")]
+    lines = r.stdout.splitlines()
+    if also is not None:  # the rows of another prefix of the same run, into the dict `also`
+        also.update({k: v for l in lines if l.startswith(also["prefix"] + " ") for k, v in fields(l).items()})
+    return [fields(l) for l in lines if l.startswith(prefix + " ")]
 
 
 def peak_kib(cmd):
@@ -68,12 +71,17 @@ def main():
             }
             progs["basdevant"] = progs["eci-form"][:-3] + ["basdevant", "--wisdom", os.path.join(out, "py-wisdom")]
             best = {}
+            paired = []  # the bench's ratios paired in time (ns2d-paired: medians over its rounds), one per run
             order = list(progs)
             for r in range(a.rounds):
                 for name in order[r % 3:] + order[:r % 3]:
                     if name != "eci" and "--dt" not in progs[name]:
                         progs[name] += ["--dt", best["eci"]["dt"]]  # the bench's dt: CFL 0.5 of the field at step 0
-                    row = run_rows(progs[name], "ns2d-step" if name == "eci" else "ns2d-pyfftw")[0]
+                    pair = {"prefix": "ns2d-paired"}
+                    row = run_rows(progs[name], "ns2d-step" if name == "eci" else "ns2d-pyfftw",
+                                   pair if name == "eci" else None)[0]
+                    if "c_rk4/fft" in pair:
+                        paired.append(pair)
                     prev = best.get(name)
                     if name == "eci":
                         # each time the fastest of this run's (the bench's own rounds already take minima)
@@ -85,15 +93,18 @@ def main():
             e, s4, s5 = best["eci"], best["basdevant"], best["eci-form"]
             crk4, rk4, fft = float(e["c_rk4"]), float(e["rk4"]), float(e["fft_rk4_step"])
             equiv = fft / 4 / float(e["fft_one"]) if "fft_one" in e else float("nan")
+            med = lambda key: sorted(float(q[key]) for q in paired)[len(paired) // 2] if paired else float("nan")
             rows.append(dict(n=n, t=t, clock=e["clock"], crk4=crk4, rk4=rk4, fft=fft, equiv=equiv,
+                             p_fft=med("c_rk4/fft"), p_rk4=med("c_rk4/rk4"),
                              s4=float(s4["rk4"]), s5=float(s5["rk4"]), s4_mem=s4.get("peak_states", "?"),
                              dt_eci=e.get("dt", "?"), dt_py=s4["dt"]))
             print("ns2d-vs-pyfftw N=%d threads=%d clock=%s eci_c_rk4=%.4g eci_rk4=%.4g eci_fft=%.4g "
                   "script_basdevant=%.4g script_eci_form=%.4g c_rk4/script_basdevant=%.3f c_rk4/script_eci_form=%.3f "
-                  "c_rk4/fft=%.3f c_rk4/rk4=%.3f eci_fft_equiv_per_rhs=%.2f dt_eci=%s dt_script=%s" % (
+                  "c_rk4/fft=%.3f c_rk4/rk4=%.3f paired_c_rk4/fft=%.3f paired_c_rk4/rk4=%.3f eci_fft_equiv_per_rhs=%.2f "
+                  "dt_eci=%s dt_script=%s" % (
                       n, t, e["clock"], crk4, rk4, fft, float(s4["rk4"]), float(s5["rk4"]),
-                      crk4 / float(s4["rk4"]), crk4 / float(s5["rk4"]), crk4 / fft, crk4 / rk4, equiv,
-                      e.get("dt", "?"), s4["dt"]), file=sys.stderr, flush=True)
+                      crk4 / float(s4["rk4"]), crk4 / float(s5["rk4"]), crk4 / fft, crk4 / rk4, rows[-1]["p_fft"],
+                      rows[-1]["p_rk4"], equiv, e.get("dt", "?"), s4["dt"]), file=sys.stderr, flush=True)
         if not a.no_memory:
             state_kib = 16 * n * (n // 2 + 1) / 1024
             base = peak_kib(eci_run(a.eci, 8, 0, [], out))
@@ -112,12 +123,17 @@ def main():
     print()
     print("| N | threads | clock | eci C-RK4 (s) | eci RK4 (s) | eci FFTs (s) | script Basdevant (s) "
           "| script eci form (s) | C-RK4 / script Basdevant | C-RK4 / script eci form | C-RK4 / FFTs | C-RK4 / RK4 "
-          "| eci FFTs per RHS, in one-transform times (1 thread) |")
-    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "| C-RK4 / FFTs, paired | C-RK4 / RK4, paired | eci FFTs per RHS, in one-transform times (1 thread) |")
+    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
-        print("| %d | %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g | %.3f | %.3f | %.3f | %.3f | %.2f |" % (
+        print("| %d | %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.2f |" % (
             r["n"], r["t"], r["clock"], r["crk4"], r["rk4"], r["fft"], r["s4"], r["s5"], r["crk4"] / r["s4"],
-            r["crk4"] / r["s5"], r["crk4"] / r["fft"], r["crk4"] / r["rk4"], per_rhs.get(r["n"], r["equiv"])))
+            r["crk4"] / r["s5"], r["crk4"] / r["fft"], r["crk4"] / r["rk4"], r["p_fft"], r["p_rk4"],
+            per_rhs.get(r["n"], r["equiv"])))
+    print()
+    print("C-RK4 / FFTs and C-RK4 / RK4 above: the fastest times of each, taken at different moments. Paired: each "
+          "round of eci_bench_ns2d_step times the transforms, a C-RK4 step and an RK4 step one after the other, and "
+          "the median of the rounds' ratios counts (the median over this driver's rounds of those medians).")
     if mem:
         print()
         print("| N | eci C-RK4 run, peak over the process (states) | of which stepping (states) "
