@@ -21,14 +21,19 @@ def fields(line):
     return dict(kv.split("=", 1) for kv in line.split()[1:] if "=" in kv)
 
 
-def run_rows(cmd, prefix, also=None):
+def run_lines(cmd):
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode:
         sys.exit("ns2d_vs_pyfftw: %s failed:\n%s" % (" ".join(cmd), r.stderr))
-    lines = r.stdout.splitlines()
-    if also is not None:  # the rows of another prefix of the same run, into the dict `also`
-        also.update({k: v for l in lines if l.startswith(also["prefix"] + " ") for k, v in fields(l).items()})
+    return r.stdout.splitlines()
+
+
+def rows_of(lines, prefix):
     return [fields(l) for l in lines if l.startswith(prefix + " ")]
+
+
+def run_rows(cmd, prefix):
+    return rows_of(run_lines(cmd), prefix)
 
 
 def peak_kib(cmd):
@@ -77,11 +82,10 @@ def main():
                 for name in order[r % 3:] + order[:r % 3]:
                     if name != "eci" and "--dt" not in progs[name]:
                         progs[name] += ["--dt", best["eci"]["dt"]]  # the bench's dt: CFL 0.5 of the field at step 0
-                    pair = {"prefix": "ns2d-paired"}
-                    row = run_rows(progs[name], "ns2d-step" if name == "eci" else "ns2d-pyfftw",
-                                   pair if name == "eci" else None)[0]
-                    if "c_rk4/fft" in pair:
-                        paired.append(pair)
+                    lines = run_lines(progs[name])
+                    row = rows_of(lines, "ns2d-step" if name == "eci" else "ns2d-pyfftw")[0]
+                    if name == "eci":
+                        paired += rows_of(lines, "ns2d-paired")
                     prev = best.get(name)
                     if name == "eci":
                         # each time the fastest of this run's (the bench's own rounds already take minima)

@@ -133,17 +133,14 @@ inline void gradient(cplx q, double kx, double ky, cplx& qx, cplx& qy) {
 // The next stage's state formed in a right-hand side's loop over a run (rhs_chain): where stage s + 1's row of the
 // tableau has the one term (dt a) k_s, y = x + w k_s at each mode as soon as its k_s is made, with combine_column's
 // operations (the same bits), while the modes are in registers: the separate pass over the column read k_s and wrote
-// y again (2 % of a C-RK4 step at N = 1024). y null: none formed. y may be the run's own state (stage s's, read
-// before it is overwritten, mode by mode).
+// y again (2 % of a C-RK4 step at N = 1024). And its fill of the next stage's transforms (fill_column's: the
+// velocity, and for the advective form the gradient) into the run's rows of the input fields (column_run::in), where
+// the run has just read its outputs: the fill's own pass read y back. y null: none formed. y may be the run's own
+// state (stage s's, read before it is overwritten, mode by mode).
 struct next_stage {
     const cplx* x = nullptr;  // the step's start
     double w = 0.0;           // dt a_{s+1, s}
     cplx* y = nullptr;        // where the next stage's state goes (indexed as the run's modes)
-    // and, in the chain, its fill of the next stage's transforms (fill_column's: velocity, and gradient where
-    // `fields` is 4) into the run's rows of the input fields (column_run::in), where the run has just read its
-    // outputs: the fill's own pass over the column read y back (the same operations, the same bits)
-    const double* a = nullptr;  // the inversion table (indexed as the run's modes); null: no fill
-    int fields = 0;
 };
 
 #if ECI_DETAIL_X86_SIMD
@@ -159,26 +156,31 @@ __attribute__((target("avx2"))) inline v4 pairs(const double* a) {
 __attribute__((target("avx2"))) inline v4 ky_pairs(double ky, double s0, double s1) {
     return _mm256_mul_pd(_mm256_set_pd(ky + 1.0, ky + 1.0, ky, ky), _mm256_set_pd(s1, s0, s1, s0));
 }
-// flow2d::impl::velocity of count modes (q, a): u = (k_y psi_i, -k_y psi_r), v = (-k_x psi_i, k_x psi_r), psi = a q;
-// with grad (the advective form) also qx = (-k_x q_i, k_x q_r), qy = (-k_y q_i, k_y q_r). Returns the modes done
-// (pairs); the caller finishes the odd one.
+// velocity (and gradient) of two modes qv = (q_r, q_i, ...) with inversion factors ap = (a, a, a', a'):
+// u = (k_y psi_i, -k_y psi_r), v = (-k_x psi_i, k_x psi_r), psi = a q, from kyu = (ky, -ky, ...) and
+// kxv = (-kx, kx, ...); with qx (the advective form) also qx = (-k_x q_i, k_x q_r), qy = (-k_y q_i, k_y q_r).
+__attribute__((target("avx2"))) inline void velocity_pair(v4 qv, v4 ap, v4 kyu, v4 kxv, cplx* u, cplx* v, cplx* qx,
+                                                          cplx* qy) {
+    const v4 swapped = _mm256_permute_pd(_mm256_mul_pd(ap, qv), 0x5);  // (psi_i, psi_r)
+    _mm256_storeu_pd(reinterpret_cast<double*>(u), _mm256_mul_pd(kyu, swapped));
+    _mm256_storeu_pd(reinterpret_cast<double*>(v), _mm256_mul_pd(kxv, swapped));
+    if (qx) {
+        const v4 qs = _mm256_permute_pd(qv, 0x5);                  // (q_i, q_r)
+        const v4 kyg = _mm256_xor_pd(kyu, _mm256_set1_pd(-0.0));  // (-ky, ky), as the scalar -ky (-0 at 0)
+        _mm256_storeu_pd(reinterpret_cast<double*>(qx), _mm256_mul_pd(kxv, qs));
+        _mm256_storeu_pd(reinterpret_cast<double*>(qy), _mm256_mul_pd(kyg, qs));
+    }
+}
+// velocity() (and gradient()) of count modes (q, a) from k_y = ky. Returns the modes done (pairs); the caller
+// finishes the odd one.
 __attribute__((target("avx2"))) std::size_t velocity_pairs(const cplx* q, const double* a, double kx, double ky,
                                                           std::size_t count, cplx* u, cplx* v, cplx* qx, cplx* qy) {
     const v4 kxv = _mm256_set_pd(kx, -kx, kx, -kx), two = _mm256_set_pd(-2.0, 2.0, -2.0, 2.0);
     v4 kyu = ky_pairs(ky, 1.0, -1.0);  // (ky, -ky, ...): u's
     std::size_t k = 0;
     for (; k + 2 <= count; k += 2) {
-        const v4 qv = _mm256_loadu_pd(reinterpret_cast<const double*>(q + k));
-        const v4 psi = _mm256_mul_pd(pairs(a + k), qv);      // (a q_r, a q_i)
-        const v4 swapped = _mm256_permute_pd(psi, 0x5);      // (psi_i, psi_r)
-        _mm256_storeu_pd(reinterpret_cast<double*>(u + k), _mm256_mul_pd(kyu, swapped));
-        _mm256_storeu_pd(reinterpret_cast<double*>(v + k), _mm256_mul_pd(kxv, swapped));
-        if (qx) {
-            const v4 qs = _mm256_permute_pd(qv, 0x5);  // (q_i, q_r)
-            const v4 kyg = _mm256_xor_pd(kyu, _mm256_set1_pd(-0.0));  // (-ky, ky), as the scalar -ky (-0 at 0)
-            _mm256_storeu_pd(reinterpret_cast<double*>(qx + k), _mm256_mul_pd(kxv, qs));
-            _mm256_storeu_pd(reinterpret_cast<double*>(qy + k), _mm256_mul_pd(kyg, qs));
-        }
+        velocity_pair(_mm256_loadu_pd(reinterpret_cast<const double*>(q + k)), pairs(a + k), kyu, kxv, u + k, v + k,
+                      qx ? qx + k : nullptr, qx ? qy + k : nullptr);
         kyu = _mm256_add_pd(kyu, two);
     }
     return k;
@@ -197,12 +199,12 @@ __attribute__((target("avx2"))) std::size_t rhs_pairs(const column_run& run, std
     const cplx* xs = next.y ? next.x + i0 : nullptr;
     cplx* yn = next.y ? next.y + i0 : nullptr;
     const v4 wn = _mm256_set1_pd(next.w);
-    const double* an = next.a ? next.a + i0 : nullptr;
-    // velocity_pairs's factors: (kx, -kx) as (-kx, kx) per part of v, (ky, -ky) of u (exact: times +-1)
+    // velocity_pair's factors for the next stage's fill: (-kx, kx), and (ky, -ky) from ky (exact: times +-1)
     const v4 kxv = _mm256_set_pd(run.kx, -run.kx, run.kx, -run.kx), flip = _mm256_set_pd(-1.0, 1.0, -1.0, 1.0);
+    const bool grad = F == nonlinear_form::advective;  // (the fill's gradient)
+    a += i0;
     if constexpr (Dispersive) disp += i0;  // (the tables of the other kinds of runs are empty)
     if constexpr (Forced) fk += i0;
-    if constexpr (Record) a += i0;
     // the sums: (E injection, E dissipation, Z injection, Z dissipation) and (E transfer, Z transfer, -, -)
     v4 sums = _mm256_loadu_pd(acc.data()), transfer = _mm256_set_pd(0.0, 0.0, acc[5], acc[4]);
     const v4 sign = _mm256_set1_pd(-0.0);
@@ -230,22 +232,13 @@ __attribute__((target("avx2"))) std::size_t rhs_pairs(const column_run& run, std
         if constexpr (Forced) fv = _mm256_loadu_pd(reinterpret_cast<const double*>(fk + k));
         if constexpr (Forced || Record) val = _mm256_add_pd(val, fv);  // (recording adds the zero F_k: -0 -> +0)
         _mm256_storeu_pd(reinterpret_cast<double*>(f + k), val);
-        if (yn) {  // the next stage's state (xv, this stage's, is read: yn may overwrite it)
+        if (yn) {  // the next stage's state (xv, this stage's, is read: yn may overwrite it), and its fill over the
+                   // outputs o0, o1 read above
             const v4 start = _mm256_loadu_pd(reinterpret_cast<const double*>(xs + k));
             const v4 y = _mm256_add_pd(start, _mm256_mul_pd(wn, val));
             _mm256_storeu_pd(reinterpret_cast<double*>(yn + k), y);
-            if (an) {  // its fill (velocity_pairs's operations), over the outputs o0, o1 read above
-                const v4 swapped = _mm256_permute_pd(_mm256_mul_pd(pairs(an + k), y), 0x5);  // (psi_i, psi_r)
-                const v4 kyu = _mm256_mul_pd(ky, flip);                                      // (ky, -ky)
-                _mm256_storeu_pd(reinterpret_cast<double*>(run.in[0] + k), _mm256_mul_pd(kyu, swapped));
-                _mm256_storeu_pd(reinterpret_cast<double*>(run.in[1] + k), _mm256_mul_pd(kxv, swapped));
-                if (next.fields > 2) {
-                    const v4 qs = _mm256_permute_pd(y, 0x5);                  // (q_i, q_r)
-                    const v4 kyg = _mm256_xor_pd(kyu, _mm256_set1_pd(-0.0));  // (-ky, ky)
-                    _mm256_storeu_pd(reinterpret_cast<double*>(run.in[2] + k), _mm256_mul_pd(kxv, qs));
-                    _mm256_storeu_pd(reinterpret_cast<double*>(run.in[3] + k), _mm256_mul_pd(kyg, qs));
-                }
-            }
+            velocity_pair(y, pairs(a + k), _mm256_mul_pd(ky, flip), kxv, run.in[0] + k, run.in[1] + k,
+                          grad ? run.in[2] + k : nullptr, grad ? run.in[3] + k : nullptr);
         }
         ky = _mm256_add_pd(ky, two);
         if constexpr (Record) {
@@ -784,11 +777,11 @@ struct rhs_runs {
                 const double* xs = reinterpret_cast<const double*>(next.x + i);
                 double* y = reinterpret_cast<double*>(next.y + i);
                 y[0] = xs[0] + next.w * v.real(), y[1] = xs[1] + next.w * v.imag();
-                if (next.a) {  // its fill (fill_column's), over the outputs nl(k) read above
-                    const double ky = run->ky0 + double(k);
-                    velocity(next.y[i], next.a[i], run->kx, ky, run->in[0][k], run->in[1][k]);
-                    if (next.fields > 2) gradient(next.y[i], run->kx, ky, run->in[2][k], run->in[3][k]);
-                }
+                // its fill (fill_column's), over the outputs nl(k) read above
+                const double ky = run->ky0 + double(k);
+                velocity(next.y[i], a[i], run->kx, ky, run->in[0][k], run->in[1][k]);
+                if constexpr (F == nonlinear_form::advective)
+                    gradient(next.y[i], run->kx, ky, run->in[2][k], run->in[3][k]);
             }
         }
         sums = acc;
@@ -847,8 +840,7 @@ void rhs_chain(const flow2d& m, auto& d, int stages, const double* a, double dt,
         [&](int s, std::size_t i0, std::size_t count, const auto& nl, int tid, const column_run* run) {
             next_stage next;
             if (one_term[std::size_t(s)] && d.c0 + int(i0 / R) != 0)
-                next = {x, dt * a[std::size_t(s + 1) * std::size_t(stages) + std::size_t(s)], y, d.a.data(),
-                        d.inputs(F)};
+                next = {x, dt * a[std::size_t(s + 1) * std::size_t(stages) + std::size_t(s)], y};
             runs(s == 0 ? x : y, k[s], i0, count, nl, run, part[std::size_t(s)][std::size_t(tid)], next);
         },
         [&](int s, int kx, int) {
@@ -996,10 +988,10 @@ void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::arra
     const std::size_t nc = std::size_t(m.columns()), nr = std::size_t(m.rows());
     std::array<double, K> sum = total;  // (a local: the terms' buffer below is doubles too, which total may alias)
     if (!m.by_columns()) {
-        for (std::size_t i = r0 * nc; i < r1 * nc; ++i) {
+        in_row_order_over(m, r0, r1, [&](std::size_t i) {
             const std::array<double, K> v = term(i);
             for (std::size_t j = 0; j < K; ++j) sum[j] += v[j];
-        }
+        });
     } else {
         constexpr std::size_t B = 16;  // rows a block: two cache lines of a column's weights, four of its modes
         std::vector<std::array<double, K>> t(B * nc);
