@@ -982,25 +982,29 @@ void in_row_order_over(const flow2d& m, std::size_t r0, std::size_t r1, F f) {
 // sum[j] + term(i)[j] over the modes of rows r0 .. r1 - 1, added in row order (so the same bits from either
 // layout). A state stored by columns has its terms formed a block of rows at a time column by column, where the
 // block's rows of a column are contiguous, then added row by row from the block: read in row order, every mode was a
-// cache line of its own, 11 kB from the last, and E took 1.1 ms at N = 1024 (Z 0.6), at every step of a run.
+// cache line of its own, 11 kB from the last, and E took 1.1 ms at N = 1024 (Z 0.6), at every step of a run. The
+// block is on the stack (a heap block per call was an allocation per step of every run, in each thread): up to 16
+// rows, fewer where the rows are long, one row at a time read in place beyond N ~ 6000. The order of the additions
+// is row order whatever the block, so the same bits.
 template <std::size_t K, class Term>
 void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::array<double, K>& total, Term term) {
     const std::size_t nc = std::size_t(m.columns()), nr = std::size_t(m.rows());
     std::array<double, K> sum = total;  // (a local: the terms' buffer below is doubles too, which total may alias)
-    if (!m.by_columns()) {
-        in_row_order_over(m, r0, r1, [&](std::size_t i) {
-            const std::array<double, K> v = term(i);
-            for (std::size_t j = 0; j < K; ++j) sum[j] += v[j];
-        });
+    const auto add = [&](const std::array<double, K>& v) {
+        for (std::size_t j = 0; j < K; ++j) sum[j] += v[j];
+    };
+    constexpr std::size_t capacity = 2048;  // terms in the block: 32 kB for E and Z
+    // rows a block: up to two cache lines of a column's weights, four of its modes
+    const std::size_t B = std::min<std::size_t>(16, capacity / std::max<std::size_t>(nc, 1));
+    if (!m.by_columns() || B == 0) {
+        in_row_order_over(m, r0, r1, [&](std::size_t i) { add(term(i)); });
     } else {
-        constexpr std::size_t B = 16;  // rows a block: two cache lines of a column's weights, four of its modes
-        std::vector<std::array<double, K>> t(B * nc);
+        std::array<std::array<double, K>, capacity> t;
         for (std::size_t b0 = r0; b0 < r1; b0 += B) {
             const std::size_t nb = std::min(B, r1 - b0);
             for (std::size_t c = 0; c < nc; ++c)
                 for (std::size_t q = 0; q < nb; ++q) t[q * nc + c] = term(c * nr + b0 + q);
-            for (std::size_t k = 0; k < nb * nc; ++k)
-                for (std::size_t j = 0; j < K; ++j) sum[j] += t[k][j];
+            for (std::size_t k = 0; k < nb * nc; ++k) add(t[k]);
         }
     }
     total = sum;
