@@ -618,13 +618,22 @@ void grid::column_product(int stages, int in, int out, void (*load)(void*, int, 
     };
     // column c of stage s's outputs: transformed back along y and read by store while in cache (which may write the
     // next stage's inputs at the retained rows: col[j], j < in, as load would)
+    const auto forward_column = [&](int c) {
+        cplx* first = p_->buf + std::size_t(c) * ld;
+        fftw_execute_dft(fwd, reinterpret_cast<fftw_complex*>(first), reinterpret_cast<fftw_complex*>(first));
+    };
     const auto store_column = [&](int s, int c, int tid) {
         cplx* col[8];
         cplx* first = p_->buf + std::size_t(c) * ld;
-        fftw_execute_dft(fwd, reinterpret_cast<fftw_complex*>(first), reinterpret_cast<fftw_complex*>(first));
         for (int j = 0; j < std::max(in, out); ++j) col[j] = first + std::size_t(j) * fs;
         store(store_ctx, s, c, col, tid);
     };
+    // A stage's columns are taken in groups: the group's forward transforms, then its stores, then the next stage's
+    // loads, so that the stores' loops over a state stored by columns read the group's modes as one contiguous run
+    // rather than a column's between two transforms (0.3 ms less per C-RK4 step at N = 1024, ~1 %, paired in time;
+    // the transforms alone take as long). Each column's own sequence is unchanged, so the same bits. A group's
+    // transform columns stay within ~128 kB (of the L2 cache): 4 columns at N = 1024 in Basdevant's form, fewer above.
+    const int group = std::clamp(int(std::size_t(131072) / (std::size_t(std::max(in, out)) * std::size_t(n_) * sizeof(cplx))), 1, 4);
     omp_rows(threads_, kept, [&](int c0, int c1, int tid) {
         for (int c = c0; c < c1; ++c) load_column(0, c, tid);
     });
@@ -683,13 +692,16 @@ void grid::column_product(int stages, int in, int out, void (*load)(void*, int, 
     };
     for (int s = 0; s < stages; ++s) {
         omp_rows(threads_, (n_ + R - 1) / R, row_pass);
-        // stage s's outputs, and, column by column while its memory is in cache, the next stage's inputs (a column
-        // of the next stage's state needs only that column of this stage's result)
+        // stage s's outputs, and, a group of columns at a time while their memory is in cache, the next stage's
+        // inputs (a column of the next stage's state needs only that column of this stage's result)
         const bool last = s + 1 == stages;
         omp_rows(threads_, kept, [&](int c0, int c1, int tid) {
-            for (int c = c0; c < c1; ++c) {
-                store_column(s, c, tid);
-                if (!last) load_column(s + 1, c, tid);
+            for (int g0 = c0; g0 < c1; g0 += group) {
+                const int g1 = std::min(c1, g0 + group);
+                for (int c = g0; c < g1; ++c) forward_column(c);
+                for (int c = g0; c < g1; ++c) store_column(s, c, tid);
+                if (!last)
+                    for (int c = g0; c < g1; ++c) load_column(s + 1, c, tid);
             }
         });
     }

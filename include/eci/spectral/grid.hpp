@@ -189,9 +189,12 @@ class grid {
             [&](int, int kx, cplx* const* col, int tid) { store(kx, col, tid); });
     }
     /// `stages` of transform_product_columns in a row, load(stage, kx, col, thread) and store(stage, kx, col,
-    /// thread): each column's store of one stage is followed at once by its load of the next, on the same thread,
+    /// thread): each column's store of one stage is followed soon by its load of the next, on the same thread,
     /// while the column's memory is in cache (a stage's inputs at column k_x may depend on the previous stage's
     /// outputs at k_x alone: the stages of a Runge-Kutta step on a state stored by columns, flow2d::run_stages).
+    /// A thread takes its columns in small groups (up to 4, ~128 kB of transform columns): the group's stores in
+    /// column order, then the group's loads; store and load see each column in that order, never a column's load
+    /// before its store.
     /// Here store's col has max(in, out) fields, and a store followed by a load may write that load's inputs itself
     /// (col[j][y], j < in, at the retained rows, where it has just read the outputs), which the grid keeps: it
     /// zeroes only the rows between before the load, which then need not write them again.
