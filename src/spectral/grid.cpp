@@ -616,8 +616,8 @@ void grid::column_product(int stages, int in, int out, void (*load)(void*, int, 
         load(load_ctx, s, c, col, tid);
         fftw_execute_dft(inv, reinterpret_cast<fftw_complex*>(col[0]), reinterpret_cast<fftw_complex*>(col[0]));
     };
-    // column c of stage s's outputs: transformed back along y and read by store while in cache (which may write the
-    // next stage's inputs at the retained rows: col[j], j < in, as load would)
+    // column c of stage s's outputs: transformed back along y, then read by store while in cache (which may write
+    // the next stage's inputs at the retained rows: col[j], j < in, as load would)
     const auto forward_column = [&](int c) {
         cplx* first = p_->buf + std::size_t(c) * ld;
         fftw_execute_dft(fwd, reinterpret_cast<fftw_complex*>(first), reinterpret_cast<fftw_complex*>(first));
@@ -633,7 +633,8 @@ void grid::column_product(int stages, int in, int out, void (*load)(void*, int, 
     // rather than a column's between two transforms (0.3 ms less per C-RK4 step at N = 1024, ~1 %, paired in time;
     // the transforms alone take as long). Each column's own sequence is unchanged, so the same bits. A group's
     // transform columns stay within ~128 kB (of the L2 cache): 4 columns at N = 1024 in Basdevant's form, fewer above.
-    const int group = std::clamp(int(std::size_t(131072) / (std::size_t(std::max(in, out)) * std::size_t(n_) * sizeof(cplx))), 1, 4);
+    const std::size_t column_bytes = std::size_t(std::max(in, out)) * std::size_t(n_) * sizeof(cplx);
+    const int group = std::clamp(int(std::size_t(131072) / column_bytes), 1, 4);
     omp_rows(threads_, kept, [&](int c0, int c1, int tid) {
         for (int c = c0; c < c1; ++c) load_column(0, c, tid);
     });
