@@ -986,12 +986,27 @@ void in_row_order_over(const flow2d& m, std::size_t r0, std::size_t r1, F f) {
 // block is on the stack (a heap block per call was an allocation per step of every run, in each thread): up to 16
 // rows, fewer where the rows are long, one row at a time read in place beyond N ~ 6000. The order of the additions
 // is row order whatever the block, so the same bits.
+// The terms are added 32 at a time (in row order) and each run of 32 into the total with compensation (error-free
+// additions): a plain sum of the ~2e5 terms of E at N = 1024 erred by 2e-14 relative (7e-15 at N = 256, 6e-14 at
+// 2048), which is what a run's summary then reported as the drift of an invariant that C-RK4 keeps to 1e-17; now
+// the sums are right to about one rounding, at the plain sum's cost (0.39 against 0.40 ms at N = 1024, paired).
 template <std::size_t K, class Term>
 void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::array<double, K>& total, Term term) {
     const std::size_t nc = std::size_t(m.columns()), nr = std::size_t(m.rows());
-    std::array<double, K> sum = total;  // (a local: the terms' buffer below is doubles too, which total may alias)
+    // (locals: the terms' buffer below is doubles too, which total may alias)
+    std::array<double, K> sum = total, err{}, run{};
+    unsigned count = 0;
+    const auto flush = [&] {
+        for (std::size_t j = 0; j < K; ++j) {
+            const double t = sum[j] + run[j], z = t - sum[j];
+            err[j] += (sum[j] - (t - z)) + (run[j] - z);
+            sum[j] = t, run[j] = 0.0;
+        }
+        count = 0;
+    };
     const auto add = [&](const std::array<double, K>& v) {
-        for (std::size_t j = 0; j < K; ++j) sum[j] += v[j];
+        for (std::size_t j = 0; j < K; ++j) run[j] += v[j];
+        if (++count == 32) flush();
     };
     constexpr std::size_t capacity = 2048;  // terms in the block: 32 kB for E and Z
     // rows a block: up to two cache lines of a column's weights, four of its modes
@@ -1007,7 +1022,9 @@ void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::arra
             for (std::size_t k = 0; k < nb * nc; ++k) add(t[k]);
         }
     }
-    total = sum;
+    flush();
+    // (a sum that overflowed stays inf: its error term is then NaN)
+    for (std::size_t j = 0; j < K; ++j) total[j] = std::isfinite(sum[j]) ? sum[j] + err[j] : sum[j];
 }
 
 }  // namespace

@@ -288,6 +288,43 @@ TEST_P(Equation, SumsOverModesAreTheSameBitsInEitherLayout) {
     }
 }
 
+// The sums over modes are right to a few roundings, not to the ~sqrt(n) eps of a plain sum (65 eps for E at N = 256,
+// 200 at N = 1024), which a run's summary would report as the drift of an invariant that the conservative methods
+// keep: against error-free sums of the same terms (the declared weights times |q_k|^2, sorted, compensated), within
+// 8 eps: each term rounds a few times (weights, |a|, |q|^2) in either form, by at most ~4 eps relative together.
+TEST_P(Equation, SumsOverModesAreRightToRoundOff) {
+    for (const auto& [n, threads] : {std::pair{256, 1}, std::pair{256, 2}, std::pair{512, 1}}) {
+        flow_params p = params(GetParam(), n);
+        p.threads = threads;
+        flow2d m(p);
+        const state q = m.random_field(n / 16.0, 0.5, 3);
+        const auto w = m.quadratic_invariant_weights();
+        const auto exact = [&](auto weight) {
+            std::vector<double> t(q.size());
+            for (std::size_t i = 0; i < q.size(); ++i) t[i] = weight(i) * std::norm(q[i]);
+            std::sort(t.begin(), t.end());
+            eci::compensated_sum s;
+            for (double v : t) s.add(v);
+            return s.value();
+        };
+        double v[2];
+        m.invariant_values(q, v);
+        const double e = exact([&](std::size_t i) { return w[0][i]; });
+        const double z = exact([&](std::size_t i) { return w[1][i]; });
+        const double pal = exact([&](std::size_t i) {
+            const double kx = m.kx(i), ky = m.ky(i);
+            return w[1][i] * (kx * kx + ky * ky);
+        });
+        const double eps = std::numeric_limits<double>::epsilon();
+        const std::pair<double, double> sums[] = {{m.energy(q), e}, {v[0], e}, {m.enstrophy(q), z}, {v[1], z},
+                                                  {m.palinstrophy(q), pal}};
+        for (const auto& [got, want] : sums)
+            EXPECT_LE(std::abs(got - want), 8.0 * eps * want)
+                << got << " vs " << want << " (" << (got - want) / want / eps << " eps), N = " << n << ", " << threads
+                << " thread(s)";
+    }
+}
+
 // Shu and Osher's third-order tableau: a stage (the third) that sums two earlier ones.
 inline constexpr eci::butcher_tableau<3> ssp_rk3{
     3, {{{0.0, 0.0, 0.0}, {1.0, 0.0, 0.0}, {0.25, 0.25, 0.0}}}, {1.0 / 6.0, 1.0 / 6.0, 2.0 / 3.0}, {0.0, 1.0, 0.5}};
