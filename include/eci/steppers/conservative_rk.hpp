@@ -220,7 +220,8 @@ class conservative_rk : public radicand_remedy {
     // Stage value Y_J = x + dt sum_m a[J][m] k_m at one unknown, recomputed exactly as stage_storage formed it
     // (same operations in the same order, so the same bits): the stages need not be kept for the end.
     template <std::size_t J>
-    static double stage_value(double x, const std::array<const double*, s>& k, std::size_t i, double dt) {
+    [[gnu::always_inline]] static double stage_value(double x, const std::array<const double*, s>& k, std::size_t i,
+                                                     double dt) {
         double acc = x;
         [&]<std::size_t... M>(std::index_sequence<M...>) {
             ((T.a[J][M] != 0.0 ? (acc += (dt * T.a[J][M]) * k[M][i], 0) : 0), ...);
@@ -415,8 +416,8 @@ class conservative_rk : public radicand_remedy {
     // The conventional update x + dt sum_j b_j k_j at unknown i: the one fold of element_update, the conditioned
     // pass and the remedy (finish_general forms the same products with dt b_j hoisted out of its loop).
     template <std::size_t... J>
-    static double conventional(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt,
-                               std::index_sequence<J...>) {
+    [[gnu::always_inline]] static double conventional(const double* x, const std::array<const double*, s>& k,
+                                                      std::size_t i, double dt, std::index_sequence<J...>) {
         double conv = x[i];
         ((T.b[J] != 0.0 ? (conv += (dt * T.b[J]) * k[J][i], 0) : 0), ...);
         return conv;
@@ -451,9 +452,12 @@ class conservative_rk : public radicand_remedy {
     // (detail::split_step): the rate sum_j (2 b_j p Y_j) k_j is p times the rate, of the size of the increment, so
     // that it neither overflows nor underflows where psi^2 and the update are representable (the rate alone is
     // cubic in the state's scale for a quadratic S), and has the bits of the unscaled form wherever that is.
+    // Always inlined, as conventional and stage_value: GCC 12 had left it a call per unknown, out of line and
+    // scalar, inside the AVX2 block kernels (session 50).
     template <std::size_t... J>
-    static double radicand(const double* x, const std::array<const double*, s>& k, std::size_t i, double dt,
-                           detail::step_split sp, std::index_sequence<J...>) {
+    [[gnu::always_inline]] static double radicand(const double* x, const std::array<const double*, s>& k,
+                                                  std::size_t i, double dt, detail::step_split sp,
+                                                  std::index_sequence<J...>) {
         double rate = 2.0 * T.b[0] * sp.p * x[i] * k[0][i];  // Y_0 = x
         ((J > 0 && T.b[J] != 0.0 ? (rate += 2.0 * T.b[J] * sp.p * stage_value<J>(x[i], k, i, dt) * k[J][i], 0) : 0),
          ...);
@@ -478,9 +482,11 @@ class conservative_rk : public radicand_remedy {
 #endif
     // One pass over x and the k_j: the conventional update (for the sign), the radicand from recomputed stages (no
     // per-stage pass, no stored stages), and the new amplitude. Returns the counts of negative (or NaN) and of
-    // infinite radicands. Always inlined, so that each caller above compiles it for its own instruction set.
+    // infinite radicands. Always inlined, so that each caller above compiles it for its own instruction set. o is
+    // none of x and the k_j (the stage buffer or result_): said, so that GCC vectorizes the loop without checking
+    // o against each of them (with 13 stages it made no such checks and left the loop scalar; vectorized_kernels.py).
     template <std::size_t... J>
-    [[gnu::always_inline]] static detail::radicand_counts finish_general(double* o, const double* x,
+    [[gnu::always_inline]] static detail::radicand_counts finish_general(double* __restrict o, const double* x,
                                                                          const std::array<const double*, s>& k,
                                                                          double dt, std::size_t n,
                                                                          std::index_sequence<J...>) {
