@@ -2,6 +2,7 @@
 // fused pass from the transforms to the right-hand side (with the budget rates when recording), diagnostics, fields.
 #include "eci/spectral/flow.hpp"
 
+#include "eci/compensated_sum.hpp"
 #include "eci/detail/format.hpp"
 #include "eci/detail/simd.hpp"
 #include "eci/memory.hpp"
@@ -994,14 +995,12 @@ template <std::size_t K, class Term>
 void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::array<double, K>& total, Term term) {
     const std::size_t nc = std::size_t(m.columns()), nr = std::size_t(m.rows());
     // (locals: the terms' buffer below is doubles too, which total may alias)
-    std::array<double, K> sum = total, err{}, run{};
+    std::array<compensated_sum, K> sum;
+    for (std::size_t j = 0; j < K; ++j) sum[j].s = total[j];
+    std::array<double, K> run{};
     unsigned count = 0;
     const auto flush = [&] {
-        for (std::size_t j = 0; j < K; ++j) {
-            const double t = sum[j] + run[j], z = t - sum[j];
-            err[j] += (sum[j] - (t - z)) + (run[j] - z);
-            sum[j] = t, run[j] = 0.0;
-        }
+        for (std::size_t j = 0; j < K; ++j) sum[j].add(run[j]), run[j] = 0.0;
         count = 0;
     };
     const auto add = [&](const std::array<double, K>& v) {
@@ -1024,7 +1023,7 @@ void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::arra
     }
     flush();
     // (a sum that overflowed stays inf: its error term is then NaN)
-    for (std::size_t j = 0; j < K; ++j) total[j] = std::isfinite(sum[j]) ? sum[j] + err[j] : sum[j];
+    for (std::size_t j = 0; j < K; ++j) total[j] = std::isfinite(sum[j].s) ? sum[j].value() : sum[j].s;
 }
 
 }  // namespace

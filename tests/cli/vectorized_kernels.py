@@ -44,12 +44,11 @@ def main(argv):
         if not found:
             print(f"{binary}: no engine kernel found (the pattern no longer matches?)", file=sys.stderr)
             bad += 1
-        for name, (n, v) in sorted(found.items()):
-            if v == 0:
-                print(f"{binary}: scalar ({n} instructions, none on ymm): {name[:200]}", file=sys.stderr)
-                bad += 1
-        print(f"{binary}: {len(found)} engine kernels, {len(found) - sum(1 for n, v in found.values() if v == 0)} "
-              "vectorized")
+        scalar = sorted((name, n) for name, (n, v) in found.items() if v == 0)
+        for name, n in scalar:
+            print(f"{binary}: scalar ({n} instructions, none on ymm): {name[:200]}", file=sys.stderr)
+        bad += len(scalar)
+        print(f"{binary}: {len(found)} engine kernels, {len(found) - len(scalar)} vectorized")
     return 1 if bad else 0
 
 
