@@ -1224,7 +1224,14 @@ int spectral_command::run_spread(const run_settings& settings) {
     // step (eci::interrupted) goes back to the last whole step, w_prev.
     // a linear damping too stiff for dt: the cause a failure or blow-up names (the default step keeps within it)
     const std::string stiffness = model.stiffness_hint(dt);
-    state w_prev = w;
+    // w_prev is copied only where it can be needed, not at every step (a state's copy per step was ~1 % of an N =
+    // 1024 step, and a state of memory): at a step's first failed attempt, where the library asks whether to stop
+    // and x is still the step's start (a failed attempt leaves it), and before a shortened last step.
+    state w_prev;
+    bool w_prev_current = false;  // whether w_prev holds the start of the step being taken
+    const auto keep_step_start = [&] {
+        if (!w_prev_current) w_prev = w, w_prev_current = true;
+    };
     std::uint64_t rng_prev = model.rng_state(), done = first;
     double e_prev = model.energy(w), z_prev = model.enstrophy(w);  // E and Z at the start of the step
     const std::uint64_t halvings0 = run.halvings, rhs_evals0 = run.rhs_evals;
@@ -1325,7 +1332,8 @@ int spectral_command::run_spread(const run_settings& settings) {
                 throw interrupted_at(stop_at(i));
             }
         }
-        w_prev = w;  // the next step starts here
+        w_prev_current = false;  // the next step starts here (w_prev copied if it is needed)
+        if (i + 1 == last && short_end) keep_step_start();  // (the checkpoint of the end keeps this step)
         rng_prev = model.rng_state();
         done = i;
         c0 = cpu_now(), w0 = wall_now();
@@ -1335,7 +1343,10 @@ int spectral_command::run_spread(const run_settings& settings) {
     cfg.update = update == "paper" ? update_kind::paper : update_kind::conditioned;  // --update (default: conditioned)
     cfg.update_chosen = !settings.update.empty();
     cfg.stop_on_invariant_overflow = false;  // a blow-up is the sink's, with its own message
-    cfg.stop_between_attempts = &stop_requested;  // (collective on MPI)
+    cfg.stop_between_attempts = [&] {  // (collective on MPI)
+        keep_step_start();  // (the step is then halved: x goes part-way through it)
+        return stop_requested();
+    };
     // A signal during the set-up: no step was made, so there is nothing for a checkpoint to keep.
     if (stop_requested()) {
         throw_if_interrupted("before the first step");  // (names the signal)
