@@ -985,8 +985,10 @@ void in_row_order_over(const flow2d& m, std::size_t r0, std::size_t r1, F f) {
 // block's rows of a column are contiguous, then added row by row from the block: read in row order, every mode was a
 // cache line of its own, 11 kB from the last, and E took 1.1 ms at N = 1024 (Z 0.6), at every step of a run. The
 // block is on the stack (a heap block per call was an allocation per step of every run, in each thread): up to 16
-// rows, fewer where the rows are long, one row at a time read in place beyond N ~ 6000. The order of the additions
-// is row order whatever the block, so the same bits.
+// rows, fewer where the rows are long, one row at a time read in place beyond N ~ 24000. (A block of 2048 terms held
+// 5 rows at N = 1024 and 1 at N = 4096, where each mode was again a line of its own: E and Z took 0.34, 4.1 and 40 ms
+// at N = 1024, 2048 and 4096, 2-3 % of a C-RK4 step at 4096; with 8192 terms 0.26, 2.7 and 17 ms.) The order of the
+// additions is row order whatever the block, so the same bits.
 // The terms are added 32 at a time (in row order) and each run of 32 into the total with compensation (error-free
 // additions): a plain sum of the ~2e5 terms of E at N = 1024 erred by 2e-14 relative (7e-15 at N = 256, 6e-14 at
 // 2048), which is what a run's summary then reported as the drift of an invariant that C-RK4 keeps to 1e-17; now
@@ -1007,7 +1009,7 @@ void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::arra
         for (std::size_t j = 0; j < K; ++j) run[j] += v[j];
         if (++count == 32) flush();
     };
-    constexpr std::size_t capacity = 2048;  // terms in the block: 32 kB for E and Z
+    constexpr std::size_t capacity = 8192;  // terms in the block: 128 kB for E and Z
     // rows a block: up to two cache lines of a column's weights, four of its modes
     const std::size_t B = std::min<std::size_t>(16, capacity / std::max<std::size_t>(nc, 1));
     if (!m.by_columns() || B == 0) {

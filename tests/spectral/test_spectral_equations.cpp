@@ -261,10 +261,11 @@ TEST_P(Equation, InvariantsAtOnceAreEachInvariantsBits) {
 }
 
 // The sums over modes (E, Z, both at once, palinstrophy) add in row order, so a field stored by columns (the fused
-// column pass) gives the bits of the same field stored by rows; at N = 64 a block of 16 rows, at N = 512 (171
-// columns) the stack block holds 11 rows; on one thread and two.
+// column pass) gives the bits of the same field stored by rows; at N = 64 and 512 a block of 16 rows, at N = 2048
+// (683 columns) the stack block holds 11 rows; on one thread and two.
 TEST_P(Equation, SumsOverModesAreTheSameBitsInEitherLayout) {
-    for (const auto& [n, threads] : {std::pair{64, 1}, std::pair{64, 2}, std::pair{512, 1}, std::pair{512, 2}}) {
+    for (const auto& [n, threads] :
+         {std::pair{64, 1}, std::pair{64, 2}, std::pair{512, 1}, std::pair{512, 2}, std::pair{2048, 2}}) {
         flow_params p = params(GetParam(), n);
         p.threads = threads;
         p.pruned_transforms = false;
