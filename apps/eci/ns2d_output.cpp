@@ -57,6 +57,7 @@ struct handle {
 };
 
 hid_t untimed_file_properties();
+hid_t any_attribute_size_access();
 
 // The system error HDF5's file driver last reported, 0 if none. HDF5 puts it in its error stack's text ("..., errno
 // = 28, error message = 'No space left on device', ..."), and clears that stack at the next call (a handle closed
@@ -110,7 +111,8 @@ auto begin_hdf5_write(const std::string& file) {
 template <class Fill>
 void write_h5(const std::string& file, const std::string& what, Fill fill, bool create = true) {
     const auto why = begin_hdf5_write(file);
-    const hid_t id = create ? H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT)
+    const hid_t id = create ? H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(),
+                                        any_attribute_size_access())
                             : H5Fopen(file.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
     if (id < 0)
         throw run_error("cannot write " + what + ": HDF5 could not " + (create ? "create" : "open") + " the file" +
@@ -205,6 +207,20 @@ hid_t untimed_file_properties() {
         return p;
     }();
     return fcpl;
+}
+
+// The files eci creates are in HDF5 1.8's format (readable by HDF5 1.8 and later, h5py's default since 2.x): its
+// objects can hold attributes of any size. In the earliest format an attribute is at most 64 kB, and a checkpoint's
+// fftw_wisdom attribute holds the process's FFTW wisdom, which grows with every size and thread count a wisdom file
+// has planned: from ~64 kB of wisdom (five sizes, one and two threads) every checkpoint failed ("object header
+// message is too large").
+hid_t any_attribute_size_access() {
+    static const hid_t fapl = [] {
+        const hid_t p = H5Pcreate(H5P_FILE_ACCESS);
+        H5Pset_libver_bounds(p, H5F_LIBVER_V18, H5F_LIBVER_V18);
+        return p;
+    }();
+    return fapl;
 }
 
 void write_dataset(hid_t file, const char* name, const double* data, std::initializer_list<hsize_t> dims) {
@@ -995,7 +1011,7 @@ h5_series::h5_series(const std::string& file, std::string_view what, std::vector
     d.what = std::string(what);
     d.groups = std::move(groups);
     const auto why = begin_hdf5_write(file);
-    d.id = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), H5P_DEFAULT);
+    d.id = H5Fcreate(file.c_str(), H5F_ACC_TRUNC, untimed_file_properties(), any_attribute_size_access());
     if (d.id < 0) d.fail("create the file", why);
     try {
         put(d.id, "format", std::string("eci run series"));

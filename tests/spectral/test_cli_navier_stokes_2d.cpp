@@ -95,6 +95,59 @@ double read_attribute(const fs::path& file, const char* name) {
     return v;
 }
 
+// The bytes an attribute of an HDF5 file's root holds (0 if it cannot be read).
+std::size_t attribute_bytes(const fs::path& file, const char* name) {
+    H5Eset_auto2(H5E_DEFAULT, nullptr, nullptr);
+    std::size_t n = 0;
+    const hid_t f = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+    if (f < 0) return n;
+    const hid_t a = H5Aopen(f, name, H5P_DEFAULT);
+    if (a >= 0) {
+        n = std::size_t(H5Aget_storage_size(a));
+        H5Aclose(a);
+    }
+    H5Fclose(f);
+    return n;
+}
+
+// A checkpoint holds the process's FFTW wisdom, which grows with every size and thread count its wisdom file has
+// planned (the default file is the user's, kept across runs). Beyond 64 kB (five sizes on one and two threads made
+// 66 kB) HDF5's earliest format refused the attribute and every checkpoint failed ("object header message is too
+// large"); eci's files are in HDF5 1.8's format now. Here a wisdom file of ~110 kB: a real one's first entry under
+// 1200 other keys (FFTW keeps each as a plan of its own and exports them all).
+TEST(CliNavierStokes2d, ACheckpointHoldsWisdomOfAnySize) {
+    scratch_dir dir("ns2d-big-wisdom");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    auto r = run_eci("run navier-stokes-2d --N 16 --steps 1 --fftw-wisdom " + q + "/small", d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto lines = lines_of(read_text(d / "small"));
+    ASSERT_GE(lines.size(), 3u);
+    const std::string entry = lines[1];  // "  (solver 0 #x... #x... #x0 #xh1 #xh2 #xh3 #xh4)": h1 .. h4 its key
+    std::size_t key = entry.size();
+    for (int j = 0; j < 4; ++j) key = entry.rfind("#x", key - 1);
+    ASSERT_NE(key, std::string::npos) << entry;
+    const std::size_t key_end = entry.find(' ', key);
+    ASSERT_NE(key_end, std::string::npos) << entry;
+    std::string big = lines[0] + "\n";
+    for (int i = 0; i < 1200; ++i) {
+        char k[16];
+        std::snprintf(k, sizeof k, "#x%08x", 0x10000000 + i);
+        big += entry.substr(0, key) + k + entry.substr(key_end) + "\n";
+    }
+    big += ")\n";
+    std::ofstream(d / "big") << big;
+    r = run_eci("run navier-stokes-2d --N 16 --steps 2 --fftw-wisdom " + q + "/big --checkpoint " + q + "/c.h5", d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_GT(attribute_bytes(d / "c.h5", "fftw_wisdom"), std::size_t(100000));
+    // the restart imports it, and its own checkpoint holds it again
+    r = run_eci("run navier-stokes-2d --restart " + q + "/c.h5 --fftw-wisdom none --steps 4 --checkpoint " + q +
+                    "/c2.h5",
+                d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_GT(attribute_bytes(d / "c2.h5", "fftw_wisdom"), std::size_t(100000));
+}
+
 // The transforms of the retained columns (the default) and FFTW's 2-D plans (--full-transforms) give the same run
 // to round-off, not the same bits; the checkpoint says which a run took, and a restart takes the same, so each
 // continues bit for bit, a checkpoint of an older version (no such attribute: 2-D plans, all it had) included.
