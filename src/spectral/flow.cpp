@@ -987,7 +987,7 @@ void in_row_order_over(const flow2d& m, std::size_t r0, std::size_t r1, F f) {
 // block is on the stack (a heap block per call was an allocation per step of every run, in each thread): up to 16
 // rows, fewer where the rows are long, one row at a time read in place beyond N ~ 24000. (A block of 2048 terms held
 // 5 rows at N = 1024 and 1 at N = 4096, where each mode was again a line of its own: E and Z took 0.34, 4.1 and 40 ms
-// at N = 1024, 2048 and 4096, 2-3 % of a C-RK4 step at 4096; with 8192 terms 0.26, 2.7 and 17 ms.) The order of the
+// at N = 1024, 2048 and 4096, 4-6 % of a C-RK4 step at 4096; with 8192 terms 0.26, 2.7 and 17 ms.) The order of the
 // additions is row order whatever the block, so the same bits.
 // The terms are added 32 at a time (in row order) and each run of 32 into the total with compensation (error-free
 // additions): a plain sum of the ~2e5 terms of E at N = 1024 erred by 2e-14 relative (7e-15 at N = 256, 6e-14 at
