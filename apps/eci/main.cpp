@@ -89,6 +89,25 @@ std::string model_names(const std::vector<std::unique_ptr<model_command>>& model
     return s;
 }
 
+/// For `eci run MODEL ... --name ...` where --name is not MODEL's but another model's option (--beta of
+/// charney-hasegawa-mima given to surface-qg): " (MODEL has no --name; it is an option of OTHER)", else "".
+std::string other_models_option(const std::vector<std::unique_ptr<model_command>>& models, int argc, char** argv,
+                                const std::vector<std::string>& extras) {
+    if (argc < 3 || std::string_view(argv[1]) != "run") return "";
+    const std::string model = argv[2];
+    for (const std::string& extra : extras) {
+        if (extra.size() < 3 || extra.rfind("--", 0) != 0) continue;
+        const std::string name = extra.substr(2, extra.find('=') - 2);
+        std::string owners;
+        for (const auto& m : models)
+            for (const option_spec& o : m->options())
+                if (o.name == name && m->info().name != model)
+                    owners.append(owners.empty() ? "" : ", ").append(m->info().name);
+        if (!owners.empty()) return " (" + model + " has no --" + name + "; it is an option of " + owners + ")";
+    }
+    return "";
+}
+
 /// A CLI11 check that an option is a whole number >= min (CLI11 alone would wrap "-3" into a huge unsigned);
 /// one beyond 2^64 - 1 is "too large", not "not a whole number".
 CLI::Validator whole_number(std::uint64_t min) {
@@ -420,7 +439,7 @@ int run_cli(int argc, char** argv) {
         for (int i = 1; i < argc; ++i)
             if (std::find(extras.begin(), extras.end(), argv[i]) != extras.end())
                 typed.append(typed.empty() ? "" : " ").append(argv[i]);
-        throw bad_input("unexpected arguments: " + typed);
+        throw bad_input("unexpected arguments: " + typed + other_models_option(models, argc, argv, extras));
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
         throw bad_input(plain_parse_error(e.what()));

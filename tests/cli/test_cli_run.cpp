@@ -205,6 +205,7 @@ const std::vector<bad_case> bad_cases = {
     {"n_wave_with_two_modes", {"run", "n-wave", "--modes", "2"}},
     {"n_wave_independent_triads_need_multiple_of_3", {"run", "n-wave", "--modes", "31", "--triads-per-mode", "1"}},
     {"unexpected_argument", {"run", "three-wave", "extra"}},
+    {"option_of_another_model", {"run", "surface-qg", "--N", "16", "--beta", "1"}},
     {"unknown_command", {"bogus"}},
 };
 
@@ -248,6 +249,17 @@ TEST_F(cli, error_messages_name_the_problem) {
     EXPECT_NE(eci({"run", "three-wave", "--M", "1,1,1"}).err.find("eq. 2"), std::string::npos);
     EXPECT_NE(eci({"run", "three-wave", "--K", "2"}).err.find("eq. 3"), std::string::npos);
     EXPECT_NE(eci({"run", "three-wave", "--psi", "1,nan,1"}).err.find("psi_P is not finite"), std::string::npos);
+    // An option of another model is named as such, not only as an unexpected argument.
+    const std::string beta = eci({"run", "surface-qg", "--beta", "1"}).err;
+    EXPECT_NE(beta.find("unexpected arguments: --beta 1 (surface-qg has no --beta; it is an option of "), std::string::npos)
+        << beta;
+    EXPECT_NE(beta.find("charney-hasegawa-mima)"), std::string::npos) << beta;
+    EXPECT_NE(eci({"run", "navier-stokes-2d", "--deformation=2"})
+                  .err.find("(navier-stokes-2d has no --deformation; it is an option of charney-hasegawa-mima)"),
+              std::string::npos);
+    EXPECT_NE(eci({"run", "three-wave", "--N", "64"}).err.find("it is an option of navier-stokes-2d, "),
+              std::string::npos);
+    EXPECT_EQ(eci({"run", "three-wave", "--bogus"}).err.find("it is an option of"), std::string::npos);
 }
 
 TEST_F(cli, unwritable_csv_path_fails_before_running_and_writes_nothing) {
