@@ -272,6 +272,29 @@ int main(int argc, char** argv) {
                     p.n, 1e3 * r_rk4, 1e3 * (r_cond - r_rk4), 1e3 * (r_paper - r_rk4), 1e3 * (r_modulus - r_rk4),
                     (r_cond - r_rk4) / t_rk4, (r_paper - r_rk4) / t_rk4, (r_modulus - r_rk4) / t_rk4);
     }
+    {
+        // What a run adds to each step: E and Z (eci::solve's invariants at every step), and a CSV row's max |u|
+        // (inverse transforms of the velocity) and palinstrophy (`eci run` writes a row at every step by default).
+        // Medians of 31 calls, in ms and as a share of the RK4 step above.
+        const auto median_ms = [&](auto fn) {
+            std::vector<double> v;
+            for (int r = 0; r < 31; ++r) {
+                const double t = now();
+                fn();
+                v.push_back(1e3 * seconds_since(t));
+            }
+            std::sort(v.begin(), v.end());
+            return v[v.size() / 2];
+        };
+        double ez[2], sink = 0.0;
+        const double inv_ms = median_ms([&] { m.invariant_values(w0, ez), sink += ez[0]; });
+        const double umax_ms = median_ms([&] { sink += m.max_velocity(w0); });
+        const double pal_ms = median_ms([&] { sink += m.palinstrophy(w0); });
+        std::printf("ns2d-diagnostics N=%d invariants_ms=%.3f max_velocity_ms=%.3f palinstrophy_ms=%.3f "
+                    "invariants/rk4_step=%.4f row/rk4_step=%.4f%s\n",
+                    p.n, inv_ms, umax_ms, pal_ms, 1e-3 * inv_ms / t_rk4, 1e-3 * (umax_ms + pal_ms) / t_rk4,
+                    sink == 0.0 ? " (zero field)" : "");
+    }
     if (p.threads == 1) return 0;
     // Threads: a one-thread model beside this one, C-RK4 steps alternating between them in wall time, so load from
     // other processes hits both alike (on a shared machine it takes cores from the threaded one first).

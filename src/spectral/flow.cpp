@@ -8,6 +8,7 @@
 #include "eci/memory.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
 #include <numbers>
@@ -968,19 +969,22 @@ void flow2d::end_retry(bool completed) {
 
 namespace {
 
-// f(i) over the modes of rows r0 .. r1 - 1 in row order (flow2d::in_row_order's: each row's columns in turn).
+// f(i, c, r) over the modes of rows r0 .. r1 - 1 in row order (flow2d::in_row_order's: each row's columns in turn):
+// mode i of the state at its column c (this process's, from 0) and row r, whose wavenumbers a term takes from c and
+// r (kx_of_column, ky_of_row) rather than from i (kx(i), ky(i): a division each; palinstrophy took 2.2 ms at
+// N = 1024, more than E and Z together).
 template <class F>
 void in_row_order_over(const flow2d& m, std::size_t r0, std::size_t r1, F f) {
     const std::size_t nc = std::size_t(m.columns()), nr = std::size_t(m.rows());
     for (std::size_t r = r0; r < r1; ++r) {
         if (m.by_columns())
-            for (std::size_t c = 0; c < nc; ++c) f(c * nr + r);
+            for (std::size_t c = 0; c < nc; ++c) f(c * nr + r, c, r);
         else
-            for (std::size_t i = r * nc; i < (r + 1) * nc; ++i) f(i);
+            for (std::size_t c = 0; c < nc; ++c) f(r * nc + c, c, r);
     }
 }
 
-// sum[j] + term(i)[j] over the modes of rows r0 .. r1 - 1, added in row order (so the same bits from either
+// sum[j] + term(i, c, r)[j] over the modes of rows r0 .. r1 - 1, added in row order (so the same bits from either
 // layout). A state stored by columns has its terms formed a block of rows at a time column by column, where the
 // block's rows of a column are contiguous, then added row by row from the block: read in row order, every mode was a
 // cache line of its own, 11 kB from the last, and E took 1.1 ms at N = 1024 (Z 0.6), at every step of a run. The
@@ -1013,13 +1017,13 @@ void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::arra
     // rows a block: up to two cache lines of a column's weights, four of its modes
     const std::size_t B = std::min<std::size_t>(16, capacity / std::max<std::size_t>(nc, 1));
     if (!m.by_columns() || B == 0) {
-        in_row_order_over(m, r0, r1, [&](std::size_t i) { add(term(i)); });
+        in_row_order_over(m, r0, r1, [&](std::size_t i, std::size_t c, std::size_t r) { add(term(i, c, r)); });
     } else {
         std::array<std::array<double, K>, capacity> t;
         for (std::size_t b0 = r0; b0 < r1; b0 += B) {
             const std::size_t nb = std::min(B, r1 - b0);
             for (std::size_t c = 0; c < nc; ++c)
-                for (std::size_t q = 0; q < nb; ++q) t[q * nc + c] = term(c * nr + b0 + q);
+                for (std::size_t q = 0; q < nb; ++q) t[q * nc + c] = term(c * nr + b0 + q, c, b0 + q);
             for (std::size_t k = 0; k < nb * nc; ++k) add(t[k]);
         }
     }
@@ -1033,7 +1037,7 @@ void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::arra
 double flow2d::energy(const state_type& q) const {
     const double* ea = d_->ea.data();
     auto s = d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
-        add_in_row_order(*this, std::size_t(r0), std::size_t(r1), acc, [&](std::size_t i) {
+        add_in_row_order(*this, std::size_t(r0), std::size_t(r1), acc, [&](std::size_t i, std::size_t, std::size_t) {
             return std::array<double, 1>{weights_[i] * ea[i] * std::norm(q[i])};
         });
     }, rows());
@@ -1043,8 +1047,9 @@ double flow2d::energy(const state_type& q) const {
 
 double flow2d::enstrophy(const state_type& q) const {
     auto s = d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
-        add_in_row_order(*this, std::size_t(r0), std::size_t(r1), acc,
-                         [&](std::size_t i) { return std::array<double, 1>{weights_[i] * std::norm(q[i])}; });
+        add_in_row_order(*this, std::size_t(r0), std::size_t(r1), acc, [&](std::size_t i, std::size_t, std::size_t) {
+            return std::array<double, 1>{weights_[i] * std::norm(q[i])};
+        });
     }, rows());
     d_->g.sum_over_ranks(s.data(), 1);
     return 0.5 * s[0];
@@ -1054,7 +1059,7 @@ void flow2d::invariant_values(const state_type& q, std::span<double> out) const 
     if (out.size() != 2) throw std::invalid_argument("flow2d::invariant_values gives E and Z: two values");
     const double* ea = d_->ea.data();
     auto s = d_->g.sum_rows<2>([&](int r0, int r1, std::array<double, 2>& acc) {
-        add_in_row_order(*this, std::size_t(r0), std::size_t(r1), acc, [&](std::size_t i) {
+        add_in_row_order(*this, std::size_t(r0), std::size_t(r1), acc, [&](std::size_t i, std::size_t, std::size_t) {
             const double z = std::norm(q[i]);
             return std::array<double, 2>{weights_[i] * ea[i] * z, weights_[i] * z};
         });
@@ -1066,8 +1071,8 @@ void flow2d::invariant_values(const state_type& q, std::span<double> out) const 
 
 double flow2d::palinstrophy(const state_type& q) const {
     auto s = d_->g.sum_rows<1>([&](int r0, int r1, std::array<double, 1>& acc) {
-        add_in_row_order(*this, std::size_t(r0), std::size_t(r1), acc, [&](std::size_t i) {
-            const double x = kx(i), y = ky(i);
+        add_in_row_order(*this, std::size_t(r0), std::size_t(r1), acc, [&](std::size_t i, std::size_t c, std::size_t r) {
+            const double x = kx_of_column(c), y = ky_of_row(r);
             return std::array<double, 1>{weights_[i] * (x * x + y * y) * std::norm(q[i])};
         });
     }, rows());
@@ -1075,17 +1080,49 @@ double flow2d::palinstrophy(const state_type& q) const {
     return 0.5 * s[0];
 }
 
+namespace {
+// max(u^2 + v^2) over n points (0 if none; a NaN is passed over, as std::max passes it). Eight running maxima, not
+// one: one was a chain of dependent maxima, 4 cycles a point, 1.4 ms of a row's max |u| at N = 1024.
+double max_speed_squared(const double* u, const double* v, std::size_t n) {
+    double m[8] = {};
+    std::size_t x = 0;
+    for (; x + 8 <= n; x += 8)
+        for (std::size_t l = 0; l < 8; ++l) {
+            const double s = u[x + l] * u[x + l] + v[x + l] * v[x + l];
+            m[l] = m[l] < s ? s : m[l];
+        }
+    for (; x < n; ++x) m[0] = std::max(m[0], u[x] * u[x] + v[x] * v[x]);
+    return std::max({m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7]});
+}
+}  // namespace
+
 double flow2d::max_velocity(const state_type& q) {
     impl& d = *d_;
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
+    if (d.g.column_pass()) {
+        // The right-hand side's inverse transforms (the retained columns along y, then row by row in cache) and the
+        // maximum over each row, no forward transforms; a maximum is the same whatever order the rows come in. FFTW's
+        // 2-D transforms of the whole half plane and a pass over the fields took 6.6-7.5 ms at N = 1024 against 5.0
+        // (one thread, eci_bench_ns2d_step's diagnostics row): a CSV row's max |u|, at every step of `eci run` by
+        // default, where a C-RK4 step takes ~36 ms.
+        std::atomic<double> vmax{0.0};
+        d.g.transform_product_columns(
+            2, 0, [&](int kx, cplx* const* col, int) { d.fill_column(q.data(), 2, kx, col); },
+            [&](double* const* f, std::size_t nx) {
+                const double m = max_speed_squared(f[0], f[1], nx);
+                for (double seen = vmax.load(); m > seen && !vmax.compare_exchange_weak(seen, m);) {
+                }
+            },
+            [](int, cplx* const*, int) {});
+        return std::sqrt(vmax.load());
+    }
     d.fill(q.data(), 2, true);
     d.g.inverse(2);
     const double* u = d.g.physical(0);
     const double* v = d.g.physical(1);
     double vmax = 0.0;
     for (std::size_t y = 0; y < std::size_t(d.g.local_rows()); ++y)
-        for (std::size_t j = y * d.g.padded(); j < y * d.g.padded() + std::size_t(n_); ++j)
-            vmax = std::max(vmax, u[j] * u[j] + v[j] * v[j]);
+        vmax = std::max(vmax, max_speed_squared(u + y * d.g.padded(), v + y * d.g.padded(), std::size_t(n_)));
     d.g.max_over_ranks(&vmax, 1);
     return std::sqrt(vmax);
 }
@@ -1156,8 +1193,9 @@ double flow2d::cfl(const state_type& q, double dt) { return max_velocity(q) * dt
 template <class Value>
 std::vector<double> flow2d::shells(Value value) const {
     std::vector<double> e(d_->g.shell_count(), 0.0);
-    in_row_order_over(*this, 0, std::size_t(rows()), [&](std::size_t i) {
-        if (weights_[i] != 0.0) e[std::size_t(std::lround(std::hypot(double(kx(i)), double(ky(i)))))] += value(i);
+    in_row_order_over(*this, 0, std::size_t(rows()), [&](std::size_t i, std::size_t c, std::size_t r) {
+        if (weights_[i] != 0.0)
+            e[std::size_t(std::lround(std::hypot(double(kx_of_column(c)), double(ky_of_row(r)))))] += value(i);
     });
     d_->g.sum_over_ranks(e.data(), e.size());
     return e;

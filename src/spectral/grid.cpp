@@ -605,7 +605,9 @@ void grid::column_product(int stages, int in, int out, void (*load)(void*, int, 
     if (!column_pass()) throw std::logic_error("grid::transform_product_columns needs pruned transforms on one process");
     const std::size_t nc = std::size_t(columns()), ld = p_->col_ld, fs = p_->col_field;
     const int kept = kmax() + 1, K = kmax();
-    const fftw_plan inv = p_->columns_y_inverse.at(std::size_t(in - 1)), fwd = p_->columns_y_forward.at(std::size_t(out - 1));
+    // (out = 0: the inverse transforms and fn alone, nothing transformed back or stored: flow2d::max_velocity)
+    const fftw_plan inv = p_->columns_y_inverse.at(std::size_t(in - 1));
+    const fftw_plan fwd = out > 0 ? p_->columns_y_forward.at(std::size_t(out - 1)) : nullptr;
     // column c of stage s's inputs: loaded, the rows between the retained ones zeroed, transformed along y (in cache)
     const auto load_column = [&](int s, int c, int tid) {
         cplx* col[8];
@@ -704,6 +706,7 @@ void grid::column_product(int stages, int in, int out, void (*load)(void*, int, 
     };
     for (int s = 0; s < stages; ++s) {
         omp_rows(threads_, (n_ + R - 1) / R, row_pass);
+        if (out == 0) continue;
         // stage s's outputs, and, a group of columns at a time while their memory is in cache, the next stage's
         // inputs (a column of the next stage's state needs only that column of this stage's result)
         const bool last = s + 1 == stages;

@@ -101,6 +101,32 @@ TEST_P(Equation, NonlinearFormsAgree) {
     }
 }
 
+// max |u| (a CSV row's max_velocity, the CFL step) is the maximum over the grid of the velocity field formed here
+// from the inversion operator and transformed alone, on either transforms (the pruned ones: the right-hand side's
+// inverse half, no forward transforms) and threads: to the transforms' round-off (8 eps log2(n^2) max|u|).
+TEST_P(Equation, MaxVelocityIsTheMaximumOfTheVelocityField) {
+    for (const bool prune : {true, false})
+        for (const int threads : {1, 2}) {
+            flow_params p = params(GetParam(), 48);
+            p.pruned_transforms = prune;
+            p.threads = threads;
+            flow2d m(p);
+            const state q = m.random_field(5.0, 0.5, 3);
+            state u(q.size()), v(q.size());
+            for (std::size_t i = 0; i < q.size(); ++i) {
+                const cplx psi = m.inversion()[i] * q[i];
+                u[i] = cplx(0.0, -double(m.ky(i))) * psi;  // u = -d psi/dy
+                v[i] = cplx(0.0, double(m.kx(i))) * psi;   // v = d psi/dx
+            }
+            const std::vector<double> uf = m.to_physical(u), vf = m.to_physical(v);
+            double want = 0.0;
+            for (std::size_t j = 0; j < uf.size(); ++j) want = std::max(want, std::hypot(uf[j], vf[j]));
+            ASSERT_GT(want, 0.0);
+            EXPECT_NEAR(m.max_velocity(q), want, 8.0 * eps * std::log2(48.0 * 48.0) * want)
+                << (prune ? "pruned" : "full") << " transforms, " << threads << " threads";
+        }
+}
+
 // The pruned transforms (columns without retained modes skipped, rows fused with the products; the default) give
 // the same term as FFTW's 2-D plans to the transforms' round-off (8 eps log2(n^2) max|N|, as above), and a pruned
 // run keeps both invariants as exactly (8 eps sqrt(steps)).

@@ -163,11 +163,11 @@ class flow2d {
     std::size_t column_of(std::size_t i) const {
         return by_columns_ ? i / std::size_t(rows()) : i % std::size_t(columns());
     }
-    int kx(std::size_t i) const { return col0_ + int(column_of(i)); }
-    int ky(std::size_t i) const {
-        const int row = int(row_of(i));
-        return row <= kmax() ? row : row - rows();
-    }
+    int kx(std::size_t i) const { return kx_of_column(column_of(i)); }
+    int ky(std::size_t i) const { return ky_of_row(row_of(i)); }
+    /// k_x of the state's column c and k_y of its row r (no division: loops over rows and columns use these).
+    int kx_of_column(std::size_t c) const { return col0_ + int(c); }
+    int ky_of_row(std::size_t r) const { return int(r) <= kmax() ? int(r) : int(r) - rows(); }
     /// The index of the k-th mode in row order (the half plane's, and a state stored by rows): sums over the state
     /// (E, Z, spectra) add in that order, so that they are the same bits from either layout.
     std::size_t in_row_order(std::size_t k) const {
