@@ -988,11 +988,14 @@ void in_row_order_over(const flow2d& m, std::size_t r0, std::size_t r1, F f) {
 // layout). A state stored by columns has its terms formed a block of rows at a time column by column, where the
 // block's rows of a column are contiguous, then added row by row from the block: read in row order, every mode was a
 // cache line of its own, 11 kB from the last, and E took 1.1 ms at N = 1024 (Z 0.6), at every step of a run. The
-// block is on the stack (a heap block per call was an allocation per step of every run, in each thread): up to 16
-// rows, fewer where the rows are long, one row at a time read in place beyond N ~ 24000. (A block of 2048 terms held
-// 5 rows at N = 1024 and 1 at N = 4096, where each mode was again a line of its own: E and Z took 0.34, 4.1 and 40 ms
-// at N = 1024, 2048 and 4096, 4-6 % of a C-RK4 step at 4096; with 8192 terms 0.26, 2.7 and 17 ms.) The order of the
-// additions is row order whatever the block, so the same bits.
+// block is on the stack (a heap block per call was an allocation per step of every run, in each thread), up to 16
+// rows, fewer where rows are long; a state beyond the caches has blocks of 64 rows in a block of the thread's own.
+// (A block on the stack of 2048 terms held 5 rows at N = 1024 and 1 at N = 4096, where each mode was again a line of
+// its own: E and Z took 0.34, 4.1 and 40 ms at N = 1024, 2048 and 4096; with 8192 terms 0.26, 2.7 and 17 ms on that
+// machine. On another, E and Z at N = 4096 took 41-42 ms with 8192 terms (5 rows), 26 with 16 rows and 20 with 64,
+// the thread's block; at N = 2048 2.4-3.0 ms with 11 rows on the stack, 3.6 with 64; at N = 1024 and 2048 the
+// palinstrophy took 40 % longer with 16 rows in the thread's block than on the stack.) The order of the additions is
+// row order whatever the block, so the same bits.
 // The terms are added 32 at a time (in row order) and each run of 32 into the total with compensation (error-free
 // additions): a plain sum of the ~2e5 terms of E at N = 1024 erred by 2e-14 relative (7e-15 at N = 256, 6e-14 at
 // 2048), which is what a run's summary then reported as the drift of an invariant that C-RK4 keeps to 1e-17; now
@@ -1013,19 +1016,29 @@ void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::arra
         for (std::size_t j = 0; j < K; ++j) run[j] += v[j];
         if (++count == 32) flush();
     };
-    constexpr std::size_t capacity = 8192;  // terms in the block: 128 kB for E and Z
-    // rows a block: up to two cache lines of a column's weights, four of its modes
-    const std::size_t B = std::min<std::size_t>(16, capacity / std::max<std::size_t>(nc, 1));
-    if (!m.by_columns() || B == 0) {
-        in_row_order_over(m, r0, r1, [&](std::size_t i, std::size_t c, std::size_t r) { add(term(i, c, r)); });
-    } else {
-        std::array<std::array<double, K>, capacity> t;
+    // a block's rows, its terms formed into t: up to 16 rows (a column's run of 256 bytes of modes, 128 of weights)
+    const auto blocks = [&](std::array<double, K>* t, std::size_t B) {
         for (std::size_t b0 = r0; b0 < r1; b0 += B) {
             const std::size_t nb = std::min(B, r1 - b0);
             for (std::size_t c = 0; c < nc; ++c)
                 for (std::size_t q = 0; q < nb; ++q) t[q * nc + c] = term(c * nr + b0 + q, c, b0 + q);
             for (std::size_t k = 0; k < nb * nc; ++k) add(t[k]);
         }
+    };
+    constexpr std::size_t capacity = 8192;  // terms in a block on the stack: 128 kB for E and Z
+    if (!m.by_columns()) {
+        in_row_order_over(m, r0, r1, [&](std::size_t i, std::size_t c, std::size_t r) { add(term(i, c, r)); });
+    } else if (m.size() * sizeof(flow2d::state_type::value_type) >= (std::size_t(32) << 20)) {
+        // A state beyond the caches (from 32 MB, N ~ 3000), whose modes come from memory: 64 rows, runs of 1 kB a
+        // column that the prefetchers follow, in the thread's own block, kept from call to call
+        static thread_local std::vector<std::array<double, K>> block;
+        if (block.size() < 64 * nc) block.resize(64 * nc);
+        blocks(block.data(), 64);
+    } else if (nc <= capacity) {
+        std::array<std::array<double, K>, capacity> t;
+        blocks(t.data(), std::min<std::size_t>(16, capacity / nc));
+    } else {
+        in_row_order_over(m, r0, r1, [&](std::size_t i, std::size_t c, std::size_t r) { add(term(i, c, r)); });
     }
     flush();
     // (a sum that overflowed stays inf: its error term is then NaN)

@@ -291,7 +291,8 @@ TEST_P(Equation, InvariantsAtOnceAreEachInvariantsBits) {
 // (683 columns) the stack block holds 11 rows; on one thread and two.
 TEST_P(Equation, SumsOverModesAreTheSameBitsInEitherLayout) {
     for (const auto& [n, threads] :
-         {std::pair{64, 1}, std::pair{64, 2}, std::pair{512, 1}, std::pair{512, 2}, std::pair{2048, 2}}) {
+         {std::pair{64, 1}, std::pair{64, 2}, std::pair{512, 1}, std::pair{512, 2}, std::pair{2048, 2},
+          std::pair{3200, 2}}) {  // (N = 3200: a state of 36 MB, summed in blocks of 64 rows)
         flow_params p = params(GetParam(), n);
         p.threads = threads;
         p.pruned_transforms = false;
