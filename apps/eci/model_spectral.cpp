@@ -743,6 +743,15 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (wisdom_text && !wisdom_after) navier_stokes_2d::import_fftw_wisdom(*wisdom_text);  // not wisdom: ignored
     navier_stokes_2d model = [&] {
         try {
+            // FFTW_MEASURE plans a new size or thread count for seconds (N = 1024) to minutes (8192): said on a
+            // terminal, where a run would otherwise show nothing until they are made
+            std::optional<delayed_status> planning;
+            if (mpi.rank == 0 && p.measure)
+                planning.emplace("eci: planning the FFTW transforms (N = " + std::to_string(p.n) + ", " +
+                                 std::to_string(p.threads) + (p.threads == 1 ? " thread" : " threads") +
+                                 ", FFTW_MEASURE; " +
+                                 (wisdom_path.empty() ? "not kept: --fftw-wisdom none)..."
+                                                      : "kept in " + wisdom_path + " for later runs)..."));
             return navier_stokes_2d(p);
         } catch (const std::invalid_argument& e) {
             throw bad_input(name_ + ": " + e.what());

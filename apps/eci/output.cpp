@@ -1175,6 +1175,32 @@ scoped_temporary::~scoped_temporary() {
     unregister_cleanup(slot_);
 }
 
+// ---- a status line while something slow runs ----
+
+delayed_status::delayed_status(std::string text, std::chrono::milliseconds after) {
+    if (::isatty(STDERR_FILENO) != 1) return;
+    waiter_ = std::thread([this, text = std::move(text), after] {
+        std::unique_lock<std::mutex> lock(mutex_);
+        if (done_cv_.wait_for(lock, after, [this] { return done_; })) return;
+        std::fputs(("\r" + text).c_str(), stderr);
+        std::fflush(stderr);
+        shown_ = true;
+    });
+}
+
+delayed_status::~delayed_status() {
+    if (!waiter_.joinable()) return;
+    {
+        std::lock_guard<std::mutex> lock(mutex_);
+        done_ = true;
+    }
+    done_cv_.notify_all();
+    waiter_.join();
+    if (!shown_) return;
+    std::fputs("\r\033[K", stderr);
+    std::fflush(stderr);
+}
+
 // ---- progress bar ----
 
 progress_bar::progress_bar(std::uint64_t total, std::uint64_t check_every, double t_end)

@@ -6,14 +6,17 @@
 
 #include <atomic>
 #include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdio>
 #include <functional>
 #include <initializer_list>
+#include <mutex>
 #include <optional>
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -302,6 +305,22 @@ class scoped_temporary {
    private:
     std::string path_;
     int slot_;
+};
+
+/// A line on stderr while something slow runs that draws no progress bar (FFTW's planning): shown only when stderr
+/// is a terminal and the work has lasted over `after`, erased when the object ends.
+class delayed_status {
+   public:
+    explicit delayed_status(std::string text, std::chrono::milliseconds after = std::chrono::seconds(1));
+    ~delayed_status();
+    delayed_status(const delayed_status&) = delete;
+    delayed_status& operator=(const delayed_status&) = delete;
+
+   private:
+    std::mutex mutex_;
+    std::condition_variable done_cv_;
+    bool done_ = false, shown_ = false;
+    std::thread waiter_;
 };
 
 /// A one-line progress bar on stderr, shown only when stderr is a terminal and the run has lasted over a

@@ -110,6 +110,34 @@ std::size_t attribute_bytes(const fs::path& file, const char* name) {
     return n;
 }
 
+// FFTW_MEASURE plans a new size for seconds (N = 1024, --fftw-wisdom none: ~3 s here) to minutes: on a terminal a
+// line says so once planning has taken a second, and is erased before the run's own output; with stderr not a
+// terminal nothing is said (the other tests' exact stderr). `script` (util-linux, on every Debian) gives eci a
+// terminal.
+TEST(CliNavierStokes2d, SaysOnATerminalThatItPlansTheTransforms) {
+    if (std::system("command -v script >/dev/null 2>&1") != 0) GTEST_SKIP() << "no script(1) for a terminal";
+    scratch_dir dir("ns2d-planning");
+    const fs::path d = dir.path();
+    const std::string run = shell_quote(ECI_CLI_PATH) + " run navier-stokes-2d --N 1024 --steps 1 --fftw-wisdom none "
+                            "--output " + shell_quote((d / "out.csv").string());
+    const std::string cmd = "script -qec " + shell_quote(run) + " /dev/null </dev/null >" +
+                            shell_quote((d / "tty").string()) + " 2>&1";
+    ASSERT_EQ(std::system(cmd.c_str()), 0);
+    std::ifstream in(d / "tty", std::ios::binary);
+    const std::string tty((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string line = "\reci: planning the FFTW transforms (N = 1024, 1 thread, FFTW_MEASURE; not kept: "
+                             "--fftw-wisdom none)...\r\033[K";
+    const std::size_t at = tty.find(line);
+    ASSERT_NE(at, std::string::npos) << tty.substr(0, 300);
+    EXPECT_LT(at, tty.find("eci run navier-stokes-2d: method c-rk4")) << "erased before the run's summary";
+    // not on a terminal: no such line
+    const auto r = run_eci("run navier-stokes-2d --N 1024 --steps 1 --fftw-wisdom none --output " +
+                               shell_quote((d / "out2.csv").string()),
+                           d);
+    EXPECT_EQ(r.status, 0);
+    EXPECT_EQ(r.err.find("planning"), std::string::npos) << r.err;
+}
+
 // A checkpoint holds the process's FFTW wisdom, which grows with every size and thread count its wisdom file has
 // planned (the default file is the user's, kept across runs). Beyond 64 kB (five sizes on one and two threads made
 // 66 kB) HDF5's earliest format refused the attribute and every checkpoint failed ("object header message is too
