@@ -49,6 +49,8 @@ long long monotonic_ns() {
     return static_cast<long long>(ts.tv_sec) * 1000000000LL + ts.tv_nsec;
 }
 std::atomic<pid_t> child_pid{0};
+// Whether a delayed_status line is on the terminal: a forced exit erases it before its message.
+std::atomic<bool> status_line_on{false};
 // The watchdog's allowance after an interrupt (set_interrupt_grace), in microseconds.
 std::atomic<long long> grace_cpu_us{300000}, grace_wall_us{1000000};
 
@@ -137,6 +139,7 @@ void write_stderr(const char* s) {
     for (cleanup_slot& c : cleanup)
         if (c.kind.load() == 3) ::rmdir(c.path);  // fails, as it should, if anything is left in it
     const int s = signal_number ? signal_number : SIGINT;
+    if (status_line_on.load()) write_stderr("\r\033[K");
     write_stderr("eci: error: interrupted by ");
     write_stderr(signal_name(s));
     write_stderr("\n");
@@ -1185,6 +1188,7 @@ delayed_status::delayed_status(std::string text, std::chrono::milliseconds after
         std::fputs(("\r" + text).c_str(), stderr);
         std::fflush(stderr);
         shown_ = true;
+        status_line_on.store(true);
     });
 }
 
@@ -1199,6 +1203,7 @@ delayed_status::~delayed_status() {
     if (!shown_) return;
     std::fputs("\r\033[K", stderr);
     std::fflush(stderr);
+    status_line_on.store(false);
 }
 
 // ---- progress bar ----

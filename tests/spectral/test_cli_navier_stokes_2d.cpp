@@ -130,6 +130,19 @@ TEST(CliNavierStokes2d, SaysOnATerminalThatItPlansTheTransforms) {
     const std::size_t at = tty.find(line);
     ASSERT_NE(at, std::string::npos) << tty.substr(0, 300);
     EXPECT_LT(at, tty.find("eci run navier-stokes-2d: method c-rk4")) << "erased before the run's summary";
+    // stopped by Ctrl-C while planning (N = 2048: ~8 s here, stopped at 2): the line erased before the message
+    const std::string stopped = "timeout -s INT 2 " + shell_quote(ECI_CLI_PATH) +
+                                " run navier-stokes-2d --N 2048 --steps 1 --fftw-wisdom none --output " +
+                                shell_quote((d / "stopped.csv").string());
+    const std::string cmd2 = "script -qec " + shell_quote(stopped) + " /dev/null </dev/null >" +
+                             shell_quote((d / "tty2").string()) + " 2>&1";
+    (void)std::system(cmd2.c_str());
+    std::ifstream in2(d / "tty2", std::ios::binary);
+    const std::string tty2((std::istreambuf_iterator<char>(in2)), std::istreambuf_iterator<char>());
+    EXPECT_NE(tty2.find("FFTW_MEASURE; not kept: --fftw-wisdom none)...\r\033[Keci: error: interrupted by SIGINT"),
+              std::string::npos)
+        << tty2;
+    EXPECT_FALSE(fs::exists(d / "stopped.csv"));
     // not on a terminal: no such line
     const auto r = run_eci("run navier-stokes-2d --N 1024 --steps 1 --fftw-wisdom none --output " +
                                shell_quote((d / "out2.csv").string()),
