@@ -1016,7 +1016,7 @@ void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::arra
         for (std::size_t j = 0; j < K; ++j) run[j] += v[j];
         if (++count == 32) flush();
     };
-    // a block's rows, its terms formed into t: up to 16 rows (a column's run of 256 bytes of modes, 128 of weights)
+    // the rows in blocks of B, each block's terms formed into t column by column, then added row by row
     const auto blocks = [&](std::array<double, K>* t, std::size_t B) {
         for (std::size_t b0 = r0; b0 < r1; b0 += B) {
             const std::size_t nb = std::min(B, r1 - b0);
@@ -1026,18 +1026,18 @@ void add_in_row_order(const flow2d& m, std::size_t r0, std::size_t r1, std::arra
         }
     };
     constexpr std::size_t capacity = 8192;  // terms in a block on the stack: 128 kB for E and Z
-    if (!m.by_columns()) {
-        in_row_order_over(m, r0, r1, [&](std::size_t i, std::size_t c, std::size_t r) { add(term(i, c, r)); });
-    } else if (m.size() * sizeof(flow2d::state_type::value_type) >= (std::size_t(32) << 20)) {
+    const bool beyond_caches = m.size() * sizeof(flow2d::state_type::value_type) >= (std::size_t(32) << 20);
+    if (m.by_columns() && beyond_caches) {
         // A state beyond the caches (from 32 MB, N ~ 3000), whose modes come from memory: 64 rows, runs of 1 kB a
         // column that the prefetchers follow, in the thread's own block, kept from call to call
         static thread_local std::vector<std::array<double, K>> block;
         if (block.size() < 64 * nc) block.resize(64 * nc);
         blocks(block.data(), 64);
-    } else if (nc <= capacity) {
+    } else if (m.by_columns() && nc <= capacity) {
+        // up to 16 rows: a column's run of 256 bytes of modes, 128 of weights
         std::array<std::array<double, K>, capacity> t;
         blocks(t.data(), std::min<std::size_t>(16, capacity / nc));
-    } else {
+    } else {  // a state stored by rows, read in place (and one by columns whose rows outgrow the stack's block)
         in_row_order_over(m, r0, r1, [&](std::size_t i, std::size_t c, std::size_t r) { add(term(i, c, r)); });
     }
     flush();

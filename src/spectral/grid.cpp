@@ -603,6 +603,7 @@ void grid::column_product(int stages, int in, int out, void (*load)(void*, int, 
                           void* load_ctx, void (*fn)(void*, double* const*, std::size_t), void* fn_ctx,
                           void (*store)(void*, int, int, cplx* const*, int), void* store_ctx) const {
     if (!column_pass()) throw std::logic_error("grid::transform_product_columns needs pruned transforms on one process");
+    if (out == 0 && stages != 1) throw std::logic_error("grid::transform_product_chain: a stage with no outputs ends it");
     const std::size_t nc = std::size_t(columns()), ld = p_->col_ld, fs = p_->col_field;
     const int kept = kmax() + 1, K = kmax();
     // (out = 0: the inverse transforms and fn alone, nothing transformed back or stored: flow2d::max_velocity)

@@ -181,7 +181,8 @@ class grid {
     /// rows between are zero, written by the grid), which is then transformed along y while it is in cache; the
     /// rows as in transform_product (fn); then, column by column, the outputs transformed back along y and
     /// store(kx, col, thread) reads col[j][y] of output fields 0 .. out-1 (unnormalised) at the same rows. Only
-    /// when column_pass(); the scratch fields' contents are the grid's own layout for this (not at()'s).
+    /// when column_pass(); the scratch fields' contents are the grid's own layout for this (not at()'s). With
+    /// out = 0 the inverse transforms and fn alone: nothing is transformed back, store is never called.
     template <class Load, class Fn, class Store>
     void transform_product_columns(int in, int out, Load load, Fn fn, Store store) const {
         transform_product_chain(
