@@ -77,6 +77,7 @@ def main():
             progs["basdevant"] = progs["eci-form"][:-3] + ["basdevant", "--wisdom", os.path.join(out, "py-wisdom")]
             best = {}
             paired = []  # the bench's ratios paired in time (ns2d-paired: medians over its rounds), one per run
+            sequential = []  # the same with each stepper continuing its own trajectory (ns2d-sequential)
             order = list(progs)
             for r in range(a.rounds):
                 for name in order[r % 3:] + order[:r % 3]:
@@ -86,6 +87,7 @@ def main():
                     row = rows_of(lines, "ns2d-step" if name == "eci" else "ns2d-pyfftw")[0]
                     if name == "eci":
                         paired += rows_of(lines, "ns2d-paired")
+                        sequential += rows_of(lines, "ns2d-sequential")
                     prev = best.get(name)
                     if name == "eci":
                         # each time the fastest of this run's (the bench's own rounds already take minima)
@@ -97,18 +99,22 @@ def main():
             e, s4, s5 = best["eci"], best["basdevant"], best["eci-form"]
             crk4, rk4, fft = float(e["c_rk4"]), float(e["rk4"]), float(e["fft_rk4_step"])
             equiv = fft / 4 / float(e["fft_one"]) if "fft_one" in e else float("nan")
-            med = lambda key: sorted(float(q[key]) for q in paired)[len(paired) // 2] if paired else float("nan")
+            def med(key, runs=paired):
+                return sorted(float(q[key]) for q in runs)[len(runs) // 2] if runs else float("nan")
             rows.append(dict(n=n, t=t, clock=e["clock"], crk4=crk4, rk4=rk4, fft=fft, equiv=equiv,
                              p_fft=med("c_rk4/fft"), p_rk4=med("c_rk4/rk4"),
+                             q_fft=med("c_rk4/fft", sequential), q_rk4=med("c_rk4/rk4", sequential),
                              s4=float(s4["rk4"]), s5=float(s5["rk4"]), s4_mem=s4.get("peak_states", "?"),
                              dt_eci=e.get("dt", "?"), dt_py=s4["dt"]))
             print("ns2d-vs-pyfftw N=%d threads=%d clock=%s eci_c_rk4=%.4g eci_rk4=%.4g eci_fft=%.4g "
                   "script_basdevant=%.4g script_eci_form=%.4g c_rk4/script_basdevant=%.3f c_rk4/script_eci_form=%.3f "
-                  "c_rk4/fft=%.3f c_rk4/rk4=%.3f paired_c_rk4/fft=%.3f paired_c_rk4/rk4=%.3f eci_fft_equiv_per_rhs=%.2f "
+                  "c_rk4/fft=%.3f c_rk4/rk4=%.3f paired_c_rk4/fft=%.3f paired_c_rk4/rk4=%.3f "
+                  "sequential_c_rk4/fft=%.3f sequential_c_rk4/rk4=%.3f eci_fft_equiv_per_rhs=%.2f "
                   "dt_eci=%s dt_script=%s" % (
                       n, t, e["clock"], crk4, rk4, fft, float(s4["rk4"]), float(s5["rk4"]),
                       crk4 / float(s4["rk4"]), crk4 / float(s5["rk4"]), crk4 / fft, crk4 / rk4, rows[-1]["p_fft"],
-                      rows[-1]["p_rk4"], equiv, e.get("dt", "?"), s4["dt"]), file=sys.stderr, flush=True)
+                      rows[-1]["p_rk4"], rows[-1]["q_fft"], rows[-1]["q_rk4"], equiv, e.get("dt", "?"), s4["dt"]),
+                  file=sys.stderr, flush=True)
         if not a.no_memory:
             state_kib = 16 * n * (n // 2 + 1) / 1024
             base = peak_kib(eci_run(a.eci, 8, 0, [], out))
@@ -127,17 +133,21 @@ def main():
     print()
     print("| N | threads | clock | eci C-RK4 (s) | eci RK4 (s) | eci FFTs (s) | script Basdevant (s) "
           "| script eci form (s) | C-RK4 / script Basdevant | C-RK4 / script eci form | C-RK4 / FFTs | C-RK4 / RK4 "
-          "| C-RK4 / FFTs, paired | C-RK4 / RK4, paired | eci FFTs per RHS, in one-transform times (1 thread) |")
-    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
+          "| C-RK4 / FFTs, paired | C-RK4 / RK4, paired | C-RK4 / FFTs, sequential | C-RK4 / RK4, sequential "
+          "| eci FFTs per RHS, in one-transform times (1 thread) |")
+    print("|---:|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|")
     for r in rows:
-        print("| %d | %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.2f |" % (
-            r["n"], r["t"], r["clock"], r["crk4"], r["rk4"], r["fft"], r["s4"], r["s5"], r["crk4"] / r["s4"],
-            r["crk4"] / r["s5"], r["crk4"] / r["fft"], r["crk4"] / r["rk4"], r["p_fft"], r["p_rk4"],
-            per_rhs.get(r["n"], r["equiv"])))
+        print("| %d | %d | %s | %.4g | %.4g | %.4g | %.4g | %.4g | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f | %.3f "
+              "| %.3f | %.2f |" % (
+                  r["n"], r["t"], r["clock"], r["crk4"], r["rk4"], r["fft"], r["s4"], r["s5"], r["crk4"] / r["s4"],
+                  r["crk4"] / r["s5"], r["crk4"] / r["fft"], r["crk4"] / r["rk4"], r["p_fft"], r["p_rk4"],
+                  r["q_fft"], r["q_rk4"], per_rhs.get(r["n"], r["equiv"])))
     print()
     print("C-RK4 / FFTs and C-RK4 / RK4 above: the fastest times of each, taken at different moments. Paired: each "
           "round of eci_bench_ns2d_step times the transforms, a C-RK4 step and an RK4 step one after the other, and "
-          "the median of the rounds' ratios counts (the median over this driver's rounds of those medians).")
+          "the median of the rounds' ratios counts (the median over this driver's rounds of those medians), each "
+          "step from a fresh copy of the same field. Sequential: the same, each stepper continuing its own "
+          "trajectory, as a run steps (the state the previous step wrote, no copy before a step).")
     if mem:
         print()
         print("| N | eci C-RK4 run, peak over the process (states) | of which stepping (states) "
