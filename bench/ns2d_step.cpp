@@ -215,48 +215,37 @@ int main(int argc, char** argv) {
         crk.step(m, w, 0.0, dt);  // warm up: buffers allocated
         w = w0;
         rk.step(m, w, 0.0, dt);
-        std::vector<double> c_fft, r_fft, c_r;
-        for (int round = 0; round < 9 * reps; ++round) {
-            double t = now();
-            m.execute_transforms(4);
-            const double fft = seconds_since(t);
-            w = w0;
-            t = now();
-            crk.step(m, w, 0.0, dt);
-            const double c = seconds_since(t);
-            w = w0;
-            t = now();
-            rk.step(m, w, 0.0, dt);
-            const double r = seconds_since(t);
-            c_fft.push_back(c / fft), r_fft.push_back(r / fft), c_r.push_back(c / r);
-        }
         const auto median = [](std::vector<double> v) {
             std::sort(v.begin(), v.end());
             return v[v.size() / 2];
         };
-        std::printf("ns2d-paired N=%d threads=%d clock=%s rounds=%d c_rk4/fft=%.4f rk4/fft=%.4f c_rk4/rk4=%.4f\n", p.n,
-                    p.threads, use_cpu_clock ? "cpu" : "wall", 9 * reps, median(c_fft), median(r_fft), median(c_r));
-        // The same rounds as a run takes its steps: each stepper continues its own trajectory from w0 (no copy of
-        // w0 before a step, which leaves the state in cache), so a step starts from the state the previous one
-        // wrote, as in `eci run`. Its medians beside the ones above say whether stepping from a fresh copy flatters
-        // the ratios.
-        state wc = w0, wr = w0;
-        c_fft.clear(), r_fft.clear(), c_r.clear();
-        for (int round = 0; round < 9 * reps; ++round) {
-            double t = now();
-            m.execute_transforms(4);
-            const double fft = seconds_since(t);
-            t = now();
-            crk.step(m, wc, 0.0, dt);
-            const double c = seconds_since(t);
-            t = now();
-            rk.step(m, wr, 0.0, dt);
-            const double r = seconds_since(t);
-            c_fft.push_back(c / fft), r_fft.push_back(r / fft), c_r.push_back(c / r);
-        }
-        std::printf("ns2d-sequential N=%d threads=%d clock=%s rounds=%d c_rk4/fft=%.4f rk4/fft=%.4f c_rk4/rk4=%.4f\n",
-                    p.n, p.threads, use_cpu_clock ? "cpu" : "wall", 9 * reps, median(c_fft), median(r_fft),
-                    median(c_r));
+        // fresh: each step from a copy of w0 (ns2d-paired); else each stepper continues its own trajectory from w0,
+        // as a run takes its steps (ns2d-sequential: no copy before a step, which leaves the state in cache, so a
+        // step starts from the state the previous one wrote, as in `eci run`). The second row beside the first says
+        // whether stepping from a fresh copy flatters the ratios.
+        const auto rounds = [&](const char* row, bool fresh) {
+            state wc = w0, wr = w0;
+            std::vector<double> c_fft, r_fft, c_r;
+            for (int round = 0; round < 9 * reps; ++round) {
+                double t = now();
+                m.execute_transforms(4);
+                const double fft = seconds_since(t);
+                if (fresh) wc = w0;
+                t = now();
+                crk.step(m, wc, 0.0, dt);
+                const double c = seconds_since(t);
+                if (fresh) wr = w0;
+                t = now();
+                rk.step(m, wr, 0.0, dt);
+                const double r = seconds_since(t);
+                c_fft.push_back(c / fft), r_fft.push_back(r / fft), c_r.push_back(c / r);
+            }
+            std::printf("%s N=%d threads=%d clock=%s rounds=%d c_rk4/fft=%.4f rk4/fft=%.4f c_rk4/rk4=%.4f\n", row, p.n,
+                        p.threads, use_cpu_clock ? "cpu" : "wall", 9 * reps, median(c_fft), median(r_fft),
+                        median(c_r));
+        };
+        rounds("ns2d-paired", true);
+        rounds("ns2d-sequential", false);
     }
     // The steps as a run takes them (the budget's rates recorded at every stage, as eci run and eci.solve do)
     std::printf("ns2d-run N=%d threads=%d rk4_run=%.6g c_rk4_run=%.6g rk4_run/rk4=%.4f c_rk4_run/rk4_run=%.4f "
