@@ -645,9 +645,22 @@ int spectral_command::run_spread(const run_settings& settings) {
     if (!wisdom_path.empty()) {
         try {
             wisdom_text = read_small_file(wisdom_path, "FFTW wisdom file", std::size_t(64) << 20);
-            const fs::path parent = fs::path(wisdom_path).parent_path();
-            if (!default_wisdom || fs::is_directory(parent.empty() ? fs::path(".") : parent))
-                check_output_path(wisdom_path, "FFTW wisdom file");
+            // written back after the run: a file that is not wisdom (a mistyped --output's name) is refused, not
+            // replaced; the default cache holding something else is left alone, unused
+            if (wisdom_text && !navier_stokes_2d::is_fftw_wisdom(*wisdom_text)) {
+                if (!default_wisdom)
+                    throw bad_input("--fftw-wisdom '" + wisdom_path + "' is not an FFTW wisdom file, and the run "
+                                    "would replace it: name a wisdom file, a new file, or none");
+                if (mpi.rank == 0)
+                    std::fprintf(stderr, "eci: warning: '%s' is not FFTW wisdom: the run neither reads nor replaces it\n",
+                                 wisdom_path.c_str());
+                wisdom_text.reset();
+                wisdom_path.clear();
+            } else {
+                const fs::path parent = fs::path(wisdom_path).parent_path();
+                if (!default_wisdom || fs::is_directory(parent.empty() ? fs::path(".") : parent))
+                    check_output_path(wisdom_path, "FFTW wisdom file");
+            }
         } catch (const bad_input&) {
             if (!default_wisdom) throw;
             wisdom_path.clear();  // the default cache cannot be written (or read): use what could be read, as before

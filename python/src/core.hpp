@@ -52,20 +52,6 @@ struct step_counts {
     std::uint64_t t_eval_steps = 0;  ///< extra steps from the grid to t_eval points between grid times
 };
 
-/// A step failed even at the smallest step size: eci.StepSizeUnderflow in Python, with the statistics so far.
-struct underflow_error : std::runtime_error {
-    underflow_error(const std::string& what, double t, std::size_t component, std::string component_name, double dt,
-                    bool non_finite, step_counts report)
-        : std::runtime_error(what), t(t), component(component), component_name(std::move(component_name)), dt(dt),
-          non_finite(non_finite), report(report) {}
-    double t;
-    std::size_t component;
-    std::string component_name;
-    double dt;
-    bool non_finite;
-    step_counts report;
-};
-
 /// Names the real unknowns of a state in messages: the model's component names, or y[i] / re y[i], im y[i].
 struct component_namer {
     std::vector<std::string> names;  ///< empty: indexed names

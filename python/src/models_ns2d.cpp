@@ -125,6 +125,7 @@ class ns2d_object : public model_base {
         {
             const auto lock_ = lock();
             model_->check_initial_state(x);  // the library's check and sentences, as the CLI's
+            model_->make_hermitian(x);       // (a real field's state to round-off, made exact: as the CLI's fields)
         }
         const std::uint64_t n = steps_to_reach(t0, t1, dt);
         auto grid_time = [&](std::uint64_t i) { return i == n ? t1 : t0 + double(i) * dt; };
@@ -168,7 +169,14 @@ class ns2d_object : public model_base {
         const bool no_outputs = t_eval && t_eval->empty();
         // the arrays keep every output: a run whose outputs cannot fit is refused before it starts
         cfg.output_bytes = no_outputs ? 0 : m.size() * sizeof(cplx) + sizeof(double);
-        std::optional<underflow_error> failure;
+        // A run that stops early returns what it reached with result.failure (status -1), as every model's run does;
+        // the dict is made once the GIL is held again.
+        struct spectral_failure {
+            std::string kind, message, cause;
+            double t, dt;
+            std::size_t component;
+        };
+        std::optional<spectral_failure> failure;
         {
             std::optional<py::gil_scoped_release> unlocked;
             if (release) unlocked.emplace();
@@ -201,18 +209,36 @@ class ns2d_object : public model_base {
                 if (r.failure) {
                     const run_failure& e = *r.failure;
                     report.rejected.step_failed = report.stats.step_reductions;
-                    const std::string c = "mode " + std::to_string(e.component);
                     // a damping too stiff for the run's step: the cause to act on, as the CLI says it
                     const std::string hint = model_->stiffness_hint(cfg.dt);
                     const std::string stiff = hint.empty() ? std::string() : "; " + hint;
-                    // (more sub-steps than a grid step may take: the library's sentence, as the CLI's)
-                    failure.emplace(e.kind == run_failure_kind::work_exceeded
-                                        ? e.message + stiff
-                                        : "step failed at t = " + full_text(e.t) + " in component " + c +
-                                              " even with the step halved " + std::to_string(max_halvings) +
-                                              " times (dt = " + full_text(e.dt) + "): negative radicand or "
-                                              "non-finite state" + stiff,
-                                    e.t, e.component, c, e.dt, false, report);
+                    spectral_failure f{"StepSizeUnderflow", e.message + stiff, "step_failed", e.t, e.dt,
+                                       e.component};
+                    switch (e.kind) {
+                        case run_failure_kind::step_failed:
+                            // the cause as the CLI names it: a radicand only where the method takes square roots
+                            f.cause = e.non_finite_rate_value ? "non_finite_fun" : "step_failed";
+                            f.message = "step " + std::to_string(report.stats.steps + 1) + " failed at t = " +
+                                        full_text(e.t) + " even with the step halved " +
+                                        std::to_string(max_halvings) + " times (down to dt = " + full_text(e.dt) +
+                                        "): " +
+                                        (e.non_finite_rate_value ? "a rate is " + full_text(*e.non_finite_rate_value)
+                                         : r.method.family == method_family::conservative
+                                             ? "a negative radicand or a non-finite state"
+                                             : "a non-finite state") +
+                                        stiff;
+                            break;
+                        case run_failure_kind::work_exceeded: f.cause = "work_exceeded"; break;
+                        case run_failure_kind::step_too_small: f.cause = "step_failed"; break;
+                        case run_failure_kind::too_many_steps:
+                            f.kind = "TooManySteps", f.cause = "too_many_steps";
+                            break;
+                        case run_failure_kind::non_finite_state:
+                        case run_failure_kind::invariant_overflow:
+                            f.kind = "NonFiniteSolution", f.cause = "non_finite_state";
+                            break;
+                    }
+                    failure = std::move(f);
                 }
             } catch (const eci::interrupted&) {  // between the halvings of a step
                 if (!release) throw py::error_already_set();
@@ -221,9 +247,18 @@ class ns2d_object : public model_base {
             gil_released_in_run = false;
         }
         if (interrupt_pending) throw py::error_already_set();
-        if (failure) throw *failure;
         report.rejected.step_failed = report.stats.step_reductions;
         py::dict d = result_dict(out, m.size(), report, drift, info);
+        if (failure) {
+            py::dict f;
+            f["kind"] = failure->kind, f["message"] = failure->message, f["cause"] = failure->cause;
+            f["t"] = failure->t, f["dt"] = failure->dt, f["component"] = failure->component;
+            f["component_name"] = "mode " + std::to_string(failure->component);
+            d["failure"] = f;
+        } else {
+            d["failure"] = py::none();
+        }
+        d["stopped_at"] = py::none();
         py::dict b;
         b[py::str(names_[0] + "_injection")] = budget.energy_injection;
         b[py::str(names_[0] + "_dissipation")] = budget.energy_dissipation;

@@ -67,14 +67,4 @@ PYBIND11_MODULE(_eci, m) {
 #ifdef ECI_PYTHON_SPECTRAL
     init_ns2d(m);
 #endif
-    py::register_exception_translator([](std::exception_ptr p) {
-        try {
-            if (p) std::rethrow_exception(p);
-        } catch (const underflow_error& e) {
-            const py::object cls = py::module_::import("eci._errors").attr("StepSizeUnderflow");
-            const py::object exc = cls(e.what(), e.t, e.component, e.component_name, e.dt,
-                                       e.non_finite ? "non_finite_fun" : "step_failed", stats_dict(e.report));
-            PyErr_SetObject(cls.ptr(), exc.ptr());
-        }
-    });
 }

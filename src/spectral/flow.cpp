@@ -1148,6 +1148,34 @@ void flow2d::check_initial_state(const state_type& q) const {
         if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) bad = 1.0;
     d_->g.sum_over_ranks(&bad, 1);
     if (bad != 0.0) throw std::invalid_argument("initial condition is not finite");
+    // A real field's state: the k_x = 0 column Hermitian, q(0, -k_y) = conj q(0, k_y), and the mean q(0, 0) zero (no
+    // equation here evolves it; the file fields are projected so). A transform of a real field is so to its
+    // round-off, |dQ| <= ||dQ|| <= c eps log2(N^2) ||Q||: within 16 eps log2(N) ||q|| it is taken (the front ends
+    // then make it exact, make_hermitian); beyond it the state is not one of a real field and is refused.
+    double sums[2] = {0.0, 0.0};  // ||q||^2, and (on the process holding the column) nothing else
+    for (const auto& v : q) sums[0] += std::norm(v);
+    double worst[3] = {0.0, 0.0, 0.0};  // the largest |q(0, -k_y) - conj q(0, k_y)|, its k_y, |q(0, 0)|
+    if (d_->c0 == 0 && d_->kept > 0) {
+        const std::size_t step = d_->by_columns ? 1 : d_->kept;
+        for (int r = 1; r <= d_->kmax; ++r) {
+            const double m = std::abs(q[std::size_t(d_->rows - r) * step] - std::conj(q[std::size_t(r) * step]));
+            if (m > worst[0]) worst[0] = m, worst[1] = r;
+        }
+        worst[2] = std::abs(q[0]);
+    }
+    d_->g.sum_over_ranks(sums, 1);
+    d_->g.max_over_ranks(worst, 3);
+    const double round_off = 16.0 * std::numeric_limits<double>::epsilon() * std::log2(double(n_)) * std::sqrt(sums[0]);
+    using eci::detail::shortest_text;
+    if (worst[0] > round_off)
+        throw std::invalid_argument(
+            "initial condition is not the state of a real field: its k_x = 0 column is not Hermitian (|q(0, -" +
+            shortest_text(worst[1]) + ") - conj q(0, " + shortest_text(worst[1]) + ")| = " + shortest_text(worst[0]) +
+            ", beyond the round-off " + shortest_text(round_off) + " of a transform)");
+    if (worst[2] > round_off)
+        throw std::invalid_argument("initial condition has a mean: its k = 0 mode is " + shortest_text(worst[2]) +
+                                    " (round-off of a transform: " + shortest_text(round_off) +
+                                    "), and the equations hold the mean at 0: subtract it");
     // E and Z below the smallest normal double lose their precision to subnormal arithmetic (and squares of the
     // modes underflow): refused, as the other models' initial-state check does
     const double e = energy(q), z = enstrophy(q);
@@ -1421,6 +1449,7 @@ flow2d::state_type flow2d::from_half_plane_columns(const state_type& columns) co
 void flow2d::make_hermitian(state_type& q) const {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
     d_->hermitian(q.data());
+    if (d_->c0 == 0 && d_->kept > 0) q[0] = 0.0;  // (the mean: held at 0, as every field the library makes)
 }
 
 flow2d::state_type flow2d::random_field(double k_peak, double energy_target, std::uint64_t seed) {

@@ -138,7 +138,19 @@ grid::grid(const grid_options& o) : n_(o.n), fields_(o.fields), threads_(o.threa
     stride_ = std::size_t(columns());
     p_->row_pad = (padded() + 7) / 8 * 8;
     std::call_once(fftw_threads_once, [] { fftw_init_threads(); });
-    if (!o.wisdom_file.empty()) fftw_import_wisdom_from_filename(o.wisdom_file.c_str());
+    if (!o.wisdom_file.empty()) {
+        // read whole and checked first: written back below, it must not replace another file named by mistake
+        std::string text;
+        if (std::FILE* f = std::fopen(o.wisdom_file.c_str(), "rb")) {
+            char chunk[4096];
+            for (std::size_t got; (got = std::fread(chunk, 1, sizeof chunk, f)) > 0;) text.append(chunk, got);
+            std::fclose(f);
+        }
+        if (!is_fftw_wisdom(text))
+            throw std::invalid_argument("wisdom file '" + o.wisdom_file +
+                                        "' is not FFTW wisdom (it would be replaced): name a wisdom file or a new one");
+        if (!text.empty()) fftw_import_wisdom_from_string(text.c_str());  // (another FFTW version's: ignored)
+    }
     if (!o.wisdom.empty() && !fftw_import_wisdom_from_string(o.wisdom.c_str()))
         throw std::invalid_argument("FFTW wisdom could not be read");
     fftw_plan_with_nthreads(o.threads);
@@ -327,6 +339,14 @@ grid& grid::operator=(grid&&) noexcept = default;
 bool grid::import_fftw_wisdom(const std::string& text) {
     std::call_once(fftw_threads_once, [] { fftw_init_threads(); });  // FFTW's threads first, as the constructor
     return !text.empty() && fftw_import_wisdom_from_string(text.c_str()) != 0;
+}
+
+bool grid::is_fftw_wisdom(std::string_view text) {
+    const std::size_t start = text.find_first_not_of(" \t\r\n");
+    if (start == std::string_view::npos) return true;  // empty: nothing to lose
+    text.remove_prefix(start);
+    const std::string_view head = text.substr(0, text.find('\n'));
+    return head.starts_with("(fftw-") && head.find(" fftw_wisdom") != std::string_view::npos;
 }
 
 std::string grid::fftw_wisdom() {

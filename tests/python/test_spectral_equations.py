@@ -131,3 +131,58 @@ def test_a_constructors_bad_argument_is_one_line():
     assert "\n" not in str(e.value) and str(e.value).startswith("NavierStokes2D(): an argument of the wrong type (it "
                                                                 "takes: n: int, nu: float, ")
     assert "beta=1" in repr(eci.models.CharneyHasegawaMima(n=16, beta=1.0))  # (its keywords taken as before)
+
+
+# A state that is not a real field's (a k_x = 0 column that is not Hermitian, a nonzero mean) was run as given: its
+# invariants count both halves of the column, and the run was no flow's. Beyond the round-off of a transform it is
+# refused with the library's sentence; within it (numpy's rfft2 of a real field) it is taken and made exact.
+@pytest.mark.parametrize("make", [lambda n: eci.models.NavierStokes2D(n=n, fftw_measure=False),
+                                  lambda n: CHM(n=n, beta=2.0, deformation=1.0, fftw_measure=False),
+                                  lambda n: SQG(n=n, fftw_measure=False)], ids=["ns", "chm", "sqg"])
+def test_a_state_that_is_not_a_real_fields_is_refused(make):
+    m = make(32)
+    w = np.array(m.random_field(), dtype=complex)
+    column = np.flatnonzero((m.kx == 0) & (m.ky == 3))[0]
+    scale = np.linalg.norm(w)
+    bad = w.copy()
+    bad[column] += 1e-6 * scale  # its conjugate at k_y = -3 left as it was
+    for r in (lambda y: eci.solve(m, (0.0, 0.01), y, dt=0.01), lambda y: m.cfl_step(y)):
+        with pytest.raises(ValueError, match=r"^initial condition is not the state of a real field: its k_x = 0 "
+                                             r"column is not Hermitian \(\|q\(0, -3\) - conj q\(0, 3\)\| = "):
+            r(bad)
+    mean = w.copy()
+    mean[np.flatnonzero((m.kx == 0) & (m.ky == 0))[0]] = 1e-6 * scale
+    with pytest.raises(ValueError, match=r"^initial condition has a mean: its k = 0 mode is .* subtract it$"):
+        eci.solve(m, (0.0, 0.01), mean, dt=0.01)
+    # round-off (the size of a transform's: a few eps of the norm) is taken, and the run is the exact state's
+    near = w.copy()
+    near[column] += 4 * EPS * scale
+    near[np.flatnonzero((m.kx == 0) & (m.ky == 0))[0]] = 2 * EPS * scale
+    a = eci.solve(m, (0.0, 0.02), near, dt=0.01)
+    b = eci.solve(m, (0.0, 0.02), w, dt=0.01)
+    assert a.success and b.success
+    exact = w.copy()
+    exact[column] = near[column]
+    exact[np.flatnonzero((m.kx == 0) & (m.ky == -3))[0]] = np.conj(near[column])
+    c = eci.solve(m, (0.0, 0.02), exact, dt=0.01)
+    assert np.array_equal(a.y, c.y)  # the column made exact (k = 0 set to 0), not run as given
+    assert not np.array_equal(a.y[:, -1], b.y[:, -1])  # (the perturbation was a change, seen by the run)
+
+
+# A run that fails returns what it reached, SciPy's way (status -1, result.failure, not raised), as every other model's
+# run does; a run that does not has result.failure None. The sentence names the cause as the CLI does: a radicand
+# only for the methods that take square roots.
+@pytest.mark.parametrize("method, cause", [("rk4", "a non-finite state"),
+                                           ("c-rk4", "a negative radicand or a non-finite state")])
+def test_a_failed_spectral_run_returns_its_failure(method, cause):
+    from conftest import failure_of
+    m = eci.models.NavierStokes2D(n=16, drag=1e300, fftw_measure=False)
+    w = m.random_field()
+    r = eci.solve(m, (0.0, 0.03), w, dt=0.01, method=method)
+    f = failure_of(r, eci.StepSizeUnderflow)
+    assert str(f).startswith(f"step 1 failed at t = 0 even with the step halved 40 times (down to dt = ")
+    assert f"): {cause}; the linear damping" in str(f), str(f)
+    assert f.cause == "step_failed" and f.t == 0.0 and f.component_name.startswith("mode ")
+    assert r.t.tolist() == [0.0] and np.array_equal(r.y[:, 0], w)  # what it reached: the initial state
+    ok = eci.solve(eci.models.NavierStokes2D(n=16, fftw_measure=False), (0.0, 0.01), dt=0.01)
+    assert ok.success and ok.status == 0 and ok.failure is None

@@ -136,8 +136,9 @@ TEST(CliSpectralOutputs, SymlinksToRegularFilesAreWrittenThrough) {
     work_dir w("spectral-symlink");
     fs::create_directory(w.file("elsewhere"));
     fs::create_directory(w.file("snaps"));
-    for (const char* f : {"ck.h5", "w", "vorticity_00000002.h5", "spectrum_00000002.csv"})
+    for (const char* f : {"ck.h5", "vorticity_00000002.h5", "spectrum_00000002.csv"})
         write_text(w.file("elsewhere") / f, "old\n");
+    write_text(w.file("elsewhere") / "w", "");  // (a wisdom file that is not wisdom would be refused, not replaced)
     fs::create_symlink("elsewhere/ck.h5", w.file("ck.h5"));
     fs::create_symlink("elsewhere/w", w.file("w"));
     fs::create_symlink("../elsewhere/vorticity_00000002.h5", w.file("snaps") / "vorticity_00000002.h5");
@@ -228,6 +229,34 @@ TEST(CliSpectralOutputs, CollidingOutputsAreRefused) {
     const run_result r = run_in(w, "run kepler --steps 10 --output o.csv --summary-json dangling.json");
     expect_refused(r, "kepler through a dangling symlink");
     EXPECT_FALSE(fs::exists(w.file("o.csv")));
+}
+
+// --fftw-wisdom names a file the run reads and writes back: an existing file that is not wisdom (a CSV named by
+// mistake) was replaced by the run's wisdom. It is refused, untouched; wisdom (of any FFTW version), an empty file
+// and a new name are taken; a default cache holding something else is left alone with a warning.
+TEST(CliSpectralOutputs, AFileThatIsNotWisdomIsNotReplaced) {
+    work_dir w("spectral-not-wisdom");
+    const fs::path home = w.capture() / "home";
+    fs::create_directory(home);
+    write_text(w.file("data.csv"), "t,energy\n0,1\n");
+    const run_result r = run_in(w, small + "--fftw-wisdom data.csv");
+    expect_refused(r, "a CSV as wisdom");
+    EXPECT_NE(r.err.find("--fftw-wisdom 'data.csv' is not an FFTW wisdom file"), std::string::npos) << r.err;
+    EXPECT_EQ(read_text(w.file("data.csv")), "t,energy\n0,1\n");
+    // taken: wisdom of another FFTW version (kept as wisdom, rewritten), an empty file, a new name
+    write_text(w.file("old"), "(fftw-3.3.8 fftw_wisdom #x4be12fff #x7b2df9b2 #xa5975329 #x385b0041\n)\n");
+    write_text(w.file("empty"), "");
+    for (const std::string f : {"old", "empty", "new"}) {
+        ASSERT_EQ(run_in(w, small + "--fftw-wisdom " + f).status, 0) << f;
+        EXPECT_EQ(read_text(w.file(f)).rfind("(fftw-3", 0), 0u) << f;
+    }
+    // the default cache holding something else: the run goes on, says so, and leaves the file as it was
+    fs::create_directories(home / "cache" / "eci");
+    write_text(home / "cache" / "eci" / "fftw-wisdom", "not wisdom\n");
+    const run_result d = run_in(w, small);
+    EXPECT_EQ(d.status, 0) << d.err;
+    EXPECT_NE(d.err.find("is not FFTW wisdom: the run neither reads nor replaces it"), std::string::npos) << d.err;
+    EXPECT_EQ(read_text(home / "cache" / "eci" / "fftw-wisdom"), "not wisdom\n");
 }
 
 // A refused run creates no wisdom file and no cache directory; a blow-up creates and replaces no snapshot.

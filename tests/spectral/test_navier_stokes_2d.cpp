@@ -115,6 +115,45 @@ TEST(NavierStokes2d, StateIsHermitianAndTruncated) {
     EXPECT_EQ(m.from_half_plane(h), w);
 }
 
+// check_initial_state takes the state of a real field to the round-off of a transform, 16 eps log2(N) ||q||, and
+// refuses one beyond it (a k_x = 0 column that is not Hermitian, a mean): such a state was run as given, its
+// invariants counting both halves of the column. make_hermitian makes one within it exact. Both layouts.
+TEST(NavierStokes2d, InitialStateMustBeARealFields) {
+    for (const bool pruned : {true, false}) {
+        auto p = small(32);
+        p.pruned_transforms = pruned;
+        navier_stokes_2d m(p);
+        const state w = m.random_field(4.0, 0.5, 3);
+        double norm2 = 0.0;
+        for (const auto& v : w) norm2 += std::norm(v);
+        const double round_off = 16.0 * eps * std::log2(32.0) * std::sqrt(norm2);
+        const auto refused = [&](const state& q, const std::string& needle) {
+            try {
+                m.check_initial_state(q);
+                ADD_FAILURE() << "accepted: " << needle;
+            } catch (const std::invalid_argument& e) {
+                EXPECT_EQ(std::string(e.what()).rfind(needle, 0), 0u) << e.what();
+            }
+        };
+        EXPECT_NO_THROW(m.check_initial_state(w));
+        state q = w;
+        q[m.index(0, 3)] += 1.01 * round_off;  // just beyond: refused
+        refused(q, "initial condition is not the state of a real field: its k_x = 0 column is not Hermitian "
+                   "(|q(0, -3) - conj q(0, 3)| = ");
+        q = w;
+        q[m.index(0, 0)] = 1.01 * round_off;
+        refused(q, "initial condition has a mean: its k = 0 mode is ");
+        q = w;  // just within: taken, and made exact
+        q[m.index(0, 5)] += std::complex<double>(0.0, 0.99 * round_off);
+        q[m.index(0, 0)] = 0.99 * round_off;
+        EXPECT_NO_THROW(m.check_initial_state(q));
+        m.make_hermitian(q);
+        EXPECT_EQ(q[m.index(0, 0)], std::complex<double>{});
+        for (int ky = 1; ky <= m.kmax(); ++ky) EXPECT_EQ(q[m.index(0, -ky)], std::conj(q[m.index(0, ky)]));
+        EXPECT_NE(q, w);  // (the k_y = 5 change stays, and k_y = -5 is its conjugate: the state the run takes)
+    }
+}
+
 // Dealiasing is exact: for random band-limited fields, sum w_k Re(conj(omega_k) N_k) vanishes to round-off for
 // w = 1 (enstrophy) and w = 1/|k|^2 (energy), relative to the Cauchy-Schwarz scale of the sum.
 TEST(NavierStokes2d, DealiasedNonlinearTermConservesEnergyAndEnstrophy) {
@@ -438,6 +477,40 @@ TEST(NavierStokes2d, RestartFromStateAndGeneratorIsBitIdentical) {
 }
 
 // Bad parameters are rejected with a message naming them.
+// wisdom_file names a file the grid reads and writes back: one that is there and is not FFTW wisdom (a data file
+// named by mistake) is refused and left as it was; an empty one, or a new name, gets the plans.
+TEST(NavierStokes2d, AWisdomFileThatIsNotWisdomIsNotReplaced) {
+    const std::string f = ::testing::TempDir() + "eci-not-wisdom.csv";
+    const auto write = [&](const char* text) {
+        std::FILE* o = std::fopen(f.c_str(), "wb");
+        ASSERT_NE(o, nullptr);
+        std::fputs(text, o);
+        std::fclose(o);
+    };
+    const auto read = [&] {
+        std::string text;
+        if (std::FILE* i = std::fopen(f.c_str(), "rb")) {
+            for (int c; (c = std::fgetc(i)) != EOF;) text += char(c);
+            std::fclose(i);
+        }
+        return text;
+    };
+    write("t,energy\n0,1\n");
+    auto p = small(16);
+    p.wisdom_file = f;
+    try {
+        navier_stokes_2d m(p);
+        ADD_FAILURE() << "a CSV taken as wisdom";
+    } catch (const std::invalid_argument& e) {
+        EXPECT_NE(std::string(e.what()).find("is not FFTW wisdom"), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(read(), "t,energy\n0,1\n");
+    write("");
+    { navier_stokes_2d m(p); }
+    EXPECT_EQ(read().rfind("(fftw-3", 0), 0u);
+    std::remove(f.c_str());
+}
+
 TEST(NavierStokes2d, RejectsBadParameters) {
     auto expect_bad = [](auto change, const char* needle) {
         auto p = small(16);

@@ -43,7 +43,8 @@ struct flow_params {
     bool measure = true;               ///< FFTW_MEASURE plans (FFTW_ESTIMATE when false)
     bool pruned_transforms = true;     ///< transform only the columns with retained modes, rows fused with the
                                        ///< products (grid_options::pruned); false: FFTW's 2-D plans
-    std::string wisdom_file;           ///< FFTW wisdom read before planning and written after; empty: none
+    std::string wisdom_file;           ///< FFTW wisdom read before planning and written after; empty: none; a
+                                       ///< file there that is not wisdom is refused, not replaced
     std::string wisdom;                ///< FFTW wisdom text imported before planning (a checkpoint's, so that a
                                        ///< restart plans the same transforms and continues bit for bit)
 #ifdef ECI_MPI
@@ -139,6 +140,8 @@ class flow2d {
     static std::string fftw_wisdom() { return grid::fftw_wisdom(); }
     /// Adds FFTW wisdom text to the process's wisdom (what wisdom_file would import); false if it is not wisdom.
     static bool import_fftw_wisdom(const std::string& text) { return grid::import_fftw_wisdom(text); }
+    /// Whether a file's text is FFTW wisdom (or empty): grid::is_fftw_wisdom.
+    static bool is_fftw_wisdom(std::string_view text) { return grid::is_fftw_wisdom(text); }
     const flow_params& params() const;
     const equation& eq() const;
     const spectral::grid& grid() const;
@@ -213,7 +216,8 @@ class flow2d {
     /// The state from this process's columns of a half plane (as to_half_plane_columns gives them; the modes beyond
     /// are dropped): the block of a checkpoint this process reads. On one process from_half_plane. Not collective.
     state_type from_half_plane_columns(const state_type& columns) const;
-    /// Makes the k_x = 0 column's k and -k exact conjugates and k = 0 real.
+    /// Makes q the state of a real field exactly, as every field the library makes is: the k_x = 0 column's k and -k
+    /// exact conjugates and the mean, k = 0, zero (what check_initial_state takes to round-off).
     void make_hermitian(state_type& q) const;
     /// psi_k = inversion()[i] q_k (0 outside the retained modes).
     const std::vector<double>& inversion() const;
@@ -274,7 +278,9 @@ class flow2d {
     double max_velocity(const state_type& q);
     /// Refuses an initial state whose arithmetic is beyond double precision with the one line every front end
     /// gives (std::invalid_argument): "initial condition is not finite" (a mode inf or nan), "initial condition:
-    /// energy E and enstrophy Z must be finite normal numbers" (by invariant_names(); 0 is allowed). Collective:
+    /// energy E and enstrophy Z must be finite normal numbers" (by invariant_names(); 0 is allowed), and a state
+    /// that is not a real field's beyond the round-off of a transform (16 eps log2(N) ||q||): a k_x = 0 column that
+    /// is not Hermitian, a mean (k = 0) that is not zero. Within it, make_hermitian makes it exact. Collective:
     /// every process of a spread flow gives the same verdict.
     void check_initial_state(const state_type& q) const;
     /// The CFL number of the front ends' default step (eci run's --cfl, Python's cfl_step and eci.solve).

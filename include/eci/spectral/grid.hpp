@@ -14,6 +14,7 @@
 #include <memory>
 #include <span>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #ifdef ECI_MPI
@@ -40,7 +41,9 @@ struct grid_options {
     /// FFTW's 2-D plans happen to give exact zeros: such a run wants pruned = false. A grid spread over two
     /// processes or more has transforms of its own (of the retained columns as well) and does not read it.
     bool pruned = true;
-    std::string wisdom_file;   ///< FFTW wisdom read before planning and written after; empty: none
+    /// FFTW wisdom read before planning and written after; empty: none. A file there that is not wisdom
+    /// (is_fftw_wisdom) is refused (std::invalid_argument), not replaced.
+    std::string wisdom_file;
     std::string wisdom;        ///< FFTW wisdom text imported before planning (a checkpoint's)
 #ifdef ECI_MPI
     /// The processes the grid is spread over (MPI build only; MPI_COMM_NULL: this process alone, as without MPI).
@@ -240,6 +243,10 @@ class grid {
     static std::string fftw_wisdom();
     /// Adds FFTW wisdom text (a wisdom file's contents) to the process's wisdom; false if it is not FFTW wisdom.
     static bool import_fftw_wisdom(const std::string& text);
+    /// Whether `text` is FFTW wisdom, of this FFTW version or another ("(fftw-VERSION fftw_wisdom ..."), or nothing
+    /// but white space: a file that may be replaced by the process's wisdom. Any other file named as the wisdom file
+    /// (a mistyped output's name) is refused, not replaced.
+    static bool is_fftw_wisdom(std::string_view text);
 
    private:
     void run_rows(int rows, void (*fn)(void*, int, int, int), void* ctx) const;
