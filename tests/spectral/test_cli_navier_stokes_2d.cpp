@@ -15,6 +15,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <thread>
 #include <vector>
@@ -934,6 +935,32 @@ TEST(CliNavierStokes2d, TEndIsLandedOnAndARestartContinuesTheGrid) {
     r = run_eci(run + "--steps 4 --output " + q + "/c.csv", d);
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(std::stod(split(lines_of(read_text(d / "c.csv")).back())[1]), 4 * 0.03);
+}
+
+// A charney-hasegawa-mima flow of deformation F = 1e300 moves at |u| ~ 1e-299 (psi = -q / (k^2 + F)): its u^2
+// underflows, and the run was refused, "the initial velocity is zero: give --dt". Now its CFL step is the flow's:
+// 0.5 dx / max|u|, with max|u| the CSV's first row.
+TEST(CliNavierStokes2d, ATinyVelocityGivesItsCflStep) {
+    scratch_dir dir("ns2d-tiny-velocity");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    const auto r = run_eci("run charney-hasegawa-mima --N 16 --deformation 1e300 --ic vortex-pair --steps 1 "
+                           "--fftw-estimate --fftw-wisdom none --output " + q + "/o.csv --summary-json " + q +
+                               "/s.json",
+                           d, "ECI_GNUPLOT=/nonexistent/gnuplot");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto rows = lines_of(read_text(d / "o.csv"));
+    ASSERT_GE(rows.size(), 2u);
+    const std::vector<std::string> head = split(rows[0]), first = split(rows[1]);
+    const std::size_t column = std::size_t(std::find(head.begin(), head.end(), "max_velocity") - head.begin());
+    ASSERT_LT(column, head.size());
+    const double u = std::stod(first.at(column));
+    EXPECT_GT(u, 0.0);
+    EXPECT_LT(u, 1e-290);
+    const std::string json = read_text(d / "s.json");
+    const std::size_t at = json.find("\"dt\": ");
+    ASSERT_NE(at, std::string::npos) << json;
+    EXPECT_EQ(std::strtod(json.c_str() + at + 6, nullptr), 0.5 * (2.0 * std::numbers::pi / 16) / u);
 }
 
 }  // namespace
