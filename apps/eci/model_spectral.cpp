@@ -440,6 +440,19 @@ int spectral_command::run_spread(const run_settings& settings) {
                                 " does not match the restart file's " + shortest(double(stored)) + " (" + restart_ +
                                 ")");
         };
+        // The forcing first: the settings that act only with it (and the powers that act only with their
+        // coefficients) are then refused as a fresh run refuses them, naming what the checkpoint's run has, not
+        // compared with values its run never used (an unforced checkpoint's forcing_k of 4 is the default).
+        if (const auto f = given_text("forcing"); f && parse_forcing(*f) != ck.params.forcing)
+            throw bad_input("--forcing " + *f + " does not match the restart file's " +
+                            std::string(ns2d_params::forcing_name(ck.params.forcing)) + " (" + restart_ +
+                            "; a restart continues its checkpoint's forcing)");
+        for (const char* field :
+             {"forcing_k", "forcing_seed", "forcing_amplitude", "injection_rate", "hyper_p", "hypo_p"})
+            if (spec(option_name(field).substr(2)).given)
+                if (const std::string why = ck.params.unused_setting(field, option_name); !why.empty())
+                    throw bad_input(why + ": the restart file's ('" + restart_ +
+                                    "'), which a restart cannot change");
         same("N", given_whole("N"), std::uint64_t(ck.params.n));
         same("nu", given_real("nu"), ck.params.nu);
         same("hyper-nu", given_real("hyper-nu"), ck.params.hyper_nu);
@@ -452,8 +465,6 @@ int spectral_command::run_spread(const run_settings& settings) {
             same("deformation", given_real("deformation"), ck.params.deformation);
         }
         same("forcing-k", given_real("forcing-k"), ck.params.forcing_k);
-        if (given_text("forcing") && parse_forcing(*given_text("forcing")) != ck.params.forcing)
-            throw bad_input("--forcing does not match the restart file's (" + restart_ + ")");
         if (!settings.method.empty() && settings.method != ck.method)
             throw bad_input("--method " + settings.method + " does not match the restart file's " + ck.method);
         if (settings.dt && *settings.dt != ck.dt)

@@ -687,3 +687,25 @@ def test_a_field_file_with_a_mean_or_modes_beyond_kmax_is_run_with_a_warning(cli
     r = run_cli(cli, "run", "navier-stokes-2d", "--N", "32", "--fftw-estimate", "--fftw-wisdom", "none", "--dt",
                 "0.01", "--steps", 2, "--ic", tmp_path / "sd" / "vorticity_00000002.h5")
     assert "warning" not in r.stderr, r.stderr
+
+
+# A restart's forcing and powers are its checkpoint's: a setting its run has no use for is refused as a fresh run
+# refuses it (before, --forcing-amplitude on a stochastic checkpoint was compared with its unused default 1 and
+# taken, another value "did not match"); the settings its run uses are compared as before.
+def test_a_restart_refuses_a_setting_its_checkpoints_run_has_no_use_for(cli, tmp_path):
+    ck = tmp_path / "ck.h5"
+    run_cli(cli, *small("--steps", 2, "--forcing", "stochastic", "--injection-rate", "0.5", "--checkpoint", ck))
+    restart = ["run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", ck, "--steps", 3, "--checkpoint",
+               tmp_path / "next.h5"]
+    for setting in [["--forcing-amplitude", "1"], ["--forcing-amplitude", "2"]]:
+        assert cli_error(cli, *restart, *setting) == (
+            "--forcing-amplitude sets the deterministic forcing, and this run's --forcing is stochastic: the restart "
+            f"file's ('{ck}'), which a restart cannot change")
+    assert cli_error(cli, *restart, "--forcing", "deterministic") == (
+        f"--forcing deterministic does not match the restart file's stochastic ({ck}; a restart continues its "
+        "checkpoint's forcing)")
+    assert cli_error(cli, *restart, "--injection-rate", "1") == (
+        f"--injection-rate 1 does not match the restart file's 0.5 ({ck})")
+    assert not (tmp_path / "next.h5").exists()
+    run_cli(cli, *restart, "--injection-rate", "0.5", "--forcing-k", "4", "--forcing", "stochastic")
+    assert h5_step(tmp_path / "next.h5") == 3

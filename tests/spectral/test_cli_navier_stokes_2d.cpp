@@ -729,7 +729,22 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--restart " + q + "/ok.h5 --output-dt 0.1234567", "is not a multiple of the restart file's time step"},
         {"--every 2 --output-dt 0.5", "give --every or --output-dt, not both\n"},
         {"--restart " + q + "/ok.h5 --threads 2", "does not match"},
-        {"--restart " + q + "/ok.h5 --injection-rate 3", "does not match"},
+        // a setting the checkpoint's run has no use for is refused as a fresh run refuses it, not compared with the
+        // value its run never used (an unforced checkpoint's forcing_k 4, its hyper_p 2 with hyper_nu 0)
+        {"--restart " + q + "/ok.h5 --injection-rate 3",
+         "--injection-rate sets the stochastic forcing, and this run's --forcing is none: the restart file's ('" + d.string() +
+             "/ok.h5'), which a restart cannot change\n"},
+        {"--restart " + q + "/ok.h5 --forcing-k 8",
+         "--forcing-k sets the forced band, and this run's --forcing is none: the restart file's ('"},
+        {"--restart " + q + "/ok.h5 --forcing-k 4", "--forcing-k sets the forced band, and this run's --forcing is none"},
+        {"--restart " + q + "/ok.h5 --forcing-seed 1", "--forcing-seed sets the forcing's random numbers, and this run's "
+                                                      "--forcing is none"},
+        {"--restart " + q + "/ok.h5 --hyper-p 2", "--hyper-p is the hyperviscosity's power, and --hyper-nu is 0: the "
+                                                  "restart file's ('"},
+        {"--restart " + q + "/ok.h5 --hypo-p 1", "--hypo-p is the hypoviscosity's power, and --hypo-nu is 0: the "
+                                                 "restart file's ('"},
+        {"--restart " + q + "/ok.h5 --forcing stochastic --injection-rate 0.5",
+         "--forcing stochastic does not match the restart file's none ("},
         {"--restart " + q + "/ok.h5 --full-transforms", "--full-transforms does not match the restart file's"},
         // numbers as the user typed them (0.1, not 0.10000000000000001)
         {"--restart " + q + "/ok.h5 --nu 0.1", "--nu 0.1 does not match the restart file's 0 ("},
