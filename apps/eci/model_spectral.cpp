@@ -50,6 +50,18 @@ std::string field_stem(std::string_view field) {
 // Whether --ic names one of the built-in initial fields (else it names a file).
 bool named_initial_field(std::string_view ic) { return ic == "random" || ic == "vortex-pair" || ic == "taylor-green"; }
 
+// A problem of the --ic file, as every one is said: "--ic 'FILE': what". The readers' messages that name the file
+// themselves have it once ("cannot read FILE: no such file", "FILE holds a 16^2 grid", "FILE: omega_hat ...").
+std::string ic_problem(const std::string& file, std::string what) {
+    if (const std::string read = "cannot read " + file + ": "; what.rfind(read, 0) == 0)
+        what.erase(0, read.size());
+    else if (what.rfind(file + ": ", 0) == 0)
+        what.erase(0, file.size() + 2);
+    else if (what.rfind(file + " ", 0) == 0)
+        what = "it" + what.substr(file.size());
+    return "--ic '" + file + "': " + what;
+}
+
 // ---- MPI (the MPI build under mpirun with more than one process): the run is spread over MPI_COMM_WORLD. Every
 // process validates the same input (each reads the files' headers); the verdict is agreed once, before the first
 // collective, so a bad input exits 2 on every process with nothing written. Each process then reads its own part
@@ -506,12 +518,20 @@ int spectral_command::run_spread(const run_settings& settings) {
         // --ic FILE without --N: the file's grid (its field is loaded on the grid it was written on)
         std::uint64_t default_n = 256;
         const std::string ic_file = given_text("ic").value_or("random");
-        if (!given_whole("N") && !named_initial_field(ic_file)) {
+        const bool n_of_ic = !given_whole("N") && !named_initial_field(ic_file);
+        if (n_of_ic) {
             try {
                 default_n = std::uint64_t(is_checkpoint(ic_file) ? read_checkpoint(ic_file, 0, false).params.n
-                                                                 : read_vorticity(ic_file, 0, false).first);
+                                                                 : read_vorticity(ic_file, 0, false, stem_).first);
             } catch (const std::exception& e) {
-                throw bad_input(std::string("--ic: ") + e.what());
+                throw bad_input(ic_problem(ic_file, e.what()));
+            }
+            // a field of a grid no run takes (33 x 33) is the file's problem, said as such
+            try {
+                (void)ns2d_params::whole("n", (long long)default_n);
+            } catch (const std::invalid_argument& e) {
+                throw bad_input(ic_problem(ic_file, "its " + std::to_string(default_n) + "^2 grid is not one " +
+                                                        name_ + " runs on: " + e.what()));
             }
         }
         p.n = whole_setting("N", "n", default_n);
@@ -718,14 +738,14 @@ int spectral_command::run_spread(const run_settings& settings) {
             if (is_checkpoint(ic_))
                 ic_checkpoint = read_checkpoint(ic_, p.n, !mpi.on);
             else
-                ic_field = read_vorticity(ic_, p.n, !mpi.on);
+                ic_field = read_vorticity(ic_, p.n, !mpi.on, stem_);
         } catch (const std::exception& e) {
-            throw bad_input(std::string("--ic: ") + e.what());
+            throw bad_input(ic_problem(ic_, e.what()));
         }
         const int file_n = ic_checkpoint ? ic_checkpoint->params.n : ic_field->first;
         if (file_n != p.n)
-            throw bad_input("--ic " + ic_ + " holds a " + std::to_string(file_n) + "^2 grid, not N = " +
-                            std::to_string(p.n));
+            throw bad_input(ic_problem(ic_, "it holds a " + std::to_string(file_n) + "^2 grid, not N = " +
+                                                std::to_string(p.n)));
     }
 
     if (mpi.on && mpi.size > p.n)
@@ -782,9 +802,9 @@ int spectral_command::run_spread(const run_settings& settings) {
                 part_columns = read_checkpoint_columns(restart ? restart_ : ic_, restart ? ck : *ic_checkpoint,
                                                        g.first_column(), g.local_columns());
             else
-                part_rows = read_vorticity_rows(ic_, p.n, g.first_row(), g.local_rows());
+                part_rows = read_vorticity_rows(ic_, p.n, g.first_row(), g.local_rows(), stem_);
         } catch (const std::exception& e) {
-            failure = (restart ? "cannot restart: " : "--ic: ") + std::string(e.what());
+            failure = restart ? "cannot restart: " + std::string(e.what()) : ic_problem(ic_, e.what());
         }
         if (failure = first_failure(MPI_COMM_WORLD, failure); !failure.empty()) throw bad_input(failure);
         // a checkpoint's state against its checksum: every process's part, summed (the same verdict on all)
@@ -794,12 +814,13 @@ int spectral_command::run_spread(const run_settings& settings) {
             std::uint64_t whole = 0;
             MPI_Allreduce(&part, &whole, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
             if (whole != *header.checksum)
-                throw bad_input((restart ? "cannot restart: " : "--ic: ") +
-                                checksum_mismatch(restart ? restart_ : ic_, header.params.equation));
+                throw bad_input(restart ? "cannot restart: " + checksum_mismatch(restart_, header.params.equation)
+                                        : ic_problem(ic_, checksum_mismatch(ic_, header.params.equation)));
         }
 #endif
     }
     state w;
+    const bool ic_of_file = !restart && !named_initial_field(ic_);  // (its problems are said as --ic 'FILE': ...)
     try {
         if (restart && mpi.on) {
             w = model.from_half_plane_columns(part_columns);
@@ -824,12 +845,12 @@ int spectral_command::run_spread(const run_settings& settings) {
             w = mpi.on ? model.from_physical_rows(part_rows) : model.from_physical(ic_field->second);
         }
     } catch (const std::invalid_argument& e) {
-        throw bad_input(std::string("initial condition: ") + e.what());
+        throw bad_input(ic_of_file ? ic_problem(ic_, e.what()) : std::string("initial condition: ") + e.what());
     }
     try {  // the library's check, as Python's (collective: every process gives the same verdict)
         model.check_initial_state(w);
     } catch (const std::invalid_argument& e) {
-        throw bad_input(e.what());
+        throw bad_input(ic_of_file ? ic_problem(ic_, e.what()) : std::string(e.what()));
     }
     // A field file's mean and its modes beyond the retained ones are not evolved: the run takes its projection. A
     // user's own field may hold much there (an eci snapshot holds nothing but round-off): said, not silently run.
@@ -850,7 +871,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         // above 1e-10 of the mean square (1e-5 of the rms): more than any rounding of a field written by eci
         if (mpi.rank == 0 && sums[1] > 1e-10 * sums[0])
             std::fprintf(stderr,
-                         "eci: warning: --ic %s: %.3g %% of the field's mean square is in its mean and its modes "
+                         "eci: warning: --ic '%s': %.3g %% of the field's mean square is in its mean and its modes "
                          "beyond |k_x|, |k_y| <= kmax = %d, which the run drops (it evolves the dealiased, zero-mean "
                          "field)\n",
                          ic_.c_str(), 100.0 * sums[1] / sums[0], model.kmax());
@@ -869,7 +890,8 @@ int spectral_command::run_spread(const run_settings& settings) {
             try {
                 dt = model.initial_cfl_step(w, cfl_.value_or(spectral::flow2d::default_cfl), "--dt", "--cfl");
             } catch (const std::invalid_argument& e) {
-                throw bad_input(e.what());
+                // (of the file's field: a zero one has no CFL step)
+                throw bad_input(ic_of_file ? ic_problem(ic_, e.what()) : std::string(e.what()));
             }
             // (the library's bound, formed as it forms it)
             const double rate = model.linear_rate();

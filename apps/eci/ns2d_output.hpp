@@ -76,13 +76,16 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
                        double t, std::uint64_t step, const std::string& method, double dt);
 /// Whether `path` is an HDF5 file holding an eci checkpoint (false for a snapshot); throws if it is unreadable.
 bool is_checkpoint(const std::string& path);
-/// The field of an eci snapshot (any equation's) and its grid size; a grid other than n (when n > 0) is refused before
-/// the field is read. with_field false: the grid size alone (the field's shape checked, not read). Throws
-/// std::runtime_error.
-std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n = 0, bool with_field = true);
-/// Rows first_row .. first_row + rows - 1 of an eci snapshot's field on the n x n grid (row-major; the rest of the
-/// file's field is not read). Throws std::runtime_error.
-std::vector<double> read_vorticity_rows(const std::string& path, int n, int first_row, int rows);
+/// The field of an eci snapshot (any equation's) or of a user's file and its grid size; a grid other than n (when
+/// n > 0) is refused before the field is read. The dataset is the one the attribute `field` names; in a file without
+/// that attribute, `own_field` (the run's equation's field, "buoyancy"), else "vorticity". with_field false: the grid
+/// size alone (the field's shape checked, not read). Throws std::runtime_error.
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n = 0, bool with_field = true,
+                                                   const std::string& own_field = "vorticity");
+/// Rows first_row .. first_row + rows - 1 of the field read_vorticity reads, on the n x n grid (row-major; the rest of
+/// the file's field is not read). Throws std::runtime_error.
+std::vector<double> read_vorticity_rows(const std::string& path, int n, int first_row, int rows,
+                                        const std::string& own_field = "vorticity");
 
 #ifdef ECI_MPI
 // ---- The files of a run spread over MPI processes: the serial layout, no process holding the whole field. Each
