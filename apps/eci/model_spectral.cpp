@@ -933,10 +933,18 @@ int spectral_command::run_spread(const run_settings& settings) {
         return restart ? i > first && i <= last && (i % snapshot_every_ == 0 || i == last)
                        : i == first || (i <= last && (i % snapshot_every_ == 0 || i == last));
     };
+    // The steps of a restart's earlier part: up to its checkpoint's step, and where that part's last step was
+    // shortened to land on its end (the checkpoint keeps the step before it) that step too, taken again here as a
+    // whole step of dt (its rows and snapshot, at t_end, are the earlier part's; docs/turbulence.md).
+    const bool earlier_short_end = restart && !std::isnan(ck.t_end) && ck.step + 1 == ck.total_steps &&
+                                   last_step_to_reach(0.0, ck.t_end, ck.dt, ck.total_steps) != ck.dt;
+    const auto earlier_part = [&](std::uint64_t i) {
+        return restart && (i <= first || (earlier_short_end && i == first + 1));
+    };
     // One look at the snapshot directory. No snapshot this run writes may replace its --ic or --restart file (nor a
     // file a snapshot's name links to). A directory holding another run's snapshots at steps this run does not write
-    // would mix the two runs (its own earlier part's, before a restart's first step, belong to it): refused, nothing
-    // replaced (after the inputs' check, which names the more particular problem).
+    // would mix the two runs (its own earlier part's belong to it): refused, nothing replaced (after the inputs'
+    // check, which names the more particular problem).
     if (snapshot_every_ > 0) {
         const std::string shown =
             "--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) + "'";
@@ -953,7 +961,7 @@ int spectral_command::run_spread(const run_settings& settings) {
             const auto step = snapshot_step(file, stem_);
             if (!step) continue;
             if (!written(*step)) {
-                if (!(restart && *step <= first)) stale.insert(*step);
+                if (!earlier_part(*step)) stale.insert(*step);
                 continue;
             }
             // a snapshot this run replaces must be of its grid: the same steps of another run are not its own

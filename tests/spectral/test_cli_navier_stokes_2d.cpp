@@ -952,6 +952,53 @@ TEST(CliNavierStokes2d, TEndIsLandedOnAndARestartContinuesTheGrid) {
     EXPECT_EQ(std::stod(split(lines_of(read_text(d / "c.csv")).back())[1]), 4 * 0.03);
 }
 
+// After a shortened last step, a restart to a later end takes that step again, whole: its first row has the number
+// of the first part's last row, at n dt (docs/turbulence.md, "Step numbers"). Joined, the first part's rows up to its
+// checkpoint's step and the restart's are the rows of the run to the later end, each step once. The restart continues
+// its own snapshot directory: the first part's snapshot of its shortened step (step 4, t = 0.1) is its earlier part's,
+// kept where the restart does not write that step (it was refused as another run's snapshot).
+TEST(CliNavierStokes2d, ARestartAfterAShortenedLastStepJoinsAndKeepsItsSnapshots) {
+    scratch_dir dir("ns2d-short-end");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    const std::string run = "run navier-stokes-2d --N 16 --nu 1e-3 --dt 0.03 --every 1 --fftw-wisdom " + q +
+                            "/wisdom ";
+    const std::string none = "ECI_GNUPLOT=/nonexistent/gnuplot";
+    auto r = run_eci(run + "--t-end 0.2 --output " + q + "/whole.csv", d, none);
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = run_eci(run + "--t-end 0.1 --output " + q + "/a.csv --checkpoint " + q + "/a.h5 --snapshot-every 3 "
+                "--snapshot-dir " + q + "/s",
+                d, none);
+    ASSERT_EQ(r.status, 0) << r.err;
+    ASSERT_EQ(read_attribute(d / "a.h5", "step"), 3.0);
+    ASSERT_EQ(read_attribute(d / "s" / "vorticity_00000004.h5", "time"), 0.1);
+    r = run_eci("run navier-stokes-2d --fftw-wisdom " + q + "/wisdom --restart " + q + "/a.h5 --t-end 0.2 --every 1 "
+                "--output " + q + "/b.csv --snapshot-every 3 --snapshot-dir " + q + "/s --checkpoint " + q + "/b.h5",
+                d, none);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto whole = lines_of(read_text(d / "whole.csv")), a = lines_of(read_text(d / "a.csv")),
+               b = lines_of(read_text(d / "b.csv"));
+    ASSERT_EQ(a.size(), 1u + 5u);  // steps 0 .. 4, the last at t = 0.1
+    ASSERT_EQ(b.size(), 1u + 4u);  // steps 4 .. 7, the first at t = 0.12
+    EXPECT_EQ(split(a.back())[0], split(b[1])[0]);
+    EXPECT_EQ(std::stod(split(b[1])[1]), 4 * 0.03);
+    std::vector<std::string> joined(a.begin(), a.end() - 1);  // the first part's rows to its checkpoint's step, 3
+    joined.insert(joined.end(), b.begin() + 1, b.end());
+    EXPECT_EQ(joined, whole);
+    // the snapshots: the first part's 0, 3 and 4 (t = 0.1), the restart's 6 and 7
+    for (const char* name : {"vorticity_00000000.h5", "vorticity_00000003.h5", "vorticity_00000006.h5",
+                             "vorticity_00000007.h5"})
+        EXPECT_TRUE(fs::is_regular_file(d / "s" / name)) << name;
+    EXPECT_EQ(read_attribute(d / "s" / "vorticity_00000004.h5", "time"), 0.1);
+    EXPECT_EQ(read_attribute(d / "s" / "vorticity_00000007.h5", "time"), 0.2);
+    // a restart that writes step 4 replaces that snapshot with its own (t = 0.12), as any run replaces its own
+    r = run_eci("run navier-stokes-2d --fftw-wisdom " + q + "/wisdom --restart " + q + "/a.h5 --t-end 0.2 "
+                "--snapshot-every 2 --snapshot-dir " + q + "/s --checkpoint " + q + "/c.h5",
+                d, none);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(read_attribute(d / "s" / "vorticity_00000004.h5", "time"), 4 * 0.03);
+}
+
 // A charney-hasegawa-mima flow of deformation F = 1e300 moves at |u| ~ 1e-299 (psi = -q / (k^2 + F)): its u^2
 // underflows, and the run was refused, "the initial velocity is zero: give --dt". Now its CFL step is the flow's:
 // 0.5 dx / max|u|, with max|u| the CSV's first row.
