@@ -1115,9 +1115,10 @@ int spectral_command::run_spread(const run_settings& settings) {
     // (the same on every process; `out` and the plot are rank 0's)
     const bool rows_wanted = !settings.output.empty() || !settings.plot.empty();
     std::uint64_t last_row = first, last_snapshot = first;  // the steps of the last CSV row and snapshot made
-    // whether a stop came while the last snapshot's pictures were drawn (the plotting program is stopped with the
-    // run: the snapshot keeps its data, not its pictures)
-    bool last_pictures_cut = false;
+    // The pictures a stop left undrawn (the plotting program is stopped with the run, and a picture not begun is not
+    // drawn: the snapshot keeps its data, not those pictures), by name: those of the last snapshot, and of the one
+    // before it where the stop came at the first snapshot (the step after it is taken before the stop is seen).
+    std::vector<std::string> cut_pictures;
     auto row = [&](std::uint64_t i, double t, double e, double z) {  // (e, z: E and Z of w at time t)
         last_row = i;
         const double u = model.max_velocity(w);
@@ -1146,6 +1147,15 @@ int spectral_command::run_spread(const run_settings& settings) {
                      num(e - run.energy0 - (b.energy_injection - b.energy_dissipation)).c_str(),
                      num(z - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)).c_str(),
                      num(u).c_str(), num(u * dt / dx).c_str(), (unsigned long long)run.halvings);
+    };
+    // A failure of a file in the staging directory, named where the file was to go (rank 0's).
+    const auto in_final_dir = [&](const run_error& e, const std::string& base) {
+        std::string m = e.what();
+        const std::string final_dir =
+            snapshot_dir_.empty() || snapshot_dir_.back() == '/' ? snapshot_dir_ : snapshot_dir_ + "/";
+        if (!base.empty())
+            for (std::size_t at; (at = m.find(base)) != std::string::npos;) m.replace(at, base.size(), final_dir);
+        return run_error(m);
     };
     // Whether the snapshots have pictures (rank 0's plotting program; spread over processes, only then is the field
     // gathered on rank 0 for them), asked at the first snapshot.
@@ -1196,21 +1206,64 @@ int spectral_command::run_spread(const run_settings& settings) {
             on_root_agreed([&] {
                 write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
                                {es, zs, pi.energy, pi.enstrophy}, t);
+                if (!interrupt_requested() || !plotting_available()) return;
                 std::error_code ec;
-                last_pictures_cut = interrupt_requested() && plotting_available() &&
-                                    !(fs::exists(png, ec) && fs::exists(base + "spectrum_" + stem + ".png", ec));
+                for (const std::string& picture :
+                     {stem_ + "_" + stem + ".png", "spectrum_" + std::string(stem) + ".png"})
+                    if (!fs::exists(base + picture, ec)) cut_pictures.push_back(picture);
             });
         } catch (const run_error& e) {
-            // named where they were to go, not in the staging directory they are written in first
-            std::string m = e.what();
-            const std::string final_dir = snapshot_dir_.empty() || snapshot_dir_.back() == '/'
-                                              ? snapshot_dir_
-                                              : snapshot_dir_ + "/";
-            if (!base.empty())
-                for (std::size_t at; (at = m.find(base)) != std::string::npos;) m.replace(at, base.size(), final_dir);
-            throw run_error(m);
+            throw in_final_dir(e, base);
         }
     };
+    // A restart draws the pictures its earlier part's snapshots lack: those a stop left undrawn (it says which), or
+    // all of them where that part had no plotting program. From each snapshot's field and time and its spectrum CSV,
+    // into the staging directory, committed with the run's own snapshots (rank 0's: it alone draws). A picture that
+    // cannot be drawn ends the drawing, as in a run, and the run goes on (its own snapshots say why, once).
+    if (restart && snapshot_every_ > 0)
+        on_root_agreed([&] {
+            if (!staged_snapshots || !plotting_available()) return;
+            const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
+            const std::string base = staged_snapshots->path() + "/";
+            std::set<std::pair<std::uint64_t, std::string>> earlier;  // step, its digits in the names
+            std::error_code ec;
+            for (const auto& entry : fs::directory_iterator(dir, ec)) {
+                const std::string file = entry.path().filename().string();
+                const auto step = snapshot_step(file, stem_);
+                if (step && *step <= first && file.rfind(stem_ + "_", 0) == 0 && entry.path().extension() == ".h5")
+                    earlier.emplace(*step, file.substr(stem_.size() + 1, file.size() - stem_.size() - 4));
+            }
+            const auto missing = [&](const std::string& name) {
+                std::error_code e;
+                return !fs::exists(fs::symlink_status(fs::path(dir) / name, e));
+            };
+            try {
+                for (const auto& [step, digits] : earlier) {
+                    const std::string h5 = (fs::path(dir) / (stem_ + "_" + digits + ".h5")).string();
+                    const std::string png = stem_ + "_" + digits + ".png", spectrum = "spectrum_" + digits;
+                    const bool field_missing = missing(png),
+                               spectrum_missing = !missing(spectrum + ".csv") && missing(spectrum + ".png");
+                    if (!field_missing && !spectrum_missing) continue;
+                    double t = 0.0;
+                    std::vector<double> field;
+                    try {
+                        t = read_snapshot_time(h5);
+                        if (field_missing) field = read_vorticity(h5, p.n, true, stem_).second;
+                    } catch (const std::exception&) {
+                        continue;  // (not a snapshot of this run's: nothing to draw from)
+                    }
+                    if (field_missing &&
+                        !plot_vorticity_png(base + png, p.n, field, t, field_, std::string(eq_.symbol)))
+                        return;
+                    if (spectrum_missing &&
+                        !redraw_spectrum_png((fs::path(dir) / (spectrum + ".csv")).string(), base + spectrum + ".png",
+                                             t))
+                        return;
+                }
+            } catch (const run_error& e) {
+                throw in_final_dir(e, base);
+            }
+        });
     // Ctrl-C finishes the step under way and writes the checkpoint. On a large grid one step takes longer than the
     // signal handler's default allowance (0.3 s of CPU), so the run tells it how long a step and a checkpoint
     // take: estimated from one right-hand side's transforms before the first step, measured after.
@@ -1444,11 +1497,22 @@ int spectral_command::run_spread(const run_settings& settings) {
         s.t_stopped = reached == last && short_end ? t_end : double(reached) * dt;
         std::string kept;
         const auto add = [&](const std::string& what) { kept += (kept.empty() ? "; kept: " : ", ") + what; };
-        if (staged_snapshots)
-            add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(last_snapshot) +
-                (last_pictures_cut ? " (step " + std::to_string(last_snapshot) +
-                                         "'s without its pictures: the stop came while they were drawn)"
-                                   : std::string()));
+        if (staged_snapshots) {
+            // the pictures the stop left undrawn, each named, and how to draw them (a restart draws the pictures of
+            // its earlier part's snapshots that are missing)
+            std::string without;
+            for (std::size_t j = 0; j < cut_pictures.size(); ++j)
+                without += (j == 0 ? "" : j + 1 == cut_pictures.size() ? " and " : ", ") + cut_pictures[j];
+            if (!without.empty())
+                without = " (without " + without + ": the stop came before " +
+                          (cut_pictures.size() == 1 ? "it was" : "they were") + " drawn" +
+                          (keep_on_stop ? "; --restart " + checkpoint_ + " --snapshot-every " +
+                                              std::to_string(snapshot_every_) + " --snapshot-dir '" + snapshot_dir_ +
+                                              "' draws " + (cut_pictures.size() == 1 ? "it" : "them")
+                                        : std::string()) +
+                          ")";
+            add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(last_snapshot) + without);
+        }
         if (csv.replaces())
             add(std::string(h5 ? "HDF5" : "CSV") + " output '" + settings.output + "' (rows to step " +
                 std::to_string(last_row) + ")");

@@ -927,15 +927,11 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
     return true;
 }
 
-void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t) {
-    const std::vector<double>& e = r.energy;
-    write_new_file(csv_path, "spectrum", [&](std::FILE* f) {
-        std::fprintf(f, "k,E,Z,Pi_E,Pi_Z\n");
-        for (std::size_t k = 1; k < e.size(); ++k)
-            std::fprintf(f, "%zu,%.17g,%.17g,%.17g,%.17g\n", k, e[k], r.enstrophy[k], r.energy_flux[k],
-                         r.enstrophy_flux[k]);
-    });
-    if (png_path.empty()) return;
+namespace {
+
+// The log-log picture of E(k) (e[k], k >= 1) from the spectrum CSV `csv_path`, drawn to `png_path`; false if it was
+// not drawn (no plotting program, or stopped).
+bool draw_spectrum(const std::string& csv_path, const std::string& png_path, const std::vector<double>& e, double t) {
     // Guides through the spectrum's peak: k^-3 (enstrophy cascade) and k^-5/3 (inverse energy cascade).
     std::size_t kp = 1;
     for (std::size_t k = 1; k < e.size(); ++k)
@@ -954,7 +950,53 @@ void write_spectrum(const std::string& csv_path, const std::string& png_path, co
     if (!draw_picture(s, ptmp)) {
         std::error_code ec;
         std::filesystem::remove(ptmp, ec);
+        return false;
     }
+    return true;
+}
+
+}  // namespace
+
+void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t) {
+    const std::vector<double>& e = r.energy;
+    write_new_file(csv_path, "spectrum", [&](std::FILE* f) {
+        std::fprintf(f, "k,E,Z,Pi_E,Pi_Z\n");
+        for (std::size_t k = 1; k < e.size(); ++k)
+            std::fprintf(f, "%zu,%.17g,%.17g,%.17g,%.17g\n", k, e[k], r.enstrophy[k], r.energy_flux[k],
+                         r.enstrophy_flux[k]);
+    });
+    if (!png_path.empty()) draw_spectrum(csv_path, png_path, e, t);
+}
+
+double read_snapshot_time(const std::string& path) {
+    handle f = open_for_reading(path);
+    const double t = get<double>(f, "time");
+    if (!std::isfinite(t)) throw std::runtime_error(path + ": time is not finite");
+    return t;
+}
+
+bool redraw_spectrum_png(const std::string& csv_path, const std::string& png_path, double t) {
+    std::FILE* f = std::fopen(csv_path.c_str(), "r");
+    if (!f) return false;
+    std::vector<double> e(1, 0.0);  // (e[0]: the mean, not in the file)
+    char line[512];
+    bool header = true, whole = true;
+    while (std::fgets(line, sizeof line, f)) {
+        if (header) {
+            header = false;
+            whole = std::strncmp(line, "k,E,", 4) == 0;
+            continue;
+        }
+        char* end = nullptr;
+        const unsigned long long k = std::strtoull(line, &end, 10);
+        if (*end != ',' || k != e.size()) {  // (rows k = 1, 2, ... in order, as write_spectrum writes them)
+            whole = false;
+            break;
+        }
+        e.push_back(std::strtod(end + 1, nullptr));
+    }
+    std::fclose(f);
+    return whole && e.size() > 1 && draw_spectrum(csv_path, png_path, e, t);
 }
 
 }  // namespace eci::cli

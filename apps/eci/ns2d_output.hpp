@@ -120,5 +120,10 @@ struct spectrum_rows {
 /// E(k), Z(k), Pi_E(k), Pi_Z(k) as CSV (k,E,Z,Pi_E,Pi_Z) and, if gnuplot is available, a log-log PNG of E(k) with
 /// k^-3 and k^-5/3 guide lines, written to the paths given (in the staging directory; the CSV's writes checked).
 void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t);
+/// The time attribute of a snapshot (finite); throws std::runtime_error.
+double read_snapshot_time(const std::string& path);
+/// The picture write_spectrum draws, drawn again from the spectrum CSV it wrote (at time t) to `png_path`; false if it
+/// was not drawn (no plotting program, stopped, or not a CSV of write_spectrum's).
+bool redraw_spectrum_png(const std::string& csv_path, const std::string& png_path, double t);
 
 }  // namespace eci::cli

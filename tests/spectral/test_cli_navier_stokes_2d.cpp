@@ -670,6 +670,85 @@ TEST(CliNavierStokes2d, APlottingProgramThatHangsIsStoppedAndTheSnapshotsAreKept
     EXPECT_EQ(n, 1);
 }
 
+// A stop while a snapshot's pictures are drawn keeps the snapshot's data and names each picture it lacks, with how to
+// draw it; a restart from the checkpoint draws them. The stand-in plotting program copies its script to the picture
+// (what it drew), and on the picture whose name has $SLOW says so in `drawing` and hangs until stopped. Before, the
+// message named step 1's pictures where step 0's were missing too, and a snapshot's "pictures" where only its
+// spectrum's was; a restart drew none of them.
+TEST(CliNavierStokes2d, AStopWhilePicturesAreDrawnNamesThemAndARestartDrawsThem) {
+    scratch_dir dir("ns2d-stop-pictures");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    {
+        std::ofstream fake(d / "plot-tool");
+        fake << "#!/bin/sh\n[ \"$1\" = --version ] && exit 0\n"
+             << "out=$(sed -n \"s/^set output '\\(.*\\)'$/\\1/p\" \"$1\")\n"
+             << "echo \"$out\" >> " << q << "/calls\n"
+             << "case \"$out\" in *\"${SLOW:-none}\"*) : > " << q << "/drawing; sleep 60;; esac\n"
+             << "cp \"$1\" \"$out\"\n";
+    }
+    fs::permissions(d / "plot-tool", fs::perms::owner_all);
+    const std::string tool = "ECI_GNUPLOT=" + q + "/plot-tool ";
+    // SIGINT once the slow picture is being drawn (at most 30 s of waiting for it)
+    const auto stopped = [&](const std::string& slow) {
+        fs::remove(d / "drawing");
+        return "SLOW=" + slow + " DRAWING=" + q + "/drawing " + tool +
+               "bash -c 'e=$0; \"$e\" \"$@\" & p=$!; for i in $(seq 600); do [ -e \"$DRAWING\" ] && break; "
+               "sleep 0.05; done; kill -INT $p; wait $p'";
+    };
+    const std::string run = "run navier-stokes-2d --N 16 --dt 0.01 --steps 5 --fftw-estimate --fftw-wisdom none ";
+    const std::string snaps = (d / "snaps").string(), ck = (d / "c.h5").string();
+    auto r = run_eci(run + "--snapshot-every 1 --snapshot-dir " + q + "/snaps --checkpoint " + q + "/c.h5", d,
+                     stopped("vorticity_00000000"));
+    ASSERT_EQ(r.status, 130) << r.err;
+    // the stop is seen after step 1, whose snapshot's pictures are not begun
+    EXPECT_NE(r.err.find("kept: the snapshots in '" + snaps + "' to step 1 (without vorticity_00000000.png, "
+                         "spectrum_00000000.png, vorticity_00000001.png and spectrum_00000001.png: the stop came "
+                         "before they were drawn; --restart " + ck + " --snapshot-every 1 --snapshot-dir '" + snaps +
+                         "' draws them)"),
+              std::string::npos)
+        << r.err;
+    for (const char* name : {"vorticity_00000000.h5", "vorticity_00000001.h5", "spectrum_00000000.csv",
+                             "spectrum_00000001.csv"})
+        EXPECT_TRUE(fs::is_regular_file(d / "snaps" / name)) << name;
+    for (const char* name : {"vorticity_00000000.png", "spectrum_00000000.png", "vorticity_00000001.png",
+                             "spectrum_00000001.png"})
+        EXPECT_FALSE(fs::exists(d / "snaps" / name)) << name;
+    // the restart draws them (each once, from the snapshot's field and time and its spectrum CSV), and its own
+    fs::remove(d / "calls");
+    r = run_eci("run navier-stokes-2d --fftw-wisdom none --restart " + q + "/c.h5 --steps 3 --snapshot-every 1 "
+                "--snapshot-dir " + q + "/snaps",
+                d, tool);
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (int i = 0; i <= 3; ++i)
+        for (const std::string kind : {"vorticity_", "spectrum_"}) {
+            const std::string name = kind + "0000000" + std::to_string(i) + ".png";
+            EXPECT_TRUE(fs::is_regular_file(d / "snaps" / name)) << name;
+        }
+    EXPECT_EQ(lines_of(read_text(d / "calls")).size(), 8u) << read_text(d / "calls");
+    EXPECT_NE(read_text(d / "snaps" / "vorticity_00000000.png").find("set title 'vorticity, t = 0'"),
+              std::string::npos);
+    EXPECT_NE(read_text(d / "snaps" / "vorticity_00000001.png").find("set title 'vorticity, t = 0.01'"),
+              std::string::npos);
+    EXPECT_NE(read_text(d / "snaps" / "spectrum_00000001.png").find(shell_quote(snaps + "/spectrum_00000001.csv")),
+              std::string::npos)
+        << "drawn from the snapshot's own spectrum CSV";
+
+    // a stop while a spectrum is drawn: the field's picture was drawn, the spectrum's is named alone
+    fs::remove_all(d / "snaps");
+    fs::remove(d / "c.h5");
+    r = run_eci(run + "--snapshot-every 5 --snapshot-dir " + q + "/snaps --checkpoint " + q + "/c.h5", d,
+                stopped("spectrum_00000000"));
+    ASSERT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("kept: the snapshots in '" + snaps + "' to step 0 (without spectrum_00000000.png: the stop "
+                         "came before it was drawn; --restart " + ck + " --snapshot-every 5 --snapshot-dir '" + snaps +
+                         "' draws it)"),
+              std::string::npos)
+        << r.err;
+    EXPECT_TRUE(fs::is_regular_file(d / "snaps" / "vorticity_00000000.png"));
+    EXPECT_FALSE(fs::exists(d / "snaps" / "spectrum_00000000.png"));
+}
+
 // A forced exit (a second, different signal during the run) leaves nothing: not the snapshots staged so far, not the
 // snapshot directory the run created (it used to be left behind, empty).
 TEST(CliNavierStokes2d, ForcedExitRemovesTheSnapshotDirectoryItCreated) {
