@@ -50,6 +50,18 @@ std::string field_stem(std::string_view field) {
 // Whether --ic names one of the built-in initial fields (else it names a file).
 bool named_initial_field(std::string_view ic) { return ic == "random" || ic == "vortex-pair" || ic == "taylor-green"; }
 
+// A problem of the --ic file, as every one is said: "--ic 'FILE': what". The readers' messages that name the file
+// themselves have it once ("cannot read FILE: no such file", "FILE holds a 16^2 grid", "FILE: omega_hat ...").
+std::string ic_problem(const std::string& file, std::string what) {
+    if (const std::string read = "cannot read " + file + ": "; what.rfind(read, 0) == 0)
+        what.erase(0, read.size());
+    else if (what.rfind(file + ": ", 0) == 0)
+        what.erase(0, file.size() + 2);
+    else if (what.rfind(file + " ", 0) == 0)
+        what = "it" + what.substr(file.size());
+    return "--ic '" + file + "': " + what;
+}
+
 // ---- MPI (the MPI build under mpirun with more than one process): the run is spread over MPI_COMM_WORLD. Every
 // process validates the same input (each reads the files' headers); the verdict is agreed once, before the first
 // collective, so a bad input exits 2 on every process with nothing written. Each process then reads its own part
@@ -440,6 +452,19 @@ int spectral_command::run_spread(const run_settings& settings) {
                                 " does not match the restart file's " + shortest(double(stored)) + " (" + restart_ +
                                 ")");
         };
+        // The forcing first: the settings that act only with it (and the powers that act only with their
+        // coefficients) are then refused as a fresh run refuses them, naming what the checkpoint's run has, not
+        // compared with values its run never used (an unforced checkpoint's forcing_k of 4 is the default).
+        if (const auto f = given_text("forcing"); f && parse_forcing(*f) != ck.params.forcing)
+            throw bad_input("--forcing " + *f + " does not match the restart file's " +
+                            std::string(ns2d_params::forcing_name(ck.params.forcing)) + " (" + restart_ +
+                            "; a restart continues its checkpoint's forcing)");
+        for (const char* field :
+             {"forcing_k", "forcing_seed", "forcing_amplitude", "injection_rate", "hyper_p", "hypo_p"})
+            if (spec(option_name(field).substr(2)).given)
+                if (const std::string why = ck.params.unused_setting(field, option_name); !why.empty())
+                    throw bad_input(why + ": the restart file's ('" + restart_ +
+                                    "'), which a restart cannot change");
         same("N", given_whole("N"), std::uint64_t(ck.params.n));
         same("nu", given_real("nu"), ck.params.nu);
         same("hyper-nu", given_real("hyper-nu"), ck.params.hyper_nu);
@@ -452,8 +477,6 @@ int spectral_command::run_spread(const run_settings& settings) {
             same("deformation", given_real("deformation"), ck.params.deformation);
         }
         same("forcing-k", given_real("forcing-k"), ck.params.forcing_k);
-        if (given_text("forcing") && parse_forcing(*given_text("forcing")) != ck.params.forcing)
-            throw bad_input("--forcing does not match the restart file's (" + restart_ + ")");
         if (!settings.method.empty() && settings.method != ck.method)
             throw bad_input("--method " + settings.method + " does not match the restart file's " + ck.method);
         if (settings.dt && *settings.dt != ck.dt)
@@ -495,12 +518,20 @@ int spectral_command::run_spread(const run_settings& settings) {
         // --ic FILE without --N: the file's grid (its field is loaded on the grid it was written on)
         std::uint64_t default_n = 256;
         const std::string ic_file = given_text("ic").value_or("random");
-        if (!given_whole("N") && !named_initial_field(ic_file)) {
+        const bool n_of_ic = !given_whole("N") && !named_initial_field(ic_file);
+        if (n_of_ic) {
             try {
                 default_n = std::uint64_t(is_checkpoint(ic_file) ? read_checkpoint(ic_file, 0, false).params.n
-                                                                 : read_vorticity(ic_file, 0, false).first);
+                                                                 : read_vorticity(ic_file, 0, false, stem_).first);
             } catch (const std::exception& e) {
-                throw bad_input(std::string("--ic: ") + e.what());
+                throw bad_input(ic_problem(ic_file, e.what()));
+            }
+            // a field of a grid no run takes (33 x 33) is the file's problem, said as such
+            try {
+                (void)ns2d_params::whole("n", (long long)default_n);
+            } catch (const std::invalid_argument& e) {
+                throw bad_input(ic_problem(ic_file, "its " + std::to_string(default_n) + "^2 grid is not one " +
+                                                        name_ + " runs on: " + e.what()));
             }
         }
         p.n = whole_setting("N", "n", default_n);
@@ -720,14 +751,14 @@ int spectral_command::run_spread(const run_settings& settings) {
             if (is_checkpoint(ic_))
                 ic_checkpoint = read_checkpoint(ic_, p.n, !mpi.on);
             else
-                ic_field = read_vorticity(ic_, p.n, !mpi.on);
+                ic_field = read_vorticity(ic_, p.n, !mpi.on, stem_);
         } catch (const std::exception& e) {
-            throw bad_input(std::string("--ic: ") + e.what());
+            throw bad_input(ic_problem(ic_, e.what()));
         }
         const int file_n = ic_checkpoint ? ic_checkpoint->params.n : ic_field->first;
         if (file_n != p.n)
-            throw bad_input("--ic " + ic_ + " holds a " + std::to_string(file_n) + "^2 grid, not N = " +
-                            std::to_string(p.n));
+            throw bad_input(ic_problem(ic_, "it holds a " + std::to_string(file_n) + "^2 grid, not N = " +
+                                                std::to_string(p.n)));
     }
 
     if (mpi.on && mpi.size > p.n)
@@ -784,9 +815,9 @@ int spectral_command::run_spread(const run_settings& settings) {
                 part_columns = read_checkpoint_columns(restart ? restart_ : ic_, restart ? ck : *ic_checkpoint,
                                                        g.first_column(), g.local_columns());
             else
-                part_rows = read_vorticity_rows(ic_, p.n, g.first_row(), g.local_rows());
+                part_rows = read_vorticity_rows(ic_, p.n, g.first_row(), g.local_rows(), stem_);
         } catch (const std::exception& e) {
-            failure = (restart ? "cannot restart: " : "--ic: ") + std::string(e.what());
+            failure = restart ? "cannot restart: " + std::string(e.what()) : ic_problem(ic_, e.what());
         }
         if (failure = first_failure(MPI_COMM_WORLD, failure); !failure.empty()) throw bad_input(failure);
         // a checkpoint's state against its checksum: every process's part, summed (the same verdict on all)
@@ -796,12 +827,13 @@ int spectral_command::run_spread(const run_settings& settings) {
             std::uint64_t whole = 0;
             MPI_Allreduce(&part, &whole, 1, MPI_UINT64_T, MPI_SUM, MPI_COMM_WORLD);
             if (whole != *header.checksum)
-                throw bad_input((restart ? "cannot restart: " : "--ic: ") +
-                                checksum_mismatch(restart ? restart_ : ic_, header.params.equation));
+                throw bad_input(restart ? "cannot restart: " + checksum_mismatch(restart_, header.params.equation)
+                                        : ic_problem(ic_, checksum_mismatch(ic_, header.params.equation)));
         }
 #endif
     }
     state w;
+    const bool ic_of_file = !restart && !named_initial_field(ic_);  // (its problems are said as --ic 'FILE': ...)
     try {
         if (restart && mpi.on) {
             w = model.from_half_plane_columns(part_columns);
@@ -826,12 +858,12 @@ int spectral_command::run_spread(const run_settings& settings) {
             w = mpi.on ? model.from_physical_rows(part_rows) : model.from_physical(ic_field->second);
         }
     } catch (const std::invalid_argument& e) {
-        throw bad_input(std::string("initial condition: ") + e.what());
+        throw bad_input(ic_of_file ? ic_problem(ic_, e.what()) : std::string("initial condition: ") + e.what());
     }
     try {  // the library's check, as Python's (collective: every process gives the same verdict)
         model.check_initial_state(w);
     } catch (const std::invalid_argument& e) {
-        throw bad_input(e.what());
+        throw bad_input(ic_of_file ? ic_problem(ic_, e.what()) : std::string(e.what()));
     }
     // A field file's mean and its modes beyond the retained ones are not evolved: the run takes its projection. A
     // user's own field may hold much there (an eci snapshot holds nothing but round-off): said, not silently run.
@@ -852,7 +884,7 @@ int spectral_command::run_spread(const run_settings& settings) {
         // above 1e-10 of the mean square (1e-5 of the rms): more than any rounding of a field written by eci
         if (mpi.rank == 0 && sums[1] > 1e-10 * sums[0])
             std::fprintf(stderr,
-                         "eci: warning: --ic %s: %.3g %% of the field's mean square is in its mean and its modes "
+                         "eci: warning: --ic '%s': %.3g %% of the field's mean square is in its mean and its modes "
                          "beyond |k_x|, |k_y| <= kmax = %d, which the run drops (it evolves the dealiased, zero-mean "
                          "field)\n",
                          ic_.c_str(), 100.0 * sums[1] / sums[0], model.kmax());
@@ -871,7 +903,8 @@ int spectral_command::run_spread(const run_settings& settings) {
             try {
                 dt = model.initial_cfl_step(w, cfl_.value_or(spectral::flow2d::default_cfl), "--dt", "--cfl");
             } catch (const std::invalid_argument& e) {
-                throw bad_input(e.what());
+                // (of the file's field: a zero one has no CFL step)
+                throw bad_input(ic_of_file ? ic_problem(ic_, e.what()) : std::string(e.what()));
             }
             // (the library's bound, formed as it forms it)
             const double rate = model.linear_rate();
@@ -913,10 +946,18 @@ int spectral_command::run_spread(const run_settings& settings) {
         return restart ? i > first && i <= last && (i % snapshot_every_ == 0 || i == last)
                        : i == first || (i <= last && (i % snapshot_every_ == 0 || i == last));
     };
+    // The steps of a restart's earlier part: up to its checkpoint's step, and where that part's last step was
+    // shortened to land on its end (the checkpoint keeps the step before it) that step too, taken again here as a
+    // whole step of dt (its rows and snapshot, at t_end, are the earlier part's; docs/turbulence.md).
+    const bool earlier_short_end = restart && !std::isnan(ck.t_end) && ck.step + 1 == ck.total_steps &&
+                                   last_step_to_reach(0.0, ck.t_end, ck.dt, ck.total_steps) != ck.dt;
+    const auto earlier_part = [&](std::uint64_t i) {
+        return restart && (i <= first || (earlier_short_end && i == first + 1));
+    };
     // One look at the snapshot directory. No snapshot this run writes may replace its --ic or --restart file (nor a
     // file a snapshot's name links to). A directory holding another run's snapshots at steps this run does not write
-    // would mix the two runs (its own earlier part's, before a restart's first step, belong to it): refused, nothing
-    // replaced (after the inputs' check, which names the more particular problem).
+    // would mix the two runs (its own earlier part's belong to it): refused, nothing replaced (after the inputs'
+    // check, which names the more particular problem).
     if (snapshot_every_ > 0) {
         const std::string shown =
             "--snapshot-dir '" + (snapshot_dir_.empty() ? std::string(".") : snapshot_dir_) + "'";
@@ -933,7 +974,7 @@ int spectral_command::run_spread(const run_settings& settings) {
             const auto step = snapshot_step(file, stem_);
             if (!step) continue;
             if (!written(*step)) {
-                if (!(restart && *step <= first)) stale.insert(*step);
+                if (!earlier_part(*step)) stale.insert(*step);
                 continue;
             }
             // a snapshot this run replaces must be of its grid: the same steps of another run are not its own
@@ -1087,9 +1128,10 @@ int spectral_command::run_spread(const run_settings& settings) {
     // (the same on every process; `out` and the plot are rank 0's)
     const bool rows_wanted = !settings.output.empty() || !settings.plot.empty();
     std::uint64_t last_row = first, last_snapshot = first;  // the steps of the last CSV row and snapshot made
-    // whether a stop came while the last snapshot's pictures were drawn (the plotting program is stopped with the
-    // run: the snapshot keeps its data, not its pictures)
-    bool last_pictures_cut = false;
+    // The pictures a stop left undrawn (the plotting program is stopped with the run, and a picture not begun is not
+    // drawn: the snapshot keeps its data, not those pictures), by name: those of the last snapshot, and of the one
+    // before it where the stop came at the first snapshot (the step after it is taken before the stop is seen).
+    std::vector<std::string> cut_pictures;
     auto row = [&](std::uint64_t i, double t, double e, double z) {  // (e, z: E and Z of w at time t)
         last_row = i;
         const double u = model.max_velocity(w);
@@ -1118,6 +1160,15 @@ int spectral_command::run_spread(const run_settings& settings) {
                      num(e - run.energy0 - (b.energy_injection - b.energy_dissipation)).c_str(),
                      num(z - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)).c_str(),
                      num(u).c_str(), num(u * dt / dx).c_str(), (unsigned long long)run.halvings);
+    };
+    // A failure of a file in the staging directory, named where the file was to go (rank 0's).
+    const auto in_final_dir = [&](const run_error& e, const std::string& base) {
+        std::string m = e.what();
+        const std::string final_dir =
+            snapshot_dir_.empty() || snapshot_dir_.back() == '/' ? snapshot_dir_ : snapshot_dir_ + "/";
+        if (!base.empty())
+            for (std::size_t at; (at = m.find(base)) != std::string::npos;) m.replace(at, base.size(), final_dir);
+        return run_error(m);
     };
     // Whether the snapshots have pictures (rank 0's plotting program; spread over processes, only then is the field
     // gathered on rank 0 for them), asked at the first snapshot.
@@ -1168,21 +1219,64 @@ int spectral_command::run_spread(const run_settings& settings) {
             on_root_agreed([&] {
                 write_spectrum(base + "spectrum_" + stem + ".csv", base + "spectrum_" + stem + ".png",
                                {es, zs, pi.energy, pi.enstrophy}, t);
+                if (!interrupt_requested() || !plotting_available()) return;
                 std::error_code ec;
-                last_pictures_cut = interrupt_requested() && plotting_available() &&
-                                    !(fs::exists(png, ec) && fs::exists(base + "spectrum_" + stem + ".png", ec));
+                for (const std::string& picture :
+                     {stem_ + "_" + stem + ".png", "spectrum_" + std::string(stem) + ".png"})
+                    if (!fs::exists(base + picture, ec)) cut_pictures.push_back(picture);
             });
         } catch (const run_error& e) {
-            // named where they were to go, not in the staging directory they are written in first
-            std::string m = e.what();
-            const std::string final_dir = snapshot_dir_.empty() || snapshot_dir_.back() == '/'
-                                              ? snapshot_dir_
-                                              : snapshot_dir_ + "/";
-            if (!base.empty())
-                for (std::size_t at; (at = m.find(base)) != std::string::npos;) m.replace(at, base.size(), final_dir);
-            throw run_error(m);
+            throw in_final_dir(e, base);
         }
     };
+    // A restart draws the pictures its earlier part's snapshots lack: those a stop left undrawn (it says which), or
+    // all of them where that part had no plotting program. From each snapshot's field and time and its spectrum CSV,
+    // into the staging directory, committed with the run's own snapshots (rank 0's: it alone draws). A picture that
+    // cannot be drawn ends the drawing, as in a run, and the run goes on (its own snapshots say why, once).
+    if (restart && snapshot_every_ > 0)
+        on_root_agreed([&] {
+            if (!staged_snapshots || !plotting_available()) return;
+            const std::string dir = snapshot_dir_.empty() ? std::string(".") : snapshot_dir_;
+            const std::string base = staged_snapshots->path() + "/";
+            std::set<std::pair<std::uint64_t, std::string>> earlier;  // step, its digits in the names
+            std::error_code ec;
+            for (const auto& entry : fs::directory_iterator(dir, ec)) {
+                const std::string file = entry.path().filename().string();
+                const auto step = snapshot_step(file, stem_);
+                if (step && *step <= first && file.rfind(stem_ + "_", 0) == 0 && entry.path().extension() == ".h5")
+                    earlier.emplace(*step, file.substr(stem_.size() + 1, file.size() - stem_.size() - 4));
+            }
+            const auto missing = [&](const std::string& name) {
+                std::error_code e;
+                return !fs::exists(fs::symlink_status(fs::path(dir) / name, e));
+            };
+            try {
+                for (const auto& [step, digits] : earlier) {
+                    const std::string h5 = (fs::path(dir) / (stem_ + "_" + digits + ".h5")).string();
+                    const std::string png = stem_ + "_" + digits + ".png", spectrum = "spectrum_" + digits;
+                    const bool field_missing = missing(png),
+                               spectrum_missing = !missing(spectrum + ".csv") && missing(spectrum + ".png");
+                    if (!field_missing && !spectrum_missing) continue;
+                    double t = 0.0;
+                    std::vector<double> field;
+                    try {
+                        t = read_snapshot_time(h5);
+                        if (field_missing) field = read_vorticity(h5, p.n, true, stem_).second;
+                    } catch (const std::exception&) {
+                        continue;  // (not a snapshot of this run's: nothing to draw from)
+                    }
+                    if (field_missing &&
+                        !plot_vorticity_png(base + png, p.n, field, t, field_, std::string(eq_.symbol)))
+                        return;
+                    if (spectrum_missing &&
+                        !redraw_spectrum_png((fs::path(dir) / (spectrum + ".csv")).string(), base + spectrum + ".png",
+                                             t))
+                        return;
+                }
+            } catch (const run_error& e) {
+                throw in_final_dir(e, base);
+            }
+        });
     // Ctrl-C finishes the step under way and writes the checkpoint. On a large grid one step takes longer than the
     // signal handler's default allowance (0.3 s of CPU), so the run tells it how long a step and a checkpoint
     // take: estimated from one right-hand side's transforms before the first step, measured after.
@@ -1416,11 +1510,22 @@ int spectral_command::run_spread(const run_settings& settings) {
         s.t_stopped = reached == last && short_end ? t_end : double(reached) * dt;
         std::string kept;
         const auto add = [&](const std::string& what) { kept += (kept.empty() ? "; kept: " : ", ") + what; };
-        if (staged_snapshots)
-            add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(last_snapshot) +
-                (last_pictures_cut ? " (step " + std::to_string(last_snapshot) +
-                                         "'s without its pictures: the stop came while they were drawn)"
-                                   : std::string()));
+        if (staged_snapshots) {
+            // the pictures the stop left undrawn, each named, and how to draw them (a restart draws the pictures of
+            // its earlier part's snapshots that are missing)
+            std::string without;
+            for (std::size_t j = 0; j < cut_pictures.size(); ++j)
+                without += (j == 0 ? "" : j + 1 == cut_pictures.size() ? " and " : ", ") + cut_pictures[j];
+            if (!without.empty())
+                without = " (without " + without + ": the stop came before " +
+                          (cut_pictures.size() == 1 ? "it was" : "they were") + " drawn" +
+                          (keep_on_stop ? "; --restart " + checkpoint_ + " --snapshot-every " +
+                                              std::to_string(snapshot_every_) + " --snapshot-dir '" + snapshot_dir_ +
+                                              "' draws " + (cut_pictures.size() == 1 ? "it" : "them")
+                                        : std::string()) +
+                          ")";
+            add("the snapshots in '" + snapshot_dir_ + "' to step " + std::to_string(last_snapshot) + without);
+        }
         if (csv.replaces())
             add(std::string(h5 ? "HDF5" : "CSV") + " output '" + settings.output + "' (rows to step " +
                 std::to_string(last_row) + ")");

@@ -187,14 +187,28 @@ T get(hid_t obj, const char* name) {
     }
 }
 
+// A string attribute, fixed-length (eci's own files) or variable-length (h5py's default for `attrs["x"] = "text"`,
+// which a user's field file has), scalar or of one element.
 std::string get_string(hid_t obj, const char* name) {
     if (H5Aexists(obj, name) <= 0) throw std::runtime_error(std::string("attribute '") + name + "' missing");
     handle a(H5Aopen(obj, name, H5P_DEFAULT), H5Aclose, std::string("attribute ") + name);
     handle t(H5Aget_type(a), H5Tclose, "attribute type");
-    if (H5Tget_class(t) != H5T_STRING || H5Tis_variable_str(t) > 0)
-        throw std::runtime_error(std::string("attribute '") + name + "' is not a fixed-length string");
+    handle sp(H5Aget_space(a), H5Sclose, "attribute dataspace");
+    if (H5Tget_class(t) != H5T_STRING || H5Sget_simple_extent_npoints(sp) != 1)
+        throw std::runtime_error(std::string("attribute '") + name + "' is not a string");
+    const auto unreadable = [&] { return std::runtime_error(std::string("attribute '") + name + "' unreadable"); };
+    if (H5Tis_variable_str(t) > 0) {
+        // read as a variable-length C string in memory (HDF5 allocates it; H5free_memory gives it back)
+        handle mt(H5Tcopy(H5T_C_S1), H5Tclose, "HDF5 string type");
+        if (H5Tset_size(mt, H5T_VARIABLE) < 0 || H5Tset_cset(mt, H5Tget_cset(t)) < 0) throw unreadable();
+        char* text = nullptr;
+        if (H5Aread(a, mt, &text) < 0) throw unreadable();
+        std::string s = text ? std::string(text) : std::string();
+        if (text) H5free_memory(text);
+        return s;
+    }
     std::string s(H5Tget_size(t), '\0');
-    if (H5Aread(a, t, s.data()) < 0) throw std::runtime_error(std::string("attribute '") + name + "' unreadable");
+    if (H5Aread(a, t, s.data()) < 0) throw unreadable();
     while (!s.empty() && s.back() == '\0') s.pop_back();
     return s;
 }
@@ -818,29 +832,55 @@ bool is_checkpoint(const std::string& path) {
 namespace {
 
 // The name of a snapshot's field dataset and its grid size n, the shape checked (square, n when n > 0).
-std::pair<std::string, int> snapshot_field(hid_t f, const std::string& path, int n) {
-    // the snapshot's field (a Navier-Stokes snapshot of before the spectral core names none: vorticity)
-    const std::string name = H5Aexists(f, "field") > 0 ? get_string(f, "field") : std::string("vorticity");
+std::pair<std::string, int> snapshot_field(hid_t f, const std::string& path, int n, const std::string& own_field) {
+    // The field the file's attribute `field` names (an eci snapshot's, of any equation); in a file without one (a
+    // user's own field, a Navier-Stokes snapshot of before the spectral core) the run's own field ("buoyancy" for
+    // surface-qg), else "vorticity", which every equation took before.
+    std::string name;
+    if (H5Aexists(f, "field") > 0) {
+        name = get_string(f, "field");
+        if (H5Lexists(f, name.c_str(), H5P_DEFAULT) <= 0)
+            throw std::runtime_error("dataset '" + name + "' (named by its attribute 'field') missing");
+    } else {
+        for (const std::string& candidate : {own_field, std::string("vorticity")})
+            if (!candidate.empty() && H5Lexists(f, candidate.c_str(), H5P_DEFAULT) > 0) {
+                name = candidate;
+                break;
+            }
+        if (name.empty())
+            throw std::runtime_error(own_field.empty() || own_field == "vorticity"
+                                         ? std::string("dataset 'vorticity' missing")
+                                         : "dataset '" + own_field + "' (or 'vorticity') missing");
+    }
     // the shape first: a file of another grid is refused before its field is read
     {
-        if (H5Lexists(f, name.c_str(), H5P_DEFAULT) <= 0) throw std::runtime_error("dataset '" + name + "' missing");
         handle ds(H5Dopen2(f, name.c_str(), H5P_DEFAULT), H5Dclose, "dataset " + name);
         handle sp(H5Dget_space(ds), H5Sclose, "dataspace");
+        handle type(H5Dget_type(ds), H5Tclose, "dataset type");
+        if (const H5T_class_t kind = H5Tget_class(type); kind != H5T_FLOAT && kind != H5T_INTEGER)
+            throw std::runtime_error("dataset '" + name + "' does not hold real numbers");
+        const int rank = H5Sget_simple_extent_ndims(sp);
         hsize_t d[2] = {0, 0};
-        if (H5Sget_simple_extent_ndims(sp) != 2 || H5Sget_simple_extent_dims(sp, d, nullptr) < 0 || d[0] != d[1])
-            throw std::runtime_error(path + ": " + name + " is not a square grid");
+        if (rank != 2 || H5Sget_simple_extent_dims(sp, d, nullptr) < 0 || d[0] != d[1]) {
+            std::string shape = rank == 2 ? std::to_string(d[0]) + "x" + std::to_string(d[1])
+                                          : "of " + std::to_string(std::max(rank, 0)) + " dimensions";
+            throw std::runtime_error(path + ": " + name + " is " + shape + ", not a square grid");
+        }
         if (n > 0 && d[0] != hsize_t(n))
             throw std::runtime_error(path + " holds a " + std::to_string(d[0]) + "^2 grid, not N = " +
                                      std::to_string(n));
+        if (d[0] > hsize_t(1) << 30)  // (beyond any grid: the grid's own check says so for what an int holds)
+            throw std::runtime_error(path + " holds a " + std::to_string(d[0]) + "^2 grid, beyond any N");
         return {name, int(d[0])};
     }
 }
 
 }  // namespace
 
-std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n, bool with_field) {
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n, bool with_field,
+                                                   const std::string& own_field) {
     handle f = open_for_reading(path);
-    const auto [name, size] = snapshot_field(f, path, n);
+    const auto [name, size] = snapshot_field(f, path, n, own_field);
     if (!with_field) return {size, {}};
     std::vector<hsize_t> dims;
     std::vector<double> v = read_dataset(f, name.c_str(), dims);
@@ -848,9 +888,10 @@ std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int 
     return {int(dims[0]), std::move(v)};
 }
 
-std::vector<double> read_vorticity_rows(const std::string& path, int n, int first_row, int rows) {
+std::vector<double> read_vorticity_rows(const std::string& path, int n, int first_row, int rows,
+                                        const std::string& own_field) {
     handle f = open_for_reading(path);
-    const auto [name, size] = snapshot_field(f, path, n);
+    const auto [name, size] = snapshot_field(f, path, n, own_field);
     if (first_row < 0 || rows < 0 || first_row + rows > size)
         throw std::logic_error("read_vorticity_rows: rows outside the grid");
     return read_block(f, name.c_str(), {hsize_t(first_row), 0}, {hsize_t(rows), hsize_t(size)});
@@ -886,15 +927,11 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
     return true;
 }
 
-void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t) {
-    const std::vector<double>& e = r.energy;
-    write_new_file(csv_path, "spectrum", [&](std::FILE* f) {
-        std::fprintf(f, "k,E,Z,Pi_E,Pi_Z\n");
-        for (std::size_t k = 1; k < e.size(); ++k)
-            std::fprintf(f, "%zu,%.17g,%.17g,%.17g,%.17g\n", k, e[k], r.enstrophy[k], r.energy_flux[k],
-                         r.enstrophy_flux[k]);
-    });
-    if (png_path.empty()) return;
+namespace {
+
+// The log-log picture of E(k) (e[k], k >= 1) from the spectrum CSV `csv_path`, drawn to `png_path`; false if it was
+// not drawn (no plotting program, or stopped).
+bool draw_spectrum(const std::string& csv_path, const std::string& png_path, const std::vector<double>& e, double t) {
     // Guides through the spectrum's peak: k^-3 (enstrophy cascade) and k^-5/3 (inverse energy cascade).
     std::size_t kp = 1;
     for (std::size_t k = 1; k < e.size(); ++k)
@@ -913,7 +950,53 @@ void write_spectrum(const std::string& csv_path, const std::string& png_path, co
     if (!draw_picture(s, ptmp)) {
         std::error_code ec;
         std::filesystem::remove(ptmp, ec);
+        return false;
     }
+    return true;
+}
+
+}  // namespace
+
+void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t) {
+    const std::vector<double>& e = r.energy;
+    write_new_file(csv_path, "spectrum", [&](std::FILE* f) {
+        std::fprintf(f, "k,E,Z,Pi_E,Pi_Z\n");
+        for (std::size_t k = 1; k < e.size(); ++k)
+            std::fprintf(f, "%zu,%.17g,%.17g,%.17g,%.17g\n", k, e[k], r.enstrophy[k], r.energy_flux[k],
+                         r.enstrophy_flux[k]);
+    });
+    if (!png_path.empty()) draw_spectrum(csv_path, png_path, e, t);
+}
+
+double read_snapshot_time(const std::string& path) {
+    handle f = open_for_reading(path);
+    const double t = get<double>(f, "time");
+    if (!std::isfinite(t)) throw std::runtime_error(path + ": time is not finite");
+    return t;
+}
+
+bool redraw_spectrum_png(const std::string& csv_path, const std::string& png_path, double t) {
+    std::FILE* f = std::fopen(csv_path.c_str(), "r");
+    if (!f) return false;
+    std::vector<double> e(1, 0.0);  // (e[0]: the mean, not in the file)
+    char line[512];
+    bool header = true, whole = true;
+    while (std::fgets(line, sizeof line, f)) {
+        if (header) {
+            header = false;
+            whole = std::strncmp(line, "k,E,", 4) == 0;
+            continue;
+        }
+        char* end = nullptr;
+        const unsigned long long k = std::strtoull(line, &end, 10);
+        if (*end != ',' || k != e.size()) {  // (rows k = 1, 2, ... in order, as write_spectrum writes them)
+            whole = false;
+            break;
+        }
+        e.push_back(std::strtod(end + 1, nullptr));
+    }
+    std::fclose(f);
+    return whole && e.size() > 1 && draw_spectrum(csv_path, png_path, e, t);
 }
 
 }  // namespace eci::cli

@@ -76,13 +76,16 @@ void write_snapshot_h5(const std::string& path, const navier_stokes_2d& m, const
                        double t, std::uint64_t step, const std::string& method, double dt);
 /// Whether `path` is an HDF5 file holding an eci checkpoint (false for a snapshot); throws if it is unreadable.
 bool is_checkpoint(const std::string& path);
-/// The field of an eci snapshot (any equation's) and its grid size; a grid other than n (when n > 0) is refused before
-/// the field is read. with_field false: the grid size alone (the field's shape checked, not read). Throws
-/// std::runtime_error.
-std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n = 0, bool with_field = true);
-/// Rows first_row .. first_row + rows - 1 of an eci snapshot's field on the n x n grid (row-major; the rest of the
-/// file's field is not read). Throws std::runtime_error.
-std::vector<double> read_vorticity_rows(const std::string& path, int n, int first_row, int rows);
+/// The field of an eci snapshot (any equation's) or of a user's file and its grid size; a grid other than n (when
+/// n > 0) is refused before the field is read. The dataset is the one the attribute `field` names; in a file without
+/// that attribute, `own_field` (the run's equation's field, "buoyancy"), else "vorticity". with_field false: the grid
+/// size alone (the field's shape checked, not read). Throws std::runtime_error.
+std::pair<int, std::vector<double>> read_vorticity(const std::string& path, int n = 0, bool with_field = true,
+                                                   const std::string& own_field = "vorticity");
+/// Rows first_row .. first_row + rows - 1 of the field read_vorticity reads, on the n x n grid (row-major; the rest of
+/// the file's field is not read). Throws std::runtime_error.
+std::vector<double> read_vorticity_rows(const std::string& path, int n, int first_row, int rows,
+                                        const std::string& own_field = "vorticity");
 
 #ifdef ECI_MPI
 // ---- The files of a run spread over MPI processes: the serial layout, no process holding the whole field. Each
@@ -117,5 +120,10 @@ struct spectrum_rows {
 /// E(k), Z(k), Pi_E(k), Pi_Z(k) as CSV (k,E,Z,Pi_E,Pi_Z) and, if gnuplot is available, a log-log PNG of E(k) with
 /// k^-3 and k^-5/3 guide lines, written to the paths given (in the staging directory; the CSV's writes checked).
 void write_spectrum(const std::string& csv_path, const std::string& png_path, const spectrum_rows& r, double t);
+/// The time attribute of a snapshot (finite); throws std::runtime_error.
+double read_snapshot_time(const std::string& path);
+/// The picture write_spectrum draws, drawn again from the spectrum CSV it wrote (at time t) to `png_path`; false if it
+/// was not drawn (no plotting program, stopped, or not a CSV of write_spectrum's).
+bool redraw_spectrum_png(const std::string& csv_path, const std::string& png_path, double t);
 
 }  // namespace eci::cli

@@ -11,6 +11,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <stdexcept>
 #include <string>
@@ -1107,6 +1108,28 @@ double max_speed_squared(const double* u, const double* v, std::size_t n) {
     for (; x < n; ++x) m[0] = std::max(m[0], u[x] * u[x] + v[x] * v[x]);
     return std::max({m[0], m[1], m[2], m[3], m[4], m[5], m[6], m[7]});
 }
+
+// Whether max_speed_squared's maximum is the square of the maximum speed: a normal number, neither overflowed nor
+// underflowed (below DBL_MIN a subnormal or zero square has lost the speed's digits, or all of them).
+bool normal_square(double m) { return m >= std::numeric_limits<double>::min() && m <= std::numeric_limits<double>::max(); }
+
+// max sqrt(u^2 + v^2) over n points without a square that overflows or underflows: the components scaled by the power
+// of two 2^-e that brings the largest to [1, 2) (exact), squared, and the root scaled back, so that a point whose
+// squares are normal numbers gives the bits of sqrt(u^2 + v^2). max_velocity's other pass, taken only where
+// max_speed_squared's maximum is not normal: a flow of |u| ~ 1e-160 or 1e160 (--deformation 1e300, a vortex of
+// peak 1e-300), whose square was 0 ("the initial velocity is zero") or inf (a CFL step of 0).
+double max_speed_scaled(const double* u, const double* v, std::size_t n) {
+    double big = 0.0;  // (a NaN is passed over, as max_speed_squared passes it)
+    for (std::size_t x = 0; x < n; ++x) big = std::max({big, std::abs(u[x]), std::abs(v[x])});
+    if (!(big > 0.0) || !std::isfinite(big)) return big;
+    const int e = std::ilogb(big);
+    double m = 0.0;
+    for (std::size_t x = 0; x < n; ++x) {
+        const double a = std::scalbn(u[x], -e), b = std::scalbn(v[x], -e);
+        m = std::max(m, a * a + b * b);
+    }
+    return std::scalbn(std::sqrt(m), e);
+}
 }  // namespace
 
 double flow2d::max_velocity(const state_type& q) {
@@ -1118,26 +1141,35 @@ double flow2d::max_velocity(const state_type& q) {
         // 2-D transforms of the whole half plane and a pass over the fields took 6.6-7.5 ms at N = 1024 against 5.0
         // (one thread, eci_bench_ns2d_step's diagnostics row): a CSV row's max |u|, at every step of `eci run` by
         // default, where a C-RK4 step takes ~36 ms.
-        std::atomic<double> vmax{0.0};
-        d.g.transform_product_columns(
-            2, 0, [&](int kx, cplx* const* col, int) { d.fill_column(q.data(), 2, kx, col); },
-            [&](double* const* f, std::size_t nx) {
-                const double m = max_speed_squared(f[0], f[1], nx);
-                for (double seen = vmax.load(); m > seen && !vmax.compare_exchange_weak(seen, m);) {
-                }
-            },
-            [](int, cplx* const*, int) {});
-        return std::sqrt(vmax.load());
+        // (the largest of a row's maxima: of the squares, or where they are not normal, of the speeds)
+        const auto largest = [&](double (*row)(const double*, const double*, std::size_t)) {
+            std::atomic<double> vmax{0.0};
+            d.g.transform_product_columns(
+                2, 0, [&](int kx, cplx* const* col, int) { d.fill_column(q.data(), 2, kx, col); },
+                [&](double* const* f, std::size_t nx) {
+                    const double m = row(f[0], f[1], nx);
+                    for (double seen = vmax.load(); m > seen && !vmax.compare_exchange_weak(seen, m);) {
+                    }
+                },
+                [](int, cplx* const*, int) {});
+            return vmax.load();
+        };
+        if (const double m = largest(max_speed_squared); normal_square(m)) return std::sqrt(m);
+        return largest(max_speed_scaled);
     }
     d.fill(q.data(), 2, true);
     d.g.inverse(2);
     const double* u = d.g.physical(0);
     const double* v = d.g.physical(1);
-    double vmax = 0.0;
-    for (std::size_t y = 0; y < std::size_t(d.g.local_rows()); ++y)
-        vmax = std::max(vmax, max_speed_squared(u + y * d.g.padded(), v + y * d.g.padded(), std::size_t(n_)));
-    d.g.max_over_ranks(&vmax, 1);
-    return std::sqrt(vmax);
+    const auto largest = [&](double (*row)(const double*, const double*, std::size_t)) {
+        double vmax = 0.0;
+        for (std::size_t y = 0; y < std::size_t(d.g.local_rows()); ++y)
+            vmax = std::max(vmax, row(u + y * d.g.padded(), v + y * d.g.padded(), std::size_t(n_)));
+        d.g.max_over_ranks(&vmax, 1);  // (the same verdict below on every process)
+        return vmax;
+    };
+    if (const double m = largest(max_speed_squared); normal_square(m)) return std::sqrt(m);
+    return largest(max_speed_scaled);
 }
 
 void flow2d::check_initial_state(const state_type& q) const {
@@ -1455,27 +1487,52 @@ void flow2d::make_hermitian(state_type& q) const {
 flow2d::state_type flow2d::random_field(double k_peak, double energy_target, std::uint64_t seed) {
     require(std::isfinite(k_peak) && k_peak > 0.0, "peak wavenumber must be a positive finite number");
     require(std::isfinite(energy_target) && energy_target > 0.0, "initial energy must be a positive finite number");
-    state_type w(size());
-    std::uint64_t s = seed;
     const spectral::grid& g = d_->g;
-    for (std::size_t j = 0; j < g.size(); ++j) {
-        // Every mode of the half plane draws, in its order, so the field of a seed does not depend on which modes
-        // are retained (nor on the state's layout).
-        const double phase = 2.0 * std::numbers::pi * uniform(s);
-        if (!g.retained(j) || !owns_column(g.kx(j))) continue;
-        const std::size_t i = index(g.kx(j), g.ky(j));
-        const double k2 = g.k2(j), k = std::sqrt(k2), sq = k / k_peak;
-        // A shell of radius k holds about 2 pi k modes of energy |a_k| |q_k|^2 / 2 each. The tail is a power law:
-        // an exponential one leaves the far modes below round-off, where their right-hand sides are FFT noise of
-        // random sign and the conservative methods' radicands negative at any step size. (For Navier-Stokes,
-        // |a_k| = 1/k^2 and the factor sqrt((1/k^2) / |a_k|) is 1 exactly.)
-        const double shell_energy = sq * sq * sq * sq / std::pow(1.0 + sq * sq, 4);
-        w[i] = std::polar(std::sqrt(shell_energy * k / std::numbers::pi) * std::sqrt((1.0 / k2) / d_->ea[i]), phase);
+    // The field with the shell energies `shell(k)`, before it is scaled to the energy asked for.
+    const auto field_of = [&](auto shell) {
+        state_type w(size());
+        std::uint64_t s = seed;
+        for (std::size_t j = 0; j < g.size(); ++j) {
+            // Every mode of the half plane draws, in its order, so the field of a seed does not depend on which
+            // modes are retained (nor on the state's layout).
+            const double phase = 2.0 * std::numbers::pi * uniform(s);
+            if (!g.retained(j) || !owns_column(g.kx(j))) continue;
+            const std::size_t i = index(g.kx(j), g.ky(j));
+            const double k2 = g.k2(j), k = std::sqrt(k2);
+            // A shell of radius k holds about 2 pi k modes of energy |a_k| |q_k|^2 / 2 each. The tail is a power
+            // law: an exponential one leaves the far modes below round-off, where their right-hand sides are FFT
+            // noise of random sign and the conservative methods' radicands negative at any step size. (For
+            // Navier-Stokes, |a_k| = 1/k^2 and the factor sqrt((1/k^2) / |a_k|) is 1 exactly.)
+            w[i] = std::polar(std::sqrt(shell(k) * k / std::numbers::pi) * std::sqrt((1.0 / k2) / d_->ea[i]), phase);
+        }
+        d_->hermitian(w.data());
+        return w;
+    };
+    state_type w = field_of([&](double k) {
+        const double sq = k / k_peak;
+        return sq * sq * sq * sq / std::pow(1.0 + sq * sq, 4);
+    });
+    double e = energy(w);
+    if (!(e > 0.0 && e <= std::numeric_limits<double>::max())) {
+        // A peak far from the retained modes (k_peak 1e-300, or 1e80 in a program of one's own): q^4 / (1 + q^2)^4
+        // overflows (inf / inf) or underflows at every mode, and the field was refused as having no mode near its
+        // peak, though the spectrum is only its power-law tail. The same shape divided by its value at k = 1 (its
+        // scale is the energy's, below): (r(k) / r(1))^4, r(k) = q / (1 + q^2), formed without a square of the peak
+        // that overflows or underflows.
+        const double r1 = k_peak >= 1.0 ? 1.0 + 1.0 / (k_peak * k_peak) : k_peak * k_peak + 1.0;
+        w = field_of([&](double k) {
+            const double ratio = k_peak >= 1.0 ? k * r1 / (1.0 + (k / k_peak) * (k / k_peak))
+                                               : k * r1 / (k_peak * k_peak + k * k);
+            return ratio * ratio * ratio * ratio;
+        });
+        e = energy(w);
     }
-    d_->hermitian(w.data());
-    const double e = energy(w);
     require(e > 0.0, "no retained mode near the peak wavenumber");
-    const double scale = std::sqrt(energy_target / e);
+    // (the ratio's square root, or where the ratio overflows or underflows (an energy of 1e308), the roots' ratio)
+    const double ratio = energy_target / e;
+    const double scale = ratio > 0.0 && ratio <= std::numeric_limits<double>::max()
+                             ? std::sqrt(ratio)
+                             : std::sqrt(energy_target) / std::sqrt(e);
     for (cplx& v : w) v *= scale;
     return w;
 }

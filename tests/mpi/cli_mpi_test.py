@@ -245,7 +245,7 @@ def case_snapshot(d):
     for np_ in (0, 3):
         r = run(np_, BASE + ["--steps", "1", "--ic", "mean.h5"], d)
         said.append([line for line in r.stderr.splitlines() if line.startswith("eci: warning: --ic")])
-    check(len(said[0]) == 1 and said[0][0].startswith("eci: warning: --ic mean.h5: 50 % of the field's mean square"),
+    check(len(said[0]) == 1 and said[0][0].startswith("eci: warning: --ic 'mean.h5': 50 % of the field's mean square"),
           f"a field with a mean as --ic: warned serially ({said[0]})")
     check(said[1] == said[0], f"-np 3 warns once, as the serial tool ({said[1]})")
 

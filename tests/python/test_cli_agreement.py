@@ -625,6 +625,9 @@ def test_navier_stokes_refuses_the_same_initial_states(cli, tmp_path, scale, dt)
         return
     message = cli_error(cli, "run", "navier-stokes-2d", "--N", "32", "--ic", ic, "--t-end", "0.1",
                         "--fftw-estimate", "--fftw-wisdom", "none", *step)
+    # (the CLI names the file the field came from; Python's state has none)
+    assert message.startswith(f"--ic '{ic}': "), message
+    message = message[len(f"--ic '{ic}': "):]
     with pytest.raises(ValueError) as e:
         eci.solve(m, (0.0, 0.1), m.from_physical(field), dt=dt)
     assert str(e.value) == as_python_names(message)

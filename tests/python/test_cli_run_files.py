@@ -572,9 +572,9 @@ def test_an_ic_file_gives_the_grid_when_n_is_not_given(cli, tmp_path):
         with h5py.File(out, "r") as f:
             assert int(f.attrs["N"]) == 16
         msg = cli_error(cli, "run", "navier-stokes-2d", "--ic", ic, "--N", "32", "--steps", 1, "--fftw-wisdom", "none")
-        assert msg == f"--ic: {ic} holds a 16^2 grid, not N = 32", msg
+        assert msg == f"--ic '{ic}': it holds a 16^2 grid, not N = 32", msg
     msg = cli_error(cli, "run", "navier-stokes-2d", "--ic", tmp_path / "missing.h5", "--steps", 1)
-    assert msg.startswith("--ic: "), msg
+    assert msg == f"--ic '{tmp_path / 'missing.h5'}': no such file", msg
 
 
 # A finite value damaged or edited in a checkpoint's state is refused by its checksum (it restarted silently from the
@@ -589,7 +589,7 @@ def test_a_checkpoint_whose_state_was_changed_is_refused(cli, tmp_path, checkpoi
                     "--checkpoint", tmp_path / "cc.h5")
     assert msg == f"cannot restart: {checkpoint}: omega_hat does not match its checksum (a damaged or edited file)", msg
     msg = cli_error(cli, *small("--ic", checkpoint, "--steps", 1))
-    assert msg == f"--ic: {checkpoint}: omega_hat does not match its checksum (a damaged or edited file)", msg
+    assert msg == f"--ic '{checkpoint}': omega_hat does not match its checksum (a damaged or edited file)", msg
     assert not (tmp_path / "cc.h5").exists()
     with h5py.File(checkpoint, "r+") as f:
         del f.attrs["state_checksum"]
@@ -680,10 +680,101 @@ def test_a_field_file_with_a_mean_or_modes_beyond_kmax_is_run_with_a_warning(cli
                 "0.01", "--steps", 2, "--ic", ic, "--snapshot-every", 2, "--snapshot-dir", tmp_path / "sd")
     # mean squares: sin x cos y 1/4, the mean 1/4, the stripe 0.005: (0.25 + 0.005) / 0.505 dropped
     warnings = [line for line in r.stderr.splitlines() if line.startswith("eci: warning: --ic")]
-    assert warnings == [f"eci: warning: --ic {ic}: {100 * 0.255 / 0.505:.3g} % of the field's mean square is in its "
+    assert warnings == [f"eci: warning: --ic '{ic}': {100 * 0.255 / 0.505:.3g} % of the field's mean square is in its "
                         "mean and its modes beyond |k_x|, |k_y| <= kmax = 10, which the run drops (it evolves the "
                         "dealiased, zero-mean field)"], r.stderr
     # the run's own snapshot, taken up again: nothing dropped, nothing said
     r = run_cli(cli, "run", "navier-stokes-2d", "--N", "32", "--fftw-estimate", "--fftw-wisdom", "none", "--dt",
                 "0.01", "--steps", 2, "--ic", tmp_path / "sd" / "vorticity_00000002.h5")
     assert "warning" not in r.stderr, r.stderr
+
+
+# ---- --ic FILE: a user's own field
+
+def write_field(path, data, name="vorticity", **attrs):
+    """An HDF5 file as a user writes one with h5py: the field, and attributes as h5py stores them (a str is a
+    variable-length string)."""
+    with h5py.File(path, "w") as f:
+        f[name] = data
+        for key, value in attrs.items():
+            f.attrs[key] = value
+    return path
+
+
+def a_field(n=16):
+    x = 2 * np.pi * np.arange(n) / n
+    X, Y = np.meshgrid(x, x)  # rows are y
+    return np.sin(X) * np.cos(2 * Y) + 0.5 * np.cos(3 * X + Y)
+
+
+def final_state(cli, tmp_path, equation, ic, name):
+    run_cli(cli, "run", equation, "--ic", ic, "--steps", 2, "--dt", "0.01", "--fftw-estimate", "--fftw-wisdom",
+            "none", "--checkpoint", tmp_path / name)
+    with h5py.File(tmp_path / name, "r") as f:
+        return next(f[k][()] for k in f if k.endswith("_hat"))
+
+
+# A user's field file: its string attributes may be variable-length (h5py's default for `f.attrs["x"] = "text"`;
+# they were refused, "attribute 'field' is not a fixed-length string"), and its dataset may be the equation's own
+# field (surface-qg's buoyancy, charney-hasegawa-mima's potential_vorticity; "dataset 'vorticity' missing" before).
+# Each runs as the same field stored as 'vorticity' without attributes (still taken) runs, bit for bit.
+@pytest.mark.parametrize("equation, own", [("navier-stokes-2d", "vorticity"), ("surface-qg", "buoyancy"),
+                                           ("charney-hasegawa-mima", "potential_vorticity")])
+def test_an_ic_file_of_the_equations_own_field_and_h5py_strings_is_taken(cli, tmp_path, equation, own):
+    field = a_field()
+    plain = final_state(cli, tmp_path, equation, write_field(tmp_path / "plain.h5", field), "plain-ck.h5")
+    for name, ic in [
+        ("own", write_field(tmp_path / "own.h5", field, own)),
+        ("named", write_field(tmp_path / "named.h5", field, own, field=own, format="my field", note="text")),
+        ("format", write_field(tmp_path / "format.h5", field, format="a field of mine")),
+    ]:
+        with h5py.File(ic, "r") as f:  # (h5py's strings are variable-length)
+            assert all(h5py.check_string_dtype(f.attrs.get_id(k).dtype).length is None for k in f.attrs)
+        assert np.array_equal(final_state(cli, tmp_path, equation, ic, name + "-ck.h5"), plain), name
+
+
+# Every problem of an --ic file is said as `--ic 'FILE': ...` (some named neither: a 33 x 33 field said "grid size N
+# must be even", a zero field "the initial velocity is zero").
+@pytest.mark.parametrize("equation, make, says", [
+    ("navier-stokes-2d", lambda p: write_field(p, a_field(33)),
+     "its 33^2 grid is not one navier-stokes-2d runs on: grid size N must be even and at least 8, not 33"),
+    ("navier-stokes-2d", lambda p: write_field(p, np.zeros((16, 18))), "vorticity is 16x18, not a square grid"),
+    ("navier-stokes-2d", lambda p: write_field(p, np.zeros((16, 16))), "the initial velocity is zero: give --dt"),
+    ("navier-stokes-2d", lambda p: write_field(p, a_field().astype(complex)),
+     "dataset 'vorticity' does not hold real numbers"),
+    ("surface-qg", lambda p: write_field(p, a_field(), "theta"), "dataset 'buoyancy' (or 'vorticity') missing"),
+    ("navier-stokes-2d", lambda p: write_field(p, a_field(), "omega"), "dataset 'vorticity' missing"),
+    ("navier-stokes-2d", lambda p: write_field(p, a_field(), field="omega"),
+     "dataset 'omega' (named by its attribute 'field') missing"),
+    ("navier-stokes-2d", lambda p: write_field(p, a_field(), field=3), "attribute 'field' is not a string"),
+    ("navier-stokes-2d", lambda p: (p.write_text("not HDF5\n"), p)[1], "it is not an HDF5 file"),
+    ("navier-stokes-2d", lambda p: p, "no such file"),
+])
+def test_every_problem_of_an_ic_file_names_the_option_and_the_file(cli, tmp_path, equation, make, says):
+    ic = make(tmp_path / "ic.h5")
+    msg = cli_error(cli, "run", equation, "--ic", ic, "--steps", 1, "--fftw-estimate", "--fftw-wisdom", "none",
+                    "--output", tmp_path / "o.csv")
+    assert msg == f"--ic '{ic}': {says}", msg
+    assert not (tmp_path / "o.csv").exists()
+
+
+# A restart's forcing and powers are its checkpoint's: a setting its run has no use for is refused as a fresh run
+# refuses it (before, --forcing-amplitude on a stochastic checkpoint was compared with its unused default 1 and
+# taken, another value "did not match"); the settings its run uses are compared as before.
+def test_a_restart_refuses_a_setting_its_checkpoints_run_has_no_use_for(cli, tmp_path):
+    ck = tmp_path / "ck.h5"
+    run_cli(cli, *small("--steps", 2, "--forcing", "stochastic", "--injection-rate", "0.5", "--checkpoint", ck))
+    restart = ["run", "navier-stokes-2d", "--fftw-wisdom", "none", "--restart", ck, "--steps", 3, "--checkpoint",
+               tmp_path / "next.h5"]
+    for setting in [["--forcing-amplitude", "1"], ["--forcing-amplitude", "2"]]:
+        assert cli_error(cli, *restart, *setting) == (
+            "--forcing-amplitude sets the deterministic forcing, and this run's --forcing is stochastic: the restart "
+            f"file's ('{ck}'), which a restart cannot change")
+    assert cli_error(cli, *restart, "--forcing", "deterministic") == (
+        f"--forcing deterministic does not match the restart file's stochastic ({ck}; a restart continues its "
+        "checkpoint's forcing)")
+    assert cli_error(cli, *restart, "--injection-rate", "1") == (
+        f"--injection-rate 1 does not match the restart file's 0.5 ({ck})")
+    assert not (tmp_path / "next.h5").exists()
+    run_cli(cli, *restart, "--injection-rate", "0.5", "--forcing-k", "4", "--forcing", "stochastic")
+    assert h5_step(tmp_path / "next.h5") == 3

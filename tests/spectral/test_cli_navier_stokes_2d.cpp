@@ -15,6 +15,7 @@
 #include <cstring>
 #include <fstream>
 #include <limits>
+#include <numbers>
 #include <string>
 #include <thread>
 #include <vector>
@@ -669,6 +670,85 @@ TEST(CliNavierStokes2d, APlottingProgramThatHangsIsStoppedAndTheSnapshotsAreKept
     EXPECT_EQ(n, 1);
 }
 
+// A stop while a snapshot's pictures are drawn keeps the snapshot's data and names each picture it lacks, with how to
+// draw it; a restart from the checkpoint draws them. The stand-in plotting program copies its script to the picture
+// (what it drew), and on the picture whose name has $SLOW says so in `drawing` and hangs until stopped. Before, the
+// message named step 1's pictures where step 0's were missing too, and a snapshot's "pictures" where only its
+// spectrum's was; a restart drew none of them.
+TEST(CliNavierStokes2d, AStopWhilePicturesAreDrawnNamesThemAndARestartDrawsThem) {
+    scratch_dir dir("ns2d-stop-pictures");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    {
+        std::ofstream fake(d / "plot-tool");
+        fake << "#!/bin/sh\n[ \"$1\" = --version ] && exit 0\n"
+             << "out=$(sed -n \"s/^set output '\\(.*\\)'$/\\1/p\" \"$1\")\n"
+             << "echo \"$out\" >> " << q << "/calls\n"
+             << "case \"$out\" in *\"${SLOW:-none}\"*) : > " << q << "/drawing; sleep 60;; esac\n"
+             << "cp \"$1\" \"$out\"\n";
+    }
+    fs::permissions(d / "plot-tool", fs::perms::owner_all);
+    const std::string tool = "ECI_GNUPLOT=" + q + "/plot-tool ";
+    // SIGINT once the slow picture is being drawn (at most 30 s of waiting for it)
+    const auto stopped = [&](const std::string& slow) {
+        fs::remove(d / "drawing");
+        return "SLOW=" + slow + " DRAWING=" + q + "/drawing " + tool +
+               "bash -c 'e=$0; \"$e\" \"$@\" & p=$!; for i in $(seq 600); do [ -e \"$DRAWING\" ] && break; "
+               "sleep 0.05; done; kill -INT $p; wait $p'";
+    };
+    const std::string run = "run navier-stokes-2d --N 16 --dt 0.01 --steps 5 --fftw-estimate --fftw-wisdom none ";
+    const std::string snaps = (d / "snaps").string(), ck = (d / "c.h5").string();
+    auto r = run_eci(run + "--snapshot-every 1 --snapshot-dir " + q + "/snaps --checkpoint " + q + "/c.h5", d,
+                     stopped("vorticity_00000000"));
+    ASSERT_EQ(r.status, 130) << r.err;
+    // the stop is seen after step 1, whose snapshot's pictures are not begun
+    EXPECT_NE(r.err.find("kept: the snapshots in '" + snaps + "' to step 1 (without vorticity_00000000.png, "
+                         "spectrum_00000000.png, vorticity_00000001.png and spectrum_00000001.png: the stop came "
+                         "before they were drawn; --restart " + ck + " --snapshot-every 1 --snapshot-dir '" + snaps +
+                         "' draws them)"),
+              std::string::npos)
+        << r.err;
+    for (const char* name : {"vorticity_00000000.h5", "vorticity_00000001.h5", "spectrum_00000000.csv",
+                             "spectrum_00000001.csv"})
+        EXPECT_TRUE(fs::is_regular_file(d / "snaps" / name)) << name;
+    for (const char* name : {"vorticity_00000000.png", "spectrum_00000000.png", "vorticity_00000001.png",
+                             "spectrum_00000001.png"})
+        EXPECT_FALSE(fs::exists(d / "snaps" / name)) << name;
+    // the restart draws them (each once, from the snapshot's field and time and its spectrum CSV), and its own
+    fs::remove(d / "calls");
+    r = run_eci("run navier-stokes-2d --fftw-wisdom none --restart " + q + "/c.h5 --steps 3 --snapshot-every 1 "
+                "--snapshot-dir " + q + "/snaps",
+                d, tool);
+    ASSERT_EQ(r.status, 0) << r.err;
+    for (int i = 0; i <= 3; ++i)
+        for (const std::string kind : {"vorticity_", "spectrum_"}) {
+            const std::string name = kind + "0000000" + std::to_string(i) + ".png";
+            EXPECT_TRUE(fs::is_regular_file(d / "snaps" / name)) << name;
+        }
+    EXPECT_EQ(lines_of(read_text(d / "calls")).size(), 8u) << read_text(d / "calls");
+    EXPECT_NE(read_text(d / "snaps" / "vorticity_00000000.png").find("set title 'vorticity, t = 0'"),
+              std::string::npos);
+    EXPECT_NE(read_text(d / "snaps" / "vorticity_00000001.png").find("set title 'vorticity, t = 0.01'"),
+              std::string::npos);
+    EXPECT_NE(read_text(d / "snaps" / "spectrum_00000001.png").find(shell_quote(snaps + "/spectrum_00000001.csv")),
+              std::string::npos)
+        << "drawn from the snapshot's own spectrum CSV";
+
+    // a stop while a spectrum is drawn: the field's picture was drawn, the spectrum's is named alone
+    fs::remove_all(d / "snaps");
+    fs::remove(d / "c.h5");
+    r = run_eci(run + "--snapshot-every 5 --snapshot-dir " + q + "/snaps --checkpoint " + q + "/c.h5", d,
+                stopped("spectrum_00000000"));
+    ASSERT_EQ(r.status, 130) << r.err;
+    EXPECT_NE(r.err.find("kept: the snapshots in '" + snaps + "' to step 0 (without spectrum_00000000.png: the stop "
+                         "came before it was drawn; --restart " + ck + " --snapshot-every 5 --snapshot-dir '" + snaps +
+                         "' draws it)"),
+              std::string::npos)
+        << r.err;
+    EXPECT_TRUE(fs::is_regular_file(d / "snaps" / "vorticity_00000000.png"));
+    EXPECT_FALSE(fs::exists(d / "snaps" / "spectrum_00000000.png"));
+}
+
 // A forced exit (a second, different signal during the run) leaves nothing: not the snapshots staged so far, not the
 // snapshot directory the run created (it used to be left behind, empty).
 TEST(CliNavierStokes2d, ForcedExitRemovesTheSnapshotDirectoryItCreated) {
@@ -728,7 +808,22 @@ TEST(CliNavierStokes2d, BadInputIsOneLineExit2NothingTouched) {
         {"--restart " + q + "/ok.h5 --output-dt 0.1234567", "is not a multiple of the restart file's time step"},
         {"--every 2 --output-dt 0.5", "give --every or --output-dt, not both\n"},
         {"--restart " + q + "/ok.h5 --threads 2", "does not match"},
-        {"--restart " + q + "/ok.h5 --injection-rate 3", "does not match"},
+        // a setting the checkpoint's run has no use for is refused as a fresh run refuses it, not compared with the
+        // value its run never used (an unforced checkpoint's forcing_k 4, its hyper_p 2 with hyper_nu 0)
+        {"--restart " + q + "/ok.h5 --injection-rate 3",
+         "--injection-rate sets the stochastic forcing, and this run's --forcing is none: the restart file's ('" + d.string() +
+             "/ok.h5'), which a restart cannot change\n"},
+        {"--restart " + q + "/ok.h5 --forcing-k 8",
+         "--forcing-k sets the forced band, and this run's --forcing is none: the restart file's ('"},
+        {"--restart " + q + "/ok.h5 --forcing-k 4", "--forcing-k sets the forced band, and this run's --forcing is none"},
+        {"--restart " + q + "/ok.h5 --forcing-seed 1", "--forcing-seed sets the forcing's random numbers, and this run's "
+                                                      "--forcing is none"},
+        {"--restart " + q + "/ok.h5 --hyper-p 2", "--hyper-p is the hyperviscosity's power, and --hyper-nu is 0: the "
+                                                  "restart file's ('"},
+        {"--restart " + q + "/ok.h5 --hypo-p 1", "--hypo-p is the hypoviscosity's power, and --hypo-nu is 0: the "
+                                                 "restart file's ('"},
+        {"--restart " + q + "/ok.h5 --forcing stochastic --injection-rate 0.5",
+         "--forcing stochastic does not match the restart file's none ("},
         {"--restart " + q + "/ok.h5 --full-transforms", "--full-transforms does not match the restart file's"},
         // numbers as the user typed them (0.1, not 0.10000000000000001)
         {"--restart " + q + "/ok.h5 --nu 0.1", "--nu 0.1 does not match the restart file's 0 ("},
@@ -934,6 +1029,79 @@ TEST(CliNavierStokes2d, TEndIsLandedOnAndARestartContinuesTheGrid) {
     r = run_eci(run + "--steps 4 --output " + q + "/c.csv", d);
     ASSERT_EQ(r.status, 0) << r.err;
     EXPECT_EQ(std::stod(split(lines_of(read_text(d / "c.csv")).back())[1]), 4 * 0.03);
+}
+
+// After a shortened last step, a restart to a later end takes that step again, whole: its first row has the number
+// of the first part's last row, at n dt (docs/turbulence.md, "Step numbers"). Joined, the first part's rows up to its
+// checkpoint's step and the restart's are the rows of the run to the later end, each step once. The restart continues
+// its own snapshot directory: the first part's snapshot of its shortened step (step 4, t = 0.1) is its earlier part's,
+// kept where the restart does not write that step (it was refused as another run's snapshot).
+TEST(CliNavierStokes2d, ARestartAfterAShortenedLastStepJoinsAndKeepsItsSnapshots) {
+    scratch_dir dir("ns2d-short-end");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    const std::string run = "run navier-stokes-2d --N 16 --nu 1e-3 --dt 0.03 --every 1 --fftw-wisdom " + q +
+                            "/wisdom ";
+    const std::string none = "ECI_GNUPLOT=/nonexistent/gnuplot";
+    auto r = run_eci(run + "--t-end 0.2 --output " + q + "/whole.csv", d, none);
+    ASSERT_EQ(r.status, 0) << r.err;
+    r = run_eci(run + "--t-end 0.1 --output " + q + "/a.csv --checkpoint " + q + "/a.h5 --snapshot-every 3 "
+                "--snapshot-dir " + q + "/s",
+                d, none);
+    ASSERT_EQ(r.status, 0) << r.err;
+    ASSERT_EQ(read_attribute(d / "a.h5", "step"), 3.0);
+    ASSERT_EQ(read_attribute(d / "s" / "vorticity_00000004.h5", "time"), 0.1);
+    r = run_eci("run navier-stokes-2d --fftw-wisdom " + q + "/wisdom --restart " + q + "/a.h5 --t-end 0.2 --every 1 "
+                "--output " + q + "/b.csv --snapshot-every 3 --snapshot-dir " + q + "/s --checkpoint " + q + "/b.h5",
+                d, none);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto whole = lines_of(read_text(d / "whole.csv")), a = lines_of(read_text(d / "a.csv")),
+               b = lines_of(read_text(d / "b.csv"));
+    ASSERT_EQ(a.size(), 1u + 5u);  // steps 0 .. 4, the last at t = 0.1
+    ASSERT_EQ(b.size(), 1u + 4u);  // steps 4 .. 7, the first at t = 0.12
+    EXPECT_EQ(split(a.back())[0], split(b[1])[0]);
+    EXPECT_EQ(std::stod(split(b[1])[1]), 4 * 0.03);
+    std::vector<std::string> joined(a.begin(), a.end() - 1);  // the first part's rows to its checkpoint's step, 3
+    joined.insert(joined.end(), b.begin() + 1, b.end());
+    EXPECT_EQ(joined, whole);
+    // the snapshots: the first part's 0, 3 and 4 (t = 0.1), the restart's 6 and 7
+    for (const char* name : {"vorticity_00000000.h5", "vorticity_00000003.h5", "vorticity_00000006.h5",
+                             "vorticity_00000007.h5"})
+        EXPECT_TRUE(fs::is_regular_file(d / "s" / name)) << name;
+    EXPECT_EQ(read_attribute(d / "s" / "vorticity_00000004.h5", "time"), 0.1);
+    EXPECT_EQ(read_attribute(d / "s" / "vorticity_00000007.h5", "time"), 0.2);
+    // a restart that writes step 4 replaces that snapshot with its own (t = 0.12), as any run replaces its own
+    r = run_eci("run navier-stokes-2d --fftw-wisdom " + q + "/wisdom --restart " + q + "/a.h5 --t-end 0.2 "
+                "--snapshot-every 2 --snapshot-dir " + q + "/s --checkpoint " + q + "/c.h5",
+                d, none);
+    ASSERT_EQ(r.status, 0) << r.err;
+    EXPECT_EQ(read_attribute(d / "s" / "vorticity_00000004.h5", "time"), 4 * 0.03);
+}
+
+// A charney-hasegawa-mima flow of deformation F = 1e300 moves at |u| ~ 1e-299 (psi = -q / (k^2 + F)): its u^2
+// underflows, and the run was refused, "the initial velocity is zero: give --dt". Now its CFL step is the flow's:
+// 0.5 dx / max|u|, with max|u| the CSV's first row.
+TEST(CliNavierStokes2d, ATinyVelocityGivesItsCflStep) {
+    scratch_dir dir("ns2d-tiny-velocity");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    const auto r = run_eci("run charney-hasegawa-mima --N 16 --deformation 1e300 --ic vortex-pair --steps 1 "
+                           "--fftw-estimate --fftw-wisdom none --output " + q + "/o.csv --summary-json " + q +
+                               "/s.json",
+                           d, "ECI_GNUPLOT=/nonexistent/gnuplot");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto rows = lines_of(read_text(d / "o.csv"));
+    ASSERT_GE(rows.size(), 2u);
+    const std::vector<std::string> head = split(rows[0]), first = split(rows[1]);
+    const std::size_t column = std::size_t(std::find(head.begin(), head.end(), "max_velocity") - head.begin());
+    ASSERT_LT(column, head.size());
+    const double u = std::stod(first.at(column));
+    EXPECT_GT(u, 0.0);
+    EXPECT_LT(u, 1e-290);
+    const std::string json = read_text(d / "s.json");
+    const std::size_t at = json.find("\"dt\": ");
+    ASSERT_NE(at, std::string::npos) << json;
+    EXPECT_EQ(std::strtod(json.c_str() + at + 6, nullptr), 0.5 * (2.0 * std::numbers::pi / 16) / u);
 }
 
 }  // namespace

@@ -127,6 +127,45 @@ TEST_P(Equation, MaxVelocityIsTheMaximumOfTheVelocityField) {
         }
 }
 
+// max |u| of a flow whose squares overflow or underflow: the flow scaled by 2^600 or 2^-600 (exactly: the
+// transforms and products of powers of two round alike) has max |u| scaled by the same power, bit for bit, on either
+// transforms. Before, u^2 + v^2 was inf or 0 there (a CFL step of 0; "the initial velocity is zero").
+TEST_P(Equation, MaxVelocityOfATinyOrHugeFlowIsScaledNotSquaredAway) {
+    for (const bool prune : {true, false}) {
+        flow_params p = params(GetParam(), 32);
+        p.pruned_transforms = prune;
+        flow2d m(p);
+        const state q = m.random_field(5.0, 0.5, 3);
+        const double u = m.max_velocity(q);
+        ASSERT_GT(u, 0.0);
+        for (const int e : {600, -600}) {
+            state scaled = q;
+            for (cplx& v : scaled) v *= std::ldexp(1.0, e);
+            EXPECT_EQ(m.max_velocity(scaled), std::ldexp(u, e)) << (prune ? "pruned" : "full") << ", 2^" << e;
+        }
+        EXPECT_EQ(m.max_velocity(state(q.size())), 0.0);  // (a zero flow is still at rest)
+    }
+}
+
+// A random field whose peak is far from the retained modes is its spectrum's power-law tail: k_p = 1e-300 (whose
+// q^4 / (1 + q^2)^4 overflowed at every mode: "no retained mode near the peak wavenumber") gives the field of
+// k_p = 1e-20 (where the shape is q^-4 to 1e-40), and k_p = 1e200 (underflowed to 0) that of 1e40 (q^4), to the
+// round-off of the fields' scaling. An energy of 1e308 (whose ratio to the shape's energy overflowed: a field of inf,
+// "initial condition is not finite") is that energy.
+TEST_P(Equation, RandomFieldsOfAFarPeakOrAHugeEnergyAreMade) {
+    flow2d m(params(GetParam(), 32));
+    for (const auto& [far, near] : {std::pair{1e-300, 1e-20}, std::pair{1e200, 1e40}}) {
+        const state a = m.random_field(far, 0.5, 3), b = m.random_field(near, 0.5, 3);
+        double diff = 0.0;
+        for (std::size_t i = 0; i < a.size(); ++i) diff = std::max(diff, std::abs(a[i] - b[i]));
+        EXPECT_LE(diff, 16.0 * eps * max_abs(b)) << "k_p " << far << " against " << near;
+        EXPECT_NEAR(m.energy(a), 0.5, 8.0 * eps) << "k_p " << far;
+    }
+    const state huge = m.random_field(5.0, 1e308, 3);
+    for (const cplx& v : huge) ASSERT_TRUE(std::isfinite(v.real()) && std::isfinite(v.imag()));
+    EXPECT_NEAR(m.energy(huge), 1e308, 1e308 * 64.0 * eps);
+}
+
 // The pruned transforms (columns without retained modes skipped, rows fused with the products; the default) give
 // the same term as FFTW's 2-D plans to the transforms' round-off (8 eps log2(n^2) max|N|, as above), and a pruned
 // run keeps both invariants as exactly (8 eps sqrt(steps)).
