@@ -606,7 +606,8 @@ def test_navier_stokes_refuses_a_tolerance_without_a_method_as_the_cli(cli):
 # be a positive finite number, not 0"), run it to a StepSizeUnderflow when given dt, and call a NaN field "the initial
 # velocity is zero".
 @pytest.mark.skipif(not hasattr(eci.models, "NavierStokes2D"), reason="built without eci::spectral")
-@pytest.mark.parametrize("scale", [1e200, float("nan"), 0.0, 1e-160], ids=["overflow", "nan", "zero", "subnormal"])
+@pytest.mark.parametrize("scale", [1e200, float("nan"), 0.0, 1e-160, 1e-300],
+                         ids=["overflow", "nan", "zero", "subnormal", "underflow"])
 @pytest.mark.parametrize("dt", [None, 0.01])
 def test_navier_stokes_refuses_the_same_initial_states(cli, tmp_path, scale, dt):
     import h5py
@@ -635,6 +636,9 @@ def test_navier_stokes_refuses_the_same_initial_states(cli, tmp_path, scale, dt)
         with pytest.raises(ValueError) as e:
             eci.solve(m, (0.0, 0.1), m.random_field() * 1e200, dt=dt)
         assert str(e.value) == "initial condition: energy inf and enstrophy inf must be finite normal numbers"
+    if scale == 1e-300:  # not zero, but E = Z = 0: its squares underflowed whole (it ran, its drifts against 0)
+        assert message.startswith("initial condition: energy 0 and enstrophy 0 must be finite normal numbers (its "
+                                  "largest mode, "), message
     if scale != scale:
         with pytest.raises(ValueError, match="^initial condition is not finite$"):
             eci.solve(m, (0.0, 0.1), np.full(m.size, np.nan, dtype=complex), dt=dt)
