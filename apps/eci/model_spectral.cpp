@@ -862,6 +862,7 @@ int spectral_command::run_spread(const run_settings& settings) {
     }
     try {  // the library's check, as Python's (collective: every process gives the same verdict)
         model.check_initial_state(w);
+        model.check_initial_rates(w);
     } catch (const std::invalid_argument& e) {
         throw bad_input(ic_of_file ? ic_problem(ic_, e.what()) : std::string(e.what()));
     }

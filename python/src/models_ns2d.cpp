@@ -126,6 +126,7 @@ class ns2d_object : public model_base {
             const auto lock_ = lock();
             model_->check_initial_state(x);  // the library's check and sentences, as the CLI's
             model_->make_hermitian(x);       // (a real field's state to round-off, made exact: as the CLI's fields)
+            model_->check_initial_rates(x);  // (a field whose nonlinear term overflows: refused, as the CLI's)
         }
         const std::uint64_t n = steps_to_reach(t0, t1, dt);
         auto grid_time = [&](std::uint64_t i) { return i == n ? t1 : t0 + double(i) * dt; };

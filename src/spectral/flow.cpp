@@ -1228,6 +1228,22 @@ void flow2d::check_initial_state(const state_type& q) const {
     }
 }
 
+void flow2d::check_initial_rates(const state_type& q) {
+    // dq/dt at q, without recording (a step's budget is not touched)
+    state_type dq;
+    const bool was = recording_;
+    recording_ = false;
+    (*this)(q, dq, 0.0);
+    recording_ = was;
+    double bad = 0.0;
+    for (const auto& v : dq)
+        if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) bad = 1.0;
+    d_->g.sum_over_ranks(&bad, 1);
+    if (bad != 0.0)
+        throw std::invalid_argument("initial condition: its rate dq/dt is not finite (the nonlinear term overflows "
+                                    "double precision): no step of any size can take it");
+}
+
 double flow2d::initial_cfl_step(const state_type& q, double cfl, std::string_view dt_name,
                                 std::string_view cfl_name) {
     if (!(std::isfinite(cfl) && cfl > 0.0))

@@ -186,3 +186,18 @@ def test_a_failed_spectral_run_returns_its_failure(method, cause):
     assert r.t.tolist() == [0.0] and np.array_equal(r.y[:, 0], w)  # what it reached: the initial state
     ok = eci.solve(eci.models.NavierStokes2D(n=16, fftw_measure=False), (0.0, 0.01), dt=0.01)
     assert ok.success and ok.status == 0 and ok.failure is None
+
+
+# A field whose nonlinear term overflows (surface QG of energy 1e307) is refused before the run in both front ends:
+# every step of it fails, and the CLI's "a smaller --dt or --cfl may pass" (Python: a failed step) sent the user after
+# a step that does not exist. One below it runs.
+def test_a_field_whose_rate_overflows_is_refused(cli):
+    message = ("initial condition: its rate dq/dt is not finite (the nonlinear term overflows double precision): no "
+               "step of any size can take it")
+    assert cli_error(cli, "run", "surface-qg", "--N", "32", "--energy", "1e307", "--steps", "2", "--fftw-estimate",
+                     "--fftw-wisdom", "none") == message
+    m = SQG(n=32, fftw_measure=False)
+    big = m.random_field(energy=1e307)
+    with pytest.raises(ValueError, match=r"^initial condition: its rate dq/dt is not finite"):
+        eci.solve(m, (0.0, 1e-150), big, dt=1e-152)
+    assert eci.solve(m, (0.0, 2e-152), m.random_field(energy=1e300), dt=1e-152).success

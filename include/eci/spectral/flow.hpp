@@ -283,6 +283,10 @@ class flow2d {
     /// is not Hermitian, a mean (k = 0) that is not zero. Within it, make_hermitian makes it exact. Collective:
     /// every process of a spread flow gives the same verdict.
     void check_initial_state(const state_type& q) const;
+    /// Refuses an initial state whose rate dq/dt is not finite (a field whose nonlinear term overflows: every step
+    /// of it would fail, "a smaller dt" no help) with one line (std::invalid_argument). One right-hand side, not
+    /// recorded in a step's budget; collective as check_initial_state. The front ends call it after that check.
+    void check_initial_rates(const state_type& q);
     /// The CFL number of the front ends' default step (eci run's --cfl, Python's cfl_step and eci.solve).
     static constexpr double default_cfl = 0.5;
     /// The step of CFL number `cfl` at the initial state q, cfl dx / max|u|, at most cfl / max|omega| of the
