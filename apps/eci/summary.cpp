@@ -45,6 +45,9 @@ run_plan resolve_plan(double default_dt, double default_t_end, const run_setting
     span.t_end = settings.t_end.value_or(default_t_end);
     if (!(span.t_end >= 0.0) || !std::isfinite(span.t_end))
         throw bad_input("--t-end must be a finite number >= 0, not " + shortest(span.t_end));
+    // An adaptive run's --dt is only its first step (the library's check_config counts no grid for it, as Python's
+    // first_step): t_end / dt says nothing of its steps, and a tiny first step is no reason to refuse it
+    if (settings.rtol || settings.atol) return span;
     if (span.t_end / span.dt > double(max_grid_steps))
         throw bad_input("--t-end / --dt is " + shortest(span.t_end / span.dt) + " steps, too many");
     span.steps = steps_to_reach(0.0, span.t_end, span.dt);

@@ -796,7 +796,10 @@ solve_report run_fixed_on(St& stepper, F& f, S& x, const run_config& cfg, Sink& 
                     ++report.side_steps;
                     monitor.record(xs);
                     check_overflow(cfg.times[next]);
-                    sink.output(std::as_const(xs), output_point{cfg.times[next], next, monitor.values(), std::nullopt});
+                    // (a relaxation step's state belongs to its time plus the side step's own lag, as on the grid)
+                    std::optional<double> side_lag;
+                    if constexpr (detail::stepper_shifts_time<St>()) side_lag = side_stepper.time_lag();
+                    sink.output(std::as_const(xs), output_point{cfg.times[next], next, monitor.values(), side_lag});
                 }
             }
             if constexpr (has_progress) sink.progress(t, i);

@@ -47,7 +47,11 @@ class Preset(_namedtuple("Preset", "name description model y0 method dt t_end"))
 
         settings = {"method": self.method, "dt": self.dt}
         if "rtol" in overrides or "atol" in overrides:
-            settings.pop("dt")
+            # the preset's step is the first step, as `--preset NAME --rtol R` takes its --dt (shortened to a span
+            # shorter than it, as the CLI's default --dt is); first_step= overrides it
+            dt = settings.pop("dt")
+            if dt is not None and self.t_end > 0.0:
+                settings["first_step"] = min(dt, self.t_end)
             if self.method not in self.model.adaptive_methods:  # the model's default adaptive method, as the CLI's
                 settings.pop("method")                           # `--preset NAME --rtol R` without --method
         settings.update(overrides)

@@ -59,7 +59,15 @@ py::array_t<T, py::array::c_style> as_vector(const py::object& r, std::size_t n,
                              std::string(py::str(a.dtype())) + ", expected " + (want_complex ? "complex" : "real") +
                              " numbers");
     if (a.ndim() != 1 || static_cast<std::size_t>(a.shape(0)) != n) throw wrong_shape(a);
-    return exact::ensure(a);
+    // Cast as SciPy's np.asarray(fun(t, y), dtype) does: also from a wider type (long double, rounded to double),
+    // which a safe cast refuses, returning a null array (read, it crashed the interpreter). Complex values for a
+    // real state and non-numbers were refused above.
+    const auto c = py::array_t<T, py::array::c_style | py::array::forcecast>::ensure(a);
+    if (!c)
+        throw py::type_error(subject + (returned ? " returned values of dtype " : " has dtype ") +
+                             std::string(py::str(a.dtype())) + ", which cannot be converted to " +
+                             (want_complex ? "complex" : "real") + " double precision numbers");
+    return py::reinterpret_borrow<exact>(c);
 }
 
 /// fun(t, y) as an eci system over std::vector<T>. A non-finite value is reported as eci::non_finite_rate: the

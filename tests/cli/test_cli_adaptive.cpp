@@ -112,6 +112,24 @@ TEST_F(cli_adaptive, BadInputIsRefused) {
     }
 }
 
+// An adaptive run's --dt is its first step only: a tiny one (t_end / dt beyond 2^53) was refused as "--t-end / --dt
+// is 1e+16 steps, too many", a fixed-step grid's count, though the controller grows it within a few dozen steps (and
+// Python's first_step = 1e-15 ran). Fixed steps of that size are still refused.
+TEST_F(cli_adaptive, ATinyFirstStepIsNoStepCount) {
+    run_result r = eci("run three-wave --method c-dp54 --rtol 1e-6 --dt 1e-15 --t-end 10 --output tiny.csv");
+    ASSERT_EQ(r.status, 0) << r.err;
+    const auto lines = lines_of(read_text(file("tiny.csv")));
+    ASSERT_GT(lines.size(), 2u);
+    EXPECT_EQ(split(lines[1])[0], "0");
+    EXPECT_EQ(split(lines[2])[0], "1.0000000000000001e-15") << "the first step is the --dt given";
+    EXPECT_EQ(split(lines.back())[0], "10");
+    EXPECT_LT(lines.size(), 300u);
+    r = eci("run three-wave --method c-rk4 --dt 1e-15 --t-end 10 --output fixed.csv");
+    EXPECT_EQ(r.status, 2) << r.err;
+    EXPECT_NE(r.err.find("steps, too many"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(file("fixed.csv")));
+}
+
 // The minimum-step path from the command line: a step the solution cannot be followed through (a near-collision
 // Kepler orbit: angular momentum 5e-16, its pericentre at ~1e-30) stops the run with exit status 1, naming the
 // time and component, and leaves no output file.

@@ -580,6 +580,23 @@ def test_every_preset_with_a_tolerance_runs_the_clis_method(cli, tmp_path, cls):
         assert p.solve(rtol=1e-6, atol=1e-6, t_eval=[0.0]).method == s["method"]
 
 
+# Preset.solve(rtol=R, atol=R) is `eci run MODEL --preset NAME --rtol R`, bit for bit: the CLI's first step is the
+# preset's --dt, and Preset.solve dropped it for the model's default step (three-wave fig2: 78 steps from 0.01
+# where the CLI took 75 from 0.2).
+@pytest.mark.parametrize("cls", M.ode_models, ids=lambda c: c().name)
+def test_every_preset_with_a_tolerance_is_the_cli_run(cli, tmp_path, cls):
+    for p in cls.presets():
+        summary = tmp_path / "run.json"
+        run_cli(cli, "run", p.model.name, "--preset", p.name, "--rtol", "1e-06", "--summary-json", summary)
+        s = json.loads(summary.read_text())
+        r = p.solve(rtol=1e-6, atol=1e-6, t_eval=[p.t_end])
+        assert r.method == s["method"], p.name
+        assert (r.stats["steps"], r.stats["rhs_evals"]) == (s["steps"], s["rhs_evals"]), p.name
+        assert all(r.invariants[k]["final"] == v["final"] for k, v in s["invariants"].items()), p.name
+    p = cls.presets()[0]  # first_step= still overrides the preset's step
+    assert p.solve(rtol=1e-6, atol=1e-6, first_step=p.dt / 2).stats["steps"] > 0
+
+
 def test_the_cli_help_names_both_default_methods(cli):
     for model in (M.ThreeWave(), M.KeplerCartesian()):
         help_text = run_cli(cli, "run", model.name, "--help").stdout
@@ -937,10 +954,23 @@ def test_relaxation_time_lags_match_the_cli(cli, tmp_path):
     assert np.count_nonzero(r.time_lag) > len(t) // 2
     assert r.time_lag[-1] == summary["time_lag"]
     assert eci.solve(M.NonlinearOscillator(), (0.0, 10.0), method="rk4", dt=0.1).time_lag is None
-    # with t_eval: the grid points' lags, and the extra points' (a step from the grid state) 0, as the CLI's rows
+    # with t_eval: the grid points' lags, and the extra points' their own step's (a relaxed step from the grid state)
     r = eci.solve(M.KeplerCartesian(), (0.0, 1.0), dt=0.1, t_eval=[0.0, 0.25, 0.5, 1.0])
     assert r.method == "rrk-rk4" and r.time_lag.shape == (4,)
     assert r.time_lag[0] == 0.0 and r.time_lag[2] != 0.0
+
+
+# A t_eval time between two grid times is reached by a relaxed step from the earlier grid state, whose state belongs
+# to its time plus that step's lag, as on the grid; the lag was reported as 0 there, so y[:, i] was not the solution
+# at t[i] + time_lag[i] as documented. The step from t = 0 to 0.01 is the whole run (0, 0.01) with dt = 0.01.
+def test_relaxation_time_lag_at_t_eval_points_between_grid_times():
+    side = eci.solve(M.KeplerCartesian(), (0.0, 1.0), t_eval=[0.01, 0.5])
+    whole = eci.solve(M.KeplerCartesian(), (0.0, 0.01), dt=0.01)
+    assert np.array_equal(side.y[:, 0], whole.y[:, -1])
+    assert whole.time_lag[-1] != 0.0 and side.time_lag[0] == whole.time_lag[-1]
+    # a point between later grid times: a step from the grid state continuing its lag, nonzero too
+    r = eci.solve(M.KeplerCartesian(), (0.0, 1.0), dt=0.1, t_eval=[0.25, 0.55])
+    assert np.all(r.time_lag != 0.0)
 
 
 # result.keeps is what `eci run`'s summary says of the method on the model (JSON "keeps"): the invariants it keeps

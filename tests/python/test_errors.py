@@ -233,6 +233,41 @@ def test_transform_that_cannot_be_inverted_underflows():
     assert str(err).startswith("step failed at t = 0 in component y[0] even with the step halved 3 times")
 
 
+# An array of a wider type than double (np.longdouble, np.clongdouble) from fun, a transform, or as a model's state:
+# NumPy refuses the safe cast to double, pybind11's ensure() returned a null array, and reading it crashed the
+# interpreter (SIGSEGV). It is now cast as SciPy's np.asarray(fun(t, y), dtype) casts it: the same run, bit for bit,
+# as with the float64 values. Run in a child process, so that a crash fails this test and not the whole suite.
+WIDE = textwrap.dedent("""
+    import sys
+    sys.path.insert(0, {path!r})
+    import numpy as np
+    import eci
+    L, CL = np.longdouble, np.clongdouble
+    rot = lambda t, y: np.array([-y[1], y[0]])
+    for kw in ({{}}, {{"dt": 0.1}}, {{"method": "c-dp54"}}, {{"dt": 0.1, "method": "c-rk4"}}):
+        wide = eci.solve(lambda t, y: rot(t, y).astype(L), (0.0, 1.0), [1.0, 0.0], **kw)
+        assert wide.status == 0 and np.array_equal(wide.y, eci.solve(rot, (0.0, 1.0), [1.0, 0.0], **kw).y), kw
+    wide = eci.solve(lambda t, y: (1j * y).astype(CL), (0.0, 1.0), [1.0 + 0j])
+    assert np.array_equal(wide.y, eci.solve(lambda t, y: 1j * y, (0.0, 1.0), [1.0 + 0j]).y)
+    m = eci.models.ThreeWave()
+    y0 = np.asarray(m.default_y0)
+    assert np.array_equal(eci.solve(m, (0.0, 1.0), y0.astype(L)).y, eci.solve(m, (0.0, 1.0), y0).y)
+    assert m.invariants(y0.astype(L)) == m.invariants(y0)
+    assert np.array_equal(m(0.0, y0.astype(L)), m(0.0, y0))
+    square = eci.Transform(lambda x: (x * x).astype(L), lambda xi, hint: np.sqrt(xi), jacobian=lambda x: np.diag(2 * x))
+    r = eci.solve(lambda t, y: y, (0.0, 1.0), [1.0], method="c-rk4", dt=0.1, transform=square)
+    assert r.status == 0 and abs(r.y[0, -1] - np.e) < 1e-5
+    print("ok")
+""")
+
+
+def test_wider_than_double_arrays_are_cast_not_a_crash(tmp_path):
+    script = tmp_path / "wide.py"
+    script.write_text(WIDE.format(path=str(BUILD / "python")))
+    r = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0 and r.stdout.strip() == "ok", (r.returncode, r.stdout, r.stderr)
+
+
 # --- Ctrl-C -----------------------------------------------------------------------------------------------------
 
 INTERRUPTED = textwrap.dedent("""
