@@ -94,6 +94,15 @@ void flow_params::validate(const spectral::equation& e) const {
     require(std::isfinite(injection_rate) && injection_rate >= 0.0, "injection rate must be >= 0");
     whole("threads", threads);
     if (e.validate) e.validate(*this);
+    // A subnormal setting (below 2.2e-308) has lost its digits already and its products underflow to 0: a viscosity
+    // of 1e-320 ran as none, its dissipation and budget rows 0 or subnormal. 0 or a normal number, as the ODE models'.
+    for (const auto& [v, what] : {std::pair{nu, "viscosity nu"}, {hyper_nu, "hyperviscosity"}, {hypo_nu, "hypoviscosity"},
+                                  {drag, "drag"}, {forcing_k, "forcing wavenumber k_f"},
+                                  {forcing_amplitude, "forcing amplitude"}, {injection_rate, "injection rate"},
+                                  {beta, "beta"}, {deformation, "deformation F = 1/L_d^2"}})
+        require(v == 0.0 || std::abs(v) >= std::numeric_limits<double>::min(),
+                std::string(what) + " = " + eci::detail::shortest_text(v) +
+                    " is subnormal (below 2.2e-308): its products underflow to 0; give 0 or a normal number");
     // A grid that cannot fit is refused now, with its size, not as std::bad_alloc after planning: at least 10
     // copies of FFTW's half plane, the measured peak of C-RK4 at N = 4096 (docs/benchmarks.md); methods with more
     // stages need more, so this refuses only what cannot run. Spread over P processes each holds 1/P of it.

@@ -667,6 +667,8 @@ def test_navier_stokes_refuses_the_same_initial_states(cli, tmp_path, scale, dt)
 @pytest.mark.parametrize("option, value, keyword", [
     ("--N", 6, "n"), ("--N", 7, "n"), ("--N", 100000, "n"), ("--hyper-p", 17, "hyper_p"), ("--hyper-p", 0, "hyper_p"),
     ("--hypo-p", 40, "hypo_p"), ("--threads", 65, "threads"), ("--nu", -1, "nu"),
+    # subnormal: ran as 0 (its products underflow), said as the ODE models say it
+    ("--nu", 1e-320, "nu"), ("--drag", 1e-310, "drag"), ("--hyper-nu", 5e-324, "hyper_nu"),
 ])
 def test_navier_stokes_refuses_the_same_parameters(cli, option, value, keyword):
     from conftest import cli_error
