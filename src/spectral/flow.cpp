@@ -320,10 +320,11 @@ struct flow2d::impl {
     // state stays the transform of a real field bit for bit.
     void hermitian(cplx* q) const {
         if (c0 != 0 || kept == 0) return;  // the k_x = 0 column is another process's
-        const std::size_t step = by_columns ? 1 : kept;  // from one row of the k_x = 0 column to the next
-        for (int r = 1; r <= kmax; ++r) q[std::size_t(rows - r) * step] = std::conj(q[std::size_t(r) * step]);
+        for (int r = 1; r <= kmax; ++r) q[column0(rows - r)] = std::conj(q[column0(r)]);
         q[0] = q[0].real();
     }
+    // The state's index of row r of the k_x = 0 column (on the process that holds it), in either layout.
+    std::size_t column0(int r) const { return std::size_t(r) * (by_columns ? 1 : kept); }
 
     impl(const flow_params& p_, const equation& e)
         : p(p_), eq(&e), g(grid_options_of(p_)),
@@ -1184,29 +1185,32 @@ double flow2d::max_velocity(const state_type& q) {
 void flow2d::check_initial_state(const state_type& q) const {
     if (q.size() != size()) throw std::invalid_argument("state size does not match the grid");
     // (each process checks its own modes; the verdict is every process's, so that all refuse together)
-    double bad = 0.0;
-    for (const auto& v : q)
+    // One pass: whether a mode is not finite, ||q||^2, and the largest component (below)
+    double bad = 0.0, norm2 = 0.0, largest = 0.0;
+    for (const auto& v : q) {
         if (!std::isfinite(v.real()) || !std::isfinite(v.imag())) bad = 1.0;
+        norm2 += std::norm(v);
+        largest = std::max({largest, std::abs(v.real()), std::abs(v.imag())});
+    }
     d_->g.sum_over_ranks(&bad, 1);
     if (bad != 0.0) throw std::invalid_argument("initial condition is not finite");
     // A real field's state: the k_x = 0 column Hermitian, q(0, -k_y) = conj q(0, k_y), and the mean q(0, 0) zero (no
     // equation here evolves it; the file fields are projected so). A transform of a real field is so to its
     // round-off, |dQ| <= ||dQ|| <= c eps log2(N^2) ||Q||: within 16 eps log2(N) ||q|| it is taken (the front ends
     // then make it exact, make_hermitian); beyond it the state is not one of a real field and is refused.
-    double sums[2] = {0.0, 0.0};  // ||q||^2, and (on the process holding the column) nothing else
-    for (const auto& v : q) sums[0] += std::norm(v);
-    double worst[3] = {0.0, 0.0, 0.0};  // the largest |q(0, -k_y) - conj q(0, k_y)|, its k_y, |q(0, 0)|
+    // worst: the largest |q(0, -k_y) - conj q(0, k_y)|, its k_y, |q(0, 0)|, and the largest component
+    double worst[4] = {0.0, 0.0, 0.0, largest};
     if (d_->c0 == 0 && d_->kept > 0) {
-        const std::size_t step = d_->by_columns ? 1 : d_->kept;
         for (int r = 1; r <= d_->kmax; ++r) {
-            const double m = std::abs(q[std::size_t(d_->rows - r) * step] - std::conj(q[std::size_t(r) * step]));
+            const double m = std::abs(q[d_->column0(d_->rows - r)] - std::conj(q[d_->column0(r)]));
             if (m > worst[0]) worst[0] = m, worst[1] = r;
         }
         worst[2] = std::abs(q[0]);
     }
-    d_->g.sum_over_ranks(sums, 1);
-    d_->g.max_over_ranks(worst, 3);
-    const double round_off = 16.0 * std::numeric_limits<double>::epsilon() * std::log2(double(n_)) * std::sqrt(sums[0]);
+    d_->g.sum_over_ranks(&norm2, 1);
+    d_->g.max_over_ranks(worst, 4);
+    largest = worst[3];
+    const double round_off = 16.0 * std::numeric_limits<double>::epsilon() * std::log2(double(n_)) * std::sqrt(norm2);
     using eci::detail::shortest_text;
     if (worst[0] > round_off)
         throw std::invalid_argument(
@@ -1222,9 +1226,6 @@ void flow2d::check_initial_state(const state_type& q) const {
     const double e = energy(q), z = enstrophy(q);
     // ... and a field whose modes are not all zero but whose E or Z is 0: its squares underflowed whole (a vortex
     // pair of peak 1e-300 ran with E = Z = 0, the invariants' drifts measured against nothing)
-    double largest = 0.0;
-    for (const auto& v : q) largest = std::max({largest, std::abs(v.real()), std::abs(v.imag())});
-    d_->g.max_over_ranks(&largest, 1);
     if ((e != 0.0 && !std::isnormal(e)) || (z != 0.0 && !std::isnormal(z)) || !std::isfinite(e) || !std::isfinite(z) ||
         (largest > 0.0 && (e == 0.0 || z == 0.0))) {
         const auto names = invariant_names();
