@@ -1399,12 +1399,12 @@ int spectral_command::run_spread(const run_settings& settings) {
         run.budget.enstrophy_injection += b.enstrophy_injection;
         run.budget.enstrophy_dissipation += b.enstrophy_dissipation;
         const double e1 = pt.invariants[0], z1 = pt.invariants[1];
-        // A blow-up: non-finite invariants, or energy grown a thousandfold beyond what the forcing put in.
-        if (!std::isfinite(e1) || !std::isfinite(z1) || e1 > 1e3 * (run.energy0 + run.budget.energy_injection)) {
+        // A blow-up (the library's rule and sentence, as Python's), with the remedy in this tool's options.
+        try {
+            model.check_blow_up(w, pt.invariants, run.energy0, run.budget.energy_injection, i, pt.t, dt);
+        } catch (const eci::spectral::flow_blow_up& e) {
             progress.finish();
-            throw run_error("blow-up at step " + std::to_string(i) + ", t = " + num(pt.t) + ": energy " +
-                            num(e1) + " (CFL " + num(model.cfl(w, dt)) + "); " +
-                            (stiffness.empty() ? smaller_step : stiffness));
+            throw run_error(std::string(e.what()) + "; " + (stiffness.empty() ? smaller_step : stiffness));
         }
         // relative to the invariant after the step; to the one before it where a decayed flow reached exactly 0
         // (the residual was inf there), and absolute where both are 0

@@ -144,6 +144,19 @@ def _invariant_list(invariants):
     return functions, names
 
 
+def _check_invariant_names(names, reserved, whose):
+    """ValueError for an invariants= name given twice or already the name of `whose` (result.invariants is by name)."""
+    seen = set()
+    for name in names:
+        if name in reserved:
+            raise ValueError(f"invariants: {name!r} is the name of {whose}, which result.invariants reports already; "
+                             "give yours another name (a dict name -> callable)")
+        if name in seen:
+            raise ValueError(f"invariants: two are named {name!r}; give them different names (a dict name -> "
+                             "callable)")
+        seen.add(name)
+
+
 def _t_eval_array(t_eval, t0, t1):
     if t_eval is None:
         return None
@@ -159,6 +172,9 @@ def _t_eval_array(t_eval, t0, t1):
         raise ValueError("t_eval must be sorted in increasing order")
     if t1 < t0 and np.any(np.diff(a) > 0):
         raise ValueError("t_eval must be sorted in decreasing order for a backward t_span (t1 < t0)")
+    repeated = a[:-1][np.diff(a) == 0]
+    if repeated.size:  # (SciPy's rule too: each time is one column of y)
+        raise ValueError(f"t_eval has {float(repeated[0])!r} twice: its times must be distinct")
     return [float(v) for v in a]
 
 
@@ -402,7 +418,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         column, as SciPy's explicit methods do.
     invariants: callables of y whose drift is measured after every step (adaptive with t_eval: at every t_eval
         time, as `eci run --rtol --output-dt`): one, a list, or a dict name -> callable. A model's own invariants
-        are always measured.
+        are always measured. Names must differ from each other and from those reported already (ValueError).
     quadratic_invariants: the weights W of quadratic invariants sum_k W[j, k] |y_k|^2 that fun keeps, an (m, n)
         array (or (n,) for one) for y0 of n components, m <= 8. The conservative methods keep every such invariant
         whether told or not; told, the fixed-step ones (c-rk4, c-pc, c-euler, ...) remedy isolated negative
@@ -513,6 +529,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
                    "; backward time needs adaptive control (rtol/atol, no dt)")
             raise ValueError(f"t_span[1] = {_shortest(t1)} is before t_span[0] = {_shortest(t0)}: fixed steps of a "
                              f"built-in model run forward only{how}")
+        dt_given = dt is not None
         if dt is None:  # a spectral model: the CFL 0.5 step of the initial state, as `eci run navier-stokes-2d`
             dt = fun.cfl_step(y0) if y0 is not None and hasattr(fun, "cfl_step") else fun.default_dt
             if hasattr(fun, "cfl_step") and output_dt is not None:  # shortened to divide output_dt, as the CLI's
@@ -553,11 +570,16 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             raise ValueError("quadratic_invariants and transform exclude each other: through a transform the "
                              "invariants are those the transform makes linear")
         weights = _quadratic_weights(quadratic_invariants, y)
+    # result.invariants is a dict by name: a name given twice, or one the run reports already, would replace a record
+    reserved = list(fun.invariant_names) if is_model else [f"quadratic_{j}" for j in range(0 if weights is None else len(weights))]
+    _check_invariant_names(inv_names, reserved, f"model {fun.name}'s own invariant" if is_model
+                           else "one of quadratic_invariants")
 
     if update not in (None, "conditioned", "paper"):
         raise ValueError(f"update must be 'conditioned' or 'paper', not {update!r}")
     settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None, "update": update,
-                "dense_output": bool(dense_output), "events": event_list, "output_dt": output_dt}
+                "dense_output": bool(dense_output), "events": event_list, "output_dt": output_dt,
+                "dt_given": adaptive or dt_given}
     extra_calls = 0
     if weights is not None:
         _check_quadratic_invariants(fun, t0, y, weights)

@@ -42,7 +42,9 @@ class TooManySteps(_RunFailure):
 
 class NonFiniteSolution(_RunFailure):
     """The solution blew up: a step left a non-finite state (cause "non_finite_state"), or an invariant that was
-    finite at the start became inf or nan (cause "invariant_overflow"), as `eci run` stops on them.
+    finite at the start became inf or nan (cause "invariant_overflow"), or, on a spectral flow, its energy grew a
+    thousandfold beyond the initial energy and what the forcing injected (cause "blow_up"), as `eci run` stops on
+    them.
 
     Attributes as StepSizeUnderflow (component: the real unknown, or for invariant_overflow the invariant's index).
     """

@@ -133,9 +133,16 @@ class ns2d_object : public model_base {
         if (t_eval)
             for (double te : *t_eval) {
                 const double k = std::round((te - t0) / dt);
-                if (te != t1 && (k < 0 || double(k) > double(n) || grid_time(std::uint64_t(k)) != te))
-                    throw std::invalid_argument("t_eval time " + full_text(te) + " is not on the step grid t0 + i dt "
-                                                "(" + name() + " outputs whole steps)");
+                if (te != t1 && (k < 0 || double(k) > double(n) || grid_time(std::uint64_t(k)) != te)) {
+                    // (a step the user never chose is named as such: the remedy is then to choose one)
+                    const bool dt_given = !settings.contains("dt_given") || settings["dt_given"].cast<bool>();
+                    throw std::invalid_argument(
+                        "t_eval time " + eci::detail::shortest_text(te) +
+                        " is not on the step grid t0 + i dt of dt = " + eci::detail::shortest_text(dt) + (dt_given ? "" : " (the CFL 0.5 step of y0: no dt was given)") + "; " +
+                        name() + " outputs whole steps: give output_dt= for evenly spaced outputs (the step is " +
+                        "then shortened to divide it), or a dt of which every t_eval time is a whole multiple " +
+                        "after t0");
+                }
             }
         std::vector<invariant_record> drift{{names_[0]}, {names_[1]}};
         for (const std::string& nm : invariant_names) drift.push_back({nm});
@@ -170,35 +177,34 @@ class ns2d_object : public model_base {
         const bool no_outputs = t_eval && t_eval->empty();
         // the arrays keep every output: a run whose outputs cannot fit is refused before it starts
         cfg.output_bytes = no_outputs ? 0 : m.size() * sizeof(cplx) + sizeof(double);
-        // A run that stops early returns what it reached with result.failure (status -1), as every model's run does;
-        // the dict is made once the GIL is held again.
-        struct spectral_failure {
-            std::string kind, message, cause;
-            double t, dt;
-            std::size_t component;
-        };
-        std::optional<spectral_failure> failure;
+        // A run that stops early returns what it reached with result.failure (status -1), as every model's run does:
+        // the library's report (failure_dict, once the GIL is held again), or the library's blow-up stop.
+        std::optional<solve_report> failed;
+        std::optional<eci::spectral::flow_blow_up> blew_up;
+        const double energy0 = m.energy(x);
         {
             std::optional<py::gil_scoped_release> unlocked;
             if (release) unlocked.emplace();
             gil_released_in_run = release;
             interrupt_pending = false;
             interrupt_check interrupt(!release);
-            drift[0].record(m.energy(x), true);
+            drift[0].record(energy0, true);
             drift[1].record(m.enstrophy(x), true);
             if (!release) user.measure(x, drift, 2, true);
             auto on_output = [&](const state& s, const output_point& pt) {
                 if (!no_outputs) out.record(pt.t, s);
             };
             auto on_step = [&](const state& s, const output_point& pt) {
-                drift[0].record(pt.invariants[0], false);
-                drift[1].record(pt.invariants[1], false);
-                if (!release) user.measure(s, drift, 2, false);
+                report.stats = *pt.stats;  // (the counts up to here, for a run the blow-up stop ends)
                 const ns2d_budget& b = m.step_budget();
                 budget.energy_injection += b.energy_injection;
                 budget.energy_dissipation += b.energy_dissipation;
                 budget.enstrophy_injection += b.enstrophy_injection;
                 budget.enstrophy_dissipation += b.enstrophy_dissipation;
+                m.check_blow_up(s, pt.invariants, energy0, budget.energy_injection, pt.index, pt.t, cfg.dt);
+                drift[0].record(pt.invariants[0], false);
+                drift[1].record(pt.invariants[1], false);
+                if (!release) user.measure(s, drift, 2, false);
             };
             auto on_progress = [&](double, std::uint64_t i) {
                 if (i < n) interrupt();  // before every step
@@ -207,40 +213,9 @@ class ns2d_object : public model_base {
                 const solve_report r = eci::solve<navier_stokes_2d>(
                     m, x, method, cfg, flow_sink{on_output, on_step, on_progress}, {}, "model " + name());
                 report.stats = r.stats;  // (steps, halvings, evaluations, the remedy's counts)
-                if (r.failure) {
-                    const run_failure& e = *r.failure;
-                    report.rejected.step_failed = report.stats.step_reductions;
-                    // a damping too stiff for the run's step: the cause to act on, as the CLI says it
-                    const std::string hint = model_->stiffness_hint(cfg.dt);
-                    const std::string stiff = hint.empty() ? std::string() : "; " + hint;
-                    spectral_failure f{"StepSizeUnderflow", e.message + stiff, "step_failed", e.t, e.dt,
-                                       e.component};
-                    switch (e.kind) {
-                        case run_failure_kind::step_failed:
-                            // the cause as the CLI names it: a radicand only where the method takes square roots
-                            f.cause = e.non_finite_rate_value ? "non_finite_fun" : "step_failed";
-                            f.message = "step " + std::to_string(report.stats.steps + 1) + " failed at t = " +
-                                        full_text(e.t) + " even with the step halved " +
-                                        std::to_string(max_halvings) + " times (down to dt = " + full_text(e.dt) +
-                                        "): " +
-                                        (e.non_finite_rate_value ? "a rate is " + full_text(*e.non_finite_rate_value)
-                                         : r.method.family == method_family::conservative
-                                             ? "a negative radicand or a non-finite state"
-                                             : "a non-finite state") +
-                                        stiff;
-                            break;
-                        case run_failure_kind::work_exceeded: f.cause = "work_exceeded"; break;
-                        case run_failure_kind::step_too_small: f.cause = "step_failed"; break;
-                        case run_failure_kind::too_many_steps:
-                            f.kind = "TooManySteps", f.cause = "too_many_steps";
-                            break;
-                        case run_failure_kind::non_finite_state:
-                        case run_failure_kind::invariant_overflow:
-                            f.kind = "NonFiniteSolution", f.cause = "non_finite_state";
-                            break;
-                    }
-                    failure = std::move(f);
-                }
+                if (r.failure) failed = r;
+            } catch (const eci::spectral::flow_blow_up& e) {
+                blew_up = e;
             } catch (const eci::interrupted&) {  // between the halvings of a step
                 if (!release) throw py::error_already_set();
                 // the KeyboardInterrupt is raised below, with the GIL
@@ -250,15 +225,9 @@ class ns2d_object : public model_base {
         if (interrupt_pending) throw py::error_already_set();
         report.rejected.step_failed = report.stats.step_reductions;
         py::dict d = result_dict(out, m.size(), report, drift, info);
-        if (failure) {
-            py::dict f;
-            f["kind"] = failure->kind, f["message"] = failure->message, f["cause"] = failure->cause;
-            f["t"] = failure->t, f["dt"] = failure->dt, f["component"] = failure->component;
-            f["component_name"] = "mode " + std::to_string(failure->component);
-            d["failure"] = f;
-        } else {
-            d["failure"] = py::none();
-        }
+        d["failure"] = failed    ? py::object(failure_of(*failed, report.stats, max_halvings, cfg.dt))
+                       : blew_up ? py::object(failure_of(*blew_up, cfg.dt))
+                                 : py::object(py::none());
         d["stopped_at"] = py::none();
         py::dict b;
         b[py::str(names_[0] + "_injection")] = budget.energy_injection;
@@ -267,6 +236,41 @@ class ns2d_object : public model_base {
         b[py::str(names_[1] + "_dissipation")] = budget.enstrophy_dissipation;
         d["budget"] = b;
         return d;
+    }
+
+    /// result.failure of a run the library's report ended (failure_dict's kind, cause and numbers), with the CLI's
+    /// sentence for a failed step (its step number, the radicand named only for the conservative methods) and
+    /// the stiffness of the damping where that is the cause to act on.
+    py::dict failure_of(const solve_report& r, const run_stats& stats, int max_halvings, double dt) const {
+        const run_failure& e = *r.failure;
+        py::dict f = failure_dict(r, component_namer{});
+        f["component_name"] = "mode " + std::to_string(e.component);
+        const std::string hint = model_->stiffness_hint(dt);
+        const std::string stiff = hint.empty() ? std::string() : "; " + hint;
+        if (e.kind == run_failure_kind::step_failed)
+            f["message"] = "step " + std::to_string(stats.steps + 1) + " failed at t = " + full_text(e.t) +
+                           " even with the step halved " + std::to_string(max_halvings) + " times (down to dt = " +
+                           full_text(e.dt) + "): " +
+                           (e.non_finite_rate_value ? "a rate is " + full_text(*e.non_finite_rate_value)
+                            : r.method.family == method_family::conservative
+                                ? "a negative radicand or a non-finite state"
+                                : "a non-finite state") +
+                           stiff;
+        else
+            f["message"] = f["message"].cast<std::string>() + stiff;
+        return f;
+    }
+    /// result.failure of a run the library's blow-up stop ended (flow2d::check_blow_up): NonFiniteSolution,
+    /// cause "blow_up" (energy grown a thousandfold beyond E0 and its injection) or "invariant_overflow".
+    py::dict failure_of(const eci::spectral::flow_blow_up& e, double dt) const {
+        const std::string hint = model_->stiffness_hint(dt);
+        py::dict f;
+        f["kind"] = "NonFiniteSolution";
+        f["message"] = std::string(e.what()) + "; " + (hint.empty() ? "reduce dt" : hint);
+        f["cause"] = e.finite ? "blow_up" : "invariant_overflow";
+        f["t"] = e.t, f["dt"] = dt, f["component"] = e.invariant;
+        f["component_name"] = names_[e.invariant];
+        return f;
     }
 
     /// The step of CFL number `cfl` at w: cfl dx / max|u|, dx = 2 pi / n (the CLI's --cfl), w checked first: the

@@ -1254,6 +1254,18 @@ void flow2d::check_initial_rates(const state_type& q) {
                                     "double precision): no step of any size can take it");
 }
 
+void flow2d::check_blow_up(const state_type& q, std::span<const double> invariants, double e0, double injected,
+                           std::uint64_t step, double t, double dt) {
+    const double e = invariants[0], z = invariants[1];
+    const bool finite = std::isfinite(e) && std::isfinite(z);
+    if (finite && !(e > 1e3 * (e0 + injected))) return;
+    const std::size_t j = std::isfinite(e) && !finite ? 1 : 0;  // (Z alone not finite: named; else E)
+    throw flow_blow_up("blow-up at step " + std::to_string(step) + ", t = " + eci::detail::shortest_text(t) + ": " +
+                           invariant_names()[j] + " " + eci::detail::shortest_text(invariants[j]) + " (CFL " +
+                           eci::detail::shortest_text(cfl(q, dt)) + ")",
+                       step, t, j, finite);
+}
+
 double flow2d::initial_cfl_step(const state_type& q, double cfl, std::string_view dt_name,
                                 std::string_view cfl_name) {
     if (!(std::isfinite(cfl) && cfl > 0.0))

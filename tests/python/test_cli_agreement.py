@@ -891,6 +891,14 @@ def test_a_step_beyond_the_dampings_stability_names_it(cli):
                 "--method", "rk4", "--fftw-estimate", "--fftw-wisdom", "none", check=False)
     assert r.returncode == 1 and "blow-up at step 1" in r.stderr, r.stderr
     assert "decays at up to 10000 per unit time, so dt 0.01 is beyond an explicit step's stability" in r.stderr
+    # ... and Python's run stops on it as the CLI's does (the library's rule and sentence), returning what it reached
+    m = M.NavierStokes2D(n=16, drag=1e4, fftw_measure=False)
+    b = eci.solve(m, (0.0, 0.03), dt=0.01, method="rk4")
+    f = failure_of(b, eci.NonFiniteSolution)
+    assert str(f).split("; ")[0] in r.stderr and str(f).startswith("blow-up at step 1, t = 0.01: energy "), str(f)
+    assert "decays at up to 10000 per unit time, so dt 0.01 is beyond an explicit step's stability" in str(f)
+    assert f.cause == "blow_up" and f.component_name == "energy" and f.t == 0.01
+    assert b.t.tolist() == [0.0] and b.invariants["energy"]["final"] == b.invariants["energy"]["initial"]
     assert cli_error(cli, "run", "navier-stokes-2d", "--N", "16", "--hypo-nu", "1e308", "--fftw-estimate",
                      "--fftw-wisdom", "none") == (
         "--t-end / the default step 1e-308 is inf steps, too many (the step of the linear damping's stability: it "

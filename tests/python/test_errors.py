@@ -92,6 +92,10 @@ def decay(t, y):
     return -y
 
 
+def decay_energy(y):
+    return 0.5 * y @ y
+
+
 @pytest.mark.parametrize("kwargs, error, pattern", [
     (dict(y0=[[1.0, 2.0]]), ValueError, r"y0 must be one-dimensional, got shape \(1, 2\)"),
     (dict(y0=["a"]), TypeError, "y0 must be real or complex numbers, not dtype <U1"),
@@ -105,15 +109,38 @@ def decay(t, y):
     (dict(t_eval=[0.5, 0.2]), ValueError, "t_eval must be sorted in increasing order"),
     (dict(t_eval=[0.5, 2.0]), ValueError, r"t_eval values must lie within t_span \[0.0, 1.0\]"),
     (dict(method=3), TypeError, "method must be a string"),
+    (dict(t_eval=[0.2, 0.5, 0.5]), ValueError, r"^t_eval has 0.5 twice: its times must be distinct$"),
     (dict(invariants=[1.0]), TypeError, "invariant 0 is not callable"),
+    # result.invariants is by name: a name given twice, or one the run reports already, would replace a record
+    (dict(invariants=[decay_energy, decay_energy]), ValueError,
+     r"^invariants: two are named 'decay_energy'; give them different names \(a dict name -> callable\)$"),
+    (dict(invariants=[lambda y: 1.0, decay_energy, lambda y: 2.0], t_eval=None), None, None),
+    (dict(invariants={"invariant_1": decay_energy, "x": decay_energy, "invariant_0": lambda y: float(y[0])}), None, None),
+    (dict(quadratic_invariants=[[1.0, 1.0]], invariants={"quadratic_0": decay_energy}), ValueError,
+     r"^invariants: 'quadratic_0' is the name of one of quadratic_invariants, which result.invariants reports"),
     (dict(max_halvings=-1), ValueError, "max_halvings must be a whole number from 0 to 60"),
     (dict(transform="squares"), TypeError, "transform must be an eci.Transform"),
 ])
 def test_bad_arguments(kwargs, error, pattern):
     args = dict(fun=decay, t_span=(0.0, 1.0), y0=[1.0, 2.0], dt=0.1)
     args.update(kwargs)
+    if error is None:  # (the good neighbour of a refusal: it runs, every invariant reported under its own name)
+        names = eci.solve(**args).invariants.keys()
+        assert len(names) == len(args["invariants"]), names
+        return
     with pytest.raises(error, match=pattern):
         eci.solve(**args)
+
+
+# A model's own invariants are reported by their names: one of invariants= of the same name would replace it.
+@pytest.mark.parametrize("make", [lambda: M.ThreeWave(), lambda: M.NavierStokes2D(n=16, fftw_measure=False)])
+def test_an_invariant_named_as_the_models_own_is_refused(make):
+    m = make()
+    for name in m.invariant_names:
+        with pytest.raises(ValueError, match=rf"^invariants: '{name}' is the name of model {m.name}'s own invariant"):
+            eci.solve(m, (0.0, 2 * m.default_dt), dt=m.default_dt, invariants={name: lambda y: 1.0})
+    r = eci.solve(m, (0.0, 2 * m.default_dt), dt=m.default_dt, invariants={"mine": lambda y: 1.0})
+    assert list(r.invariants) == list(m.invariant_names) + ["mine"]
 
 
 def test_fun_must_be_callable():

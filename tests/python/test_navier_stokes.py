@@ -110,8 +110,15 @@ def test_bad_input():
         m.energy(np.zeros(3, dtype=complex))
     with pytest.raises(ValueError, match="has no error estimate"):
         eci.solve(m, (0.0, 1.0), method="c-dp54", rtol=1e-6)
-    with pytest.raises(ValueError, match="is not on the step grid"):
+    with pytest.raises(ValueError, match=r"^t_eval time 0.15 is not on the step grid t0 \+ i dt of dt = 0.1; "
+                                         r"navier-stokes-2d outputs whole steps: give output_dt= "):
         eci.solve(m, (0.0, 1.0), dt=0.1, t_eval=[0.15])
+    # a step the user never chose is named as the CFL step, and the remedies work
+    with pytest.raises(ValueError, match=rf"dt = {m.cfl_step(m.default_y0)!r} \(the CFL 0.5 step of y0: no dt was "
+                                         r"given\); .* or a dt of which every t_eval time is a whole multiple"):
+        eci.solve(m, (0.0, 1.0), t_eval=[0.5, 1.0])
+    assert eci.solve(m, (0.0, 1.0), output_dt=0.5).t.tolist() == [0.0, 0.5, 1.0]
+    assert eci.solve(m, (0.0, 1.0), dt=0.05, t_eval=[0.5, 1.0]).t.tolist() == [0.5, 1.0]
 
 
 def test_full_transforms_give_the_same_run_to_round_off():

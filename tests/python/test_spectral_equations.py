@@ -188,6 +188,31 @@ def test_a_failed_spectral_run_returns_its_failure(method, cause):
     assert ok.success and ok.status == 0 and ok.failure is None
 
 
+# A run that blows up stops where the CLI's stops, for every equation: status -1, NonFiniteSolution, the outputs up to
+# the last good step; a run that grows its energy less than the thousandfold bound goes on. (RK4 at CFL ~50 on an
+# inviscid flow: its step multiplies the energy far beyond 1e3 at once.)
+@pytest.mark.parametrize("make", [lambda: eci.models.NavierStokes2D(n=32, fftw_measure=False),
+                                  lambda: CHM(n=32, beta=1.0, deformation=1.0, fftw_measure=False),
+                                  lambda: SQG(n=32, fftw_measure=False)], ids=["ns", "chm", "sqg"])
+def test_a_blow_up_stops_the_run(make):
+    from conftest import failure_of
+    m = make()
+    w = m.random_field(k_peak=4)
+    dt = 100 * m.cfl_step(w)
+    r = eci.solve(m, (0.0, 10 * dt), w, dt=dt, method="rk4", t_eval=[0.0, dt, 2 * dt])
+    f = failure_of(r, eci.NonFiniteSolution)
+    name = m.invariant_names[0]
+    assert str(f).startswith(f"blow-up at step ") and f"{name} " in str(f) and str(f).endswith("; reduce dt"), str(f)
+    assert f.cause in ("blow_up", "invariant_overflow") and f.component_name in m.invariant_names
+    step = int(str(f).split()[3].rstrip(","))
+    assert f.t == step * dt and r.t.tolist() == [k * dt for k in range(min(step, 3))]
+    assert all(math.isfinite(v["final"]) for v in r.invariants.values())
+    assert r.stats["steps"] == step and r.nfev == 4 * step, r.stats
+    # the same flow at its CFL step is no blow-up (the conservative method keeps E exactly at any step)
+    assert eci.solve(m, (0.0, 10 * dt), w, dt=dt, method="c-rk4", t_eval=[]).success
+    assert eci.solve(m, (0.0, 3 * dt / 100), w, dt=dt / 100, method="rk4", t_eval=[]).success
+
+
 # A field whose nonlinear term overflows (surface QG of energy 1e307) is refused before the run in both front ends:
 # every step of it fails, and the CLI's "a smaller --dt or --cfl may pass" (Python: a failed step) sent the user after
 # a step that does not exist. One below it runs.

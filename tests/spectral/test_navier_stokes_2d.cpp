@@ -3,6 +3,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <cstdio>
@@ -11,6 +12,7 @@
 #include <cstdint>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include <eci/eci.hpp>
@@ -151,6 +153,41 @@ TEST(NavierStokes2d, InitialStateMustBeARealFields) {
         EXPECT_EQ(q[m.index(0, 0)], std::complex<double>{});
         for (int ky = 1; ky <= m.kmax(); ++ky) EXPECT_EQ(q[m.index(0, -ky)], std::conj(q[m.index(0, ky)]));
         EXPECT_NE(q, w);  // (the k_y = 5 change stays, and k_y = -5 is its conjugate: the state the run takes)
+    }
+}
+
+// The front ends' blow-up stop (flow2d::check_blow_up): E or Z not finite, or E above 1e3 (E0 + injected), and
+// nothing at the bound itself; the sentence names the step, time, invariant and CFL.
+TEST(NavierStokes2d, BlowUpStopIsTheBoundAndNonFiniteInvariants) {
+    navier_stokes_2d m(small(16));
+    const auto w = m.random_field(4.0, 0.5, 1);
+    const double e0 = 0.5, injected = 0.25, bound = 1e3 * (e0 + injected);
+    auto verdict = [&](double e, double z) -> std::optional<eci::spectral::flow_blow_up> {
+        const std::array<double, 2> inv{e, z};
+        try {
+            m.check_blow_up(w, inv, e0, injected, 7, 0.5, 0.01);
+        } catch (const eci::spectral::flow_blow_up& b) {
+            return b;
+        }
+        return std::nullopt;
+    };
+    EXPECT_FALSE(verdict(bound, 1e300));
+    EXPECT_FALSE(verdict(0.0, 0.0));
+    const auto above = verdict(std::nextafter(bound, 1e308), 1.0);
+    ASSERT_TRUE(above);
+    EXPECT_TRUE(above->finite);
+    EXPECT_EQ(above->invariant, 0u);
+    EXPECT_EQ(above->step, 7u);
+    EXPECT_EQ(above->t, 0.5);
+    EXPECT_EQ(std::string(above->what()).rfind("blow-up at step 7, t = 0.5: energy 750.0000000000001 (CFL ", 0), 0u)
+        << above->what();
+    for (const double bad : {std::numeric_limits<double>::infinity(), std::nan("")}) {
+        const auto e = verdict(bad, 1.0), z = verdict(1.0, bad);
+        ASSERT_TRUE(e && z);
+        EXPECT_FALSE(e->finite || z->finite);
+        EXPECT_EQ(e->invariant, 0u);
+        EXPECT_EQ(z->invariant, 1u);
+        EXPECT_NE(std::string(z->what()).find(": enstrophy "), std::string::npos) << z->what();
     }
 }
 

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <memory>
 #include <span>
+#include <stdexcept>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -95,6 +96,17 @@ struct flow_budget {
 /// what the nonlinear term carries from the shells <= k to the others (positive: to smaller scales).
 struct flow_fluxes {
     std::vector<double> energy, enstrophy;
+};
+
+/// A run stopped by flow2d::check_blow_up: what() is its sentence ("blow-up at step i, t = T: energy E (CFL c)"),
+/// without the remedy, which is the front end's (its option names).
+struct flow_blow_up : std::runtime_error {
+    std::uint64_t step;  ///< the step that blew up
+    double t;            ///< the time it reached
+    std::size_t invariant;  ///< which blew up: 0 (E: not finite, or grown beyond the bound), 1 (Z not finite)
+    bool finite;            ///< whether E and Z were still finite (E grown beyond the bound) or not
+    flow_blow_up(const std::string& what, std::uint64_t step_, double t_, std::size_t invariant_, bool finite_)
+        : std::runtime_error(what), step(step_), t(t_), invariant(invariant_), finite(finite_) {}
 };
 
 /// dq/dt = -u . grad q + L q + F on [0, 2 pi)^2 for the equation params().equation, with
@@ -287,6 +299,13 @@ class flow2d {
     /// of it would fail, "a smaller dt" no help) with one line (std::invalid_argument). One right-hand side, not
     /// recorded in a step's budget; collective as check_initial_state. The front ends call it after that check.
     void check_initial_rates(const state_type& q);
+    /// The front ends' blow-up stop, after step `step` (reaching t) of size dt with invariants {E, Z} (the run's
+    /// monitor's values at q): throws flow_blow_up where E or Z is not finite, or where E exceeds 1e3 (e0 +
+    /// injected), energy grown a thousandfold beyond the initial energy and what the forcing put in since (an
+    /// unstable step grows it by orders of magnitude within a few steps; a forced flow's energy stays within its
+    /// injection). Collective (the message's CFL), every process deciding alike (E, Z are global sums).
+    void check_blow_up(const state_type& q, std::span<const double> invariants, double e0, double injected,
+                       std::uint64_t step, double t, double dt);
     /// The CFL number of the front ends' default step (eci run's --cfl, Python's cfl_step and eci.solve).
     static constexpr double default_cfl = 0.5;
     /// The step of CFL number `cfl` at the initial state q, cfl dx / max|u|, at most cfl / max|omega| of the
