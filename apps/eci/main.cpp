@@ -458,7 +458,7 @@ int run_cli(int argc, char** argv) {
         CLI::App* sub = run->get_subcommand(model->info().name);
         if (!sub->parsed()) continue;
         if (sub->count("--dt")) settings.dt = dt;
-        if (sub->count("--t-end")) settings.t_end = t_end;
+        if (sub->count("--t-end")) settings.t_end = t_end + 0.0;  // (-0 is 0: "t 0 to -0" said nothing true)
         if (sub->count("--steps")) settings.steps = steps;
         if (sub->count("--rtol")) settings.rtol = rtol;
         if (sub->count("--atol")) settings.atol = atol;

@@ -12,6 +12,7 @@
 The numerics are the C++ library's: the same steps give the same bits as `eci run`. eci.methods() lists the methods.
 """
 
+import functools
 import math
 import numbers
 import warnings
@@ -367,6 +368,25 @@ def _event_list(events):
     return out
 
 
+def _said_as_given(solve):
+    """A refusal of a method given by SciPy's name (RK45) names it as given, with eci's name beside it: the library
+    speaks of the pair it was mapped to ("method 'dp54' is not available"), a name the user never typed."""
+    @functools.wraps(solve)
+    def call(*args, **kwargs):
+        try:
+            return solve(*args, **kwargs)
+        except ValueError as e:
+            given = kwargs["method"] if "method" in kwargs else args[3] if len(args) > 3 else None
+            ours = _SCIPY_METHODS.get(given) if isinstance(given, str) else None
+            said = ours and str(e).replace(f"'{ours}'", f"'{given}' (eci's {ours})").replace(
+                f"method {ours} ", f"method {given} (eci's {ours}) ")
+            if not said or said == str(e):
+                raise
+            raise ValueError(said) from None
+    return call
+
+
+@_said_as_given
 def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
           transform=None, max_halvings=40, first_step=None, min_step=0.0, max_step=math.inf, max_steps=None,
           t_eval_mode="auto", jac=None, dense_output=False, events=None, vectorized=False, args=None,

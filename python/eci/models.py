@@ -6,6 +6,7 @@ default_t_end and the methods it accepts. Invalid parameters raise ValueError wi
 set-ups are named presets: ThreeWave.preset("fig2").solve() is `eci run three-wave --preset fig2`.
 """
 
+import numbers as _numbers
 import re as _re
 import weakref as _weakref
 from collections import namedtuple as _namedtuple
@@ -126,6 +127,62 @@ def _keywords(init, types=False):
     return params if types else [name for name, _ in params]
 
 
+def _fits(v, t):
+    """Whether v is a value of the compiled signature's type t (float, int, str, bool, Optional[...]; others: yes)."""
+    optional = _re.fullmatch(r"Optional\[(.+)\]", t)
+    if optional:
+        return v is None or _fits(v, optional.group(1))
+    if t == "float":
+        return isinstance(v, _numbers.Real) and not _is_bool(v)
+    if t == "int":
+        return isinstance(v, _numbers.Integral) and not _is_bool(v)
+    if t == "str":
+        return isinstance(v, str)
+    if t == "bool":
+        return isinstance(v, (bool, _np.bool_))
+    return True
+
+
+def _type_text(t):
+    optional = _re.fullmatch(r"Optional\[(.+)\]", t)
+    if optional:
+        return _type_text(optional.group(1)) + " or None"
+    return {"float": "a real number", "int": "a whole number", "str": "a string", "bool": "True or False"}.get(t, t)
+
+
+def _wrong_argument(what, function, args, kwargs):
+    """The one-line TypeError of a call pybind11 refused ("incompatible function arguments" and the signature over
+    many lines): the first argument that is not of its type, by name, or None where none is found."""
+    params = _keywords(function, types=True)
+    given = list(zip(params, args)) + [((k, dict(params).get(k)), v) for k, v in kwargs.items()]
+    for (name, t), v in given:
+        if t is not None and not _fits(v, t.strip()):
+            return TypeError(f"{what}: {name} must be {_type_text(t.strip())}, not {type(v).__name__} {v!r}")
+    return None
+
+
+def _one_line_type_errors(cls, names):
+    """Wraps the compiled methods `names` of cls so that an argument of the wrong type is one line naming it."""
+    def wrapped(name, method):
+        def call(self, *args, **kwargs):
+            try:
+                return method(self, *args, **kwargs)
+            except TypeError as e:
+                if "incompatible function arguments" not in str(e):
+                    raise
+                what = f"{type(self).__name__}" + ("(t, y)" if name == "__call__" else f".{name}()")
+                wrong = _wrong_argument(what, method, args, kwargs)
+                if wrong is None:
+                    raise
+                raise wrong from None
+
+        call.__name__, call.__qualname__, call.__doc__ = name, f"{cls.__name__}.{name}", method.__doc__
+        return call
+
+    for name in names:
+        setattr(cls, name, wrapped(name, cls.__dict__[name]))
+
+
 def _refuse_bools(cls, flags=()):
     """A parameter given as True or False is a mistake the compiled constructor would read as 1 or 0 (nu=True as
     a viscosity of 1, threads=True as one thread): refused with TypeError naming it. `flags` are the parameters
@@ -155,6 +212,9 @@ def _refuse_bools(cls, flags=()):
                                 f"{', '.join(known)})") from None
             if len(args) > len(known):
                 raise TypeError(f"{cls.__name__}() takes at most {len(known)} arguments ({len(args)} given)") from None
+            wrong = _wrong_argument(f"{cls.__name__}()", init, args, kwargs)
+            if wrong is not None:
+                raise wrong from None
             raise TypeError(f"{cls.__name__}(): an argument of the wrong type (it takes: "
                             f"{', '.join(f'{k}: {t}' for k, t in _keywords(init, types=True))})") from None
         _made[self] = (_rebuild, (cls, args, dict(kwargs)))
@@ -168,6 +228,9 @@ for _cls in ode_models:
     _refuse_bools(_cls)
 for _cls in flow_models:
     _refuse_bools(_cls, flags=("fftw_measure", "full_transforms"))
+    _one_line_type_errors(_cls, [k for k, v in vars(_cls).items() if type(v).__name__ == "instancemethod"
+                                 and not k.startswith("_")])
+_one_line_type_errors(Model, ["__call__"])
 
 
 def NWave(*args, complex=False, **kwargs):

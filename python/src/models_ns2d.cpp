@@ -299,6 +299,73 @@ class ns2d_object : public model_base {
 };
 
 
+// A constructor keyword of the spectral classes (after n): its value in a flow's parameters, whether it differs from
+// the constructor's default (repr leaves those out), and its help. beta and deformation: equations with waves only.
+struct flow_keyword {
+    const char* name;
+    py::object (*get)(const ns2d_params&);
+    bool (*given)(const ns2d_params&);
+    const char* doc;
+    bool waves = false;
+};
+
+const std::vector<flow_keyword>& flow_keywords() {
+    static const ns2d_params d;  // (the library's defaults; Python's differ only in fftw_measure)
+    static const std::vector<flow_keyword> k = {
+        {"beta", [](const ns2d_params& p) -> py::object { return py::float_(p.beta); },
+         [](const ns2d_params& p) { return p.beta != 0.0; }, "the planetary vorticity gradient (Rossby waves)", true},
+        {"deformation", [](const ns2d_params& p) -> py::object { return py::float_(p.deformation); },
+         [](const ns2d_params& p) { return p.deformation != 0.0; }, "F = 1 / L_d^2 in q = lap psi - F psi", true},
+        {"nu", [](const ns2d_params& p) -> py::object { return py::float_(p.nu); },
+         [](const ns2d_params& p) { return p.nu != 0.0; }, "viscosity: -nu |k|^2 q"},
+        {"hyper_nu", [](const ns2d_params& p) -> py::object { return py::float_(p.hyper_nu); },
+         [](const ns2d_params& p) { return p.hyper_nu != 0.0; }, "hyperviscosity: -hyper_nu |k|^(2 hyper_p) q"},
+        {"hyper_p", [](const ns2d_params& p) -> py::object { return py::int_(p.hyper_p); },
+         [](const ns2d_params& p) { return p.hyper_p != d.hyper_p; }, "the hyperviscosity's power"},
+        {"hypo_nu", [](const ns2d_params& p) -> py::object { return py::float_(p.hypo_nu); },
+         [](const ns2d_params& p) { return p.hypo_nu != 0.0; }, "hypoviscosity: -hypo_nu |k|^(-2 hypo_p) q"},
+        {"hypo_p", [](const ns2d_params& p) -> py::object { return py::int_(p.hypo_p); },
+         [](const ns2d_params& p) { return p.hypo_p != d.hypo_p; }, "the hypoviscosity's power"},
+        {"drag", [](const ns2d_params& p) -> py::object { return py::float_(p.drag); },
+         [](const ns2d_params& p) { return p.drag != 0.0; }, "linear (Ekman) drag: -drag q"},
+        {"forcing", [](const ns2d_params& p) -> py::object { return py::str(std::string(ns2d_params::forcing_name(p.forcing))); },
+         [](const ns2d_params& p) { return p.forcing != ns2d_forcing::none; }, "none, deterministic or stochastic"},
+        {"forcing_k", [](const ns2d_params& p) -> py::object { return py::float_(p.forcing_k); },
+         [](const ns2d_params& p) { return p.forcing != ns2d_forcing::none && p.forcing_k != d.forcing_k; },
+         "centre k_f of the forced band k_f - 1/2 <= |k| < k_f + 1/2"},
+        {"forcing_amplitude", [](const ns2d_params& p) -> py::object { return py::float_(p.forcing_amplitude); },
+         [](const ns2d_params& p) {
+             return p.forcing == ns2d_forcing::deterministic && p.forcing_amplitude != d.forcing_amplitude;
+         },
+         "deterministic forcing: rms of the forcing field"},
+        {"injection_rate", [](const ns2d_params& p) -> py::object { return py::float_(p.injection_rate); },
+         [](const ns2d_params& p) {
+             return p.forcing == ns2d_forcing::stochastic && p.injection_rate != d.injection_rate;
+         },
+         "stochastic forcing: mean energy injection rate epsilon"},
+        {"forcing_seed", [](const ns2d_params& p) -> py::object { return py::int_(p.forcing_seed); },
+         [](const ns2d_params& p) { return p.forcing != ns2d_forcing::none && p.forcing_seed != d.forcing_seed; },
+         "seed of the forcing's phases and generator"},
+        {"threads", [](const ns2d_params& p) -> py::object { return py::int_(p.threads); },
+         [](const ns2d_params& p) { return p.threads != 1; }, "FFTW and OpenMP threads"},
+        {"fftw_measure", [](const ns2d_params& p) -> py::object { return py::bool_(p.measure); },
+         [](const ns2d_params& p) { return p.measure; }, "FFTW_MEASURE plans (else FFTW_ESTIMATE)"},
+        {"full_transforms", [](const ns2d_params& p) -> py::object { return py::bool_(!p.pruned_transforms); },
+         [](const ns2d_params& p) { return !p.pruned_transforms; }, "FFTW's 2-D plans (the CLI's --full-transforms)"},
+    };
+    return k;
+}
+
+// The flow as the constructor call that makes it again: its class, n, and every keyword that is not the default.
+std::string flow_repr(const ns2d_params& p) {
+    const spectral::equation& e = spectral::find_equation(p.equation);
+    std::string r = std::string(e.python_class) + "(n=" + std::to_string(p.n);
+    for (const flow_keyword& k : flow_keywords())
+        if ((!k.waves || e.dispersion) && k.given(p))
+            r += std::string(", ") + k.name + "=" + py::repr(k.get(p)).cast<std::string>();
+    return r + ")";
+}
+
 // The methods and properties every spectral equation's class has.
 template <class Class>
 void add_flow_methods(Class& c) {
@@ -366,6 +433,10 @@ void add_flow_methods(Class& c) {
         .def("from_physical",
              [](const o& s, const py::object& field) {
                  const std::size_t n = std::size_t(s.model().n());
+                 // (a complex field was cast to its real part, with numpy's warning at most)
+                 if (const py::array a = py::array::ensure(field); a && a.dtype().kind() == 'c')
+                     throw py::type_error("field must be real (a field on the n x n grid), not " +
+                                          py::str(a.dtype()).cast<std::string>());
                  const auto f = py::array_t<double, py::array::c_style | py::array::forcecast>::ensure(field);
                  if (!f || f.size() != py::ssize_t(n * n))
                      throw py::value_error("field must have n x n = " + std::to_string(n * n) + " values");
@@ -415,13 +486,7 @@ void add_flow_methods(Class& c) {
              py::arg("w"), "(Pi_E(k), Pi_Z(k)): the nonlinear term's flux of E and Z out of the shells <= k")
         .def_property_readonly("equation", [](const o& s) { return s.model().params().equation; },
                                "the equation's name (as `eci run` calls it)")
-        .def("__repr__", [](const o& s) {
-            const ns2d_params& p = s.model().params();
-            std::string r = s.model().params().equation + "(n=" + std::to_string(p.n) + ", nu=" + shortest_text(p.nu);
-            if (p.beta != 0.0 || p.deformation != 0.0)
-                r += ", beta=" + shortest_text(p.beta) + ", deformation=" + shortest_text(p.deformation);
-            return r + ")";
-        });
+        .def("__repr__", [](const o& s) { return flow_repr(s.model().params()); });
 }
 
 // A setting's keyword: the library's name of it.
@@ -538,6 +603,10 @@ void bind_equation(py::module_& m, py::list& classes) {
               ECI_FLOW_KEYWORDS);
     }
     add_flow_methods(c);
+    // every constructor keyword of this equation is a read-only property (n above): the value the flow runs with
+    for (const flow_keyword& k : flow_keywords())
+        if (!k.waves || e.dispersion)
+            c.def_property_readonly(k.name, [get = k.get](const o& s) { return get(s.model().params()); }, k.doc);
     classes.append(c);
 }
 

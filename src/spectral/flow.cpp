@@ -100,9 +100,7 @@ void flow_params::validate(const spectral::equation& e) const {
                                   {drag, "drag"}, {forcing_k, "forcing wavenumber k_f"},
                                   {forcing_amplitude, "forcing amplitude"}, {injection_rate, "injection rate"},
                                   {beta, "beta"}, {deformation, "deformation F = 1/L_d^2"}})
-        require(v == 0.0 || std::abs(v) >= std::numeric_limits<double>::min(),
-                std::string(what) + " = " + eci::detail::shortest_text(v) +
-                    " is subnormal (below 2.2e-308): its products underflow to 0; give 0 or a normal number");
+        eci::detail::require_normal(v, what);
     // A grid that cannot fit is refused now, with its size, not as std::bad_alloc after planning: at least 10
     // copies of FFTW's half plane, the measured peak of C-RK4 at N = 4096 (docs/benchmarks.md); methods with more
     // stages need more, so this refuses only what cannot run. Spread over P processes each holds 1/P of it.
@@ -1365,14 +1363,15 @@ flow2d::state_type flow2d::from_physical_rows(std::span<const double> rows) {
         throw std::invalid_argument("rows hold " + std::to_string(rows.size()) + " values, this process's " +
                                     std::to_string(g.local_rows()) + " rows " +
                                     std::to_string(std::size_t(g.local_rows()) * std::size_t(n_)));
+    const double s = g.field_scale(rows, g.first_row());  // (collective: a value not finite refused everywhere)
     double* r = g.physical(0);
     for (int y = 0; y < g.local_rows(); ++y) {
         const auto src = rows.begin() + std::ptrdiff_t(y) * n_;
-        std::copy(src, src + n_, r + std::size_t(y) * g.padded());
+        std::transform(src, src + n_, r + std::size_t(y) * g.padded(), [s](double f) { return f / s; });
         std::fill(r + std::size_t(y) * g.padded() + std::size_t(n_), r + std::size_t(y + 1) * g.padded(), 0.0);
     }
     g.forward(0, 1);
-    const double scale = 1.0 / double(g.points());
+    const double scale = s * (1.0 / double(g.points()));  // (s a power of two: the unscaled product where s = 1)
     state_type q(size());
     for (std::size_t i = 0; i < size(); ++i) {
         const int row = int(row_of(i));

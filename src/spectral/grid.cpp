@@ -7,10 +7,13 @@
 #include <omp.h>
 #include <sys/mman.h>
 
+#include <algorithm>
 #include <climits>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <limits>
 #include <mutex>
 #include <new>
 #include <numbers>
@@ -770,17 +773,45 @@ std::vector<cplx> grid::from_physical(std::span<const double> field) const {
     if (field.size() != points())
         throw std::invalid_argument("field has " + std::to_string(field.size()) + " values, the grid " +
                                     std::to_string(points()));
+    const double s = field_scale(field, 0);
     double* r = physical(0);
     for (int y = 0; y < n_; ++y)
-        std::copy(field.begin() + std::ptrdiff_t(y) * n_, field.begin() + std::ptrdiff_t(y + 1) * n_,
-                  r + std::size_t(y) * padded());
+        std::transform(field.begin() + std::ptrdiff_t(y) * n_, field.begin() + std::ptrdiff_t(y + 1) * n_,
+                       r + std::size_t(y) * padded(), [s](double f) { return f / s; });
     forward(0, 1);
     std::vector<cplx> w(size());
-    const double scale = 1.0 / double(points());
+    const double scale = s * (1.0 / double(points()));  // (s a power of two: the unscaled product where s = 1)
     const cplx* c = spectral(0);
     for (std::size_t i = 0; i < size(); ++i) w[i] = retained(i) ? scale * c[i] : cplx{};
     make_hermitian(w.data());
     return w;
+}
+
+double grid::field_scale(std::span<const double> values, int first_row) const {
+    // the largest magnitude and the first value that is not finite (minus its index over the whole field; -inf:
+    // none), reduced over the processes, and then what that value is: every process refuses the same value alike
+    constexpr double none = -std::numeric_limits<double>::infinity();
+    const std::size_t first = std::size_t(first_row) * std::size_t(n_);
+    double v[2] = {0.0, none};
+    for (std::size_t j = 0; j < values.size(); ++j) {
+        if (!std::isfinite(values[j])) {
+            v[1] = -double(first + j);
+            break;
+        }
+        v[0] = std::max(v[0], std::abs(values[j]));
+    }
+    const double own = v[1];
+    max_over_ranks(v, 2);
+    if (v[1] != none) {
+        const auto at = std::size_t(-v[1]);
+        double kind = own == v[1] ? (std::isnan(values[at - first]) ? 0.0 : values[at - first] > 0 ? 1.0 : 2.0) : -1.0;
+        max_over_ranks(&kind, 1);
+        throw std::invalid_argument("field value at x = " + std::to_string(at % std::size_t(n_)) + ", y = " +
+                                    std::to_string(at / std::size_t(n_)) + " is " +
+                                    (kind == 0.0 ? "nan" : kind == 1.0 ? "inf" : "-inf") + ": a field must be finite");
+    }
+    const double limit = std::numeric_limits<double>::max() / (4.0 * double(n_) * double(n_));
+    return v[0] < limit ? 1.0 : std::ldexp(1.0, std::ilogb(v[0]) + 1);  // (then max |f / s| < 1)
 }
 
 std::string grid::beyond_retained(double k) const {

@@ -321,3 +321,8 @@ def test_scipys_explicit_method_names_are_the_same_pairs():
         assert a.method == name and np.array_equal(a.t, b.t) and np.array_equal(a.y, b.y)
     with pytest.raises(ValueError, match="unknown method 'Radau'"):
         eci.solve(f, (0.0, 3.0), [1.0, 0.0], method="Radau")
+    # a refusal names the method as it was given, with eci's name beside it
+    with pytest.raises(ValueError, match=r"^method 'RK45' \(eci's dp54\) is not available for model navier-stokes-2d "):
+        eci.solve(eci.models.NavierStokes2D(n=16), (0.0, 1.0), method="RK45", dt=0.1)
+    with pytest.raises(ValueError, match=r"^method RK23 \(eci's bs32\) has no error estimate for rtol/atol; "):
+        eci.solve(eci.models.NavierStokes2D(n=16), (0.0, 1.0), None, "RK23", rtol=1e-6)

@@ -32,6 +32,29 @@ def test_state_diagnostics_and_fields():
     assert m(0.0, w).shape == w.shape
 
 
+# from_physical takes a real, finite field: a complex one was cast to its real part (numpy's warning at most), a nan
+# or inf made a state of nans, and a field near the largest double overflowed in the transform's sums ("initial
+# condition is not finite" of a finite field). The last is transformed scaled by a power of two: its modes are
+# exactly those of the field scaled down, scaled back; a field below the threshold is transformed as before.
+def test_from_physical_takes_real_finite_fields_up_to_the_largest_double():
+    m = NS(n=32, fftw_measure=False)
+    field = m.to_physical(m.random_field(k_peak=3.0, seed=2))
+    with pytest.raises(TypeError, match=r"^field must be real \(a field on the n x n grid\), not complex128$"):
+        m.from_physical(field.astype(complex))
+    for bad, text in ((np.nan, "nan"), (np.inf, "inf"), (-np.inf, "-inf")):
+        f = field.copy()
+        f[5, 3] = bad
+        with pytest.raises(ValueError, match=rf"^field value at x = 3, y = 5 is {text}: a field must be finite$"):
+            m.from_physical(f)
+    big = field / np.max(np.abs(field)) * 1.5e308
+    w = m.from_physical(big)
+    scale = 2.0 ** -1024  # (a power of two: exact)
+    assert np.all(np.isfinite(w)) and np.array_equal(w * scale, m.from_physical(big * scale))
+    # the same in eci.solve's check: the field is finite, its energy (a sum of squares) is not
+    with pytest.raises(ValueError, match="must be finite normal numbers"):
+        eci.solve(m, (0.0, 1.0), w, dt=0.1)
+
+
 def test_random_field_refuses_a_peak_beyond_the_retained_modes_as_the_cli_does():
     # eci run's --k-peak 6 at N = 16 says the same (tests/python/test_cli_run_files.py); the default peak 8 is kept
     # on a grid whose kmax is 5, and a peak at kmax is accepted

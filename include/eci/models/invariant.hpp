@@ -53,7 +53,8 @@ void require_normal(double v, const What& what) {
     require_finite(v, what);
     if (v != 0.0 && std::abs(v) < std::numeric_limits<double>::min())
         throw std::invalid_argument(describe(what) + " = " + shortest_text(v) +
-                                    " is subnormal (below 2.2e-308): its products underflow to 0");
+                                    " is subnormal (below 2.2e-308): its products underflow to 0; give 0 or a "
+                                    "normal number");
 }
 
 /// Throw std::invalid_argument unless a product or power computed from the inputs (`value`, described by

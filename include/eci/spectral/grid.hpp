@@ -235,7 +235,14 @@ class grid {
     /// The real field (row-major, n x n, y rows) of a state.
     std::vector<double> to_physical(const cplx* f) const;
     /// The state of a real field on the grid (row-major, n x n): transformed, truncated to the retained modes.
+    /// Refuses a value that is not finite (field_scale); a field near the largest double is transformed scaled.
     std::vector<cplx> from_physical(std::span<const double> field) const;
+    /// The power of two a real field is divided by before its forward transform, so that the transform's sums (up
+    /// to n^2 max |f|) cannot overflow where its modes (at most max |f|) do not: 1 for every field below
+    /// DBL_MAX / (4 n^2), whose transform is then the unscaled one bit for bit. `values` are this process's rows
+    /// from row `first_row` (the whole field on one process); std::invalid_argument naming the first value that is
+    /// not finite ("field value at x = 3, y = 5 is nan: a field must be finite"). Collective.
+    double field_scale(std::span<const double> values, int first_row) const;
     /// Shells k = round(|k|) = 0 .. shell_count() - 1 hold every retained mode (spectra).
     std::size_t shell_count() const;
 
