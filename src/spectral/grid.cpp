@@ -811,7 +811,7 @@ double grid::field_scale(std::span<const double> values, int first_row) const {
                                     (kind == 0.0 ? "nan" : kind == 1.0 ? "inf" : "-inf") + ": a field must be finite");
     }
     const double limit = std::numeric_limits<double>::max() / (4.0 * double(n_) * double(n_));
-    return v[0] < limit ? 1.0 : std::ldexp(1.0, std::ilogb(v[0]) + 1);  // (then max |f / s| < 1)
+    return v[0] < limit ? 1.0 : std::ldexp(1.0, std::ilogb(v[0]));  // (then max |f / s| < 2; s <= 2^1023)
 }
 
 std::string grid::beyond_retained(double k) const {
