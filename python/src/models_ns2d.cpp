@@ -138,7 +138,8 @@ class ns2d_object : public model_base {
                     const bool dt_given = !settings.contains("dt_given") || settings["dt_given"].cast<bool>();
                     throw std::invalid_argument(
                         "t_eval time " + eci::detail::shortest_text(te) +
-                        " is not on the step grid t0 + i dt of dt = " + eci::detail::shortest_text(dt) + (dt_given ? "" : " (the CFL 0.5 step of y0: no dt was given)") + "; " +
+                        " is not on the step grid t0 + i dt of dt = " + eci::detail::shortest_text(dt) +
+                        (dt_given ? "" : " (the CFL 0.5 step of y0: no dt was given)") + "; " +
                         name() + " outputs whole steps: give output_dt= for evenly spaced outputs (the step is " +
                         "then shortened to divide it), or a dt of which every t_eval time is a whole multiple " +
                         "after t0");
@@ -328,7 +329,10 @@ const std::vector<flow_keyword>& flow_keywords() {
          [](const ns2d_params& p) { return p.hypo_p != d.hypo_p; }, "the hypoviscosity's power"},
         {"drag", [](const ns2d_params& p) -> py::object { return py::float_(p.drag); },
          [](const ns2d_params& p) { return p.drag != 0.0; }, "linear (Ekman) drag: -drag q"},
-        {"forcing", [](const ns2d_params& p) -> py::object { return py::str(std::string(ns2d_params::forcing_name(p.forcing))); },
+        {"forcing",
+         [](const ns2d_params& p) -> py::object {
+             return py::str(std::string(ns2d_params::forcing_name(p.forcing)));
+         },
          [](const ns2d_params& p) { return p.forcing != ns2d_forcing::none; }, "none, deterministic or stochastic"},
         {"forcing_k", [](const ns2d_params& p) -> py::object { return py::float_(p.forcing_k); },
          [](const ns2d_params& p) { return p.forcing != ns2d_forcing::none && p.forcing_k != d.forcing_k; },
