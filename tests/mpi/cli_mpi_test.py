@@ -281,6 +281,15 @@ def case_bad_input(d):
         check("MPI_ABORT" not in r.stderr, f"-np {np_} {option} nodir/x.out: no MPI_Abort")
         check(len(own) == 1 and "nodir/x.out" in own[0], f"-np {np_} {option} nodir/x.out: one line: {own}")
         check(os.listdir(sub) == [], f"-np {np_} {option} nodir/x.out: nothing written ({os.listdir(sub)})")
+    # what the tool prints on standard output without running (--version, --help, eci list) is printed once, as
+    # serially (every process printed it before)
+    for cmd in (["--version"], ["list"], ["run", "navier-stokes-2d", "--help"]):
+        serial = subprocess.run([ECI] + cmd, env=ENV, capture_output=True, text=True, timeout=60)
+        spread = subprocess.run([MPIEXEC, "--oversubscribe", "-np", "3", ECI] + cmd, env=ENV, capture_output=True,
+                                text=True, timeout=60)
+        check(spread.returncode == 0 and spread.stdout == serial.stdout and serial.stdout,
+              f"-np 3 eci {' '.join(cmd)}: the serial tool's output, once ({spread.stdout.count(serial.stdout[:20])} "
+              f"times)")
     # a model whose run is not spread over processes: every process would run it whole and write the same files
     sub = tempfile.mkdtemp(dir=d)
     r = run(2, ["--output", "o.csv"], sub, equation="three-wave")
