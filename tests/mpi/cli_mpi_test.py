@@ -290,6 +290,12 @@ def case_bad_input(d):
         check(spread.returncode == 0 and spread.stdout == serial.stdout and serial.stdout,
               f"-np 3 eci {' '.join(cmd)}: the serial tool's output, once ({spread.stdout.count(serial.stdout[:20])} "
               f"times)")
+    # --fftw-wisdom FILE, which the serial run writes, is not used by a spread run: one warning, no file
+    sub = tempfile.mkdtemp(dir=d)
+    r = run(2, ["--N", "32", "--steps", "1", "--fftw-estimate", "--fftw-wisdom", "w.wis"], sub)
+    own = [l for l in r.stderr.splitlines() if l.startswith("eci: warning")]
+    check(r.returncode == 0 and len(own) == 1 and "'w.wis' is not used" in own[0] and os.listdir(sub) == [],
+          f"-np 2 --fftw-wisdom w.wis: one warning, no file ({own}, {os.listdir(sub)})")
     # a model whose run is not spread over processes: every process would run it whole and write the same files
     sub = tempfile.mkdtemp(dir=d)
     r = run(2, ["--output", "o.csv"], sub, equation="three-wave")
