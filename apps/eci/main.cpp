@@ -520,11 +520,12 @@ int main_inner(int argc, char** argv) {
 int main(int argc, char** argv) {
 #ifdef ECI_MPI
     // The MPI build: under mpirun the spectral equations run spread over the processes (model_spectral.cpp). Only
-    // rank 0 speaks: the others' messages (each process meets the same errors) go nowhere.
+    // rank 0 speaks: the others' messages (each process meets the same errors) and their standard output (--help,
+    // --version and `eci list`, printed by every process; a run's CSV or JSON to '-' is rank 0's) go nowhere.
     MPI_Init(&argc, &argv);
     int rank = 0;
     MPI_Comm_rank(MPI_COMM_WORLD, &rank);
-    if (rank != 0 && !std::freopen("/dev/null", "w", stderr)) return 1;
+    if (rank != 0 && (!std::freopen("/dev/null", "w", stderr) || !std::freopen("/dev/null", "w", stdout))) return 1;
     int status = main_inner(argc, argv);
     // Ctrl-C reaches mpirun alone, which sends every process SIGTERM: an interrupted run spread over processes
     // exits 130 on every one (each has written its part of the checkpoint's agreement), whichever signal came.

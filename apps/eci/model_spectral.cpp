@@ -775,6 +775,13 @@ int spectral_command::run_spread(const run_settings& settings) {
 #ifdef ECI_MPI
     if (mpi.on) {
         p.comm = MPI_COMM_WORLD;
+        // A wisdom file named on the command line is neither read nor written, where the serial run writes it: said
+        // once, rather than leaving the user to find no file (the default cache is left alone silently)
+        if (!default_wisdom && !wisdom_path.empty() && mpi.rank == 0)
+            std::fprintf(stderr,
+                         "eci: warning: --fftw-wisdom '%s' is not used by a run spread over %d processes (each plans "
+                         "its own part of the transforms): it is neither read nor written\n",
+                         wisdom_path.c_str(), mpi.size);
         wisdom_text.reset();  // (each process plans its own part; the MPI plans are not kept in a wisdom file)
         wisdom_path.clear();
         p.wisdom.clear();  // (nor taken from a checkpoint: another process count plans other transforms)

@@ -2,7 +2,8 @@
 """`mpirun -np P eci run navier-stokes-2d ...` against the same run of the tool on one process.
 
 usage: cli_mpi_test.py ECI MPIEXEC CASE
-       (CASE: state, restart, snapshot, bad-input, signal, abort, rank-failure, memory, files, write-failure)
+       (CASE: state, restart, snapshot, bad-input, signal, abort, rank-failure, memory, files, write-failure,
+       idle-rank)
 
 Each case runs in a fresh temporary directory and exits 0 when every check holds; each check prints one line.
 
@@ -280,6 +281,21 @@ def case_bad_input(d):
         check("MPI_ABORT" not in r.stderr, f"-np {np_} {option} nodir/x.out: no MPI_Abort")
         check(len(own) == 1 and "nodir/x.out" in own[0], f"-np {np_} {option} nodir/x.out: one line: {own}")
         check(os.listdir(sub) == [], f"-np {np_} {option} nodir/x.out: nothing written ({os.listdir(sub)})")
+    # what the tool prints on standard output without running (--version, --help, eci list) is printed once, as
+    # serially (every process printed it before)
+    for cmd in (["--version"], ["list"], ["run", "navier-stokes-2d", "--help"]):
+        serial = subprocess.run([ECI] + cmd, env=ENV, capture_output=True, text=True, timeout=60)
+        spread = subprocess.run([MPIEXEC, "--oversubscribe", "-np", "3", ECI] + cmd, env=ENV, capture_output=True,
+                                text=True, timeout=60)
+        check(spread.returncode == 0 and spread.stdout == serial.stdout and serial.stdout,
+              f"-np 3 eci {' '.join(cmd)}: the serial tool's output, once ({spread.stdout.count(serial.stdout[:20])} "
+              f"times)")
+    # --fftw-wisdom FILE, which the serial run writes, is not used by a spread run: one warning, no file
+    sub = tempfile.mkdtemp(dir=d)
+    r = run(2, ["--N", "32", "--steps", "1", "--fftw-estimate", "--fftw-wisdom", "w.wis"], sub)
+    own = [l for l in r.stderr.splitlines() if l.startswith("eci: warning")]
+    check(r.returncode == 0 and len(own) == 1 and "'w.wis' is not used" in own[0] and os.listdir(sub) == [],
+          f"-np 2 --fftw-wisdom w.wis: one warning, no file ({own}, {os.listdir(sub)})")
     # a model whose run is not spread over processes: every process would run it whole and write the same files
     sub = tempfile.mkdtemp(dir=d)
     r = run(2, ["--output", "o.csv"], sub, equation="three-wave")
@@ -676,9 +692,46 @@ def case_write_failure(d):
                                                   f"({sorted(os.listdir(sub))})")
 
 
+def case_idle_rank(d):
+    # More processes than retained columns (N = 8: k_max + 1 = 3 columns; on 4 and 5 processes the last hold none,
+    # docs/turbulence.md): such a process takes part in every collective with an empty share. The conditioned
+    # update's rescale read its "largest weight" out of an empty array (a segmentation fault on every such run
+    # before the fix). The run, its files and a restart on another count of idle processes = the serial tool's.
+    steps = 6
+    bound = 16 * EPS * np.sqrt(steps)
+    args = ["--N", "8", "--dt", "0.002", "--fftw-estimate", "--fftw-wisdom", "none", "--nu", "1e-3",
+            "--forcing", "stochastic", "--forcing-k", "2", "--snapshot-every", "3"]
+    r = run(0, args + ["--steps", str(steps), "--checkpoint-every", "3", "--checkpoint", "s.h5", "--output", "s.csv",
+                       "--snapshot-dir", "s"], d)
+    check(r.returncode == 0, f"N = 8 serially (exit {r.returncode})")
+    ref, _ = state(os.path.join(d, "s.h5"))
+    for np_ in (4, 5):
+        r = run(np_, args + ["--steps", str(steps), "--checkpoint-every", "3", "--checkpoint", f"p{np_}.h5",
+                             "--output", f"p{np_}.csv", "--snapshot-dir", f"p{np_}"], d)
+        check(r.returncode == 0, f"N = 8 on -np {np_} (a process without columns): exit {r.returncode}"
+                                 + (f" {r.stderr.strip()[-300:]}" if r.returncode else ""))
+        if r.returncode:
+            continue
+        diff = rel(state(os.path.join(d, f"p{np_}.h5"))[0], ref)
+        check(diff <= bound, f"N = 8 -np {np_}: state = serial to {diff:.3g} <= {bound:.3g}")
+        check(sorted(os.listdir(os.path.join(d, f"p{np_}"))) == sorted(os.listdir(os.path.join(d, "s"))),
+              f"N = 8 -np {np_}: the serial run's snapshot files")
+    # a checkpoint of 4 processes (one idle) continued on 5 (two idle) = the uninterrupted serial run
+    r = run(4, args + ["--steps", "3", "--checkpoint-every", "3", "--checkpoint", "half.h5"], d)
+    r = run(5, ["--restart", "half.h5", "--steps", str(steps), "--checkpoint", "r.h5", "--fftw-wisdom", "none"], d)
+    check(r.returncode == 0, f"N = 8: a 4-process checkpoint restarted on 5: exit {r.returncode}")
+    if r.returncode == 0:
+        diff = rel(state(os.path.join(d, "r.h5"))[0], ref)
+        check(diff <= bound, f"N = 8: restart 4 -> 5 processes = the serial run to {diff:.3g}")
+    for eq in ("charney-hasegawa-mima", "surface-qg"):
+        r = run(4, ["--N", "8", "--dt", "0.002", "--fftw-estimate", "--fftw-wisdom", "none", "--steps", "3"], d, eq)
+        check(r.returncode == 0, f"{eq} N = 8 on -np 4: exit {r.returncode}")
+
+
 with tempfile.TemporaryDirectory() as d:
     {"state": case_state, "restart": case_restart, "snapshot": case_snapshot, "bad-input": case_bad_input,
      "signal": case_signal, "abort": case_abort, "rank-failure": case_rank_failure,
-     "memory": case_memory, "files": case_files, "write-failure": case_write_failure}[CASE](d)
+     "memory": case_memory, "files": case_files, "write-failure": case_write_failure,
+     "idle-rank": case_idle_rank}[CASE](d)
 print(f"{CASE}: {'FAILED' if failures else 'passed'} ({failures} failure(s))")
 sys.exit(1 if failures else 0)

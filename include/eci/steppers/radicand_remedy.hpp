@@ -1284,7 +1284,10 @@ class radicand_remedy {
         if (whole_.nonnegative && whole_.elements < (std::size_t(1) << 32)) {
             double ub = 0.0, lb = 0.0;
             for (std::size_t j = 0; j < m; ++j) ub += std::abs(c[j]) * whole_.wmax[j];
-            for (std::size_t j = 0; j < m; ++j) lb = std::max(lb, s_at(c, wargmax_[j]));
+            // (a process that holds no element, spread over more processes than the state has columns, has no
+            // largest weight: it adds nothing, and still takes part in the reduction)
+            if (n != 0)
+                for (std::size_t j = 0; j < m; ++j) lb = std::max(lb, s_at(c, wargmax_[j]));
             reduce_.max({&lb, 1});  // (spread: |s| at this process's largest weights, the largest over all)
             bool settled = ub * (1.0 + 0x1p-40) <= taylor_limit && (!conditioned || lb >= 0x1p-48);
             for (std::size_t j = 0; settled && j < m; ++j) {
