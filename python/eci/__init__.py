@@ -13,6 +13,7 @@ The numerics are the C++ library's: the same steps give the same bits as `eci ru
 """
 
 import functools
+import inspect
 import math
 import numbers
 import warnings
@@ -376,7 +377,10 @@ def _said_as_given(solve):
         try:
             return solve(*args, **kwargs)
         except ValueError as e:
-            given = kwargs["method"] if "method" in kwargs else args[3] if len(args) > 3 else None
+            try:  # (by solve's own signature: its parameters' order is not typed here)
+                given = inspect.signature(solve).bind(*args, **kwargs).arguments.get("method")
+            except TypeError:
+                raise e from None
             ours = _SCIPY_METHODS.get(given) if isinstance(given, str) else None
             said = ours and str(e).replace(f"'{ours}'", f"'{given}' (eci's {ours})").replace(
                 f"method {ours} ", f"method {given} (eci's {ours}) ")
@@ -591,7 +595,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
                              "invariants are those the transform makes linear")
         weights = _quadratic_weights(quadratic_invariants, y)
     # result.invariants is a dict by name: a name given twice, or one the run reports already, would replace a record
-    reserved = list(fun.invariant_names) if is_model else [f"quadratic_{j}" for j in range(0 if weights is None else len(weights))]
+    reserved = (list(fun.invariant_names) if is_model
+                else [f"quadratic_{j}" for j in range(0 if weights is None else len(weights))])
     _check_invariant_names(inv_names, reserved, f"model {fun.name}'s own invariant" if is_model
                            else "one of quadratic_invariants")
 

@@ -170,8 +170,7 @@ def _one_line_type_errors(cls, names):
             except TypeError as e:
                 if "incompatible function arguments" not in str(e):
                     raise
-                what = f"{type(self).__name__}" + ("(t, y)" if name == "__call__" else f".{name}()")
-                wrong = _wrong_argument(what, method, args, kwargs)
+                wrong = _wrong_argument(f"{type(self).__name__}.{name}()", method, args, kwargs)
                 if wrong is None:
                     raise
                 raise wrong from None
@@ -230,7 +229,6 @@ for _cls in flow_models:
     _refuse_bools(_cls, flags=("fftw_measure", "full_transforms"))
     _one_line_type_errors(_cls, [k for k, v in vars(_cls).items() if type(v).__name__ == "instancemethod"
                                  and not k.startswith("_")])
-_one_line_type_errors(Model, ["__call__"])
 
 
 def NWave(*args, complex=False, **kwargs):

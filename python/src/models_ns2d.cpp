@@ -226,7 +226,7 @@ class ns2d_object : public model_base {
         if (interrupt_pending) throw py::error_already_set();
         report.rejected.step_failed = report.stats.step_reductions;
         py::dict d = result_dict(out, m.size(), report, drift, info);
-        d["failure"] = failed    ? py::object(failure_of(*failed, report.stats, max_halvings, cfg.dt))
+        d["failure"] = failed    ? py::object(failure_of(*failed, max_halvings, cfg.dt))
                        : blew_up ? py::object(failure_of(*blew_up, cfg.dt))
                                  : py::object(py::none());
         d["stopped_at"] = py::none();
@@ -242,14 +242,14 @@ class ns2d_object : public model_base {
     /// result.failure of a run the library's report ended (failure_dict's kind, cause and numbers), with the CLI's
     /// sentence for a failed step (its step number, the radicand named only for the conservative methods) and
     /// the stiffness of the damping where that is the cause to act on.
-    py::dict failure_of(const solve_report& r, const run_stats& stats, int max_halvings, double dt) const {
+    py::dict failure_of(const solve_report& r, int max_halvings, double dt) const {
         const run_failure& e = *r.failure;
         py::dict f = failure_dict(r, component_namer{});
         f["component_name"] = "mode " + std::to_string(e.component);
         const std::string hint = model_->stiffness_hint(dt);
         const std::string stiff = hint.empty() ? std::string() : "; " + hint;
         if (e.kind == run_failure_kind::step_failed)
-            f["message"] = "step " + std::to_string(stats.steps + 1) + " failed at t = " + full_text(e.t) +
+            f["message"] = "step " + std::to_string(r.stats.steps + 1) + " failed at t = " + full_text(e.t) +
                            " even with the step halved " + std::to_string(max_halvings) + " times (down to dt = " +
                            full_text(e.dt) + "): " +
                            (e.non_finite_rate_value ? "a rate is " + full_text(*e.non_finite_rate_value)
