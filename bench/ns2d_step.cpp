@@ -223,8 +223,15 @@ int main(int argc, char** argv) {
         // as a run takes its steps (ns2d-sequential: no copy before a step, which leaves the state in cache, so a
         // step starts from the state the previous one wrote, as in `eci run`). The second row beside the first says
         // whether stepping from a fresh copy flatters the ratios.
-        const auto rounds = [&](const char* row, bool fresh) {
+        // hooked: each step between begin_attempt and end_attempt, the budget's rates recorded at every stage, as
+        // eci run and eci.solve take their steps (ns2d-run-paired, sequential).
+        const auto rounds = [&](const char* row, bool fresh, bool hooked = false) {
             state wc = w0, wr = w0;
+            const auto step = [&](auto& st, state& w) {
+                if (hooked) m.begin_attempt();
+                const bool ok = bool(st.step(m, w, 0.0, dt));
+                if (hooked) m.end_attempt(ok, dt, std::span<const double>(std::decay_t<decltype(st)>::tableau.b));
+            };
             std::vector<double> c_fft, r_fft, c_r;
             for (int round = 0; round < 9 * reps; ++round) {
                 double t = now();
@@ -232,11 +239,11 @@ int main(int argc, char** argv) {
                 const double fft = seconds_since(t);
                 if (fresh) wc = w0;
                 t = now();
-                crk.step(m, wc, 0.0, dt);
+                step(crk, wc);
                 const double c = seconds_since(t);
                 if (fresh) wr = w0;
                 t = now();
-                rk.step(m, wr, 0.0, dt);
+                step(rk, wr);
                 const double r = seconds_since(t);
                 c_fft.push_back(c / fft), r_fft.push_back(r / fft), c_r.push_back(c / r);
             }
@@ -246,6 +253,7 @@ int main(int argc, char** argv) {
         };
         rounds("ns2d-paired", true);
         rounds("ns2d-sequential", false);
+        rounds("ns2d-run-paired", false, true);
     }
     // The steps as a run takes them (the budget's rates recorded at every stage, as eci run and eci.solve do)
     std::printf("ns2d-run N=%d threads=%d rk4_run=%.6g c_rk4_run=%.6g rk4_run/rk4=%.4f c_rk4_run/rk4_run=%.4f "
