@@ -1363,13 +1363,7 @@ flow2d::state_type flow2d::from_physical_rows(std::span<const double> rows) {
         throw std::invalid_argument("rows hold " + std::to_string(rows.size()) + " values, this process's " +
                                     std::to_string(g.local_rows()) + " rows " +
                                     std::to_string(std::size_t(g.local_rows()) * std::size_t(n_)));
-    const double s = g.field_scale(rows, g.first_row());  // (collective: a value not finite refused everywhere)
-    double* r = g.physical(0);
-    for (int y = 0; y < g.local_rows(); ++y) {
-        const auto src = rows.begin() + std::ptrdiff_t(y) * n_;
-        std::transform(src, src + n_, r + std::size_t(y) * g.padded(), [s](double f) { return f / s; });
-        std::fill(r + std::size_t(y) * g.padded() + std::size_t(n_), r + std::size_t(y + 1) * g.padded(), 0.0);
-    }
+    const double s = g.load_physical_rows(rows, g.first_row());
     g.forward(0, 1);
     const double scale = s * (1.0 / double(g.points()));  // (s a power of two: the unscaled product where s = 1)
     state_type q(size());

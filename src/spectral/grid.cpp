@@ -773,11 +773,7 @@ std::vector<cplx> grid::from_physical(std::span<const double> field) const {
     if (field.size() != points())
         throw std::invalid_argument("field has " + std::to_string(field.size()) + " values, the grid " +
                                     std::to_string(points()));
-    const double s = field_scale(field, 0);
-    double* r = physical(0);
-    for (int y = 0; y < n_; ++y)
-        std::transform(field.begin() + std::ptrdiff_t(y) * n_, field.begin() + std::ptrdiff_t(y + 1) * n_,
-                       r + std::size_t(y) * padded(), [s](double f) { return f / s; });
+    const double s = load_physical_rows(field, 0);
     forward(0, 1);
     std::vector<cplx> w(size());
     const double scale = s * (1.0 / double(points()));  // (s a power of two: the unscaled product where s = 1)
@@ -785,6 +781,18 @@ std::vector<cplx> grid::from_physical(std::span<const double> field) const {
     for (std::size_t i = 0; i < size(); ++i) w[i] = retained(i) ? scale * c[i] : cplx{};
     make_hermitian(w.data());
     return w;
+}
+
+double grid::load_physical_rows(std::span<const double> rows, int first_row) const {
+    const double s = field_scale(rows, first_row);  // (collective: a value not finite refused everywhere)
+    double* r = physical(0);
+    const std::size_t count = rows.size() / std::size_t(n_);
+    for (std::size_t y = 0; y < count; ++y) {
+        const auto src = rows.begin() + std::ptrdiff_t(y * std::size_t(n_));
+        std::transform(src, src + n_, r + y * padded(), [s](double f) { return f / s; });
+        std::fill(r + y * padded() + std::size_t(n_), r + (y + 1) * padded(), 0.0);
+    }
+    return s;
 }
 
 double grid::field_scale(std::span<const double> values, int first_row) const {

@@ -243,6 +243,10 @@ class grid {
     /// from row `first_row` (the whole field on one process); std::invalid_argument naming the first value that is
     /// not finite ("field value at x = 3, y = 5 is nan: a field must be finite"). Collective.
     double field_scale(std::span<const double> values, int first_row) const;
+    /// Puts this process's rows of a real field (`rows`, from row `first_row`; the whole field on one process) into
+    /// physical field 0, each divided by field_scale's power of two (the padding zeroed), and returns that power:
+    /// the first half of every forward transform of a user's field (from_physical here and flow2d's). Collective.
+    double load_physical_rows(std::span<const double> rows, int first_row) const;
     /// Shells k = round(|k|) = 0 .. shell_count() - 1 hold every retained mode (spectra).
     std::size_t shell_count() const;
 
