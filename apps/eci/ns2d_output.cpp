@@ -929,8 +929,10 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
 
 namespace {
 
-// The log-log picture of E(k) (e[k], k >= 1) from the spectrum CSV `csv_path`, drawn to `png_path`; false if it was
-// not drawn (no plotting program, or stopped).
+// The picture of a spectrum CSV `csv_path` (write_spectrum's columns k, E, Z, Pi_E, Pi_Z), drawn to `png_path`: E(k)
+// (e[k], k >= 1) log-log above, and below the fluxes Pi_E(k) and Pi_Z(k) through each shell (Pi_E on the left axis,
+// Pi_Z on the right: the cascades' directions, positive to smaller scales); false if it was not drawn (no plotting
+// program, or stopped).
 bool draw_spectrum(const std::string& csv_path, const std::string& png_path, const std::vector<double>& e, double t) {
     // Guides through the spectrum's peak: k^-3 (enstrophy cascade) and k^-5/3 (inverse energy cascade).
     std::size_t kp = 1;
@@ -940,13 +942,22 @@ bool draw_spectrum(const std::string& csv_path, const std::string& png_path, con
     char title[64];
     std::snprintf(title, sizeof title, "energy spectrum, t = %.4g", t);
     const std::string& ptmp = png_path;
-    std::string s = "set terminal pngcairo size 720,540\nset output " + gnuplot_quoted(ptmp) + "\nset datafile separator ','\n";
+    const std::string csv = gnuplot_quoted(csv_path);
+    std::string s = "set terminal pngcairo size 720,860\nset output " + gnuplot_quoted(ptmp) +
+                    "\nset datafile separator ','\nset multiplot layout 2,1\nset autoscale xfix\n";
     s += "set logscale xy\nset format y '10^{%L}'\nset xlabel 'k'\nset ylabel 'E(k)'\nset key bottom left\n";
     s += "set title " + gnuplot_quoted(title) + "\n";
     s += "set yrange [" + gnuplot_number(ep * 1e-12) + ":" + gnuplot_number(ep * 10) + "]\n";
-    s += "plot " + gnuplot_quoted(csv_path) + " skip 1 using 1:($2 > 0 ? $2 : NaN) with linespoints pt 7 ps 0.4 title 'E(k)', ";
+    s += "plot " + csv + " skip 1 using 1:($2 > 0 ? $2 : NaN) with linespoints pt 7 ps 0.4 title 'E(k)', ";
     s += gnuplot_number(ep) + "*(x/" + std::to_string(kp) + ".)**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
     s += gnuplot_number(ep) + "*(x/" + std::to_string(kp) + ".)**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
+    // the fluxes: linear in Pi, log in k; a line at zero (above it the transfer is to larger k)
+    s += "unset logscale y\nset logscale x\nset format y '%g'\nset yrange [*:*]\nset y2range [*:*]\n";
+    s += "set title 'fluxes through shell k (> 0: towards larger k)'\nset ylabel '{/Symbol P}_E(k)'\n";
+    s += "set y2label '{/Symbol P}_Z(k)'\nset ytics nomirror\nset y2tics\nset key below\n";
+    s += "plot " + csv + " skip 1 using 1:4 axes x1y1 with linespoints pt 7 ps 0.4 title '{/Symbol P}_E(k), left', ";
+    s += csv + " skip 1 using 1:5 axes x1y2 with linespoints pt 5 ps 0.4 title '{/Symbol P}_Z(k), right', ";
+    s += "0 axes x1y1 with lines lc rgb 'gray60' notitle\nunset multiplot\n";
     if (!draw_picture(s, ptmp)) {
         std::error_code ec;
         std::filesystem::remove(ptmp, ec);

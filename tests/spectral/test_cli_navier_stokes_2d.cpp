@@ -733,6 +733,9 @@ TEST(CliNavierStokes2d, AStopWhilePicturesAreDrawnNamesThemAndARestartDrawsThem)
     EXPECT_NE(read_text(d / "snaps" / "spectrum_00000001.png").find(shell_quote(snaps + "/spectrum_00000001.csv")),
               std::string::npos)
         << "drawn from the snapshot's own spectrum CSV";
+    // under E(k), the fluxes Pi_E(k) and Pi_Z(k): the CSV's columns 4 and 5
+    for (const char* column : {"using 1:4 axes x1y1", "using 1:5 axes x1y2"})
+        EXPECT_NE(read_text(d / "snaps" / "spectrum_00000001.png").find(column), std::string::npos) << column;
 
     // a stop while a spectrum is drawn: the field's picture was drawn, the spectrum's is named alone
     fs::remove_all(d / "snaps");
