@@ -952,7 +952,7 @@ bool draw_spectrum(const std::string& csv_path, const std::string& png_path, con
     s += gnuplot_number(ep) + "*(x/" + std::to_string(kp) + ".)**-3 with lines dt 2 lc rgb 'gray30' title 'k^{-3}', ";
     s += gnuplot_number(ep) + "*(x/" + std::to_string(kp) + ".)**(-5./3) with lines dt 3 lc rgb 'gray50' title 'k^{-5/3}'\n";
     // the fluxes: linear in Pi, log in k; a line at zero (above it the transfer is to larger k)
-    s += "unset logscale y\nset logscale x\nset format y '%g'\nset yrange [*:*]\nset y2range [*:*]\n";
+    s += "unset logscale y\nset logscale x\nset format y '%g'\nset format y2 '%g'\nset yrange [*:*]\nset y2range [*:*]\n";
     s += "set title 'fluxes through shell k (> 0: towards larger k)'\nset ylabel '{/Symbol P}_E(k)'\n";
     s += "set y2label '{/Symbol P}_Z(k)'\nset ytics nomirror\nset y2tics\nset key below\n";
     s += "plot " + csv + " skip 1 using 1:4 axes x1y1 with linespoints pt 7 ps 0.4 title '{/Symbol P}_E(k), left', ";
