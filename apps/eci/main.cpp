@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #ifdef ECI_MPI
@@ -104,6 +105,44 @@ std::string other_models_option(const std::vector<std::unique_ptr<model_command>
                 if (o.name == name && m->info().name != model)
                     owners.append(owners.empty() ? "" : ", ").append(m->info().name);
         if (!owners.empty()) return " (" + model + " has no --" + name + "; it is an option of " + owners + ")";
+    }
+    return "";
+}
+
+/// For a mistyped option of the command `app` (`--metho`, `--t_end`, `--n` for --N): " (no option --metho; did you
+/// mean --method?)", the option of `app` nearest to it: the same name but for case, else within
+/// max(1, length / 3) edits (Levenshtein, case ignored); "" if no option is that near or no extra is an option.
+std::string nearest_option(const CLI::App* app, const std::vector<std::string>& extras) {
+    if (app == nullptr) return "";
+    const auto lower = [](std::string s) {
+        for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        return s;
+    };
+    const auto distance = [](const std::string& a, const std::string& b) {
+        std::vector<std::size_t> row(b.size() + 1);
+        for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+        for (std::size_t i = 1; i <= a.size(); ++i) {
+            std::size_t diagonal = row[0];
+            row[0] = i;
+            for (std::size_t j = 1; j <= b.size(); ++j) {
+                const std::size_t up = row[j];
+                row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+                diagonal = up;
+            }
+        }
+        return row[b.size()];
+    };
+    for (const std::string& extra : extras) {
+        if (extra.size() < 3 || extra.rfind("--", 0) != 0) continue;
+        const std::string name = extra.substr(2, extra.find('=') - 2);
+        std::string best;
+        std::size_t best_d = std::max<std::size_t>(1, name.size() / 3) + 1;
+        for (const CLI::Option* o : app->get_options())
+            for (const std::string& l : o->get_lnames()) {
+                const std::size_t d = distance(lower(name), lower(l));
+                if (d < best_d) best = l, best_d = d;
+            }
+        if (!best.empty()) return " (no option --" + name + "; did you mean --" + best + "?)";
     }
     return "";
 }
@@ -439,7 +478,15 @@ int run_cli(int argc, char** argv) {
         for (int i = 1; i < argc; ++i)
             if (std::find(extras.begin(), extras.end(), argv[i]) != extras.end())
                 typed.append(typed.empty() ? "" : " ").append(argv[i]);
-        throw bad_input("unexpected arguments: " + typed + other_models_option(models, argc, argv, extras));
+        std::string hint = other_models_option(models, argc, argv, extras);
+        if (hint.empty()) {
+            const CLI::App* command = nullptr;
+            if (std::string_view(argv[1]) == "figures") command = figures;
+            if (argc > 2 && std::string_view(argv[1]) == "run" && is_model_name(models, argv[2]))
+                command = run->get_subcommand(argv[2]);
+            hint = nearest_option(command, extras);
+        }
+        throw bad_input("unexpected arguments: " + typed + hint);
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
         throw bad_input(plain_parse_error(e.what()));
