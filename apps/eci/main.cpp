@@ -284,6 +284,31 @@ void check_no_empty_values(int argc, char** argv) {
     }
 }
 
+/// `eci run MODEL --method --output run.csv`: CLI11 takes "--output" as --method's value, and the line was about the
+/// stray "run.csv" ("unexpected arguments: run.csv"); an option of `command` where a value belongs is that value
+/// missing: "--method needs a value, not the option --output".
+void check_values_are_not_options(const CLI::App& command, int argc, char** argv) {
+    const auto option_of = [&](std::string_view token) -> const CLI::Option* {
+        if (token.size() < 3 || token.substr(0, 2) != "--") return nullptr;
+        const std::string name(token.substr(2, token.find('=') == std::string_view::npos ? std::string_view::npos
+                                                                                           : token.find('=') - 2));
+        for (const CLI::Option* o : command.get_options())
+            for (const std::string& l : o->get_lnames())
+                if (l == name) return o;
+        return nullptr;
+    };
+    for (int i = 2; i + 1 < argc; ++i) {
+        const std::string_view a = argv[i];
+        if (a.find('=') != std::string_view::npos) continue;
+        const CLI::Option* o = option_of(a);
+        if (o == nullptr || o->get_items_expected_max() == 0) continue;  // (a flag takes no value)
+        const std::string_view next = argv[i + 1];
+        if (option_of(next) != nullptr)
+            throw bad_input(std::string(a) + " needs a value, not the option " +
+                            std::string(next.substr(0, next.find('='))));
+    }
+}
+
 void print_list(const std::vector<std::unique_ptr<model_command>>& models) {
     std::printf("Methods (eci run MODEL --method NAME): name, order, whether it keeps every quadratic invariant\n"
                 "to round-off (conservative) or not (conventional), how it is built (family), one line\n");
@@ -464,6 +489,13 @@ int run_cli(int argc, char** argv) {
             throw bad_input("unknown model '" + std::string(argv[2]) + "' (models: " + model_names(models) + ")");
     }
 
+    // The command whose options the line gives: eci run MODEL's, or eci figures'.
+    const CLI::App* command = nullptr;
+    if (std::string_view(argv[1]) == "figures") command = figures;
+    if (argc > 2 && std::string_view(argv[1]) == "run" && is_model_name(models, argv[2]))
+        command = run->get_subcommand(argv[2]);
+    if (command != nullptr) check_values_are_not_options(*command, argc, argv);
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ExtrasError&) {
@@ -479,13 +511,7 @@ int run_cli(int argc, char** argv) {
             if (std::find(extras.begin(), extras.end(), argv[i]) != extras.end())
                 typed.append(typed.empty() ? "" : " ").append(argv[i]);
         std::string hint = other_models_option(models, argc, argv, extras);
-        if (hint.empty()) {
-            const CLI::App* command = nullptr;
-            if (std::string_view(argv[1]) == "figures") command = figures;
-            if (argc > 2 && std::string_view(argv[1]) == "run" && is_model_name(models, argv[2]))
-                command = run->get_subcommand(argv[2]);
-            hint = nearest_option(command, extras);
-        }
+        if (hint.empty()) hint = nearest_option(command, extras);
         throw bad_input("unexpected arguments: " + typed + hint);
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
