@@ -11,6 +11,7 @@
 #include <stdexcept>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include <CLI/CLI.hpp>
 #ifdef ECI_MPI
@@ -104,6 +105,44 @@ std::string other_models_option(const std::vector<std::unique_ptr<model_command>
                 if (o.name == name && m->info().name != model)
                     owners.append(owners.empty() ? "" : ", ").append(m->info().name);
         if (!owners.empty()) return " (" + model + " has no --" + name + "; it is an option of " + owners + ")";
+    }
+    return "";
+}
+
+/// For a mistyped option of the command `app` (`--metho`, `--t_end`, `--n` for --N): " (no option --metho; did you
+/// mean --method?)", the option of `app` nearest to it: the same name but for case, else within
+/// max(1, length / 3) edits (Levenshtein, case ignored); "" if no option is that near or no extra is an option.
+std::string nearest_option(const CLI::App* app, const std::vector<std::string>& extras) {
+    if (app == nullptr) return "";
+    const auto lower = [](std::string s) {
+        for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+        return s;
+    };
+    const auto distance = [](const std::string& a, const std::string& b) {
+        std::vector<std::size_t> row(b.size() + 1);
+        for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+        for (std::size_t i = 1; i <= a.size(); ++i) {
+            std::size_t diagonal = row[0];
+            row[0] = i;
+            for (std::size_t j = 1; j <= b.size(); ++j) {
+                const std::size_t up = row[j];
+                row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+                diagonal = up;
+            }
+        }
+        return row[b.size()];
+    };
+    for (const std::string& extra : extras) {
+        if (extra.size() < 3 || extra.rfind("--", 0) != 0) continue;
+        const std::string name = extra.substr(2, extra.find('=') - 2);
+        std::string best;
+        std::size_t best_d = std::max<std::size_t>(1, name.size() / 3) + 1;
+        for (const CLI::Option* o : app->get_options())
+            for (const std::string& l : o->get_lnames()) {
+                const std::size_t d = distance(lower(name), lower(l));
+                if (d < best_d) best = l, best_d = d;
+            }
+        if (!best.empty()) return " (no option --" + name + "; did you mean --" + best + "?)";
     }
     return "";
 }
@@ -242,6 +281,31 @@ void check_no_empty_values(int argc, char** argv) {
         } else if (i + 1 < argc && argv[i + 1][0] == '\0') {
             throw bad_input(std::string(a) + " needs a value, got an empty string");
         }
+    }
+}
+
+/// `eci run MODEL --method --output run.csv`: CLI11 takes "--output" as --method's value, and the line was about the
+/// stray "run.csv" ("unexpected arguments: run.csv"); an option of `command` where a value belongs is that value
+/// missing: "--method needs a value, not the option --output".
+void check_values_are_not_options(const CLI::App& command, int argc, char** argv) {
+    const auto option_of = [&](std::string_view token) -> const CLI::Option* {
+        if (token.size() < 3 || token.substr(0, 2) != "--") return nullptr;
+        const std::string name(token.substr(2, token.find('=') == std::string_view::npos ? std::string_view::npos
+                                                                                           : token.find('=') - 2));
+        for (const CLI::Option* o : command.get_options())
+            for (const std::string& l : o->get_lnames())
+                if (l == name) return o;
+        return nullptr;
+    };
+    for (int i = 2; i + 1 < argc; ++i) {
+        const std::string_view a = argv[i];
+        if (a.find('=') != std::string_view::npos) continue;
+        const CLI::Option* o = option_of(a);
+        if (o == nullptr || o->get_items_expected_max() == 0) continue;  // (a flag takes no value)
+        const std::string_view next = argv[i + 1];
+        if (option_of(next) != nullptr)
+            throw bad_input(std::string(a) + " needs a value, not the option " +
+                            std::string(next.substr(0, next.find('='))));
     }
 }
 
@@ -425,6 +489,13 @@ int run_cli(int argc, char** argv) {
             throw bad_input("unknown model '" + std::string(argv[2]) + "' (models: " + model_names(models) + ")");
     }
 
+    // The command whose options the line gives: eci run MODEL's, or eci figures'.
+    const CLI::App* command = nullptr;
+    if (std::string_view(argv[1]) == "figures") command = figures;
+    if (argc > 2 && std::string_view(argv[1]) == "run" && is_model_name(models, argv[2]))
+        command = run->get_subcommand(argv[2]);
+    if (command != nullptr) check_values_are_not_options(*command, argc, argv);
+
     try {
         app.parse(argc, argv);
     } catch (const CLI::ExtrasError&) {
@@ -439,7 +510,9 @@ int run_cli(int argc, char** argv) {
         for (int i = 1; i < argc; ++i)
             if (std::find(extras.begin(), extras.end(), argv[i]) != extras.end())
                 typed.append(typed.empty() ? "" : " ").append(argv[i]);
-        throw bad_input("unexpected arguments: " + typed + other_models_option(models, argc, argv, extras));
+        std::string hint = other_models_option(models, argc, argv, extras);
+        if (hint.empty()) hint = nearest_option(command, extras);
+        throw bad_input("unexpected arguments: " + typed + hint);
     } catch (const CLI::ParseError& e) {
         if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
         throw bad_input(plain_parse_error(e.what()));

@@ -260,6 +260,32 @@ TEST_F(cli, error_messages_name_the_problem) {
     EXPECT_NE(eci({"run", "three-wave", "--N", "64"}).err.find("it is an option of navier-stokes-2d, "),
               std::string::npos);
     EXPECT_EQ(eci({"run", "three-wave", "--bogus"}).err.find("it is an option of"), std::string::npos);
+    // A mistyped option is named with this command's nearest one (case, or a couple of edits), with exit 2.
+    const auto typo = eci({"run", "three-wave", "--metho", "c-pc"});
+    EXPECT_EQ(typo.status, 2);
+    EXPECT_NE(typo.err.find("unexpected arguments: --metho c-pc (no option --metho; did you mean --method?)"),
+              std::string::npos)
+        << typo.err;
+    EXPECT_NE(eci({"run", "navier-stokes-2d", "--n", "64"}).err.find("did you mean --N?"), std::string::npos);
+    EXPECT_NE(eci({"run", "three-wave", "--t_end", "5"}).err.find("did you mean --t-end?"), std::string::npos);
+    EXPECT_NE(eci({"figures", "--outt", "x"}).err.find("did you mean --out?"), std::string::npos);
+    EXPECT_EQ(eci({"run", "three-wave", "--bogus"}).err.find("did you mean"), std::string::npos);
+}
+
+TEST_F(cli, an_option_where_a_value_belongs_is_the_value_missing) {
+    // CLI11 took "--output" as --method's value and the line named only the stray "o.csv".
+    const run_result r = eci({"run", "three-wave", "--method", "--output", "o.csv"});
+    expect_one_error_line(r, 2);
+    EXPECT_NE(r.err.find("--method needs a value, not the option --output"), std::string::npos) << r.err;
+    EXPECT_TRUE(work_files().empty());
+    EXPECT_NE(eci({"run", "three-wave", "--dt", "--t-end=5"}).err.find("--dt needs a value, not the option --t-end"),
+              std::string::npos);
+    EXPECT_NE(eci({"figures", "--out", "--only", "3"}).err.find("--out needs a value, not the option --only"),
+              std::string::npos);
+    // A flag takes no value: the option after it stands.
+    const run_result flag = eci({"run", "navier-stokes-2d", "--fftw-estimate", "--N", "16", "--steps", "1",
+                                 "--fftw-wisdom", "none"});
+    EXPECT_EQ(flag.status, 0) << flag.err;
 }
 
 TEST_F(cli, unwritable_csv_path_fails_before_running_and_writes_nothing) {
