@@ -1413,11 +1413,12 @@ int spectral_command::run_spread(const run_settings& settings) {
             progress.finish();
             throw run_error(std::string(e.what()) + "; " + (stiffness.empty() ? smaller_step : stiffness));
         }
-        // relative to the invariant after the step; to the one before it where a decayed flow reached exactly 0
-        // (the residual was inf there), and absolute where both are 0
-        const auto relative = [](double r, double after, double before) {
-            const double scale = after != 0.0 ? after : before;
-            return scale != 0.0 ? r / scale : r;
+        // relative to the invariant after the step, or to the one before it where a decayed flow reached exactly 0
+        // (the residual was inf there), but at least to the floor below which E and Z are sums of subnormal terms
+        // and their rounding is absolute (a field decayed to E = 1e-322 read 0.73 "per step" here)
+        const double floor = model.invariant_floor();
+        const auto relative = [floor](double r, double after, double before) {
+            return r / std::max(after != 0.0 ? after : before, floor);
         };
         run.max_energy_residual = std::max(
             run.max_energy_residual,
@@ -1580,12 +1581,14 @@ int spectral_command::run_spread(const run_settings& settings) {
             throw run_error(report.failure->message + stiff + last_good());
         // the library's cause, without its component (an index into the spectral state, not something to act on)
         const run_failure& f = *report.failure;
+        const std::string decay = model.decay_hint(w);  // (collective: every process fails alike)
         const std::string cause = f.non_finite_rate_value
                                       ? "a rate is " + num(*f.non_finite_rate_value)
                                       : std::string(report.method.family == method_family::conservative
                                                         ? "a negative radicand or a non-finite state"
                                                         : "a non-finite state") +
                                             (!stiffness.empty() ? stiff
+                                             : !decay.empty() ? "; " + decay
                                              : restart     ? "; " + smaller_step
                                                            : "; a smaller --dt or --cfl may pass");
         throw run_error("step " + std::to_string(done + 1) + " failed at t = " + num(f.t) +

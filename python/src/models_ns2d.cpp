@@ -226,7 +226,7 @@ class ns2d_object : public model_base {
         if (interrupt_pending) throw py::error_already_set();
         report.rejected.step_failed = report.stats.step_reductions;
         py::dict d = result_dict(out, m.size(), report, drift, info);
-        d["failure"] = failed    ? py::object(failure_of(*failed, max_halvings, cfg.dt))
+        d["failure"] = failed    ? py::object(failure_of(*failed, max_halvings, cfg.dt, m.decay_hint(x)))
                        : blew_up ? py::object(failure_of(*blew_up, cfg.dt))
                                  : py::object(py::none());
         d["stopped_at"] = py::none();
@@ -241,12 +241,14 @@ class ns2d_object : public model_base {
 
     /// result.failure of a run the library's report ended (failure_dict's kind, cause and numbers), with the CLI's
     /// sentence for a failed step (its step number, the radicand named only for the conservative methods) and
-    /// the stiffness of the damping where that is the cause to act on.
-    py::dict failure_of(const solve_report& r, int max_halvings, double dt) const {
+    /// the stiffness of the damping where that is the cause to act on, else a field decayed below double precision's
+    /// normal range (`decay`: flow2d::decay_hint of the last good state), as the CLI says them.
+    py::dict failure_of(const solve_report& r, int max_halvings, double dt, const std::string& decay) const {
         const run_failure& e = *r.failure;
         py::dict f = failure_dict(r, component_namer{});
         f["component_name"] = "mode " + std::to_string(e.component);
-        const std::string hint = model_->stiffness_hint(dt);
+        std::string hint = model_->stiffness_hint(dt);
+        if (hint.empty()) hint = decay;
         const std::string stiff = hint.empty() ? std::string() : "; " + hint;
         if (e.kind == run_failure_kind::step_failed)
             f["message"] = "step " + std::to_string(r.stats.steps + 1) + " failed at t = " + full_text(e.t) +

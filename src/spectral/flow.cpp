@@ -1307,6 +1307,19 @@ std::string flow2d::stiffness_hint(double dt) const {
            " (the default step keeps within it) or a smaller coefficient";
 }
 
+double flow2d::invariant_floor() const {
+    return double(rows()) * double(kmax() + 1) * std::numeric_limits<double>::min();
+}
+
+std::string flow2d::decay_hint(const state_type& q) const {
+    const double z = enstrophy(q);
+    if (!(z < invariant_floor())) return {};
+    return "the field has decayed below double precision's normal range (" + invariant_names()[1] + " " +
+           eci::detail::shortest_text(z) + " at the last good step): its squares are subnormal round-off, from "
+           "which no conservative update can be formed at any step size; a conventional method (rk4) takes it on to "
+           "zero";
+}
+
 double flow2d::cfl(const state_type& q, double dt) { return max_velocity(q) * dt * double(n_) / (2.0 * std::numbers::pi); }
 
 template <class Value>

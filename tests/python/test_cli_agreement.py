@@ -905,6 +905,27 @@ def test_a_step_beyond_the_dampings_stability_names_it(cli):
         "decays at up to 1e+308 per unit time)")
 
 
+# A field damped below double precision's normal range: the conservative step that fails there says so in both front
+# ends (flow2d::decay_hint), not "a smaller dt may pass"; the conventional method takes it on to zero.
+@pytest.mark.skipif(not hasattr(M, "NavierStokes2D"), reason="built without eci::spectral")
+def test_a_field_damped_below_the_normal_range_is_said_so(cli):
+    r = run_cli(cli, "run", "navier-stokes-2d", "--N", "32", "--drag", "1e10", "--steps", "400", "--fftw-estimate",
+                "--fftw-wisdom", "none", check=False)
+    assert r.returncode == 1, r.stderr
+    hint = "the field has decayed below double precision's normal range (enstrophy "
+    assert hint in r.stderr and "may pass" not in r.stderr, r.stderr
+    m = M.NavierStokes2D(n=32, drag=1e10, fftw_measure=False)
+    w = m.random_field()
+    dt = m.cfl_step(w)
+    b = eci.solve(m, (0.0, 400 * dt), w, dt=dt)
+    f = failure_of(b, eci.StepSizeUnderflow)
+    assert hint in str(f) and str(f).endswith("a conventional method (rk4) takes it on to zero"), str(f)
+    assert str(f).split("; ")[0] in r.stderr, (str(f), r.stderr)
+    assert b.invariants["enstrophy"]["final"] < 1e-300
+    c = eci.solve(m, (0.0, 400 * dt), w, dt=dt, method="rk4")
+    assert c.success and c.invariants["enstrophy"]["final"] == 0.0
+
+
 # A fixed step far too long for the flow fails after the library's limit of sub-steps per grid step, with its
 # sentence, in both front ends (it halved without end: no limit was set for the spectral models).
 @pytest.mark.skipif(not hasattr(M, "CharneyHasegawaMima"), reason="built without eci::spectral")

@@ -430,6 +430,41 @@ TEST(CliNavierStokes2d, AFailedStepNamesItsCauseForTheMethod) {
     }
 }
 
+// A field damped below double precision's normal range. Its budget residual per step is measured relative to at
+// least flow2d::invariant_floor() (read 0.73 "per step" relative to E = 1e-322 before); a conservative step that
+// fails there says that the field has decayed and what takes it on (not "a smaller --dt may pass": no step can).
+TEST(CliNavierStokes2d, AFieldDampedBelowTheNormalRangeIsSaidSo) {
+    scratch_dir dir("ns2d-decayed");
+    const fs::path d = dir.path();
+    const std::string q = shell_quote(d.string());
+    // drag 5 to t = 200: E = 0.5 e^-2000, below the smallest double from t ~ 70
+    auto r = run_eci("run navier-stokes-2d --N 16 --drag 5 --dt 0.05 --t-end 200 --fftw-estimate --fftw-wisdom none "
+                     "--summary-json " + q + "/s.json",
+                     d);
+    ASSERT_EQ(r.status, 0) << r.err;
+    const std::string json = read_text(d / "s.json");
+    const auto number = [&](const std::string& key) {
+        const std::size_t at = json.find("\"" + key + "\": ");
+        return at == std::string::npos ? std::nan("") : std::strtod(json.c_str() + at + key.size() + 4, nullptr);
+    };
+    // each step's residual is the rounding of E, Z and their budget sums, a few eps of them (or of the floor)
+    const double eps = std::numeric_limits<double>::epsilon();
+    EXPECT_LE(number("max_energy_budget_residual_per_step"), 16 * eps) << json;
+    EXPECT_LE(number("max_enstrophy_budget_residual_per_step"), 16 * eps) << json;
+    // drag 1e10 at its stable step: the conservative step fails once the squares are subnormal
+    r = run_eci("run navier-stokes-2d --N 32 --drag 1e10 --steps 400 --fftw-estimate --fftw-wisdom none", d);
+    EXPECT_EQ(r.status, 1) << r.err;
+    EXPECT_EQ(lines_of(r.err).size(), 1u) << r.err;
+    EXPECT_NE(r.err.find("the field has decayed below double precision's normal range (enstrophy "),
+              std::string::npos)
+        << r.err;
+    EXPECT_NE(r.err.find("a conventional method (rk4) takes it on to zero"), std::string::npos) << r.err;
+    EXPECT_EQ(r.err.find("may pass"), std::string::npos) << r.err;
+    r = run_eci("run navier-stokes-2d --N 32 --drag 1e10 --steps 400 --fftw-estimate --fftw-wisdom none --method rk4",
+                d);
+    EXPECT_EQ(r.status, 0) << r.err;
+}
+
 // SIGINT: the run writes its checkpoint atomically and exits 130; the checkpoint restarts.
 TEST(CliNavierStokes2d, InterruptWritesCheckpointThatRestarts) {
     scratch_dir dir("ns2d-sigint");

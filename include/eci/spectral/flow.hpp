@@ -321,6 +321,16 @@ class flow2d {
     /// "" where dt linear_rate() <= 2, else the sentence a front end adds to a failed step's message: the damping
     /// is too stiff for an explicit step of dt, and the dt that would be within every method's stability.
     std::string stiffness_hint(double dt) const;
+    /// Where E and Z lose their relative precision: the number of retained modes (all processes') times DBL_MIN.
+    /// Below it the invariants' terms (each at most |q_k|^2: the weights w_k |a_k| / 2 and w_k / 2 are at most 1 for
+    /// every equation here) are subnormal and round to an absolute 2^-1074, so a per-step budget residual is measured
+    /// relative to at least this value (it is then eps of it), not to a decayed E of 1e-320.
+    double invariant_floor() const;
+    /// "" unless the field has decayed below double precision's normal range (Z(q) below invariant_floor(): its
+    /// components' squares subnormal); then the sentence a front end gives for a failed step instead of "a smaller dt
+    /// may pass": a conservative update is formed from those squares, which are round-off there, and a smaller step
+    /// cannot help; a conventional method takes the field on to zero. Collective (Z).
+    std::string decay_hint(const state_type& q) const;
     /// The CFL number max|u| dt / dx with dx = 2 pi / n.
     double cfl(const state_type& q, double dt);
     /// The shell-summed spectra E(k) and Z(k), k = 0, 1, ...: sums over modes with round(|k|) = k.
