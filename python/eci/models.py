@@ -225,6 +225,29 @@ def _refuse_bools(cls, flags=()):
 
 for _cls in ode_models:
     _refuse_bools(_cls)
+
+
+def _generated_repr(compiled):
+    """The repr of a model generated from its constructor's arguments (n-wave: modes, triads_per_mode, seed make the
+    triads, which the model holds instead): the constructor call that made it, as a spectral model's repr is, or
+    the preset it is the model of; the compiled description where the object has no such record."""
+    def __repr__(self):
+        made = _made.get(self)
+        if made is None:
+            return compiled(self)
+        cls = type(self)
+        if made[0] is _rebuild_preset:
+            return f"{cls.__name__}.preset({made[1][1]!r}).model"
+        _, args, kwargs = made[1]
+        names = [p[1] for p in cls._parameters()]
+        given = [f"{names[i]}={v!r}" if i < len(names) else repr(v) for i, v in enumerate(args)]
+        return f"{cls.__name__}({', '.join(given + [f'{k}={v!r}' for k, v in kwargs.items()])})"
+    return __repr__
+
+
+for _cls in ode_models:
+    if hasattr(_cls, "triads"):
+        _cls.__repr__ = _generated_repr(_cls.__repr__)
 for _cls in flow_models:
     _refuse_bools(_cls, flags=("fftw_measure", "full_transforms"))
     _one_line_type_errors(_cls, [k for k, v in vars(_cls).items() if type(v).__name__ == "instancemethod"

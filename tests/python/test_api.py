@@ -133,3 +133,20 @@ def test_result_reads_like_scipys():
     assert r.method == "c-pc" and r["t"] is r.t and "invariants" in dir(r)
     assert r.t.shape == (11,) and r.y.shape == (3, 11)
     assert "SolveResult(method='c-pc', 11 points" in repr(r)
+
+
+# Every ODE model's repr is a call that makes it again (eval in eci.models gives a model with the same parameters,
+# and for the generated n-wave models the same triads: their repr was "NWave(modes=5, 33 triads)"), a preset's
+# model named as such.
+@pytest.mark.parametrize("make", [lambda: M.ThreeWave(), lambda: M.Kepler(ell=0.5), lambda: M.NWave(),
+                                  lambda: M.NWave(modes=5, triads_per_mode=3, seed=2), lambda: M.NWaveComplex(7, 2),
+                                  lambda: M.NWave.preset("standard").model, lambda: M.KeplerCartesian()])
+def test_an_ode_models_repr_makes_it_again(make):
+    m = make()
+    again = eval(repr(m), dict(vars(M)))
+    assert type(again) is type(m) and repr(again) == repr(m)
+    for p in type(m)._parameters():
+        if hasattr(m, p[1]):  # (a generated model's seed and triads_per_mode are not kept: its triads are, below)
+            assert np.array_equal(getattr(again, p[1]), getattr(m, p[1])), p
+    if hasattr(m, "triads"):
+        assert np.array_equal(np.array(again.triads), np.array(m.triads)) and len(m.triads) > 0
