@@ -371,8 +371,9 @@ class described_binder {
 
     static std::string doc() {
         std::string d = signature() + "\n\n" + std::string(Model::description) + " (`eci run " +
-                        std::string(Model::name) + "`); invariants";
-        for (const auto& inv : Model::invariants()) d.append(" ").append(inv.name);
+                        std::string(Model::name) + "`). Invariants as eci.solve's result.invariants names them:";
+        bool first = true;
+        for (const auto& inv : Model::invariants()) d.append(first ? " " : ", ").append(inv.name), first = false;
         d.append(".");
         if constexpr (!generated)
             for (const auto& q : Model::parameters()) {
