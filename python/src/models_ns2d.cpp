@@ -407,10 +407,10 @@ void add_flow_methods(Class& c) {
         .def("enstrophy", [](const o& s, const py::object& w) { return s.model().enstrophy(s.to_state(w)); },
              py::arg("w"), "Z = 1/2 sum |q_k|^2 (enstrophy; surface QG calls it variance)")
         .def("palinstrophy", [](const o& s, const py::object& w) { return s.model().palinstrophy(s.to_state(w)); },
-             py::arg("w"), "P = 1/2 <|grad omega|^2>")
+             py::arg("w"), "P = 1/2 <|grad q|^2> of the evolved field q (vorticity, potential vorticity or buoyancy)")
         .def("energy_spectrum",
              [](const o& s, const py::object& w) { return to_numpy(s.model().energy_spectrum(s.to_state(w))); },
-             py::arg("w"), "shell-averaged E(k), k = 0, 1, ...")
+             py::arg("w"), "shell-summed E(k), k = round(|k|) = 0, 1, ... (sum over k is E, not a shell average)")
         .def("max_velocity",
              [](const o& s, const py::object& w) {
                  const state x = s.to_state(w);
@@ -433,7 +433,8 @@ void add_flow_methods(Class& c) {
                  py::array_t<double> a = to_numpy(s.model().to_physical(x));
                  return a.reshape({s.model().n(), s.model().n()});
              },
-             py::arg("w"), "the vorticity on the n x n grid (rows: y)")
+             py::arg("w"), "the evolved field q (vorticity, potential vorticity or buoyancy) on the n x n grid "
+             "(rows: y)")
         .def("from_physical",
              [](const o& s, const py::object& field) {
                  const std::size_t n = std::size_t(s.model().n());
@@ -447,7 +448,9 @@ void add_flow_methods(Class& c) {
                  const auto lock = s.lock();
                  return to_numpy(s.model().from_physical({f.data(), n * n}));
              },
-             py::arg("field"), "the state of a vorticity field on the n x n grid (truncated, mean removed)")
+             py::arg("field"),
+             "the state of a field q (vorticity, potential vorticity or buoyancy) on the n x n grid (truncated, mean "
+             "removed)")
         .def("random_field",
              [](const o& s, std::optional<double> k_peak, double energy, long long seed) {
                  if (seed < 0) throw std::invalid_argument("seed must be a whole number >= 0");
@@ -476,7 +479,9 @@ void add_flow_methods(Class& c) {
                  return to_numpy(s.model().taylor_green(velocity));
              },
              py::arg("velocity") = field::taylor_green_velocity,
-             "omega = 2 U sin x sin y, steady for Euler, damped as exp(-2 nu t)")
+             "q = 2 U sin x sin y (one |k| = sqrt 2): steady without beta, forcing or dissipation, damped at the linear "
+             "terms' rate at k^2 = 2 (exp(-2 nu t) with viscosity); with beta (charney-hasegawa-mima) it travels "
+             "west rigidly, q = 2 U sin(x + beta t / (2 + F)) sin y")
         .def("enstrophy_spectrum",
              [](const o& s, const py::object& w) { return to_numpy(s.model().enstrophy_spectrum(s.to_state(w))); },
              py::arg("w"), "shell-summed Z(k) (the second invariant's spectrum), k = 0, 1, ...")
