@@ -76,7 +76,19 @@ class ns2d_object : public model_base {
     py::array default_y0() const override { return to_numpy(y0_); }
     std::vector<std::string> invariant_names() const override { return {names_[0], names_[1]}; }
 
+    // A white-in-time forcing is drawn by each step of eci.solve (begin_step) and held over it: a right-hand side
+    // asked for outside those steps has no forcing of its own to add. It added F = 0 before the first solve and the
+    // last step's draw after one, so SciPy's solve_ivp(model, ...) ran unforced (or one draw held for the whole
+    // run) without a word; refused, as a setting that cannot act is refused.
     py::array call(double t, const py::object& y) const override {
+        if (model_->params().forcing == ns2d_forcing::stochastic)
+            throw std::invalid_argument(
+                std::string(model_->eq().python_class) +
+                "(t, y): the stochastic forcing is white in time, drawn once per step by eci.solve(model, ...) (as "
+                "eci run draws it) and held over that step, so a right-hand side asked for outside those steps "
+                "(SciPy's solve_ivp, a Python function) has no forcing to add; integrate it with eci.solve, or make "
+                "the model with forcing='deterministic' or 'none' for fun(t, y) (model.forcing_term is the forcing of "
+                "the last step taken)");
         const state x = to_state(y);
         state d(x.size());
         const auto lock_ = lock();
@@ -384,6 +396,16 @@ void add_flow_methods(Class& c) {
                 s.model().set_rng_state(v);
             },
             "where the stochastic forcing's generator stands (each solve continues it; a copy carries it)")
+        .def_property_readonly(
+            "forcing_term",
+            [](const o& s) {
+                const auto lock = s.lock();
+                const state& f = s.model().forcing();
+                return to_numpy(f.empty() ? state(s.model().size()) : f);
+            },
+            "the forcing F_k the right-hand side adds, in the state's layout: the deterministic band's, or the "
+            "stochastic forcing of the last step eci.solve took (sigma g / sqrt(dt); zero before the first); zero "
+            "unforced")
         .def_property_readonly("kmax", [](const o& s) { return s.model().kmax(); }, "largest retained |k_x|, |k_y|")
         .def_property_readonly("size", [](const o& s) { return s.model().size(); }, "stored complex modes")
         .def_property_readonly(

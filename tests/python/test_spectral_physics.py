@@ -136,7 +136,8 @@ def test_right_hand_side_matches_an_independent_numpy_reference(case, full, n):
                   full_transforms=full)
     m = make(eq, n, wave, **diss, full_transforms=full)
     kx, ky = m.kx, m.ky
-    Fk = forced(0.0, np.zeros(m.size, complex))  # the forcing alone (checked against its definition below)
+    Fk = forced.forcing_term  # (checked against its definition below)
+    assert np.array_equal(Fk, forced(0.0, np.zeros(m.size, complex))) and not np.any(m.forcing_term)
     for y in (m.random_field(k_peak=3.0, energy=0.7, seed=3), anisotropic_field(m, n)):
         parts = [nonlinear_ref(m, y, eq, F), -damping_ref(kx, ky, **diss) * y, 1j * wave_ref(eq, kx, ky, beta, F) * y]
         ref = sum(parts)
@@ -152,7 +153,8 @@ def test_right_hand_side_matches_an_independent_numpy_reference(case, full, n):
 @pytest.mark.parametrize("eq,wave", [(NSE, None), (CHME, dict(beta=5.0, deformation=1.5)), (SQGE, None)])
 def test_deterministic_forcing_is_the_documented_band_and_amplitude(eq, wave):
     m = make(eq, 48, wave, forcing="deterministic", forcing_k=5.3, forcing_amplitude=0.7, forcing_seed=11)
-    Fk = m(0.0, np.zeros(m.size, complex))
+    Fk = m.forcing_term
+    assert np.array_equal(Fk, m(0.0, np.zeros(m.size, complex)))
     kmax, index = m.kmax, {(int(a), int(b)): i for i, (a, b) in enumerate(zip(m.kx, m.ky))}
     s, count, draws = 11, 0, []
     for r in range(2 * kmax + 1):
@@ -281,7 +283,7 @@ def rk4_stages(m, y, eq, wave, diss, Fk, dt):
 # Each C-RK4 step: E(t + dt) - E(t) (my sum over the state) = injection - dissipation as reported, and those are
 # the xi tableau's tau sum_j b_j sum_k w |a| (Re(conj(Y_j) F_k), r_k |Y_j|^2) over RK4's stages Y_j from my right-hand
 # side (docs/turbulence.md, "Exact budgets"); both to a few eps of E + |injection| + |dissipation| (measured 0.6-1.4
-# eps and below 0.01 eps). The stochastic forcing of a step is the model's forcing after it (model(t, 0)).
+# eps and below 0.01 eps). The stochastic forcing of a step is the model's forcing_term after it.
 @pytest.mark.parametrize("forcing", ["deterministic", "stochastic"])
 @pytest.mark.parametrize("eq,wave", [(NSE, None), (CHME, dict(beta=5.0, deformation=1.5)), (SQGE, None)])
 def test_each_steps_budget_is_the_energy_change_and_rk4s_stages(eq, wave, forcing):
@@ -296,7 +298,9 @@ def test_each_steps_budget_is_the_energy_change_and_rk4s_stages(eq, wave, forcin
     for _ in range(8):
         res = eci.solve(m, (0.0, dt), y, method="c-rk4", dt=dt)
         y1 = res.y[:, -1]
-        Fk = m(0.0, np.zeros(m.size, complex))
+        Fk = m.forcing_term  # (the step's draw, for the stochastic forcing)
+        if forcing == "deterministic":
+            assert np.array_equal(Fk, m(0.0, np.zeros(m.size, complex)))
         Y = rk4_stages(m, y, eq, wave, diss, Fk, dt)
         for name, wt in zip(m.invariant_names, (we, weights(m))):  # E's weights w |a|, Z's w
             inj, dis = res.budget[name + "_injection"], res.budget[name + "_dissipation"]
@@ -339,13 +343,12 @@ def test_stochastic_forcing_injects_epsilon_on_average(eq, wave, drag, dt):
     rho = math.sqrt(np.sum(c ** 2)) / np.sum(c)
     z = (-damping_ref(kx, ky, drag=drag) + 1j * wave_ref(eq, kx, ky, beta, F))[indep] * dt
     expected = dt * eps_in * np.sum(c * np.real(1 + z / 3 + z * z / 12)) / np.sum(c)
-    zero = np.zeros(m.size, complex)
-    y = zero.copy()
+    y = np.zeros(m.size, complex)
     A, inj, var_m = 0.0, 0.0, 0.0
     for _ in range(n):
         var_m += 2 * dt * sigma2 * np.sum(c ** 2 * np.abs(y[indep]) ** 2)
         r = eci.solve(m, (0.0, dt), y, method="c-rk4", dt=dt)
-        Fk = m(0.0, zero)
+        Fk = m.forcing_term
         assert np.all(Fk[~band] == 0)
         A += 0.5 * dt * dt * np.sum(w * a * np.abs(Fk) ** 2)
         inj += r.budget["energy_injection"]
@@ -433,3 +436,26 @@ def test_taylor_green_with_beta_travels_west_at_the_rossby_phase_speed():
     T, phase = n * dt, beta * dt / (2 + F)
     q = m.to_physical(r.y[:, -1])
     assert np.max(np.abs(q - 2 * U * np.sin(X + beta * T / (2 + F)) * np.sin(Y))) <= 2 * U * n * phase ** 5 / 120 * 2
+
+
+# ---- 5. what a user would be surprised by ---------------------------------------------------------------------------
+
+# A stochastic model's right-hand side outside eci's steps has no forcing of its own: the forcing is drawn by each
+# step of eci.solve and held over it. model(t, y) added F = 0 before any solve and the last step's draw after one, so
+# SciPy's solve_ivp(model, ...) ran unforced (or with one draw held for the whole run, its injection growing like
+# t^2), silently; it is refused, and forcing_term gives the last step's draw.
+@pytest.mark.parametrize("eq", [NSE, CHME, SQGE])
+def test_a_stochastic_models_right_hand_side_is_refused_outside_eci_solve(eq):
+    scipy_integrate = pytest.importorskip("scipy.integrate")
+    m = make(eq, 16, forcing="stochastic", injection_rate=0.5)
+    y = m.random_field(k_peak=2.0, energy=0.5, seed=1)
+    with pytest.raises(ValueError, match=r"\(t, y\): the stochastic forcing is white in time"):
+        m(0.0, y)
+    with pytest.raises(ValueError, match="white in time"):
+        scipy_integrate.solve_ivp(m, (0.0, 0.1), y)
+    with pytest.raises(ValueError, match="white in time"):
+        eci.solve(lambda t, x: m(t, x), (0.0, 0.1), y, method="rk4", dt=0.01)
+    assert not np.any(m.forcing_term)  # nothing drawn yet
+    r = eci.solve(m, (0.0, 0.01), y, method="c-rk4", dt=0.01)  # eci.solve draws it
+    assert r.success and r.budget["energy_injection"] != 0.0 and np.any(m.forcing_term)
+    assert not np.any(make(eq, 16).forcing_term)  # unforced: zero
