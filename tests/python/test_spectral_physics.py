@@ -459,3 +459,32 @@ def test_a_stochastic_models_right_hand_side_is_refused_outside_eci_solve(eq):
     r = eci.solve(m, (0.0, 0.01), y, method="c-rk4", dt=0.01)  # eci.solve draws it
     assert r.success and r.budget["energy_injection"] != 0.0 and np.any(m.forcing_term)
     assert not np.any(make(eq, 16).forcing_term)  # unforced: zero
+
+
+# Any superposition of Rossby waves of one |k| is an exact nonlinear solution (q = -(k^2 + F) psi pointwise, so
+# J(psi, q) = 0) at any amplitude, each wave at its own omega: at amplitudes 10^-3 to 10^3, the right-hand side is
+# the linear one to 16 eps of the largest linear term |lambda q| plus the scale of the products that cancel,
+# |k| max|u| max|q| on the grid (measured 0.05-0.4 eps of their sum; at amplitude 10^3 the products are 5 10^4
+# times the linear term); and 200 RK4 steps follow R(z_k)^n per mode to 4 eps a step plus that round-off. (At amplitude 10^3 the
+# waves' own instability would grow the round-off by e^(k |u| t), so the run is at 10^-3 and 1.)
+@pytest.mark.parametrize("amplitude", [1e-3, 1.0, 1e3])
+def test_rossby_waves_of_one_wavenumber_superpose_exactly(amplitude):
+    beta, F, nu = 6.0, 0.7, 0.01
+    m = eci.models.CharneyHasegawaMima(n=32, beta=beta, deformation=F, nu=nu)
+    rng = np.random.default_rng(3)
+    q0 = np.zeros(m.size, complex)
+    for kx, ky in [(3, 4), (5, 0), (4, -3), (3, -4), (0, 5)]:  # |k| = 5
+        i = np.flatnonzero((m.kx == kx) & (m.ky == ky))[0]
+        q0[i] = amplitude * np.exp(2j * np.pi * rng.random())
+        if kx == 0:
+            q0[(m.kx == 0) & (m.ky == -ky)] = np.conj(q0[i])
+    lam = -damping_ref(m.kx, m.ky, nu=nu) + 1j * wave_ref(CHME, m.kx, m.ky, beta, F)
+    products = 5.0 * m.max_velocity(q0) * np.max(np.abs(m.to_physical(q0)))
+    assert np.max(np.abs(m(0.0, q0) - lam * q0)) <= 16 * EPS * (np.max(np.abs(lam * q0)) + products)
+    if amplitude > 1.0:
+        return
+    dt, n = 0.02, 200
+    r = eci.solve(m, (0.0, n * dt), q0, method="rk4", dt=dt, t_eval=[n * dt])
+    z = lam * dt
+    closed = q0 * (1 + z + z * z / 2 + z ** 3 / 6 + z ** 4 / 24) ** n
+    assert np.max(np.abs(r.y[:, -1] - closed)) <= n * (4 * EPS * np.max(np.abs(closed)) + 16 * EPS * dt * products)
