@@ -501,7 +501,9 @@ void add_flow_methods(Class& c) {
                  return to_numpy(s.model().taylor_green(velocity));
              },
              py::arg("velocity") = field::taylor_green_velocity,
-             "q = 2 U sin x sin y (one |k| = sqrt 2): steady without beta, forcing or dissipation, damped at the linear "
+             "q = 2 U sin x sin y (one |k| = sqrt 2; U is the peak velocity for Navier-Stokes, 2U/(2 + F) is it "
+             "for Charney-Hasegawa-Mima and sqrt(2) U for surface QG): steady without beta, forcing or dissipation, "
+             "damped at the linear "
              "terms' rate at k^2 = 2 (exp(-2 nu t) with viscosity); with beta (charney-hasegawa-mima) it travels "
              "west rigidly, q = 2 U sin(x + beta t / (2 + F)) sin y")
         .def("enstrophy_spectrum",

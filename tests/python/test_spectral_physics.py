@@ -488,3 +488,13 @@ def test_rossby_waves_of_one_wavenumber_superpose_exactly(amplitude):
     z = lam * dt
     closed = q0 * (1 + z + z * z / 2 + z ** 3 / 6 + z ** 4 / 24) ** n
     assert np.max(np.abs(r.y[:, -1] - closed)) <= n * (4 * EPS * np.max(np.abs(closed)) + 16 * EPS * dt * products)
+
+
+# taylor_green(U) (--ic taylor-green, --vortex-peak U) is q = 2U sin x sin y for every equation, so U is the peak
+# velocity of Navier-Stokes only: psi = -q/(2 + F) gives 2U/(2 + F) for CHM, psi = q/sqrt(2) gives sqrt(2) U for SQG
+# (as the help and docs now say; they called U the velocity of every equation).
+@pytest.mark.parametrize("eq,wave,peak", [(NSE, None, 1.0), (CHME, dict(deformation=2.5), 2.0 / 4.5),
+                                          (SQGE, None, math.sqrt(2.0))])
+def test_taylor_greens_u_is_the_peak_velocity_of_navier_stokes_alone(eq, wave, peak):
+    m = make(eq, 32, wave)
+    assert abs(m.max_velocity(m.taylor_green(0.75)) - 0.75 * peak) <= 8 * EPS * peak
