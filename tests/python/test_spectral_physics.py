@@ -123,9 +123,9 @@ CASES = [
 # ---- 1. the right-hand side -----------------------------------------------------------------------------------------
 
 # Each term of the reference is a few transforms and products of numbers of its own size, so eci and numpy agree to
-# a few eps of each term's largest value (measured 0.1-6.6 eps of the largest term over these cases, N = 8 ... 64,
-# both transform layouts, 1 and 2 threads); 16 eps of their sum is the bound. A sign, a power, a factor or an
-# aliased product is off by O(1) of its term.
+# a few eps of each term's largest value (measured up to 3.6 eps of their sum over these cases; up to 6.6 eps of
+# the largest |dq/dt| over N = 8 ... 64, both transform layouts, 1 and 2 threads); 16 eps of their sum is the
+# bound. A sign, a power, a factor or an aliased product is off by O(1) of its term.
 @pytest.mark.parametrize("n", [32, 48])
 @pytest.mark.parametrize("full", [False, True])
 @pytest.mark.parametrize("case", range(len(CASES)))
@@ -181,7 +181,7 @@ def test_deterministic_forcing_is_the_documented_band_and_amplitude(eq, wave):
 # E(k), Z(k): sums over the shells round(|k|) = k of 1/2 |a_k| |q_k|^2 and 1/2 |q_k|^2 (full plane), summing to E and
 # Z; Pi(k) = -sum_{k' <= k} T(k'), T the nonlinear term's transfer sum w Re(conj(q) N) (times |a| for E), positive
 # towards small scales; the last shell's Pi is the total transfer, zero but for round-off. Errors are relative to
-# sum_k |T(k)|, the scale of every partial sum (measured 0.7-6.5 eps; the last Pi within 1.2 eps of it).
+# sum_k |T(k)|, the scale of every partial sum (measured up to 7.9 eps; the last Pi up to 5.3 eps of it); 16 eps.
 @pytest.mark.parametrize("eq,wave", [(NSE, None), (CHME, dict(beta=5.0, deformation=1.5)), (SQGE, None)])
 @pytest.mark.parametrize("n", [32, 48])
 def test_spectra_and_fluxes_match_an_independent_transfer(eq, wave, n):
@@ -203,7 +203,7 @@ def test_spectra_and_fluxes_match_an_independent_transfer(eq, wave, n):
         for got, t in ((pe, TE), (pz, TZ)):
             scale = np.sum(np.abs(t))
             assert np.max(np.abs(got - (-np.cumsum(t)))) <= 16 * EPS * scale
-            assert abs(got[-1]) <= 8 * EPS * scale
+            assert abs(got[-1]) <= 16 * EPS * scale
 
 
 # The physical meaning of the diagnostics on the grid: E = 1/2 <|u|^2> + F/2 <psi^2> (Navier-Stokes, CHM) and
@@ -461,12 +461,12 @@ def test_a_stochastic_models_right_hand_side_is_refused_outside_eci_solve(eq):
     assert not np.any(make(eq, 16).forcing_term)  # unforced: zero
 
 
-# Any superposition of Rossby waves of one |k| is an exact nonlinear solution (q = -(k^2 + F) psi pointwise, so
-# J(psi, q) = 0) at any amplitude, each wave at its own omega: at amplitudes 10^-3 to 10^3, the right-hand side is
-# the linear one to 16 eps of the largest linear term |lambda q| plus the scale of the products that cancel,
-# |k| max|u| max|q| on the grid (measured 0.05-0.4 eps of their sum; at amplitude 10^3 the products are 5 10^4
-# times the linear term); and 200 RK4 steps follow R(z_k)^n per mode to 4 eps a step plus that round-off. (At amplitude 10^3 the
-# waves' own instability would grow the round-off by e^(k |u| t), so the run is at 10^-3 and 1.)
+# Any superposition of Rossby waves of one |k| is an exact nonlinear solution (q = -(k^2 + F) psi pointwise, so J(psi,
+# q) = 0) at any amplitude, each wave at its own omega: at amplitudes 10^-3 to 10^3, the right-hand side is the linear
+# one to 16 eps of the largest linear term |lambda q| plus the scale of the products that cancel, |k| max|u| max|q| on
+# the grid (measured 0.05-0.4 eps of their sum; at amplitude 10^3 the products are 5 10^4 times the linear term); and
+# 200 RK4 steps follow R(z_k)^n per mode to 4 eps a step plus that round-off. (At amplitude 10^3 the waves' own
+# instability would grow the round-off by e^(k |u| t), so the run is at 10^-3 and 1.)
 @pytest.mark.parametrize("amplitude", [1e-3, 1.0, 1e3])
 def test_rossby_waves_of_one_wavenumber_superpose_exactly(amplitude):
     beta, F, nu = 6.0, 0.7, 0.01
