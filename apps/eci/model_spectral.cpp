@@ -254,7 +254,9 @@ class spectral_command final : public model_command {
         real("energy", "random: initial energy (default 0.5)");
         real("vortex-radius", "vortex-pair: radius of each Gaussian vortex (default 0.25)");
         real("vortex-separation", "vortex-pair: distance of the centres (default 0.7)");
-        real("vortex-peak", "vortex-pair: peak " + std::string(e.field) + "; taylor-green: velocity (default 10, 1)");
+        real("vortex-peak", "vortex-pair: peak " + std::string(e.field) +
+                                "; taylor-green: U of q = 2U sin x sin y, the peak velocity for navier-stokes-2d "
+                                "(2U/(2 + F) for charney-hasegawa-mima, sqrt(2) U for surface-qg) (default 10, 1)");
         real("cfl", "dt = CFL dx / max|u| at the start (default 0.5; exclusive with --dt)");
         whole("N", "grid points per side, even, >= 8 (default 256); |k_x|, |k_y| <= (N - 1)/3 kept", 0);
         whole("hyper-p", "hyperviscosity power p, 1..16 (default 2; with --hyper-nu)", 0);

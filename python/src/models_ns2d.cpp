@@ -76,7 +76,19 @@ class ns2d_object : public model_base {
     py::array default_y0() const override { return to_numpy(y0_); }
     std::vector<std::string> invariant_names() const override { return {names_[0], names_[1]}; }
 
+    // A white-in-time forcing is drawn by each step of eci.solve (begin_step) and held over it: a right-hand side
+    // asked for outside those steps has no forcing of its own to add. It added F = 0 before the first solve and the
+    // last step's draw after one, so SciPy's solve_ivp(model, ...) ran unforced (or one draw held for the whole
+    // run) without a word; refused, as a setting that cannot act is refused.
     py::array call(double t, const py::object& y) const override {
+        if (model_->params().forcing == ns2d_forcing::stochastic)
+            throw std::invalid_argument(
+                std::string(model_->eq().python_class) +
+                "(t, y): the stochastic forcing is white in time, drawn once per step by eci.solve(model, ...) (as "
+                "eci run draws it) and held over that step, so a right-hand side asked for outside those steps "
+                "(SciPy's solve_ivp, a Python function) has no forcing to add; integrate it with eci.solve, or make "
+                "the model with forcing='deterministic' or 'none' for fun(t, y) (model.forcing_term is the forcing of "
+                "the last step taken)");
         const state x = to_state(y);
         state d(x.size());
         const auto lock_ = lock();
@@ -386,6 +398,16 @@ void add_flow_methods(Class& c) {
                 s.model().set_rng_state(v);
             },
             "where the stochastic forcing's generator stands (each solve continues it; a copy carries it)")
+        .def_property_readonly(
+            "forcing_term",
+            [](const o& s) {
+                const auto lock = s.lock();
+                const state& f = s.model().forcing();
+                return to_numpy(f.empty() ? state(s.model().size()) : f);
+            },
+            "the forcing F_k the right-hand side adds, in the state's layout: the deterministic band's, or the "
+            "stochastic forcing of the last step eci.solve took (sigma g / sqrt(dt); zero before the first); zero "
+            "unforced")
         .def_property_readonly("kmax", [](const o& s) { return s.model().kmax(); }, "largest retained |k_x|, |k_y|")
         .def_property_readonly("size", [](const o& s) { return s.model().size(); }, "stored complex modes")
         .def_property_readonly(
@@ -409,10 +431,10 @@ void add_flow_methods(Class& c) {
         .def("enstrophy", [](const o& s, const py::object& w) { return s.model().enstrophy(s.to_state(w)); },
              py::arg("w"), "Z = 1/2 sum |q_k|^2 (enstrophy; surface QG calls it variance)")
         .def("palinstrophy", [](const o& s, const py::object& w) { return s.model().palinstrophy(s.to_state(w)); },
-             py::arg("w"), "P = 1/2 <|grad omega|^2>")
+             py::arg("w"), "P = 1/2 <|grad q|^2> of the evolved field q (vorticity, potential vorticity or buoyancy)")
         .def("energy_spectrum",
              [](const o& s, const py::object& w) { return to_numpy(s.model().energy_spectrum(s.to_state(w))); },
-             py::arg("w"), "shell-averaged E(k), k = 0, 1, ...")
+             py::arg("w"), "shell-summed E(k), k = round(|k|) = 0, 1, ... (sum over k is E, not a shell average)")
         .def("max_velocity",
              [](const o& s, const py::object& w) {
                  const state x = s.to_state(w);
@@ -435,7 +457,8 @@ void add_flow_methods(Class& c) {
                  py::array_t<double> a = to_numpy(s.model().to_physical(x));
                  return a.reshape({s.model().n(), s.model().n()});
              },
-             py::arg("w"), "the vorticity on the n x n grid (rows: y)")
+             py::arg("w"), "the evolved field q (vorticity, potential vorticity or buoyancy) on the n x n grid "
+             "(rows: y)")
         .def("from_physical",
              [](const o& s, const py::object& field) {
                  const std::size_t n = std::size_t(s.model().n());
@@ -449,7 +472,9 @@ void add_flow_methods(Class& c) {
                  const auto lock = s.lock();
                  return to_numpy(s.model().from_physical({f.data(), n * n}));
              },
-             py::arg("field"), "the state of a vorticity field on the n x n grid (truncated, mean removed)")
+             py::arg("field"),
+             "the state of a field q (vorticity, potential vorticity or buoyancy) on the n x n grid (truncated, mean "
+             "removed)")
         .def("random_field",
              [](const o& s, std::optional<double> k_peak, double energy, long long seed) {
                  if (seed < 0) throw std::invalid_argument("seed must be a whole number >= 0");
@@ -478,7 +503,11 @@ void add_flow_methods(Class& c) {
                  return to_numpy(s.model().taylor_green(velocity));
              },
              py::arg("velocity") = field::taylor_green_velocity,
-             "omega = 2 U sin x sin y, steady for Euler, damped as exp(-2 nu t)")
+             "q = 2 U sin x sin y (one |k| = sqrt 2; U is the peak velocity for Navier-Stokes, 2U/(2 + F) is it "
+             "for Charney-Hasegawa-Mima and sqrt(2) U for surface QG): steady without beta, forcing or dissipation, "
+             "damped at the linear "
+             "terms' rate at k^2 = 2 (exp(-2 nu t) with viscosity); with beta (charney-hasegawa-mima) it travels "
+             "west rigidly, q = 2 U sin(x + beta t / (2 + F)) sin y")
         .def("enstrophy_spectrum",
              [](const o& s, const py::object& w) { return to_numpy(s.model().enstrophy_spectrum(s.to_state(w))); },
              py::arg("w"), "shell-summed Z(k) (the second invariant's spectrum), k = 0, 1, ...")
