@@ -1508,6 +1508,17 @@ int spectral_command::run_spread(const run_settings& settings) {
                      {"halvings_per_step", double(run.halvings) / double(std::max<std::uint64_t>(reached, 1))},
                      {"advective_form_retries", double(model.form_retries())},
                      {"final_cfl", model.cfl(w, last_dt)}};
+        // forced or damped: the drift columns are the physics' change; how well each was kept is its budget's
+        const ns2d_budget& b = run.budget;
+        if (b.energy_injection != 0.0 || b.energy_dissipation != 0.0 || b.enstrophy_injection != 0.0 ||
+            b.enstrophy_dissipation != 0.0) {
+            char kept[160];
+            std::snprintf(kept, sizeof kept, " within %.2g and %.2g relative per step",
+                          run.max_energy_residual, run.max_enstrophy_residual);
+            s.invariants_note = inv_[0] + " and " + inv_[1] +
+                                " change by forcing and dissipation (the drifts above); they kept to their budgets" +
+                                kept;
+        }
         return s;
     };
     // Ctrl-C (SIGINT, SIGTERM, SIGHUP, SIGQUIT) at step `reached`, the checkpoint written: the outputs up to that

@@ -43,6 +43,9 @@ struct run_summary {
     std::vector<invariant_record> invariants;
     /// Model-specific figures of merit at the end of the run (e.g. Kepler's Runge-Lenz turn), name and value.
     std::vector<std::pair<std::string, double>> figures;
+    /// A sentence under the invariants' table for its reader, e.g. how a spectral run's forced and dissipated
+    /// invariants kept to their budgets (the drift columns are then the physics' change). Text summary only.
+    std::string invariants_note;
     /// Relaxation RK: the last state's true time minus its grid time t_end (it reached t_end + time_lag).
     std::optional<double> time_lag;
     bool adaptive = false;  ///< --rtol/--atol: adaptive step control (dt is then the first step)

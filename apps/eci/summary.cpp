@@ -127,6 +127,7 @@ void print_summary(std::FILE* f, const run_summary& s) {
         std::fprintf(f, "  %-*s %-24s %-24s %-13.3e %s\n", name_width, r.name.c_str(), number(r.initial).c_str(),
                      number(r.final).c_str(), r.max_abs_drift, rel);
     }
+    if (!s.invariants_note.empty()) std::fprintf(f, "  %s\n", s.invariants_note.c_str());
     if (s.stats.solver.solves > 0)
         std::fprintf(f, "  iterative solves %llu, iterations mean %.3g, max %d\n",
                      static_cast<unsigned long long>(s.stats.solver.solves), s.stats.solver.mean_iterations(),

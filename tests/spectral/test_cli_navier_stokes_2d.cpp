@@ -267,6 +267,7 @@ TEST(CliNavierStokes2d, TheSummaryCountsTheStepsOfTheRemedy) {
             EXPECT_EQ(steps, 0) << json;
             EXPECT_EQ(parts, 0) << json;
             EXPECT_EQ(r.err.find("remedied steps"), std::string::npos) << r.err;  // (the summary: on stderr)
+            EXPECT_EQ(r.err.find("kept to their budgets"), std::string::npos) << r.err;  // (inviscid: no budget)
             continue;
         }
         EXPECT_GT(steps, 0) << json;
@@ -442,6 +443,11 @@ TEST(CliNavierStokes2d, AFieldDampedBelowTheNormalRangeIsSaidSo) {
                      "--summary-json " + q + "/s.json",
                      d);
     ASSERT_EQ(r.status, 0) << r.err;
+    // the summary says what its drift columns are for a damped run, and how the invariants kept to their budgets
+    EXPECT_NE(r.err.find("  energy and enstrophy change by forcing and dissipation (the drifts above); they kept to "
+                         "their budgets within "),
+              std::string::npos)
+        << r.err;
     const std::string json = read_text(d / "s.json");
     const auto number = [&](const std::string& key) {
         const std::size_t at = json.find("\"" + key + "\": ");
