@@ -1448,9 +1448,11 @@ int spectral_command::run_spread(const run_settings& settings) {
                 // (max |u| is collective on MPI, and the bar is drawn on rank 0's clock: no CFL there)
                 std::snprintf(line, sizeof line, " step %llu  CFL %.3g  %s drift %.2g  %s drift %.2g ",
                               (unsigned long long)i, mpi.on ? std::nan("") : model.cfl(w, dt), inv_[0].c_str(),
-                              (e_prev - run.energy0 - (b.energy_injection - b.energy_dissipation)) / e_prev,
+                              (e_prev - run.energy0 - (b.energy_injection - b.energy_dissipation)) /
+                                  std::max(e_prev, model.invariant_floor()),
                               inv_[1].c_str(),
-                              (z_prev - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)) / z_prev);
+                              (z_prev - run.enstrophy0 - (b.enstrophy_injection - b.enstrophy_dissipation)) /
+                                  std::max(z_prev, model.invariant_floor()));
                 return std::string(line);
             });
             if (stop_requested()) {
