@@ -122,7 +122,9 @@ def _shortest(v):
 
 
 def _number(value, what):
-    if isinstance(value, bool) or not isinstance(value, numbers.Real):
+    if isinstance(value, np.ndarray) and value.ndim == 0 and value.dtype.kind in "iuf":
+        value = value[()]  # a 0-d array (np.array(0.1), np.asarray of a number): its number, as SciPy takes it
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
         raise TypeError(f"{what} must be a real number, not {type(value).__name__}")
     return float(value)
 
@@ -369,6 +371,19 @@ def _event_list(events):
     return out
 
 
+def _method_of_class(cls):
+    """The eci method of a solver class given as solve_ivp's method: an eci.scipy class is its pair, SciPy's RK23,
+    RK45 and DOP853 the pairs of the same tableaux (as their names); any other class is refused (eci.solve runs the
+    library's own steppers, not a solver class's step)."""
+    if isinstance(getattr(cls, "eci_method", None), str):
+        return cls.eci_method
+    if cls.__module__.startswith("scipy.integrate") and cls.__name__ in _SCIPY_METHODS:
+        return cls.__name__
+    raise TypeError(f"method {cls.__module__}.{cls.__qualname__} is a class eci.solve cannot run: give a method "
+                    f"name (see eci.methods()), one of SciPy's explicit methods ({', '.join(_SCIPY_METHODS)}) or an "
+                    f"eci.scipy class, or pass the class to scipy.integrate.solve_ivp")
+
+
 def _said_as_given(solve):
     """A refusal of a method given by SciPy's name (RK45) names it as given, with eci's name beside it: the library
     speaks of the pair it was mapped to ("method 'dp54' is not available"), a name the user never typed."""
@@ -480,6 +495,8 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     is_model = isinstance(fun, Model)
     if not is_model and not callable(fun):
         raise TypeError(f"fun must be a callable fun(t, y) or an eci.models model, not {type(fun).__name__}")
+    if isinstance(method, type):  # a solver class, as solve_ivp takes one: SciPy's explicit ones or eci.scipy's
+        method = _method_of_class(method)
     if method is not None and not isinstance(method, str):
         raise TypeError(f"method must be a string (see eci.methods()), not {type(method).__name__}")
     names = [m.name for m in methods()]

@@ -398,3 +398,34 @@ def test_the_dense_solution_ends_at_a_terminal_event(span):
     assert ref.sol.ts[-1] == ref.t[-1]
     # one interpolant evaluated two ways (the run's C++ form at the event, sol's samples in Python): a few ulps of 1
     np.testing.assert_allclose(r.sol(r.t[-1]), r.y[:, -1], rtol=0, atol=16 * EPS)
+
+
+# Numbers given as 0-d arrays (np.array(0.1), np.asarray of a number) are numbers, as SciPy's solve_ivp takes them
+# (they were a TypeError: "first_step must be a real number, not ndarray"); a 1-element array or a bool is not one.
+def test_zero_dimensional_arrays_are_numbers_as_in_scipy():
+    f = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    a = eci.solve(f, (np.array(0.0), np.array(10)), [1.0, 0.0], first_step=np.array(0.1), max_step=np.array(0.5))
+    b = eci.solve(f, (0.0, 10.0), [1.0, 0.0], first_step=0.1, max_step=0.5)
+    np.testing.assert_array_equal(a.t, b.t)
+    np.testing.assert_array_equal(a.y, b.y)
+    for bad in (np.array(True), np.array([0.1]), np.array(1j)):
+        with pytest.raises(TypeError, match="first_step must be a real number, not ndarray"):
+            eci.solve(f, (0.0, 10.0), [1.0, 0.0], first_step=bad)
+
+
+# solve_ivp takes a solver class as method: SciPy's explicit ones run as the pairs of their names (RK45 is dp54),
+# eci.scipy's as their pair; any other class is refused saying so (it was "method must be a string ..., not type").
+def test_a_solver_class_as_method():
+    import scipy.integrate as si
+    import eci.scipy
+    f = lambda t, y: np.array([y[1], -y[0]])  # noqa: E731
+    for cls, name in ((si.RK23, "RK23"), (si.RK45, "RK45"), (si.DOP853, "DOP853"), (eci.scipy.CDP54, "c-dp54"),
+                      (eci.scipy.F78, "f78")):
+        a = eci.solve(f, (0.0, 10.0), [1.0, 0.0], method=cls)
+        b = eci.solve(f, (0.0, 10.0), [1.0, 0.0], method=name)
+        assert a.method == b.method
+        np.testing.assert_array_equal(a.y, b.y)
+    for cls in (si.Radau, eci.scipy.EmbeddedPair, int):
+        with pytest.raises(TypeError, match=r"is a class eci.solve cannot run: .* pass the class to "
+                                            r"scipy.integrate.solve_ivp"):
+            eci.solve(f, (0.0, 10.0), [1.0, 0.0], method=cls)
