@@ -1415,19 +1415,13 @@ int spectral_command::run_spread(const run_settings& settings) {
             progress.finish();
             throw run_error(std::string(e.what()) + "; " + (stiffness.empty() ? smaller_step : stiffness));
         }
-        // relative to the invariant after the step, or to the one before it where a decayed flow reached exactly 0
-        // (the residual was inf there), but at least to the floor below which E and Z are sums of subnormal terms
-        // and their rounding is absolute (a field decayed to E = 1e-322 read 0.73 "per step" here)
-        const double floor = model.invariant_floor();
-        const auto relative = [floor](double r, double after, double before) {
-            return r / std::max(after != 0.0 ? after : before, floor);
-        };
-        run.max_energy_residual = std::max(
-            run.max_energy_residual,
-            relative(std::abs(e1 - e_prev - (b.energy_injection - b.energy_dissipation)), e1, e_prev));
-        run.max_enstrophy_residual = std::max(
-            run.max_enstrophy_residual,
-            relative(std::abs(z1 - z_prev - (b.enstrophy_injection - b.enstrophy_dissipation)), z1, z_prev));
+        // the library's rule, as Python's (relative to the invariant, at least to the floor of subnormal terms)
+        run.max_energy_residual =
+            std::max(run.max_energy_residual,
+                     model.budget_residual(e_prev, e1, b.energy_injection, b.energy_dissipation));
+        run.max_enstrophy_residual =
+            std::max(run.max_enstrophy_residual,
+                     model.budget_residual(z_prev, z1, b.enstrophy_injection, b.enstrophy_dissipation));
         // (kept in the checkpoint's record across a restart, by the library's rule)
         run.max_energy_drift = eci::invariant_record::widened_drift(run.max_energy_drift, run.energy0, e1);
         run.max_enstrophy_drift = eci::invariant_record::widened_drift(run.max_enstrophy_drift, run.enstrophy0, z1);

@@ -195,6 +195,7 @@ class ns2d_object : public model_base {
         std::optional<solve_report> failed;
         std::optional<eci::spectral::flow_blow_up> blew_up;
         const double energy0 = m.energy(x);
+        std::array<double, 2> before{energy0, m.enstrophy(x)}, residual{0.0, 0.0};
         {
             std::optional<py::gil_scoped_release> unlocked;
             if (release) unlocked.emplace();
@@ -210,6 +211,12 @@ class ns2d_object : public model_base {
             auto on_step = [&](const state& s, const output_point& pt) {
                 report.stats = *pt.stats;  // (the counts up to here, for a run the blow-up stop ends)
                 const ns2d_budget& b = m.step_budget();
+                // each step's budget residual, the library's rule (eci run's max_*_budget_residual_per_step)
+                residual[0] = std::max(residual[0], m.budget_residual(before[0], pt.invariants[0], b.energy_injection,
+                                                                      b.energy_dissipation));
+                residual[1] = std::max(residual[1], m.budget_residual(before[1], pt.invariants[1],
+                                                                      b.enstrophy_injection, b.enstrophy_dissipation));
+                before = {pt.invariants[0], pt.invariants[1]};
                 budget.energy_injection += b.energy_injection;
                 budget.energy_dissipation += b.energy_dissipation;
                 budget.enstrophy_injection += b.enstrophy_injection;
@@ -247,6 +254,8 @@ class ns2d_object : public model_base {
         b[py::str(names_[0] + "_dissipation")] = budget.energy_dissipation;
         b[py::str(names_[1] + "_injection")] = budget.enstrophy_injection;
         b[py::str(names_[1] + "_dissipation")] = budget.enstrophy_dissipation;
+        b[py::str("max_" + names_[0] + "_budget_residual_per_step")] = residual[0];
+        b[py::str("max_" + names_[1] + "_budget_residual_per_step")] = residual[1];
         d["budget"] = b;
         return d;
     }

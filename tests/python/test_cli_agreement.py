@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import eci
-from conftest import cli_error, failure_of, run_cli
+from conftest import EPS, cli_error, failure_of, run_cli
 
 
 def cli_run(cli, tmp_path, model, method, dt, t_end, *options):
@@ -780,8 +780,9 @@ def test_spectral_settings_that_change_the_run_are_taken_alike(cli, cls, tmp_pat
         options += ["--" + k.replace("_", "-"), str(v)]
     m = cls(n=16, fftw_measure=False, **keywords)
     csv = tmp_path / "run.csv"
+    summary = tmp_path / "run.json"
     run_cli(cli, "run", m.name, "--N", "16", "--dt", "0.01", "--t-end", "0.05", "--fftw-estimate", "--fftw-wisdom",
-            "none", "--output", csv, *options)
+            "none", "--output", csv, "--summary-json", summary, *options)
     header = csv.read_text().splitlines()[0].split(",")
     data = np.loadtxt(csv, delimiter=",", skiprows=1, ndmin=2)
     columns = {name: data[:, i] for i, name in enumerate(header)}
@@ -790,6 +791,12 @@ def test_spectral_settings_that_change_the_run_are_taken_alike(cli, cls, tmp_pat
     first = m.invariant_names[0]
     assert [m.energy(r.y[:, i]) for i in range(len(r.t))] == list(columns[first])
     assert r.budget[first + "_injection"] > 0.0  # the forcing acted
+    # each step's budget residual by the library's one rule (flow2d::budget_residual): the CLI's figures, bit for bit,
+    # and a few eps (the rounding of E, Z and the budget's sums in a step)
+    s = json.loads(summary.read_text())
+    for name in m.invariant_names:
+        key = f"max_{name}_budget_residual_per_step"
+        assert r.budget[key] == s[key] and r.budget[key] <= 16 * EPS, (key, r.budget[key], s[key])
 
 
 # update= / --update chooses a conservative method's update; with a method that has none it is refused in one

@@ -47,7 +47,8 @@ def test_spectra_fluxes_and_budget_names(index):
     # the transfer conserves both invariants: no flux leaves the last shell
     assert abs(pe[-1]) <= 1e3 * EPS * np.max(np.abs(pe)) and abs(pz[-1]) <= 1e3 * EPS * np.max(np.abs(pz))
     r = eci.solve(m, (0.0, 0.05), w, method="c-rk4", dt=0.01)
-    assert sorted(r.budget) == sorted(f"{n}_{k}" for n in names for k in ("injection", "dissipation"))
+    assert sorted(r.budget) == sorted([f"{n}_{k}" for n in names for k in ("injection", "dissipation")] +
+                                      [f"max_{n}_budget_residual_per_step" for n in names])
 
 
 def test_rossby_wave_frequency_from_python():

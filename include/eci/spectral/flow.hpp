@@ -3,7 +3,9 @@
 // and Z, the invariants, diagnostics (max |u|, CFL, spectra and fluxes) and initial fields. Link eci::spectral.
 #pragma once
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <complex>
 #include <cstddef>
 #include <cstdint>
@@ -326,6 +328,14 @@ class flow2d {
     /// every equation here) are subnormal and round to an absolute 2^-1074, so a per-step budget residual is measured
     /// relative to at least this value (it is then eps of it), not to a decayed E of 1e-320.
     double invariant_floor() const;
+    /// One step's budget residual of an invariant, |after - before - (injection - dissipation)|, relative to the
+    /// invariant after the step (before it, where a decayed flow reached exactly 0), and to at least
+    /// invariant_floor(): what both front ends report per step (eci run's max_energy_budget_residual_per_step,
+    /// Python's result.budget of the same name).
+    double budget_residual(double before, double after, double injection, double dissipation) const {
+        return std::abs(after - before - (injection - dissipation)) /
+               std::max(after != 0.0 ? after : before, invariant_floor());
+    }
     /// "" unless the field has decayed below double precision's normal range (Z(q) below invariant_floor(): its
     /// components' squares subnormal); then the sentence a front end gives for a failed step instead of "a smaller dt
     /// may pass": a conservative update is formed from those squares, which are round-off there, and a smaller step
