@@ -109,6 +109,12 @@ std::string other_models_option(const std::vector<std::unique_ptr<model_command>
     return "";
 }
 
+/// The long option a command-line token names, "--name" or "--name=value" -> "name"; "" for any other token.
+std::string_view long_option_name(std::string_view token) {
+    if (token.size() < 3 || token.substr(0, 2) != "--") return {};
+    return token.substr(2, token.find('=') == std::string_view::npos ? std::string_view::npos : token.find('=') - 2);
+}
+
 /// For a mistyped option of the command `app` (`--metho`, `--t_end`, `--n` for --N): " (no option --metho; did you
 /// mean --method?)", the option of `app` nearest to it: the same name but for case, else within
 /// max(1, length / 3) edits (Levenshtein, case ignored); "" if no option is that near or no extra is an option.
@@ -133,8 +139,8 @@ std::string nearest_option(const CLI::App* app, const std::vector<std::string>& 
         return row[b.size()];
     };
     for (const std::string& extra : extras) {
-        if (extra.size() < 3 || extra.rfind("--", 0) != 0) continue;
-        const std::string name = extra.substr(2, extra.find('=') - 2);
+        const std::string name(long_option_name(extra));
+        if (name.empty()) continue;
         std::string best;
         std::size_t best_d = std::max<std::size_t>(1, name.size() / 3) + 1;
         for (const CLI::Option* o : app->get_options())
@@ -289,9 +295,8 @@ void check_no_empty_values(int argc, char** argv) {
 /// missing: "--method needs a value, not the option --output".
 void check_values_are_not_options(const CLI::App& command, int argc, char** argv) {
     const auto option_of = [&](std::string_view token) -> const CLI::Option* {
-        if (token.size() < 3 || token.substr(0, 2) != "--") return nullptr;
-        const std::string name(token.substr(2, token.find('=') == std::string_view::npos ? std::string_view::npos
-                                                                                           : token.find('=') - 2));
+        const std::string name(long_option_name(token));
+        if (name.empty()) return nullptr;
         for (const CLI::Option* o : command.get_options())
             for (const std::string& l : o->get_lnames())
                 if (l == name) return o;

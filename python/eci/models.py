@@ -223,10 +223,6 @@ def _refuse_bools(cls, flags=()):
     cls.__reduce__ = _reduce
 
 
-for _cls in ode_models:
-    _refuse_bools(_cls)
-
-
 def _generated_repr(compiled):
     """The repr of a model generated from its constructor's arguments (n-wave: modes, triads_per_mode, seed make the
     triads, which the model holds instead): the constructor call that made it, as a spectral model's repr is, or
@@ -246,6 +242,7 @@ def _generated_repr(compiled):
 
 
 for _cls in ode_models:
+    _refuse_bools(_cls)
     if hasattr(_cls, "triads"):
         _cls.__repr__ = _generated_repr(_cls.__repr__)
 for _cls in flow_models:

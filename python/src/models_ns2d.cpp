@@ -203,7 +203,7 @@ class ns2d_object : public model_base {
             interrupt_pending = false;
             interrupt_check interrupt(!release);
             drift[0].record(energy0, true);
-            drift[1].record(m.enstrophy(x), true);
+            drift[1].record(before[1], true);
             if (!release) user.measure(x, drift, 2, true);
             auto on_output = [&](const state& s, const output_point& pt) {
                 if (!no_outputs) out.record(pt.t, s);
