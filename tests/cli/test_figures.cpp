@@ -101,6 +101,48 @@ void check_fig1_euler_gains_energy_every_step_and_c_euler_conserves(const fs::pa
     EXPECT_LE(max_abs_change(cz), 8 * eps * std::sqrt(steps) * cz.front());
 }
 
+/// Sec. III.D: the radicand of (30b) goes negative, and the step must be reduced, "approximately 10% of the time".
+/// Recounts here, independently of the library, the steps of Fig. 2's C-PC run that need a reduction: from each
+/// row's state (17 digits: the state eci had) one whole step of eq. (30) with tau = 0.2, M = (1, 1, -2); a step
+/// needs a reduction if some mode's radicand is negative. The fraction of such steps is what the paper quotes, not
+/// the number of halvings (a step's halves can fail again, so halvings count more: 20 against 12 steps here).
+void check_fig2_counts_the_steps_that_needed_a_reduction(const fs::path& dir_) {
+    const csv t = read_csv(dir_ / "fig2.csv");
+    const auto summary = read_summary(dir_ / "summary.csv");
+    const double tau = 0.2, m[3] = {1.0, 1.0, -2.0};
+    auto rates = [&](const double* p, double* s) {
+        s[0] = m[0] * p[1] * p[2];
+        s[1] = m[1] * p[2] * p[0];
+        s[2] = m[2] * p[0] * p[1];
+    };
+    std::size_t reduced = 0, unsure = 0;
+    for (std::size_t i = 0; i + 1 < t.rows; ++i) {
+        const double psi[3] = {t["c_pc_K"][i], t["c_pc_P"][i], t["c_pc_Q"][i]};
+        double s[3], pred[3], s_pred[3];
+        rates(psi, s);
+        for (int k = 0; k < 3; ++k) pred[k] = psi[k] + tau * s[k];
+        rates(pred, s_pred);
+        bool negative = false, near_zero = false;
+        for (int k = 0; k < 3; ++k) {
+            const double terms[3] = {psi[k] * psi[k], tau * psi[k] * s[k], tau * pred[k] * s_pred[k]};
+            const double rad = terms[0] + terms[1] + terms[2];
+            // eci forms the radicand with other roundings: within a few eps of its terms, its sign is not ours.
+            const double scale = std::abs(terms[0]) + std::abs(terms[1]) + std::abs(terms[2]);
+            negative = negative || rad < 0.0;
+            near_zero = near_zero || std::abs(rad) <= 16 * eps * scale;
+        }
+        reduced += negative;
+        unsure += near_zero;
+    }
+    const double steps = summary.at("c_pc_steps");
+    ASSERT_EQ(steps, double(t.rows - 1));
+    EXPECT_NEAR(summary.at("c_pc_reduced_steps"), double(reduced), double(unsure));
+    EXPECT_EQ(summary.at("c_pc_reduced_steps_fraction"), summary.at("c_pc_reduced_steps") / steps);
+    // Every reduced step was halved at least once; halvings beyond that are its halves failing again.
+    EXPECT_GE(summary.at("c_pc_step_reductions"), summary.at("c_pc_reduced_steps"));
+    EXPECT_GT(reduced, 0u);  // at tau = 0.2 (a sixteenth of the period) the predictor overshoots zeros
+}
+
 void check_fig4_pc_gains_energy_and_c_pc_conserves_to_round_off(const fs::path& dir_) {
     const csv t = read_csv(dir_ / "fig4.csv");
     const auto summary = read_summary(dir_ / "summary.csv");
@@ -260,6 +302,7 @@ TEST(figures_all, reproduces_the_papers_figures_and_key_numbers) {
     const std::vector<std::pair<const char*, void (*)(const fs::path&)>> checks{
         {"files", check_every_file_is_written},
         {"fig1", check_fig1_euler_gains_energy_every_step_and_c_euler_conserves},
+        {"fig2", check_fig2_counts_the_steps_that_needed_a_reduction},
         {"fig3", check_fig3_c_pc_is_more_accurate_than_pc},
         {"fig4", check_fig4_pc_gains_energy_and_c_pc_conserves_to_round_off},
         {"fig5", check_fig5_single_step_error_is_third_order},
