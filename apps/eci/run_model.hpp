@@ -135,6 +135,37 @@ inline void write_csv_number(std::FILE* out, double v) {
 
 }  // namespace detail
 
+/// A model's columns computed from the state (Kepler's Cartesian position: derived_columns()), or none.
+template <class Model>
+constexpr auto derived_columns_of() {
+    if constexpr (requires { Model::derived_columns(); })
+        return Model::derived_columns();
+    else
+        return std::array<named_invariant<Model>, 0>{};
+}
+
+/// --plot's phase plane (the model's plot_plane), if it declares one: each of its two columns a state component (its
+/// index among the real unknowns) or a derived column (-1 - its index there), found by name when this compiles.
+template <class Model>
+constexpr std::optional<std::array<int, 2>> plot_plane_columns() {
+    if constexpr (requires { Model::plot_plane; }) {
+        constexpr auto column = [](std::string_view name) {
+            constexpr auto d = derived_columns_of<Model>();
+            for (std::size_t i = 0; i < Model::component_names.size(); ++i)
+                if (name == Model::component_names[i]) return int(i);
+            for (std::size_t k = 0; k < d.size(); ++k)
+                if (name == d[k].name) return -1 - int(k);
+            return int(-1 - d.size());  // (none: refused below)
+        };
+        constexpr std::array<int, 2> c{column(Model::plot_plane.x), column(Model::plot_plane.y)};
+        constexpr int none = -1 - int(derived_columns_of<Model>().size());
+        static_assert(c[0] != none && c[1] != none, "plot_plane names a column the model does not have");
+        return c;
+    } else {
+        return std::nullopt;
+    }
+}
+
 /// Runs `model` from x (at t = 0) with `method` over `plan`; `columns` names the real unknowns (CSV header and
 /// error messages). Returns the exit status (0); throws bad_input, run_error or interrupted, in which case no
 /// output file is left behind.
@@ -226,12 +257,7 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
     output_file picture = settings.plot.empty() ? output_file() : output_file(settings.plot, "plot");
 
     // Columns computed from the state (Kepler's Cartesian position), written between the state and the invariants.
-    constexpr auto derived = [] {
-        if constexpr (requires { Model::derived_columns(); })
-            return Model::derived_columns();
-        else
-            return std::array<named_invariant<Model>, 0>{};
-    }();
+    constexpr auto derived = derived_columns_of<Model>();
     std::vector<std::string> invariant_names;  // (the plot's and the HDF5 file's)
     for (const auto& inv : Model::invariants()) invariant_names.emplace_back(inv.name);
     // --plot: the same outputs as the CSV's rows, drawn at the end
@@ -244,6 +270,9 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
                          (adaptive ? ", rtol " + title_number(cfg.adaptive->rtol) + ", atol " +
                                           title_number(cfg.adaptive->atol)
                                    : ", dt " + title_number(plan.dt)));
+        if constexpr (plot_plane_columns<Model>().has_value())
+            plot->set_phase_plane(std::string(Model::plot_plane.x), std::string(Model::plot_plane.y),
+                                  Model::plot_plane.equal_axes);
     }
     run_summary summary;
     summary.model = info.name;
@@ -310,7 +339,23 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
                 detail::for_each_real(state, [&](double v) {
                     if (count < first.size()) first[count++] = v;
                 });
-                plot_->add(p.t, std::span<const double>(first.data(), count), p.invariants);
+                if constexpr (constexpr auto plane = plot_plane_columns<Model>(); plane.has_value()) {
+                    std::array<double, 2> at{};
+                    for (int a = 0; a < 2; ++a) {
+                        const int c = (*plane)[std::size_t(a)];
+                        if (c < 0) {
+                            at[std::size_t(a)] = (model_.*derived_[std::size_t(-1 - c)].value)(state);
+                        } else {
+                            std::size_t i = 0;
+                            detail::for_each_real(state, [&](double v) {
+                                if (i++ == std::size_t(c)) at[std::size_t(a)] = v;
+                            });
+                        }
+                    }
+                    plot_->add(p.t, std::span<const double>(first.data(), count), p.invariants, at);
+                } else {
+                    plot_->add(p.t, std::span<const double>(first.data(), count), p.invariants);
+                }
             }
             if (h5_) {
                 state_.clear();

@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -65,12 +66,26 @@ run_plot::run_plot(std::string path, std::vector<std::string> components, std::s
     if (names_.size() > max_components) names_.resize(max_components);
 }
 
+void run_plot::set_phase_plane(std::string x, std::string y, bool equal_axes) {
+    phase_ = true;
+    phase_x_ = std::move(x);
+    phase_y_ = std::move(y);
+    equal_axes_ = equal_axes;
+}
+
 void run_plot::add(double t, std::span<const double> components, std::span<const double> invariants) {
+    const std::array<double, 2> none{std::nan(""), std::nan("")};
+    add(t, components, invariants, none);
+}
+
+void run_plot::add(double t, std::span<const double> components, std::span<const double> invariants,
+                   std::span<const double, 2> phase) {
     last_.assign(width(), std::nan(""));
     last_[0] = t;
     for (std::size_t i = 0; i < names_.size() && i < components.size(); ++i) last_[1 + i] = components[i];
     for (std::size_t k = 0; k < invariants_.size() && k < invariants.size(); ++k)
         last_[1 + names_.size() + k] = invariants[k];
+    if (phase_) std::copy(phase.begin(), phase.end(), last_.end() - 2);
     has_last_ = true;
     if (seen_++ % stride_ != 0) return;
     data_.insert(data_.end(), last_.begin(), last_.end());
@@ -91,6 +106,48 @@ bool run_plot::draw(output_file& png) const {
         failure_ = e.what();
         return false;
     }
+}
+
+std::string run_plot::phase_panel(const std::vector<double>& rows, std::size_t count, const std::string& placement,
+                                  double panel_width, double panel_height, int width_px, int height_px,
+                                  const std::string& file) const {
+    const std::size_t w = width(), nc = names_.size(), ni = invariants_.size();
+    const std::string x = std::to_string(2 + nc + ni), y = std::to_string(3 + nc + ni);
+    std::string s = placement + "unset key\nset xlabel " + gnuplot_quoted(phase_x_) + "\nset ylabel " +
+                    gnuplot_quoted(phase_y_) + "\nset autoscale xy\n";
+    if (!equal_axes_) s += "set offsets graph 0.04, graph 0.04, graph 0.04, graph 0.04\n";  // (the curve off the frame)
+    if (equal_axes_) {
+        // one scale on both axes: the data's ranges widened to the panel's shape (gnuplot's `size ratio` does not
+        // act on a panel whose margins are fixed)
+        double lo[2] = {HUGE_VAL, HUGE_VAL}, hi[2] = {-HUGE_VAL, -HUGE_VAL};
+        for (std::size_t r = 0; r < count; ++r)
+            for (int a = 0; a < 2; ++a) {
+                const double v = rows[r * w + w - 2 + std::size_t(a)];
+                if (std::isfinite(v)) lo[a] = std::min(lo[a], v), hi[a] = std::max(hi[a], v);
+            }
+        const double px[2] = {panel_width * width_px, panel_height * height_px};
+        double scale = 0.0;  // data units per pixel
+        for (int a = 0; a < 2; ++a)
+            if (lo[a] <= hi[a]) scale = std::max(scale, 1.1 * (hi[a] - lo[a]) / px[a]);
+        if (scale > 0.0 && std::isfinite(scale)) {
+            for (int a = 0; a < 2; ++a) {
+                const double mid = 0.5 * (lo[a] + hi[a]), half = 0.5 * scale * px[a];
+                s += std::string(a == 0 ? "set xrange [" : "set yrange [") + gnuplot_number(mid - half) + ":" +
+                     gnuplot_number(mid + half) + "]\n";
+            }
+        }
+    }
+    // coloured by time, dark to light (a method that drifts leaves a band or a spiral of colours); a line through
+    // every output, or points where a long run's outputs were thinned (a line would cut across the orbit)
+    s += "set palette defined (0 '#30123b', 1 '#4686fb', 2 '#1ae4b6', 3 '#a2fc3c', 4 '#fabb39', 5 '#e4460a', "
+         "6 '#7a0403')\nset cblabel 't'\nset colorbox\nset cbrange [" +
+         gnuplot_number(rows.front()) + ":" + gnuplot_number(rows[(count - 1) * w]) + "]\n";
+    const std::string style = count == 1          ? " with points pointtype 7 pointsize 1 lc palette"
+                              : stride_ == 1 ? " with lines linewidth 1.5 lc palette"
+                                                  : " with points pointtype 7 pointsize 0.3 lc palette";
+    s += "plot " + file + " using " + x + ":" + y + ":1" + style + ", " + file + " every ::0::0 using " + x + ":" +
+         y + " with points pointtype 6 pointsize 1.8 lc rgb 'black'\n";
+    return s;
 }
 
 bool run_plot::draw_into(output_file& png) const {
@@ -117,22 +174,39 @@ bool run_plot::draw_into(output_file& png) const {
                 const double first = rows[1 + nc + k], v = row[1 + nc + k];
                 line += ' ' + gnuplot_number(relative[k] ? (v - first) / std::abs(first) : v - first);
             }
+            if (phase_) line += ' ' + gnuplot_number(row[w - 2]) + ' ' + gnuplot_number(row[w - 1]);
             line += '\n';
             if (std::fputs(line.c_str(), f) < 0) return;  // (write_new_file checks the stream's error state)
         }
     });
     const std::string format = plot_format(path_);
-    std::string s = format == "svg"   ? "set terminal svg size 1000,760 font ',10' noenhanced\n"
-                    : format == "pdf" ? "set terminal pdfcairo size 10in,7.6in font ',10' noenhanced\n"
-                                      : "set terminal pngcairo size 1000,760 font ',10' noenhanced\n";
+    // with a phase plane, a wider canvas: the state (left) and the phase plane (right) above, the invariants below
+    const int width_px = phase_ ? 1240 : 1000, height_px = 760;
+    const std::string size = std::to_string(width_px) + "," + std::to_string(height_px);
+    std::string s = format == "svg"   ? "set terminal svg size " + size + " font ',10' noenhanced\n"
+                    : format == "pdf" ? "set terminal pdfcairo size " + gnuplot_number(width_px / 100.0) +
+                                            "in,7.6in font ',10' noenhanced\n"
+                                      : "set terminal pngcairo size " + size + " font ',10' noenhanced\n";
     const scoped_temporary picture(temporary_name("." + format));
     s += "set output " + gnuplot_quoted(picture.path()) + "\n";
-    s += "set multiplot layout " + std::string(nc > 0 && ni > 0 ? "2" : "1") + ",1 title " +
-         gnuplot_quoted(title_) + "\n";
-    // the panels' axes aligned and ending at the data (not the next tic), the keys right of them; a single output
-    // as a point (a line of one point is not drawn)
-    s += "set grid\nset key outside right top\nset xlabel 't'\nset lmargin at screen 0.11\n"
-         "set rmargin at screen 0.74\nset autoscale xfix\n";
+    // Each panel's place on the canvas (screen fractions): the time axes share their left edge, the keys are right
+    // of their panels.
+    struct box {
+        double left, right, bottom, top;
+    };
+    const bool two_rows = nc > 0 && ni > 0;
+    const box state_box = phase_ ? box{0.08, 0.45, 0.55, 0.93} : box{0.11, 0.74, two_rows ? 0.55 : 0.1, 0.93};
+    const box invariant_box{phase_ ? 0.08 : 0.11, phase_ ? 0.8 : 0.74, 0.08, nc > 0 || phase_ ? 0.45 : 0.93};
+    const box phase_box{0.61, 0.87, 0.55, 0.93};
+    const auto place = [](const box& b) {
+        return "set lmargin at screen " + gnuplot_number(b.left) + "\nset rmargin at screen " +
+               gnuplot_number(b.right) + "\nset bmargin at screen " + gnuplot_number(b.bottom) +
+               "\nset tmargin at screen " + gnuplot_number(b.top) + "\n";
+    };
+    s += "set multiplot title " + gnuplot_quoted(title_) + "\n";
+    // the panels' axes ending at the data (not the next tic), the keys right of them; a single output as a point (a
+    // line of one point is not drawn)
+    s += "set grid\nset key outside right top\nset xlabel 't'\nset autoscale xfix\n";
     const std::string style = count > 1 ? " with lines" : " with points pointtype 7";
     const std::string file = gnuplot_quoted(data.path());
     if (nc > 0) {
@@ -140,23 +214,30 @@ bool run_plot::draw_into(output_file& png) const {
                                   : component_count_ > nc ? "state (first " + std::to_string(nc) + " of " +
                                                                 std::to_string(component_count_) + " components)"
                                                           : std::string("state");
-        s += "set ylabel " + gnuplot_quoted(label) + "\n" + (log_top_ ? "set logscale y\n" : "") + "plot ";
+        // (beside a phase plane, the key between the two panels: "outside right" is the canvas' right edge)
+        s += place(state_box) + "set ylabel " + gnuplot_quoted(label) + "\n" + (log_top_ ? "set logscale y\n" : "") +
+             (phase_ ? "set key at screen " + gnuplot_number(state_box.right + 0.085) + "," +
+                           gnuplot_number(state_box.top) + " right top\n"
+                     : "") +
+             "plot ";
         for (std::size_t i = 0; i < nc; ++i)
             s += (i ? ", " : "") + file + " using 1:" + std::to_string(2 + i) + style + " title " +
                  gnuplot_quoted(names_[i]);
-        s += "\n";
+        s += "\n" + std::string(log_top_ ? "unset logscale y\n" : "");
     }
     if (ni > 0) {
         // relative to the initial value, or where that is 0 (or not finite) absolute, said in the key
         const bool any_absolute = !std::ranges::all_of(relative, [](bool r) { return r; });
         const std::string label = bottom_label_.empty() ? "(invariant - initial) / |initial|" : bottom_label_;
-        s += std::string(log_top_ ? "unset logscale y\n" : "") + "set ylabel " +
+        s += place(invariant_box) + "set key outside right top\nset ylabel " +
              gnuplot_quoted(label + (any_absolute ? "; (abs.): - initial" : "")) + "\nset format y '%.1e'\nplot ";
         for (std::size_t k = 0; k < ni; ++k)
             s += (k ? ", " : "") + file + " using 1:" + std::to_string(2 + nc + k) + style + " title " +
                  gnuplot_quoted(invariants_[k] + (relative[k] ? "" : " (abs.)"));
-        s += "\n";
+        s += "\nset format y '% h'\n";
     }
+    if (phase_) s += phase_panel(rows, count, place(phase_box), phase_box.right - phase_box.left,
+                                 phase_box.top - phase_box.bottom, width_px, height_px, file);
     s += "unset multiplot\nset output\n";
     if (!draw_picture(s, picture.path())) {
         failure_ = plotting_failure();

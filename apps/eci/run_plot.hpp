@@ -1,5 +1,6 @@
 // `eci run MODEL --plot FILE.png` (or .svg, .pdf): a picture of a run drawn from its outputs (the CSV's rows, written or not): the
-// state's first components over time above, each invariant's relative change below.
+// state's first components over time above, beside them the model's phase plane (its orbit or cycle, coloured by
+// time) where it declares one, each invariant's relative change below.
 #pragma once
 
 #include <cstddef>
@@ -42,6 +43,13 @@ class run_plot {
 
     /// One output: its time, the state's first components (at most max_components are read) and the invariants.
     void add(double t, std::span<const double> components, std::span<const double> invariants);
+    /// The same with the output's point in the phase plane (set_phase_plane), two values.
+    void add(double t, std::span<const double> components, std::span<const double> invariants,
+             std::span<const double, 2> phase);
+    /// Draws a phase-plane panel beside the state's: the outputs' (x, y), labelled by the two columns' names, on one
+    /// scale where `equal_axes`, coloured by time (a drift shows as a band or a spiral), the first output marked.
+    /// Before the first add().
+    void set_phase_plane(std::string x, std::string y, bool equal_axes);
     /// Whether any output was added.
     bool empty() const { return rows_ == 0 && !has_last_; }
 
@@ -55,12 +63,19 @@ class run_plot {
 
    private:
     bool draw_into(output_file& png) const;
-    std::size_t width() const { return 1 + names_.size() + invariants_.size(); }
+    /// The phase-plane panel's script (after the others'): `rows` as drawn, `placement` its margins, its size as a
+    /// fraction of the canvas and the canvas in pixels (one scale on both axes needs them), `file` the data.
+    std::string phase_panel(const std::vector<double>& rows, std::size_t count, const std::string& placement,
+                            double panel_width, double panel_height, int width_px, int height_px,
+                            const std::string& file) const;
+    std::size_t width() const { return 1 + names_.size() + invariants_.size() + (phase_ ? 2 : 0); }
     std::string path_;
     std::vector<std::string> names_, invariants_;
     std::size_t component_count_;
     std::string title_, top_label_, bottom_label_;
     bool log_top_;
+    bool phase_ = false, equal_axes_ = false;
+    std::string phase_x_, phase_y_;
     std::vector<double> data_;  // rows of width(): t, the components drawn, the invariants
     std::size_t rows_ = 0;
     std::uint64_t seen_ = 0, stride_ = 1;  // outputs seen; every stride_-th is kept

@@ -86,12 +86,14 @@ TEST_F(cli_plot, draws_the_state_and_each_invariants_relative_change_from_the_cs
     const auto drawn = kept_data();
     ASSERT_EQ(drawn.size(), csv.size());
     for (std::size_t i = 0; i < csv.size(); ++i) {
-        ASSERT_EQ(drawn[i].size(), 6u);
+        ASSERT_EQ(drawn[i].size(), 8u);  // ... and the phase plane's psi_P, psi_Q (three_wave::plot_plane)
         for (std::size_t c = 0; c < 4; ++c) EXPECT_EQ(drawn[i][c], csv[i][c]) << "row " << i << " column " << c;
         for (std::size_t k = 0; k < 2; ++k) {
             const double first = csv[0][4 + k];
             EXPECT_EQ(drawn[i][4 + k], (csv[i][4 + k] - first) / std::abs(first)) << "row " << i;
         }
+        EXPECT_EQ(drawn[i][6], csv[i][2]) << "row " << i;
+        EXPECT_EQ(drawn[i][7], csv[i][3]) << "row " << i;
     }
     // PC drifts: the last relative change of the energy is what the summary reports, far from round-off
     EXPECT_GT(std::abs(drawn.back()[4]), 1e-3);
@@ -99,6 +101,69 @@ TEST_F(cli_plot, draws_the_state_and_each_invariants_relative_change_from_the_cs
     EXPECT_NE(gp.find("set terminal pngcairo"), std::string::npos) << gp;
     for (const char* title : {"'psi_K'", "'psi_P'", "'psi_Q'", "'energy'", "'enstrophy'", "three-wave: pc, dt 0.1"})
         EXPECT_NE(gp.find(title), std::string::npos) << title << "\n" << gp;
+}
+
+// The phase-plane panel (the model's plot_plane) draws the CSV's columns of its two names, a state component or a
+// derived column (Kepler's orbit x = r cos theta, y = r sin theta), coloured by time; an orbit on one scale on both
+// axes: the ranges set have the panel's shape, so that a circle is drawn round.
+TEST_F(cli_plot, the_phase_plane_draws_the_models_two_columns_and_an_orbit_on_one_scale) {
+    struct expected {
+        const char* model;
+        std::size_t x, y;  // the CSV's columns (t is column 0)
+        std::size_t width;  // of a drawn row: t, components, invariants, the two phase coordinates
+        bool equal_axes;
+    };
+    // kepler: t, r, v_r, theta, x, y, hamiltonian, runge_lenz_x, runge_lenz_y; lotka-volterra: t, x, y, hamiltonian
+    for (const expected& e : {expected{"kepler", 4, 5, 1 + 3 + 3 + 2, true},
+                              expected{"lotka-volterra", 1, 2, 1 + 2 + 1 + 2, false}}) {
+        SCOPED_TRACE(e.model);
+        const run_result r = eci({"run", e.model, "--method", "pc", "--steps", "300", "--output", "out.csv", "--plot",
+                                  "out.png"},
+                                 fake_plotter());
+        ASSERT_EQ(r.status, 0) << r.err;
+        const auto csv = csv_rows(read_text(work("out.csv")));
+        const auto drawn = kept_data();
+        ASSERT_EQ(drawn.size(), csv.size());
+        for (std::size_t i = 0; i < csv.size(); ++i) {
+            ASSERT_EQ(drawn[i].size(), e.width);
+            EXPECT_EQ(drawn[i][e.width - 2], csv[i][e.x]) << "row " << i;
+            EXPECT_EQ(drawn[i][e.width - 1], csv[i][e.y]) << "row " << i;
+        }
+        const std::string gp = kept_script();
+        const std::string x = std::to_string(e.width - 1), y = std::to_string(e.width);  // gnuplot counts from 1
+        EXPECT_NE(gp.find("using " + x + ":" + y + ":1 with lines linewidth 1.5 lc palette"), std::string::npos)
+            << gp;
+        EXPECT_NE(gp.find("every ::0::0 using " + x + ":" + y), std::string::npos) << gp;  // the start marked
+        const auto range = [&](const std::string& axis) {
+            const std::size_t at = gp.find("set " + axis + "range [");
+            if (at == std::string::npos) return std::pair<double, double>{NAN, NAN};
+            const std::size_t open = gp.find('[', at), colon = gp.find(':', open), close = gp.find(']', colon);
+            return std::pair<double, double>{std::stod(gp.substr(open + 1, colon - open - 1)),
+                                             std::stod(gp.substr(colon + 1, close - colon - 1))};
+        };
+        const auto [x0, x1] = range("x");
+        const auto [y0, y1] = range("y");
+        if (!e.equal_axes) {
+            EXPECT_TRUE(std::isnan(x0) && std::isnan(y0)) << "each axis fitted to its data\n" << gp;
+            continue;
+        }
+        // the panel's margins (screen fractions) and the canvas in pixels, from the script
+        const auto margin = [&](const std::string& side) {
+            const std::size_t at = gp.rfind("set " + side + "margin at screen ");
+            return std::stod(gp.substr(at + std::string("set " + side + "margin at screen ").size()));
+        };
+        const std::size_t size = gp.find("size ");
+        const double w_px = std::stod(gp.substr(size + 5)), h_px = std::stod(gp.substr(gp.find(',', size) + 1));
+        const double panel_w = (margin("r") - margin("l")) * w_px, panel_h = (margin("t") - margin("b")) * h_px;
+        // units per pixel alike on both axes, to the rounding of the script's numbers (gnuplot_number's 17 digits)
+        EXPECT_NEAR((x1 - x0) / panel_w, (y1 - y0) / panel_h, 1e-12 * (x1 - x0) / panel_w) << gp;
+        for (const auto& row : drawn) {  // and every point inside them
+            EXPECT_GE(row[e.width - 2], x0);
+            EXPECT_LE(row[e.width - 2], x1);
+            EXPECT_GE(row[e.width - 1], y0);
+            EXPECT_LE(row[e.width - 1], y1);
+        }
+    }
 }
 
 // A large state draws its first components only, and says how many there are; the format follows the name.
@@ -109,6 +174,7 @@ TEST_F(cli_plot, a_large_state_draws_its_first_components_and_the_name_picks_the
     ASSERT_EQ(drawn.size(), 11u);
     EXPECT_EQ(drawn.front().size(), 1u + 6u + 2u);  // t, 6 of 30 components, energy, enstrophy
     EXPECT_NE(kept_script().find("first 6 of 30 components"), std::string::npos) << kept_script();
+    EXPECT_EQ(kept_script().find("palette"), std::string::npos) << "n-wave declares no phase plane";
     EXPECT_NE(kept_script().find("set terminal svg"), std::string::npos);
 }
 
@@ -125,6 +191,10 @@ TEST_F(cli_plot, a_long_run_is_thinned_evenly_with_its_first_and_last_outputs) {
         ASSERT_GT(drawn[i][0], drawn[i - 1][0]);
         EXPECT_NEAR(drawn[i][0] - drawn[i - 1][0], 0.04, 1e-9) << "row " << i;
     }
+    // the phase plane of thinned outputs as points: a line between outputs 0.04 apart would cut across the curve
+    const std::string gp = kept_script();
+    EXPECT_NE(gp.find("with points pointtype 7 pointsize 0.3 lc palette"), std::string::npos) << gp;
+    EXPECT_EQ(gp.find("with lines linewidth 1.5 lc palette"), std::string::npos) << gp;
 }
 
 // The budget panel of a spectral run: E and Z minus what forcing and dissipation account for, which the

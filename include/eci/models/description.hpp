@@ -45,6 +45,16 @@ struct state_field {
     std::size_t first, count;
 };
 
+/// The two columns a run's picture (`eci run MODEL --plot`) draws against each other in its phase-plane panel: a
+/// model's orbit, cycle or rotation, where a drifting method shows as a spiral or a band and a conservative one as a
+/// closed curve. Each names a state component (component_names) or a derived column (derived_columns()); a model
+/// declares `static constexpr phase_plane plot_plane{...}` (none: no such panel). `equal_axes`: one scale on both
+/// axes (an orbit in space, a rotation), not each axis fitted to its own range.
+struct phase_plane {
+    std::string_view x, y;
+    bool equal_axes;
+};
+
 /// A whole-number setting of a model generator (n-wave's modes, triads per mode, seed): name, one line, the
 /// smallest value allowed and the member of the generator's recipe it sets.
 template <class Recipe>

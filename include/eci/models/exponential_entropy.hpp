@@ -21,6 +21,8 @@ struct exponential_entropy {
     static constexpr std::string_view description =
         "ARKODE's conserved exponential entropy u' = -e^v, v' = e^u; invariant e^u + e^v (c-* through xi = e^u, e^v)";
     static constexpr std::array<const char*, 2> component_names{"u", "v"};
+    /// --plot's phase-plane panel: the level curve e^u + e^v = const.
+    static constexpr phase_plane plot_plane{"u", "v", true};
 
     /// No parameters.
     static constexpr auto parameters() { return std::array<parameter<exponential_entropy>, 0>{}; }

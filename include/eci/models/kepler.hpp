@@ -33,6 +33,8 @@ struct kepler {
         "Kepler problem (45) in polar variables (bound orbits); invariants H (46) and the Runge-Lenz vector (47); "
         "c-pc is eqs. (49)-(54)";
     static constexpr std::array<const char*, 3> component_names{"r", "v_r", "theta"};
+    /// --plot's phase-plane panel: the orbit in the plane, x = r cos theta, y = r sin theta.
+    static constexpr phase_plane plot_plane{"x", "y", true};
 
     /// The parameters, with what validate() requires of them.
     static constexpr auto parameters() {

@@ -25,6 +25,8 @@ struct kepler_cartesian {
     static constexpr std::string_view description =
         "Kepler problem in Cartesian variables (q, p), H = |p|^2/2 - 1/|q|; invariants H, L, Runge-Lenz vector";
     static constexpr std::array<const char*, 4> component_names{"q1", "q2", "p1", "p2"};
+    /// --plot's phase-plane panel: the orbit in the plane.
+    static constexpr phase_plane plot_plane{"q1", "q2", true};
 
     /// No parameters (unit mass and strength).
     static constexpr auto parameters() { return std::array<parameter<kepler_cartesian>, 0>{}; }

@@ -85,6 +85,8 @@ struct lotka_volterra {
     static constexpr std::string_view description =
         "predator-prey equations (36); invariant the Hamiltonian (37); c-pc is eq. (42)";
     static constexpr std::array<const char*, 2> component_names{"x", "y"};
+    /// --plot's phase-plane panel: the predator-prey cycle.
+    static constexpr phase_plane plot_plane{"x", "y", false};
 
     /// The parameter, with what validate() requires of it.
     static constexpr auto parameters() {

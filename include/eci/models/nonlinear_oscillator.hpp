@@ -20,6 +20,8 @@ struct nonlinear_oscillator {
     static constexpr std::string_view description =
         "Ketcheson's \"Ranocha problem\" u' = (-u2, u1)/|u|^2; invariant |u|^2, exact solution a rotation";
     static constexpr std::array<const char*, 2> component_names{"u1", "u2"};
+    /// --plot's phase-plane panel: the rotation: a circle of radius |u(0)|.
+    static constexpr phase_plane plot_plane{"u1", "u2", true};
 
     /// No parameters.
     static constexpr auto parameters() { return std::array<parameter<nonlinear_oscillator>, 0>{}; }

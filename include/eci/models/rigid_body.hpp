@@ -26,6 +26,8 @@ struct rigid_body {
     static constexpr std::string_view description =
         "rigid body of Biswas & Ketcheson (2023), Euler's equations; quadratic invariants G1 = |u|^2, G2";
     static constexpr std::array<const char*, 3> component_names{"u1", "u2", "u3"};
+    /// --plot's phase-plane panel: a closed curve on the sphere |u| = |u(0)|, seen along u3.
+    static constexpr phase_plane plot_plane{"u1", "u2", false};
 
     /// The parameters (any finite values: G1 and G2 are invariant for all alpha, beta).
     static constexpr auto parameters() {

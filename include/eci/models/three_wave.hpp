@@ -28,6 +28,9 @@ struct three_wave {
     static constexpr std::string_view description =
         "three real modes of the truncated Euler equations, eq. (1); invariants energy, enstrophy";
     static constexpr std::array<const char*, 3> component_names{"psi_K", "psi_P", "psi_Q"};
+    /// --plot's phase-plane panel: a closed curve (the intersection of the two invariants' ellipsoids, seen along
+    /// psi_K), which a drifting method leaves as a band.
+    static constexpr phase_plane plot_plane{"psi_P", "psi_Q", false};
 
     /// The parameters, with what validate() requires of them.
     static constexpr auto parameters() {
