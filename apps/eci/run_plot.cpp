@@ -140,8 +140,12 @@ std::string run_plot::phase_panel(const std::vector<double>& rows, std::size_t c
     // coloured by time, dark to light (a method that drifts leaves a band or a spiral of colours); a line through
     // every output, or points where a long run's outputs were thinned (a line would cut across the orbit)
     s += "set palette defined (0 '#30123b', 1 '#4686fb', 2 '#1ae4b6', 3 '#a2fc3c', 4 '#fabb39', 5 '#e4460a', "
-         "6 '#7a0403')\nset cblabel 't'\nset colorbox\nset cbrange [" +
-         gnuplot_number(rows.front()) + ":" + gnuplot_number(rows[(count - 1) * w]) + "]\n";
+         "6 '#7a0403')\nset cblabel 't'\nset colorbox\n";
+    // the colours span the run's times (backward in time too); one output alone gets a range about its time, which
+    // gnuplot needs to be not empty
+    const double t0 = std::min(rows.front(), rows[(count - 1) * w]), t1 = std::max(rows.front(), rows[(count - 1) * w]);
+    const double pad = t0 < t1 ? 0.0 : std::max(1.0, std::abs(t0));
+    s += "set cbrange [" + gnuplot_number(t0 - pad) + ":" + gnuplot_number(t1 + pad) + "]\n";
     const std::string style = count == 1          ? " with points pointtype 7 pointsize 1 lc palette"
                               : stride_ == 1 ? " with lines linewidth 1.5 lc palette"
                                                   : " with points pointtype 7 pointsize 0.3 lc palette";

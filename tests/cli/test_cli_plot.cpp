@@ -326,6 +326,12 @@ TEST_F(cli_plot, gnuplot_draws_whole_png_svg_and_pdf_files) {
     ASSERT_EQ(eci({"run", "rigid-body", "--plot", "rb.pdf"}).status, 0);
     EXPECT_EQ(read_text(work("rb.pdf")).substr(0, 4), "%PDF");
     EXPECT_EQ(work_files(), (std::set<std::string>{"k.png", "lv.svg", "rb.pdf"}));
+    // one output alone (no step): its phase plane a point, its colour range about its one time (gnuplot refuses an
+    // empty one)
+    const run_result one = eci({"run", "kepler", "--steps", "0", "--plot", "one.png"});
+    ASSERT_EQ(one.status, 0) << one.err;
+    EXPECT_EQ(one.err.find("could not be drawn"), std::string::npos) << one.err;
+    EXPECT_EQ(read_text(work("one.png")).substr(1, 3), "PNG");
 }
 
 }  // namespace
