@@ -98,6 +98,13 @@ class SolveResult(dict):
     the relaxation methods (rrk-*, mrrk-*) at fixed steps, y[:, i] is the solution at t[i] + time_lag[i] (the CLI's
     time_lag column; a step's O(dt^p), never accumulated), else None; NavierStokes2D runs also budget (energy and
     enstrophy injection and dissipation); and SciPy's nfev, status, message, success.
+
+    invariant_values: name -> (m,) array, each monitored invariant (the model's, then those given as invariants=)
+    at each output t[i], the value the run measured there (the CLI's invariant columns); NavierStokes2D runs also
+    budget_residual_values: name -> (m,) array, the largest budget residual per step (result.budget's rule) over
+    the steps since the previous output (0 at the first).
+
+    plot(file=None, phase=None) draws the run (matplotlib), as `eci run MODEL --plot` does.
     """
 
     def __getattr__(self, name):
@@ -107,7 +114,27 @@ class SolveResult(dict):
             raise AttributeError(name) from None
 
     def __dir__(self):
-        return list(self.keys())
+        return list(self.keys()) + ["plot"]
+
+    def plot(self, file=None, phase=None):
+        """The run as a matplotlib Figure, as `eci run MODEL --plot FILE` draws it; saved to `file` if given.
+
+        Drawn: the state's first 6 components over t (named as the model names them; y[0], ... for a Python fun;
+        a complex state's real and imaginary parts); beside them a phase plane, two columns against each other
+        coloured by t, the start marked (a built-in model's own, model.plot_plane, with one scale on both axes
+        where it says so; Kepler's is its derived x, y); below, each invariant's change relative to its initial
+        value, (I - I0) / |I0| from invariant_values (absolute, "(abs.)", where I0 is 0 or not finite). A
+        NavierStokes2D run: its invariants over t (log scale) and their budget residual per step.
+
+        file: a path ending in .png, .svg or .pdf (ValueError for any other, nothing written).
+        phase: (x, y) or (x, y, equal_axes), each a component's index (of the real columns) or name (a component's
+        or a derived column's, model.derived_columns): the plane to draw instead of the model's; False: none.
+        The figure is pyplot's when pyplot is in use (imported, or MPLBACKEND set, as in a notebook), so that
+        plt.show() and notebooks show it; otherwise a figure of its own on the Agg canvas (no window, no backend
+        chosen). Needs matplotlib (ImportError otherwise); eci imports it only here.
+        """
+        from . import _plot
+        return _plot.plot(self, file, phase)
 
     def __repr__(self):
         drift = ", ".join(f"{k}: {v['max_rel_drift']:.3g}" for k, v in self["invariants"].items())
@@ -657,6 +684,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
             raw = _eci._solve_function(fun, t0, t1, y, method, dt, settings, functions, inv_names, parts, jac,
                                        weights)
     result = SolveResult(raw)
+    result._model = fun if is_model else None  # (for plot: the model's names, phase plane and derived columns)
     result["nfev"] = result["stats"]["rhs_evals"] + extra_calls
     # explicit methods evaluate no Jacobian and solve nothing; Kahan's linearly implicit method evaluates jac (a
     # constant matrix: no evaluation) and factors one matrix per attempted step

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <limits>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -127,13 +128,42 @@ struct recorded_output {
     std::vector<double> t;
     std::vector<value_type> y;
     std::vector<double> time_lag;  // relaxation RK: each output's state belongs to t + time_lag (else empty)
+    /// Each monitored invariant's value at each output (result.invariant_values), in the monitor's order: the
+    /// values the run measured there anyway (output_point::invariants), kept.
+    std::vector<std::vector<double>> invariants;
 
     void record(double time, const S& x, std::optional<double> lag = std::nullopt) {
         t.push_back(time);
         y.insert(y.end(), std::ranges::begin(x), std::ranges::end(x));
         if (lag) time_lag.resize(t.size() - 1, 0.0), time_lag.push_back(*lag);
     }
+    /// The invariants' values at the output just recorded.
+    void record_invariants(std::span<const double> v) {
+        if (invariants.size() < v.size()) invariants.resize(v.size());
+        for (std::size_t k = 0; k < v.size(); ++k) invariants[k].push_back(v[k]);
+    }
 };
+
+/// The invariants' values at every output as result.invariant_values: name -> array over t (taken over, no
+/// copy). `names` in the order recorded; an invariant never recorded (a run without outputs) gets an empty array.
+template <class S>
+py::dict invariant_values_dict(recorded_output<S>& out, const std::vector<std::string>& names) {
+    py::dict d;
+    out.invariants.resize(names.size());
+    for (std::size_t k = 0; k < names.size(); ++k) {
+        auto* owned = new std::vector<double>(std::move(out.invariants[k]));
+        const py::capsule owner(owned, [](void* p) { delete static_cast<std::vector<double>*>(p); });
+        d[py::str(names[k])] = py::array_t<double>({static_cast<py::ssize_t>(owned->size())}, owned->data(), owner);
+    }
+    return d;
+}
+
+/// The names of drift records, in their order.
+inline std::vector<std::string> record_names(const std::vector<invariant_record>& records) {
+    std::vector<std::string> v;
+    for (const invariant_record& r : records) v.push_back(r.name);
+    return v;
+}
 
 /// NavierStokes2D's statistics as the Python dict `result.stats`.
 inline py::dict stats_dict(const step_counts& r) {

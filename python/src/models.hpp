@@ -64,6 +64,14 @@ class model_base {
     /// The method eci.solve runs when given none: the library's rule, the CLI's (eci::default_method_for: the
     /// model's default method, or with a tolerance its default adaptive method; ValueError if it has none).
     virtual std::string default_method(bool adaptive) const = 0;
+    /// The real unknowns' names (the CLI's CSV columns: re_/im_ for a complex state); empty where the state has
+    /// none of its own (a spectral field).
+    virtual std::vector<std::string> component_names() const { return {}; }
+    /// The model's plot_plane (description.hpp) as (x name, y name, equal_axes), or None.
+    virtual py::object plot_plane() const { return py::none(); }
+    /// The model's derived columns (derived_columns(), Kepler's x, y) at y or at every column of y, as
+    /// invariants(y) gives the invariants; empty for a model without.
+    virtual py::dict derived_columns(const py::object&) const { return py::dict(); }
 };
 
 /// A model of eci's library behind model_base; the registry builds the stepper each method is on it.
@@ -116,28 +124,21 @@ class model_object : public model_base {
         return to_array(dxdt);
     }
 
-    py::dict invariants(const py::object& y) const override {
-        const py::array a = py::array::ensure(y);
-        py::dict d;
-        if (a && a.ndim() == 2) {  // n x m: one value per column
-            const std::size_t n = size(), m = static_cast<std::size_t>(a.shape(1));
-            const auto c = py::array_t<value_type, py::array::f_style | py::array::forcecast>::ensure(a);
-            if (!c || static_cast<std::size_t>(c.shape(0)) != n)
-                throw py::value_error("y must have shape (" + std::to_string(n) + ", m), got " + shape_text(a));
-            for (const auto& inv : Model::invariants()) {
-                py::array_t<double> v(static_cast<py::ssize_t>(m));
-                for (std::size_t j = 0; j < m; ++j) {
-                    S x = y0_;
-                    std::copy(c.data() + j * n, c.data() + (j + 1) * n, std::ranges::begin(x));
-                    v.mutable_data()[j] = (model_.*inv.value)(x);
-                }
-                d[inv.name] = v;
-            }
-            return d;
-        }
-        const S x = to_state(y);
-        for (const auto& inv : Model::invariants()) d[inv.name] = (model_.*inv.value)(x);
-        return d;
+    py::dict invariants(const py::object& y) const override { return evaluate(Model::invariants(), y); }
+
+    std::vector<std::string> component_names() const override { return meta_.columns; }
+    py::object plot_plane() const override {
+        if constexpr (requires { Model::plot_plane; })
+            return py::make_tuple(std::string(Model::plot_plane.x), std::string(Model::plot_plane.y),
+                                  Model::plot_plane.equal_axes);
+        else
+            return py::none();
+    }
+    py::dict derived_columns(const py::object& y) const override {
+        if constexpr (requires { Model::derived_columns(); })
+            return evaluate(Model::derived_columns(), y);
+        else
+            return py::dict();
     }
 
     py::dict solve(double t0, double t1, const py::object& y0, const std::string& method, double dt,
@@ -165,6 +166,33 @@ class model_object : public model_base {
 
    private:
     std::size_t size() const { return std::ranges::size(y0_); }
+
+    /// Each function of a list of named_invariant (the invariants, the derived columns) at y, or at every column
+    /// of y (n x m, SciPy's layout).
+    template <class List>
+    py::dict evaluate(const List& list, const py::object& y) const {
+        const py::array a = py::array::ensure(y);
+        py::dict d;
+        if (a && a.ndim() == 2) {  // n x m: one value per column
+            const std::size_t n = size(), m = static_cast<std::size_t>(a.shape(1));
+            const auto c = py::array_t<value_type, py::array::f_style | py::array::forcecast>::ensure(a);
+            if (!c || static_cast<std::size_t>(c.shape(0)) != n)
+                throw py::value_error("y must have shape (" + std::to_string(n) + ", m), got " + shape_text(a));
+            for (const auto& inv : list) {
+                py::array_t<double> v(static_cast<py::ssize_t>(m));
+                for (std::size_t j = 0; j < m; ++j) {
+                    S x = y0_;
+                    std::copy(c.data() + j * n, c.data() + (j + 1) * n, std::ranges::begin(x));
+                    v.mutable_data()[j] = (model_.*inv.value)(x);
+                }
+                d[inv.name] = v;
+            }
+            return d;
+        }
+        const S x = to_state(y);
+        for (const auto& inv : list) d[inv.name] = (model_.*inv.value)(x);
+        return d;
+    }
 
     static std::vector<value_type> to_vector(const S& x) { return {std::ranges::begin(x), std::ranges::end(x)}; }
 

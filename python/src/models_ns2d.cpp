@@ -196,6 +196,7 @@ class ns2d_object : public model_base {
         std::optional<eci::spectral::flow_blow_up> blew_up;
         const double energy0 = m.energy(x);
         std::array<double, 2> before{energy0, m.enstrophy(x)}, residual{0.0, 0.0};
+        std::array<std::vector<double>, 2> residual_at_output;
         {
             std::optional<py::gil_scoped_release> unlocked;
             if (release) unlocked.emplace();
@@ -205,17 +206,33 @@ class ns2d_object : public model_base {
             drift[0].record(energy0, true);
             drift[1].record(before[1], true);
             if (!release) user.measure(x, drift, 2, true);
+            // per output: E and Z (measured there anyway), the user's invariants (their last measurement, at this
+            // state), and each one's largest budget residual over the steps since the previous output
+            std::vector<double> at_output(drift.size());
+            std::array<double, 2> residual_since{0.0, 0.0};
             auto on_output = [&](const state& s, const output_point& pt) {
-                if (!no_outputs) out.record(pt.t, s);
+                if (no_outputs) return;
+                out.record(pt.t, s);
+                at_output[0] = pt.invariants[0];
+                at_output[1] = pt.invariants[1];
+                for (std::size_t j = 2; j < drift.size(); ++j) at_output[j] = drift[j].final;
+                out.record_invariants(at_output);
+                residual_at_output[0].push_back(residual_since[0]);
+                residual_at_output[1].push_back(residual_since[1]);
+                residual_since = {0.0, 0.0};
             };
             auto on_step = [&](const state& s, const output_point& pt) {
                 report.stats = *pt.stats;  // (the counts up to here, for a run the blow-up stop ends)
                 const ns2d_budget& b = m.step_budget();
                 // each step's budget residual, the library's rule (eci run's max_*_budget_residual_per_step)
-                residual[0] = std::max(residual[0], m.budget_residual(before[0], pt.invariants[0], b.energy_injection,
-                                                                      b.energy_dissipation));
-                residual[1] = std::max(residual[1], m.budget_residual(before[1], pt.invariants[1],
-                                                                      b.enstrophy_injection, b.enstrophy_dissipation));
+                residual_since[0] = std::max(residual_since[0], m.budget_residual(before[0], pt.invariants[0],
+                                                                                  b.energy_injection,
+                                                                                  b.energy_dissipation));
+                residual_since[1] = std::max(residual_since[1], m.budget_residual(before[1], pt.invariants[1],
+                                                                                  b.enstrophy_injection,
+                                                                                  b.enstrophy_dissipation));
+                residual[0] = std::max(residual[0], residual_since[0]);
+                residual[1] = std::max(residual[1], residual_since[1]);
                 before = {pt.invariants[0], pt.invariants[1]};
                 budget.energy_injection += b.energy_injection;
                 budget.energy_dissipation += b.energy_dissipation;
@@ -245,6 +262,12 @@ class ns2d_object : public model_base {
         if (interrupt_pending) throw py::error_already_set();
         report.rejected.step_failed = report.stats.step_reductions;
         py::dict d = result_dict(out, m.size(), report, drift, info);
+        d["invariant_values"] = invariant_values_dict(out, record_names(drift));
+        py::dict per_output;
+        for (std::size_t k = 0; k < 2; ++k)
+            per_output[py::str(names_[k])] = py::array_t<double>(static_cast<py::ssize_t>(residual_at_output[k].size()),
+                                                                 residual_at_output[k].data());
+        d["budget_residual_values"] = per_output;
         d["failure"] = failed    ? py::object(failure_of(*failed, max_halvings, cfg.dt, m.decay_hint(x)))
                        : blew_up ? py::object(failure_of(*blew_up, cfg.dt))
                                  : py::object(py::none());

@@ -42,6 +42,14 @@ void bind_model_base(py::module_& m) {
              "dy/dt at (t, y), SciPy's fun(t, y) (so the model can be given to scipy.integrate.solve_ivp too)")
         .def("invariants", &model_base::invariants, py::arg("y"),
              "each invariant at the state y, or at every column of y (n x m, SciPy's layout), by name")
+        .def_property_readonly("component_names", &model_base::component_names,
+                               "the real unknowns' names, as the CLI's CSV columns (re_/im_ for a complex state)")
+        .def_property_readonly("plot_plane", &model_base::plot_plane,
+                               "the phase plane `eci run --plot` and SolveResult.plot draw: (x name, y name, "
+                               "equal_axes), each a component or a derived column, or None")
+        .def("derived_columns", &model_base::derived_columns, py::arg("y"),
+             "the model's columns computed from the state (Kepler's Cartesian x, y) at the state y, or at every "
+             "column of y (n x m), by name; empty for a model without")
         .def("_solve", &model_base::solve, py::arg("t0"), py::arg("t1"), py::arg("y0"), py::arg("method"),
              py::arg("dt"), py::arg("settings"), py::arg("invariants"), py::arg("invariant_names"),
              "The integration behind eci.solve(model, ...): fixed steps of dt, or adaptive control from a first "

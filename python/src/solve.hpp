@@ -184,7 +184,10 @@ class recording_sink final : public dynamic_sink<S> {
     S scratch{}, conventional{};
 
     void output(const S& x, const output_point& p) override {
-        if (!req || !req->no_outputs) out->record(p.t, x, p.time_lag);
+        if (!req || !req->no_outputs) {
+            out->record(p.t, x, p.time_lag);
+            out->record_invariants(p.invariants);  // (measured at every output anyway: kept, not recomputed)
+        }
     }
     void progress(double, std::uint64_t) override { (*interrupt)(); }
     bool observes_steps() const override { return req && req->sees_steps(); }
@@ -393,6 +396,7 @@ py::dict run_recorded(S& x, python_request req, const component_namer& namer, bo
     add_arrays(d, out, n);
     d["stats"] = stats_dict(report);
     d["invariants"] = drift_dict(report.invariants);
+    d["invariant_values"] = invariant_values_dict(out, record_names(report.invariants));
     add_method(d, report.method);
     d["failure"] = report.failure ? py::object(failure_dict(report, namer)) : py::object(py::none());
     d["stopped_at"] = report.stopped_at ? py::object(py::float_(*report.stopped_at)) : py::object(py::none());
