@@ -16,6 +16,7 @@ import functools
 import inspect
 import math
 import numbers
+import sys
 import warnings
 from collections import namedtuple
 
@@ -436,7 +437,7 @@ def _said_as_given(solve):
 def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
           transform=None, max_halvings=40, first_step=None, min_step=0.0, max_step=math.inf, max_steps=None,
           t_eval_mode="auto", jac=None, dense_output=False, events=None, vectorized=False, args=None,
-          update=None, quadratic_invariants=None, output_dt=None, **options):
+          update=None, quadratic_invariants=None, output_dt=None, progress=None, **options):
     """Integrate dy/dt = fun(t, y) from t_span[0] to t_span[1], SciPy's solve_ivp conventions, eci's numerics.
 
     fun: a callable fun(t, y) -> dy/dt (y a real or complex 1-D array, as in SciPy), or a built-in model
@@ -506,6 +507,9 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         (choose_first_step: Hairer, Norsett & Wanner's, SciPy's) from two evaluations of fun, counted in nfev and
         stats["rhs_evals"]), the smallest step (default 0: 64 eps |t|), the largest (default inf) and the most
         attempts, accepted and rejected (default 50 000 000).
+    progress: a progress line on sys.stderr while the run goes on, as `eci run`'s: "[####....]  45.0%  t = 4.5
+        12 s left", from a second into the run (short runs show nothing), erased at its end. None (default): when
+        sys.stderr is a terminal; True: always (a notebook's stream too); False: never.
     jac: the Jacobian of a Python fun for method "kahan" (Kahan's linearly implicit method, for quadratic fields):
         jac(t, y) -> (n, n) array, rows the components of fun (SciPy's convention), or a constant (n, n) array;
         real y of up to 8 unknowns. Every other method is explicit and ignores it, with SciPy's warning, as it
@@ -646,9 +650,13 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
 
     if update not in (None, "conditioned", "paper"):
         raise ValueError(f"update must be 'conditioned' or 'paper', not {update!r}")
+    if progress is None:  # (a stream without isatty, or None where there is none: no line)
+        progress = bool(getattr(sys.stderr, "isatty", lambda: False)())
+    elif not isinstance(progress, (bool, np.bool_)):
+        raise TypeError(f"progress must be True, False or None, not {type(progress).__name__}")
     settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None, "update": update,
                 "dense_output": bool(dense_output), "events": event_list, "output_dt": output_dt,
-                "dt_given": adaptive or dt_given}
+                "dt_given": adaptive or dt_given, "progress": bool(progress)}
     extra_calls = 0
     if weights is not None:
         _check_quadratic_invariants(fun, t0, y, weights)

@@ -6,12 +6,14 @@
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <algorithm>
 #include <charconv>
 #include <chrono>
 #include <cmath>
 #include <complex>
 #include <cstddef>
 #include <cstdint>
+#include <cstdio>
 #include <limits>
 #include <optional>
 #include <span>
@@ -65,12 +67,68 @@ struct component_namer {
     }
 };
 
+/// eci.solve's progress= line on sys.stderr, as `eci run`'s bar: "[####....]  45.0%  t = 4.5  12 s left", first
+/// drawn after a second of run time (short runs show nothing), redrawn at most ten times a second, erased at the
+/// end. The run sets its position at every step without the GIL (two stores); draw_if_due and finish are called
+/// with the GIL held (interrupt_check, which takes it every 1-10 ms of run time, and the run's end).
+class progress_display {
+   public:
+    progress_display(double t0, double t1) : t0_(t0), t1_(t1), start_(std::chrono::steady_clock::now()) {}
+    void set(double t) { t_ = t; }
+    void draw_if_due() {
+        using namespace std::chrono;
+        const auto now = steady_clock::now();
+        if (now - start_ < seconds(1) || (shown_ && now - last_draw_ < milliseconds(100))) return;
+        last_draw_ = now;
+        const double span = t1_ - t0_;
+        double fraction = span != 0.0 ? (t_ - t0_) / span : 1.0;
+        fraction = fraction >= 0.0 ? std::min(fraction, 1.0) : 0.0;  // (NaN: 0)
+        constexpr int width = 40;
+        std::string bar(width, '.');
+        std::fill_n(bar.begin(), static_cast<int>(fraction * width), '#');
+        const double elapsed = duration<double>(now - start_).count();
+        const double left = fraction > 0.0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
+        char text[128];
+        std::snprintf(text, sizeof text, "] %5.1f%%  t = %-12.6g  %.0f s left", 100.0 * fraction, t_, left);
+        shown_ = write("\r[" + bar + text) || shown_;
+    }
+    /// Erases the line, if it was drawn.
+    void finish() {
+        if (shown_) write("\r\033[K");
+        shown_ = false;
+    }
+
+   private:
+    // sys.stderr as it is now (a notebook's stream, a redirected file); false where there is none to write to
+    static bool write(const std::string& s) {
+        try {
+            const py::object err = py::module_::import("sys").attr("stderr");
+            if (err.is_none()) return false;
+            err.attr("write")(s);
+            err.attr("flush")();
+            return true;
+        } catch (const py::error_already_set&) {  // a closed or odd stream: the run goes on without its line
+            return false;
+        }
+    }
+    double t0_, t1_, t_ = 0.0;
+    bool shown_ = false;
+    std::chrono::steady_clock::time_point start_, last_draw_;
+};
+
 /// Checks for Ctrl-C between steps. With the GIL held (a Python fun) that is one flag test per step; with the GIL
 /// released (a built-in model) the GIL is taken back every 1-10 ms of run time, the stride in steps adapting so
 /// that cheap steps do not pay for a clock read each.
 class interrupt_check {
    public:
-    explicit interrupt_check(bool gil_held) : gil_held_(gil_held), last_(std::chrono::steady_clock::now()) {}
+    explicit interrupt_check(bool gil_held, progress_display* progress = nullptr)
+        : gil_held_(gil_held), progress_(progress), last_(std::chrono::steady_clock::now()) {}
+
+    /// The same at a step reaching t, which the progress line (if any) shows when it is next drawn.
+    void operator()(double t) {
+        if (progress_) progress_->set(t);
+        (*this)();
+    }
 
     /// Called between steps: a counter on the fast path, so that it inlines into the step loop. With the GIL held
     /// it is also let go for an instant every 5-10 ms: between outputs a run may call no Python code at all (a
@@ -89,6 +147,9 @@ class interrupt_check {
     static void check_now() {
         if (PyErr_CheckSignals() != 0) throw py::error_already_set();
     }
+    void draw_progress() {
+        if (progress_) progress_->draw_if_due();
+    }
 
     // The stride in steps adapted so that `elapsed` between calls stays within [low, high].
     void adapt(std::chrono::milliseconds low, std::chrono::milliseconds high) {
@@ -106,6 +167,7 @@ class interrupt_check {
         adapt(std::chrono::milliseconds(1), std::chrono::milliseconds(10));
         py::gil_scoped_acquire gil;
         check_now();
+        draw_progress();
     }
 
     [[gnu::noinline]] void yield_gil() {
@@ -114,9 +176,11 @@ class interrupt_check {
             py::gil_scoped_release release;  // (a thread waiting for the GIL takes it here)
         }
         check_now();
+        draw_progress();
     }
 
     bool gil_held_;
+    progress_display* progress_;
     std::uint64_t count_ = 0, stride_ = 1;
     std::chrono::steady_clock::time_point last_;
 };

@@ -197,12 +197,22 @@ class ns2d_object : public model_base {
         const double energy0 = m.energy(x);
         std::array<double, 2> before{energy0, m.enstrophy(x)}, residual{0.0, 0.0};
         std::array<std::vector<double>, 2> residual_at_output;
+        // eci.solve's progress= line (its position set at every step, drawn when the GIL is taken for Ctrl-C)
+        std::optional<progress_display> progress;
+        if (settings.contains("progress") && settings["progress"].cast<bool>()) progress.emplace(t0, t1);
+        // (erased at the end, however the run ends: a Ctrl-C's KeyboardInterrupt, a blow-up, a failure)
+        struct erase_at_end {
+            std::optional<progress_display>& p;
+            ~erase_at_end() {
+                if (p) p->finish();
+            }
+        } erase{progress};
         {
             std::optional<py::gil_scoped_release> unlocked;
             if (release) unlocked.emplace();
             gil_released_in_run = release;
             interrupt_pending = false;
-            interrupt_check interrupt(!release);
+            interrupt_check interrupt(!release, progress ? &*progress : nullptr);
             drift[0].record(energy0, true);
             drift[1].record(before[1], true);
             if (!release) user.measure(x, drift, 2, true);
@@ -243,8 +253,8 @@ class ns2d_object : public model_base {
                 drift[1].record(pt.invariants[1], false);
                 if (!release) user.measure(s, drift, 2, false);
             };
-            auto on_progress = [&](double, std::uint64_t i) {
-                if (i < n) interrupt();  // before every step
+            auto on_progress = [&](double t, std::uint64_t i) {
+                if (i < n) interrupt(t);  // before every step
             };
             try {
                 const solve_report r = eci::solve<navier_stokes_2d>(

@@ -29,6 +29,7 @@ struct python_request {
     run_config config;
     bool dense_output = false;  ///< record every step's dense output (result.sol)
     bool no_outputs = false;    ///< t_eval given and empty: no state recorded (SciPy: t of shape (0,))
+    bool progress = false;      ///< a progress line on sys.stderr (eci.solve's progress=, resolved in Python)
     /// The event functions g(t, y) and, for each, whether it ends the run and which crossings count (SciPy's
     /// `terminal` and `direction`).
     std::vector<py::object> events;
@@ -70,6 +71,7 @@ inline python_request request_from(double t0, double t1, double dt, const py::di
         c.adaptive = o;
     }
     if (settings.contains("dense_output")) r.dense_output = settings["dense_output"].cast<bool>();
+    if (settings.contains("progress")) r.progress = settings["progress"].cast<bool>();
     if (settings.contains("events") && !settings["events"].is_none())
         for (const py::handle e : settings["events"].cast<py::list>()) {
             const py::tuple t = e.cast<py::tuple>();
@@ -189,7 +191,7 @@ class recording_sink final : public dynamic_sink<S> {
             out->record_invariants(p.invariants);  // (measured at every output anyway: kept, not recomputed)
         }
     }
-    void progress(double, std::uint64_t) override { (*interrupt)(); }
+    void progress(double t, std::uint64_t) override { (*interrupt)(t); }
     bool observes_steps() const override { return req && req->sees_steps(); }
 
     double event_value(std::size_t j, double t, const S& x) const {
@@ -384,13 +386,22 @@ py::dict run_recorded(S& x, python_request req, const component_namer& namer, bo
     if (req.sees_steps() && !req.config.adaptive)
         throw std::invalid_argument("dense_output and events need adaptive step control (rtol/atol, no dt)");
     release = release && !req.sees_steps();  // events are Python callables
+    std::optional<progress_display> progress;
+    if (req.progress) progress.emplace(req.config.t0, req.config.t_end);
     {
         std::optional<py::gil_scoped_release> unlocked;
         if (release) unlocked.emplace();
-        interrupt_check interrupt(!release);
+        interrupt_check interrupt(!release, progress ? &*progress : nullptr);
         recording_sink<S> sink(&out, &interrupt, &req, &steps);
-        report = run(sink, std::as_const(req.config));
+        try {
+            report = run(sink, std::as_const(req.config));
+        } catch (...) {
+            unlocked.reset();  // (the GIL, to erase the line)
+            if (progress) progress->finish();
+            throw;
+        }
     }
+    if (progress) progress->finish();
     const std::size_t n = std::ranges::size(x);
     py::dict d;
     add_arrays(d, out, n);
