@@ -133,9 +133,11 @@ def plot(result, file=None, phase=None):
     if result.get("status", 0) < 0:
         title += f" (stopped at t = {t[-1]:.6g})"
 
-    if flow:  # a spectral flow: E and Z over time, and each one's budget residual per step
-        fig = _new_figure((10.0, 7.6))
-        top, bottom = fig.subplots(2, 1, sharex=True)
+    if flow:  # a spectral flow: E and Z over time, each one's budget residual per step, and the last field
+        fig = _new_figure((15.0, 7.6))
+        grid = fig.add_gridspec(2, 2, width_ratios=(1.2, 1.0))
+        top = fig.add_subplot(grid[0, 0])
+        bottom = fig.add_subplot(grid[1, 0], sharex=top)
         for inv in (model.invariant_names if model is not None else list(values)[:2]):
             top.plot(t, values[inv], label=inv, **style)
         top.set_yscale("log")
@@ -149,6 +151,16 @@ def plot(result, file=None, phase=None):
             ax.margins(x=0)
             ax.grid(True)
             _legend_right(ax)
+        # the field at the last output, as the snapshots draw it: a diverging map symmetric about 0, y upward
+        field = np.asarray(model.to_physical(y[:, -1]))
+        big = float(np.max(np.abs(field))) if field.size else 0.0
+        image_ax = fig.add_subplot(grid[:, 1])
+        image = image_ax.imshow(field, origin="lower", cmap="RdBu_r", vmin=-big, vmax=big,
+                                extent=(0.0, 2.0 * math.pi, 0.0, 2.0 * math.pi), interpolation="nearest")
+        image_ax.set_title(f"{model.field} at t = {t[-1]:.6g}")
+        image_ax.set_xlabel("x")
+        image_ax.set_ylabel("y")
+        fig.colorbar(image, ax=image_ax, label=model.symbol, shrink=0.8)
         fig.suptitle(title)
     else:
         columns = _real_columns(y)

@@ -563,6 +563,10 @@ void add_flow_methods(Class& c) {
              py::arg("w"), "(Pi_E(k), Pi_Z(k)): the nonlinear term's flux of E and Z out of the shells <= k")
         .def_property_readonly("equation", [](const o& s) { return s.model().params().equation; },
                                "the equation's name (as `eci run` calls it)")
+        .def_property_readonly("field", [](const o& s) { return std::string(s.model().eq().field); },
+                               "the evolved field's name, e.g. 'vorticity' (the snapshots', the pictures')")
+        .def_property_readonly("symbol", [](const o& s) { return std::string(s.model().eq().symbol); },
+                               "the evolved field's symbol, e.g. 'omega' (a checkpoint's dataset omega_hat)")
         .def("__repr__", [](const o& s) { return flow_repr(s.model().params()); });
 }
 

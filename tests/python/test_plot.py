@@ -171,8 +171,18 @@ def test_spectral_flow_plots_its_invariants_and_budget_residuals():
     model = eci.models.NavierStokes2D(n=16, nu=1e-3)
     r = eci.solve(model, (0.0, 0.08), dt=0.01, output_dt=0.02)
     assert r.t.size == 5
-    top, bottom = panels(r.plot())
+    top, bottom, field = panels(r.plot())
     assert top.get_yscale() == "log" and bottom.get_yscale() == "log"
+    # beside them the field at the last output, the model's own physical field, on a colour scale symmetric about 0
+    (image,) = field.get_images()
+    expected = model.to_physical(r.y[:, -1])
+    assert np.array_equal(np.asarray(image.get_array()), expected)
+    lo, hi = image.get_clim()
+    assert hi == np.max(np.abs(expected)) and lo == -hi > -np.inf
+    assert field.get_title() == f"vorticity at t = {r.t[-1]:.6g}" and model.field == "vorticity"
+    # (each equation's field and symbol, from its C++ module: the snapshots' names)
+    assert [(c(n=16).field, c(n=16).symbol) for c in eci.models.flow_models] == [
+        ("vorticity", "omega"), ("potential vorticity", "q"), ("buoyancy", "theta")]
     for ln, name in zip(top.get_lines(), model.invariant_names):
         assert np.array_equal(ln.get_xdata(), r.t) and np.array_equal(ln.get_ydata(), r.invariant_values[name])
     for ln, name in zip(bottom.get_lines(), model.invariant_names):
