@@ -1605,6 +1605,12 @@ int spectral_command::run_spread(const run_settings& settings) {
     }
 
     const run_summary s = summary_of(report.stats, last);
+    // --plot: the field the run ended with, at the picture's right (gathered on rank 0: collective, every process)
+    if (!settings.plot.empty()) {
+        std::vector<double> field = model.to_physical(w, 0);
+        if (plot) plot->set_field(p.n, std::move(field), s.t_end, std::string(model.eq().field),
+                                  std::string(model.eq().symbol));
+    }
     // The run's outputs are committed together: the snapshots first, the CSV and JSON that describe the run last, and
     // a failure takes back what was moved in (a failed run keeps its checkpoint, not a partial time series).
     try {

@@ -915,7 +915,7 @@ bool plot_vorticity_png(const std::string& path, int n, const std::vector<double
     s += "set title " + gnuplot_quoted(title) + "\nset size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n";
     s += "set xrange [0:2*pi]\nset yrange [0:2*pi]\nset cbrange [" + gnuplot_number(-vmax) + ":" +
          gnuplot_number(vmax) + "]\n";
-    s += "set palette defined (0 '#053061', 0.25 '#4393c3', 0.5 '#f7f7f7', 0.75 '#d6604d', 1 '#67001f')\n";
+    s += diverging_palette;
     s += "set cblabel " + gnuplot_quoted(symbol) + "\n";
     s += "plot " + gnuplot_quoted(data) + " binary array=(" + std::to_string(n) + "," + std::to_string(n) +
          ") format='%float64' dx=" + gnuplot_number(h) + " dy=" + gnuplot_number(h) + " with image notitle\n";

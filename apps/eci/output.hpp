@@ -276,6 +276,9 @@ bool draw_picture(const std::string& script, const std::string& output);
 std::string gnuplot_number(double v);
 /// A gnuplot string in single quotes (a quote inside doubled).
 std::string gnuplot_quoted(const std::string& s);
+/// The colour map of a field's pictures (a snapshot's, a spectral run's --plot): blue, white at 0, red.
+inline constexpr const char* diverging_palette =
+    "set palette defined (0 '#053061', 0.25 '#4393c3', 0.5 '#f7f7f7', 0.75 '#d6604d', 1 '#67001f')\n";
 
 /// A directory the run has just created: removed when this goes out of scope, and by the signal handler on a forced
 /// exit, if it is empty then (what the run wrote into it is removed first); keep() once the run has succeeded.

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <stdexcept>
 #include <utility>
 
@@ -71,6 +72,14 @@ void run_plot::set_phase_plane(std::string x, std::string y, bool equal_axes) {
     phase_x_ = std::move(x);
     phase_y_ = std::move(y);
     equal_axes_ = equal_axes;
+}
+
+void run_plot::set_field(int n, std::vector<double> field, double t, std::string name, std::string symbol) {
+    field_n_ = n;
+    field_ = std::move(field);
+    field_t_ = t;
+    field_name_ = std::move(name);
+    field_symbol_ = std::move(symbol);
 }
 
 void run_plot::add(double t, std::span<const double> components, std::span<const double> invariants) {
@@ -184,8 +193,10 @@ bool run_plot::draw_into(output_file& png) const {
         }
     });
     const std::string format = plot_format(path_);
-    // with a phase plane, a wider canvas: the state (left) and the phase plane (right) above, the invariants below
-    const int width_px = phase_ ? 1240 : 1000, height_px = 760;
+    // with a phase plane, a wider canvas: the state (left) and the phase plane (right) above, the invariants below;
+    // with a field, the time panels at the left and the field, square, at the right
+    const bool field = field_n_ > 0 && field_.size() == std::size_t(field_n_) * std::size_t(field_n_);
+    const int width_px = field ? 1500 : phase_ ? 1240 : 1000, height_px = 760;
     const std::string size = std::to_string(width_px) + "," + std::to_string(height_px);
     std::string s = format == "svg"   ? "set terminal svg size " + size + " font ',10' noenhanced\n"
                     : format == "pdf" ? "set terminal pdfcairo size " + gnuplot_number(width_px / 100.0) +
@@ -199,9 +210,19 @@ bool run_plot::draw_into(output_file& png) const {
         double left, right, bottom, top;
     };
     const bool two_rows = nc > 0 && ni > 0;
-    const box state_box = phase_ ? box{0.08, 0.45, 0.55, 0.93} : box{0.11, 0.74, two_rows ? 0.55 : 0.1, 0.93};
-    const box invariant_box{phase_ ? 0.08 : 0.11, phase_ ? 0.8 : 0.74, 0.08, nc > 0 || phase_ ? 0.45 : 0.93};
+    const box state_box = field    ? box{0.07, 0.40, two_rows ? 0.55 : 0.1, 0.93}
+                          : phase_ ? box{0.08, 0.45, 0.55, 0.93}
+                                   : box{0.11, 0.74, two_rows ? 0.55 : 0.1, 0.93};
+    const box invariant_box = field ? box{0.07, 0.40, 0.08, nc > 0 ? 0.45 : 0.93}
+                                    : box{phase_ ? 0.08 : 0.11, phase_ ? 0.8 : 0.74, 0.08, nc > 0 || phase_ ? 0.45 : 0.93};
     const box phase_box{0.61, 0.87, 0.55, 0.93};
+    // square in pixels: 0.8 of the height, as wide
+    const double field_width = 0.8 * height_px / width_px;
+    const box field_box{0.53, 0.53 + field_width, 0.1, 0.9};
+    // (beside a panel at the right, a key between the panels: "outside right" is the canvas' right edge)
+    const auto key_beside = [](const box& b) {
+        return "set key at screen " + gnuplot_number(b.right + 0.085) + "," + gnuplot_number(b.top) + " right top\n";
+    };
     const auto place = [](const box& b) {
         return "set lmargin at screen " + gnuplot_number(b.left) + "\nset rmargin at screen " +
                gnuplot_number(b.right) + "\nset bmargin at screen " + gnuplot_number(b.bottom) +
@@ -219,21 +240,22 @@ bool run_plot::draw_into(output_file& png) const {
                                                                 std::to_string(component_count_) + " components)"
                                                           : std::string("state");
         // (beside a phase plane, the key between the two panels: "outside right" is the canvas' right edge)
-        s += place(state_box) + "set ylabel " + gnuplot_quoted(label) + "\n" + (log_top_ ? "set logscale y\n" : "") +
-             (phase_ ? "set key at screen " + gnuplot_number(state_box.right + 0.085) + "," +
-                           gnuplot_number(state_box.top) + " right top\n"
-                     : "") +
-             "plot ";
+        s += place(state_box) + "set ylabel " + gnuplot_quoted(label) + "\n";
+        if (log_top_) s += "set logscale y\n";
+        if (phase_ || field) s += key_beside(state_box);
+        s += "plot ";
         for (std::size_t i = 0; i < nc; ++i)
             s += (i ? ", " : "") + file + " using 1:" + std::to_string(2 + i) + style + " title " +
                  gnuplot_quoted(names_[i]);
-        s += "\n" + std::string(log_top_ ? "unset logscale y\n" : "");
+        s += "\n";
+        if (log_top_) s += "unset logscale y\n";
     }
     if (ni > 0) {
         // relative to the initial value, or where that is 0 (or not finite) absolute, said in the key
         const bool any_absolute = !std::ranges::all_of(relative, [](bool r) { return r; });
         const std::string label = bottom_label_.empty() ? "(invariant - initial) / |initial|" : bottom_label_;
-        s += place(invariant_box) + "set key outside right top\nset ylabel " +
+        s += place(invariant_box) + (field ? key_beside(invariant_box) : std::string("set key outside right top\n")) +
+             "set ylabel " +
              gnuplot_quoted(label + (any_absolute ? "; (abs.): - initial" : "")) + "\nset format y '%.1e'\nplot ";
         for (std::size_t k = 0; k < ni; ++k)
             s += (k ? ", " : "") + file + " using 1:" + std::to_string(2 + nc + k) + style + " title " +
@@ -242,6 +264,26 @@ bool run_plot::draw_into(output_file& png) const {
     }
     if (phase_) s += phase_panel(rows, count, place(phase_box), phase_box.right - phase_box.left,
                                  phase_box.top - phase_box.bottom, width_px, height_px, file);
+    std::optional<scoped_temporary> field_data;
+    if (field) {
+        // as the snapshots' pictures (plot_vorticity_png): the values as doubles, colours symmetric about 0
+        field_data.emplace(temporary_name(".bin"));
+        write_new_file(field_data->path(), "field data for gnuplot", [&](std::FILE* f) {
+            std::fwrite(field_.data(), sizeof(double), field_.size(), f);
+        });
+        double big = 0.0;
+        for (double v : field_) big = std::max(big, std::abs(v));
+        if (!(big > 0.0)) big = 1.0;
+        const double h = 2.0 * M_PI / field_n_;
+        s += place(field_box) + "unset key\nunset grid\nset xlabel 'x'\nset ylabel 'y'\nset xrange [0:2*pi]\n"
+             "set yrange [0:2*pi]\nset cbrange [" + gnuplot_number(-big) + ":" + gnuplot_number(big) + "]\n" +
+             diverging_palette + "set cblabel " + gnuplot_quoted(field_symbol_) +
+             "\nset colorbox user origin screen " + gnuplot_number(field_box.right + 0.012) +
+             ",0.2 size screen 0.012,0.6\nset title " + gnuplot_quoted(field_name_ + " at t = " + title_number(field_t_)) +
+             "\nplot " + gnuplot_quoted(field_data->path()) + " binary array=(" + std::to_string(field_n_) + "," +
+             std::to_string(field_n_) + ") format='%float64' dx=" + gnuplot_number(h) + " dy=" + gnuplot_number(h) +
+             " with image notitle\n";
+    }
     s += "unset multiplot\nset output\n";
     if (!draw_picture(s, picture.path())) {
         failure_ = plotting_failure();

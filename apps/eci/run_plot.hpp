@@ -1,6 +1,6 @@
 // `eci run MODEL --plot FILE.png` (or .svg, .pdf): a picture of a run drawn from its outputs (the CSV's rows, written or not): the
 // state's first components over time above, beside them the model's phase plane (its orbit or cycle, coloured by
-// time) where it declares one, each invariant's relative change below.
+// time) where it declares one, each invariant's relative change below; a spectral run's last field at the right.
 #pragma once
 
 #include <cstddef>
@@ -50,6 +50,10 @@ class run_plot {
     /// scale where `equal_axes`, coloured by time (a drift shows as a band or a spiral), the first output marked.
     /// Before the first add().
     void set_phase_plane(std::string x, std::string y, bool equal_axes);
+    /// Draws a field panel to the right (a spectral run's last field, as its snapshots draw it): `field` n x n
+    /// values (row-major, y rows) on [0, 2 pi)^2, colours symmetric about 0, titled "`name` at t = `t`", the colour
+    /// bar labelled `symbol`.
+    void set_field(int n, std::vector<double> field, double t, std::string name, std::string symbol);
     /// Whether any output was added.
     bool empty() const { return rows_ == 0 && !has_last_; }
 
@@ -76,6 +80,10 @@ class run_plot {
     bool log_top_;
     bool phase_ = false, equal_axes_ = false;
     std::string phase_x_, phase_y_;
+    int field_n_ = 0;  // 0: no field panel
+    std::vector<double> field_;
+    double field_t_ = 0.0;
+    std::string field_name_, field_symbol_;
     std::vector<double> data_;  // rows of width(): t, the components drawn, the invariants
     std::size_t rows_ = 0;
     std::uint64_t seen_ = 0, stride_ = 1;  // outputs seen; every stride_-th is kept

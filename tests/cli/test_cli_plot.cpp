@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <fstream>
 #include <limits>
 #include <string>
@@ -39,6 +41,11 @@ class cli_plot : public ::testing::Test {
                                "cp \"$1\" \"$here/kept.gp\"\n"
                                "data=$(sed -n \"s/^plot '\\([^']*\\)'.*/\\1/p\" \"$1\" | head -n 1)\n"
                                "cp \"$data\" \"$here/kept.dat\"\n"
+                               // a field's binary data (a snapshot's picture, a spectral run's field panel), each
+                               // kept in the order drawn: kept-0.bin, kept-1.bin, ...
+                               "for b in $(sed -n \"s/^plot '\\([^']*\\)' binary.*/\\1/p\" \"$1\"); do\n"
+                               "  k=$(ls \"$here\" | grep -c '^kept-.*\\.bin$'); cp \"$b\" \"$here/kept-$k.bin\"\n"
+                               "done\n"
                                "out=$(sed -n \"s/^set output '\\([^']*\\)'.*/\\1/p\" \"$1\")\n"
                                "printf '\\211PNG\\000\\000\\000\\000IEND\\256\\102\\140\\202' > \"$out\"\n"
                             << after_drawing;
@@ -48,6 +55,13 @@ class cli_plot : public ::testing::Test {
     /// Whether this build has the spectral equations (eci::spectral).
     bool has_spectral() const { return dir_.run({"run", "navier-stokes-2d", "--help"}).status == 0; }
     std::string kept_script() const { return read_text(dir_.capture() / "kept.gp"); }
+    /// The k-th field's values the plotting program was given (doubles), in the order drawn.
+    std::vector<double> kept_field(int k) const {
+        const std::string bytes = read_text(dir_.capture() / ("kept-" + std::to_string(k) + ".bin"));
+        std::vector<double> v(bytes.size() / sizeof(double));
+        std::memcpy(v.data(), bytes.data(), v.size() * sizeof(double));
+        return v;
+    }
     /// The rows of numbers the plotting program was given.
     std::vector<std::vector<double>> kept_data() const {
         std::vector<std::vector<double>> rows;
@@ -216,6 +230,31 @@ TEST_F(cli_plot, a_spectral_run_draws_its_invariants_beyond_their_budget_to_roun
     }
     EXPECT_GT(std::abs(drawn.back()[1] - drawn.front()[1]), 1e-6);  // forced and viscous: E itself changes
     EXPECT_NE(kept_script().find("set logscale y"), std::string::npos);
+}
+
+// Beside them, the field the run ended with: the same values as its last snapshot's (a separate path, the
+// snapshot's own picture), on a colour range symmetric about 0, titled by the equation's field.
+TEST_F(cli_plot, a_spectral_run_draws_the_field_it_ended_with) {
+    if (!has_spectral()) GTEST_SKIP() << "built without the spectral equations";
+    const run_result r = eci({"run", "navier-stokes-2d", "--N", "16", "--nu", "0.01", "--steps", "3",
+                              "--snapshot-every", "3", "--snapshot-dir", "snaps", "--plot", "flow.png",
+                              "--fftw-estimate", "--fftw-wisdom", "none"},
+                             fake_plotter());
+    ASSERT_EQ(r.status, 0) << r.err;
+    // drawn in order: the snapshots' fields at steps 0 and 3 (their spectra have no field), then the run's picture
+    const std::vector<double> first = kept_field(0), last = kept_field(1), drawn = kept_field(2);
+    ASSERT_EQ(drawn.size(), 16u * 16u);
+    EXPECT_EQ(drawn, last);    // bit for bit
+    EXPECT_NE(drawn, first);   // (the field moved in 3 steps)
+    double big = 0.0;
+    for (double v : drawn) big = std::max(big, std::abs(v));
+    const std::string gp = kept_script();
+    EXPECT_NE(gp.find("with image"), std::string::npos) << gp;
+    char range[96];  // (gnuplot_number's %.17g: the maximum read back exactly)
+    std::snprintf(range, sizeof range, "set cbrange [%.17g:%.17g]", -big, big);
+    EXPECT_NE(gp.find(range), std::string::npos) << range << "\n" << gp;
+    EXPECT_NE(gp.find("set title 'vorticity at t = "), std::string::npos) << gp;
+    EXPECT_NE(gp.find("set cblabel 'omega'"), std::string::npos) << gp;
 }
 
 void expect_refused(const run_result& r, const std::string& words) {
