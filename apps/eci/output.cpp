@@ -1212,31 +1212,12 @@ progress_bar::progress_bar(std::uint64_t total, std::uint64_t check_every, doubl
     : total_(total),
       check_every_(check_every == 0 ? 1 : check_every),
       t_end_(t_end),
-      enabled_(::isatty(STDERR_FILENO) == 1),
-      start_(std::chrono::steady_clock::now()) {}
-
-bool progress_bar::due() {
-    using namespace std::chrono;
-    const auto now = steady_clock::now();
-    // Short runs show nothing; a long one redraws at most ten times a second.
-    if (now - start_ < seconds(1) || (shown_ && now - last_draw_ < milliseconds(100))) return false;
-    last_draw_ = now;
-    return true;
-}
+      enabled_(::isatty(STDERR_FILENO) == 1) {}
 
 void progress_bar::draw(std::uint64_t i, double t, const std::string& detail) {
-    using namespace std::chrono;
     shown_ = true;
-    const double fraction = total_ ? double(i) / double(total_) : t_end_ > 0.0 ? std::clamp(t / t_end_, 0.0, 1.0) : 1.0;
-    constexpr int width = 40;
-    const int filled = static_cast<int>(fraction * width);
-    char bar[width + 1];
-    for (int k = 0; k < width; ++k) bar[k] = k < filled ? '#' : '.';
-    bar[width] = '\0';
-    const double elapsed = duration<double>(last_draw_ - start_).count();
-    const double remaining = fraction > 0.0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
-    std::fprintf(stderr, "\r[%s] %5.1f%%  t = %-12.6g  %.0f s left %s", bar, 100.0 * fraction, t, remaining,
-                 detail.c_str());
+    const double fraction = total_ ? double(i) / double(total_) : t_end_ > 0.0 ? t / t_end_ : 1.0;
+    std::fprintf(stderr, "\r%s %s", progress_text(fraction, t, pace_.elapsed()).c_str(), detail.c_str());
     std::fflush(stderr);
 }
 

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include <eci/format.hpp>
+#include <eci/progress.hpp>
 
 namespace eci::cli {
 
@@ -350,7 +351,7 @@ class progress_bar {
     void finish();
 
    private:
-    bool due();
+    bool due() { return pace_.due(); }
     void draw(std::uint64_t i, double t, const std::string& detail);
 
     std::uint64_t total_;
@@ -359,7 +360,7 @@ class progress_bar {
     std::uint64_t calls_ = 0;
     bool enabled_;
     bool shown_ = false;
-    std::chrono::steady_clock::time_point start_, last_draw_;
+    progress_pace pace_;  // (eci.solve's progress line keeps the same pace and text: eci/progress.hpp)
 };
 
 }  // namespace eci::cli

@@ -334,24 +334,22 @@ int run_model(const model_info& info, const Model& model, typename Model::state_
             if (p.stats) last_stats = *p.stats;
             ++outputs;
             if (plot_) {
+                // the first components and, in the same pass, the phase plane's (a component at its index, a
+                // derived column by its function)
+                constexpr auto plane = plot_plane_columns<Model>();
                 std::array<double, run_plot::max_components> first{};
-                std::size_t count = 0;
+                std::array<double, 2> at{};
+                std::size_t count = 0, i = 0;
                 detail::for_each_real(state, [&](double v) {
                     if (count < first.size()) first[count++] = v;
+                    if constexpr (plane.has_value())
+                        for (std::size_t a = 0; a < 2; ++a)
+                            if ((*plane)[a] == int(i)) at[a] = v;
+                    ++i;
                 });
-                if constexpr (constexpr auto plane = plot_plane_columns<Model>(); plane.has_value()) {
-                    std::array<double, 2> at{};
-                    for (int a = 0; a < 2; ++a) {
-                        const int c = (*plane)[std::size_t(a)];
-                        if (c < 0) {
-                            at[std::size_t(a)] = (model_.*derived_[std::size_t(-1 - c)].value)(state);
-                        } else {
-                            std::size_t i = 0;
-                            detail::for_each_real(state, [&](double v) {
-                                if (i++ == std::size_t(c)) at[std::size_t(a)] = v;
-                            });
-                        }
-                    }
+                if constexpr (plane.has_value()) {
+                    for (std::size_t a = 0; a < 2; ++a)
+                        if ((*plane)[a] < 0) at[a] = (model_.*derived_[std::size_t(-1 - (*plane)[a])].value)(state);
                     plot_->add(p.t, std::span<const double>(first.data(), count), p.invariants, at);
                 } else {
                     plot_->add(p.t, std::span<const double>(first.data(), count), p.invariants);

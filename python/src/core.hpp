@@ -26,6 +26,7 @@
 
 #include <eci/concepts.hpp>
 #include <eci/format.hpp>
+#include <eci/progress.hpp>
 #include <eci/integrate.hpp>
 #include <eci/registry.hpp>
 #include <eci/run.hpp>
@@ -67,35 +68,25 @@ struct component_namer {
     }
 };
 
-/// eci.solve's progress= line on sys.stderr, as `eci run`'s bar: "[####....]  45.0%  t = 4.5  12 s left", first
-/// drawn after a second of run time (short runs show nothing), redrawn at most ten times a second, erased at the
-/// end. The run sets its position at every step without the GIL (two stores); draw_if_due and finish are called
-/// with the GIL held (interrupt_check, which takes it every 1-10 ms of run time, and the run's end).
+/// eci.solve's progress= line on sys.stderr, `eci run`'s pace and text (eci/progress.hpp): "[####....]  45.0%  t =
+/// 4.5  12 s left", from a second into the run, at most ten times a second, erased when it is destroyed. The run
+/// sets its position at every step without the GIL (a store); draw_if_due is called with the GIL held
+/// (interrupt_check, which takes it every 1-10 ms of run time), and it is destroyed with the GIL held: made outside
+/// the run's release of the GIL, so that it is erased after any end of the run (a KeyboardInterrupt, a failure).
 class progress_display {
    public:
-    progress_display(double t0, double t1) : t0_(t0), t1_(t1), start_(std::chrono::steady_clock::now()) {}
+    progress_display(double t0, double t1) : t0_(t0), t1_(t1) {}
+    progress_display(const progress_display&) = delete;
+    progress_display& operator=(const progress_display&) = delete;
+    ~progress_display() {
+        if (shown_) write("\r\033[K");
+    }
     void set(double t) { t_ = t; }
     void draw_if_due() {
-        using namespace std::chrono;
-        const auto now = steady_clock::now();
-        if (now - start_ < seconds(1) || (shown_ && now - last_draw_ < milliseconds(100))) return;
-        last_draw_ = now;
+        if (!pace_.due()) return;
         const double span = t1_ - t0_;
-        double fraction = span != 0.0 ? (t_ - t0_) / span : 1.0;
-        fraction = fraction >= 0.0 ? std::min(fraction, 1.0) : 0.0;  // (NaN: 0)
-        constexpr int width = 40;
-        std::string bar(width, '.');
-        std::fill_n(bar.begin(), static_cast<int>(fraction * width), '#');
-        const double elapsed = duration<double>(now - start_).count();
-        const double left = fraction > 0.0 ? elapsed * (1.0 - fraction) / fraction : 0.0;
-        char text[128];
-        std::snprintf(text, sizeof text, "] %5.1f%%  t = %-12.6g  %.0f s left", 100.0 * fraction, t_, left);
-        shown_ = write("\r[" + bar + text) || shown_;
-    }
-    /// Erases the line, if it was drawn.
-    void finish() {
-        if (shown_) write("\r\033[K");
-        shown_ = false;
+        const double fraction = span != 0.0 ? (t_ - t0_) / span : 1.0;
+        shown_ = write("\r" + progress_text(fraction, t_, pace_.elapsed())) || shown_;
     }
 
    private:
@@ -113,7 +104,7 @@ class progress_display {
     }
     double t0_, t1_, t_ = 0.0;
     bool shown_ = false;
-    std::chrono::steady_clock::time_point start_, last_draw_;
+    eci::progress_pace pace_;
 };
 
 /// Checks for Ctrl-C between steps. With the GIL held (a Python fun) that is one flag test per step; with the GIL

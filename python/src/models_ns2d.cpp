@@ -197,16 +197,10 @@ class ns2d_object : public model_base {
         const double energy0 = m.energy(x);
         std::array<double, 2> before{energy0, m.enstrophy(x)}, residual{0.0, 0.0};
         std::array<std::vector<double>, 2> residual_at_output;
-        // eci.solve's progress= line (its position set at every step, drawn when the GIL is taken for Ctrl-C)
+        // eci.solve's progress= line (its position set at every step, drawn when the GIL is taken for Ctrl-C; erased
+        // when destroyed, the GIL held again, however the run ends)
         std::optional<progress_display> progress;
         if (settings.contains("progress") && settings["progress"].cast<bool>()) progress.emplace(t0, t1);
-        // (erased at the end, however the run ends: a Ctrl-C's KeyboardInterrupt, a blow-up, a failure)
-        struct erase_at_end {
-            std::optional<progress_display>& p;
-            ~erase_at_end() {
-                if (p) p->finish();
-            }
-        } erase{progress};
         {
             std::optional<py::gil_scoped_release> unlocked;
             if (release) unlocked.emplace();

@@ -386,22 +386,15 @@ py::dict run_recorded(S& x, python_request req, const component_namer& namer, bo
     if (req.sees_steps() && !req.config.adaptive)
         throw std::invalid_argument("dense_output and events need adaptive step control (rtol/atol, no dt)");
     release = release && !req.sees_steps();  // events are Python callables
-    std::optional<progress_display> progress;
+    std::optional<progress_display> progress;  // (erased when destroyed, the GIL held again)
     if (req.progress) progress.emplace(req.config.t0, req.config.t_end);
     {
         std::optional<py::gil_scoped_release> unlocked;
         if (release) unlocked.emplace();
         interrupt_check interrupt(!release, progress ? &*progress : nullptr);
         recording_sink<S> sink(&out, &interrupt, &req, &steps);
-        try {
-            report = run(sink, std::as_const(req.config));
-        } catch (...) {
-            unlocked.reset();  // (the GIL, to erase the line)
-            if (progress) progress->finish();
-            throw;
-        }
+        report = run(sink, std::as_const(req.config));
     }
-    if (progress) progress->finish();
     const std::size_t n = std::ranges::size(x);
     py::dict d;
     add_arrays(d, out, n);
