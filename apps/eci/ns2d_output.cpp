@@ -900,25 +900,12 @@ std::vector<double> read_vorticity_rows(const std::string& path, int n, int firs
 bool plot_vorticity_png(const std::string& path, int n, const std::vector<double>& field, double t,
                         const std::string& name, const std::string& symbol) {
     const scoped_temporary data_file(path + ".bin");
-    const std::string& data = data_file.path();
     const std::string& tmp = path;
-    write_new_file(data, "field data for gnuplot", [&](std::FILE* f) {
-        std::fwrite(field.data(), sizeof(double), field.size(), f);
-    });
-    double vmax = 0.0;
-    for (double v : field) vmax = std::max(vmax, std::abs(v));
-    if (!(vmax > 0.0)) vmax = 1.0;
     char title[64];
     std::snprintf(title, sizeof title, "%s, t = %.4g", name.c_str(), t);
-    const double h = 2.0 * M_PI / n;
     std::string s = "set terminal pngcairo size 760,640\nset output " + gnuplot_quoted(tmp) + "\n";
-    s += "set title " + gnuplot_quoted(title) + "\nset size ratio -1\nset xlabel 'x'\nset ylabel 'y'\n";
-    s += "set xrange [0:2*pi]\nset yrange [0:2*pi]\nset cbrange [" + gnuplot_number(-vmax) + ":" +
-         gnuplot_number(vmax) + "]\n";
-    s += diverging_palette;
-    s += "set cblabel " + gnuplot_quoted(symbol) + "\n";
-    s += "plot " + gnuplot_quoted(data) + " binary array=(" + std::to_string(n) + "," + std::to_string(n) +
-         ") format='%float64' dx=" + gnuplot_number(h) + " dy=" + gnuplot_number(h) + " with image notitle\n";
+    s += "set title " + gnuplot_quoted(title) + "\nset size ratio -1\n";
+    s += field_image(data_file.path(), n, field, symbol);
     if (!draw_picture(s, tmp)) {
         std::error_code ec;
         std::filesystem::remove(tmp, ec);

@@ -1038,6 +1038,22 @@ std::string gnuplot_number(double v) {
     return b;
 }
 
+std::string field_image(const std::string& data, int n, const std::vector<double>& field, const std::string& symbol) {
+    write_new_file(data, "field data for gnuplot", [&](std::FILE* f) {
+        std::fwrite(field.data(), sizeof(double), field.size(), f);
+    });
+    double big = 0.0;
+    for (double v : field) big = std::max(big, std::abs(v));
+    if (!(big > 0.0)) big = 1.0;
+    const double h = 2.0 * M_PI / n;
+    return "set xlabel 'x'\nset ylabel 'y'\nset xrange [0:2*pi]\nset yrange [0:2*pi]\nset cbrange [" +
+           gnuplot_number(-big) + ":" + gnuplot_number(big) + "]\n" +
+           "set palette defined (0 '#053061', 0.25 '#4393c3', 0.5 '#f7f7f7', 0.75 '#d6604d', 1 '#67001f')\n" +
+           "set cblabel " + gnuplot_quoted(symbol) + "\nplot " + gnuplot_quoted(data) + " binary array=(" +
+           std::to_string(n) + "," + std::to_string(n) + ") format='%float64' dx=" + gnuplot_number(h) +
+           " dy=" + gnuplot_number(h) + " with image notitle\n";
+}
+
 std::string gnuplot_quoted(const std::string& s) {
     std::string q = "'";
     for (char c : s) q += c == '\'' ? std::string("''") : std::string(1, c);

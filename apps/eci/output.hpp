@@ -277,9 +277,11 @@ bool draw_picture(const std::string& script, const std::string& output);
 std::string gnuplot_number(double v);
 /// A gnuplot string in single quotes (a quote inside doubled).
 std::string gnuplot_quoted(const std::string& s);
-/// The colour map of a field's pictures (a snapshot's, a spectral run's --plot): blue, white at 0, red.
-inline constexpr const char* diverging_palette =
-    "set palette defined (0 '#053061', 0.25 '#4393c3', 0.5 '#f7f7f7', 0.75 '#d6604d', 1 '#67001f')\n";
+/// A field's picture, as a snapshot's and a spectral run's --plot draw it: writes the n x n values (row-major, y
+/// rows) as doubles to the new file `data` and returns the gnuplot commands that draw them on [0, 2 pi)^2 as an
+/// image, x and y labelled, in a diverging colour map symmetric about 0 (to the largest |value|; 1 for a zero field),
+/// the colour bar labelled `symbol`. Throws run_error if the data cannot be written.
+std::string field_image(const std::string& data, int n, const std::vector<double>& field, const std::string& symbol);
 
 /// A directory the run has just created: removed when this goes out of scope, and by the signal handler on a forced
 /// exit, if it is empty then (what the run wrote into it is removed first); keep() once the run has succeeded.

@@ -266,23 +266,12 @@ bool run_plot::draw_into(output_file& png) const {
                                  phase_box.top - phase_box.bottom, width_px, height_px, file);
     std::optional<scoped_temporary> field_data;
     if (field) {
-        // as the snapshots' pictures (plot_vorticity_png): the values as doubles, colours symmetric about 0
+        // as the snapshots' pictures (field_image), beside the others
         field_data.emplace(temporary_name(".bin"));
-        write_new_file(field_data->path(), "field data for gnuplot", [&](std::FILE* f) {
-            std::fwrite(field_.data(), sizeof(double), field_.size(), f);
-        });
-        double big = 0.0;
-        for (double v : field_) big = std::max(big, std::abs(v));
-        if (!(big > 0.0)) big = 1.0;
-        const double h = 2.0 * M_PI / field_n_;
-        s += place(field_box) + "unset key\nunset grid\nset xlabel 'x'\nset ylabel 'y'\nset xrange [0:2*pi]\n"
-             "set yrange [0:2*pi]\nset cbrange [" + gnuplot_number(-big) + ":" + gnuplot_number(big) + "]\n" +
-             diverging_palette + "set cblabel " + gnuplot_quoted(field_symbol_) +
-             "\nset colorbox user origin screen " + gnuplot_number(field_box.right + 0.012) +
-             ",0.2 size screen 0.012,0.6\nset title " + gnuplot_quoted(field_name_ + " at t = " + title_number(field_t_)) +
-             "\nplot " + gnuplot_quoted(field_data->path()) + " binary array=(" + std::to_string(field_n_) + "," +
-             std::to_string(field_n_) + ") format='%float64' dx=" + gnuplot_number(h) + " dy=" + gnuplot_number(h) +
-             " with image notitle\n";
+        s += place(field_box) + "unset key\nunset grid\nset colorbox user origin screen " +
+             gnuplot_number(field_box.right + 0.012) + ",0.2 size screen 0.012,0.6\nset title " +
+             gnuplot_quoted(field_name_ + " at t = " + title_number(field_t_)) + "\n" +
+             field_image(field_data->path(), field_n_, field_, field_symbol_);
     }
     s += "unset multiplot\nset output\n";
     if (!draw_picture(s, picture.path())) {
