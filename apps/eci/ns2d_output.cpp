@@ -712,8 +712,8 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
     if (H5Aexists(f, "time") > 0) {
         const double time = get<double>(f, "time");
         if (!(time == double(c.step) * c.dt))
-            throw std::runtime_error(path + ": time " + shortest(time) + " is not step * dt = " +
-                                     std::to_string(c.step) + " * " + shortest(c.dt));
+            throw std::runtime_error(path + ": time " + eci::shortest_text(time) + " is not step * dt = " +
+                                     std::to_string(c.step) + " * " + eci::shortest_text(c.dt));
     }
     // counts of the steps taken: every step takes at least one evaluation, and each halving is a step taken again
     if (c.rhs_evals < c.step)
@@ -740,7 +740,7 @@ ns2d_checkpoint read_checkpoint(const std::string& path, int n, bool with_state)
                                   {"max_enstrophy_drift", c.max_enstrophy_drift},
                                   {"max_energy_residual", c.max_energy_residual},
                                   {"max_enstrophy_residual", c.max_enstrophy_residual}})
-        if (!(v >= 0.0)) throw std::runtime_error(path + ": " + name + " " + shortest(v) + " is negative");
+        if (!(v >= 0.0)) throw std::runtime_error(path + ": " + name + " " + eci::shortest_text(v) + " is negative");
     std::vector<hsize_t> dims;
     const std::string name = state_dataset(spectral::find_equation(equation));
     const std::vector<double> v =

@@ -16,6 +16,7 @@ import functools
 import inspect
 import math
 import numbers
+import os
 import sys
 import warnings
 from collections import namedtuple
@@ -27,7 +28,7 @@ from ._errors import NonFiniteSolution, StepSizeUnderflow, TooManySteps
 from .models import Model
 
 __all__ = ["solve", "methods", "MethodInfo", "SolveResult", "DenseSolution", "Transform", "StepSizeUnderflow",
-           "TooManySteps", "NonFiniteSolution", "models"]
+           "TooManySteps", "NonFiniteSolution", "models", "load_checkpoint", "restart", "Checkpoint"]
 __version__ = _eci.__version__  # project(eci VERSION ...) in CMakeLists.txt
 
 
@@ -437,7 +438,8 @@ def _said_as_given(solve):
 def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_eval=None, invariants=None,
           transform=None, max_halvings=40, first_step=None, min_step=0.0, max_step=math.inf, max_steps=None,
           t_eval_mode="auto", jac=None, dense_output=False, events=None, vectorized=False, args=None,
-          update=None, quadratic_invariants=None, output_dt=None, progress=None, **options):
+          update=None, quadratic_invariants=None, output_dt=None, progress=None, checkpoint=None,
+          checkpoint_every=None, **options):
     """Integrate dy/dt = fun(t, y) from t_span[0] to t_span[1], SciPy's solve_ivp conventions, eci's numerics.
 
     fun: a callable fun(t, y) -> dy/dt (y a real or complex 1-D array, as in SciPy), or a built-in model
@@ -510,6 +512,14 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     progress: a progress line on sys.stderr while the run goes on, as `eci run`'s: "[####....]  45.0%  t = 4.5
         12 s left", from a second into the run (short runs show nothing), erased at its end. None (default): when
         sys.stderr is a terminal; True: always (a notebook's stream too); False: never.
+    checkpoint: a spectral model's run kept in a file (eci run's checkpoint format, HDF5: `eci run EQUATION
+        --restart FILE` continues it, and eci.restart(FILE)): written at the end of the run (a run whose last step
+        is shortened to land on t_span[1] keeps the step before it, on the grid t = i dt), every checkpoint_every
+        steps, and on Ctrl-C between steps (then the KeyboardInterrupt is raised), each time replacing the file
+        whole (a temporary renamed over it), never left half written. A run that fails keeps the last one written.
+        t_span must start at 0 (a checkpoint's time is step * dt). The file is checked before the first step
+        (OSError: a missing directory, a read-only file).
+    checkpoint_every: also write the checkpoint every this many steps (a whole number >= 1; with checkpoint=).
     jac: the Jacobian of a Python fun for method "kahan" (Kahan's linearly implicit method, for quadratic fields):
         jac(t, y) -> (n, n) array, rows the components of fun (SciPy's convention), or a constant (n, n) array;
         real y of up to 8 unknowns. Every other method is explicit and ignores it, with SciPy's warning, as it
@@ -534,6 +544,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     method = _SCIPY_METHODS.get(method, method)  # (a string or None here)
     if method is not None and method not in names:
         raise ValueError(f"unknown method '{method}' (methods: {', '.join(names)})")  # the library's, as the CLI
+    restart_from = options.pop("_restart", None)  # (eci.restart: the checkpoint the run continues)
     unknown = [k for k in options if k not in _IMPLICIT_ONLY]
     if unknown:
         raise TypeError(f"solve() got an unexpected keyword argument {unknown[0]!r}")
@@ -654,9 +665,25 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
         progress = bool(getattr(sys.stderr, "isatty", lambda: False)())
     elif not isinstance(progress, (bool, np.bool_)):
         raise TypeError(f"progress must be True, False or None, not {type(progress).__name__}")
+    if checkpoint is not None or checkpoint_every is not None:
+        if not (is_model and hasattr(fun, "cfl_step")):
+            what = f"model {fun.name}" if is_model else "a Python fun"
+            raise ValueError(f"checkpoint is for the spectral models (eci.models.NavierStokes2D, ...); {what} keeps "
+                             "none (its result holds the states)")
+        if checkpoint is None:
+            raise ValueError("checkpoint_every needs checkpoint=FILE, the file it writes")
+        if not isinstance(checkpoint, (str, os.PathLike)):
+            raise TypeError(f"checkpoint must be a file name, not {type(checkpoint).__name__}")
+        checkpoint = os.fspath(checkpoint)
+        if checkpoint_every is not None and (isinstance(checkpoint_every, (bool, np.bool_)) or
+                                             not isinstance(checkpoint_every, numbers.Integral) or
+                                             checkpoint_every < 1):
+            raise ValueError(f"checkpoint_every must be a whole number of steps >= 1, not {checkpoint_every!r}")
     settings = {"t_eval": times, "max_halvings": int(max_halvings), "adaptive": None, "update": update,
                 "dense_output": bool(dense_output), "events": event_list, "output_dt": output_dt,
-                "dt_given": adaptive or dt_given, "progress": bool(progress)}
+                "dt_given": adaptive or dt_given, "progress": bool(progress), "checkpoint": checkpoint,
+                "checkpoint_every": None if checkpoint_every is None else int(checkpoint_every),
+                "restart": restart_from}
     extra_calls = 0
     if weights is not None:
         _check_quadratic_invariants(fun, t0, y, weights)
@@ -866,3 +893,76 @@ def _adaptive_settings(rtol, atol, n, first_step, min_step, max_step, max_steps,
         raise ValueError(f"t_eval_mode must be one of {', '.join(_T_EVAL_MODES)}, not {t_eval_mode!r}")
     return {"rtol": r, "atol": a, "rtol_each": r_each, "atol_each": a_each, "first_step": first_step,
             "min_step": min_step, "max_step": max_step, "max_steps": int(max_steps), "t_eval_mode": t_eval_mode}
+
+
+class Checkpoint:
+    """A spectral run's checkpoint (`eci run EQUATION --checkpoint` or eci.solve(..., checkpoint=)), as
+    eci.load_checkpoint reads it.
+
+    model: a new model of the checkpoint's equation with its settings (n, viscosities, forcing, threads, plans) and
+        its stochastic forcing's generator where the run left it; y: the state, in the model's layout; t: its time,
+        step * dt; step, dt, method, update: the run's; t_end: the end time the run was asked for; equation.
+    initial: the first two invariants at step 0; budget: (E injection, E dissipation, Z injection, Z dissipation)
+        since step 0; max_drift, max_budget_residual: the run's so far; rhs_evals, halvings.
+    """
+
+    def __init__(self, path, model, y, header):
+        self.path, self.model, self.y, self._header = path, model, y, header
+        self.step, self.dt, self.method, self.update = header.step, header.dt, header.method, header.update
+        self.t = header.step * header.dt
+        self.t_end = header.t_end if math.isfinite(header.t_end) else header.total_steps * header.dt
+        self.equation = header.equation
+        self.initial, self.budget = header.initial, header.budget
+        self.max_drift, self.max_budget_residual = header.max_drift, header.max_budget_residual
+        self.rhs_evals, self.halvings = header.rhs_evals, header.halvings
+
+    def __repr__(self):
+        return (f"Checkpoint({self.path!r}: {self.model!r} at step {self.step}, t = {_shortest(self.t)} of "
+                f"{_shortest(self.t_end)}, {self.method}, dt {_shortest(self.dt)})")
+
+
+def load_checkpoint(path):
+    """The checkpoint at `path` (eci run's or eci.solve's checkpoint=) as an eci.Checkpoint: its model (a new one,
+    with the run's settings, plans and forcing generator), state y at time t, and the run's settings and statistics.
+    The state is checked against the checksum the file holds. FileNotFoundError (no such file), ValueError (not an
+    eci checkpoint, damaged, an unknown equation)."""
+    if not isinstance(path, (str, os.PathLike)):
+        raise TypeError(f"path must be a file name, not {type(path).__name__}")
+    path = os.fspath(path)
+    if not hasattr(_eci, "_load_checkpoint"):
+        raise ValueError("this eci was built without the spectral equations (FFTW): it has no checkpoints")
+    with open(path, "rb"):  # (FileNotFoundError, PermissionError, IsADirectoryError: Python's own)
+        pass
+    model, y, header = _eci._load_checkpoint(path)
+    return Checkpoint(path, model, y, header)
+
+
+def restart(checkpoint, t_end=None, *, output_dt=None, invariants=None, max_halvings=40, progress=None,
+            keep_checkpoint=True, checkpoint_every=None):
+    """Continue a spectral run from its checkpoint, bit for bit as the run that was not stopped would have gone on
+    (as `eci run EQUATION --restart FILE`): the checkpoint's model, state, method, dt and update.
+
+    checkpoint: a file name (eci run's or eci.solve's checkpoint) or an eci.Checkpoint.
+    t_end: where to go; default the end its run was asked for. A later end goes on along the grid t = i dt.
+    keep_checkpoint: True (default) continues the checkpoint in place (written as eci.solve's checkpoint=, every
+        checkpoint_every steps, at the end, on Ctrl-C); a file name writes another one; False none.
+    output_dt, invariants, max_halvings, progress: as eci.solve's.
+    Returns eci.solve's SolveResult for the run from the checkpoint's step on (its t starts at the checkpoint's t;
+    its budget and drifts are this part's; the checkpoint written holds the totals since step 0)."""
+    ck = checkpoint if isinstance(checkpoint, Checkpoint) else load_checkpoint(checkpoint)
+    t_end = ck.t_end if t_end is None else _number(t_end, "t_end")
+    if not (t_end >= ck.t) or not math.isfinite(t_end):
+        raise ValueError(f"t_end {_shortest(t_end)} is before the checkpoint's t = {_shortest(ck.t)} (step "
+                         f"{ck.step}): a restart goes forward from it")
+    if keep_checkpoint is True:
+        path = ck.path
+    elif keep_checkpoint is False or keep_checkpoint is None:
+        path = None
+        if checkpoint_every is not None:
+            raise ValueError("checkpoint_every needs a checkpoint to write: keep_checkpoint=False writes none")
+    else:
+        path = keep_checkpoint
+    return solve(ck.model, (0.0, t_end), ck.y, method=ck.method, dt=ck.dt,
+                 update="paper" if ck.update == "paper" else None, output_dt=output_dt, invariants=invariants,
+                 max_halvings=max_halvings, progress=progress, checkpoint=path, checkpoint_every=checkpoint_every,
+                 _restart=ck._header)

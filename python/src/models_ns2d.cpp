@@ -19,12 +19,23 @@
 #include "models.hpp"
 #include "module.hpp"
 
+// the CLI's checkpoint files (apps/eci, linked through apps/eci/files.cmake): one format, written and read by one code
+#include "ns2d_output.hpp"
+#include "output.hpp"
+
 namespace eci::python {
 
 namespace {
 
 using state = navier_stokes_2d::state_type;
 using cplx = std::complex<double>;
+using eci::cli::ns2d_checkpoint;
+
+// A file problem (a checkpoint that cannot be written or read) as Python's OSError, the GIL held.
+[[noreturn]] void raise_os_error(const std::string& what) {
+    PyErr_SetString(PyExc_OSError, what.c_str());
+    throw py::error_already_set();
+}
 
 // Ctrl-C between the halvings of a failed step (run_config::stop_between_attempts): the flag is per thread.
 thread_local bool gil_released_in_run = false;
@@ -132,6 +143,26 @@ class ns2d_object : public model_base {
         std::optional<std::vector<double>> t_eval;
         if (!settings["t_eval"].is_none()) t_eval = settings["t_eval"].cast<std::vector<double>>();
         const int max_halvings = settings["max_halvings"].cast<int>();
+        // checkpoint=: the CLI's checkpoint file (every checkpoint_every steps, at the end, on Ctrl-C between steps);
+        // restart: the checkpoint a run continues (eci.restart), its step and its statistics so far
+        const auto setting = [&](const char* k) { return settings.contains(k) ? py::object(settings[k]) : py::none(); };
+        const std::string ck_path = setting("checkpoint").is_none() ? "" : setting("checkpoint").cast<std::string>();
+        const std::uint64_t ck_every =
+            setting("checkpoint_every").is_none() ? 0 : setting("checkpoint_every").cast<std::uint64_t>();
+        const ns2d_checkpoint* from =
+            setting("restart").is_none() ? nullptr : setting("restart").cast<const ns2d_checkpoint*>();
+        const std::uint64_t first = from ? from->step : 0;
+        if (!ck_path.empty()) {
+            if (t0 != 0.0 && !from)
+                throw std::invalid_argument("checkpoint= keeps the run at step i of the grid t = i dt from t = 0, as "
+                                            "eci run's checkpoints: give t_span from 0 (a run from t0 = " +
+                                            eci::detail::shortest_text(t0) + " has none)");
+            try {
+                eci::cli::check_output_path(ck_path, "checkpoint");
+            } catch (const std::exception& e) {
+                raise_os_error(e.what());
+            }
+        }
         state x = y0.is_none() ? y0_ : to_state(y0);
         const method_info info = resolve_named_method(method, eci::ns2d_methods(), "model " + name());
         {
@@ -145,7 +176,7 @@ class ns2d_object : public model_base {
         if (t_eval)
             for (double te : *t_eval) {
                 const double k = std::round((te - t0) / dt);
-                if (te != t1 && (k < 0 || double(k) > double(n) || grid_time(std::uint64_t(k)) != te)) {
+                if (te != t1 && (k < double(first) || double(k) > double(n) || grid_time(std::uint64_t(k)) != te)) {
                     // (a step the user never chose is named as such: the remedy is then to choose one)
                     const bool dt_given = !settings.contains("dt_given") || settings["dt_given"].cast<bool>();
                     throw std::invalid_argument(
@@ -172,6 +203,7 @@ class ns2d_object : public model_base {
         cfg.t0 = t0;
         cfg.t_end = t1;
         cfg.dt = dt;
+        cfg.first_step = first;
         if (t_eval) cfg.times = *t_eval;
         if (settings.contains("output_dt") && !settings["output_dt"].is_none()) {
             // every k = output_dt / dt steps: the library's rule and sentences, as `eci run navier-stokes-2d`'s
@@ -196,12 +228,55 @@ class ns2d_object : public model_base {
         std::optional<eci::spectral::flow_blow_up> blew_up;
         const double energy0 = m.energy(x);
         std::array<double, 2> before{energy0, m.enstrophy(x)}, residual{0.0, 0.0};
+        // The checkpoint of step i at state s: the run's settings, the generator where it stands, and the
+        // statistics since step 0 (a restart's checkpoint's and this run's), as the CLI's checkpoints hold them.
+        ns2d_checkpoint base = from ? *from : ns2d_checkpoint{};
+        if (!from) base.energy0 = energy0, base.enstrophy0 = before[1];
+        base.params = m.params();
+        base.method = method;
+        base.update = cfg.update == update_kind::paper ? "paper" : "conditioned";
+        base.dt = dt;
+        base.total_steps = n;
+        base.t_end = t1;
+        base.checksum.reset();
+        std::array<double, 2> max_drift{base.max_energy_drift, base.max_enstrophy_drift};
+        ns2d_budget total_budget = base.budget;  // since step 0, summed step by step as the CLI's (the same bits)
+        std::uint64_t written = std::numeric_limits<std::uint64_t>::max();  // the step of the last checkpoint written
+        const auto save = [&](std::uint64_t i, const state& s) {
+            ns2d_checkpoint c = base;
+            c.step = i;
+            c.rng_state = m.rng_state();
+            c.halvings += report.stats.step_reductions;
+            c.rhs_evals += report.stats.rhs_evals;
+            c.budget = total_budget;
+            c.max_energy_drift = max_drift[0], c.max_enstrophy_drift = max_drift[1];
+            c.max_energy_residual = std::max(c.max_energy_residual, residual[0]);
+            c.max_enstrophy_residual = std::max(c.max_enstrophy_residual, residual[1]);
+            c.state = m.to_half_plane(s);
+            eci::cli::write_checkpoint(ck_path, c);
+            written = i;
+        };
+        // a run whose last step is shortened to land on t1 keeps the step before it (the grid's last state, as the
+        // CLI's: a restart to the same end repeats that step, to a later one goes on along the grid)
+        const bool shortened_end = t0 + double(n) * dt != t1;
+        std::optional<std::string> save_failed;  // (a failed write ends the run: raised as OSError below)
+        const auto save_checked = [&](std::uint64_t i, const state& s) {
+            try {
+                save(i, s);
+            } catch (const std::exception& e) {
+                save_failed = e.what();
+                throw;
+            }
+        };
+        std::uint64_t done = first;  // the step of the state x holds between steps
+        bool stopped_between_steps = false;
         std::array<std::vector<double>, 2> residual_at_output;
         // eci.solve's progress= line (its position set at every step, drawn when the GIL is taken for Ctrl-C; erased
         // when destroyed, the GIL held again, however the run ends)
         std::optional<progress_display> progress;
-        if (settings.contains("progress") && settings["progress"].cast<bool>()) progress.emplace(t0, t1);
-        {
+        if (settings.contains("progress") && settings["progress"].cast<bool>())
+            progress.emplace(t0 + double(first) * dt, t1);
+        try {
             std::optional<py::gil_scoped_release> unlocked;
             if (release) unlocked.emplace();
             gil_released_in_run = release;
@@ -242,13 +317,30 @@ class ns2d_object : public model_base {
                 budget.energy_dissipation += b.energy_dissipation;
                 budget.enstrophy_injection += b.enstrophy_injection;
                 budget.enstrophy_dissipation += b.enstrophy_dissipation;
+                total_budget.energy_injection += b.energy_injection;
+                total_budget.energy_dissipation += b.energy_dissipation;
+                total_budget.enstrophy_injection += b.enstrophy_injection;
+                total_budget.enstrophy_dissipation += b.enstrophy_dissipation;
                 m.check_blow_up(s, pt.invariants, energy0, budget.energy_injection, pt.index, pt.t, cfg.dt);
+                max_drift[0] = invariant_record::widened_drift(max_drift[0], base.energy0, pt.invariants[0]);
+                max_drift[1] = invariant_record::widened_drift(max_drift[1], base.enstrophy0, pt.invariants[1]);
+                if (!ck_path.empty() && ((ck_every && pt.index % ck_every == 0) || (shortened_end && pt.index + 1 == n) ||
+                                         (!shortened_end && pt.index == n)))
+                    save_checked(pt.index, s);
                 drift[0].record(pt.invariants[0], false);
                 drift[1].record(pt.invariants[1], false);
                 if (!release) user.measure(s, drift, 2, false);
             };
             auto on_progress = [&](double t, std::uint64_t i) {
-                if (i < n) interrupt(t);  // before every step
+                done = i;
+                if (i < n) {  // before every step
+                    try {
+                        interrupt(t);
+                    } catch (...) {
+                        stopped_between_steps = true;  // (x is step i's state: a checkpoint can keep it)
+                        throw;
+                    }
+                }
             };
             try {
                 const solve_report r = eci::solve<navier_stokes_2d>(
@@ -262,6 +354,21 @@ class ns2d_object : public model_base {
                 // the KeyboardInterrupt is raised below, with the GIL
             }
             gil_released_in_run = false;
+        } catch (const py::error_already_set&) {
+            // Ctrl-C between steps keeps the run in its checkpoint (the step x holds), as eci run's stop does
+            gil_released_in_run = false;
+            if (stopped_between_steps && !ck_path.empty() && written != done && !save_failed) {
+                try {
+                    save(done, x);
+                } catch (const std::exception& e) {
+                    raise_os_error(e.what());  // (instead of the KeyboardInterrupt: the run was not kept)
+                }
+            }
+            throw;
+        } catch (const std::exception& e) {
+            gil_released_in_run = false;
+            if (save_failed) raise_os_error(*save_failed);
+            throw;
         }
         if (interrupt_pending) throw py::error_already_set();
         report.rejected.step_failed = report.stats.step_reductions;
@@ -685,6 +792,46 @@ void bind_equation(py::module_& m, py::list& classes) {
     classes.append(c);
 }
 
+// eci.load_checkpoint's part in C++: the checkpoint at `path` (eci run's or eci.solve's) as a model of its equation
+// with its settings, plans (its FFTW wisdom) and generator, its state in the model's layout (checked against its
+// checksum), and its header (the step, the run's settings and statistics). ValueError naming the problem.
+py::tuple load_checkpoint(py::module_& module, const std::string& path) {
+    ns2d_checkpoint ck;
+    try {
+        ck = eci::cli::read_checkpoint(path);
+    } catch (const std::exception& e) {
+        throw std::invalid_argument(std::string("cannot restart: ") + e.what());
+    }
+    const auto& all = spectral::equations();
+    std::size_t index = all.size();
+    for (std::size_t i = 0; i < all.size(); ++i)
+        if (all[i]->name == ck.params.equation) index = i;
+    if (index == all.size())
+        throw std::invalid_argument("cannot restart: " + path + " is a checkpoint of " + ck.params.equation +
+                                    ", an equation this eci does not have");
+    const spectral::equation& e = *all[index];
+    if (const std::uint64_t sum = eci::cli::state_checksum(ck.state.data(), ck.params.n, 0, ck.params.n / 2 + 1);
+        ck.checksum && sum != *ck.checksum)
+        throw std::invalid_argument("cannot restart: " + eci::cli::checksum_mismatch(path, std::string(e.name)));
+    // the plans the run made (a checkpoint of FFTW_MEASURE plans repeats bit for bit only with them)
+    if (!ck.params.wisdom.empty()) navier_stokes_2d::import_fftw_wisdom(ck.params.wisdom);
+    py::dict kwargs;
+    kwargs["n"] = ck.params.n;
+    for (const flow_keyword& k : flow_keywords())
+        if ((!k.waves || e.dispersion) && k.given(ck.params)) kwargs[k.name] = k.get(ck.params);
+    py::object model = module.attr("_flow_models")[py::int_(index)](**kwargs);
+    auto& flow = dynamic_cast<ns2d_object&>(model.cast<model_base&>());
+    state y;
+    {
+        const auto lock = flow.lock();
+        flow.model().set_rng_state(ck.rng_state);
+        y = flow.model().from_half_plane(ck.state);
+    }
+    ck.state = state();
+    ck.params.wisdom.clear();
+    return py::make_tuple(model, to_numpy(y), ck);
+}
+
 }  // namespace
 
 void init_ns2d(py::module_& m) {
@@ -696,6 +843,32 @@ void init_ns2d(py::module_& m) {
     [&]<std::size_t... I>(std::index_sequence<I...>) { (bind_equation<I>(m, classes), ...); }(
         std::make_index_sequence<max_equations>{});
     m.attr("_flow_models") = py::tuple(classes);
+
+    // A checkpoint's header (eci.Checkpoint's fields; the statistics a restart carries on)
+    py::class_<ns2d_checkpoint>(m, "_CheckpointHeader")
+        .def_readonly("method", &ns2d_checkpoint::method)
+        .def_readonly("update", &ns2d_checkpoint::update)
+        .def_readonly("dt", &ns2d_checkpoint::dt)
+        .def_readonly("step", &ns2d_checkpoint::step)
+        .def_readonly("total_steps", &ns2d_checkpoint::total_steps)
+        .def_readonly("t_end", &ns2d_checkpoint::t_end)
+        .def_readonly("rhs_evals", &ns2d_checkpoint::rhs_evals)
+        .def_readonly("halvings", &ns2d_checkpoint::halvings)
+        .def_property_readonly("equation", [](const ns2d_checkpoint& c) { return c.params.equation; })
+        .def_property_readonly("initial",
+                               [](const ns2d_checkpoint& c) { return py::make_tuple(c.energy0, c.enstrophy0); })
+        .def_property_readonly("max_drift", [](const ns2d_checkpoint& c) {
+            return py::make_tuple(c.max_energy_drift, c.max_enstrophy_drift);
+        })
+        .def_property_readonly("max_budget_residual", [](const ns2d_checkpoint& c) {
+            return py::make_tuple(c.max_energy_residual, c.max_enstrophy_residual);
+        })
+        .def_property_readonly("budget", [](const ns2d_checkpoint& c) {
+            return py::make_tuple(c.budget.energy_injection, c.budget.energy_dissipation,
+                                  c.budget.enstrophy_injection, c.budget.enstrophy_dissipation);
+        });
+    m.def("_load_checkpoint", [m](const std::string& path) mutable { return load_checkpoint(m, path); },
+          py::arg("path"));
 }
 
 #undef ECI_FLOW_KEYWORDS
