@@ -134,11 +134,22 @@ def plot(result, file=None, phase=None):
         title += f" (stopped at t = {t[-1]:.6g})"
 
     if flow:  # a spectral flow: E and Z over time, each one's budget residual per step, and the last field
-        fig = _new_figure((15.0, 7.6))
-        grid = fig.add_gridspec(2, 2, width_ratios=(1.2, 1.0))
+        own = list(model.invariant_names if model is not None else list(values)[:2])
+        # the user's invariants= (measured at every output too): their relative change in a panel of their own
+        extra = {k: v for k, v in values.items() if k not in own}
+        fig = _new_figure((15.0, 10.0 if extra else 7.6))
+        grid = fig.add_gridspec(3 if extra else 2, 2, width_ratios=(1.2, 1.0))
         top = fig.add_subplot(grid[0, 0])
         bottom = fig.add_subplot(grid[1, 0], sharex=top)
-        for inv in (model.invariant_names if model is not None else list(values)[:2]):
+        if extra:
+            user = fig.add_subplot(grid[2, 0], sharex=top)
+            changes = _relative_changes(extra)
+            for inv, (change, relative) in changes.items():
+                user.plot(t, change, label=inv if relative else inv + " (abs.)", **style)
+            user.set_ylabel("invariants=: (value - initial)\n/ |initial|")
+            user.ticklabel_format(axis="y", style="sci", scilimits=(0, 0))
+            user.set_xlabel("t")
+        for inv in own:
             top.plot(t, values[inv], label=inv, **style)
         top.set_yscale("log")
         top.set_ylabel("invariant")
@@ -147,7 +158,7 @@ def plot(result, file=None, phase=None):
         bottom.set_yscale("log", nonpositive="mask")  # (a step that kept its budget exactly: 0, not drawn)
         bottom.set_ylabel("|change - (injection - dissipation)| / invariant\n(largest per step since the last output)")
         bottom.set_xlabel("t")
-        for ax in (top, bottom):
+        for ax in (top, bottom) + ((user,) if extra else ()):
             ax.margins(x=0)
             ax.grid(True)
             _legend_right(ax)

@@ -220,8 +220,9 @@ class ns2d_object : public model_base {
         cfg.stop_on_invariant_overflow = false;
         cfg.stop_between_attempts = &python_interrupt_requested;
         const bool no_outputs = t_eval && t_eval->empty();
-        // the arrays keep every output: a run whose outputs cannot fit is refused before it starts
-        cfg.output_bytes = no_outputs ? 0 : m.size() * sizeof(cplx) + sizeof(double);
+        // the arrays keep every output (the state, its time, each invariant's value and the two budget residuals
+        // there): a run whose outputs cannot fit is refused before it starts
+        cfg.output_bytes = no_outputs ? 0 : m.size() * sizeof(cplx) + (1 + drift.size() + 2) * sizeof(double);
         // A run that stops early returns what it reached with result.failure (status -1), as every model's run does:
         // the library's report (failure_dict, once the GIL is held again), or the library's blow-up stop.
         std::optional<solve_report> failed;

@@ -374,12 +374,14 @@ solve_report solve_entry(const F& f, S& x, std::string_view method, const run_co
 /// held) and returns the SolveResult dict: run(sink, cfg) is the run itself (eci::solve, or a model's compiled
 /// solve_model), filling the recording sink.
 template <class S>
-py::dict run_recorded(S& x, python_request req, const component_namer& namer, bool release,
+py::dict run_recorded(S& x, python_request req, const component_namer& namer, bool release, std::size_t invariants,
                       const std::function<solve_report(recording_sink<S>&, const run_config&)>& run) {
     req.config.component_name = namer;
-    // the arrays keep every output: a fixed-step run whose outputs cannot fit is refused before it starts
-    req.config.output_bytes =
-        req.no_outputs ? 0 : std::ranges::size(x) * sizeof(std::ranges::range_value_t<S>) + sizeof(double);
+    // the arrays keep every output (the state, its time and each invariant's value there, result.invariant_values):
+    // a fixed-step run whose outputs cannot fit is refused before it starts
+    req.config.output_bytes = req.no_outputs ? 0
+                                             : std::ranges::size(x) * sizeof(std::ranges::range_value_t<S>) +
+                                                   (1 + invariants) * sizeof(double);
     recorded_output<S> out;
     step_record<S> steps;
     solve_report report;
@@ -445,7 +447,9 @@ template <class Dispatch, class Entry = void, class F, class S>
 py::dict run_python(const F& f, S& x, const std::string& method, python_request req,
                     std::vector<extra_invariant<S>> extra, const component_namer& namer, const std::string& what,
                     bool release) {
-    return run_recorded<S>(x, std::move(req), namer, release, [&](recording_sink<S>& sink, const run_config& cfg) {
+    const std::size_t invariants = extra.size();  // (a Python fun's are all extra: its own, its quadratic ones)
+    return run_recorded<S>(x, std::move(req), namer, release, invariants,
+                           [&](recording_sink<S>& sink, const run_config& cfg) {
         if constexpr (std::is_void_v<Entry>)
             return solve<Dispatch>(f, x, method, cfg, sink, std::move(extra), what);
         else
@@ -460,7 +464,9 @@ py::dict run_python_model(const Model& model, typename Model::state_type& x, con
                           python_request req, std::vector<extra_invariant<typename Model::state_type>> extra,
                           const component_namer& namer, const std::string& what, bool release) {
     using S = typename Model::state_type;
-    py::dict d = run_recorded<S>(x, std::move(req), namer, release, [&](recording_sink<S>& sink, const run_config& cfg) {
+    const std::size_t invariants = std::size(Model::invariants()) + extra.size();
+    py::dict d = run_recorded<S>(x, std::move(req), namer, release, invariants,
+                                 [&](recording_sink<S>& sink, const run_config& cfg) {
         return solve_model<Model>(model, x, method, cfg, sink, std::move(extra), what);
     });
     if (const auto m = find_method(d["method"].cast<std::string>()))  // (what the CLI's summary says of it)

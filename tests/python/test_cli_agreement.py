@@ -701,6 +701,11 @@ def test_a_stored_solution_beyond_memory_is_refused_up_front():
     message = str(e.value)
     assert message.startswith("storing the solution at ") and " GiB of memory, more than this machine's " in message
     assert "\n" not in message
+    # what each output keeps: the state, its time and each invariant's value (result.invariant_values); the figure
+    # is given to 3 digits
+    needed = float(message[message.index(" needs about ") + 13:].split()[0])
+    per_output = 8 * (3 + 1 + len(M.ThreeWave().invariant_names))
+    assert abs(needed - (steps + 1) * per_output / 2 ** 30) <= 0.005 * needed, (needed, per_output)
     f = lambda t, y: -y  # noqa: E731  (a Python fun's arrays alike)
     with pytest.raises(ValueError, match="^storing the solution at "):
         eci.solve(f, (0.0, steps * 1e-5), [1.0, 2.0, 3.0], dt=1e-5)

@@ -269,3 +269,16 @@ def test_budget_residual_values_are_each_outputs_steps():
         assert np.array_equal(third.budget_residual_values[name][1:], res[1:].reshape(4, 3).max(axis=1))
     # (round-off residuals whose 3-step maxima are not monotone: a running maximum instead would differ)
     assert any(np.any(np.diff(third.budget_residual_values[n][1:]) < 0) for n in model.invariant_names)
+
+
+def test_a_spectral_runs_own_invariants_are_drawn_in_a_panel_of_their_own():
+    model = eci.models.NavierStokes2D(n=16, nu=1e-3)
+    r = eci.solve(model, (0.0, 0.08), dt=0.01, output_dt=0.02,
+                  invariants={"P": model.palinstrophy, "zero": lambda w: 0.0})
+    top, bottom, user, field = panels(r.plot())
+    assert len(top.get_lines()) == 2  # E and Z alone on the log scale
+    (p, zero) = user.get_lines()
+    v = r.invariant_values["P"]
+    assert p.get_label() == "P" and np.array_equal(p.get_ydata(), (v - v[0]) / abs(v[0]))
+    assert zero.get_label() == "zero (abs.)" and not np.any(zero.get_ydata())
+    assert field.get_images()
