@@ -259,7 +259,8 @@ class ns2d_object : public model_base {
         };
         // a run whose last step is shortened to land on t1 keeps the step before it (the grid's last state, as the
         // CLI's: a restart to the same end repeats that step, to a later one goes on along the grid)
-        const bool shortened_end = t0 + double(n) * dt != t1;
+        // (by the CLI's rule, last_step_to_reach: a last step within 1e-12 dt of dt is a whole one)
+        const bool shortened_end = n > 0 && last_step_to_reach(t0, t1, dt, n) != dt;
         std::optional<std::string> save_failed;  // (a failed write ends the run: raised as OSError below)
         const auto save_checked = [&](std::uint64_t i, const state& s) {
             try {
@@ -325,8 +326,8 @@ class ns2d_object : public model_base {
                 m.check_blow_up(s, pt.invariants, energy0, budget.energy_injection, pt.index, pt.t, cfg.dt);
                 max_drift[0] = invariant_record::widened_drift(max_drift[0], base.energy0, pt.invariants[0]);
                 max_drift[1] = invariant_record::widened_drift(max_drift[1], base.enstrophy0, pt.invariants[1]);
-                if (!ck_path.empty() && ((ck_every && pt.index % ck_every == 0) || (shortened_end && pt.index + 1 == n) ||
-                                         (!shortened_end && pt.index == n)))
+                // (the end's: the step before a shortened last step here, a whole last step after the run)
+                if (!ck_path.empty() && ((ck_every && pt.index % ck_every == 0) || (shortened_end && pt.index + 1 == n)))
                     save_checked(pt.index, s);
                 drift[0].record(pt.invariants[0], false);
                 drift[1].record(pt.invariants[1], false);
@@ -343,6 +344,8 @@ class ns2d_object : public model_base {
                     }
                 }
             };
+            // the end's checkpoint where the state before a shortened last step is the start (no step ends there)
+            if (!ck_path.empty() && shortened_end && n - 1 == first) save_checked(first, x);
             try {
                 const solve_report r = eci::solve<navier_stokes_2d>(
                     m, x, method, cfg, flow_sink{on_output, on_step, on_progress}, {}, "model " + name());
@@ -372,6 +375,14 @@ class ns2d_object : public model_base {
             throw;
         }
         if (interrupt_pending) throw py::error_already_set();
+        // a finished run's checkpoint at its end, on the grid (a run that failed keeps the last one written)
+        if (!ck_path.empty() && !shortened_end && !failed && !blew_up && written != n) {
+            try {
+                save(n, x);
+            } catch (const std::exception& e) {
+                raise_os_error(e.what());
+            }
+        }
         report.rejected.step_failed = report.stats.step_reductions;
         py::dict d = result_dict(out, m.size(), report, drift, info);
         d["invariant_values"] = invariant_values_dict(out, record_names(drift));

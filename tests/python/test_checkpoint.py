@@ -97,8 +97,9 @@ def test_checkpoint_every_writes_along_the_run(tmp_path):
 
     eci.solve(flow(name, **kw), (0.0, 0.25), method="c-rk4", dt=0.0125, checkpoint=path, checkpoint_every=7,
               invariants={"probe": probe})
-    # the probe runs at the initial state and after steps 1 .. 20: the file appears at step 7, then 14, and the end
-    assert seen == [7] * 7 + [14] * 6 + [20], seen
+    # the probe runs after steps 1 .. 20: the file appears at step 7, then 14, and the end's after the run
+    assert seen == [7] * 7 + [14] * 7, seen
+    assert eci.load_checkpoint(path).step == 20
     assert not [p for p in os.listdir(tmp_path) if p != "ck.h5"]  # no temporary left
 
 
@@ -161,3 +162,34 @@ def test_files_that_are_not_good_checkpoints_are_refused(tmp_path):
         f[name][...] = d
     with pytest.raises(ValueError, match="checksum|does not match"):
         eci.load_checkpoint(path)
+
+
+def test_short_runs_keep_their_end_on_the_grid(tmp_path):
+    m = eci.models.NavierStokes2D(n=16, nu=1e-3)
+    y0 = m.random_field(seed=3)
+    # one step, shortened (0.005 of 0.01): the state before it is the start, kept as step 0
+    eci.solve(m, (0.0, 0.005), y0, dt=0.01, checkpoint=tmp_path / "a.h5")
+    c = eci.load_checkpoint(tmp_path / "a.h5")
+    assert c.step == 0 and c.t_end == 0.005 and np.array_equal(c.y, y0)
+    r = eci.restart(c)
+    assert r.t[-1] == 0.005 and np.array_equal(r.y[:, -1], eci.solve(m, (0.0, 0.005), y0, dt=0.01).y[:, -1])
+    # no step at all: the start itself
+    eci.solve(m, (0.0, 0.0), y0, dt=0.01, checkpoint=tmp_path / "b.h5")
+    assert eci.load_checkpoint(tmp_path / "b.h5").step == 0
+
+
+def test_a_checkpoint_that_cannot_be_written_mid_run_raises_oserror(tmp_path):
+    d = tmp_path / "out"
+    d.mkdir()
+    path = d / "ck.h5"
+
+    def probe(y):  # after the first checkpoint (step 2), the directory goes away
+        if path.exists():
+            path.unlink()
+            d.rmdir()
+        return 0.0
+
+    with pytest.raises(OSError, match="cannot write checkpoint"):
+        eci.solve(eci.models.NavierStokes2D(n=16), (0.0, 0.1), dt=0.01, checkpoint=path, checkpoint_every=2,
+                  invariants={"probe": probe})
+    assert not d.exists()
