@@ -11,8 +11,8 @@ EXAMPLES = sorted((REPO / "examples" / "python").glob("*.py"))
 sys.path.insert(0, str(BUILD / "python"))
 import eci  # noqa: E402
 
-# the Navier-Stokes example needs the module built with eci::spectral (FFTW3)
-SKIP = set() if hasattr(eci.models, "NavierStokes2D") else {"vortex_merger.py"}
+# the Navier-Stokes examples need the module built with eci::spectral (FFTW3)
+SKIP = set() if hasattr(eci.models, "NavierStokes2D") else {"vortex_merger.py", "forced_turbulence_restart.py"}
 
 
 def test_there_are_examples():
