@@ -950,6 +950,7 @@ def restart(checkpoint, t_end=None, *, output_dt=None, invariants=None, max_halv
     Returns eci.solve's SolveResult for the run from the checkpoint's step on (its t starts at the checkpoint's t;
     its budget and drifts are this part's; the checkpoint written holds the totals since step 0)."""
     ck = checkpoint if isinstance(checkpoint, Checkpoint) else load_checkpoint(checkpoint)
+    ck.model._rng_state = ck._header.rng_state  # (a Checkpoint restarted twice: its model's generator has moved)
     t_end = ck.t_end if t_end is None else _number(t_end, "t_end")
     if not (t_end >= ck.t) or not math.isfinite(t_end):
         raise ValueError(f"t_end {_shortest(t_end)} is before the checkpoint's t = {_shortest(ck.t)} (step "

@@ -866,6 +866,7 @@ void init_ns2d(py::module_& m) {
         .def_readonly("t_end", &ns2d_checkpoint::t_end)
         .def_readonly("rhs_evals", &ns2d_checkpoint::rhs_evals)
         .def_readonly("halvings", &ns2d_checkpoint::halvings)
+        .def_readonly("rng_state", &ns2d_checkpoint::rng_state)
         .def_property_readonly("equation", [](const ns2d_checkpoint& c) { return c.params.equation; })
         .def_property_readonly("initial",
                                [](const ns2d_checkpoint& c) { return py::make_tuple(c.energy0, c.enstrophy0); })
