@@ -3,6 +3,9 @@
 # (states, generator, budget totals), whichever tool wrote or continues it.
 import _thread
 import os
+import signal
+import subprocess
+import sys
 import threading
 
 import h5py
@@ -10,7 +13,7 @@ import numpy as np
 import pytest
 
 import eci
-from conftest import run_cli
+from conftest import BUILD, run_cli
 
 FLOWS = [
     ("NavierStokes2D", dict(nu=1e-3, forcing="stochastic", injection_rate=0.1)),
@@ -196,3 +199,23 @@ def test_a_checkpoint_that_cannot_be_written_mid_run_raises_oserror(tmp_path):
         eci.solve(eci.models.NavierStokes2D(n=16), (0.0, 0.1), dt=0.01, checkpoint=path, checkpoint_every=2,
                   invariants={"probe": probe})
     assert not d.exists()
+
+
+def test_a_batch_systems_sigterm_is_kept_as_ctrl_c_is(tmp_path):
+    # a job's time limit: SIGTERM to a process that routes it to KeyboardInterrupt, as docs/python.md says
+    script = tmp_path / "job.py"
+    script.write_text(
+        "import eci, signal, sys\n"
+        "signal.signal(signal.SIGTERM, signal.default_int_handler)\n"
+        "print('ready', flush=True)\n"
+        "eci.solve(eci.models.NavierStokes2D(n=64, nu=1e-3), (0.0, 1e4), dt=0.01, checkpoint=sys.argv[1])\n")
+    env = dict(os.environ, PYTHONPATH=str(BUILD / "python"))
+    p = subprocess.Popen([sys.executable, str(script), str(tmp_path / "ck.h5")], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True, env=env)
+    assert p.stdout.readline() == "ready\n"
+    threading.Event().wait(1.0)  # (well into the run: planning and the first steps)
+    p.send_signal(signal.SIGTERM)
+    _, err = p.communicate(timeout=60)
+    assert p.returncode != 0 and "KeyboardInterrupt" in err, err  # (Python ends by SIGINT then)
+    c = eci.load_checkpoint(tmp_path / "ck.h5")
+    assert c.step > 0 and c.t_end == 1e4
