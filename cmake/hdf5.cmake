@@ -28,7 +28,12 @@ function(eci_find_hdf5 target)
   else()
     pkg_check_modules(ECI_HDF5_SERIAL QUIET IMPORTED_TARGET GLOBAL hdf5-serial)
     if(NOT ECI_HDF5_SERIAL_FOUND)  # (not Debian: the one HDF5 the system has)
-      pkg_check_modules(ECI_HDF5_SERIAL REQUIRED IMPORTED_TARGET GLOBAL hdf5)
+      pkg_check_modules(ECI_HDF5_SERIAL QUIET IMPORTED_TARGET GLOBAL hdf5)
+    endif()
+    if(NOT ECI_HDF5_SERIAL_FOUND)
+      message(FATAL_ERROR "the spectral models' snapshots and checkpoints (the tool's and Python's) need HDF5 "
+                          "(pkg-config hdf5-serial or hdf5; Debian: libhdf5-dev, installed by scripts/setup.sh); or "
+                          "-DECI_BUILD_SPECTRAL=OFF (pip: ECI_CMAKE_ARGS=-DECI_BUILD_SPECTRAL=OFF) builds without them")
     endif()
     add_library(${target} INTERFACE)
     target_link_libraries(${target} INTERFACE PkgConfig::ECI_HDF5_SERIAL)
