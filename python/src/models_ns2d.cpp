@@ -218,7 +218,7 @@ class ns2d_object : public model_base {
             cfg.update_chosen = true;
         }
         cfg.stop_on_invariant_overflow = false;
-        cfg.stop_between_attempts = &python_interrupt_requested;
+        // (set below: a stop between the halvings of a failed step keeps that step's start in the checkpoint)
         const bool no_outputs = t_eval && t_eval->empty();
         // the arrays keep every output (the state, its time, each invariant's value and the two budget residuals
         // there): a run whose outputs cannot fit is refused before it starts
@@ -243,10 +243,10 @@ class ns2d_object : public model_base {
         std::array<double, 2> max_drift{base.max_energy_drift, base.max_enstrophy_drift};
         ns2d_budget total_budget = base.budget;  // since step 0, summed step by step as the CLI's (the same bits)
         std::uint64_t written = std::numeric_limits<std::uint64_t>::max();  // the step of the last checkpoint written
-        const auto save = [&](std::uint64_t i, const state& s) {
+        const auto save = [&](std::uint64_t i, const state& s, std::uint64_t rng) {
             ns2d_checkpoint c = base;
             c.step = i;
-            c.rng_state = m.rng_state();
+            c.rng_state = rng;
             c.halvings += report.stats.step_reductions;
             c.rhs_evals += report.stats.rhs_evals;
             c.budget = total_budget;
@@ -264,7 +264,7 @@ class ns2d_object : public model_base {
         std::optional<std::string> save_failed;  // (a failed write ends the run: raised as OSError below)
         const auto save_checked = [&](std::uint64_t i, const state& s) {
             try {
-                save(i, s);
+                save(i, s, m.rng_state());
             } catch (const std::exception& e) {
                 save_failed = e.what();
                 throw;
@@ -272,6 +272,27 @@ class ns2d_object : public model_base {
         };
         std::uint64_t done = first;  // the step of the state x holds between steps
         bool stopped_between_steps = false;
+        // A step that fails is halved, and Ctrl-C is looked for between its attempts, where x may be part-way
+        // through it: the step's start (x at its first failed attempt, which leaves x as it was) and the generator
+        // before the step's draw are what a checkpoint then keeps, as the CLI's stop does.
+        state x_start;
+        std::uint64_t start_of = std::numeric_limits<std::uint64_t>::max(), rng_before = m.rng_state();
+        cfg.stop_between_attempts = [&] {
+            if (!ck_path.empty() && start_of != done) x_start = x, start_of = done;
+            return python_interrupt_requested();
+        };
+        // The checkpoint of a run stopped by Ctrl-C (the GIL held; a failed write raised as OSError instead).
+        const auto keep_on_stop = [&] {
+            if (ck_path.empty() || save_failed) return;
+            try {
+                if (stopped_between_steps && written != done)
+                    save(done, x, m.rng_state());
+                else if (!stopped_between_steps && interrupt_pending && start_of == done && written != done)
+                    save(done, x_start, rng_before);
+            } catch (const std::exception& e) {
+                raise_os_error(e.what());  // (instead of the KeyboardInterrupt: the run was not kept)
+            }
+        };
         std::array<std::vector<double>, 2> residual_at_output;
         // eci.solve's progress= line (its position set at every step, drawn when the GIL is taken for Ctrl-C; erased
         // when destroyed, the GIL held again, however the run ends)
@@ -335,6 +356,7 @@ class ns2d_object : public model_base {
             };
             auto on_progress = [&](double t, std::uint64_t i) {
                 done = i;
+                rng_before = m.rng_state();  // (the next step's forcing is drawn after this)
                 if (i < n) {  // before every step
                     try {
                         interrupt(t);
@@ -359,26 +381,23 @@ class ns2d_object : public model_base {
             }
             gil_released_in_run = false;
         } catch (const py::error_already_set&) {
-            // Ctrl-C between steps keeps the run in its checkpoint (the step x holds), as eci run's stop does
+            // Ctrl-C keeps the run in its checkpoint (keep_on_stop: the step reached), as eci run's stop does
             gil_released_in_run = false;
-            if (stopped_between_steps && !ck_path.empty() && written != done && !save_failed) {
-                try {
-                    save(done, x);
-                } catch (const std::exception& e) {
-                    raise_os_error(e.what());  // (instead of the KeyboardInterrupt: the run was not kept)
-                }
-            }
+            keep_on_stop();
             throw;
         } catch (const std::exception& e) {
             gil_released_in_run = false;
             if (save_failed) raise_os_error(*save_failed);
             throw;
         }
-        if (interrupt_pending) throw py::error_already_set();
+        if (interrupt_pending) {
+            keep_on_stop();
+            throw py::error_already_set();
+        }
         // a finished run's checkpoint at its end, on the grid (a run that failed keeps the last one written)
         if (!ck_path.empty() && !shortened_end && !failed && !blew_up && written != n) {
             try {
-                save(n, x);
+                save(n, x, m.rng_state());
             } catch (const std::exception& e) {
                 raise_os_error(e.what());
             }

@@ -130,6 +130,34 @@ def test_ctrl_c_keeps_the_step_reached_and_the_restart_goes_on_bit_for_bit(tmp_p
     assert np.array_equal(again.y, rest.y)
 
 
+@pytest.mark.parametrize("release", [True, False], ids=["gil-released", "python-invariant"])
+def test_ctrl_c_between_the_halvings_of_a_failing_step_keeps_that_steps_start(tmp_path, release):
+    # 32 CFL steps with the paper's update: every step fails about ten times before it passes halved, so Ctrl-C is
+    # mostly seen between the attempts of a step, where x is part-way through it; the checkpoint must then hold the
+    # step's start and the generator before its draw (and between steps, the step reached): either way the state of
+    # that step of the run, from which the restart goes on bit for bit
+    kw = dict(n=32, forcing="stochastic", injection_rate=0.5)
+    y0 = eci.models.NavierStokes2D(**kw).random_field(seed=1)
+    dt = 32 * eci.models.NavierStokes2D(**kw).cfl_step(y0)
+    path = tmp_path / "ck.h5"
+    extra = {} if release else {"invariants": {"zero": lambda y: 0.0}}  # (a Python invariant holds the GIL)
+    timer = threading.Timer(0.3, _thread.interrupt_main)
+    timer.start()
+    try:
+        with pytest.raises(KeyboardInterrupt):
+            eci.solve(eci.models.NavierStokes2D(**kw), (0.0, 1e6 * dt), y0, method="c-rk4", dt=dt, update="paper",
+                      checkpoint=path, **extra)
+    finally:
+        timer.cancel()
+    c = eci.load_checkpoint(path)
+    assert c.step > 0
+    whole = eci.solve(eci.models.NavierStokes2D(**kw), (0.0, (c.step + 3) * dt), y0, method="c-rk4", dt=dt,
+                      update="paper", output_dt=dt)
+    assert np.array_equal(c.y, whole.y[:, c.step])
+    rest = eci.restart(c, (c.step + 3) * dt, keep_checkpoint=False)
+    assert np.array_equal(rest.y[:, -1], whole.y[:, -1])
+
+
 def test_bad_requests_are_refused_with_nothing_written(tmp_path):
     ns = eci.models.NavierStokes2D(n=16)
     with pytest.raises(ValueError, match="checkpoint is for the spectral models"):
