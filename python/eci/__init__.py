@@ -952,7 +952,9 @@ def restart(checkpoint, t_end=None, *, output_dt=None, invariants=None, max_halv
     ck = checkpoint if isinstance(checkpoint, Checkpoint) else load_checkpoint(checkpoint)
     ck.model._rng_state = ck._header.rng_state  # (a Checkpoint restarted twice: its model's generator has moved)
     t_end = ck.t_end if t_end is None else _number(t_end, "t_end")
-    if not (t_end >= ck.t) or not math.isfinite(t_end):
+    if not math.isfinite(t_end):
+        raise ValueError(f"t_end must be a finite number, not {_shortest(t_end)}")
+    if not t_end >= ck.t:
         raise ValueError(f"t_end {_shortest(t_end)} is before the checkpoint's t = {_shortest(ck.t)} (step "
                          f"{ck.step}): a restart goes forward from it")
     if keep_checkpoint is True:

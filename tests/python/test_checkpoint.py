@@ -189,6 +189,8 @@ def test_files_that_are_not_good_checkpoints_are_refused(tmp_path):
     eci.solve(ns, (0.0, 0.1), dt=0.01, checkpoint=path)
     with pytest.raises(ValueError, match="before the checkpoint's t"):
         eci.restart(path, 0.05)
+    with pytest.raises(ValueError, match="t_end must be a finite number, not inf"):
+        eci.restart(path, float("inf"))
     with h5py.File(path, "r+") as f:  # one mode changed: still finite, caught by the checksum
         name = [k for k in f.keys() if k.endswith("_hat")][0]
         d = f[name][...]
