@@ -515,7 +515,7 @@ def solve(fun, t_span, y0=None, method=None, dt=None, rtol=None, atol=None, t_ev
     checkpoint: a spectral model's run kept in a file (eci run's checkpoint format, HDF5: `eci run EQUATION
         --restart FILE` continues it, and eci.restart(FILE)): written at the end of the run (a run whose last step
         is shortened to land on t_span[1] keeps the step before it, on the grid t = i dt), every checkpoint_every
-        steps, and on Ctrl-C between steps (then the KeyboardInterrupt is raised), each time replacing the file
+        steps, and on Ctrl-C (the step reached; then the KeyboardInterrupt is raised), each time replacing the file
         whole (a temporary renamed over it), never left half written. A run that fails keeps the last one written.
         t_span must start at 0 (a checkpoint's time is step * dt). The file is checked before the first step
         (OSError: a missing directory, a read-only file).
