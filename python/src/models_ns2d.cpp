@@ -1,5 +1,6 @@
 // eci.models.NavierStokes2D, CharneyHasegawaMima, SurfaceQG: the spectral equations of eci::spectral (FFTW), stepped
 // by eci::solve as `eci run EQUATION` steps them, with their diagnostics (E, Z, P, spectra, fluxes, fields).
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <cstdint>
@@ -850,7 +851,17 @@ py::tuple load_checkpoint(py::module_& module, const std::string& path) {
     kwargs["n"] = ck.params.n;
     for (const flow_keyword& k : flow_keywords())
         if ((!k.waves || e.dispersion) && k.given(ck.params)) kwargs[k.name] = k.get(ck.params);
-    py::object model = module.attr("_flow_models")[py::int_(index)](**kwargs);
+    const std::vector<std::string> methods = eci::ns2d_methods();
+    if (std::find(methods.begin(), methods.end(), ck.method) == methods.end())
+        throw std::invalid_argument("cannot restart: " + path + ": method '" + ck.method + "' is not a method of " +
+                                    std::string(e.name));
+    py::object model;
+    try {
+        model = module.attr("_flow_models")[py::int_(index)](**kwargs);
+    } catch (const py::error_already_set& err) {  // (settings the file holds that the model refuses)
+        if (!err.matches(PyExc_ValueError)) throw;
+        throw std::invalid_argument("cannot restart: " + path + ": " + py::str(err.value()).cast<std::string>());
+    }
     auto& flow = dynamic_cast<ns2d_object&>(model.cast<model_base&>());
     state y;
     {

@@ -191,6 +191,16 @@ def test_files_that_are_not_good_checkpoints_are_refused(tmp_path):
         eci.restart(path, 0.05)
     with pytest.raises(ValueError, match="t_end must be a finite number, not inf"):
         eci.restart(path, float("inf"))
+    # settings the file holds that the model refuses, or a method it does not have: named with the file
+    for attr, value, said in (("nu", -1.0, "viscosity nu must be finite and >= 0"),
+                              ("method", np.bytes_(b"rk5"), "method 'rk5' is not a method of navier-stokes-2d")):
+        bad = tmp_path / f"bad_{attr}.h5"
+        bad.write_bytes(path.read_bytes())
+        with h5py.File(bad, "r+") as f:
+            del f.attrs[attr]
+            f.attrs[attr] = value
+        with pytest.raises(ValueError, match=f"^cannot restart: {bad}: .*{said}"):
+            eci.load_checkpoint(bad)
     with h5py.File(path, "r+") as f:  # one mode changed: still finite, caught by the checksum
         name = [k for k in f.keys() if k.endswith("_hat")][0]
         d = f[name][...]
