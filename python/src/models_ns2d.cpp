@@ -258,19 +258,19 @@ class ns2d_object : public model_base {
             eci::cli::write_checkpoint(ck_path, c);
             written = i;
         };
+        // A write that fails (eci::cli::run_error, the only error a checkpoint's write throws) ends the run: Python's
+        // OSError, raised with the GIL held (as_os_error; during the run, by the catch after it).
+        const auto as_os_error = [](auto&& write) {
+            try {
+                write();
+            } catch (const eci::cli::run_error& e) {
+                raise_os_error(e.what());
+            }
+        };
         // a run whose last step is shortened to land on t1 keeps the step before it (the grid's last state, as the
         // CLI's: a restart to the same end repeats that step, to a later one goes on along the grid)
         // (by the CLI's rule, last_step_to_reach: a last step within 1e-12 dt of dt is a whole one)
         const bool shortened_end = n > 0 && last_step_to_reach(t0, t1, dt, n) != dt;
-        std::optional<std::string> save_failed;  // (a failed write ends the run: raised as OSError below)
-        const auto save_checked = [&](std::uint64_t i, const state& s) {
-            try {
-                save(i, s, m.rng_state());
-            } catch (const std::exception& e) {
-                save_failed = e.what();
-                throw;
-            }
-        };
         std::uint64_t done = first;  // the step of the state x holds between steps
         bool stopped_between_steps = false;
         // A step that fails is halved, and Ctrl-C is looked for between its attempts, where x may be part-way
@@ -283,16 +283,15 @@ class ns2d_object : public model_base {
             return python_interrupt_requested();
         };
         // The checkpoint of a run stopped by Ctrl-C (the GIL held; a failed write raised as OSError instead).
+        // (a failed write is the OSError instead of the KeyboardInterrupt: the run was not kept)
         const auto keep_on_stop = [&] {
-            if (ck_path.empty() || save_failed) return;
-            try {
-                if (stopped_between_steps && written != done)
+            if (ck_path.empty() || written == done) return;
+            as_os_error([&] {
+                if (stopped_between_steps)
                     save(done, x, m.rng_state());
-                else if (!stopped_between_steps && interrupt_pending && start_of == done && written != done)
+                else if (interrupt_pending && start_of == done)
                     save(done, x_start, rng_before);
-            } catch (const std::exception& e) {
-                raise_os_error(e.what());  // (instead of the KeyboardInterrupt: the run was not kept)
-            }
+            });
         };
         std::array<std::vector<double>, 2> residual_at_output;
         // eci.solve's progress= line (its position set at every step, drawn when the GIL is taken for Ctrl-C; erased
@@ -350,7 +349,7 @@ class ns2d_object : public model_base {
                 max_drift[1] = invariant_record::widened_drift(max_drift[1], base.enstrophy0, pt.invariants[1]);
                 // (the end's: the step before a shortened last step here, a whole last step after the run)
                 if (!ck_path.empty() && ((ck_every && pt.index % ck_every == 0) || (shortened_end && pt.index + 1 == n)))
-                    save_checked(pt.index, s);
+                    save(pt.index, s, m.rng_state());
                 drift[0].record(pt.invariants[0], false);
                 drift[1].record(pt.invariants[1], false);
                 if (!release) user.measure(s, drift, 2, false);
@@ -368,7 +367,7 @@ class ns2d_object : public model_base {
                 }
             };
             // the end's checkpoint where the state before a shortened last step is the start (no step ends there)
-            if (!ck_path.empty() && shortened_end && n - 1 == first) save_checked(first, x);
+            if (!ck_path.empty() && shortened_end && n - 1 == first) save(first, x, m.rng_state());
             try {
                 const solve_report r = eci::solve<navier_stokes_2d>(
                     m, x, method, cfg, flow_sink{on_output, on_step, on_progress}, {}, "model " + name());
@@ -386,9 +385,11 @@ class ns2d_object : public model_base {
             gil_released_in_run = false;
             keep_on_stop();
             throw;
-        } catch (const std::exception& e) {
+        } catch (const eci::cli::run_error& e) {  // (a checkpoint's write, the GIL held again)
             gil_released_in_run = false;
-            if (save_failed) raise_os_error(*save_failed);
+            raise_os_error(e.what());
+        } catch (...) {
+            gil_released_in_run = false;
             throw;
         }
         if (interrupt_pending) {
@@ -396,13 +397,8 @@ class ns2d_object : public model_base {
             throw py::error_already_set();
         }
         // a finished run's checkpoint at its end, on the grid (a run that failed keeps the last one written)
-        if (!ck_path.empty() && !shortened_end && !failed && !blew_up && written != n) {
-            try {
-                save(n, x, m.rng_state());
-            } catch (const std::exception& e) {
-                raise_os_error(e.what());
-            }
-        }
+        if (!ck_path.empty() && !shortened_end && !failed && !blew_up && written != n)
+            as_os_error([&] { save(n, x, m.rng_state()); });
         report.rejected.step_failed = report.stats.step_reductions;
         py::dict d = result_dict(out, m.size(), report, drift, info);
         d["invariant_values"] = invariant_values_dict(out, record_names(drift));
@@ -550,12 +546,23 @@ const std::vector<flow_keyword>& flow_keywords() {
 }
 
 // The flow as the constructor call that makes it again: its class, n, and every keyword that is not the default.
-std::string flow_repr(const ns2d_params& p) {
+// The keywords of that call, in order: n, then each keyword its equation takes that is not the default (repr's, and
+// the model eci.load_checkpoint makes from a checkpoint's parameters).
+py::dict constructor_keywords(const ns2d_params& p) {
     const spectral::equation& e = spectral::find_equation(p.equation);
-    std::string r = std::string(e.python_class) + "(n=" + std::to_string(p.n);
+    py::dict kw;
+    kw["n"] = p.n;
     for (const flow_keyword& k : flow_keywords())
-        if ((!k.waves || e.dispersion) && k.given(p))
-            r += std::string(", ") + k.name + "=" + py::repr(k.get(p)).cast<std::string>();
+        if ((!k.waves || e.dispersion) && k.given(p)) kw[k.name] = k.get(p);
+    return kw;
+}
+std::string flow_repr(const ns2d_params& p) {
+    std::string r = std::string(spectral::find_equation(p.equation).python_class) + "(";
+    const char* sep = "";
+    for (const auto& [k, v] : constructor_keywords(p)) {
+        r += sep + k.cast<std::string>() + "=" + py::repr(v).cast<std::string>();
+        sep = ", ";
+    }
     return r + ")";
 }
 
@@ -847,10 +854,7 @@ py::tuple load_checkpoint(py::module_& module, const std::string& path) {
         throw std::invalid_argument("cannot restart: " + eci::cli::checksum_mismatch(path, std::string(e.name)));
     // the plans the run made (a checkpoint of FFTW_MEASURE plans repeats bit for bit only with them)
     if (!ck.params.wisdom.empty()) navier_stokes_2d::import_fftw_wisdom(ck.params.wisdom);
-    py::dict kwargs;
-    kwargs["n"] = ck.params.n;
-    for (const flow_keyword& k : flow_keywords())
-        if ((!k.waves || e.dispersion) && k.given(ck.params)) kwargs[k.name] = k.get(ck.params);
+    const py::dict kwargs = constructor_keywords(ck.params);
     const std::vector<std::string> methods = eci::ns2d_methods();
     if (std::find(methods.begin(), methods.end(), ck.method) == methods.end())
         throw std::invalid_argument("cannot restart: " + path + ": method '" + ck.method + "' is not a method of " +
